@@ -1,0 +1,224 @@
+# fleetsim: the one entry point. `make help` lists the targets.
+#
+#   make [all]        libraries and programs of one configuration
+#   make run          install missing packages (as root), build, run the default job
+#   make test         install missing packages (as root), build and run every cmocka test
+#   make test-asan    the tests under AddressSanitizer + UndefinedBehaviorSanitizer
+#   make test-tsan    the threaded tests under ThreadSanitizer
+#   make bench        benchmarks; one `BENCH <name> <value> <unit>` line per figure
+#   make clean
+#
+# Configuration (all optional):
+#   BUILD=release|debug|asan|tsan   BOARD=<dir in boards/>   PRESET=small|paper|mcu
+# Objects and programs go to build/<BUILD>-<BOARD>-<PRESET>/; build/bin points at the
+# programs of the last release build.
+
+.DEFAULT_GOAL := all
+SHELL := /bin/bash
+.SUFFIXES:
+.DELETE_ON_ERROR:
+.SECONDARY:
+
+BUILD  ?= release
+BOARD  ?= host
+
+ifeq ($(wildcard boards/$(BOARD)/board.mk),)
+$(error unknown BOARD '$(BOARD)': there is no boards/$(BOARD)/board.mk (boards: $(notdir $(wildcard boards/*))))
+endif
+include boards/$(BOARD)/board.mk
+$(foreach v,BOARD_PRESET BOARD_LA_BACKEND,$(if $($(v)),,$(error boards/$(BOARD)/board.mk must set $(v))))
+
+PRESET     ?= $(BOARD_PRESET)
+LA_BACKEND ?= $(BOARD_LA_BACKEND)
+PRESETS    := small paper mcu
+ifeq ($(filter $(PRESET),$(PRESETS)),)
+$(error unknown PRESET '$(PRESET)' (presets: $(PRESETS)))
+endif
+ifeq ($(filter $(LA_BACKEND),ref eigen),)
+$(error unknown LA_BACKEND '$(LA_BACKEND)' (ref or eigen))
+endif
+
+uc = $(shell echo '$(1)' | tr a-z A-Z)
+
+O   := build/$(BUILD)-$(BOARD)-$(PRESET)
+BIN := $(O)/bin
+LIB := $(O)/lib
+GEN := $(O)/gen
+
+CC      := gcc
+CXX     := g++
+AR      := ar
+PYTHON  ?= /usr/bin/python3
+LCMGEN  := lcm-gen
+
+ifeq ($(BUILD),release)
+OPT := -O3 -g $(BOARD_ARCH_FLAGS)
+else ifeq ($(BUILD),debug)
+OPT := -O0 -g
+else ifeq ($(BUILD),asan)
+OPT := -O1 -g -fno-omit-frame-pointer -fsanitize=address,undefined -fno-sanitize-recover=all
+else ifeq ($(BUILD),tsan)
+OPT := -O1 -g -fsanitize=thread
+else
+$(error unknown BUILD '$(BUILD)' (release, debug, asan or tsan))
+endif
+
+WARN     := -Wall -Wextra -Werror
+DEFS     := -DBNN_PRESET_$(call uc,$(PRESET))=1 -DLA_BACKEND_$(call uc,$(LA_BACKEND))=1
+CFLAGS   := -std=c11 $(WARN) $(OPT) $(DEFS) -MMD -MP
+CXXFLAGS := -std=c++17 $(WARN) $(OPT) $(DEFS) -MMD -MP -fno-exceptions -fno-rtti
+
+# The house rule (DESIGN.md section 2): firmware/ sees only its own headers, hal/include and
+# the board. The bottom half (hal/host, host_sim, tools, tests) also sees POSIX, the
+# generated LCM types and host_sim.
+FW_INC   := -Ifirmware -Ihal/include -Iboards/$(BOARD)
+HOST_INC := $(FW_INC) -Ihost_sim -I$(GEN) -D_POSIX_C_SOURCE=200809L
+TEST_INC := $(HOST_INC) -Itests/support -Itests
+
+SYS_LIBS := -lode -llcm -lzmq -lOSMesa -lpng -lm -lpthread
+WRAP     := $(foreach f,malloc calloc realloc free aligned_alloc posix_memalign,-Wl,--wrap=$(f))
+
+# ---- sources ----------------------------------------------------------------------------
+FW_C      := $(sort $(shell find firmware -name '*.c'))
+FW_CXX    := $(if $(filter eigen,$(LA_BACKEND)),$(sort $(shell find firmware -name '*.cpp')))
+HAL_C     := $(sort $(shell find hal/host -name '*.c'))
+SIM_C     := $(sort $(shell find host_sim -name '*.c' -not -path 'host_sim/app/*'))
+APP_C     := $(sort $(wildcard host_sim/app/*.c))
+MSG_LCM   := $(sort $(wildcard firmware/msg/*.lcm))
+SUPPORT_C := $(sort $(wildcard tests/support/*.c))
+TEST_C    := $(sort $(shell find tests -name 'test_*.c' -not -path 'tests/support/*'))
+BENCH_C   := $(sort $(wildcard tools/bench/bench_*.c))
+
+obj = $(patsubst %,$(O)/obj/%.o,$(1))
+
+FW_OBJ      := $(call obj,$(FW_C) $(FW_CXX))
+HAL_OBJ     := $(call obj,$(HAL_C))
+SIM_OBJ     := $(call obj,$(SIM_C))
+APP_OBJ     := $(call obj,$(APP_C))
+SUPPORT_OBJ := $(call obj,$(SUPPORT_C))
+TEST_BIN    := $(patsubst %.c,$(O)/%,$(TEST_C))
+BENCH_BIN   := $(patsubst tools/bench/%.c,$(BIN)/%,$(BENCH_C))
+PROGRAMS    := $(if $(APP_C),$(BIN)/host_sim) $(BENCH_BIN)
+
+LIBS := $(LIB)/libsim.a $(LIB)/libhal_host.a $(LIB)/libfirmware.a $(LIB)/libmsg.a
+LINK_LIBS := -Wl,--start-group $(LIBS) -Wl,--end-group $(SYS_LIBS)
+
+# ---- compile rules ----------------------------------------------------------------------
+$(O)/obj/firmware/%.c.o: firmware/%.c
+	@mkdir -p $(@D)
+	$(CC) $(CFLAGS) $(FW_INC) -c $< -o $@
+
+$(O)/obj/firmware/%.cpp.o: firmware/%.cpp
+	@mkdir -p $(@D)
+	$(CXX) $(CXXFLAGS) $(FW_INC) -isystem /usr/include/eigen3 -c $< -o $@
+
+# The bottom half may include generated LCM headers: they are built first (order-only).
+$(O)/obj/hal/%.c.o: hal/%.c | $(GEN)/.stamp
+	@mkdir -p $(@D)
+	$(CC) $(CFLAGS) $(HOST_INC) -c $< -o $@
+
+$(O)/obj/host_sim/%.c.o: host_sim/%.c | $(GEN)/.stamp
+	@mkdir -p $(@D)
+	$(CC) $(CFLAGS) $(HOST_INC) -c $< -o $@
+
+$(O)/obj/tools/%.c.o: tools/%.c | $(GEN)/.stamp
+	@mkdir -p $(@D)
+	$(CC) $(CFLAGS) $(HOST_INC) -c $< -o $@
+
+$(O)/obj/tests/%.c.o: tests/%.c | $(GEN)/.stamp
+	@mkdir -p $(@D)
+	$(CC) $(CFLAGS) $(TEST_INC) -c $< -o $@
+
+# LCM message types: generated at build time, never committed.
+$(GEN)/.stamp: $(MSG_LCM)
+	@rm -rf $(GEN)/lcm && mkdir -p $(GEN)/lcm
+	$(if $(MSG_LCM),$(LCMGEN) -c --c-cpath $(GEN)/lcm --c-hpath $(GEN)/lcm --cinclude lcm $(MSG_LCM))
+	@touch $@
+
+# Generated code is not ours to keep warning-free beyond what lcm-gen emits.
+$(LIB)/libmsg.a: $(GEN)/.stamp
+	@mkdir -p $(@D) $(O)/obj/gen
+	@rm -f $@ $(O)/obj/gen/*.o
+	@for c in $(GEN)/lcm/*.c; do [ -e "$$c" ] || continue; \
+	    echo "$(CC) [lcm] $$c"; \
+	    $(CC) -std=c11 $(OPT) -Wall -Wno-unused-parameter -I$(GEN) -c "$$c" \
+	        -o $(O)/obj/gen/$$(basename "$$c" .c).o || exit 1; done
+	$(AR) rcs $@ $$(ls $(O)/obj/gen/*.o 2>/dev/null)
+
+# ---- libraries and programs -------------------------------------------------------------
+$(LIB)/libfirmware.a: $(FW_OBJ)
+$(LIB)/libhal_host.a: $(HAL_OBJ)
+$(LIB)/libsim.a: $(SIM_OBJ)
+$(LIB)/libtestsupport.a: $(SUPPORT_OBJ)
+$(LIB)/libfirmware.a $(LIB)/libhal_host.a $(LIB)/libsim.a $(LIB)/libtestsupport.a:
+	@mkdir -p $(@D)
+	@rm -f $@
+	$(AR) rcs $@ $^
+
+$(BIN)/host_sim: $(APP_OBJ) $(LIBS)
+	@mkdir -p $(@D)
+	$(CXX) $(OPT) $(APP_OBJ) $(LINK_LIBS) -o $@
+
+$(BIN)/bench_%: $(O)/obj/tools/bench/bench_%.c.o $(LIBS)
+	@mkdir -p $(@D)
+	$(CXX) $(OPT) $< $(LINK_LIBS) -o $@
+
+# One program per tests/<module>/test_<name>.c, linked with the allocation counter.
+$(O)/tests/%: $(O)/obj/tests/%.c.o $(LIB)/libtestsupport.a $(LIBS)
+	@mkdir -p $(@D)
+	$(CXX) $(OPT) $< $(LIB)/libtestsupport.a $(LINK_LIBS) -lcmocka $(WRAP) -o $@
+
+# ---- targets ----------------------------------------------------------------------------
+.PHONY: all deps run test test-asan test-tsan tests bench bench-one clean help cross
+
+all: deps $(LIBS) $(PROGRAMS)
+ifeq ($(BUILD),release)
+	@ln -sfn $(BUILD)-$(BOARD)-$(PRESET)/bin build/bin
+endif
+
+deps:
+	@tools/install-deps.sh
+
+tests: all $(TEST_BIN)
+
+test: tests
+	@tools/run-tests.sh $(TEST_BIN)
+
+test-asan:
+	@$(MAKE) --no-print-directory BUILD=asan test
+
+# ThreadSanitizer runs the tests whose subject is concurrency.
+TSAN_TESTS ?= tests/common
+test-tsan:
+	@$(MAKE) --no-print-directory BUILD=tsan TEST_C="$$(find $(TSAN_TESTS) -name 'test_*.c' | sort)" test
+
+# Benchmarks are release builds. Preset-specific ones (bench_bnn*) run for every preset
+# named in BENCH_PRESETS, the rest once.
+BENCH_PRESETS ?= small paper
+bench:
+	@for p in $(BENCH_PRESETS); do \
+	    $(MAKE) --no-print-directory BUILD=release PRESET=$$p bench-one \
+	        BENCH_ONLY=$$( [ $$p = $(firstword $(BENCH_PRESETS)) ] && echo all || echo bnn ) || exit 1; \
+	done
+
+BENCH_ONLY ?= all
+bench-one: all
+	@for b in $(BENCH_BIN); do \
+	    case "$$(basename $$b)" in bench_bnn*) ;; *) [ "$(BENCH_ONLY)" = all ] || continue ;; esac; \
+	    echo "# $$b (preset $(PRESET))"; $$b || exit 1; \
+	done
+
+run: all
+	@tools/run-fleet.sh $(BIN)
+
+cross:
+	@echo "make cross: cross builds for the boards of the roadmap (Cortex-M7, Cortex-A53, RV32) do not exist yet." >&2
+	@exit 2
+
+clean:
+	rm -rf build
+
+help:
+	@sed -n '1,/^$$/p' Makefile | sed 's/^# \{0,1\}//'
+
+-include $(shell find $(O)/obj -name '*.d' 2>/dev/null)

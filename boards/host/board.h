@@ -1,0 +1,29 @@
+/* Board "host": memory budgets and limits of a Linux PC standing in for the robot's SoC.
+ *
+ * Every firmware buffer is sized at compile time and checked with _Static_assert against
+ * these budgets (see firmware/common/board_check.h for the required settings).
+ * Units: bytes unless the name says otherwise. */
+#ifndef BOARD_HOST_BOARD_H
+#define BOARD_HOST_BOARD_H
+
+#define BOARD_NAME "host"
+
+/* Static RAM each core may use for its own buffers (arena, pools, rings it owns).
+ * The host is generous so that the `paper` preset (527,361 parameters) fits with its
+ * gradients, Adam moments, duals, neighbour slots and a 1024-point batch. */
+#define BOARD_RAM_RT_BYTES (1u * 1024u * 1024u)
+#define BOARD_RAM_GP_BYTES (64u * 1024u * 1024u)
+#define BOARD_RAM_AI_BYTES (512u * 1024u * 1024u)
+
+/* Fixed stack per core thread, painted at start for the high-water mark. */
+#define BOARD_STACK_RT_BYTES (256u * 1024u)
+#define BOARD_STACK_GP_BYTES (1024u * 1024u)
+#define BOARD_STACK_AI_BYTES (8u * 1024u * 1024u)
+
+/* Largest single network datagram the board's link layer accepts (DESIGN.md section 6). */
+#define BOARD_NET_MTU_BYTES (60u * 1024u)
+
+/* Fleet size the neighbour table is dimensioned for. */
+#define BOARD_MAX_PEERS 16u
+
+#endif /* BOARD_HOST_BOARD_H */

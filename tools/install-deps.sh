@@ -1,0 +1,57 @@
+#!/usr/bin/env bash
+# Installs the Debian packages fleetsim builds and runs with (DESIGN.md section 8).
+#
+# Idempotent and cheap on a ready machine: it first looks for one file per package and
+# returns at once when all are there. Otherwise, as root, it runs `apt-get update` once and
+# installs only what is missing; as another user it prints the exact command and exits 1.
+#
+#   tools/install-deps.sh          check, install what is missing
+#   tools/install-deps.sh --check  check only; list what is missing, exit 1 if anything is
+set -euo pipefail
+
+# package  file-that-proves-it-is-installed
+deps=(
+    "build-essential      /usr/bin/g++"
+    "pkg-config           /usr/bin/pkg-config"
+    "libode-dev           /usr/include/ode/ode.h"
+    "liblcm-dev           /usr/include/lcm/lcm.h"
+    "liblcm-bin           /usr/bin/lcm-gen"
+    "libzmq3-dev          /usr/include/zmq.h"
+    "libeigen3-dev        /usr/include/eigen3/Eigen/Core"
+    "libosmesa6-dev       /usr/include/GL/osmesa.h"
+    "libcmocka-dev        /usr/include/cmocka.h"
+    "libpng-dev           /usr/include/png.h"
+    "python3-numpy        /usr/lib/python3/dist-packages/numpy/__init__.py"
+    "python3-scipy        /usr/lib/python3/dist-packages/scipy/__init__.py"
+    "python3-matplotlib   /usr/lib/python3/dist-packages/matplotlib/__init__.py"
+)
+
+check_only=0
+case "${1:-}" in
+    --check) check_only=1 ;;
+    -h|--help) sed -n '2,9p' "$0" | sed 's/^# \{0,1\}//'; exit 0 ;;
+    "") ;;
+    *) echo "install-deps: unknown option '$1' (see --help)" >&2; exit 2 ;;
+esac
+
+missing=()
+for d in "${deps[@]}"; do
+    read -r pkg file <<<"$d"
+    [ -e "$file" ] || missing+=("$pkg")
+done
+[ ${#missing[@]} -eq 0 ] && exit 0
+
+if [ "$check_only" -eq 1 ]; then
+    echo "install-deps: missing Debian packages: ${missing[*]}" >&2
+    exit 1
+fi
+
+cmd="apt-get update && DEBIAN_FRONTEND=noninteractive apt-get install -y --no-install-recommends ${missing[*]}"
+if [ "$(id -u)" -ne 0 ]; then
+    echo "install-deps: missing Debian packages: ${missing[*]}" >&2
+    echo "install-deps: run as root:  $cmd" >&2
+    exit 1
+fi
+echo "install-deps: installing ${missing[*]}"
+apt-get update -q
+DEBIAN_FRONTEND=noninteractive apt-get install -y -q --no-install-recommends "${missing[@]}"

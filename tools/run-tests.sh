@@ -1,0 +1,46 @@
+#!/usr/bin/env bash
+# Runs every cmocka test program given on the command line (or found under DIR with -d DIR),
+# prints each program's own output (its cmocka summary included), and ends with one line
+#     N passed, N failed
+# counting test cases. A program that crashes or exits non-zero without a cmocka summary
+# counts as one failed case. Exits 1 when anything failed, 0 otherwise.
+set -uo pipefail
+
+usage() { echo "usage: $0 [-d DIR | TEST_PROGRAM...]" >&2; exit 2; }
+
+progs=()
+if [ "${1:-}" = "-d" ]; then
+    [ -n "${2:-}" ] || usage
+    while IFS= read -r p; do progs+=("$p"); done < <(find "$2" -type f -name 'test_*' -perm -u+x | sort)
+elif [ "${1:-}" = "-h" ] || [ "${1:-}" = "--help" ]; then
+    usage
+else
+    progs=("$@")
+fi
+[ ${#progs[@]} -gt 0 ] || { echo "run-tests: no test programs found" >&2; exit 1; }
+
+passed=0 failed=0 broken=()
+for p in "${progs[@]}"; do
+    echo "=== $p"
+    out=$(mktemp)
+    # cmocka prints its summary on stderr; keep both streams, in order.
+    "$p" 2>&1 | tee "$out"
+    rc=${PIPESTATUS[0]}
+    np=$(sed -n 's/^\[  PASSED  \] \([0-9]\+\) test.*/\1/p' "$out" | awk '{s+=$1} END {print s+0}')
+    nf=$(sed -n 's/^\[  FAILED  \] \([0-9]\+\) test.*/\1/p' "$out" | awk '{s+=$1} END {print s+0}')
+    rm -f "$out"
+    passed=$((passed + np))
+    failed=$((failed + nf))
+    if [ "$rc" -ne 0 ] && [ "$nf" -eq 0 ]; then
+        failed=$((failed + 1))
+        broken+=("$p (exit $rc)")
+    fi
+    [ "$rc" -ne 0 ] && [ "$nf" -gt 0 ] && broken+=("$p")
+done
+
+if [ ${#broken[@]} -gt 0 ]; then
+    echo "failing programs:"
+    printf '  %s\n' "${broken[@]}"
+fi
+echo "$passed passed, $failed failed"
+[ "$failed" -eq 0 ]
