@@ -40,7 +40,8 @@ endif
 
 uc = $(shell echo '$(1)' | tr a-z A-Z)
 
-O   := build/$(BUILD)-$(BOARD)-$(PRESET)
+BUILD_ROOT ?= build
+O   := $(BUILD_ROOT)/$(BUILD)-$(BOARD)-$(PRESET)
 BIN := $(O)/bin
 LIB := $(O)/lib
 GEN := $(O)/gen
@@ -173,7 +174,7 @@ $(O)/tests/%: $(O)/obj/tests/%.c.o $(LIB)/libtestsupport.a $(LIBS)
 
 all: deps $(LIBS) $(PROGRAMS)
 ifeq ($(BUILD),release)
-	@ln -sfn $(BUILD)-$(BOARD)-$(PRESET)/bin build/bin
+	@ln -sfn $(BUILD)-$(BOARD)-$(PRESET)/bin $(BUILD_ROOT)/bin
 endif
 
 deps:

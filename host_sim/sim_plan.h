@@ -1,0 +1,84 @@
+/* Floor plans: parsing CubiCasa5K-style model.svg files into metric geometry.
+ *
+ * Structure read (everything else, e.g. furniture and labels, is ignored):
+ *   <g id="Wall" class="Wall ...">  first <polygon points="..."> = wall outline;
+ *       nested <g class="Door ..."> / <g class="Window ..."> groups with a polygon = openings
+ *   <g class="Space <Type> ...">   first <polygon> = room outline, <Type> its room type
+ * Points are "x,y x,y ..." or "x y x y ..." in pixels; metres = pixels * scale.
+ *
+ * Geometry contract (what the ODE world, the rasteriser and the path planner all use):
+ *   solids = wall outlines with door openings cut away. Windows stay solid: a TurtleBot's
+ *   lidar at 0.17 m sees the wall under the sill. Each solid is a simple polygon in metres;
+ *   rectangles (the common case) are flagged so the world can use a box geom.
+ * Not thread-safe per plan; distinct plans are independent. Allocates (host side). */
+#ifndef SIM_PLAN_H
+#define SIM_PLAN_H
+
+#include <stddef.h>
+
+#define SIM_POLY_MAX_POINTS 64
+#define SIM_ROOM_TYPE_MAX 32
+/* Default metres per pixel for CubiCasa5K plans (their drawings are about 1 px per cm). */
+#define SIM_PLAN_DEFAULT_SCALE 0.01
+
+typedef struct sim_vec2 {
+    double x, y; /* metres (or pixels before scaling) */
+} sim_vec2_t;
+
+typedef struct sim_poly {
+    int n;                               /* points, 3 .. SIM_POLY_MAX_POINTS, not repeated */
+    sim_vec2_t p[SIM_POLY_MAX_POINTS];
+} sim_poly_t;
+
+typedef enum { SIM_OPENING_DOOR = 0, SIM_OPENING_WINDOW = 1 } sim_opening_kind_t;
+
+typedef struct sim_wall {
+    sim_poly_t outline;
+    int line; /* source line of the polygon, for messages */
+} sim_wall_t;
+
+typedef struct sim_opening {
+    sim_poly_t outline;
+    sim_opening_kind_t kind;
+    int wall; /* index of the wall it belongs to */
+    int line;
+} sim_opening_t;
+
+typedef struct sim_room {
+    sim_poly_t outline;
+    char type[SIM_ROOM_TYPE_MAX]; /* e.g. "Kitchen", "LivingRoom", "Bath" */
+    int line;
+} sim_room_t;
+
+typedef struct sim_solid {
+    sim_poly_t outline;
+    int is_rect; /* 1 when outline is a rectangle (4 points, right angles) */
+} sim_solid_t;
+
+typedef struct sim_plan {
+    double scale;      /* metres per pixel used when loading */
+    sim_vec2_t min;    /* bounding box of all walls, metres */
+    sim_vec2_t max;
+    sim_wall_t *walls;       int n_walls;
+    sim_opening_t *openings; int n_openings;
+    sim_room_t *rooms;       int n_rooms;
+    sim_solid_t *solids;     int n_solids;
+} sim_plan_t;
+
+/* Parses `path`. On failure returns a negative code, leaves *plan empty and writes
+ * "FILE:LINE: reason" into err (errlen bytes). scale <= 0 means SIM_PLAN_DEFAULT_SCALE. */
+__attribute__((warn_unused_result))
+int sim_plan_load(const char *path, double scale, sim_plan_t *plan, char *err, size_t errlen);
+
+/* Same, from a string in memory; `name` is used in messages. */
+__attribute__((warn_unused_result))
+int sim_plan_parse(const char *text, const char *name, double scale, sim_plan_t *plan,
+                   char *err, size_t errlen);
+
+void sim_plan_free(sim_plan_t *plan);
+
+/* Normalised coordinates of DESIGN.md section 4 over the plan's bounding box. */
+void sim_plan_normalise(const sim_plan_t *plan, double x_m, double y_m, float *xn, float *yn);
+void sim_plan_denormalise(const sim_plan_t *plan, float xn, float yn, double *x_m, double *y_m);
+
+#endif /* SIM_PLAN_H */
