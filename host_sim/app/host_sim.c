@@ -1,0 +1,36 @@
+/* host_sim: the world that stands in for hardware. Dispatches to sub-commands. */
+#include <stdio.h>
+#include <string.h>
+
+#include "commands.h"
+
+/* One row per sub-command, in the order `--help` lists them. */
+static const host_sim_cmd_t commands[] = {
+    {NULL, NULL, NULL},
+};
+
+static void usage(FILE *out)
+{
+    fprintf(out, "usage: host_sim <command> [options]   (host_sim <command> --help for details)\n\n"
+                 "commands:\n");
+    for (const host_sim_cmd_t *c = commands; c->name != NULL; c++)
+        fprintf(out, "  %-10s %s\n", c->name, c->summary);
+}
+
+int main(int argc, char **argv)
+{
+    if (argc < 2) {
+        usage(stderr);
+        return 2;
+    }
+    if (strcmp(argv[1], "--help") == 0 || strcmp(argv[1], "-h") == 0 || strcmp(argv[1], "help") == 0) {
+        usage(stdout);
+        return 0;
+    }
+    for (const host_sim_cmd_t *c = commands; c->name != NULL; c++)
+        if (strcmp(argv[1], c->name) == 0)
+            return c->run(argc - 1, argv + 1);
+    fprintf(stderr, "host_sim: unknown command '%s'\n\n", argv[1]);
+    usage(stderr);
+    return 2;
+}
