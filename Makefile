@@ -170,15 +170,19 @@ $(O)/tests/%: $(O)/obj/tests/%.c.o $(LIB)/libtestsupport.a $(LIBS)
 	$(CXX) $(OPT) $< $(LIB)/libtestsupport.a $(LINK_LIBS) -lcmocka $(WRAP) -o $@
 
 # ---- targets ----------------------------------------------------------------------------
-.PHONY: all deps run test test-asan test-tsan tests bench bench-one clean help cross
+.PHONY: all layering deps run test test-asan test-tsan tests bench bench-one clean help cross
 
-all: deps $(LIBS) $(PROGRAMS)
+all: deps layering $(LIBS) $(PROGRAMS)
 ifeq ($(BUILD),release)
 	@ln -sfn $(BUILD)-$(BOARD)-$(PRESET)/bin $(BUILD_ROOT)/bin
 endif
 
 deps:
 	@tools/install-deps.sh
+
+# firmware/ may include only the C library, its own headers, hal/include and the board.
+layering:
+	@tools/check-layering.sh
 
 tests: all $(TEST_BIN)
 
