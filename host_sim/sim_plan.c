@@ -28,7 +28,7 @@
 #define PLAN_MAX_ITEMS 1000000 /* walls, rooms, openings each */
 /* Area below this (m^2) is degenerate; a 1 cm x 1 cm square is 1e-4. */
 #define PLAN_MIN_AREA_M2 1e-8
-/* Door cuts shorter than this (metres) are not kept as pieces. */
+/* Wall pieces shorter than this (metres) along the wall are not kept. */
 #define PLAN_MIN_PIECE_M 1e-4
 
 /* ---- small geometry helpers (exported, see sim_plan.h) ------------------------------- */
@@ -634,11 +634,73 @@ static int cmp_interval(const void *x, const void *y)
     return (p->a > q->a) - (p->a < q->a);
 }
 
-/* Walls minus door openings. A rectangular wall is cut along its long axis: each door
- * covers the interval of its projection onto that axis; what remains of the wall becomes
- * rectangle pieces of full wall thickness. Non-rectangular walls are kept whole even when
- * they hold a door (limitation: an L-shaped wall with a door stays closed; CubiCasa5K draws
- * walls as quadrilaterals, so this is rare). */
+/* Convex (all turns the same way; collinear points allowed). */
+static int poly_is_convex(const sim_poly_t *o)
+{
+    int sign = 0;
+    for (int i = 0; i < o->n; i++) {
+        const sim_vec2_t *a = &o->p[i], *b = &o->p[(i + 1) % o->n], *c = &o->p[(i + 2) % o->n];
+        double cr = (b->x - a->x) * (c->y - b->y) - (b->y - a->y) * (c->x - b->x);
+        int sg = (cr > 1e-12) - (cr < -1e-12);
+        if (sg != 0) {
+            if (sign != 0 && sg != sign)
+                return 0;
+            sign = sg;
+        }
+    }
+    return 1;
+}
+
+#define CLIP_MAX (SIM_POLY_MAX_POINTS + 4)
+
+/* Sutherland-Hodgman against one half-plane: keeps points with s * (t(p) - lim) <= 0, where
+ * t(p) = (p - c0) . u. Returns the output count. */
+static int clip_half(const sim_vec2_t *in, int n, sim_vec2_t c0, double ux, double uy, double lim, double sgn,
+                     sim_vec2_t *out)
+{
+    int m = 0;
+    for (int i = 0; i < n; i++) {
+        sim_vec2_t a = in[i], b = in[(i + 1) % n];
+        double da = sgn * ((a.x - c0.x) * ux + (a.y - c0.y) * uy - lim);
+        double db = sgn * ((b.x - c0.x) * ux + (b.y - c0.y) * uy - lim);
+        if (da <= 0 && m < CLIP_MAX)
+            out[m++] = a;
+        if (((da < 0 && db > 0) || (da > 0 && db < 0)) && m < CLIP_MAX) {
+            double t = da / (da - db);
+            out[m].x = a.x + t * (b.x - a.x);
+            out[m].y = a.y + t * (b.y - a.y);
+            m++;
+        }
+    }
+    return m;
+}
+
+/* The part of convex `in` with lo <= t <= hi: 1 when it is a proper polygon, 0 when empty
+ * or degenerate, -1 when it has more than SIM_POLY_MAX_POINTS points. */
+static int clip_slab(const sim_poly_t *in, sim_vec2_t c0, double ux, double uy, double lo, double hi, sim_poly_t *out)
+{
+    sim_vec2_t t1[CLIP_MAX], t2[CLIP_MAX];
+    int n = clip_half(in->p, in->n, c0, ux, uy, lo, -1.0, t1);
+    n = clip_half(t1, n, c0, ux, uy, hi, 1.0, t2);
+    int m = 0;
+    for (int i = 0; i < n; i++) {
+        if (m > 0 && fabs(t2[i].x - out->p[m - 1].x) < 1e-12 && fabs(t2[i].y - out->p[m - 1].y) < 1e-12)
+            continue;
+        if (m >= SIM_POLY_MAX_POINTS)
+            return -1;
+        out->p[m++] = t2[i];
+    }
+    while (m > 1 && fabs(out->p[0].x - out->p[m - 1].x) < 1e-12 && fabs(out->p[0].y - out->p[m - 1].y) < 1e-12)
+        m--;
+    out->n = m;
+    return m >= 3 && fabs(sim_poly_signed_area(out)) >= PLAN_MIN_AREA_M2;
+}
+
+/* Walls minus door openings. A convex wall (rectangles, and the trapezoids CubiCasa5K draws
+ * at mitred corners) is cut along its long axis, the direction of its longest edge: each door
+ * removes the interval of its projection onto that axis, across the full wall thickness, and
+ * the wall is clipped to the slabs that remain. Non-convex walls are kept whole even when they
+ * hold a door (limitation: an L-shaped wall polygon with a door stays closed). */
 static int build_solids(sim_plan_t *p, const int *door_first, const int *door_next)
 {
     int cap = 0;
@@ -647,22 +709,28 @@ static int build_solids(sim_plan_t *p, const int *door_first, const int *door_ne
     int rc = 0;
     for (int w = 0; w < p->n_walls && rc == 0; w++) {
         const sim_poly_t *o = &p->walls[w].outline;
-        if (!sim_poly_is_rect(o) || door_first[w] < 0) {
+        if (door_first[w] < 0 || !poly_is_convex(o)) {
             rc = push_solid(p, &cap, o, sim_poly_is_rect(o));
             continue;
         }
-        /* Long axis u from corner 0; v the short side. */
+        /* Long axis: the longest edge. */
         sim_vec2_t c0 = o->p[0];
-        double e1x = o->p[1].x - c0.x, e1y = o->p[1].y - c0.y;
-        double e2x = o->p[3].x - c0.x, e2y = o->p[3].y - c0.y;
-        double l1 = hypot(e1x, e1y), l2 = hypot(e2x, e2y);
-        double ux, uy, vx, vy, len, thick;
-        if (l1 >= l2) {
-            ux = e1x / l1; uy = e1y / l1; len = l1; vx = e2x; vy = e2y; thick = l2;
-        } else {
-            ux = e2x / l2; uy = e2y / l2; len = l2; vx = e1x; vy = e1y; thick = l1;
+        double ux = 0, uy = 0, best = -1;
+        for (int k = 0; k < o->n; k++) {
+            double ex = o->p[(k + 1) % o->n].x - o->p[k].x, ey = o->p[(k + 1) % o->n].y - o->p[k].y;
+            double l = hypot(ex, ey);
+            if (l > best) {
+                best = l;
+                ux = ex / l;
+                uy = ey / l;
+            }
         }
-        (void)thick;
+        double tmin = INFINITY, tmax = -INFINITY;
+        for (int k = 0; k < o->n; k++) {
+            double t = (o->p[k].x - c0.x) * ux + (o->p[k].y - c0.y) * uy;
+            tmin = fmin(tmin, t);
+            tmax = fmax(tmax, t);
+        }
         int nc = 0;
         for (int d = door_first[w]; d >= 0; d = door_next[d]) {
             const sim_poly_t *dp = &p->openings[d].outline;
@@ -672,8 +740,8 @@ static int build_solids(sim_plan_t *p, const int *door_first, const int *door_ne
                 lo = fmin(lo, t);
                 hi = fmax(hi, t);
             }
-            lo = fmax(lo, 0.0);
-            hi = fmin(hi, len);
+            lo = fmax(lo, tmin);
+            hi = fmin(hi, tmax);
             if (hi <= lo)
                 continue; /* the door does not overlap this wall along its axis */
             if ((rc = grow((void **)&cuts, &cap_cuts, nc + 1, sizeof *cuts)) != 0)
@@ -685,24 +753,23 @@ static int build_solids(sim_plan_t *p, const int *door_first, const int *door_ne
         if (rc != 0)
             break;
         qsort(cuts, (size_t)nc, sizeof *cuts, cmp_interval);
-        double t = 0.0;
-        for (int k = 0; k <= nc && rc == 0; k++) {
-            double end = k < nc ? cuts[k].a : len;
-            if (end - t > PLAN_MIN_PIECE_M) {
-                sim_poly_t piece = {0};
-                piece.n = 4;
-                piece.p[0].x = c0.x + ux * t;
-                piece.p[0].y = c0.y + uy * t;
-                piece.p[1].x = c0.x + ux * end;
-                piece.p[1].y = c0.y + uy * end;
-                piece.p[2].x = piece.p[1].x + vx;
-                piece.p[2].y = piece.p[1].y + vy;
-                piece.p[3].x = piece.p[0].x + vx;
-                piece.p[3].y = piece.p[0].y + vy;
-                rc = push_solid(p, &cap, &piece, 1);
-            }
+        /* Clip every piece first: if one is too big for a polygon, keep the wall whole. */
+        int first_piece = p->n_solids, overflow = 0;
+        double t = tmin;
+        for (int k = 0; k <= nc && rc == 0 && !overflow; k++) {
+            double end = k < nc ? cuts[k].a : tmax;
+            sim_poly_t piece;
+            int got = end - t > PLAN_MIN_PIECE_M ? clip_slab(o, c0, ux, uy, t, end, &piece) : 0;
+            if (got < 0)
+                overflow = 1;
+            else if (got > 0)
+                rc = push_solid(p, &cap, &piece, sim_poly_is_rect(&piece));
             if (k < nc)
                 t = fmax(t, cuts[k].b);
+        }
+        if (rc == 0 && overflow) {
+            p->n_solids = first_piece;
+            rc = push_solid(p, &cap, o, sim_poly_is_rect(o));
         }
     }
     free(cuts);

@@ -19,8 +19,9 @@
  * unclosed tags/groups/quotes/comments, a Door or Window outside a Wall group, a Wall/Door/
  * Window/Space group without a polygon, no walls, absurd sizes (coordinates beyond 10 km,
  * a plan wider than 2 km or narrower than 5 cm, files over 64 MB, scale over 100 m/px).
- * Door cutting: a rectangular wall loses the interval of each door's projection onto its long
- * axis (full thickness); a non-rectangular wall stays whole (its doors are not cut).
+ * Door cutting: a convex wall (rectangle, or the trapezoids CubiCasa5K draws at mitred
+ * corners) loses the slab of each door's projection onto its long axis (the direction of its
+ * longest edge), across its full thickness; a non-convex wall stays whole (doors not cut).
  * Not thread-safe per plan; distinct plans are independent. Allocates (host side). */
 #ifndef SIM_PLAN_H
 #define SIM_PLAN_H

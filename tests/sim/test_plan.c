@@ -174,8 +174,8 @@ static void test_bad_inputs(void **state)
     expect_error(big, 4, "too many points");
 }
 
-/* Exactly SIM_POLY_MAX_POINTS points is fine; non-rectangular walls are not cut. */
-static void test_max_points_and_nonrect_wall(void **state)
+/* Exactly SIM_POLY_MAX_POINTS points is fine. */
+static void test_max_points(void **state)
 {
     (void)state;
     char big[4096];
@@ -184,15 +184,53 @@ static void test_max_points_and_nonrect_wall(void **state)
         double a = 2.0 * 3.14159265358979323846 * i / SIM_POLY_MAX_POINTS;
         k += snprintf(big + k, sizeof big - (size_t)k, "%.3f,%.3f ", 500 + 400 * cos(a), 500 + 400 * sin(a));
     }
-    snprintf(big + k, sizeof big - (size_t)k,
-             "\"/><g class=\"Door\"><polygon points=\"100,480 200,480 200,520 100,520\"/></g></g></svg>\n");
+    snprintf(big + k, sizeof big - (size_t)k, "\"/></g></svg>\n");
     sim_plan_t p;
     char err[256];
     assert_int_equal(sim_plan_parse(big, "round.svg", 0.0, &p, err, sizeof err), 0);
     assert_int_equal(p.walls[0].outline.n, SIM_POLY_MAX_POINTS);
     assert_int_equal(p.n_solids, 1);
     assert_int_equal(p.solids[0].is_rect, 0);
-    assert_int_equal(p.solids[0].outline.n, SIM_POLY_MAX_POINTS);
+    sim_plan_free(&p);
+}
+
+static int solid_count_at(const sim_plan_t *p, double x, double y)
+{
+    int n = 0;
+    for (int i = 0; i < p->n_solids; i++)
+        n += sim_poly_contains(&p->solids[i].outline, x, y);
+    return n;
+}
+
+/* A CubiCasa-style mitred (trapezoid) wall is cut like a rectangle; an L-shaped (non-convex)
+ * wall keeps its door closed (documented limitation). */
+static void test_trapezoid_and_nonconvex_walls(void **state)
+{
+    (void)state;
+    const char *t = HEAD
+        "<g class=\"Wall External\"><polygon points=\"118.00,21.56 1293.38,21.56 1277.38,37.56 133.97,37.56\"/>\n"
+        "<g class=\"Door Swing Beside\"><polygon points=\"400,21.56 490,21.56 490,37.56 400,37.56\"/></g></g>\n"
+        "<g class=\"Wall\"><polygon points=\"0,100 300,100 300,110 10,110 10,400 0,400\"/>\n"
+        "<g class=\"Door\"><polygon points=\"100,100 190,100 190,110 100,110\"/></g></g>\n"
+        "</svg>\n";
+    sim_plan_t p;
+    char err[256];
+    assert_int_equal(sim_plan_parse(t, "trap.svg", 0.0, &p, err, sizeof err), 0);
+    assert_int_equal(p.n_solids, 3);
+    assert_int_equal(p.solids[0].outline.n, 4);
+    assert_int_equal(p.solids[1].outline.n, 4);
+    assert_int_equal(p.solids[0].is_rect, 0);
+    assert_int_equal(p.solids[2].is_rect, 0);
+    assert_int_equal(p.solids[2].outline.n, 6);
+    /* Trapezoid: solid left and right of the door, open in it, areas add up. */
+    assert_int_equal(solid_count_at(&p, 2.0, 0.3), 1);
+    assert_int_equal(solid_count_at(&p, 4.45, 0.3), 0);
+    assert_int_equal(solid_count_at(&p, 10.0, 0.3), 1);
+    double whole = fabs(sim_poly_signed_area(&p.walls[0].outline));
+    double pieces = fabs(sim_poly_signed_area(&p.solids[0].outline)) + fabs(sim_poly_signed_area(&p.solids[1].outline));
+    assert_true(fabs(whole - pieces - 0.9 * 0.16) < 1e-9);
+    /* L-shaped wall: the door stays closed. */
+    assert_int_equal(solid_count_at(&p, 1.45, 1.05), 1);
     sim_plan_free(&p);
 }
 
@@ -324,7 +362,8 @@ int main(void)
         cmocka_unit_test(test_scale),
         cmocka_unit_test(test_point_forms),
         cmocka_unit_test(test_bad_inputs),
-        cmocka_unit_test(test_max_points_and_nonrect_wall),
+        cmocka_unit_test(test_max_points),
+        cmocka_unit_test(test_trapezoid_and_nonconvex_walls),
         cmocka_unit_test(test_door_cutting),
         cmocka_unit_test(test_door_cutting_rotated),
         cmocka_unit_test(test_normalise_round_trip),
