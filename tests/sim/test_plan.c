@@ -303,6 +303,37 @@ static void test_door_cutting_rotated(void **state)
     sim_plan_free(&p);
 }
 
+/* Transforms compose down the tree: group translate, then the polygon's own scale/rotate. */
+static void test_transforms(void **state)
+{
+    (void)state;
+    const char *t = HEAD
+        "<g class=\"Floorplan\" transform=\"translate(100, 50)\">\n"
+        "<g class=\"Wall\"><polygon transform=\"scale(2)\" points=\"0,0 100,0 100,10 0,10\"/></g>\n"
+        "<g class=\"Wall\" transform=\"rotate(90 0 0)\"><polygon points=\"0,0 100,0 100,10 0,10\"/></g>\n"
+        "<g class=\"Space Bath\" transform=\"matrix(1,0,0,1,10,10) skewX(0)\"><polygon points=\"0,0 50,0 50,50\"/></g>\n"
+        "</g></svg>\n";
+    sim_plan_t p;
+    char err[256];
+    assert_int_equal(sim_plan_parse(t, "tf.svg", 0.0, &p, err, sizeof err), 0);
+    const sim_poly_t *w0 = &p.walls[0].outline, *w1 = &p.walls[1].outline;
+    /* (100,0) -> scale 2 -> (200,0) -> translate -> (300,50) px -> (3, 0.5) m */
+    assert_true(fabs(w0->p[1].x - 3.0) < 1e-12 && fabs(w0->p[1].y - 0.5) < 1e-12);
+    assert_true(fabs(w0->p[2].y - 0.7) < 1e-12);
+    /* rotate 90: (100,0) -> (0,100) -> (100,150) px */
+    assert_true(fabs(w1->p[1].x - 1.0) < 1e-9 && fabs(w1->p[1].y - 1.5) < 1e-9);
+    assert_true(sim_poly_is_rect(w1));
+    assert_true(fabs(p.rooms[0].outline.p[1].x - 1.6) < 1e-12 && fabs(p.rooms[0].outline.p[1].y - 0.6) < 1e-12);
+    sim_plan_free(&p);
+
+    expect_error(HEAD "<g class=\"Wall\"\n transform=\"translate(1,x)\"><polygon points=\"0,0 100,0 100,10 0,10\"/></g></svg>",
+                 4, "bad number 'x' in transform");
+    expect_error(HEAD "<g transform=\"warp(3)\">" WALL_OK "</g></svg>", 3, "bad transform 'warp'");
+    expect_error(HEAD "<g transform=\"scale(1 2 3)\">" WALL_OK "</g></svg>", 3, "wrong argument count");
+    expect_error(HEAD "<g transform=\"translate(1,2\">" WALL_OK "</g></svg>", 3, "unclosed '('");
+    expect_error(HEAD "<g transform=\"scale(0)\">" WALL_OK "</g></svg>", 3, "degenerate transform");
+}
+
 static void test_normalise_round_trip(void **state)
 {
     (void)state;
@@ -366,6 +397,7 @@ int main(void)
         cmocka_unit_test(test_trapezoid_and_nonconvex_walls),
         cmocka_unit_test(test_door_cutting),
         cmocka_unit_test(test_door_cutting_rotated),
+        cmocka_unit_test(test_transforms),
         cmocka_unit_test(test_normalise_round_trip),
         cmocka_unit_test(test_load_default_plan),
     };
