@@ -14,7 +14,8 @@
  * Accepted: XML comments, <?xml?> and <!DOCTYPE> declarations, attributes in any order with
  * single or double quotes, points separated by commas and/or whitespace, `transform`
  * attributes (matrix/translate/scale/rotate/skewX/skewY, composed down the element tree and
- * applied before the scale). The root's width/height/viewBox are not applied.
+ * applied before the scale). The root's width/height/viewBox are not applied, and a file
+ * with several floors (CubiCasa's `Floorplan Floor-2` groups) is read as one merged plan.
  * Rejected with "FILE:LINE: reason": no <svg> root, bad numbers, an odd coordinate count,
  * fewer than 3 distinct points or zero area, more than SIM_POLY_MAX_POINTS points,
  * unclosed tags/groups/quotes/comments, a malformed or singular transform, a Door or Window outside a Wall group, a Wall/Door/

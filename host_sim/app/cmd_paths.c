@@ -124,6 +124,19 @@ static void report(const sim_plan_t *plan, const sim_grid_t *g, const sim_path_t
                cl);
     }
     printf("min clearance to walls: %.3f m\n", min_clear);
+    /* Rooms with at least one waypoint: a room behind a door too narrow for the clearance
+     * would be missing here. */
+    int visited = 0;
+    for (int room = 0; room < plan->n_rooms; room++) {
+        int hit = 0;
+        for (int k = 0; k < n && !hit; k++)
+            for (int i = 0; i < paths[k].n && !hit; i++)
+                hit = sim_poly_contains(&plan->rooms[room].outline, paths[k].p[i].x, paths[k].p[i].y);
+        visited += hit;
+        if (!hit)
+            printf("room %d (%s) has no waypoint\n", room, plan->rooms[room].type);
+    }
+    printf("rooms with waypoints: %d of %d\n", visited, plan->n_rooms);
     printf("coverage of free cells (line of sight): %.1f%% within 1.5 m, %.1f%% within 3.5 m\n",
            100.0 * sim_paths_coverage(g, paths, n, 1.5), 100.0 * sim_paths_coverage(g, paths, n, 3.5));
 }
