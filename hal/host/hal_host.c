@@ -21,14 +21,25 @@
 
 #define STACK_PAINT 0xA5u
 
-/* Static stacks: page-aligned as pthread_attr_setstack() wants. */
-static _Alignas(4096) uint8_t stack_rt[BOARD_STACK_RT_BYTES];
-static _Alignas(4096) uint8_t stack_gp[BOARD_STACK_GP_BYTES];
-static _Alignas(4096) uint8_t stack_ai[BOARD_STACK_AI_BYTES];
+/* Static stacks: page-aligned as pthread_attr_setstack() wants. glibc places the thread's
+ * control block and static TLS at the top of a caller-provided stack, so each array holds
+ * the board's stack plus a reserve for them; the high-water mark and the size reported
+ * count only what lies below the core thread's first frame. ThreadSanitizer keeps about
+ * 1 MB of per-thread state in static TLS, hence the larger reserve in that build. */
+#if defined(__SANITIZE_THREAD__)
+#define STACK_RESERVE (2u * 1024u * 1024u)
+#else
+#define STACK_RESERVE (64u * 1024u)
+#endif
+static _Alignas(4096) uint8_t stack_rt[BOARD_STACK_RT_BYTES + STACK_RESERVE];
+static _Alignas(4096) uint8_t stack_gp[BOARD_STACK_GP_BYTES + STACK_RESERVE];
+static _Alignas(4096) uint8_t stack_ai[BOARD_STACK_AI_BYTES + STACK_RESERVE];
 static uint8_t *const core_stack[HAL_CORE_COUNT] = {stack_rt, stack_gp, stack_ai};
-static const size_t core_stack_size[HAL_CORE_COUNT] = {BOARD_STACK_RT_BYTES,
-                                                       BOARD_STACK_GP_BYTES,
-                                                       BOARD_STACK_AI_BYTES};
+static const size_t core_stack_size[HAL_CORE_COUNT] = {BOARD_STACK_RT_BYTES + STACK_RESERVE,
+                                                       BOARD_STACK_GP_BYTES + STACK_RESERVE,
+                                                       BOARD_STACK_AI_BYTES + STACK_RESERVE};
+static const size_t core_board_stack[HAL_CORE_COUNT] = {
+    BOARD_STACK_RT_BYTES, BOARD_STACK_GP_BYTES, BOARD_STACK_AI_BYTES};
 /* Which hal_host_t owns the static stacks (between its first core start and its stop). */
 static _Atomic(hal_host_t *) stacks_owner;
 
@@ -49,6 +60,9 @@ typedef struct host_core {
     /* owned by the core's thread */
     struct timespec tick_start;
     int tick_open;
+    /* bytes above the core's first frame (TCB, TLS, thread start): set by the core before
+     * its first release, read after (ordered by h->mu) */
+    size_t stack_top_bytes;
 } host_core_t;
 
 struct hal_host {
@@ -125,6 +139,14 @@ __attribute__((no_sanitize_address, no_sanitize_thread)) static size_t stack_use
     while (i < n && p[i] == STACK_PAINT)
         i++;
     return n - i;
+}
+
+/* The core's own use (below its first frame) and its board stack size; h->mu held. */
+static void core_stack_figures(const host_core_t *c, size_t *used, size_t *size)
+{
+    size_t all = stack_used(core_stack[c->id], core_stack_size[c->id]);
+    *used = all > c->stack_top_bytes ? all - c->stack_top_bytes : 0;
+    *size = core_board_stack[c->id]; /* the reserve is the host's, not the core's */
 }
 
 static uint64_t ts_ns(const struct timespec *t)
@@ -211,7 +233,14 @@ static void *core_main(void *arg)
     host_core_t *c = arg;
     hal_host_t *h = c->h;
     tls_core = c;
+    uint8_t *top = core_stack[c->id] + core_stack_size[c->id];
+    size_t above = (size_t)(top - (uint8_t *)__builtin_frame_address(0));
+    if (above > STACK_RESERVE)
+        fprintf(stderr, "hal_host: core %s: %zu bytes of TLS and thread start exceed the "
+                        "%u-byte reserve; the core has less than the board's stack\n",
+                hal_core_name(c->id), above, (unsigned)STACK_RESERVE);
     pthread_mutex_lock(&h->mu);
+    c->stack_top_bytes = above;
     /* Born SLEEPING with wake = start time: wait for the scheduler's first release. */
     while (c->state == CORE_SLEEPING)
         pthread_cond_wait(&c->cv, &h->mu);
@@ -249,7 +278,8 @@ static int op_core_start(void *ctx, hal_core_id_t id, hal_core_entry_t entry, vo
     c->wake_us = atomic_load_explicit(&h->now_us, memory_order_relaxed);
     memset(&c->stats, 0, sizeof(c->stats));
     c->stats.started = 1;
-    c->stats.stack_size_bytes = core_stack_size[id];
+    c->stats.stack_size_bytes = core_board_stack[id];
+    c->stack_top_bytes = 0;
     pthread_attr_t attr;
     int r = pthread_attr_init(&attr);
     if (r == 0)
@@ -260,7 +290,14 @@ static int op_core_start(void *ctx, hal_core_id_t id, hal_core_entry_t entry, vo
     if (r != 0) {
         c->state = CORE_UNUSED;
         c->stats.started = 0;
+        int others = 0;
+        for (int i = 0; i < HAL_CORE_COUNT; i++)
+            others |= h->core[i].state != CORE_UNUSED;
         pthread_mutex_unlock(&h->mu);
+        if (!others) { /* give the static stacks back */
+            hal_host_t *self = h;
+            atomic_compare_exchange_strong(&stacks_owner, &self, NULL);
+        }
         return -EAGAIN;
     }
     c->joined = 0;
@@ -274,12 +311,10 @@ static int op_stack_high_water(void *ctx, hal_core_id_t id, size_t *used, size_t
     hal_host_t *h = ctx;
     pthread_mutex_lock(&h->mu);
     int started = h->core[id].stats.started;
+    if (started)
+        core_stack_figures(&h->core[id], used, size);
     pthread_mutex_unlock(&h->mu);
-    if (!started)
-        return -ESRCH;
-    *used = stack_used(core_stack[id], core_stack_size[id]);
-    *size = core_stack_size[id];
-    return 0;
+    return started ? 0 : -ESRCH;
 }
 
 static int op_core_self(void *ctx, hal_core_id_t *id)
@@ -630,11 +665,8 @@ int hal_host_core_stats(hal_host_t *h, hal_core_id_t id, hal_host_core_stats_t *
         return -EINVAL;
     pthread_mutex_lock(&h->mu);
     *stats = h->core[id].stats;
-    int started = stats->started;
+    if (stats->started)
+        core_stack_figures(&h->core[id], &stats->stack_used_bytes, &stats->stack_size_bytes);
     pthread_mutex_unlock(&h->mu);
-    if (started) {
-        stats->stack_used_bytes = stack_used(core_stack[id], core_stack_size[id]);
-        stats->stack_size_bytes = core_stack_size[id];
-    }
     return 0;
 }

@@ -42,8 +42,9 @@ HAL_WUR static inline int hal_core_start(hal_core_id_t id, hal_core_entry_t entr
     return b->core->start(b->ctx, id, entry, arg);
 }
 
-/* High-water mark of core `id`'s stack: bytes ever used (>= 1 once started, <= size) and
- * the stack size. 0, -EINVAL, -ESRCH (never started), -ENOTSUP, -ENODEV. */
+/* High-water mark of core `id`'s stack: bytes the core ever used below its entry frame, and
+ * the board's stack size for it (BOARD_STACK_<core>_BYTES; a host may keep thread-local
+ * storage in a reserve above it, which is not counted). 0, -EINVAL, -ESRCH (never started), -ENOTSUP, -ENODEV. */
 HAL_WUR static inline int hal_core_stack_high_water(hal_core_id_t id, size_t *used_bytes,
                                                     size_t *size_bytes)
 {
