@@ -152,7 +152,8 @@ __attribute__((warn_unused_result)) int hal_host_net_publish(hal_host_net_t *n,
                                                              const void *data, size_t len);
 __attribute__((warn_unused_result)) int hal_host_net_subscribe(hal_host_net_t *n,
                                                                const char *channel);
-/* Pumps LCM without waiting (at most queue_depth deliveries), then pops one message.
+/* Pumps what LCM has ready into the queue without waiting (overflow is dropped and counted;
+ * at most 4 * depth + 64 deliveries per call), then pops one message.
  * stamp_us is recorded as the queue time of what the pump delivers. */
 __attribute__((warn_unused_result)) int hal_host_net_receive(hal_host_net_t *n, uint64_t stamp_us,
                                                              hal_net_rx_info_t *info, void *buf,

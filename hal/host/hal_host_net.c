@@ -47,7 +47,7 @@ int hal_host_net_open(const char *url, uint32_t queue_depth, hal_host_net_t **ou
     n->lcm = lcm_create(url[0] != '\0' ? url : HAL_HOST_NET_URL_DEFAULT);
     if (n->lcm == NULL) {
         fprintf(stderr, "hal_host_net: cannot create LCM on '%s' (for udpm:// on one host, "
-                        "loopback needs multicast: see tests/hal/test_net_udpm.c)\n",
+                        "loopback needs multicast: see tests/hal/test_net.c)\n",
                 url[0] != '\0' ? url : HAL_HOST_NET_URL_DEFAULT);
         free(n->slots);
         free(n);
@@ -140,12 +140,13 @@ int hal_host_net_subscribe(hal_host_net_t *n, const char *channel)
     return 0;
 }
 
-/* Delivers what LCM has ready, without waiting, at most `depth` messages per call so that a
- * flood cannot hold the caller forever. */
+/* Delivers everything LCM has ready, without waiting, as a receiver thread running all along
+ * would have: what does not fit in the queue is dropped and counted. At most
+ * 4 * depth + 64 deliveries per call, so a flood cannot hold the caller forever. */
 static int net_pump(hal_host_net_t *n, uint64_t stamp_us, int first_timeout_ms)
 {
     n->pump_stamp_us = stamp_us;
-    for (uint32_t i = 0; i < n->depth; i++) {
+    for (uint32_t i = 0; i < 4u * n->depth + 64u; i++) {
         int r = lcm_handle_timeout(n->lcm, i == 0 ? first_timeout_ms : 0);
         if (r < 0)
             return -EIO;
