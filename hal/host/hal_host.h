@@ -37,6 +37,10 @@
 
 #include "hal/hal.h"
 
+#ifdef __cplusplus
+extern "C" {
+#endif
+
 /* The world, as the host back end sees it. host_sim's world plugs in through an adapter that
  * fills this struct. `robot` is the config's robot_id. The back end serialises every call
  * (one mutex), and advance_to_us() only runs while every core is blocked, so the world needs
@@ -177,5 +181,9 @@ __attribute__((warn_unused_result)) int hal_host_storage_read(hal_host_storage_t
                                                               size_t cap, size_t *len);
 __attribute__((warn_unused_result)) int hal_host_storage_remove(hal_host_storage_t *s,
                                                                 const char *name);
+
+#ifdef __cplusplus
+}
+#endif
 
 #endif /* HAL_HOST_H */

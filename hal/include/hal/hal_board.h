@@ -26,6 +26,10 @@
 
 #define HAL_WUR __attribute__((warn_unused_result))
 
+#ifdef __cplusplus
+extern "C" {
+#endif
+
 /* The three cores of a firmware image. Values index per-core arrays. */
 typedef enum hal_core_id {
     HAL_CORE_RT = 0, /* real-time: lidar, pose, motors, scan -> samples; never blocks */
@@ -65,5 +69,9 @@ HAL_WUR int hal_board_install(const hal_board_t *board);
 
 /* Short upper-case name of a core ("RT", "GP", "AI"), "?" for an invalid id. */
 const char *hal_core_name(hal_core_id_t id);
+
+#ifdef __cplusplus
+}
+#endif
 
 #endif /* HAL_BOARD_H */
