@@ -491,6 +491,47 @@ static void test_sleep_outside_core_and_config(void **state)
     hal_host_destroy(h);
 }
 
+/* A failing physics step stops the run with its error, before any core sees that time. */
+static uint64_t failing_world_last;
+static int failing_advance(void *ctx, uint64_t t_us)
+{
+    (void)ctx;
+    if (t_us >= 500000u)
+        return -EIO;
+    failing_world_last = t_us;
+    return 0;
+}
+
+static uint64_t last_rt_tick;
+static int record_tick(void *arg, const fw_tick_t *t)
+{
+    (void)arg;
+    last_rt_tick = t->now_us;
+    return 0;
+}
+
+static void test_world_error_stops_run(void **state)
+{
+    (void)state;
+    hal_host_world_t w = {.advance_to_us = failing_advance};
+    hal_host_config_t cfg = hal_host_config_default();
+    cfg.world = &w;
+    hal_host_t *h = NULL;
+    assert_int_equal(hal_host_create(&cfg, &h), 0);
+    assert_int_equal(hal_board_install(hal_host_board(h)), 0);
+    fw_image_defaults(&g_img);
+    g_img.core[HAL_CORE_RT].tick = record_tick;
+    assert_int_equal(fw_image_start(&g_img), 0);
+    assert_int_equal(hal_host_run_until(h, 1000000u), -EIO);
+    assert_int_equal(failing_world_last, 480000u);
+    assert_int_equal(last_rt_tick, 480000u);
+    assert_int_equal(hal_host_now_us(h), 480000u);
+    hal_host_stop(h);
+    assert_true(g_img.stats[HAL_CORE_RT].done);
+    assert_int_equal(g_img.stats[HAL_CORE_RT].ticks, 25);
+    hal_host_destroy(h);
+}
+
 int main(void)
 {
     const struct CMUnitTest tests[] = {
@@ -499,6 +540,7 @@ int main(void)
         cmocka_unit_test(test_stack_high_water),
         cmocka_unit_test(test_no_allocation_in_steady_state),
         cmocka_unit_test(test_sleep_outside_core_and_config),
+        cmocka_unit_test(test_world_error_stops_run),
     };
     return cmocka_run_group_tests(tests, NULL, NULL);
 }
