@@ -83,6 +83,7 @@ struct hal_host {
     int stopping;
     int stopped;
     uint64_t world_steps;
+    uint64_t watchdog_reports;
     host_core_t core[HAL_CORE_COUNT];
 
     pthread_mutex_t world_mu; /* serialises world callbacks (parallel mode) */
@@ -460,7 +461,11 @@ int hal_host_create(const hal_host_config_t *cfg, hal_host_t **out)
     h->cfg = *cfg;
     pthread_mutex_init(&h->mu, NULL);
     pthread_mutex_init(&h->world_mu, NULL);
-    pthread_cond_init(&h->sched_cv, NULL);
+    pthread_condattr_t ca;
+    pthread_condattr_init(&ca);
+    pthread_condattr_setclock(&ca, CLOCK_MONOTONIC); /* the watchdog's clock */
+    pthread_cond_init(&h->sched_cv, &ca);
+    pthread_condattr_destroy(&ca);
     for (int i = 0; i < HAL_CORE_COUNT; i++) {
         h->core[i].h = h;
         h->core[i].id = (hal_core_id_t)i;
@@ -535,8 +540,40 @@ static int any_running(const hal_host_t *h)
 
 static void wait_all_blocked(hal_host_t *h)
 {
-    while (any_running(h))
-        pthread_cond_wait(&h->sched_cv, &h->mu);
+    while (any_running(h)) {
+        if (h->cfg.watchdog_ms == 0) {
+            pthread_cond_wait(&h->sched_cv, &h->mu);
+            continue;
+        }
+        /* sched_cv runs on CLOCK_MONOTONIC (see hal_host_create). */
+        struct timespec dl;
+        clock_gettime(CLOCK_MONOTONIC, &dl);
+        uint64_t ns = (uint64_t)dl.tv_nsec + (uint64_t)h->cfg.watchdog_ms * 1000000u;
+        dl.tv_sec += (time_t)(ns / 1000000000u);
+        dl.tv_nsec = (long)(ns % 1000000000u);
+        if (pthread_cond_timedwait(&h->sched_cv, &h->mu, &dl) != ETIMEDOUT)
+            continue;
+        for (int i = 0; i < HAL_CORE_COUNT; i++) {
+            if (h->core[i].state != CORE_RUNNING)
+                continue;
+            h->watchdog_reports++;
+            fprintf(stderr, "hal_host: watchdog: core %s has run for more than %u ms of wall "
+                            "time at t=%llu us without sleeping\n",
+                    hal_core_name((hal_core_id_t)i), (unsigned)h->cfg.watchdog_ms,
+                    (unsigned long long)atomic_load_explicit(&h->now_us, memory_order_relaxed));
+        }
+    }
+}
+
+uint64_t hal_host_watchdog_reports(const hal_host_t *h)
+{
+    if (h == NULL)
+        return 0;
+    hal_host_t *m = (hal_host_t *)h;
+    pthread_mutex_lock(&m->mu);
+    uint64_t n = m->watchdog_reports;
+    pthread_mutex_unlock(&m->mu);
+    return n;
 }
 
 /* mu held, every core blocked: the world may run. */

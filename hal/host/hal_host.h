@@ -85,6 +85,10 @@ typedef struct hal_host_config {
     /* Storage: NULL for none, else a directory (created if missing, one level). */
     const char *storage_dir;
     hal_log_level_t log_level;  /* messages above this level are dropped */
+    /* Wall-clock watchdog for debugging firmware: when a core runs this many milliseconds
+     * of wall time without sleeping, a line naming it goes to stderr (again after each
+     * further period). 0 turns it off. It never changes the simulation. */
+    uint32_t watchdog_ms;
     int log_fd;                 /* where log lines go; 0 means stderr (fd 2) */
 } hal_host_config_t;
 
@@ -140,6 +144,9 @@ typedef struct hal_host_core_stats {
 /* Per-core figures. 0 or -EINVAL. */
 __attribute__((warn_unused_result)) int hal_host_core_stats(hal_host_t *h, hal_core_id_t id,
                                                             hal_host_core_stats_t *stats);
+
+/* Times the watchdog reported a core (see hal_host_config_t.watchdog_ms). */
+uint64_t hal_host_watchdog_reports(const hal_host_t *h);
 
 /* Physics steps run so far (calls of advance_to_us), for tests and profiling. */
 uint64_t hal_host_world_steps(const hal_host_t *h);

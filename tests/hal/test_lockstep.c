@@ -12,6 +12,7 @@
 #include <math.h>
 #include <stdio.h>
 #include <string.h>
+#include <time.h>
 #include <cmocka.h>
 
 #include "alloc_count.h"
@@ -532,6 +533,37 @@ static void test_world_error_stops_run(void **state)
     hal_host_destroy(h);
 }
 
+/* The wall-clock watchdog names a core that computes too long; simulation unaffected. */
+static int slow_tick(void *arg, const fw_tick_t *t)
+{
+    (void)arg;
+    if (t->index == 1) {
+        struct timespec ts = {0, 300000000L}; /* 300 ms of wall time inside one tick */
+        nanosleep(&ts, NULL);
+    }
+    return t->index >= 3 ? FW_CORE_DONE : 0;
+}
+
+static void test_watchdog_reports_slow_core(void **state)
+{
+    (void)state;
+    hal_host_config_t cfg = hal_host_config_default();
+    cfg.watchdog_ms = 50;
+    hal_host_t *h = NULL;
+    assert_int_equal(hal_host_create(&cfg, &h), 0);
+    assert_int_equal(hal_board_install(hal_host_board(h)), 0);
+    fw_image_defaults(&g_img);
+    g_img.core[HAL_CORE_GP].tick = slow_tick;
+    assert_int_equal(fw_image_start(&g_img), 0);
+    assert_int_equal(hal_host_run_until(h, 1000000u), 0);
+    assert_true(hal_host_watchdog_reports(h) >= 1);
+    assert_int_equal(g_img.stats[HAL_CORE_GP].ticks, 4);
+    hal_host_core_stats_t cs;
+    assert_int_equal(hal_host_core_stats(h, HAL_CORE_GP, &cs), 0);
+    assert_int_equal(cs.lateness_max_us, 0);
+    hal_host_destroy(h);
+}
+
 int main(void)
 {
     const struct CMUnitTest tests[] = {
@@ -541,6 +573,7 @@ int main(void)
         cmocka_unit_test(test_no_allocation_in_steady_state),
         cmocka_unit_test(test_sleep_outside_core_and_config),
         cmocka_unit_test(test_world_error_stops_run),
+        cmocka_unit_test(test_watchdog_reports_slow_core),
     };
     return cmocka_run_group_tests(tests, NULL, NULL);
 }
