@@ -258,6 +258,16 @@ static void *core_main(void *arg)
     return NULL;
 }
 
+/* h->mu held. Gives the static stacks back when h has no thread on them. */
+static void release_stacks_if_idle(hal_host_t *h)
+{
+    for (int i = 0; i < HAL_CORE_COUNT; i++)
+        if (h->core[i].state != CORE_UNUSED && !h->core[i].joined)
+            return;
+    hal_host_t *self = h;
+    atomic_compare_exchange_strong(&stacks_owner, &self, NULL);
+}
+
 static int op_core_start(void *ctx, hal_core_id_t id, hal_core_entry_t entry, void *arg)
 {
     hal_host_t *h = ctx;
@@ -269,8 +279,10 @@ static int op_core_start(void *ctx, hal_core_id_t id, hal_core_entry_t entry, vo
     pthread_mutex_lock(&h->mu);
     host_core_t *c = &h->core[id];
     if (c->state != CORE_UNUSED || h->stopping) {
+        int code = h->stopping ? -ECANCELED : -EBUSY;
+        release_stacks_if_idle(h);
         pthread_mutex_unlock(&h->mu);
-        return h->stopping ? -ECANCELED : -EBUSY;
+        return code;
     }
     stack_paint(core_stack[id], core_stack_size[id]);
     c->entry = entry;
@@ -291,14 +303,8 @@ static int op_core_start(void *ctx, hal_core_id_t id, hal_core_entry_t entry, vo
     if (r != 0) {
         c->state = CORE_UNUSED;
         c->stats.started = 0;
-        int others = 0;
-        for (int i = 0; i < HAL_CORE_COUNT; i++)
-            others |= h->core[i].state != CORE_UNUSED;
+        release_stacks_if_idle(h);
         pthread_mutex_unlock(&h->mu);
-        if (!others) { /* give the static stacks back */
-            hal_host_t *self = h;
-            atomic_compare_exchange_strong(&stacks_owner, &self, NULL);
-        }
         return -EAGAIN;
     }
     c->joined = 0;

@@ -462,6 +462,11 @@ static void test_no_allocation_in_steady_state(void **state)
 }
 
 /* ---- contract corners -------------------------------------------------------------------- */
+static void noop_entry(void *arg)
+{
+    (void)arg;
+}
+
 static void test_sleep_outside_core_and_config(void **state)
 {
     (void)state;
@@ -489,7 +494,15 @@ static void test_sleep_outside_core_and_config(void **state)
     assert_int_equal(hal_host_run_until(h, 4000u), -EINVAL);
     hal_host_stop(h);
     assert_int_equal(hal_host_run_until(h, 6000u), -ECANCELED);
+    /* A stopped board starts nothing, and does not keep the static stacks from others. */
+    assert_int_equal(hal_core_start(HAL_CORE_RT, noop_entry, NULL), -ECANCELED);
+    hal_host_t *h2 = NULL;
+    assert_int_equal(hal_host_create(&cfg, &h2), 0);
+    assert_int_equal(hal_board_install(hal_host_board(h2)), 0);
+    assert_int_equal(hal_core_start(HAL_CORE_RT, noop_entry, NULL), 0);
     hal_host_destroy(h);
+    assert_int_equal(hal_host_run_until(h2, 1000u), 0);
+    hal_host_destroy(h2);
 }
 
 /* A failing physics step stops the run with its error, before any core sees that time. */
