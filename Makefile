@@ -73,7 +73,7 @@ CXXFLAGS := -std=c++17 $(WARN) $(OPT) $(DEFS) -MMD -MP -fno-exceptions -fno-rtti
 # the board. The bottom half (hal/host, host_sim, tools, tests) also sees POSIX, the
 # generated LCM types and host_sim.
 FW_INC   := -Ifirmware -Ihal/include -Iboards/$(BOARD)
-HOST_INC := $(FW_INC) -Ihost_sim -I$(GEN) -D_POSIX_C_SOURCE=200809L
+HOST_INC := $(FW_INC) -Ihal/host -Ihost_sim -I$(GEN) -D_POSIX_C_SOURCE=200809L
 TEST_INC := $(HOST_INC) -Itests/support -Itests
 
 SYS_LIBS := -lode -llcm -lzmq -lOSMesa -lpng -lm -lpthread
@@ -193,7 +193,7 @@ test-asan:
 	@$(MAKE) --no-print-directory BUILD=asan test
 
 # ThreadSanitizer runs the tests whose subject is concurrency.
-TSAN_TESTS ?= tests/common
+TSAN_TESTS ?= tests/common tests/hal
 test-tsan:
 	@$(MAKE) --no-print-directory BUILD=tsan TEST_C="$$(find $(TSAN_TESTS) -name 'test_*.c' | sort)" test
 

@@ -1,0 +1,42 @@
+/* The board registry of the HAL (hal/include/hal/hal_board.h). It lives with the firmware
+ * because every board port shares it: a port provides operations, not the registry. */
+#include "hal/hal.h"
+
+const hal_board_t *hal_board_current;
+
+const char *hal_core_name(hal_core_id_t id)
+{
+    switch (id) {
+    case HAL_CORE_RT: return "RT";
+    case HAL_CORE_GP: return "GP";
+    case HAL_CORE_AI: return "AI";
+    default: return "?";
+    }
+}
+
+int hal_board_install(const hal_board_t *board)
+{
+    if (board == NULL) {
+        hal_board_current = NULL;
+        return 0;
+    }
+    if (board->name == NULL || board->clock == NULL || board->core == NULL || board->log == NULL)
+        return -EINVAL;
+    if (board->clock->now_us == NULL || board->clock->sleep_until_us == NULL ||
+        board->core->start == NULL || board->log->vlog == NULL)
+        return -EINVAL;
+    if (board->lidar != NULL && board->lidar->read_scan == NULL)
+        return -EINVAL;
+    if (board->pose != NULL && board->pose->read_pose == NULL)
+        return -EINVAL;
+    /* A motor interface must offer at least one way to command. */
+    if (board->motor != NULL && board->motor->set_wheels == NULL && board->motor->set_twist == NULL)
+        return -EINVAL;
+    if (board->net != NULL && (board->net->publish == NULL || board->net->subscribe == NULL ||
+                               board->net->receive == NULL))
+        return -EINVAL;
+    if (board->storage != NULL && (board->storage->write == NULL || board->storage->read == NULL))
+        return -EINVAL;
+    hal_board_current = board;
+    return 0;
+}

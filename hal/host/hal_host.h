@@ -1,0 +1,196 @@
+/* Host back end of the HAL: the firmware image's three cores as POSIX threads, run in
+ * LOCKSTEP with simulated time against a world (host_sim) reached through callbacks.
+ *
+ * Lockstep (a deterministic discrete-event scheduler over real threads)
+ * - The simulated clock only advances when every started core is blocked in
+ *   hal_sleep_until_us() (or has returned from its entry). It then advances to the earliest
+ *   wake-up time t: first the world's advance_to_us(t) runs (physics), then the cores
+ *   waiting for t are released. A core's computation therefore takes zero simulated time,
+ *   every tick starts exactly at the time it asked for (lateness 0), and results do not
+ *   depend on how the OS schedules the threads or how loaded the machine is.
+ * - HAL_HOST_SCHED_SERIAL (default): cores due at the same instant are released one at a
+ *   time in core-id order (RT, GP, AI), the next when the previous blocks again. Everything
+ *   the cores exchange (rings, mailboxes) is then ordered identically in every run, so two
+ *   runs with the same inputs are bit-identical. HAL_HOST_SCHED_PARALLEL releases them
+ *   together (faster on a multi-core machine; simulated time is still lockstep, but the
+ *   order of events within one instant is up to the OS).
+ * - The scheduler runs on the thread that calls hal_host_run_until() (the host's main).
+ *
+ * Threads and memory
+ * - Each core runs on a pthread whose stack is a static array of BOARD_STACK_<core>_BYTES
+ *   (pthread_attr_setstack), painted with a pattern before the start; the high-water mark is
+ *   the painted prefix that is no longer intact. Because the stacks are static, at most one
+ *   hal_host_t can have started cores at a time (-EBUSY otherwise).
+ * - hal_host_create() allocates everything (network queue included); nothing allocates in
+ *   this back end once the cores run.
+ * - The clock is for simulation; clock_gettime(CLOCK_MONOTONIC) is used only to profile the
+ *   wall time spent per tick.
+ *
+ * Thread-safety: hal_host_create/run_until/stop/destroy from one controlling thread (not a
+ * core). hal_host_core_stats() from any thread.
+ */
+#ifndef HAL_HOST_H
+#define HAL_HOST_H
+
+#include <stddef.h>
+#include <stdint.h>
+
+#include "hal/hal.h"
+
+#ifdef __cplusplus
+extern "C" {
+#endif
+
+/* The world, as the host back end sees it. host_sim's world plugs in through an adapter that
+ * fills this struct. `robot` is the config's robot_id. The back end serialises every call
+ * (one mutex), and advance_to_us() only runs while every core is blocked, so the world needs
+ * no locking of its own. Every callback returns 0 or a negative errno code. */
+typedef struct hal_host_world {
+    void *ctx;
+    /* Required. Advance physics to simulated time t_us (strictly increasing between calls,
+     * first call > 0). A failure stops hal_host_run_until() with that code. */
+    int (*advance_to_us)(void *ctx, uint64_t t_us);
+    /* Optional (no lidar interface without it). The robot's current scan, stamped. */
+    int (*read_scan)(void *ctx, uint32_t robot, hal_lidar_scan_t *scan);
+    /* Optional (no pose interface without it). The robot's current pose, stamped. */
+    int (*read_pose)(void *ctx, uint32_t robot, hal_pose_t *pose);
+    /* Optional (no motor interface without it). Wheel angular velocities in rad/s. */
+    int (*set_wheels)(void *ctx, uint32_t robot, float left_rad_s, float right_rad_s);
+} hal_host_world_t;
+
+typedef enum hal_host_sched {
+    HAL_HOST_SCHED_SERIAL = 0,
+    HAL_HOST_SCHED_PARALLEL = 1
+} hal_host_sched_t;
+
+/* Default network URL: LCM UDP multicast, never leaving the host (ttl=0), with a large
+ * receive buffer (the kernel caps it at net.core.rmem_max: raise that with sysctl for
+ * 60 KB messages at rate). */
+#define HAL_HOST_NET_URL_DEFAULT "udpm://239.255.76.67:7667?ttl=0&recv_buf_size=4194304"
+#define HAL_HOST_NET_QUEUE_DEFAULT 64u
+#define HAL_HOST_NET_MAX_SUBS 16u
+
+typedef struct hal_host_config {
+    const char *board_name;     /* NULL: BOARD_NAME */
+    uint32_t robot_id;          /* passed to the world callbacks */
+    const hal_host_world_t *world; /* NULL: no world (no lidar, pose, motors; physics idle) */
+    hal_host_sched_t sched;
+    /* Geometry for hal_motor_set_twist(); both > 0 to offer it, else it is -ENOTSUP. */
+    float wheel_radius_m;
+    float wheel_separation_m;
+    /* Network: NULL for none, "" for HAL_HOST_NET_URL_DEFAULT, else an LCM URL
+     * (memq:// in tests). */
+    const char *net_url;
+    uint32_t net_queue_depth;   /* 0: HAL_HOST_NET_QUEUE_DEFAULT; at most 4096 */
+    /* Storage: NULL for none, else a directory (created if missing, one level). */
+    const char *storage_dir;
+    hal_log_level_t log_level;  /* messages above this level are dropped */
+    /* Wall-clock watchdog for debugging firmware: when a core runs this many milliseconds
+     * of wall time without sleeping, a line naming it goes to stderr (again after each
+     * further period). 0 turns it off. It never changes the simulation. */
+    uint32_t watchdog_ms;
+    int log_fd;                 /* where log lines go; 0 means stderr (fd 2) */
+} hal_host_config_t;
+
+/* The defaults: serial lockstep, no world, net, storage; log INFO to stderr. */
+hal_host_config_t hal_host_config_default(void);
+
+typedef struct hal_host hal_host_t;
+
+/* Creates a host board from cfg (validated: -EINVAL with a message on stderr) and opens the
+ * network (-EIO when LCM cannot be created on the URL) and storage (-EIO). Does not install
+ * it: call hal_board_install(hal_host_board(h)). */
+__attribute__((warn_unused_result)) int hal_host_create(const hal_host_config_t *cfg,
+                                                        hal_host_t **out);
+
+/* The board to install. Valid until hal_host_destroy(). */
+const hal_board_t *hal_host_board(const hal_host_t *h);
+
+/* Runs the lockstep scheduler until simulated time t_end_us: every wake-up at a time
+ * <= t_end_us is processed, then the world is advanced to t_end_us and the clock reads
+ * t_end_us. May be called repeatedly with growing t_end_us. Returns 0, -EINVAL
+ * (t_end_us < now), -ECANCELED (already stopped) or the world's error. */
+__attribute__((warn_unused_result)) int hal_host_run_until(hal_host_t *h, uint64_t t_end_us);
+
+/* Stops the cores: each blocked core's hal_sleep_until_us() returns -ECANCELED (serial mode:
+ * one at a time in core-id order), every later call too; waits for every entry to return
+ * and joins the threads. A core that was started but never released does not run. */
+void hal_host_stop(hal_host_t *h);
+
+/* Stops if needed, uninstalls the board if it is installed, closes and frees. NULL is a
+ * no-op. */
+void hal_host_destroy(hal_host_t *h);
+
+/* Simulated now, microseconds. */
+uint64_t hal_host_now_us(const hal_host_t *h);
+
+typedef struct hal_host_core_stats {
+    int started;               /* 1 once hal_core_start() succeeded for this core */
+    int finished;              /* 1 once its entry returned */
+    uint64_t ticks;            /* returns of hal_sleep_until_us() with 0 */
+    uint64_t late_ticks;       /* ticks that started after the time asked for */
+    uint64_t lateness_max_us;  /* max of (time the tick started - time asked for) */
+    uint64_t lateness_total_us;
+    /* Wall time from a tick's start to the core's next hal_sleep_until_us() (profiling
+     * only; the simulation never reads it). Over `ticks` ticks that ended. */
+    uint64_t wall_ticks;
+    uint64_t wall_min_ns;
+    uint64_t wall_max_ns;
+    uint64_t wall_total_ns;
+    size_t stack_used_bytes;   /* high-water mark now */
+    size_t stack_size_bytes;
+} hal_host_core_stats_t;
+
+/* Per-core figures. 0 or -EINVAL. */
+__attribute__((warn_unused_result)) int hal_host_core_stats(hal_host_t *h, hal_core_id_t id,
+                                                            hal_host_core_stats_t *stats);
+
+/* Times the watchdog reported a core (see hal_host_config_t.watchdog_ms). */
+uint64_t hal_host_watchdog_reports(const hal_host_t *h);
+
+/* Physics steps run so far (calls of advance_to_us), for tests and profiling. */
+uint64_t hal_host_world_steps(const hal_host_t *h);
+
+/* ---- pieces, usable on their own (tests, tools) --------------------------------------- */
+
+/* Network over LCM. Not thread-safe: one thread uses one hal_host_net_t. */
+typedef struct hal_host_net hal_host_net_t;
+__attribute__((warn_unused_result)) int hal_host_net_open(const char *url, uint32_t queue_depth,
+                                                          hal_host_net_t **out);
+void hal_host_net_close(hal_host_net_t *n);
+__attribute__((warn_unused_result)) int hal_host_net_publish(hal_host_net_t *n,
+                                                             const char *channel,
+                                                             const void *data, size_t len);
+__attribute__((warn_unused_result)) int hal_host_net_subscribe(hal_host_net_t *n,
+                                                               const char *channel);
+/* Pumps what LCM has ready into the queue without waiting (overflow is dropped and counted;
+ * at most 4 * depth + 64 deliveries per call), then pops one message.
+ * stamp_us is recorded as the queue time of what the pump delivers. */
+__attribute__((warn_unused_result)) int hal_host_net_receive(hal_host_net_t *n, uint64_t stamp_us,
+                                                             hal_net_rx_info_t *info, void *buf,
+                                                             size_t cap);
+/* Like receive's pump, but waits up to timeout_ms wall time for the first message (for
+ * tools and tests outside the lockstep, never for cores). 0 or -EIO. */
+__attribute__((warn_unused_result)) int hal_host_net_wait(hal_host_net_t *n, uint64_t stamp_us,
+                                                          int timeout_ms);
+void hal_host_net_get_stats(const hal_host_net_t *n, hal_net_stats_t *stats);
+
+/* Storage in a directory. Thread-safe as far as the file system is (one writer per name). */
+typedef struct hal_host_storage hal_host_storage_t;
+__attribute__((warn_unused_result)) int hal_host_storage_open(const char *dir,
+                                                              hal_host_storage_t **out);
+void hal_host_storage_close(hal_host_storage_t *s);
+__attribute__((warn_unused_result)) int hal_host_storage_write(hal_host_storage_t *s,
+                                                               const char *name,
+                                                               const void *data, size_t len);
+__attribute__((warn_unused_result)) int hal_host_storage_read(hal_host_storage_t *s,
+                                                              const char *name, void *buf,
+                                                              size_t cap, size_t *len);
+__attribute__((warn_unused_result)) int hal_host_storage_remove(hal_host_storage_t *s,
+                                                                const char *name);
+
+#ifdef __cplusplus
+}
+#endif
+
+#endif /* HAL_HOST_H */

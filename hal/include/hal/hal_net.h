@@ -1,0 +1,130 @@
+/* Network: publish / subscribe of fixed-size byte messages on named channels.
+ *
+ * Contract
+ * - A message is 0 .. BOARD_NET_MTU_BYTES bytes (the board's largest datagram); longer ones
+ *   are rejected with -EMSGSIZE, never fragmented by the HAL (fragmenting is the caller's
+ *   business, see DESIGN.md section 6).
+ * - Channel names: 1 .. HAL_NET_CHANNEL_MAX-1 characters from [A-Za-z0-9_./-]; -EINVAL
+ *   otherwise.
+ * - Delivery is best effort (datagrams: loss, duplication and reordering are possible).
+ *   Every received message is length-checked by the back end; its content is the
+ *   caller's to validate.
+ * - Received messages of subscribed channels wait in ONE bounded queue of the board (depth
+ *   fixed at start-up). When it is full a new message is dropped and counted
+ *   (hal_net_stats_t.rx_dropped_full). A board may also deliver the node's own publishes
+ *   back to it (LCM does); filter by content if that matters.
+ * - hal_net_receive() polls: it never blocks. It returns -EAGAIN when nothing waits.
+ *
+ * Who may call: the GP core only (the operations are not thread-safe).
+ */
+#ifndef HAL_NET_H
+#define HAL_NET_H
+
+#include "board.h"
+#include "hal/hal_board.h"
+
+#ifndef BOARD_NET_MTU_BYTES
+#error "board.h must define BOARD_NET_MTU_BYTES"
+#endif
+
+#define HAL_NET_MTU_BYTES ((size_t)BOARD_NET_MTU_BYTES)
+#define HAL_NET_CHANNEL_MAX 64u /* bytes of a channel name, terminating NUL included */
+
+typedef struct hal_net_rx_info {
+    char channel[HAL_NET_CHANNEL_MAX]; /* NUL-terminated channel the message came on */
+    uint32_t len;                       /* message length in bytes */
+    uint64_t stamp_us;                  /* simulated time it was queued */
+} hal_net_rx_info_t;
+
+typedef struct hal_net_stats {
+    uint64_t tx_messages;       /* published */
+    uint64_t tx_bytes;
+    uint64_t tx_rejected;       /* publishes refused (-EMSGSIZE, -EINVAL, -EIO) */
+    uint64_t rx_messages;       /* handed to the caller */
+    uint64_t rx_bytes;
+    uint64_t rx_dropped_full;   /* dropped because the queue was full */
+    uint64_t rx_dropped_invalid;/* dropped because length or channel was invalid */
+    uint64_t rx_dropped_small;  /* dropped because the caller's buffer was too small */
+    uint32_t queue_fill;        /* messages waiting now */
+    uint32_t queue_depth;       /* capacity of the queue */
+} hal_net_stats_t;
+
+typedef struct hal_net_ops {
+    /* Required. See the wrappers. */
+    int (*publish)(void *ctx, const char *channel, const void *data, size_t len);
+    int (*subscribe)(void *ctx, const char *channel);
+    int (*receive)(void *ctx, hal_net_rx_info_t *info, void *buf, size_t cap);
+    /* Optional. */
+    int (*stats)(void *ctx, hal_net_stats_t *stats);
+} hal_net_ops_t;
+
+/* 1 when `channel` is a valid channel name, else 0. */
+static inline int hal_net_channel_valid(const char *channel)
+{
+    if (channel == NULL)
+        return 0;
+    size_t n = 0;
+    for (; channel[n] != '\0'; n++) {
+        char c = channel[n];
+        int ok = (c >= 'a' && c <= 'z') || (c >= 'A' && c <= 'Z') || (c >= '0' && c <= '9') ||
+                 c == '_' || c == '.' || c == '/' || c == '-';
+        if (!ok || n + 1u >= HAL_NET_CHANNEL_MAX)
+            return 0;
+    }
+    return n > 0;
+}
+
+/* Sends `len` bytes on `channel`. 0, -EINVAL (bad channel, NULL data with len > 0),
+ * -EMSGSIZE (len > HAL_NET_MTU_BYTES), -EIO (transport failure), -ENODEV. */
+HAL_WUR static inline int hal_net_publish(const char *channel, const void *data, size_t len)
+{
+    const hal_board_t *b = hal_board_current;
+    if (!hal_net_channel_valid(channel) || (data == NULL && len > 0))
+        return -EINVAL;
+    if (len > HAL_NET_MTU_BYTES)
+        return -EMSGSIZE;
+    if (b == NULL || b->net == NULL)
+        return -ENODEV;
+    return b->net->publish(b->ctx, channel, data, len);
+}
+
+/* Starts queueing messages of `channel`. Subscribing twice to one channel is a no-op.
+ * 0, -EINVAL, -ENOSPC (the board's subscription table is full), -EIO, -ENODEV. */
+HAL_WUR static inline int hal_net_subscribe(const char *channel)
+{
+    const hal_board_t *b = hal_board_current;
+    if (!hal_net_channel_valid(channel))
+        return -EINVAL;
+    if (b == NULL || b->net == NULL)
+        return -ENODEV;
+    return b->net->subscribe(b->ctx, channel);
+}
+
+/* Takes the oldest queued message: copies it into buf (cap bytes) and fills *info.
+ * 0 when a message was taken, -EAGAIN when none waits, -EMSGSIZE when it is longer than
+ * cap (it is dropped and counted; info->len tells its length), -EINVAL, -ENODEV.
+ * Never blocks. */
+HAL_WUR static inline int hal_net_receive(hal_net_rx_info_t *info, void *buf, size_t cap)
+{
+    const hal_board_t *b = hal_board_current;
+    if (info == NULL || (buf == NULL && cap > 0))
+        return -EINVAL;
+    if (b == NULL || b->net == NULL)
+        return -ENODEV;
+    return b->net->receive(b->ctx, info, buf, cap);
+}
+
+/* Counters since start. 0, -EINVAL, -ENOTSUP, -ENODEV. */
+HAL_WUR static inline int hal_net_get_stats(hal_net_stats_t *stats)
+{
+    const hal_board_t *b = hal_board_current;
+    if (stats == NULL)
+        return -EINVAL;
+    if (b == NULL || b->net == NULL)
+        return -ENODEV;
+    if (b->net->stats == NULL)
+        return -ENOTSUP;
+    return b->net->stats(b->ctx, stats);
+}
+
+#endif /* HAL_NET_H */

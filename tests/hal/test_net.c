@@ -1,0 +1,319 @@
+/* hal_net over LCM: publish / receive of fixed-size messages through the HAL wrappers
+ * (memq://), MTU limit, channel validation, caller buffer too small, bounded-queue overflow
+ * with drop counting, and one test with two real processes over udpm:// on this host.
+ *
+ * udpm on one host (the set-up the two-process test needs; tools/install-deps.sh does not
+ * change the network):
+ *   - LCM joins the multicast group on the interface the route to 239.255.76.67 picks and
+ *     sends with ttl=0, so datagrams never leave the host and are looped back locally.
+ *   - Where the default route's interface (eth0 here) carries multicast, that works as is.
+ *   - Where there is no usable route (no default route, a container without eth0 multicast)
+ *     loopback must carry it, as root:
+ *         ip link set lo multicast on
+ *         ip route add 224.0.0.0/4 dev lo
+ *   - For 60 KB messages at rate, raise the kernel's cap on receive buffers:
+ *         sysctl -w net.core.rmem_max=4194304   (the URL asks for recv_buf_size=4194304)
+ * When the message does not arrive, the test prints what it found (lo's flags, the route)
+ * and these commands, and fails.
+ * Checked on the build machine: works as is (eth0 default route); in a fresh network
+ * namespace (`unshare -n`, only lo) LCM refuses to start ("LCM requires a valid multicast
+ * route") until the two `ip` commands above are run, then the test passes. */
+#define _GNU_SOURCE 1
+#include <setjmp.h>
+#include <stdarg.h>
+#include <stddef.h>
+#include <stdint.h>
+#include <errno.h>
+#include <poll.h>
+#include <signal.h>
+#include <stdio.h>
+#include <stdlib.h>
+#include <string.h>
+#include <sys/wait.h>
+#include <unistd.h>
+#include <cmocka.h>
+
+#include "alloc_count.h"
+#include "hal/hal.h"
+#include "hal_host.h"
+
+static uint8_t big[HAL_NET_MTU_BYTES + 16u];
+static uint8_t rx[HAL_NET_MTU_BYTES + 16u];
+
+static hal_host_t *make_board(uint32_t depth)
+{
+    hal_host_config_t cfg = hal_host_config_default();
+    cfg.net_url = "memq://";
+    cfg.net_queue_depth = depth;
+    hal_host_t *h = NULL;
+    assert_int_equal(hal_host_create(&cfg, &h), 0);
+    assert_int_equal(hal_board_install(hal_host_board(h)), 0);
+    return h;
+}
+
+static void fill(uint8_t *p, size_t n, uint32_t seed)
+{
+    for (size_t i = 0; i < n; i++)
+        p[i] = (uint8_t)((i * 131u + seed * 7u) >> 3);
+}
+
+static void test_publish_receive_fixed_message(void **state)
+{
+    (void)state;
+    hal_host_t *h = make_board(8);
+    hal_net_rx_info_t info;
+    assert_int_equal(hal_net_receive(&info, rx, sizeof(rx)), -EAGAIN);
+    assert_int_equal(hal_net_subscribe("fleetsim/state"), 0);
+    assert_int_equal(hal_net_subscribe("fleetsim/state"), 0); /* twice: no-op */
+    fill(big, 1000, 1);
+    assert_int_equal(hal_net_publish("fleetsim/state", big, 1000), 0);
+    assert_int_equal(hal_net_publish("fleetsim/other", big, 10), 0); /* not subscribed */
+    assert_int_equal(hal_net_receive(&info, rx, sizeof(rx)), 0);
+    assert_string_equal(info.channel, "fleetsim/state");
+    assert_int_equal(info.len, 1000);
+    assert_memory_equal(rx, big, 1000);
+    assert_int_equal(hal_net_receive(&info, rx, sizeof(rx)), -EAGAIN);
+
+    /* Exactly the MTU passes, one byte more is refused before it reaches the wire. */
+    fill(big, HAL_NET_MTU_BYTES, 2);
+    assert_int_equal(hal_net_publish("fleetsim/state", big, HAL_NET_MTU_BYTES), 0);
+    assert_int_equal(hal_net_publish("fleetsim/state", big, HAL_NET_MTU_BYTES + 1u), -EMSGSIZE);
+    assert_int_equal(hal_net_receive(&info, rx, sizeof(rx)), 0);
+    assert_int_equal(info.len, HAL_NET_MTU_BYTES);
+    assert_memory_equal(rx, big, HAL_NET_MTU_BYTES);
+    assert_int_equal(hal_net_receive(&info, rx, sizeof(rx)), -EAGAIN);
+
+    /* An empty message is a message. */
+    assert_int_equal(hal_net_publish("fleetsim/state", NULL, 0), 0);
+    assert_int_equal(hal_net_receive(&info, rx, sizeof(rx)), 0);
+    assert_int_equal(info.len, 0);
+
+    /* A buffer too small: the message is dropped, counted, and its length reported. */
+    assert_int_equal(hal_net_publish("fleetsim/state", big, 100), 0);
+    assert_int_equal(hal_net_receive(&info, rx, 99), -EMSGSIZE);
+    assert_int_equal(info.len, 100);
+    assert_int_equal(hal_net_receive(&info, rx, sizeof(rx)), -EAGAIN);
+
+    hal_net_stats_t st;
+    assert_int_equal(hal_net_get_stats(&st), 0);
+    assert_int_equal(st.tx_messages, 5);
+    assert_int_equal(st.rx_messages, 3);
+    assert_int_equal(st.rx_dropped_small, 1);
+    assert_int_equal(st.rx_dropped_full, 0);
+    assert_int_equal(st.queue_depth, 8);
+    hal_host_destroy(h);
+}
+
+static void test_channel_names_and_arguments(void **state)
+{
+    (void)state;
+    hal_host_t *h = make_board(4);
+    char longname[HAL_NET_CHANNEL_MAX + 1];
+    memset(longname, 'a', sizeof(longname));
+    longname[HAL_NET_CHANNEL_MAX - 1] = '\0'; /* 63 characters: the longest valid */
+    assert_int_equal(hal_net_subscribe(longname), 0);
+    longname[HAL_NET_CHANNEL_MAX - 1] = 'a';
+    longname[HAL_NET_CHANNEL_MAX] = '\0'; /* 64: too long */
+    assert_int_equal(hal_net_subscribe(longname), -EINVAL);
+    assert_int_equal(hal_net_publish(longname, big, 1), -EINVAL);
+    assert_int_equal(hal_net_publish("", big, 1), -EINVAL);
+    assert_int_equal(hal_net_publish("has space", big, 1), -EINVAL);
+    assert_int_equal(hal_net_publish(".*", big, 1), -EINVAL);
+    assert_int_equal(hal_net_subscribe(NULL), -EINVAL);
+    assert_int_equal(hal_net_publish("ok", NULL, 5), -EINVAL);
+    hal_net_rx_info_t info;
+    assert_int_equal(hal_net_receive(NULL, rx, 1), -EINVAL);
+    assert_int_equal(hal_net_receive(&info, NULL, 1), -EINVAL);
+    /* '.' is literal, not a regular-expression wildcard: "a.b" does not hear "axb". */
+    assert_int_equal(hal_net_subscribe("a.b"), 0);
+    assert_int_equal(hal_net_publish("axb", big, 3), 0);
+    assert_int_equal(hal_net_receive(&info, rx, sizeof(rx)), -EAGAIN);
+    assert_int_equal(hal_net_publish("a.b", big, 3), 0);
+    assert_int_equal(hal_net_receive(&info, rx, sizeof(rx)), 0);
+    assert_string_equal(info.channel, "a.b");
+    /* The subscription table is bounded. */
+    char name[16];
+    int r = 0;
+    for (unsigned i = 0; i < HAL_HOST_NET_MAX_SUBS + 1u && r == 0; i++) {
+        snprintf(name, sizeof(name), "sub%u", i);
+        r = hal_net_subscribe(name);
+    }
+    assert_int_equal(r, -ENOSPC);
+    hal_host_destroy(h);
+    /* No board at all. */
+    assert_int_equal(hal_net_publish("ok", big, 1), -ENODEV);
+}
+
+static void test_queue_overflow_drops_and_counts(void **state)
+{
+    (void)state;
+    hal_host_t *h = make_board(4);
+    assert_int_equal(hal_net_subscribe("q"), 0);
+    for (uint32_t i = 0; i < 10; i++) {
+        uint32_t v = i;
+        assert_int_equal(hal_net_publish("q", &v, sizeof(v)), 0);
+    }
+    /* The first four fit; the other six are dropped when the GP core next polls. */
+    hal_net_rx_info_t info;
+    for (uint32_t i = 0; i < 4; i++) {
+        uint32_t v = 99;
+        assert_int_equal(hal_net_receive(&info, &v, sizeof(v)), 0);
+        assert_int_equal(v, i);
+    }
+    assert_int_equal(hal_net_receive(&info, rx, sizeof(rx)), -EAGAIN);
+    hal_net_stats_t st;
+    assert_int_equal(hal_net_get_stats(&st), 0);
+    assert_int_equal(st.rx_messages, 4);
+    assert_int_equal(st.rx_dropped_full, 6);
+    assert_int_equal(st.queue_fill, 0);
+    /* After the overflow the queue works again, and receiving allocates nothing here. */
+    alloc_count_reset();
+    for (uint32_t i = 0; i < 3; i++) {
+        uint32_t v = 100 + i;
+        assert_int_equal(hal_net_publish("q", &v, sizeof(v)), 0);
+        assert_int_equal(hal_net_receive(&info, &v, sizeof(v)), 0);
+        assert_int_equal(v, 100 + i);
+    }
+    assert_int_equal(alloc_count_allocations(), 0);
+    hal_host_destroy(h);
+}
+
+/* ---- two processes over udpm:// ---------------------------------------------------------- */
+#define UDPM_CHANNEL "fleetsim/udpm_test"
+#define UDPM_LEN 30000u
+
+static int wait_byte(int fd, int timeout_ms, char *out)
+{
+    struct pollfd p = {.fd = fd, .events = POLLIN};
+    int r = poll(&p, 1, timeout_ms);
+    if (r <= 0)
+        return -ETIMEDOUT;
+    return read(fd, out, 1) == 1 ? 0 : -EIO;
+}
+
+static void child_receiver(const char *url, int ready_fd, int result_fd)
+{
+    hal_host_net_t *n = NULL;
+    char c = 'E';
+    if (hal_host_net_open(url, 8, &n) != 0 || hal_host_net_subscribe(n, UDPM_CHANNEL) != 0) {
+        (void)!write(ready_fd, &c, 1);
+        _exit(2);
+    }
+    c = 'R';
+    (void)!write(ready_fd, &c, 1);
+    static uint8_t buf[HAL_NET_MTU_BYTES];
+    static uint8_t want[UDPM_LEN];
+    fill(want, UDPM_LEN, 9);
+    for (int i = 0; i < 60; i++) { /* up to 6 s */
+        if (hal_host_net_wait(n, 0, 100) != 0)
+            break;
+        hal_net_rx_info_t info;
+        int r = hal_host_net_receive(n, 0, &info, buf, sizeof(buf));
+        if (r == 0) {
+            c = (info.len == UDPM_LEN && memcmp(buf, want, UDPM_LEN) == 0 &&
+                 strcmp(info.channel, UDPM_CHANNEL) == 0) ? 'K' : 'B';
+            (void)!write(result_fd, &c, 1);
+            hal_host_net_close(n);
+            _exit(c == 'K' ? 0 : 3);
+        }
+    }
+    c = 'T';
+    (void)!write(result_fd, &c, 1);
+    hal_host_net_close(n);
+    _exit(4);
+}
+
+static void explain_udpm(const char *url, const char *what)
+{
+    char flags[32] = "?";
+    FILE *f = fopen("/sys/class/net/lo/flags", "r");
+    if (f != NULL) {
+        if (fgets(flags, sizeof(flags), f) == NULL)
+            strcpy(flags, "?");
+        fclose(f);
+    }
+    flags[strcspn(flags, "\n")] = '\0';
+    unsigned long fl = strtoul(flags, NULL, 16);
+    printf("# udpm test on %s: %s\n"
+           "# lo flags %s (MULTICAST %s). Multicast on this host needs a route for 239.0.0.0/8\n"
+           "# on an interface with multicast. As root:\n"
+           "#     ip link set lo multicast on && ip route add 224.0.0.0/4 dev lo\n"
+           "#     sysctl -w net.core.rmem_max=4194304\n",
+           url, what, flags, (fl & 0x1000u) ? "on" : "off");
+    fflush(stdout);
+    int r = system("echo '# ip route get 239.255.76.67:'; ip route get 239.255.76.67 2>&1 | sed 's/^/#   /'");
+    (void)r;
+}
+
+static void test_udpm_two_processes(void **state)
+{
+    (void)state;
+    char url[128];
+    /* A port of our own, so that concurrent runs (other fleets on this host) do not cross. */
+    snprintf(url, sizeof(url), "udpm://239.255.76.67:%u?ttl=0&recv_buf_size=4194304",
+             7700u + (unsigned)(getpid() % 250));
+    int ready[2], result[2];
+    assert_int_equal(pipe(ready), 0);
+    assert_int_equal(pipe(result), 0);
+    fflush(NULL);
+    pid_t pid = fork();
+    assert_true(pid >= 0);
+    if (pid == 0) {
+        close(ready[0]);
+        close(result[0]);
+        child_receiver(url, ready[1], result[1]);
+    }
+    close(ready[1]);
+    close(result[1]);
+    char c = 0;
+    int ok = 0;
+    const char *what = "the receiver did not start";
+    if (wait_byte(ready[0], 10000, &c) == 0 && c == 'R') {
+        hal_host_net_t *n = NULL;
+        if (hal_host_net_open(url, 4, &n) == 0) {
+            static uint8_t msg[UDPM_LEN];
+            fill(msg, UDPM_LEN, 9);
+            what = "the message did not arrive within 6 s";
+            /* Datagrams may be lost: repeat until the receiver confirms. */
+            for (int i = 0; i < 60 && !ok; i++) {
+                if (hal_host_net_publish(n, UDPM_CHANNEL, msg, UDPM_LEN) != 0) {
+                    what = "publishing failed";
+                    break;
+                }
+                if (wait_byte(result[0], 100, &c) == 0) {
+                    ok = c == 'K';
+                    what = c == 'B' ? "a corrupted message arrived" : "receiver gave up";
+                    break;
+                }
+            }
+            hal_host_net_close(n);
+        } else {
+            what = "the publisher could not open LCM";
+        }
+    } else if (c == 'E') {
+        what = "the receiver could not open LCM";
+    }
+    if (!ok)
+        kill(pid, SIGKILL);
+    int status = 0;
+    waitpid(pid, &status, 0);
+    close(ready[0]);
+    close(result[0]);
+    if (!ok)
+        explain_udpm(url, what);
+    else
+        printf("# udpm: %u-byte message from one process to another on %s\n", UDPM_LEN, url);
+    assert_true(ok);
+    assert_true(WIFEXITED(status) && WEXITSTATUS(status) == 0);
+}
+
+int main(void)
+{
+    const struct CMUnitTest tests[] = {
+        cmocka_unit_test(test_publish_receive_fixed_message),
+        cmocka_unit_test(test_channel_names_and_arguments),
+        cmocka_unit_test(test_queue_overflow_drops_and_counts),
+        cmocka_unit_test(test_udpm_two_processes),
+    };
+    return cmocka_run_group_tests(tests, NULL, NULL);
+}
