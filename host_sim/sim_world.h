@@ -16,11 +16,15 @@
  *     the chassis at caster_offset_x;
  *   - contacts: wheel/floor Coulomb friction mu_wheel (friction pyramid, dContactApprox1),
  *     caster/floor mu = 0, anything/wall mu_wall; contacts are rebuilt every step.
- * Time is simulated only: sim_world_step() advances a fixed dt with dWorldQuickStep.
+ * Time is simulated only: sim_world_step() advances a fixed dt with dWorldStep (or
+ * dWorldQuickStep when configured).
  *
  * ODE is initialised once per process (dInitODE2 on the first create, dCloseODE at exit).
- * A world must be used by one thread at a time; each thread that uses ODE gets its per-thread
- * data on create. Distinct worlds are independent. */
+ * Thread-safety: a world must be used by one thread at a time, and sim_world_step() of two
+ * worlds must not run concurrently (ODE's solver draws from one process-global random
+ * generator, whose state each world saves and restores for determinism). Each thread that
+ * uses ODE gets its per-thread data on create. Distinct worlds are otherwise independent:
+ * a world's trajectory depends only on its own inputs (deterministic). */
 #ifndef SIM_WORLD_H
 #define SIM_WORLD_H
 
@@ -35,7 +39,7 @@ typedef struct sim_world_cfg {
     double dt;              /* s, fixed step, (0, 0.05]; default 0.005 */
     double wall_height;     /* m, > 0; default 2.5 */
     double gravity;         /* m/s^2 downwards, >= 0; default 9.81 */
-    int solver_iterations;  /* dWorldQuickStep iterations, >= 1; default 20 */
+    int solver_iterations;  /* 0 = exact dWorldStep (default); 1..1000 = dWorldQuickStep iterations */
     double mu_wheel;        /* wheel/floor friction coefficient; default 1.0 */
     double mu_wall;         /* friction against walls; default 0.3 */
 } sim_world_cfg_t;

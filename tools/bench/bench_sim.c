@@ -73,7 +73,8 @@ int main(int argc, char **argv)
         return 1;
     }
     sim_world_t *w;
-    if (sim_world_create(&plan, NULL, &w, err, sizeof err) < 0) {
+    sim_world_cfg_t wc = sim_world_default_cfg();
+    if (sim_world_create(&plan, &wc, &w, err, sizeof err) < 0) {
         fprintf(stderr, "bench_sim: %s\n", err);
         return 1;
     }
