@@ -13,6 +13,7 @@ enum { STREAM_DROPOUT = 1, STREAM_RANGE = 2 /* and 3 */, STREAM_GPS = 10 /* .. 1
 
 struct sim_lidar {
     sim_lidar_cfg_t cfg;
+    double *dir; /* cos, sin of each beam's offset angle (angle_min + b * inc) */
     dGeomID ray;
     double best; /* closest hit of the current cast */
 };
@@ -48,6 +49,16 @@ int sim_lidar_create(const sim_lidar_cfg_t *cfg, sim_lidar_t **out)
     if (l == NULL)
         return -ENOMEM;
     l->cfg = *c;
+    l->dir = malloc(sizeof(double) * 2 * (size_t)c->n_beams);
+    if (l->dir == NULL) {
+        free(l);
+        return -ENOMEM;
+    }
+    for (int b = 0; b < c->n_beams; b++) {
+        double a = c->angle_min + b * (6.283185307179586 / (double)c->n_beams);
+        l->dir[2 * b] = cos(a);
+        l->dir[2 * b + 1] = sin(a);
+    }
     /* Not in any space: it is collided explicitly against the walls' space. */
     l->ray = dCreateRay(0, c->range_max);
     dGeomRaySetClosestHit(l->ray, 1);
@@ -63,6 +74,7 @@ void sim_lidar_destroy(sim_lidar_t *l)
     if (l == NULL)
         return;
     dGeomDestroy(l->ray);
+    free(l->dir);
     free(l);
 }
 
@@ -83,15 +95,19 @@ static void ray_cb(void *data, dGeomID a, dGeomID b)
         l->best = cg.depth;
 }
 
+static double cast_dir(sim_lidar_t *l, dSpaceID walls, double x, double y, double dx, double dy)
+{
+    l->best = INFINITY;
+    dGeomRaySet(l->ray, x, y, l->cfg.mount_height, dx, dy, 0.0);
+    dSpaceCollide2(l->ray, (dGeomID)walls, l, ray_cb);
+    return l->best < l->cfg.range_max ? l->best : INFINITY;
+}
+
 double sim_lidar_cast(sim_lidar_t *l, const sim_world_t *w, double x, double y, double angle)
 {
     if (l == NULL || w == NULL)
         return NAN;
-    dSpaceID walls = sim_world_walls(w);
-    l->best = INFINITY;
-    dGeomRaySet(l->ray, x, y, l->cfg.mount_height, cos(angle), sin(angle), 0.0);
-    dSpaceCollide2(l->ray, (dGeomID)walls, l, ray_cb);
-    return l->best < l->cfg.range_max ? l->best : INFINITY;
+    return cast_dir(l, sim_world_walls(w), x, y, cos(angle), sin(angle));
 }
 
 int sim_lidar_scan(sim_lidar_t *l, const sim_world_t *w, double x, double y, double theta,
@@ -101,9 +117,12 @@ int sim_lidar_scan(sim_lidar_t *l, const sim_world_t *w, double x, double y, dou
         !isfinite(theta))
         return -EINVAL;
     const sim_lidar_cfg_t *c = &l->cfg;
-    double inc = sim_lidar_angle_inc(l);
+    dSpaceID walls = sim_world_walls(w);
+    /* Beam directions: the precomputed offsets rotated by theta (no trig per beam). */
+    double ct = cos(theta), st = sin(theta);
     for (int b = 0; b < c->n_beams; b++) {
-        double d = sim_lidar_cast(l, w, x, y, theta + c->angle_min + b * inc);
+        double ob = l->dir[2 * b], sb = l->dir[2 * b + 1];
+        double d = cast_dir(l, walls, x, y, ct * ob - st * sb, st * ob + ct * sb);
         if (truth)
             truth[b] = d;
         float r;

@@ -104,7 +104,7 @@ static int ode_ready(char *err, size_t errlen)
 sim_world_cfg_t sim_world_default_cfg(void)
 {
     sim_world_cfg_t c = {
-        .dt = 0.005,
+        .dt = 0.01,
         .wall_height = 2.5,
         .gravity = 9.81,
         .solver_iterations = 0,

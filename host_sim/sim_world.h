@@ -36,7 +36,7 @@
 #include "sim_plan.h"
 
 typedef struct sim_world_cfg {
-    double dt;              /* s, fixed step, (0, 0.05]; default 0.005 */
+    double dt;              /* s, fixed step, (0, 0.05]; default 0.01 */
     double wall_height;     /* m, > 0; default 2.5 */
     double gravity;         /* m/s^2 downwards, >= 0; default 9.81 */
     int solver_iterations;  /* 0 = exact dWorldStep (default); 1..1000 = dWorldQuickStep iterations */

@@ -85,8 +85,8 @@ static void test_wheel_kinematics(void **st)
     const double wl = 3.0, wr = 5.0; /* rad/s: v = 0.132 m/s, omega = 0.4125 rad/s */
     assert_int_equal(sim_world_set_wheels(w, id, wl, wr), 0);
     /* Let the motors spin up (they reach the set speed within a few steps) and the
-     * contacts settle, then compare 6 s of motion to the formula. */
-    assert_int_equal(sim_world_step(w, 100), 0);
+     * contacts settle for 0.5 s, then compare 6 s of motion to the formula. */
+    assert_int_equal(sim_world_step(w, (int)lround(0.5 / sim_world_dt(w))), 0);
     sim_pose_t p0, p1;
     assert_int_equal(sim_world_pose(w, id, &p0), 0);
     const double T = 6.0;
@@ -121,18 +121,19 @@ static void test_twist_limits(void **st)
     int id;
     assert_int_equal(sim_world_add_robot(w, NULL, (sim_pose_t){1.0, 4.0, 0.0}, &id), 0);
     /* Asking for 1 m/s gets the 0.22 m/s limit. */
+    const int per_s = (int)lround(1.0 / sim_world_dt(w));
     assert_int_equal(sim_world_set_twist(w, id, 1.0, 0.0), 0);
-    assert_int_equal(sim_world_step(w, 100), 0);
+    assert_int_equal(sim_world_step(w, per_s / 2), 0);
     sim_pose_t a, b;
     assert_int_equal(sim_world_pose(w, id, &a), 0);
-    assert_int_equal(sim_world_step(w, 400), 0); /* 2 s */
+    assert_int_equal(sim_world_step(w, 2 * per_s), 0); /* 2 s */
     assert_int_equal(sim_world_pose(w, id, &b), 0);
     assert_float_equal((b.x - a.x) / 2.0, 0.22, 0.22 * 0.01);
     /* Turning in place at the limit: 2.84 rad/s requested 10. */
     assert_int_equal(sim_world_set_twist(w, id, 0.0, 10.0), 0);
-    assert_int_equal(sim_world_step(w, 100), 0);
+    assert_int_equal(sim_world_step(w, per_s / 2), 0);
     assert_int_equal(sim_world_pose(w, id, &a), 0);
-    assert_int_equal(sim_world_step(w, 100), 0); /* 0.5 s */
+    assert_int_equal(sim_world_step(w, per_s / 2), 0); /* 0.5 s */
     assert_int_equal(sim_world_pose(w, id, &b), 0);
     double dth = rt_wrap_angle((float)(b.theta - a.theta));
     assert_float_equal(dth / 0.5, 0.22 / 0.08, 0.05); /* wheel-limited: v_max / (sep / 2) */
@@ -147,7 +148,7 @@ static void test_wall_collision(void **st)
         int id;
         assert_int_equal(sim_world_add_robot(w, NULL, (sim_pose_t){1.0, 1.0, 0.0}, &id), 0);
         assert_int_equal(sim_world_set_twist(w, id, 0.22, 0.0), 0);
-        assert_int_equal(sim_world_step(w, 2000), 0); /* 10 s: would be 2.2 m without the wall */
+        assert_int_equal(sim_world_step(w, (int)lround(10.0 / sim_world_dt(w))), 0); /* 10 s: 2.2 m */
         sim_pose_t p;
         assert_int_equal(sim_world_pose(w, id, &p), 0);
         /* Stopped by the east wall at x = 2: the chassis front is 0.038 m ahead of the axis. */
@@ -172,7 +173,8 @@ static void test_follower_reaches_waypoints(void **st)
     int reached = 0, steps = 0;
     double min_d[5] = {1e9, 1e9, 1e9, 1e9, 1e9};
     rt_follow_cmd_t cmd = {0};
-    /* Control at 20 Hz (every 10 physics steps), at most 120 simulated seconds. */
+    /* Control at 20 Hz, at most 120 simulated seconds. */
+    const int ctl = (int)lround(0.05 / sim_world_dt(w));
     while (!cmd.finished && sim_world_time(w) < 120.0) {
         sim_pose_t p;
         assert_int_equal(sim_world_pose(w, id, &p), 0);
@@ -183,7 +185,7 @@ static void test_follower_reaches_waypoints(void **st)
         assert_int_equal(alloc_count_allocations(), 0);
         reached += cmd.reached;
         assert_int_equal(sim_world_set_wheels(w, id, cmd.wheel_left, cmd.wheel_right), 0);
-        assert_int_equal(sim_world_step(w, 10), 0);
+        assert_int_equal(sim_world_step(w, ctl), 0);
         steps++;
     }
     print_message("follower: finished=%d after %.1f s\n", cmd.finished, sim_world_time(w));
@@ -249,7 +251,7 @@ static void test_physics_deterministic(void **st)
         assert_int_equal(sim_world_add_robot(w, NULL, (sim_pose_t){2.0, 1.5, 3.14159}, &b), 0);
         assert_int_equal(sim_world_set_twist(w, a, 0.2, 0.1), 0);
         assert_int_equal(sim_world_set_twist(w, b, 0.2, -0.3), 0);
-        assert_int_equal(sim_world_step(w, 1000), 0); /* they meet and push */
+        assert_int_equal(sim_world_step(w, (int)lround(5.0 / sim_world_dt(w))), 0); /* meet, push */
         assert_int_equal(sim_world_pose(w, a, &out[k]), 0);
         sim_world_destroy(w);
     }
