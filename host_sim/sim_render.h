@@ -46,7 +46,7 @@ typedef struct sim_render_cfg {
     double elevation_deg;   /* (5, 90] */
 } sim_render_cfg_t;
 
-sim_render_cfg_t sim_render_default_cfg(void); /* 1024 x 768, fov 40, azimuth -90, elevation 60 */
+sim_render_cfg_t sim_render_default_cfg(void); /* 1024 x 768, fov 40, azimuth -90, elevation 72 */
 
 /* Renders into rgb (width * height * 3 bytes, row-major, top row first).
  * Returns 0, -EINVAL or -EIO (OSMesa failure) with a message in err. */

@@ -34,6 +34,8 @@ static void render_usage(FILE *out)
             "  --azimuth DEG     camera azimuth, -90 = from the south (default %g)\n"
             "  --elevation DEG   camera elevation above the floor (default %g)\n"
             "  --fov DEG         vertical field of view (default %g)\n"
+            "  --wall-height M   height the walls are drawn at, e.g. 1.0 for a cut-away view\n"
+            "                    that shows robots next to walls (default 2.5, the simulated height)\n"
             "  --sweep-beams N   beams drawn in the lidar sweep, 0 = none (default 180)\n"
             "  --seed S          seed of the free pose used when no path is given (default 1)\n"
             "  --scale S         plan metres per pixel (default %g)\n",
@@ -47,7 +49,7 @@ int cmd_render(int argc, char **argv)
     int n_paths = 0;
     long long sweep_beams = 180, seed = 1;
     sim_render_cfg_t rc_cfg = sim_render_default_cfg();
-    double scale = SIM_PLAN_DEFAULT_SCALE;
+    double scale = SIM_PLAN_DEFAULT_SCALE, wall_h = 2.5;
     for (int i = 1; i < argc; i++) {
         const char *a = argv[i];
         long long ll;
@@ -83,6 +85,8 @@ int cmd_render(int argc, char **argv)
             bad = cmd_parse_double(v, a, 5.01, 90, &rc_cfg.elevation_deg) < 0;
         else if (strcmp(a, "--fov") == 0)
             bad = cmd_parse_double(v, a, 5.01, 119.9, &rc_cfg.fov_deg) < 0;
+        else if (strcmp(a, "--wall-height") == 0)
+            bad = cmd_parse_double(v, a, 0.01, 10, &wall_h) < 0;
         else if (strcmp(a, "--sweep-beams") == 0)
             bad = cmd_parse_ll(v, a, 0, SIM_LIDAR_MAX_BEAMS, &sweep_beams) < 0;
         else if (strcmp(a, "--seed") == 0)
@@ -159,7 +163,7 @@ int cmd_render(int argc, char **argv)
         sweep.height = lc.mount_height;
         sw = &sweep;
     }
-    sim_render_scene_t scene = {&plan, paths, n_paths, robots, n_paths, sw, 2.5};
+    sim_render_scene_t scene = {&plan, paths, n_paths, robots, n_paths, sw, wall_h};
     if (sim_render_png(&scene, &rc_cfg, out, err, sizeof err) < 0) {
         fprintf(stderr, "host_sim render: %s\n", err);
         goto out;
