@@ -105,7 +105,8 @@ static void draw_robot(const sim_pose_t *p, const float col[3])
              rp.base_width, rp.base_height, p->theta);
     glColor3fv(col); /* top plate in the robot's path colour */
     draw_box(p->x + c * rp.chassis_offset_x, p->y + s * rp.chassis_offset_x,
-             rp.caster_radius + rp.base_height + 0.01, rp.base_length, rp.base_width, 0.02, p->theta);
+             rp.caster_radius + rp.base_height + 0.01, 0.6 * rp.base_length, 0.6 * rp.base_width,
+             0.02, p->theta);
     glColor3f(0.05f, 0.05f, 0.05f);
     for (int k = -1; k <= 1; k += 2) {
         double oy = k * (0.5 * rp.wheel_separation + 0.015);
@@ -247,14 +248,14 @@ int sim_render_rgb(const sim_render_scene_t *scene, const sim_render_cfg_t *cfg,
 
     /* Unlit overlays: paths and the lidar sweep. */
     glDisable(GL_LIGHTING);
-    glLineWidth(3.0f);
+    glLineWidth(2.0f);
     for (int k = 0; k < scene->n_paths; k++) {
         glColor3fv(PATH_COLOURS[k % 8]);
         glBegin(GL_LINE_STRIP);
         for (int i = 0; i < scene->paths[k].n; i++)
             glVertex3d(scene->paths[k].p[i].x, scene->paths[k].p[i].y, 0.03);
         glEnd();
-        glPointSize(7.0f);
+        glPointSize(5.0f);
         glBegin(GL_POINTS);
         for (int i = 0; i < scene->paths[k].n; i++)
             glVertex3d(scene->paths[k].p[i].x, scene->paths[k].p[i].y, 0.03);
