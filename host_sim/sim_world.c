@@ -103,7 +103,7 @@ static int ode_ready(char *err, size_t errlen)
 
 int sim_world_thread_init(void)
 {
-    char err[8];
+    char err[128];
     return ode_ready(err, sizeof err);
 }
 
