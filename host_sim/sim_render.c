@@ -182,8 +182,11 @@ int sim_render_rgb(const sim_render_scene_t *scene, const sim_render_cfg_t *cfg,
      * fits the plan with a small margin for the usual aspect ratios. */
     double dist = 0.85 * radius / sin(half_min);
     double el = cfg->elevation_deg * DEG, az = cfg->azimuth_deg * DEG;
-    double at[3] = {cx, cy, 0.0};
-    double eye[3] = {cx + dist * cos(el) * cos(az), cy + dist * cos(el) * sin(az), dist * sin(el)};
+    /* Plans are drawn with y pointing down (SVG). The scene is rendered mirrored in y so the
+     * image reads like the plan and the 2D maps (top of the drawing at the top of the image);
+     * the camera therefore aims at the mirrored centre (cx, -cy). */
+    double at[3] = {cx, -cy, 0.0};
+    double eye[3] = {cx + dist * cos(el) * cos(az), -cy + dist * cos(el) * sin(az), dist * sin(el)};
     double up[3] = {0, 0, 1};
     if (cfg->elevation_deg > 89.9) { /* straight down: up is +y */
         up[1] = 1;
@@ -197,6 +200,7 @@ int sim_render_rgb(const sim_render_scene_t *scene, const sim_render_cfg_t *cfg,
     glMatrixMode(GL_MODELVIEW);
     glLoadIdentity();
     look_at(eye, at, up);
+    glScaled(1.0, -1.0, 1.0); /* normals follow through GL_NORMALIZE; nothing is culled */
 
     /* One directional light from above, a bit from the camera side; strong ambient so the
      * walls facing away stay readable. */
