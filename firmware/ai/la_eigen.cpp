@@ -28,7 +28,17 @@ void gemm_into(MMap &c, const OA &a, const OB &b, float alpha, float beta)
         c.setZero();
     else if (beta != 1.0f)
         c *= beta;
-    c.noalias() += alpha * a * b;
+    if (c.rows() == 1) {
+        // Row-vector result: Eigen's GEMV path would copy the scaled operand into a heap
+        // temporary, so accumulate rows of op(B) lazily instead (no temporary).
+        for (Eigen::Index k = 0; k < a.cols(); k++)
+            c.row(0) += (alpha * a(0, k)) * b.row(k);
+    } else if (c.cols() == 1) {
+        for (Eigen::Index i = 0; i < c.rows(); i++)
+            c(i, 0) += alpha * a.row(i).dot(b.col(0));
+    } else {
+        c.noalias() += alpha * (a * b);
+    }
 }
 } // namespace
 
