@@ -119,6 +119,7 @@ int main(int argc, char **argv)
         double t = median(n);
         if (backend == 0) {
             printf("BENCH bnn_train_step_ms_%s_b%u %.3f ms\n", P, B, 1e3 * t);
+            printf("BENCH bnn_train_step_ms_best_%s_b%u %.3f ms\n", P, B, 1e3 * samples_[0]);
             printf("BENCH bnn_train_gflops_%s_b%u %.2f GFLOP/s\n", P, B, flops / t * 1e-9);
         } else {
             printf("BENCH bnn_train_step_ms_ref_%s_b%u %.3f ms\n", P, B, 1e3 * t);
@@ -174,8 +175,13 @@ int main(int argc, char **argv)
             for (int r = 0; r < n; r++) {
                 double t0 = now_s();
                 if (backend == 0)
+#if defined(LA_BACKEND_EIGEN)
                     la_eigen_sgemm(LA_NO_TRANS, LA_TRANS, 1024, 256, 256, 1.0f, ga, 256, gb, 256,
                                    0.0f, gc, 256);
+#else
+                    la_ref_sgemm(LA_NO_TRANS, LA_TRANS, 1024, 256, 256, 1.0f, ga, 256, gb, 256,
+                                 0.0f, gc, 256);
+#endif
                 else
                     la_ref_sgemm(LA_NO_TRANS, LA_TRANS, 1024, 256, 256, 1.0f, ga, 256, gb, 256,
                                  0.0f, gc, 256);
@@ -183,6 +189,8 @@ int main(int argc, char **argv)
             }
             printf("BENCH %s_256x256x1024 %.2f GFLOP/s\n",
                    backend ? "sgemm_ref_gflops" : "sgemm_gflops", gf / median(n) * 1e-9);
+            printf("BENCH %s_256x256x1024_best %.2f GFLOP/s\n",
+                   backend ? "sgemm_ref_gflops" : "sgemm_gflops", gf / samples_[0] * 1e-9);
         }
     }
 
