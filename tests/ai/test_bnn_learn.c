@@ -18,7 +18,7 @@
 #include "ai/bnn.h"
 
 #ifdef __SANITIZE_ADDRESS__
-#define STEPS 300
+#define STEPS 700
 #define N_TRAIN 2048
 #define BATCH 256
 #else
