@@ -41,7 +41,9 @@ endif
 uc = $(shell echo '$(1)' | tr a-z A-Z)
 
 BUILD_ROOT ?= build
-O   := $(BUILD_ROOT)/$(BUILD)-$(BOARD)-$(PRESET)
+# A math back end other than the board default gets its own objects (no mixing on switch).
+CONFIG := $(BUILD)-$(BOARD)-$(PRESET)$(if $(filter-out $(BOARD_LA_BACKEND),$(LA_BACKEND)),-$(LA_BACKEND))
+O   := $(BUILD_ROOT)/$(CONFIG)
 BIN := $(O)/bin
 LIB := $(O)/lib
 GEN := $(O)/gen
@@ -174,7 +176,7 @@ $(O)/tests/%: $(O)/obj/tests/%.c.o $(LIB)/libtestsupport.a $(LIBS)
 
 all: deps layering $(LIBS) $(PROGRAMS)
 ifeq ($(BUILD),release)
-	@ln -sfn $(BUILD)-$(BOARD)-$(PRESET)/bin $(BUILD_ROOT)/bin
+	@ln -sfn $(CONFIG)/bin $(BUILD_ROOT)/bin
 endif
 
 deps:
