@@ -10,6 +10,17 @@
  *   solids = wall outlines with door openings cut away. Windows stay solid: a TurtleBot's
  *   lidar at 0.17 m sees the wall under the sill. Each solid is a simple polygon in metres;
  *   rectangles (the common case) are flagged so the world can use a box geom.
+ * Axes are the SVG's: x to the right, y DOWN the drawing (metres = pixels * scale, no flip).
+ * Accepted: XML comments, <?xml?> and <!DOCTYPE> declarations, attributes in any order with
+ * single or double quotes, points separated by commas and/or whitespace; `transform`
+ * attributes are ignored (CubiCasa5K writes absolute polygon coordinates).
+ * Rejected with "FILE:LINE: reason": no <svg> root, bad numbers, an odd coordinate count,
+ * fewer than 3 distinct points or zero area, more than SIM_POLY_MAX_POINTS points,
+ * unclosed tags/groups/quotes/comments, a Door or Window outside a Wall group, a Wall/Door/
+ * Window/Space group without a polygon, no walls, absurd sizes (coordinates beyond 10 km,
+ * a plan wider than 2 km or narrower than 5 cm, files over 64 MB, scale over 100 m/px).
+ * Door cutting: a rectangular wall loses the interval of each door's projection onto its long
+ * axis (full thickness); a non-rectangular wall stays whole (its doors are not cut).
  * Not thread-safe per plan; distinct plans are independent. Allocates (host side). */
 #ifndef SIM_PLAN_H
 #define SIM_PLAN_H
@@ -80,5 +91,13 @@ void sim_plan_free(sim_plan_t *plan);
 /* Normalised coordinates of DESIGN.md section 4 over the plan's bounding box. */
 void sim_plan_normalise(const sim_plan_t *plan, double x_m, double y_m, float *xn, float *yn);
 void sim_plan_denormalise(const sim_plan_t *plan, float xn, float yn, double *x_m, double *y_m);
+
+/* Polygon helpers (additions to the contract, used by the rasteriser and the planner). */
+/* Signed area (shoelace): positive for counter-clockwise in an x-right, y-up frame. */
+double sim_poly_signed_area(const sim_poly_t *poly);
+/* 1 when (x, y) is inside (even-odd rule); points exactly on an edge may go either way. */
+int sim_poly_contains(const sim_poly_t *poly, double x, double y);
+/* 1 when poly has 4 points and 4 right angles (any orientation). */
+int sim_poly_is_rect(const sim_poly_t *poly);
 
 #endif /* SIM_PLAN_H */

@@ -1,0 +1,79 @@
+/* Robot paths: waypoint CSV files and a coverage tour generator for N robots.
+ *
+ * CSV format: a header line `x_m,y_m`, then one waypoint per line `X,Y` in metres (plan
+ * frame, see sim_plan.h). Empty lines and lines starting with '#' are skipped. On read every
+ * line is validated (two finite numbers, the point FREE in the plan by sim_plan_classify_point)
+ * and the file must hold at least 2 waypoints; errors are "FILE:LINE: reason".
+ *
+ * Generator: the plan is rasterised (sim_grid) at cfg->res_m; a cell is traversable when it
+ * is FREE, its centre is at least clearance_m + res_m from every solid (exact polygon
+ * distance) and from every OUTSIDE cell centre, and it belongs to the largest 4-connected
+ * traversable region. Each robot starts in its own room (N distinct start rooms; with more
+ * rooms than robots the start rooms are a seeded choice), every other room is assigned to
+ * the robot with the smallest tour so far (nearest room first), so together the robots visit
+ * every reachable room. In each room the tour visits sweep goals on a lattice of spacing
+ * sweep_m in boustrophedon order; consecutive goals are joined by A* (8-connected, no corner
+ * cutting) and each leg is shortened by line-of-sight shortcuts that stay on traversable
+ * cells (sampled every res/2), so every point of every segment keeps at least clearance_m
+ * from every solid. Deterministic for (plan, cfg). Not thread-safe per path; allocates. */
+#ifndef SIM_PATHS_H
+#define SIM_PATHS_H
+
+#include <stddef.h>
+#include <stdint.h>
+
+#include "sim_grid.h"
+#include "sim_plan.h"
+
+#define SIM_PATHS_MAX_ROBOTS 64
+#define SIM_PATH_MAX_POINTS 100000
+
+typedef struct sim_path {
+    int n;          /* waypoints */
+    sim_vec2_t *p;  /* n waypoints, metres */
+    int start_room; /* index into plan->rooms of the start room; -1 when read from a file */
+} sim_path_t;
+
+typedef struct sim_paths_cfg {
+    int n_robots;       /* 1 .. SIM_PATHS_MAX_ROBOTS */
+    uint64_t seed;
+    double clearance_m; /* robot centre to any wall, default 0.2 (TurtleBot3 burger radius 0.105 + margin) */
+    double res_m;       /* planning grid resolution, default 0.05 */
+    double sweep_m;     /* spacing of sweep goals inside rooms, default 1.0 */
+} sim_paths_cfg_t;
+
+void sim_paths_cfg_default(sim_paths_cfg_t *cfg);
+
+/* Fills paths[0 .. cfg->n_robots-1]. On failure every path is left empty, err says why
+ * (e.g. fewer reachable rooms than robots) and a negative code is returned. */
+__attribute__((warn_unused_result))
+int sim_paths_generate(const sim_plan_t *plan, const sim_paths_cfg_t *cfg, sim_path_t *paths, char *err,
+                       size_t errlen);
+
+void sim_path_free(sim_path_t *path);
+
+__attribute__((warn_unused_result))
+int sim_path_write_csv(const sim_path_t *path, const char *file, char *err, size_t errlen);
+
+/* Reads and validates a CSV against `plan` (see above). On failure *path is left empty. */
+__attribute__((warn_unused_result))
+int sim_path_read_csv(const char *file, const sim_plan_t *plan, sim_path_t *path, char *err, size_t errlen);
+
+/* Same, from text in memory (`name` for messages). */
+__attribute__((warn_unused_result))
+int sim_path_parse_csv(const char *text, const char *name, const sim_plan_t *plan, sim_path_t *path, char *err,
+                       size_t errlen);
+
+/* Smallest distance from any point of the polyline to any solid of the plan (0 when a point
+ * is inside a solid). Exact segment-polygon geometry. */
+double sim_path_min_clearance(const sim_plan_t *plan, const sim_path_t *path);
+
+/* Fraction (0..1) of the grid's FREE cells whose centre is within range_m of a point of
+ * some path (points sampled every res/2 along the segments) with a line of sight that
+ * crosses no WALL cell. */
+double sim_paths_coverage(const sim_grid_t *grid, const sim_path_t *paths, int n, double range_m);
+
+/* Index of the room containing (x, y), or -1. */
+int sim_plan_room_at(const sim_plan_t *plan, double x_m, double y_m);
+
+#endif /* SIM_PATHS_H */

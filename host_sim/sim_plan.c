@@ -1,0 +1,899 @@
+/* Floor-plan parser: a small XML tokenizer of our own (line-tracked, no XML library) that
+ * reads the CubiCasa5K model.svg structure described in sim_plan.h, then the solid geometry
+ * (walls minus door openings).
+ *
+ * Why our own tokenizer: the files come from outside, every error must name its line, and
+ * the subset we need (elements, attributes, comments, declarations) is small. Entities are
+ * not decoded: the attributes we read (class, points) never need them.
+ *
+ * Transforms (`transform="..."`) are ignored: coordinates are taken as written. CubiCasa5K
+ * model.svg files write absolute polygon coordinates, so this holds for them. */
+#include "sim_plan.h"
+
+#include <errno.h>
+#include <math.h>
+#include <stdarg.h>
+#include <stdint.h>
+#include <stdio.h>
+#include <stdlib.h>
+#include <string.h>
+
+/* Limits on what we accept from a file ("absurd sizes"). */
+#define PLAN_MAX_FILE_BYTES (64L * 1024 * 1024)
+#define PLAN_MAX_DEPTH 256
+#define PLAN_MAX_COORD_M 10000.0 /* |coordinate| in metres */
+#define PLAN_MAX_EXTENT_M 2000.0 /* bounding box side in metres */
+#define PLAN_MIN_EXTENT_M 0.05
+#define PLAN_MAX_SCALE 100.0
+#define PLAN_MAX_ITEMS 1000000 /* walls, rooms, openings each */
+/* Area below this (m^2) is degenerate; a 1 cm x 1 cm square is 1e-4. */
+#define PLAN_MIN_AREA_M2 1e-8
+/* Door cuts shorter than this (metres) are not kept as pieces. */
+#define PLAN_MIN_PIECE_M 1e-4
+
+/* ---- small geometry helpers (exported, see sim_plan.h) ------------------------------- */
+
+double sim_poly_signed_area(const sim_poly_t *poly)
+{
+    double a = 0.0;
+    for (int i = 0; i < poly->n; i++) {
+        const sim_vec2_t *p = &poly->p[i], *q = &poly->p[(i + 1) % poly->n];
+        a += p->x * q->y - q->x * p->y;
+    }
+    return 0.5 * a;
+}
+
+int sim_poly_contains(const sim_poly_t *poly, double x, double y)
+{
+    /* Even-odd ray crossing; points exactly on an edge may go either way. */
+    int in = 0;
+    for (int i = 0, j = poly->n - 1; i < poly->n; j = i++) {
+        const sim_vec2_t *a = &poly->p[i], *b = &poly->p[j];
+        if ((a->y > y) != (b->y > y)) {
+            double xc = a->x + (y - a->y) * (b->x - a->x) / (b->y - a->y);
+            if (x < xc)
+                in = !in;
+        }
+    }
+    return in;
+}
+
+int sim_poly_is_rect(const sim_poly_t *poly)
+{
+    if (poly->n != 4)
+        return 0;
+    for (int i = 0; i < 4; i++) {
+        const sim_vec2_t *a = &poly->p[(i + 3) % 4], *b = &poly->p[i], *c = &poly->p[(i + 1) % 4];
+        double ux = a->x - b->x, uy = a->y - b->y, vx = c->x - b->x, vy = c->y - b->y;
+        double lu = hypot(ux, uy), lv = hypot(vx, vy);
+        if (lu <= 0.0 || lv <= 0.0)
+            return 0;
+        if (fabs(ux * vx + uy * vy) > 1e-6 * lu * lv)
+            return 0;
+    }
+    return 1;
+}
+
+/* ---- errors ---------------------------------------------------------------------------- */
+
+typedef struct {
+    const char *name;
+    char *err;
+    size_t errlen;
+} errctx_t;
+
+__attribute__((format(printf, 3, 4)))
+static int fail(const errctx_t *e, int line, const char *fmt, ...)
+{
+    if (e->err != NULL && e->errlen > 0) {
+        int k = snprintf(e->err, e->errlen, "%s:%d: ", e->name, line);
+        if (k >= 0 && (size_t)k < e->errlen) {
+            va_list ap;
+            va_start(ap, fmt);
+            vsnprintf(e->err + k, e->errlen - (size_t)k, fmt, ap);
+            va_end(ap);
+        }
+    }
+    return -EINVAL;
+}
+
+/* ---- growable arrays ------------------------------------------------------------------ */
+
+static int grow(void **arr, int *cap, int need, size_t elem)
+{
+    if (need <= *cap)
+        return 0;
+    int nc = *cap ? *cap * 2 : 16;
+    while (nc < need)
+        nc *= 2;
+    void *p = realloc(*arr, (size_t)nc * elem);
+    if (p == NULL)
+        return -ENOMEM;
+    *arr = p;
+    *cap = nc;
+    return 0;
+}
+
+/* ---- points ---------------------------------------------------------------------------- */
+
+/* Parses a points attribute into metres. `line` is where the value starts; newlines inside
+ * the value advance it so a bad number is reported on its own line. */
+static int parse_points(const errctx_t *e, const char *v, size_t len, int line, double scale,
+                        sim_poly_t *out)
+{
+    double coords[2 * SIM_POLY_MAX_POINTS + 2];
+    int nc = 0, count = 0;
+    int first_line = line;
+    size_t i = 0;
+    while (i < len) {
+        char c = v[i];
+        if (c == '\n') {
+            line++;
+            i++;
+            continue;
+        }
+        if (c == ' ' || c == '\t' || c == '\r' || c == ',') {
+            i++;
+            continue;
+        }
+        /* One number: copy the token (bounded) so strtod cannot run past the value. */
+        size_t j = i;
+        while (j < len && v[j] != ' ' && v[j] != '\t' && v[j] != '\r' && v[j] != '\n' && v[j] != ',')
+            j++;
+        char tok[64];
+        size_t tl = j - i;
+        if (tl >= sizeof tok)
+            return fail(e, line, "bad number '%.20s...' in points", v + i);
+        memcpy(tok, v + i, tl);
+        tok[tl] = '\0';
+        char *end = NULL;
+        errno = 0;
+        double d = strtod(tok, &end);
+        if (end == tok || *end != '\0' || errno == ERANGE || !isfinite(d))
+            return fail(e, line, "bad number '%s' in points", tok);
+        count++;
+        if (count > 2 * SIM_POLY_MAX_POINTS)
+            return fail(e, first_line, "too many points in polygon (more than %d)", SIM_POLY_MAX_POINTS);
+        coords[nc++] = d;
+        i = j;
+    }
+    if (nc % 2 != 0)
+        return fail(e, first_line, "odd number of coordinates (%d) in points", nc);
+    /* Scale, drop consecutive repeats and a closing repeat of the first point. */
+    out->n = 0;
+    for (int k = 0; k < nc; k += 2) {
+        double x = coords[k] * scale, y = coords[k + 1] * scale;
+        if (fabs(x) > PLAN_MAX_COORD_M || fabs(y) > PLAN_MAX_COORD_M)
+            return fail(e, first_line, "coordinate (%g, %g) is %g m from the origin, absurd for a floor plan",
+                        coords[k], coords[k + 1], fmax(fabs(x), fabs(y)));
+        if (out->n > 0 && out->p[out->n - 1].x == x && out->p[out->n - 1].y == y)
+            continue;
+        out->p[out->n].x = x;
+        out->p[out->n].y = y;
+        out->n++;
+    }
+    while (out->n > 1 && out->p[0].x == out->p[out->n - 1].x && out->p[0].y == out->p[out->n - 1].y)
+        out->n--;
+    if (out->n < 3)
+        return fail(e, first_line, "degenerate polygon: %d distinct point%s, at least 3 needed", out->n,
+                    out->n == 1 ? "" : "s");
+    if (fabs(sim_poly_signed_area(out)) < PLAN_MIN_AREA_M2)
+        return fail(e, first_line, "degenerate polygon: zero area");
+    return 0;
+}
+
+/* ---- the tokenizer and the structure reader --------------------------------------------- */
+
+typedef enum { FR_OTHER = 0, FR_WALL, FR_DOOR, FR_WINDOW, FR_SPACE } frame_kind_t;
+
+typedef struct {
+    const char *name; /* element name in the text (not terminated) */
+    size_t name_len;
+    int line;
+    frame_kind_t kind;
+    int index;   /* index into walls/openings/rooms for semantic frames */
+    int has_poly;
+} frame_t;
+
+typedef struct {
+    const char *s;
+    size_t n, pos;
+    int line;
+    errctx_t e;
+    double scale;
+    sim_plan_t *plan;
+    int cap_walls, cap_open, cap_rooms;
+    frame_t stack[PLAN_MAX_DEPTH];
+    int depth;
+    int root_seen, root_closed;
+    int root_line;
+} reader_t;
+
+static int is_name_char(char c)
+{
+    return (c >= 'a' && c <= 'z') || (c >= 'A' && c <= 'Z') || (c >= '0' && c <= '9') || c == '_' ||
+           c == '-' || c == '.' || c == ':';
+}
+
+static int is_space(char c)
+{
+    return c == ' ' || c == '\t' || c == '\r' || c == '\n';
+}
+
+static void skip_space(reader_t *r)
+{
+    while (r->pos < r->n && is_space(r->s[r->pos])) {
+        if (r->s[r->pos] == '\n')
+            r->line++;
+        r->pos++;
+    }
+}
+
+/* Advances past `term`, counting lines; -1 if the text ends first. */
+static int skip_past(reader_t *r, const char *term)
+{
+    size_t tl = strlen(term);
+    while (r->pos + tl <= r->n) {
+        if (memcmp(r->s + r->pos, term, tl) == 0) {
+            r->pos += tl;
+            return 0;
+        }
+        if (r->s[r->pos] == '\n')
+            r->line++;
+        r->pos++;
+    }
+    while (r->pos < r->n) {
+        if (r->s[r->pos] == '\n')
+            r->line++;
+        r->pos++;
+    }
+    return -1;
+}
+
+/* Local name (after any namespace prefix) equals `want`. */
+static int name_is(const char *name, size_t len, const char *want)
+{
+    const char *colon = memchr(name, ':', len);
+    if (colon != NULL) {
+        len -= (size_t)(colon + 1 - name);
+        name = colon + 1;
+    }
+    return strlen(want) == len && memcmp(name, want, len) == 0;
+}
+
+typedef struct {
+    const char *v;
+    size_t len;
+    int line;
+    int present;
+} attr_t;
+
+/* First whitespace-separated token of a class attribute into buf; returns its length.
+ * `rest` gets the second token (may be empty). */
+static void class_tokens(const attr_t *cls, char *first, size_t flen, char *second, size_t slen)
+{
+    first[0] = second[0] = '\0';
+    if (!cls->present)
+        return;
+    size_t i = 0;
+    char *dst[2] = {first, second};
+    size_t cap[2] = {flen, slen};
+    for (int t = 0; t < 2; t++) {
+        while (i < cls->len && is_space(cls->v[i]))
+            i++;
+        size_t j = i;
+        while (j < cls->len && !is_space(cls->v[j]))
+            j++;
+        size_t l = j - i;
+        if (l >= cap[t])
+            l = cap[t] - 1;
+        memcpy(dst[t], cls->v + i, l);
+        dst[t][l] = '\0';
+        i = j;
+    }
+}
+
+static int innermost_semantic(const reader_t *r)
+{
+    for (int d = r->depth - 1; d >= 0; d--)
+        if (r->stack[d].kind != FR_OTHER)
+            return d;
+    return -1;
+}
+
+static int innermost_wall(const reader_t *r)
+{
+    for (int d = r->depth - 1; d >= 0; d--)
+        if (r->stack[d].kind == FR_WALL)
+            return d;
+    return -1;
+}
+
+/* A <g> opened: decide what it is from its class and allocate its record. */
+static int open_group(reader_t *r, frame_t *f, const attr_t *cls)
+{
+    char first[32], second[SIM_ROOM_TYPE_MAX];
+    class_tokens(cls, first, sizeof first, second, sizeof second);
+    sim_plan_t *p = r->plan;
+    int rc;
+    if (strcmp(first, "Wall") == 0) {
+        if (p->n_walls >= PLAN_MAX_ITEMS)
+            return fail(&r->e, f->line, "too many walls (more than %d)", PLAN_MAX_ITEMS);
+        if ((rc = grow((void **)&p->walls, &r->cap_walls, p->n_walls + 1, sizeof *p->walls)) != 0)
+            return rc;
+        memset(&p->walls[p->n_walls], 0, sizeof p->walls[0]);
+        p->walls[p->n_walls].line = f->line;
+        f->kind = FR_WALL;
+        f->index = p->n_walls++;
+    } else if (strcmp(first, "Door") == 0 || strcmp(first, "Window") == 0) {
+        int w = innermost_wall(r);
+        if (w < 0)
+            return fail(&r->e, f->line, "%s outside a Wall group", first);
+        if (p->n_openings >= PLAN_MAX_ITEMS)
+            return fail(&r->e, f->line, "too many openings (more than %d)", PLAN_MAX_ITEMS);
+        if ((rc = grow((void **)&p->openings, &r->cap_open, p->n_openings + 1, sizeof *p->openings)) != 0)
+            return rc;
+        sim_opening_t *o = &p->openings[p->n_openings];
+        memset(o, 0, sizeof *o);
+        o->kind = first[0] == 'D' ? SIM_OPENING_DOOR : SIM_OPENING_WINDOW;
+        o->wall = r->stack[w].index;
+        o->line = f->line;
+        f->kind = first[0] == 'D' ? FR_DOOR : FR_WINDOW;
+        f->index = p->n_openings++;
+    } else if (strcmp(first, "Space") == 0) {
+        if (p->n_rooms >= PLAN_MAX_ITEMS)
+            return fail(&r->e, f->line, "too many rooms (more than %d)", PLAN_MAX_ITEMS);
+        if ((rc = grow((void **)&p->rooms, &r->cap_rooms, p->n_rooms + 1, sizeof *p->rooms)) != 0)
+            return rc;
+        sim_room_t *rm = &p->rooms[p->n_rooms];
+        memset(rm, 0, sizeof *rm);
+        snprintf(rm->type, sizeof rm->type, "%s", second[0] ? second : "Undefined");
+        rm->line = f->line;
+        f->kind = FR_SPACE;
+        f->index = p->n_rooms++;
+    }
+    return 0;
+}
+
+/* A <polygon> seen: it is the outline of the innermost semantic group, if that has none yet. */
+static int take_polygon(reader_t *r, int tag_line, const attr_t *points)
+{
+    int d = innermost_semantic(r);
+    if (d < 0 || r->stack[d].has_poly)
+        return 0;
+    frame_t *f = &r->stack[d];
+    if (!points->present)
+        return fail(&r->e, tag_line, "polygon without a points attribute");
+    sim_poly_t *dst;
+    int *line;
+    switch (f->kind) {
+    case FR_WALL:
+        dst = &r->plan->walls[f->index].outline;
+        line = &r->plan->walls[f->index].line;
+        break;
+    case FR_SPACE:
+        dst = &r->plan->rooms[f->index].outline;
+        line = &r->plan->rooms[f->index].line;
+        break;
+    default:
+        dst = &r->plan->openings[f->index].outline;
+        line = &r->plan->openings[f->index].line;
+        break;
+    }
+    int rc = parse_points(&r->e, points->v, points->len, points->line, r->scale, dst);
+    if (rc != 0)
+        return rc;
+    *line = tag_line;
+    f->has_poly = 1;
+    return 0;
+}
+
+static const char *kind_name(frame_kind_t k)
+{
+    switch (k) {
+    case FR_WALL: return "Wall";
+    case FR_DOOR: return "Door";
+    case FR_WINDOW: return "Window";
+    case FR_SPACE: return "Space";
+    default: return "group";
+    }
+}
+
+static int close_frame(reader_t *r)
+{
+    frame_t *f = &r->stack[r->depth - 1];
+    if (f->kind != FR_OTHER && !f->has_poly)
+        return fail(&r->e, f->line, "%s group has no polygon", kind_name(f->kind));
+    r->depth--;
+    if (r->depth == 0)
+        r->root_closed = 1;
+    return 0;
+}
+
+/* Reads one start tag after '<' (r->pos at the name). */
+static int read_start_tag(reader_t *r, int tag_line)
+{
+    size_t ns = r->pos;
+    while (r->pos < r->n && is_name_char(r->s[r->pos]))
+        r->pos++;
+    size_t nl = r->pos - ns;
+    const char *name = r->s + ns;
+    if (nl == 0)
+        return fail(&r->e, tag_line, "malformed tag: '<' not followed by an element name");
+    attr_t cls = {0}, pts = {0};
+    int self_close = 0;
+    for (;;) {
+        skip_space(r);
+        if (r->pos >= r->n)
+            return fail(&r->e, tag_line, "unclosed tag <%.*s>: the file ends inside it", (int)nl, name);
+        char c = r->s[r->pos];
+        if (c == '>') {
+            r->pos++;
+            break;
+        }
+        if (c == '/') {
+            if (r->pos + 1 < r->n && r->s[r->pos + 1] == '>') {
+                r->pos += 2;
+                self_close = 1;
+                break;
+            }
+            return fail(&r->e, r->line, "malformed tag <%.*s>: '/' not followed by '>'", (int)nl, name);
+        }
+        if (!is_name_char(c))
+            return fail(&r->e, r->line, "malformed tag <%.*s>: unexpected character '%c'", (int)nl, name, c);
+        size_t as = r->pos;
+        while (r->pos < r->n && is_name_char(r->s[r->pos]))
+            r->pos++;
+        size_t al = r->pos - as;
+        int aline = r->line;
+        skip_space(r);
+        if (r->pos >= r->n || r->s[r->pos] != '=')
+            return fail(&r->e, aline, "attribute '%.*s' of <%.*s> has no value", (int)al, r->s + as,
+                        (int)nl, name);
+        r->pos++;
+        skip_space(r);
+        if (r->pos >= r->n)
+            return fail(&r->e, tag_line, "unclosed tag <%.*s>: the file ends inside it", (int)nl, name);
+        char q = r->s[r->pos];
+        if (q != '"' && q != '\'')
+            return fail(&r->e, r->line, "value of attribute '%.*s' is not quoted", (int)al, r->s + as);
+        int qline = r->line;
+        r->pos++;
+        size_t vs = r->pos;
+        while (r->pos < r->n && r->s[r->pos] != q) {
+            if (r->s[r->pos] == '\n')
+                r->line++;
+            r->pos++;
+        }
+        if (r->pos >= r->n)
+            return fail(&r->e, qline, "unclosed quote: value of attribute '%.*s' never ends", (int)al,
+                        r->s + as);
+        attr_t a = {r->s + vs, r->pos - vs, qline, 1};
+        r->pos++;
+        if (al == 5 && memcmp(r->s + as, "class", 5) == 0 && !cls.present)
+            cls = a;
+        else if (al == 6 && memcmp(r->s + as, "points", 6) == 0 && !pts.present)
+            pts = a;
+    }
+
+    /* The root must be <svg>; nothing may follow it. */
+    if (!r->root_seen) {
+        if (!name_is(name, nl, "svg"))
+            return fail(&r->e, tag_line, "not an SVG file: the root element is <%.*s>, not <svg>", (int)nl, name);
+        r->root_seen = 1;
+        r->root_line = tag_line;
+    } else if (r->root_closed) {
+        return fail(&r->e, tag_line, "element <%.*s> after the end of the <svg> root", (int)nl, name);
+    }
+
+    if (name_is(name, nl, "polygon")) {
+        int rc = take_polygon(r, tag_line, &pts);
+        if (rc != 0)
+            return rc;
+    }
+    if (r->depth >= PLAN_MAX_DEPTH)
+        return fail(&r->e, tag_line, "elements nested deeper than %d", PLAN_MAX_DEPTH);
+    frame_t *f = &r->stack[r->depth++];
+    memset(f, 0, sizeof *f);
+    f->name = name;
+    f->name_len = nl;
+    f->line = tag_line;
+    if (name_is(name, nl, "g")) {
+        int rc = open_group(r, f, &cls);
+        if (rc != 0)
+            return rc;
+    }
+    if (self_close)
+        return close_frame(r);
+    return 0;
+}
+
+static int read_end_tag(reader_t *r, int tag_line)
+{
+    size_t ns = r->pos;
+    while (r->pos < r->n && is_name_char(r->s[r->pos]))
+        r->pos++;
+    size_t nl = r->pos - ns;
+    const char *name = r->s + ns;
+    skip_space(r);
+    if (r->pos >= r->n)
+        return fail(&r->e, tag_line, "unclosed tag </%.*s>: the file ends inside it", (int)nl, name);
+    if (nl == 0 || r->s[r->pos] != '>')
+        return fail(&r->e, tag_line, "malformed end tag </%.*s", (int)nl, name);
+    r->pos++;
+    if (r->depth == 0)
+        return fail(&r->e, tag_line, "end tag </%.*s> without a matching start tag", (int)nl, name);
+    frame_t *f = &r->stack[r->depth - 1];
+    if (f->name_len != nl || memcmp(f->name, name, nl) != 0) {
+        /* A stray end tag is reported where it is; one that closes an outer element means
+         * the innermost open element lacks its end tag. */
+        int open_somewhere = 0;
+        for (int d = 0; d < r->depth - 1; d++)
+            if (r->stack[d].name_len == nl && memcmp(r->stack[d].name, name, nl) == 0)
+                open_somewhere = 1;
+        if (!open_somewhere)
+            return fail(&r->e, tag_line, "end tag </%.*s> matches no open element (innermost open: <%.*s> of line %d)",
+                        (int)nl, name, (int)f->name_len, f->name, f->line);
+        return fail(&r->e, f->line, "<%.*s> is never closed (found </%.*s> at line %d)", (int)f->name_len,
+                    f->name, (int)nl, name, tag_line);
+    }
+    return close_frame(r);
+}
+
+static int read_document(reader_t *r)
+{
+    while (r->pos < r->n) {
+        char c = r->s[r->pos];
+        if (c == '\n') {
+            r->line++;
+            r->pos++;
+            continue;
+        }
+        if (c != '<') {
+            if (c == '\0')
+                return fail(&r->e, r->line, "NUL byte in the file: not a text SVG file");
+            r->pos++; /* character data: ignored */
+            continue;
+        }
+        int tag_line = r->line;
+        const char *t = r->s + r->pos;
+        size_t left = r->n - r->pos;
+        if (left >= 4 && memcmp(t, "<!--", 4) == 0) {
+            r->pos += 4;
+            if (skip_past(r, "-->") != 0)
+                return fail(&r->e, tag_line, "unclosed comment: '<!--' without '-->'");
+        } else if (left >= 9 && memcmp(t, "<![CDATA[", 9) == 0) {
+            r->pos += 9;
+            if (skip_past(r, "]]>") != 0)
+                return fail(&r->e, tag_line, "unclosed CDATA section");
+        } else if (left >= 2 && memcmp(t, "<?", 2) == 0) {
+            r->pos += 2;
+            if (skip_past(r, "?>") != 0)
+                return fail(&r->e, tag_line, "unclosed processing instruction: '<?' without '?>'");
+        } else if (left >= 2 && memcmp(t, "<!", 2) == 0) {
+            /* <!DOCTYPE ...> possibly with an internal subset [ ... ]. */
+            r->pos += 2;
+            int bracket = 0, done = 0;
+            while (r->pos < r->n && !done) {
+                char d = r->s[r->pos++];
+                if (d == '\n')
+                    r->line++;
+                else if (d == '[')
+                    bracket++;
+                else if (d == ']' && bracket > 0)
+                    bracket--;
+                else if (d == '>' && bracket == 0)
+                    done = 1;
+            }
+            if (!done)
+                return fail(&r->e, tag_line, "unclosed declaration '<!'");
+        } else if (left >= 2 && t[1] == '/') {
+            r->pos += 2;
+            int rc = read_end_tag(r, tag_line);
+            if (rc != 0)
+                return rc;
+        } else {
+            r->pos += 1;
+            int rc = read_start_tag(r, tag_line);
+            if (rc != 0)
+                return rc;
+        }
+    }
+    if (!r->root_seen)
+        return fail(&r->e, r->line, "not an SVG file: no <svg> root element");
+    if (r->depth > 0) {
+        /* Report the innermost unclosed element: that is where a closing tag is missing. */
+        frame_t *f = &r->stack[r->depth - 1];
+        return fail(&r->e, f->line, "<%.*s> is never closed (the file ends at line %d)", (int)f->name_len,
+                    f->name, r->line);
+    }
+    return 0;
+}
+
+/* ---- solids ------------------------------------------------------------------------------ */
+
+static int push_solid(sim_plan_t *p, int *cap, const sim_poly_t *poly, int is_rect)
+{
+    int rc = grow((void **)&p->solids, cap, p->n_solids + 1, sizeof *p->solids);
+    if (rc != 0)
+        return rc;
+    sim_solid_t *s = &p->solids[p->n_solids++];
+    memset(s, 0, sizeof *s);
+    s->outline = *poly;
+    s->is_rect = is_rect;
+    return 0;
+}
+
+typedef struct {
+    double a, b;
+} interval_t;
+
+static int cmp_interval(const void *x, const void *y)
+{
+    const interval_t *p = x, *q = y;
+    return (p->a > q->a) - (p->a < q->a);
+}
+
+/* Walls minus door openings. A rectangular wall is cut along its long axis: each door
+ * covers the interval of its projection onto that axis; what remains of the wall becomes
+ * rectangle pieces of full wall thickness. Non-rectangular walls are kept whole even when
+ * they hold a door (limitation: an L-shaped wall with a door stays closed; CubiCasa5K draws
+ * walls as quadrilaterals, so this is rare). */
+static int build_solids(sim_plan_t *p, const int *door_first, const int *door_next)
+{
+    int cap = 0;
+    interval_t *cuts = NULL;
+    int cap_cuts = 0;
+    int rc = 0;
+    for (int w = 0; w < p->n_walls && rc == 0; w++) {
+        const sim_poly_t *o = &p->walls[w].outline;
+        if (!sim_poly_is_rect(o) || door_first[w] < 0) {
+            rc = push_solid(p, &cap, o, sim_poly_is_rect(o));
+            continue;
+        }
+        /* Long axis u from corner 0; v the short side. */
+        sim_vec2_t c0 = o->p[0];
+        double e1x = o->p[1].x - c0.x, e1y = o->p[1].y - c0.y;
+        double e2x = o->p[3].x - c0.x, e2y = o->p[3].y - c0.y;
+        double l1 = hypot(e1x, e1y), l2 = hypot(e2x, e2y);
+        double ux, uy, vx, vy, len, thick;
+        if (l1 >= l2) {
+            ux = e1x / l1; uy = e1y / l1; len = l1; vx = e2x; vy = e2y; thick = l2;
+        } else {
+            ux = e2x / l2; uy = e2y / l2; len = l2; vx = e1x; vy = e1y; thick = l1;
+        }
+        (void)thick;
+        int nc = 0;
+        for (int d = door_first[w]; d >= 0; d = door_next[d]) {
+            const sim_poly_t *dp = &p->openings[d].outline;
+            double lo = INFINITY, hi = -INFINITY;
+            for (int k = 0; k < dp->n; k++) {
+                double t = (dp->p[k].x - c0.x) * ux + (dp->p[k].y - c0.y) * uy;
+                lo = fmin(lo, t);
+                hi = fmax(hi, t);
+            }
+            lo = fmax(lo, 0.0);
+            hi = fmin(hi, len);
+            if (hi <= lo)
+                continue; /* the door does not overlap this wall along its axis */
+            if ((rc = grow((void **)&cuts, &cap_cuts, nc + 1, sizeof *cuts)) != 0)
+                break;
+            cuts[nc].a = lo;
+            cuts[nc].b = hi;
+            nc++;
+        }
+        if (rc != 0)
+            break;
+        qsort(cuts, (size_t)nc, sizeof *cuts, cmp_interval);
+        double t = 0.0;
+        for (int k = 0; k <= nc && rc == 0; k++) {
+            double end = k < nc ? cuts[k].a : len;
+            if (end - t > PLAN_MIN_PIECE_M) {
+                sim_poly_t piece = {0};
+                piece.n = 4;
+                piece.p[0].x = c0.x + ux * t;
+                piece.p[0].y = c0.y + uy * t;
+                piece.p[1].x = c0.x + ux * end;
+                piece.p[1].y = c0.y + uy * end;
+                piece.p[2].x = piece.p[1].x + vx;
+                piece.p[2].y = piece.p[1].y + vy;
+                piece.p[3].x = piece.p[0].x + vx;
+                piece.p[3].y = piece.p[0].y + vy;
+                rc = push_solid(p, &cap, &piece, 1);
+            }
+            if (k < nc)
+                t = fmax(t, cuts[k].b);
+        }
+    }
+    free(cuts);
+    return rc;
+}
+
+static int finish_plan(reader_t *r)
+{
+    sim_plan_t *p = r->plan;
+    if (p->n_walls == 0)
+        return fail(&r->e, r->root_line, "no walls: the plan has no <g class=\"Wall\"> group with a polygon");
+    p->min.x = p->min.y = INFINITY;
+    p->max.x = p->max.y = -INFINITY;
+    for (int w = 0; w < p->n_walls; w++)
+        for (int k = 0; k < p->walls[w].outline.n; k++) {
+            const sim_vec2_t *v = &p->walls[w].outline.p[k];
+            p->min.x = fmin(p->min.x, v->x);
+            p->min.y = fmin(p->min.y, v->y);
+            p->max.x = fmax(p->max.x, v->x);
+            p->max.y = fmax(p->max.y, v->y);
+        }
+    double wx = p->max.x - p->min.x, wy = p->max.y - p->min.y;
+    if (wx > PLAN_MAX_EXTENT_M || wy > PLAN_MAX_EXTENT_M)
+        return fail(&r->e, p->walls[0].line, "absurd plan size %.1f x %.1f m (more than %.0f m; wrong scale?)",
+                    wx, wy, PLAN_MAX_EXTENT_M);
+    if (wx < PLAN_MIN_EXTENT_M || wy < PLAN_MIN_EXTENT_M)
+        return fail(&r->e, p->walls[0].line, "absurd plan size %.3f x %.3f m (less than %.2f m; wrong scale?)",
+                    wx, wy, PLAN_MIN_EXTENT_M);
+
+    /* Doors per wall as linked lists, then the solids. */
+    int *first = malloc((size_t)p->n_walls * sizeof *first);
+    int *next = malloc((size_t)(p->n_openings > 0 ? p->n_openings : 1) * sizeof *next);
+    if (first == NULL || next == NULL) {
+        free(first);
+        free(next);
+        return -ENOMEM;
+    }
+    for (int w = 0; w < p->n_walls; w++)
+        first[w] = -1;
+    for (int d = p->n_openings - 1; d >= 0; d--) {
+        next[d] = -1;
+        if (p->openings[d].kind != SIM_OPENING_DOOR)
+            continue;
+        next[d] = first[p->openings[d].wall];
+        first[p->openings[d].wall] = d;
+    }
+    int rc = build_solids(p, first, next);
+    free(first);
+    free(next);
+    return rc;
+}
+
+/* ---- API ------------------------------------------------------------------------------- */
+
+void sim_plan_free(sim_plan_t *plan)
+{
+    if (plan == NULL)
+        return;
+    free(plan->walls);
+    free(plan->openings);
+    free(plan->rooms);
+    free(plan->solids);
+    memset(plan, 0, sizeof *plan);
+}
+
+int sim_plan_parse(const char *text, const char *name, double scale, sim_plan_t *plan, char *err,
+                   size_t errlen)
+{
+    if (err != NULL && errlen > 0)
+        err[0] = '\0';
+    if (plan == NULL)
+        return -EINVAL;
+    memset(plan, 0, sizeof *plan);
+    if (name == NULL)
+        name = "<memory>";
+    errctx_t e = {name, err, errlen};
+    if (text == NULL)
+        return fail(&e, 0, "no text");
+    if (!(scale > 0.0))
+        scale = SIM_PLAN_DEFAULT_SCALE;
+    if (!isfinite(scale) || scale > PLAN_MAX_SCALE)
+        return fail(&e, 0, "absurd scale %g metres per pixel", scale);
+    reader_t *r = calloc(1, sizeof *r);
+    if (r == NULL)
+        return -ENOMEM;
+    r->s = text;
+    r->n = strlen(text);
+    r->line = 1;
+    r->e = e;
+    r->scale = scale;
+    r->plan = plan;
+    plan->scale = scale;
+    int rc = read_document(r);
+    if (rc == 0)
+        rc = finish_plan(r);
+    free(r);
+    if (rc != 0) {
+        if (rc == -ENOMEM && err != NULL && errlen > 0)
+            snprintf(err, errlen, "%s:0: out of memory", name);
+        sim_plan_free(plan);
+    }
+    return rc;
+}
+
+int sim_plan_load(const char *path, double scale, sim_plan_t *plan, char *err, size_t errlen)
+{
+    if (err != NULL && errlen > 0)
+        err[0] = '\0';
+    if (plan == NULL)
+        return -EINVAL;
+    memset(plan, 0, sizeof *plan);
+    if (path == NULL) {
+        if (err != NULL && errlen > 0)
+            snprintf(err, errlen, "(null):0: no path");
+        return -EINVAL;
+    }
+    FILE *f = fopen(path, "rb");
+    if (f == NULL) {
+        int code = errno ? errno : EIO;
+        if (err != NULL && errlen > 0)
+            snprintf(err, errlen, "%s:0: cannot open: %s", path, strerror(code));
+        return -code;
+    }
+    size_t cap = 1 << 16, len = 0;
+    char *buf = malloc(cap + 1);
+    int rc = buf ? 0 : -ENOMEM;
+    while (rc == 0) {
+        if (len == cap) {
+            if ((long)cap >= PLAN_MAX_FILE_BYTES) {
+                if (err != NULL && errlen > 0)
+                    snprintf(err, errlen, "%s:0: absurd file size (more than %ld bytes)", path,
+                             PLAN_MAX_FILE_BYTES);
+                rc = -EFBIG;
+                break;
+            }
+            char *nb = realloc(buf, cap * 2 + 1);
+            if (nb == NULL) {
+                rc = -ENOMEM;
+                break;
+            }
+            buf = nb;
+            cap *= 2;
+        }
+        size_t k = fread(buf + len, 1, cap - len, f);
+        len += k;
+        if (k == 0) {
+            if (ferror(f)) {
+                if (err != NULL && errlen > 0)
+                    snprintf(err, errlen, "%s:0: read error", path);
+                rc = -EIO;
+            }
+            break;
+        }
+    }
+    fclose(f);
+    if (rc == 0) {
+        if (memchr(buf, '\0', len) != NULL) {
+            /* Report the line of the NUL. */
+            int line = 1;
+            for (size_t i = 0; i < len && buf[i] != '\0'; i++)
+                line += buf[i] == '\n';
+            if (err != NULL && errlen > 0)
+                snprintf(err, errlen, "%s:%d: NUL byte in the file: not a text SVG file", path, line);
+            rc = -EINVAL;
+        } else {
+            buf[len] = '\0';
+            rc = sim_plan_parse(buf, path, scale, plan, err, errlen);
+        }
+    } else if (rc == -ENOMEM && err != NULL && errlen > 0) {
+        snprintf(err, errlen, "%s:0: out of memory", path);
+    }
+    free(buf);
+    return rc;
+}
+
+void sim_plan_normalise(const sim_plan_t *plan, double x_m, double y_m, float *xn, float *yn)
+{
+    double wx = plan->max.x - plan->min.x, wy = plan->max.y - plan->min.y;
+    double a = wx > 0 ? 2.0 * (x_m - plan->min.x) / wx - 1.0 : 0.0;
+    double b = wy > 0 ? 2.0 * (y_m - plan->min.y) / wy - 1.0 : 0.0;
+    if (xn != NULL)
+        *xn = (float)a;
+    if (yn != NULL)
+        *yn = (float)b;
+}
+
+void sim_plan_denormalise(const sim_plan_t *plan, float xn, float yn, double *x_m, double *y_m)
+{
+    double wx = plan->max.x - plan->min.x, wy = plan->max.y - plan->min.y;
+    if (x_m != NULL)
+        *x_m = plan->min.x + ((double)xn + 1.0) * 0.5 * wx;
+    if (y_m != NULL)
+        *y_m = plan->min.y + ((double)yn + 1.0) * 0.5 * wy;
+}

@@ -1,0 +1,27 @@
+/* Procedural floor plans in the same CubiCasa5K-like SVG structure as the hand-made plans
+ * (read back by sim_plan_parse at the default scale of 0.01 m per pixel).
+ *
+ * Layout: a rectangular building with a straight corridor (Space Hall, 1.2-1.6 m wide)
+ * across its whole width; the rooms sit in a row above and a row below it, each room
+ * 2.4-4.5 m wide and 2.8-4.5 m deep, with a door (0.8-1.0 m) to the corridor and, sometimes,
+ * a door to its neighbour in the same row; every room has a window in the outer wall; the
+ * corridor has the entrance door at one end. Exterior walls 20 cm, interior walls 12 cm.
+ * Deterministic: the same (seed, rooms) gives the same bytes. Thread-safe (no globals). */
+#ifndef SIM_PLANGEN_H
+#define SIM_PLANGEN_H
+
+#include <stddef.h>
+
+#define SIM_PLANGEN_MIN_ROOMS 2
+#define SIM_PLANGEN_MAX_ROOMS 16
+
+/* Writes the SVG text into a malloc'ed string *out (caller frees). rooms counts the rooms
+ * besides the corridor, SIM_PLANGEN_MIN_ROOMS..SIM_PLANGEN_MAX_ROOMS. */
+__attribute__((warn_unused_result))
+int sim_plangen_svg(unsigned long seed, int rooms, char **out);
+
+/* Same, written to `path`; on failure writes a reason into err. */
+__attribute__((warn_unused_result))
+int sim_plangen_write(const char *path, unsigned long seed, int rooms, char *err, size_t errlen);
+
+#endif /* SIM_PLANGEN_H */

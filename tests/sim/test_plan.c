@@ -1,0 +1,335 @@
+/* Floor-plan parser: good inputs (point syntaxes, nesting, room types, scale), every class of
+ * bad input with its line number, door cutting geometry, normalisation, and the default plan. */
+#include <setjmp.h>
+#include <stdarg.h>
+#include <stddef.h>
+#include <stdint.h>
+#include <errno.h>
+#include <math.h>
+#include <stdio.h>
+#include <string.h>
+#include <cmocka.h>
+
+#include "alloc_count.h"
+#include "sim_plan.h"
+
+#define HEAD "<?xml version=\"1.0\"?>\n<svg xmlns=\"http://www.w3.org/2000/svg\">\n" /* lines 1-2 */
+
+static const char *const GOOD =
+    HEAD
+    "<!-- a comment <g class=\"Wall\"> that must be ignored -->\n"          /* 3 */
+    "<g id=\"Wall\" class=\"Wall External\">\n"                            /* 4 */
+    "  <polygon points=\"0,0 1000,0 1000,20 0,20\"/>\n"                    /* 5 */
+    "  <g id=\"Door\" class=\"Door Swing\"><polygon points='200 0 300 0 300 20 200 20'/></g>\n" /* 6 */
+    "  <g class='Window Regular' id='Window'>\n"                           /* 7 */
+    "    <polygon fill=\"none\" points=\"600,0,700,0,700,20,600,20\"/>\n"   /* 8 */
+    "  </g>\n"
+    "</g>\n"
+    "<g class=\"Wall\"><polygon points=\"0,20 20,20 20,500 0,500\"/></g>\n"  /* 11 */
+    "<g class=\"Space Kitchen\">\n"                                        /* 12 */
+    "  <polygon points=\"20,20 500,20 500,500 20,500\"/>\n"
+    "  <text>Kitchen</text><path d=\"M 0 0 L 1 1\"/>\n"
+    "</g>\n"
+    "<g class=\"Space\"><polygon points=\"500,20 1000,20 1000,500\"/></g>\n"
+    "<g class=\"FixedFurniture Sink\"><polygon points=\"30,30 40,30 40,40 30,40\"/></g>\n"
+    "</svg>\n";
+
+static void test_good_plan(void **state)
+{
+    (void)state;
+    sim_plan_t p;
+    char err[256];
+    assert_int_equal(sim_plan_parse(GOOD, "good.svg", 0.0, &p, err, sizeof err), 0);
+    assert_string_equal(err, "");
+    assert_true(p.scale == SIM_PLAN_DEFAULT_SCALE);
+    assert_int_equal(p.n_walls, 2);
+    assert_int_equal(p.walls[0].outline.n, 4);
+    assert_int_equal(p.walls[0].line, 5);
+    assert_int_equal(p.walls[1].line, 11);
+    assert_int_equal(p.n_openings, 2);
+    assert_int_equal(p.openings[0].kind, SIM_OPENING_DOOR);
+    assert_int_equal(p.openings[0].wall, 0);
+    assert_int_equal(p.openings[0].line, 6);
+    assert_int_equal(p.openings[1].kind, SIM_OPENING_WINDOW);
+    assert_int_equal(p.openings[1].line, 8);
+    assert_true(fabs(p.openings[0].outline.p[1].x - 3.0) < 1e-12);
+    assert_true(fabs(p.openings[1].outline.p[2].y - 0.2) < 1e-12);
+    assert_int_equal(p.n_rooms, 2);
+    assert_string_equal(p.rooms[0].type, "Kitchen");
+    assert_string_equal(p.rooms[1].type, "Undefined");
+    assert_int_equal(p.rooms[1].outline.n, 3);
+    /* Bounding box over the walls, in metres. */
+    assert_true(fabs(p.min.x) < 1e-12 && fabs(p.min.y) < 1e-12);
+    assert_true(fabs(p.max.x - 10.0) < 1e-12 && fabs(p.max.y - 5.0) < 1e-12);
+    /* Wall 0 cut by its door into two rectangles, window kept solid; wall 1 whole. */
+    assert_int_equal(p.n_solids, 3);
+    for (int i = 0; i < p.n_solids; i++)
+        assert_int_equal(p.solids[i].is_rect, 1);
+    sim_plan_free(&p);
+    assert_null(p.walls);
+    assert_int_equal(p.n_walls, 0);
+}
+
+static void test_scale(void **state)
+{
+    (void)state;
+    sim_plan_t p;
+    char err[256];
+    assert_int_equal(sim_plan_parse(GOOD, "good.svg", 0.02, &p, err, sizeof err), 0);
+    assert_true(fabs(p.max.x - 20.0) < 1e-12);
+    assert_true(fabs(p.max.y - 10.0) < 1e-12);
+    sim_plan_free(&p);
+    assert_int_equal(sim_plan_parse(GOOD, "good.svg", INFINITY, &p, err, sizeof err), -EINVAL);
+    assert_non_null(strstr(err, "absurd scale"));
+}
+
+/* Closing repeat of the first point and consecutive repeats are dropped; signs and
+ * exponents are numbers too; a namespace prefix on elements is accepted. */
+static void test_point_forms(void **state)
+{
+    (void)state;
+    const char *t = "<svg:svg><svg:g class=\"Wall\"><svg:polygon points=\" -1e2,0 , 100 0 100,10 100,10 -100,10 -1e2,0 \"/>"
+                    "</svg:g></svg:svg>";
+    sim_plan_t p;
+    char err[256];
+    assert_int_equal(sim_plan_parse(t, "ns.svg", 1.0, &p, err, sizeof err), 0);
+    assert_int_equal(p.n_walls, 1);
+    assert_int_equal(p.walls[0].outline.n, 4);
+    assert_true(p.walls[0].outline.p[0].x == -100.0);
+    assert_int_equal(p.solids[0].is_rect, 1);
+    sim_plan_free(&p);
+}
+
+/* Expect failure with "name:LINE: ..." containing `what`. */
+static void expect_error(const char *text, int line, const char *what)
+{
+    sim_plan_t p;
+    char err[256], prefix[64];
+    memset(&p, 0x5a, sizeof p);
+    alloc_count_reset();
+    int rc = sim_plan_parse(text, "bad.svg", 0.0, &p, err, sizeof err);
+    /* Nothing leaks on the error path. */
+    assert_int_equal(alloc_count_allocations(), alloc_count_frees());
+    if (rc >= 0)
+        fail_msg("accepted, expected error at line %d (%s)", line, what);
+    snprintf(prefix, sizeof prefix, "bad.svg:%d: ", line);
+    if (strncmp(err, prefix, strlen(prefix)) != 0 || strstr(err, what) == NULL)
+        fail_msg("message '%s', expected prefix '%s' and '%s'", err, prefix, what);
+    /* The plan is left empty. */
+    assert_null(p.walls);
+    assert_null(p.rooms);
+    assert_null(p.openings);
+    assert_null(p.solids);
+    assert_int_equal(p.n_walls + p.n_rooms + p.n_openings + p.n_solids, 0);
+}
+
+#define WALL_OK "<g class=\"Wall\"><polygon points=\"0,0 100,0 100,10 0,10\"/></g>\n"
+
+static void test_bad_inputs(void **state)
+{
+    (void)state;
+    expect_error("", 1, "no <svg> root");
+    expect_error("<?xml version=\"1.0\"?>\n<!-- only -->\n\n", 4, "no <svg> root");
+    expect_error("<?xml version=\"1.0\"?>\n<html>\n</html>\n", 2, "not an SVG file");
+    expect_error(HEAD "<g class=\"Wall\"><polygon points=\"0,0 1x0,0 100,10 0,10\"/></g>\n</svg>\n", 3,
+                 "bad number '1x0'");
+    expect_error(HEAD "<g class=\"Wall\"><polygon points=\"0,0 100,0\n100,10 0,nan\"/></g>\n</svg>\n", 4,
+                 "bad number 'nan'");
+    expect_error(HEAD "<g class=\"Wall\">\n<polygon points=\"0,0 100,0 100,10 0\"/></g>\n</svg>\n", 4,
+                 "odd number of coordinates");
+    expect_error(HEAD "<g class=\"Wall\"><polygon points=\"0,0 100,0\"/></g>\n</svg>\n", 3, "degenerate");
+    expect_error(HEAD "<g class=\"Wall\"><polygon points=\"0,0 100,0 100,0 0,0\"/></g>\n</svg>\n", 3,
+                 "degenerate");
+    expect_error(HEAD "<g class=\"Wall\"><polygon points=\"0,0 100,0 200,0 50,0\"/></g>\n</svg>\n", 3,
+                 "zero area");
+    expect_error(HEAD "\n<g class=\"Wall\"><polygon points=\"0,0 100,0 100,10 0,10\"/>\n</svg>\n", 4,
+                 "<g> is never closed");
+    expect_error(HEAD WALL_OK "<g>\n<g class=\"Space Bath\">\n", 5, "<g> is never closed");
+    expect_error(HEAD "<g class=\"Wall\"><polygon points=\"0,0 100,0 100,10 0,10\n\n/></g>\n</svg>\n", 3,
+                 "unclosed quote");
+    expect_error(HEAD WALL_OK "<polygon points='1 2 3 4 5 6'", 4, "unclosed tag <polygon>");
+    expect_error(HEAD "<!-- never\nends\n", 3, "unclosed comment");
+    expect_error(HEAD WALL_OK "<g class=\"Door\">\n<polygon points=\"0,0 9,0 9,9\"/></g>\n</svg>\n", 4,
+                 "Door outside a Wall");
+    expect_error(HEAD WALL_OK "<g class=\"Space Bath\"><g class='Window'><polygon points=\"0,0 9,0 9,9\"/></g></g></svg>",
+                 4, "Window outside a Wall");
+    expect_error(HEAD "<g class=\"Space Bath\"><polygon points=\"0,0 100,0 100,10 0,10\"/></g>\n</svg>\n", 2,
+                 "no walls");
+    expect_error(HEAD "<g class=\"Wall\">\n</g>\n</svg>\n", 3, "Wall group has no polygon");
+    expect_error(HEAD "<g class=\"Wall\"><polygon points=\"0,0 1e9,0 1e9,10 0,10\"/></g>\n</svg>\n", 3,
+                 "absurd");
+    expect_error(HEAD "<g class=\"Wall\"><polygon points=\"0,0 300000,0 300000,10 0,10\"/></g>\n</svg>\n", 3,
+                 "absurd plan size");
+    expect_error(HEAD "<g class=\"Wall\"><polygon points=\"0,0 1,0 1,1 0,1\"/></g>\n</svg>\n", 3,
+                 "absurd plan size");
+    expect_error(HEAD WALL_OK "<g class=Wall></g></svg>\n", 4, "not quoted");
+    expect_error(HEAD WALL_OK "</svg>\n<g/>\n", 5, "after the end");
+    expect_error(HEAD WALL_OK "</g>\n", 4, "matches no open element");
+    expect_error(HEAD WALL_OK "<g>\n<g>\n</x>\n", 6, "matches no open element");
+    /* Too many points: 65 distinct points. */
+    char big[4096];
+    int k = snprintf(big, sizeof big, HEAD "<g class=\"Wall\">\n<polygon points=\"");
+    for (int i = 0; i <= SIM_POLY_MAX_POINTS; i++) {
+        double a = 2.0 * 3.14159265358979323846 * i / (SIM_POLY_MAX_POINTS + 1);
+        k += snprintf(big + k, sizeof big - (size_t)k, "%.3f,%.3f ", 500 + 400 * cos(a), 500 + 400 * sin(a));
+    }
+    snprintf(big + k, sizeof big - (size_t)k, "\"/></g></svg>\n");
+    expect_error(big, 4, "too many points");
+}
+
+/* Exactly SIM_POLY_MAX_POINTS points is fine; non-rectangular walls are not cut. */
+static void test_max_points_and_nonrect_wall(void **state)
+{
+    (void)state;
+    char big[4096];
+    int k = snprintf(big, sizeof big, HEAD "<g class=\"Wall\">\n<polygon points=\"");
+    for (int i = 0; i < SIM_POLY_MAX_POINTS; i++) {
+        double a = 2.0 * 3.14159265358979323846 * i / SIM_POLY_MAX_POINTS;
+        k += snprintf(big + k, sizeof big - (size_t)k, "%.3f,%.3f ", 500 + 400 * cos(a), 500 + 400 * sin(a));
+    }
+    snprintf(big + k, sizeof big - (size_t)k,
+             "\"/><g class=\"Door\"><polygon points=\"100,480 200,480 200,520 100,520\"/></g></g></svg>\n");
+    sim_plan_t p;
+    char err[256];
+    assert_int_equal(sim_plan_parse(big, "round.svg", 0.0, &p, err, sizeof err), 0);
+    assert_int_equal(p.walls[0].outline.n, SIM_POLY_MAX_POINTS);
+    assert_int_equal(p.n_solids, 1);
+    assert_int_equal(p.solids[0].is_rect, 0);
+    assert_int_equal(p.solids[0].outline.n, SIM_POLY_MAX_POINTS);
+    sim_plan_free(&p);
+}
+
+static int solid_has(const sim_plan_t *p, double x, double y)
+{
+    for (int i = 0; i < p->n_solids; i++)
+        if (sim_poly_contains(&p->solids[i].outline, x, y))
+            return 1;
+    return 0;
+}
+
+/* A vertical wall (long axis y) with two doors, one overlapping the wall end and two
+ * overlapping each other: the pieces are exactly the uncovered intervals. */
+static void test_door_cutting(void **state)
+{
+    (void)state;
+    const char *t = HEAD
+        "<g class=\"Wall\"><polygon points=\"100,0 110,0 110,1000 100,1000\"/>\n"
+        "<g class=\"Door\"><polygon points=\"95,200 115,200 115,300 95,300\"/></g>\n"
+        "<g class=\"Door\"><polygon points=\"100,250 110,250 110,400 100,400\"/></g>\n"
+        "<g class=\"Door\"><polygon points=\"100,900 110,900 110,1100 100,1100\"/></g>\n"
+        "<g class=\"Window\"><polygon points=\"100,500 110,500 110,600 100,600\"/></g>\n"
+        "</g></svg>\n";
+    sim_plan_t p;
+    char err[256];
+    assert_int_equal(sim_plan_parse(t, "cut.svg", 0.0, &p, err, sizeof err), 0);
+    assert_int_equal(p.n_openings, 4);
+    assert_int_equal(p.n_solids, 2); /* y 0..2 and y 4..9 (metres) */
+    double lo[2], hi[2];
+    for (int i = 0; i < 2; i++) {
+        const sim_poly_t *o = &p.solids[i].outline;
+        assert_int_equal(p.solids[i].is_rect, 1);
+        lo[i] = INFINITY;
+        hi[i] = -INFINITY;
+        double xlo = INFINITY, xhi = -INFINITY;
+        for (int k = 0; k < 4; k++) {
+            lo[i] = fmin(lo[i], o->p[k].y);
+            hi[i] = fmax(hi[i], o->p[k].y);
+            xlo = fmin(xlo, o->p[k].x);
+            xhi = fmax(xhi, o->p[k].x);
+        }
+        assert_true(fabs(xlo - 1.0) < 1e-9 && fabs(xhi - 1.1) < 1e-9); /* full thickness */
+    }
+    assert_true(fabs(lo[0] - 0.0) < 1e-9 && fabs(hi[0] - 2.0) < 1e-9);
+    assert_true(fabs(lo[1] - 4.0) < 1e-9 && fabs(hi[1] - 9.0) < 1e-9);
+    assert_true(solid_has(&p, 1.05, 1.0));
+    assert_false(solid_has(&p, 1.05, 3.0));
+    assert_true(solid_has(&p, 1.05, 5.5)); /* window stays solid */
+    assert_false(solid_has(&p, 1.05, 9.5));
+    sim_plan_free(&p);
+}
+
+/* A rotated (45 degree) rectangular wall is cut along its own axis. */
+static void test_door_cutting_rotated(void **state)
+{
+    (void)state;
+    const char *t = HEAD
+        "<g class=\"Wall\"><polygon points=\"0,0 700,700 690,710 -10,10\"/>\n"
+        "<g class=\"Door\"><polygon points=\"300,300 400,400 390,410 290,310\"/></g>\n"
+        "</g></svg>\n";
+    sim_plan_t p;
+    char err[256];
+    assert_int_equal(sim_plan_parse(t, "rot.svg", 0.0, &p, err, sizeof err), 0);
+    assert_int_equal(p.n_solids, 2);
+    assert_true(sim_poly_is_rect(&p.solids[0].outline));
+    assert_true(sim_poly_is_rect(&p.solids[1].outline));
+    assert_true(solid_has(&p, 1.0, 1.0 + 0.02));
+    assert_false(solid_has(&p, 3.5, 3.5 + 0.02));
+    assert_true(solid_has(&p, 6.0, 6.0 + 0.02));
+    sim_plan_free(&p);
+}
+
+static void test_normalise_round_trip(void **state)
+{
+    (void)state;
+    sim_plan_t p;
+    char err[256];
+    assert_int_equal(sim_plan_parse(GOOD, "good.svg", 0.0, &p, err, sizeof err), 0);
+    float xn, yn;
+    sim_plan_normalise(&p, 0.0, 0.0, &xn, &yn);
+    assert_true(xn == -1.0f && yn == -1.0f);
+    sim_plan_normalise(&p, 10.0, 5.0, &xn, &yn);
+    assert_true(xn == 1.0f && yn == 1.0f);
+    sim_plan_normalise(&p, 5.0, 2.5, &xn, &yn);
+    assert_true(fabs(xn) < 1e-7 && fabs(yn) < 1e-7);
+    for (int i = 0; i <= 100; i++) {
+        double x = 10.0 * i / 100.0, y = 5.0 * (100 - i) / 100.0, bx, by;
+        sim_plan_normalise(&p, x, y, &xn, &yn);
+        assert_true(xn >= -1.0f && xn <= 1.0f && yn >= -1.0f && yn <= 1.0f);
+        sim_plan_denormalise(&p, xn, yn, &bx, &by);
+        assert_true(fabs(bx - x) < 1e-5 && fabs(by - y) < 1e-5);
+    }
+    sim_plan_free(&p);
+}
+
+static void test_load_default_plan(void **state)
+{
+    (void)state;
+    sim_plan_t p;
+    char err[256];
+    assert_int_equal(sim_plan_load("host_sim/plans/apartment.svg", 0.0, &p, err, sizeof err), 0);
+    assert_true(fabs(p.max.x - p.min.x - 12.0) < 1e-9);
+    assert_true(fabs(p.max.y - p.min.y - 9.0) < 1e-9);
+    assert_true(p.n_rooms >= 6);
+    int doors = 0;
+    for (int i = 0; i < p.n_openings; i++) {
+        if (p.openings[i].kind != SIM_OPENING_DOOR)
+            continue;
+        doors++;
+        /* Every door is at least 0.8 m wide (the longer side of its rectangle). */
+        const sim_poly_t *o = &p.openings[i].outline;
+        double a = hypot(o->p[1].x - o->p[0].x, o->p[1].y - o->p[0].y);
+        double b = hypot(o->p[2].x - o->p[1].x, o->p[2].y - o->p[1].y);
+        assert_true(fmax(a, b) >= 0.8 - 1e-9);
+    }
+    assert_true(doors >= p.n_rooms);
+    sim_plan_free(&p);
+
+    assert_true(sim_plan_load("no/such/file.svg", 0.0, &p, err, sizeof err) < 0);
+    assert_non_null(strstr(err, "no/such/file.svg:0: cannot open"));
+}
+
+int main(void)
+{
+    const struct CMUnitTest tests[] = {
+        cmocka_unit_test(test_good_plan),
+        cmocka_unit_test(test_scale),
+        cmocka_unit_test(test_point_forms),
+        cmocka_unit_test(test_bad_inputs),
+        cmocka_unit_test(test_max_points_and_nonrect_wall),
+        cmocka_unit_test(test_door_cutting),
+        cmocka_unit_test(test_door_cutting_rotated),
+        cmocka_unit_test(test_normalise_round_trip),
+        cmocka_unit_test(test_load_default_plan),
+    };
+    return cmocka_run_group_tests(tests, NULL, NULL);
+}
