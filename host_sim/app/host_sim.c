@@ -6,11 +6,13 @@
 
 int cmd_plan(int argc, char **argv);  /* cmd_plan.c */
 int cmd_paths(int argc, char **argv); /* cmd_paths.c */
+int cmd_fleet(int argc, char **argv); /* cmd_fleet.c */
 
 /* One row per sub-command, in the order `--help` lists them. */
 static const host_sim_cmd_t commands[] = {
     {"plan", cmd_plan, "floor plans: check an SVG plan, generate one, rasterise the ground truth"},
     {"paths", cmd_paths, "robot waypoint tours: generate for N robots, check CSV files"},
+    {"fleet", cmd_fleet, "DiNNO fleet in one process (--inproc): train N BNNs, baselines, metrics, maps"},
     {NULL, NULL, NULL},
 };
 
