@@ -161,6 +161,26 @@ static int build_trav(planner_t *pl)
         return -ENOMEM;
     const sim_plan_t *plan = pl->plan;
     double need = pl->need;
+    /* Solid bounding boxes grown by `need`, for the prefilter below. */
+    double *bb = malloc((size_t)(plan->n_solids > 0 ? plan->n_solids : 1) * 4 * sizeof *bb);
+    if (bb == NULL)
+        return -ENOMEM;
+    for (int s = 0; s < plan->n_solids; s++) {
+        const sim_poly_t *o = &plan->solids[s].outline;
+        double *b = bb + 4 * s;
+        b[0] = b[1] = INFINITY;
+        b[2] = b[3] = -INFINITY;
+        for (int k = 0; k < o->n; k++) {
+            b[0] = fmin(b[0], o->p[k].x);
+            b[1] = fmin(b[1], o->p[k].y);
+            b[2] = fmax(b[2], o->p[k].x);
+            b[3] = fmax(b[3], o->p[k].y);
+        }
+        b[0] -= need;
+        b[1] -= need;
+        b[2] += need;
+        b[3] += need;
+    }
     /* Free cells far enough from every solid (bounding-box prefilter, exact distance). */
     for (int r = 0; r < g->h; r++)
         for (int c = 0; c < g->w; c++) {
@@ -171,21 +191,15 @@ static int build_trav(planner_t *pl)
             sim_grid_cell_centre(g, c, r, &x, &y);
             int ok = 1;
             for (int s = 0; s < plan->n_solids && ok; s++) {
-                const sim_poly_t *o = &plan->solids[s].outline;
-                double x0 = INFINITY, x1 = -INFINITY, y0 = INFINITY, y1 = -INFINITY;
-                for (int k = 0; k < o->n; k++) {
-                    x0 = fmin(x0, o->p[k].x);
-                    x1 = fmax(x1, o->p[k].x);
-                    y0 = fmin(y0, o->p[k].y);
-                    y1 = fmax(y1, o->p[k].y);
-                }
-                if (x < x0 - need || x > x1 + need || y < y0 - need || y > y1 + need)
+                const double *b = bb + 4 * s;
+                if (x < b[0] || x > b[2] || y < b[1] || y > b[3])
                     continue;
-                if (pt_poly_dist(o, x, y) < need)
+                if (pt_poly_dist(&plan->solids[s].outline, x, y) < need)
                     ok = 0;
             }
             pl->trav[i] = (uint8_t)ok;
         }
+    free(bb);
     /* Away from OUTSIDE cells (and the grid border) too: only border outside cells matter. */
     int rad = (int)ceil(need / g->res);
     for (int r = -1; r <= g->h; r++)

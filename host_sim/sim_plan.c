@@ -6,8 +6,8 @@
  * the subset we need (elements, attributes, comments, declarations) is small. Entities are
  * not decoded: the attributes we read (class, points) never need them.
  *
- * Transforms (`transform="..."`) are ignored: coordinates are taken as written. CubiCasa5K
- * model.svg files write absolute polygon coordinates, so this holds for them. */
+ * `transform` attributes (matrix, translate, scale, rotate, skewX, skewY) on any element are
+ * composed down the tree and applied to polygon points before the metric scale. */
 #include "sim_plan.h"
 
 #include <errno.h>
@@ -28,7 +28,7 @@
 #define PLAN_MAX_ITEMS 1000000 /* walls, rooms, openings each */
 /* Area below this (m^2) is degenerate; a 1 cm x 1 cm square is 1e-4. */
 #define PLAN_MIN_AREA_M2 1e-8
-/* Door cuts shorter than this (metres) are not kept as pieces. */
+/* Wall pieces shorter than this (metres) along the wall are not kept. */
 #define PLAN_MIN_PIECE_M 1e-4
 
 /* ---- small geometry helpers (exported, see sim_plan.h) ------------------------------- */
@@ -97,6 +97,11 @@ static int fail(const errctx_t *e, int line, const char *fmt, ...)
     return -EINVAL;
 }
 
+static int is_space_c(char c)
+{
+    return c == ' ' || c == '\t' || c == '\r' || c == '\n';
+}
+
 /* ---- growable arrays ------------------------------------------------------------------ */
 
 static int grow(void **arr, int *cap, int need, size_t elem)
@@ -119,7 +124,7 @@ static int grow(void **arr, int *cap, int need, size_t elem)
 /* Parses a points attribute into metres. `line` is where the value starts; newlines inside
  * the value advance it so a bad number is reported on its own line. */
 static int parse_points(const errctx_t *e, const char *v, size_t len, int line, double scale,
-                        sim_poly_t *out)
+                        const double *m, sim_poly_t *out)
 {
     double coords[2 * SIM_POLY_MAX_POINTS + 2];
     int nc = 0, count = 0;
@@ -162,7 +167,9 @@ static int parse_points(const errctx_t *e, const char *v, size_t len, int line, 
     /* Scale, drop consecutive repeats and a closing repeat of the first point. */
     out->n = 0;
     for (int k = 0; k < nc; k += 2) {
-        double x = coords[k] * scale, y = coords[k + 1] * scale;
+        double px = m[0] * coords[k] + m[2] * coords[k + 1] + m[4];
+        double py = m[1] * coords[k] + m[3] * coords[k + 1] + m[5];
+        double x = px * scale, y = py * scale;
         if (fabs(x) > PLAN_MAX_COORD_M || fabs(y) > PLAN_MAX_COORD_M)
             return fail(e, first_line, "coordinate (%g, %g) is %g m from the origin, absurd for a floor plan",
                         coords[k], coords[k + 1], fmax(fabs(x), fabs(y)));
@@ -182,6 +189,105 @@ static int parse_points(const errctx_t *e, const char *v, size_t len, int line, 
     return 0;
 }
 
+/* ---- transforms ------------------------------------------------------------------------- */
+
+/* Affine matrices in SVG order (a b c d e f): x' = a x + c y + e, y' = b x + d y + f. */
+static const double IDENTITY[6] = {1, 0, 0, 1, 0, 0};
+
+/* r = p * o (apply o first). r may alias neither. */
+static void mat_mul(const double *p, const double *o, double *r)
+{
+    r[0] = p[0] * o[0] + p[2] * o[1];
+    r[1] = p[1] * o[0] + p[3] * o[1];
+    r[2] = p[0] * o[2] + p[2] * o[3];
+    r[3] = p[1] * o[2] + p[3] * o[3];
+    r[4] = p[0] * o[4] + p[2] * o[5] + p[4];
+    r[5] = p[1] * o[4] + p[3] * o[5] + p[5];
+}
+
+/* Parses an SVG transform list (matrix, translate, scale, rotate, skewX, skewY) into m. */
+static int parse_transform(const errctx_t *e, const char *v, size_t len, int line, double *m)
+{
+    memcpy(m, IDENTITY, sizeof IDENTITY);
+    size_t i = 0;
+    for (;;) {
+        while (i < len && (is_space_c(v[i]) || v[i] == ','))
+            i++;
+        if (i >= len)
+            break;
+        size_t ns = i;
+        while (i < len && ((v[i] >= 'a' && v[i] <= 'z') || (v[i] >= 'A' && v[i] <= 'Z')))
+            i++;
+        size_t nl = i - ns;
+        while (i < len && is_space_c(v[i]))
+            i++;
+        if (nl == 0 || i >= len || v[i] != '(')
+            return fail(e, line, "bad transform '%.*s'", (int)(len > 60 ? 60 : len), v);
+        i++;
+        double a[6];
+        int na = 0;
+        for (;;) {
+            while (i < len && (is_space_c(v[i]) || v[i] == ','))
+                i++;
+            if (i < len && v[i] == ')') {
+                i++;
+                break;
+            }
+            char tok[64];
+            size_t j = i;
+            while (j < len && !is_space_c(v[j]) && v[j] != ',' && v[j] != ')')
+                j++;
+            if (j == i || j - i >= sizeof tok || na == 6)
+                return fail(e, line, "bad transform '%.*s'", (int)(len > 60 ? 60 : len), v);
+            memcpy(tok, v + i, j - i);
+            tok[j - i] = '\0';
+            char *end = NULL;
+            double d = strtod(tok, &end);
+            if (end == tok || *end != '\0' || !isfinite(d))
+                return fail(e, line, "bad number '%s' in transform", tok);
+            a[na++] = d;
+            i = j;
+            if (i >= len)
+                return fail(e, line, "unclosed '(' in transform");
+        }
+        double t[6];
+        const char *n = v + ns;
+#define IS(w) (nl == strlen(w) && memcmp(n, w, nl) == 0)
+        if (IS("matrix") && na == 6) {
+            memcpy(t, a, sizeof t);
+        } else if (IS("translate") && (na == 1 || na == 2)) {
+            double tt[6] = {1, 0, 0, 1, a[0], na == 2 ? a[1] : 0};
+            memcpy(t, tt, sizeof t);
+        } else if (IS("scale") && (na == 1 || na == 2)) {
+            double tt[6] = {a[0], 0, 0, na == 2 ? a[1] : a[0], 0, 0};
+            memcpy(t, tt, sizeof t);
+        } else if (IS("rotate") && (na == 1 || na == 3)) {
+            double rad = a[0] * 3.14159265358979323846 / 180.0, c = cos(rad), sn = sin(rad);
+            double cx = na == 3 ? a[1] : 0, cy = na == 3 ? a[2] : 0;
+            /* translate(cx, cy) rotate(a) translate(-cx, -cy) */
+            double tt[6] = {c, sn, -sn, c, cx - c * cx + sn * cy, cy - sn * cx - c * cy};
+            memcpy(t, tt, sizeof t);
+        } else if ((IS("skewX") || IS("skewY")) && na == 1) {
+            double k = tan(a[0] * 3.14159265358979323846 / 180.0);
+            double tt[6] = {1, IS("skewY") ? k : 0, IS("skewX") ? k : 0, 1, 0, 0};
+            memcpy(t, tt, sizeof t);
+        } else {
+            return fail(e, line, "bad transform '%.*s' (unknown function or wrong argument count)", (int)nl, n);
+        }
+#undef IS
+        double r[6];
+        mat_mul(m, t, r);
+        memcpy(m, r, sizeof r);
+    }
+    double det = m[0] * m[3] - m[1] * m[2];
+    for (int k = 0; k < 6; k++)
+        if (!isfinite(m[k]))
+            return fail(e, line, "transform out of range");
+    if (fabs(det) < 1e-12)
+        return fail(e, line, "degenerate transform (zero determinant)");
+    return 0;
+}
+
 /* ---- the tokenizer and the structure reader --------------------------------------------- */
 
 typedef enum { FR_OTHER = 0, FR_WALL, FR_DOOR, FR_WINDOW, FR_SPACE } frame_kind_t;
@@ -193,6 +299,7 @@ typedef struct {
     frame_kind_t kind;
     int index;   /* index into walls/openings/rooms for semantic frames */
     int has_poly;
+    double m[6]; /* transform from this element's coordinates to the document's */
 } frame_t;
 
 typedef struct {
@@ -356,7 +463,7 @@ static int open_group(reader_t *r, frame_t *f, const attr_t *cls)
 }
 
 /* A <polygon> seen: it is the outline of the innermost semantic group, if that has none yet. */
-static int take_polygon(reader_t *r, int tag_line, const attr_t *points)
+static int take_polygon(reader_t *r, int tag_line, const attr_t *points, const double *m)
 {
     int d = innermost_semantic(r);
     if (d < 0 || r->stack[d].has_poly)
@@ -380,7 +487,7 @@ static int take_polygon(reader_t *r, int tag_line, const attr_t *points)
         line = &r->plan->openings[f->index].line;
         break;
     }
-    int rc = parse_points(&r->e, points->v, points->len, points->line, r->scale, dst);
+    int rc = parse_points(&r->e, points->v, points->len, points->line, r->scale, m, dst);
     if (rc != 0)
         return rc;
     *line = tag_line;
@@ -420,7 +527,7 @@ static int read_start_tag(reader_t *r, int tag_line)
     const char *name = r->s + ns;
     if (nl == 0)
         return fail(&r->e, tag_line, "malformed tag: '<' not followed by an element name");
-    attr_t cls = {0}, pts = {0};
+    attr_t cls = {0}, pts = {0}, tfm = {0};
     int self_close = 0;
     for (;;) {
         skip_space(r);
@@ -474,6 +581,8 @@ static int read_start_tag(reader_t *r, int tag_line)
             cls = a;
         else if (al == 6 && memcmp(r->s + as, "points", 6) == 0 && !pts.present)
             pts = a;
+        else if (al == 9 && memcmp(r->s + as, "transform", 9) == 0 && !tfm.present)
+            tfm = a;
     }
 
     /* The root must be <svg>; nothing may follow it. */
@@ -486,8 +595,20 @@ static int read_start_tag(reader_t *r, int tag_line)
         return fail(&r->e, tag_line, "element <%.*s> after the end of the <svg> root", (int)nl, name);
     }
 
+    /* This element's transform: its parent's composed with its own attribute. */
+    double m[6];
+    const double *parent = r->depth > 0 ? r->stack[r->depth - 1].m : IDENTITY;
+    if (tfm.present) {
+        double own[6];
+        int rc = parse_transform(&r->e, tfm.v, tfm.len, tfm.line, own);
+        if (rc != 0)
+            return rc;
+        mat_mul(parent, own, m);
+    } else {
+        memcpy(m, parent, sizeof m);
+    }
     if (name_is(name, nl, "polygon")) {
-        int rc = take_polygon(r, tag_line, &pts);
+        int rc = take_polygon(r, tag_line, &pts, m);
         if (rc != 0)
             return rc;
     }
@@ -498,6 +619,7 @@ static int read_start_tag(reader_t *r, int tag_line)
     f->name = name;
     f->name_len = nl;
     f->line = tag_line;
+    memcpy(f->m, m, sizeof m);
     if (name_is(name, nl, "g")) {
         int rc = open_group(r, f, &cls);
         if (rc != 0)
@@ -634,11 +756,73 @@ static int cmp_interval(const void *x, const void *y)
     return (p->a > q->a) - (p->a < q->a);
 }
 
-/* Walls minus door openings. A rectangular wall is cut along its long axis: each door
- * covers the interval of its projection onto that axis; what remains of the wall becomes
- * rectangle pieces of full wall thickness. Non-rectangular walls are kept whole even when
- * they hold a door (limitation: an L-shaped wall with a door stays closed; CubiCasa5K draws
- * walls as quadrilaterals, so this is rare). */
+/* Convex (all turns the same way; collinear points allowed). */
+static int poly_is_convex(const sim_poly_t *o)
+{
+    int sign = 0;
+    for (int i = 0; i < o->n; i++) {
+        const sim_vec2_t *a = &o->p[i], *b = &o->p[(i + 1) % o->n], *c = &o->p[(i + 2) % o->n];
+        double cr = (b->x - a->x) * (c->y - b->y) - (b->y - a->y) * (c->x - b->x);
+        int sg = (cr > 1e-12) - (cr < -1e-12);
+        if (sg != 0) {
+            if (sign != 0 && sg != sign)
+                return 0;
+            sign = sg;
+        }
+    }
+    return 1;
+}
+
+#define CLIP_MAX (SIM_POLY_MAX_POINTS + 4)
+
+/* Sutherland-Hodgman against one half-plane: keeps points with s * (t(p) - lim) <= 0, where
+ * t(p) = (p - c0) . u. Returns the output count. */
+static int clip_half(const sim_vec2_t *in, int n, sim_vec2_t c0, double ux, double uy, double lim, double sgn,
+                     sim_vec2_t *out)
+{
+    int m = 0;
+    for (int i = 0; i < n; i++) {
+        sim_vec2_t a = in[i], b = in[(i + 1) % n];
+        double da = sgn * ((a.x - c0.x) * ux + (a.y - c0.y) * uy - lim);
+        double db = sgn * ((b.x - c0.x) * ux + (b.y - c0.y) * uy - lim);
+        if (da <= 0 && m < CLIP_MAX)
+            out[m++] = a;
+        if (((da < 0 && db > 0) || (da > 0 && db < 0)) && m < CLIP_MAX) {
+            double t = da / (da - db);
+            out[m].x = a.x + t * (b.x - a.x);
+            out[m].y = a.y + t * (b.y - a.y);
+            m++;
+        }
+    }
+    return m;
+}
+
+/* The part of convex `in` with lo <= t <= hi: 1 when it is a proper polygon, 0 when empty
+ * or degenerate, -1 when it has more than SIM_POLY_MAX_POINTS points. */
+static int clip_slab(const sim_poly_t *in, sim_vec2_t c0, double ux, double uy, double lo, double hi, sim_poly_t *out)
+{
+    sim_vec2_t t1[CLIP_MAX], t2[CLIP_MAX];
+    int n = clip_half(in->p, in->n, c0, ux, uy, lo, -1.0, t1);
+    n = clip_half(t1, n, c0, ux, uy, hi, 1.0, t2);
+    int m = 0;
+    for (int i = 0; i < n; i++) {
+        if (m > 0 && fabs(t2[i].x - out->p[m - 1].x) < 1e-12 && fabs(t2[i].y - out->p[m - 1].y) < 1e-12)
+            continue;
+        if (m >= SIM_POLY_MAX_POINTS)
+            return -1;
+        out->p[m++] = t2[i];
+    }
+    while (m > 1 && fabs(out->p[0].x - out->p[m - 1].x) < 1e-12 && fabs(out->p[0].y - out->p[m - 1].y) < 1e-12)
+        m--;
+    out->n = m;
+    return m >= 3 && fabs(sim_poly_signed_area(out)) >= PLAN_MIN_AREA_M2;
+}
+
+/* Walls minus door openings. A convex wall (rectangles, and the trapezoids CubiCasa5K draws
+ * at mitred corners) is cut along its long axis, the direction of its longest edge: each door
+ * removes the interval of its projection onto that axis, across the full wall thickness, and
+ * the wall is clipped to the slabs that remain. Non-convex walls are kept whole even when they
+ * hold a door (limitation: an L-shaped wall polygon with a door stays closed). */
 static int build_solids(sim_plan_t *p, const int *door_first, const int *door_next)
 {
     int cap = 0;
@@ -647,22 +831,28 @@ static int build_solids(sim_plan_t *p, const int *door_first, const int *door_ne
     int rc = 0;
     for (int w = 0; w < p->n_walls && rc == 0; w++) {
         const sim_poly_t *o = &p->walls[w].outline;
-        if (!sim_poly_is_rect(o) || door_first[w] < 0) {
+        if (door_first[w] < 0 || !poly_is_convex(o)) {
             rc = push_solid(p, &cap, o, sim_poly_is_rect(o));
             continue;
         }
-        /* Long axis u from corner 0; v the short side. */
+        /* Long axis: the longest edge. */
         sim_vec2_t c0 = o->p[0];
-        double e1x = o->p[1].x - c0.x, e1y = o->p[1].y - c0.y;
-        double e2x = o->p[3].x - c0.x, e2y = o->p[3].y - c0.y;
-        double l1 = hypot(e1x, e1y), l2 = hypot(e2x, e2y);
-        double ux, uy, vx, vy, len, thick;
-        if (l1 >= l2) {
-            ux = e1x / l1; uy = e1y / l1; len = l1; vx = e2x; vy = e2y; thick = l2;
-        } else {
-            ux = e2x / l2; uy = e2y / l2; len = l2; vx = e1x; vy = e1y; thick = l1;
+        double ux = 0, uy = 0, best = -1;
+        for (int k = 0; k < o->n; k++) {
+            double ex = o->p[(k + 1) % o->n].x - o->p[k].x, ey = o->p[(k + 1) % o->n].y - o->p[k].y;
+            double l = hypot(ex, ey);
+            if (l > best) {
+                best = l;
+                ux = ex / l;
+                uy = ey / l;
+            }
         }
-        (void)thick;
+        double tmin = INFINITY, tmax = -INFINITY;
+        for (int k = 0; k < o->n; k++) {
+            double t = (o->p[k].x - c0.x) * ux + (o->p[k].y - c0.y) * uy;
+            tmin = fmin(tmin, t);
+            tmax = fmax(tmax, t);
+        }
         int nc = 0;
         for (int d = door_first[w]; d >= 0; d = door_next[d]) {
             const sim_poly_t *dp = &p->openings[d].outline;
@@ -672,8 +862,8 @@ static int build_solids(sim_plan_t *p, const int *door_first, const int *door_ne
                 lo = fmin(lo, t);
                 hi = fmax(hi, t);
             }
-            lo = fmax(lo, 0.0);
-            hi = fmin(hi, len);
+            lo = fmax(lo, tmin);
+            hi = fmin(hi, tmax);
             if (hi <= lo)
                 continue; /* the door does not overlap this wall along its axis */
             if ((rc = grow((void **)&cuts, &cap_cuts, nc + 1, sizeof *cuts)) != 0)
@@ -685,24 +875,23 @@ static int build_solids(sim_plan_t *p, const int *door_first, const int *door_ne
         if (rc != 0)
             break;
         qsort(cuts, (size_t)nc, sizeof *cuts, cmp_interval);
-        double t = 0.0;
-        for (int k = 0; k <= nc && rc == 0; k++) {
-            double end = k < nc ? cuts[k].a : len;
-            if (end - t > PLAN_MIN_PIECE_M) {
-                sim_poly_t piece = {0};
-                piece.n = 4;
-                piece.p[0].x = c0.x + ux * t;
-                piece.p[0].y = c0.y + uy * t;
-                piece.p[1].x = c0.x + ux * end;
-                piece.p[1].y = c0.y + uy * end;
-                piece.p[2].x = piece.p[1].x + vx;
-                piece.p[2].y = piece.p[1].y + vy;
-                piece.p[3].x = piece.p[0].x + vx;
-                piece.p[3].y = piece.p[0].y + vy;
-                rc = push_solid(p, &cap, &piece, 1);
-            }
+        /* Clip every piece first: if one is too big for a polygon, keep the wall whole. */
+        int first_piece = p->n_solids, overflow = 0;
+        double t = tmin;
+        for (int k = 0; k <= nc && rc == 0 && !overflow; k++) {
+            double end = k < nc ? cuts[k].a : tmax;
+            sim_poly_t piece;
+            int got = end - t > PLAN_MIN_PIECE_M ? clip_slab(o, c0, ux, uy, t, end, &piece) : 0;
+            if (got < 0)
+                overflow = 1;
+            else if (got > 0)
+                rc = push_solid(p, &cap, &piece, sim_poly_is_rect(&piece));
             if (k < nc)
                 t = fmax(t, cuts[k].b);
+        }
+        if (rc == 0 && overflow) {
+            p->n_solids = first_piece;
+            rc = push_solid(p, &cap, o, sim_poly_is_rect(o));
         }
     }
     free(cuts);

@@ -12,15 +12,18 @@
  *   rectangles (the common case) are flagged so the world can use a box geom.
  * Axes are the SVG's: x to the right, y DOWN the drawing (metres = pixels * scale, no flip).
  * Accepted: XML comments, <?xml?> and <!DOCTYPE> declarations, attributes in any order with
- * single or double quotes, points separated by commas and/or whitespace; `transform`
- * attributes are ignored (CubiCasa5K writes absolute polygon coordinates).
+ * single or double quotes, points separated by commas and/or whitespace, `transform`
+ * attributes (matrix/translate/scale/rotate/skewX/skewY, composed down the element tree and
+ * applied before the scale). The root's width/height/viewBox are not applied, and a file
+ * with several floors (CubiCasa's `Floorplan Floor-2` groups) is read as one merged plan.
  * Rejected with "FILE:LINE: reason": no <svg> root, bad numbers, an odd coordinate count,
  * fewer than 3 distinct points or zero area, more than SIM_POLY_MAX_POINTS points,
- * unclosed tags/groups/quotes/comments, a Door or Window outside a Wall group, a Wall/Door/
+ * unclosed tags/groups/quotes/comments, a malformed or singular transform, a Door or Window outside a Wall group, a Wall/Door/
  * Window/Space group without a polygon, no walls, absurd sizes (coordinates beyond 10 km,
  * a plan wider than 2 km or narrower than 5 cm, files over 64 MB, scale over 100 m/px).
- * Door cutting: a rectangular wall loses the interval of each door's projection onto its long
- * axis (full thickness); a non-rectangular wall stays whole (its doors are not cut).
+ * Door cutting: a convex wall (rectangle, or the trapezoids CubiCasa5K draws at mitred
+ * corners) loses the slab of each door's projection onto its long axis (the direction of its
+ * longest edge), across its full thickness; a non-convex wall stays whole (doors not cut).
  * Not thread-safe per plan; distinct plans are independent. Allocates (host side). */
 #ifndef SIM_PLAN_H
 #define SIM_PLAN_H

@@ -108,7 +108,7 @@ sim_world_cfg_t sim_world_default_cfg(void)
         .wall_height = 2.5,
         .gravity = 9.81,
         .solver_iterations = 0,
-        .mu_wheel = 1.0,
+        .mu_wheel = INFINITY,
         .mu_wall = 0.3,
     };
     return c;
@@ -236,7 +236,7 @@ int sim_world_create(const sim_plan_t *plan, const sim_world_cfg_t *cfg, sim_wor
     *out = NULL;
     sim_world_cfg_t c = cfg ? *cfg : sim_world_default_cfg();
     if (!pos(c.dt) || c.dt > 0.05 || !pos(c.wall_height) || !isfinite(c.gravity) ||
-        c.gravity < 0 || c.solver_iterations < 0 || c.solver_iterations > 1000 || !isfinite(c.mu_wheel) || c.mu_wheel < 0 ||
+        c.gravity < 0 || c.solver_iterations < 0 || c.solver_iterations > 1000 || isnan(c.mu_wheel) || c.mu_wheel < 0 ||
         !isfinite(c.mu_wall) || c.mu_wall < 0) {
         snprintf(err, errlen, "sim_world_create: invalid configuration (dt in (0, 0.05], "
                               "positive wall height, non-negative gravity and friction)");
@@ -485,7 +485,10 @@ static void add_contacts(sim_world_t *w, dGeomID a, dGeomID b)
     if (floor_pair) {
         if (rt->kind == KIND_WHEEL_L || rt->kind == KIND_WHEEL_R) {
             mu = w->cfg.mu_wheel;
-            mode |= dContactApprox1;
+            if (isinf(mu))
+                mu = dInfinity; /* no-slip rolling: unbounded friction rows */
+            else
+                mode |= dContactApprox1;
         } else {
             mu = 0.0; /* caster (or a tipped chassis): slides freely */
         }

@@ -13,13 +13,6 @@
 #include <stdint.h>
 #include <string.h>
 
-/* Lets GCC vectorise sqrtf in a function (v >= 0 there, so errno never matters). */
-#if defined(__GNUC__) && !defined(__clang__)
-#define AI_FM_NO_ERRNO __attribute__((optimize("no-math-errno")))
-#else
-#define AI_FM_NO_ERRNO
-#endif
-
 static inline float ai_fm_bits2f(uint32_t u)
 {
     float f;
@@ -34,13 +27,22 @@ static inline uint32_t ai_fm_f2bits(float f)
     return u;
 }
 
+/* c ? a : b on the bit patterns. Both values are computed before the choice, so GCC's
+ * if-conversion never has to speculate a floating-point operation (which it refuses under the
+ * default -ftrapping-math, and then does not vectorise the loop). */
+static inline float ai_fm_sel(int c, float a, float b)
+{
+    const uint32_t mask = (uint32_t)0 - (uint32_t)(c != 0);
+    return ai_fm_bits2f((ai_fm_f2bits(a) & mask) | (ai_fm_f2bits(b) & ~mask));
+}
+
 static inline float ai_fm_expf(float x)
 {
-    x = x < -87.0f ? -87.0f : x;
-    x = x > 88.0f ? 88.0f : x;
+    x = ai_fm_sel(x < -87.0f, -87.0f, x);
+    x = ai_fm_sel(x > 88.0f, 88.0f, x);
     float fx = x * 1.44269504088896341f;
     /* round to nearest without lrintf (keeps the loop vectorisable) */
-    float n = (float)(int32_t)(fx + (fx >= 0.0f ? 0.5f : -0.5f));
+    float n = (float)(int32_t)(fx + ai_fm_sel(fx >= 0.0f, 0.5f, -0.5f));
     float r = x - n * 0.693359375f;
     r = r - n * -2.12194440e-4f;
     float z = r * r;
@@ -58,8 +60,8 @@ static inline float ai_fm_logf(float x)
     int32_t e = (int32_t)(u >> 23) - 127;
     float m = ai_fm_bits2f((u & 0x007fffffu) | 0x3f800000u); /* [1, 2) */
     int big = m > 1.41421356f;
-    m = big ? m * 0.5f : m;
-    e = big ? e + 1 : e;
+    m = ai_fm_sel(big, m * 0.5f, m);
+    e += big;
     float fe = (float)e;
     float t = m - 1.0f;
     float z = t * t;
@@ -72,13 +74,27 @@ static inline float ai_fm_logf(float x)
     return t + fe * 0.693359375f;
 }
 
+/* sqrt(x) for x >= 0 (x < 1e-30 gives 0): inverse square root by the bit trick and three
+ * Newton steps (libm's sqrtf keeps errno handling, which stops vectorisation). */
+static inline float ai_fm_sqrtf(float x)
+{
+    const float xs = ai_fm_sel(x > 1e-30f, x, 1e-30f);
+    float y = ai_fm_bits2f(0x5f3759dfu - (ai_fm_f2bits(xs) >> 1));
+    y = y * (1.5f - 0.5f * xs * y * y);
+    y = y * (1.5f - 0.5f * xs * y * y);
+    y = y * (1.5f - 0.5f * xs * y * y);
+    const float r = xs * y;
+    return ai_fm_sel(x > 1e-30f, r, 0.0f);
+}
+
 /* log(1 + u) for u >= 0 (Kahan's trick keeps it accurate for tiny u). */
 static inline float ai_fm_log1pf(float u)
 {
     float w = 1.0f + u;
     float d = w - 1.0f;
     float l = ai_fm_logf(w);
-    return d == 0.0f ? u : l * (u / (d == 0.0f ? 1.0f : d));
+    float r = l * (u / ai_fm_sel(d == 0.0f, 1.0f, d));
+    return ai_fm_sel(d == 0.0f, u, r);
 }
 
 static inline void ai_fm_sincosf(float x, float *s, float *c)

@@ -78,7 +78,7 @@ static inline float u01(uint32_t u)
     return (float)(u >> 8) * (1.0f / 16777216.0f) + (1.0f / 33554432.0f);
 }
 
-AI_FM_NO_ERRNO static void fill(uint64_t key, uint64_t stream, uint64_t first, float *out, size_t n, int normal)
+static void fill(uint64_t key, uint64_t stream, uint64_t first, float *out, size_t n, int normal)
 {
     uint32_t l0[TILE_BLOCKS], l1[TILE_BLOCKS], l2[TILE_BLOCKS], l3[TILE_BLOCKS];
     float z[4 * TILE_BLOCKS];
@@ -93,8 +93,8 @@ AI_FM_NO_ERRNO static void fill(uint64_t key, uint64_t stream, uint64_t first, f
             for (uint32_t i = 0; i < nb; i++) {
                 float ua = u01(l0[i]), ub = u01(l1[i]);
                 float uc = u01(l2[i]), ud = u01(l3[i]);
-                float r1 = __builtin_sqrtf(-2.0f * ai_fm_logf(ua));
-                float r2 = __builtin_sqrtf(-2.0f * ai_fm_logf(uc));
+                float r1 = ai_fm_sqrtf(-2.0f * ai_fm_logf(ua));
+                float r2 = ai_fm_sqrtf(-2.0f * ai_fm_logf(uc));
                 float s1, c1, s2, c2;
                 ai_fm_sincosf(6.28318530717958648f * ub, &s1, &c1);
                 ai_fm_sincosf(6.28318530717958648f * ud, &s2, &c2);

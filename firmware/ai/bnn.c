@@ -235,7 +235,7 @@ size_t bnn_tensors(const bnn_model_t *m, bnn_tensor_t *out, size_t max_out)
 float bnn_softplus(float r)
 {
     float e = ai_fm_expf(-fabsf(r));
-    return (r > 0.0f ? r : 0.0f) + ai_fm_log1pf(e);
+    return ai_fm_sel(r > 0.0f, r, 0.0f) + ai_fm_log1pf(e);
 }
 
 double bnn_kl_normal(double mu, double s, double p)
@@ -277,8 +277,8 @@ static void sample_weights(bnn_model_t *m, const layout_t *y, uint64_t noise_key
     const size_t R = y->R;
     for (size_t j = 0; j < R; j++) {
         float r = rho[j];
-        float e = ai_fm_expf(r < 0.0f ? r : -r);
-        float s = (r > 0.0f ? r : 0.0f) + ai_fm_log1pf(e);
+        float e = ai_fm_expf(-fabsf(r));
+        float s = ai_fm_sel(r > 0.0f, r, 0.0f) + ai_fm_log1pf(e);
         sig[j] = s;
         w[j] = mu[j] + s * eps[j];
     }
@@ -368,7 +368,7 @@ static void backward(bnn_model_t *m, const layout_t *y, size_t n)
         float *cr = cur + i * H;
         const float d = dl[i];
         for (size_t k = 0; k < H; k++)
-            cr[k] = hr[k] > 0.0f ? d * wout[k] : 0.0f;
+            cr[k] = ai_fm_sel(hr[k] > 0.0f, d * wout[k], 0.0f);
     }
     for (size_t l = y->L; l-- > 0;) {
         const size_t in = y->lay_in[l];
@@ -436,8 +436,8 @@ static double bayes_tensor_grad(bnn_model_t *m, const layout_t *y, size_t j0, si
         for (size_t q = 0; q < 8; q++) {
             const size_t k = j + q;
             const float r = rho[k], s = sig[k], u = mu[k];
-            const float e = ai_fm_expf(r < 0.0f ? r : -r);
-            const float sg = (r >= 0.0f ? 1.0f : e) / (1.0f + e);
+            const float e = ai_fm_expf(-fabsf(r));
+            const float sg = ai_fm_sel(r >= 0.0f, 1.0f, e) / (1.0f + e);
             const float gw = gmu[k];
             grho[k] = (gw * eps[k] + c * (s * ip2 - 1.0f / s)) * sg;
             gmu[k] = gw + c * u * ip2;
@@ -447,8 +447,8 @@ static double bayes_tensor_grad(bnn_model_t *m, const layout_t *y, size_t j0, si
     double kl = 0.0;
     for (; j < cnt; j++) {
         const float r = rho[j], s = sig[j], u = mu[j];
-        const float e = ai_fm_expf(r < 0.0f ? r : -r);
-        const float sg = (r >= 0.0f ? 1.0f : e) / (1.0f + e);
+        const float e = ai_fm_expf(-fabsf(r));
+        const float sg = ai_fm_sel(r >= 0.0f, 1.0f, e) / (1.0f + e);
         const float gw = gmu[j];
         grho[j] = (gw * eps[j] + c * (s * ip2 - 1.0f / s)) * sg;
         gmu[j] = gw + c * u * ip2;
@@ -504,7 +504,7 @@ int bnn_loss_grad(bnn_model_t *m, const ai_sample_t *batch, size_t n, float kl_w
     return 0;
 }
 
-AI_FM_NO_ERRNO int bnn_adam_step(bnn_model_t *m, bnn_group_t g, float lr)
+int bnn_adam_step(bnn_model_t *m, bnn_group_t g, float lr)
 {
     if (!m || (g != BNN_GROUP_MU && g != BNN_GROUP_RHO) || !isfinite(lr) || lr < 0.0f)
         return -EINVAL;
@@ -527,7 +527,7 @@ AI_FM_NO_ERRNO int bnn_adam_step(bnn_model_t *m, bnn_group_t g, float lr)
         const float vi = b2 * av[i] + c2 * gi * gi;
         am[i] = mi;
         av[i] = vi;
-        th[i] -= step * mi / (sqrtf(vi) * isb2 + ep);
+        th[i] -= step * mi / (ai_fm_sqrtf(vi) * isb2 + ep);
     }
     return 0;
 }
@@ -583,7 +583,7 @@ int bnn_forward_logits(bnn_model_t *m, const float *xy, size_t n, int use_mean, 
     return 0;
 }
 
-AI_FM_NO_ERRNO int bnn_predict_mc(bnn_model_t *m, const float *xy, size_t n, uint32_t K,
+int bnn_predict_mc(bnn_model_t *m, const float *xy, size_t n, uint32_t K,
                                   uint64_t seed, float *mean, float *std)
 {
     if (!m || !xy || !mean || n == 0 || K == 0 || !xy_ok(xy, n))
@@ -591,11 +591,11 @@ AI_FM_NO_ERRNO int bnn_predict_mc(bnn_model_t *m, const float *xy, size_t n, uin
     layout_t y;
     make_layout(&m->cfg, &y);
     float *a = m->arena;
-    for (size_t i = 0; i < n; i++) {
+    for (size_t i = 0; i < n; i++)
         mean[i] = 0.0f;
-        if (std)
+    if (std)
+        for (size_t i = 0; i < n; i++)
             std[i] = 0.0f; /* holds Welford's M2 until the end */
-    }
     const size_t B = m->cfg.max_batch;
     for (uint32_t k = 0; k < K; k++) {
         sample_weights(m, &y, mc_key(seed, k));
@@ -606,20 +606,21 @@ AI_FM_NO_ERRNO int bnn_predict_mc(bnn_model_t *m, const float *xy, size_t n, uin
             forward(m, &y, a + y.wsamp, nc);
             const float *restrict lg = a + y.logit;
             float *restrict mu = mean + c0;
+            float *restrict m2 = std ? std + c0 : a + y.dlogit; /* scratch when std == NULL */
             for (size_t i = 0; i < nc; i++) {
                 const float l = lg[i];
-                const float e = ai_fm_expf(l < 0.0f ? l : -l);
-                const float p = (l >= 0.0f ? 1.0f : e) / (1.0f + e);
+                const float e = ai_fm_expf(-fabsf(l));
+                const float p = ai_fm_sel(l >= 0.0f, 1.0f, e) / (1.0f + e);
                 const float d = p - mu[i];
-                mu[i] += d * inv;
-                if (std)
-                    std[c0 + i] += d * (p - mu[i]);
+                const float mn = mu[i] + d * inv;
+                mu[i] = mn;
+                m2[i] += d * (p - mn);
             }
         }
     }
     if (std)
         for (size_t i = 0; i < n; i++)
-            std[i] = sqrtf(std[i] / (float)K);
+            std[i] = ai_fm_sqrtf(std[i] / (float)K);
     return 0;
 }
 

@@ -38,6 +38,11 @@ void la_eigen_sgemm(la_trans_t ta, la_trans_t tb, int M, int N, int K, float alp
 /* Name of the back end la_* dispatches to ("eigen" or "ref"). */
 const char *la_backend_name(void);
 
+/* For benchmarks and tests only: make la_* use the reference back end (ref != 0) or the
+ * board's back end (ref == 0), process-wide. Not to be called while another thread is inside
+ * la_*. Default: the board's back end. */
+void la_force_ref(int ref);
+
 #ifdef __cplusplus
 }
 #endif

@@ -1,15 +1,42 @@
-/* Pure-C reference GEMM. Blocking: op(B) is packed, KC x NC at a time, into a 16 KB stack
- * tile laid out row-major [k][j]; every row i of C then accumulates
- *     acc[j] += op(A)(i, k) * tile[k][j]
- * over the tile's k, an axpy over contiguous j that vectorises whatever the transposes are.
- * acc (NC floats) lives in L1 across the k loop and is added to C once per tile, so C is
- * touched K/KC times instead of K times. */
+/* Pure-C reference GEMM, written so GCC vectorises it without intrinsics (any target).
+ *
+ * Blocking (Goto style, sized for small stacks): for each KC-slice of k and NC-slice of j,
+ * op(B) is packed into Bp[k][j] (KC x NC, scaled by alpha); for each MC-slice of i, op(A) is
+ * packed into Ap[i][k] (MC x KC). The micro-kernel computes a MR x NR (4 x 16) block of C with
+ * its accumulators in a fixed-size local array that the compiler keeps in vector registers:
+ * per k, 4 broadcasts of Ap and 2 vector loads of Bp feed 8 FMAs. Edges use the same kernel
+ * on zero-padded packs. Packing handles the four transpose cases, so the kernel sees one
+ * layout. Stack use: (MC*KC + KC*NC) floats = 24 KB. */
 #include "ai/la.h"
 
 #include <stddef.h>
 
-#define KC 64
-#define NC 64
+#define MR 4
+#define NR 16
+#define KC 128
+#define MC 32
+#define NC 32
+
+static inline void micro_kernel(int kc, const float *restrict ap, const float *restrict bp,
+                                float *restrict c, int ldc, int mr, int nr)
+{
+    float acc[MR][NR];
+    for (int r = 0; r < MR; r++)
+        for (int j = 0; j < NR; j++)
+            acc[r][j] = 0.0f;
+    for (int k = 0; k < kc; k++) {
+        const float *b = bp + (size_t)k * NC;
+        const float *a = ap + (size_t)k;
+        for (int r = 0; r < MR; r++) {
+            const float av = a[(size_t)r * KC];
+            for (int j = 0; j < NR; j++)
+                acc[r][j] += av * b[j];
+        }
+    }
+    for (int r = 0; r < mr; r++)
+        for (int j = 0; j < nr; j++)
+            c[(size_t)r * ldc + j] += acc[r][j];
+}
 
 void la_ref_sgemm(la_trans_t ta, la_trans_t tb, int M, int N, int K, float alpha,
                   const float *A, int lda, const float *B, int ldb, float beta, float *C,
@@ -30,15 +57,14 @@ void la_ref_sgemm(la_trans_t ta, la_trans_t tb, int M, int N, int K, float alpha
     if (K <= 0 || alpha == 0.0f)
         return;
 
-    float tile[KC * NC];
-    float acc[NC];
-    for (int j0 = 0; j0 < N; j0 += NC) {
-        const int nc = N - j0 < NC ? N - j0 : NC;
-        for (int k0 = 0; k0 < K; k0 += KC) {
-            const int kc = K - k0 < KC ? K - k0 : KC;
-            /* pack op(B)[k0:k0+kc, j0:j0+nc], scaled by alpha */
+    float Bp[KC * NC];
+    float Ap[MC * KC];
+    for (int k0 = 0; k0 < K; k0 += KC) {
+        const int kc = K - k0 < KC ? K - k0 : KC;
+        for (int j0 = 0; j0 < N; j0 += NC) {
+            const int nc = N - j0 < NC ? N - j0 : NC;
             for (int k = 0; k < kc; k++) {
-                float *t = tile + (size_t)k * NC;
+                float *t = Bp + (size_t)k * NC;
                 if (tb == LA_NO_TRANS) {
                     const float *b = B + (size_t)(k0 + k) * ldb + j0;
                     for (int j = 0; j < nc; j++)
@@ -48,20 +74,31 @@ void la_ref_sgemm(la_trans_t ta, la_trans_t tb, int M, int N, int K, float alpha
                     for (int j = 0; j < nc; j++)
                         t[j] = alpha * b[(size_t)j * ldb];
                 }
+                for (int j = nc; j < NC; j++)
+                    t[j] = 0.0f;
             }
-            for (int i = 0; i < M; i++) {
-                for (int j = 0; j < nc; j++)
-                    acc[j] = 0.0f;
-                for (int k = 0; k < kc; k++) {
-                    const float a = ta == LA_NO_TRANS ? A[(size_t)i * lda + (k0 + k)]
-                                                      : A[(size_t)(k0 + k) * lda + i];
-                    const float *t = tile + (size_t)k * NC;
-                    for (int j = 0; j < nc; j++)
-                        acc[j] += a * t[j];
+            for (int i0 = 0; i0 < M; i0 += MC) {
+                const int mc = M - i0 < MC ? M - i0 : MC;
+                for (int i = 0; i < MC; i++) {
+                    float *t = Ap + (size_t)i * KC;
+                    if (i >= mc) {
+                        for (int k = 0; k < kc; k++)
+                            t[k] = 0.0f;
+                    } else if (ta == LA_NO_TRANS) {
+                        const float *a = A + (size_t)(i0 + i) * lda + k0;
+                        for (int k = 0; k < kc; k++)
+                            t[k] = a[k];
+                    } else {
+                        const float *a = A + (size_t)k0 * lda + (i0 + i);
+                        for (int k = 0; k < kc; k++)
+                            t[k] = a[(size_t)k * lda];
+                    }
                 }
-                float *c = C + (size_t)i * ldc + j0;
-                for (int j = 0; j < nc; j++)
-                    c[j] += acc[j];
+                for (int i = 0; i < mc; i += MR)
+                    for (int j = 0; j < nc; j += NR)
+                        micro_kernel(kc, Ap + (size_t)i * KC, Bp + j,
+                                     C + (size_t)(i0 + i) * ldc + (j0 + j), ldc,
+                                     mc - i < MR ? mc - i : MR, nc - j < NR ? nc - j : NR);
             }
         }
     }

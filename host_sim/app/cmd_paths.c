@@ -35,53 +35,76 @@ static void paths_usage(FILE *out)
 static const uint8_t PALETTE[8][3] = {{230, 25, 75}, {60, 180, 75}, {0, 130, 200}, {245, 130, 48},
                                       {145, 30, 180}, {70, 200, 200}, {240, 50, 230}, {128, 128, 0}};
 
-static void put_px(uint8_t *rgb, const sim_grid_t *g, int c, int r, const uint8_t *col)
+/* The picture: K x K pixels per grid cell (K chosen so the long side is about 1000 px). */
+typedef struct {
+    uint8_t *rgb;
+    int w, h, k;
+} canvas_t;
+
+static void put_px(canvas_t *cv, int x, int y, const uint8_t *col)
 {
-    if (c < 0 || r < 0 || c >= g->w || r >= g->h)
+    if (x < 0 || y < 0 || x >= cv->w || y >= cv->h)
         return;
-    uint8_t *p = rgb + 3 * ((size_t)r * (size_t)g->w + (size_t)c);
+    uint8_t *p = cv->rgb + 3 * ((size_t)y * (size_t)cv->w + (size_t)x);
     p[0] = col[0];
     p[1] = col[1];
     p[2] = col[2];
 }
 
+static void world_px(const sim_grid_t *g, const canvas_t *cv, double x, double y, int *px, int *py)
+{
+    *px = (int)floor((x - g->origin.x) / g->res * cv->k);
+    *py = (int)floor((y - g->origin.y) / g->res * cv->k);
+}
+
 static int draw_png(const sim_grid_t *g, const sim_path_t *paths, int n, const char *file)
 {
-    uint8_t *rgb = malloc((size_t)g->w * (size_t)g->h * 3);
-    if (rgb == NULL)
+    canvas_t cv;
+    int side = g->w > g->h ? g->w : g->h;
+    cv.k = side >= 1000 ? 1 : 1000 / side;
+    cv.w = g->w * cv.k;
+    cv.h = g->h * cv.k;
+    cv.rgb = malloc((size_t)cv.w * (size_t)cv.h * 3);
+    if (cv.rgb == NULL)
         return -ENOMEM;
-    for (size_t i = 0; i < (size_t)g->w * (size_t)g->h; i++) {
-        uint8_t v = g->cells[i] == SIM_CELL_FREE ? 255 : (g->cells[i] == SIM_CELL_WALL ? 0 : 190);
-        rgb[3 * i] = rgb[3 * i + 1] = rgb[3 * i + 2] = v;
-    }
+    for (int y = 0; y < cv.h; y++)
+        for (int x = 0; x < cv.w; x++) {
+            int c = g->cells[(size_t)(y / cv.k) * (size_t)g->w + (size_t)(x / cv.k)];
+            uint8_t v = c == SIM_CELL_FREE ? 255 : (c == SIM_CELL_WALL ? 0 : 190);
+            uint8_t col[3] = {v, v, v};
+            put_px(&cv, x, y, col);
+        }
     for (int k = 0; k < n; k++) {
         const uint8_t *col = PALETTE[k % 8];
         for (int i = 0; i + 1 < paths[k].n; i++) {
             double x0 = paths[k].p[i].x, y0 = paths[k].p[i].y, x1 = paths[k].p[i + 1].x, y1 = paths[k].p[i + 1].y;
-            int steps = (int)ceil(hypot(x1 - x0, y1 - y0) / (g->res * 0.5)) + 1;
+            int steps = (int)ceil(hypot(x1 - x0, y1 - y0) / g->res * cv.k) + 1;
             for (int s = 0; s <= steps; s++) {
                 double t = (double)s / steps;
-                int c, r;
-                (void)sim_grid_world_to_cell(g, x0 + t * (x1 - x0), y0 + t * (y1 - y0), &c, &r);
-                put_px(rgb, g, c, r, col);
+                int px, py;
+                world_px(g, &cv, x0 + t * (x1 - x0), y0 + t * (y1 - y0), &px, &py);
+                for (int d = 0; d < (cv.k > 2 ? 2 : 1); d++) {
+                    put_px(&cv, px + d, py, col);
+                    put_px(&cv, px, py + d, col);
+                }
             }
         }
         /* Waypoints as small crosses, the start as a filled square. */
         for (int i = 0; i < paths[k].n; i++) {
-            int c, r;
-            (void)sim_grid_world_to_cell(g, paths[k].p[i].x, paths[k].p[i].y, &c, &r);
-            int rad = i == 0 ? 4 : 1;
+            int px, py;
+            world_px(g, &cv, paths[k].p[i].x, paths[k].p[i].y, &px, &py);
+            int rad = i == 0 ? 3 * cv.k : cv.k;
             for (int d = -rad; d <= rad; d++)
                 for (int e = -rad; e <= rad; e++)
                     if (i == 0 || d == 0 || e == 0)
-                        put_px(rgb, g, c + d, r + e, col);
+                        put_px(&cv, px + d, py + e, col);
         }
     }
     char err[256];
-    int rc = sim_png_write_rgb(file, g->w, g->h, rgb, err, sizeof err);
+    int rc = sim_png_write_rgb(file, cv.w, cv.h, cv.rgb, err, sizeof err);
     if (rc != 0)
         fprintf(stderr, "host_sim paths: %s\n", err);
-    free(rgb);
+    free(cv.rgb);
     return rc;
 }
 
@@ -101,6 +124,19 @@ static void report(const sim_plan_t *plan, const sim_grid_t *g, const sim_path_t
                cl);
     }
     printf("min clearance to walls: %.3f m\n", min_clear);
+    /* Rooms with at least one waypoint: a room behind a door too narrow for the clearance
+     * would be missing here. */
+    int visited = 0;
+    for (int room = 0; room < plan->n_rooms; room++) {
+        int hit = 0;
+        for (int k = 0; k < n && !hit; k++)
+            for (int i = 0; i < paths[k].n && !hit; i++)
+                hit = sim_poly_contains(&plan->rooms[room].outline, paths[k].p[i].x, paths[k].p[i].y);
+        visited += hit;
+        if (!hit)
+            printf("room %d (%s) has no waypoint\n", room, plan->rooms[room].type);
+    }
+    printf("rooms with waypoints: %d of %d\n", visited, plan->n_rooms);
     printf("coverage of free cells (line of sight): %.1f%% within 1.5 m, %.1f%% within 3.5 m\n",
            100.0 * sim_paths_coverage(g, paths, n, 1.5), 100.0 * sim_paths_coverage(g, paths, n, 3.5));
 }

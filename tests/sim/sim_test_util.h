@@ -2,6 +2,7 @@
 #ifndef TESTS_SIM_TEST_UTIL_H
 #define TESTS_SIM_TEST_UTIL_H
 
+#include <math.h>
 #include <string.h>
 
 #include "sim_plan.h"

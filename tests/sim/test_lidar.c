@@ -9,7 +9,10 @@
 #include <cmocka.h>
 
 #include "alloc_count.h"
+#include "sim_grid.h"
 #include "sim_lidar.h"
+#include "sim_shape.h"
+#include "sim_valset.h"
 #include "sim_test_util.h"
 
 static void check_box_ranges(int as_mesh)
@@ -186,6 +189,51 @@ static void test_gps(void **st)
     assert_int_equal(sim_gps_read(&g, 1, 0, &t, &a), -EINVAL);
 }
 
+/* The default apartment (rectangles as boxes, cut walls as trimeshes): every noise-free hit
+ * lies on the boundary of a plan solid, and 4 mm before it the plan's own point classifier
+ * says "not a wall" (the ray did not pass through a wall first). */
+static void test_apartment_hits_on_solids(void **st)
+{
+    (void)st;
+    sim_plan_t p;
+    char err[256];
+    assert_int_equal(sim_plan_load("host_sim/plans/apartment.svg", 0.0, &p, err, sizeof err), 0);
+    sim_world_t *w;
+    assert_int_equal(sim_world_create(&p, NULL, &w, err, sizeof err), 0);
+    sim_valset_cfg_t vc = sim_valset_default_cfg();
+    vc.n_poses = 20;
+    sim_pose_t poses[20];
+    assert_int_equal(sim_valset_poses(&p, &vc, poses, err, sizeof err), 0);
+    sim_lidar_cfg_t c = sim_lidar_default_cfg();
+    c.noise_sigma = 0;
+    sim_lidar_t *l;
+    assert_int_equal(sim_lidar_create(&c, &l), 0);
+    float r[360];
+    double truth[360];
+    int hits = 0;
+    for (int k = 0; k < 20; k++) {
+        assert_int_equal(sim_lidar_scan(l, w, poses[k].x, poses[k].y, poses[k].theta, 0, 0, r, truth), 0);
+        for (int b = 0; b < 360; b++) {
+            if (!isfinite(truth[b]))
+                continue;
+            double a = poses[k].theta + b * sim_lidar_angle_inc(l);
+            double hx = poses[k].x + truth[b] * cos(a), hy = poses[k].y + truth[b] * sin(a);
+            double qx = poses[k].x + (truth[b] - 0.004) * cos(a);
+            double qy = poses[k].y + (truth[b] - 0.004) * sin(a);
+            double dmin = INFINITY;
+            for (int i = 0; i < p.n_solids; i++)
+                dmin = fmin(dmin, sim_shape_edge_distance(&p.solids[i].outline, hx, hy));
+            assert_true(dmin < 1e-5); /* trimesh hits are single precision (OPCODE) */
+            assert_int_not_equal(sim_plan_classify_point(&p, qx, qy), SIM_CELL_WALL);
+            hits++;
+        }
+    }
+    assert_true(hits > 20 * 360 / 2);
+    sim_lidar_destroy(l);
+    sim_world_destroy(w);
+    sim_plan_free(&p);
+}
+
 int main(void)
 {
     const struct CMUnitTest tests[] = {
@@ -195,6 +243,7 @@ int main(void)
         cmocka_unit_test(test_noise_deterministic_and_spread),
         cmocka_unit_test(test_bad_config),
         cmocka_unit_test(test_gps),
+        cmocka_unit_test(test_apartment_hits_on_solids),
     };
     return cmocka_run_group_tests(tests, NULL, NULL);
 }

@@ -14,15 +14,20 @@
 #include "sim_test_util.h"
 #include "sim_world.h"
 
-static sim_world_t *box_world(double W, double H, int as_mesh)
+static sim_world_t *box_world_cfg(double W, double H, int as_mesh, const sim_world_cfg_t *cfg)
 {
     static sim_solid_t s[4];
     sim_plan_t p;
     tu_box_room(&p, s, NULL, W, H, as_mesh);
     sim_world_t *w = NULL;
     char err[128];
-    assert_int_equal(sim_world_create(&p, NULL, &w, err, sizeof err), 0);
+    assert_int_equal(sim_world_create(&p, cfg, &w, err, sizeof err), 0);
     return w;
+}
+
+static sim_world_t *box_world(double W, double H, int as_mesh)
+{
+    return box_world_cfg(W, H, as_mesh, NULL);
 }
 
 static void test_create_validation(void **st)
@@ -75,10 +80,11 @@ static sim_pose_t arc(sim_pose_t p, double v, double om, double T)
     return q;
 }
 
-static void test_wheel_kinematics(void **st)
+static void wheel_kinematics(double mu_wheel)
 {
-    (void)st;
-    sim_world_t *w = box_world(8, 8, 0);
+    sim_world_cfg_t wc = sim_world_default_cfg();
+    wc.mu_wheel = mu_wheel;
+    sim_world_t *w = box_world_cfg(8, 8, 0, &wc);
     int id;
     assert_int_equal(sim_world_add_robot(w, NULL, (sim_pose_t){3.0, 3.0, 0.4}, &id), 0);
     const sim_robot_params_t *rp = sim_world_robot_params(w, id);
@@ -96,11 +102,12 @@ static void test_wheel_kinematics(void **st)
     sim_pose_t e = arc(p0, v, om, T);
     double pos_err = hypot(p1.x - e.x, p1.y - e.y);
     double th_err = fabs(rt_wrap_angle((float)(p1.theta - e.theta)));
-    print_message("arc: travelled %.3f m, position error %.5f m, heading error %.5f rad\n",
-                  v * T, pos_err, th_err);
+    print_message("arc (mu_wheel %g): travelled %.3f m, position error %.5f m, heading error %.5f rad\n",
+                  mu_wheel, v * T, pos_err, th_err);
     /* Tolerance: with the exact solver the motors hold their speed, and what remains is
      * the soft contact (each sphere wheel sinks a fraction of a millimetre, changing the
-     * rolling radius by < 0.1%) and Coulomb creep on the turn; measured 0.5 mm and 1.3e-4 rad at dt = 0.01 s.
+     * rolling radius by < 0.1%) and, with Coulomb friction, creep on the turn; measured
+     * 0.2 mm / 1.1e-4 rad (no slip) and 0.5 mm / 1.3e-4 rad (mu 1) at dt = 0.01 s.
      * 0.5% of the 0.79 m travelled (4 mm) and 0.005 rad (0.2% of the 2.5 rad turned) keep
      * margin while catching any error in radius, separation or sign (>= 3% errors), and
      * catch the ~1% drift of an under-converged iterative solver. */
@@ -112,6 +119,13 @@ static void test_wheel_kinematics(void **st)
     assert_float_equal(r, wr, 0.05);
     assert_int_equal((int)sim_world_collisions(w, id), 0);
     sim_world_destroy(w);
+}
+
+static void test_wheel_kinematics(void **st)
+{
+    (void)st;
+    wheel_kinematics(INFINITY); /* the default: no-slip wheels */
+    wheel_kinematics(1.0);      /* Coulomb friction, mu = 1 */
 }
 
 static void test_twist_limits(void **st)

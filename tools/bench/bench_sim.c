@@ -18,6 +18,13 @@
 #include "sim_shape.h"
 #include "sim_world.h"
 
+static double cpu_s(void)
+{
+    struct timespec ts;
+    clock_gettime(CLOCK_PROCESS_CPUTIME_ID, &ts);
+    return (double)ts.tv_sec + 1e-9 * (double)ts.tv_nsec;
+}
+
 static double now_s(void)
 {
     struct timespec ts;
@@ -91,6 +98,7 @@ int main(int argc, char **argv)
         poses[i] = pick_pose(&plan, (uint64_t)i);
     long rays = 0;
     double hits = 0;
+    double c_start = cpu_s();
     double t0 = now_s(), t1 = t0;
     for (int rep = 0; t1 - t0 < 1.0; rep++) {
         for (int i = 0; i < NPOSE; i++) {
@@ -103,8 +111,8 @@ int main(int argc, char **argv)
         rays += NPOSE * 360;
         t1 = now_s();
     }
-    printf("# %ld rays in %.3f s, %.1f%% hits, %d solids\n", rays, t1 - t0, 100.0 * hits / rays,
-           plan.n_solids);
+    printf("# %ld rays in %.3f s, %.1f%% hits, %d solids; %.0f rays/s on process CPU time\n", rays,
+           t1 - t0, 100.0 * hits / rays, plan.n_solids, (double)rays / (cpu_s() - c_start));
     printf("BENCH lidar_rays_per_s %.0f rays/s\n", (double)rays / (t1 - t0));
 
     /* 2. one robot: physics at dt plus a 360-beam scan every 0.1 simulated seconds. */
@@ -114,6 +122,7 @@ int main(int argc, char **argv)
         return 1;
     int steps_per_scan = (int)lround(0.1 / sim_world_dt(w));
     int n_scans = (int)ceil(sim_seconds * 10.0);
+    double t_scan = 0.0, c0 = cpu_s();
     t0 = now_s();
     for (int s = 0; s < n_scans; s++) {
         /* Gentle arcs, alternating direction every 5 s. */
@@ -121,15 +130,21 @@ int main(int argc, char **argv)
         if (sim_world_set_twist(w, id, 0.15, omega) < 0 || sim_world_step(w, steps_per_scan) < 0)
             return 1;
         sim_pose_t p;
+        double ts = now_s();
         if (sim_world_pose(w, id, &p) < 0 ||
             sim_lidar_scan(lid, w, p.x, p.y, p.theta, 0, (uint64_t)s, ranges, NULL) < 0)
             return 1;
+        t_scan += now_s() - ts;
     }
     t1 = now_s();
+    double cpu = cpu_s() - c0;
     double simulated = sim_world_time(w);
     printf("# %.1f simulated s (%d steps of %.4f s, %d scans) in %.3f wall s, %llu collisions\n",
            simulated, n_scans * steps_per_scan, sim_world_dt(w), n_scans, t1 - t0,
            (unsigned long long)sim_world_collisions(w, id));
+    printf("# of which lidar %.3f s, physics %.1f us per step; %.1f x on process CPU time "
+           "(insensitive to other load on the core)\n",
+           t_scan, 1e6 * (t1 - t0 - t_scan) / (n_scans * steps_per_scan), simulated / cpu);
     printf("BENCH sim_realtime_factor_1robot %.1f x\n", simulated / (t1 - t0));
     sim_lidar_destroy(lid);
     sim_world_destroy(w);

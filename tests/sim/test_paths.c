@@ -1,0 +1,227 @@
+/* Robot tours on the default plan (distinct start rooms, clearance on every segment,
+ * coverage, determinism), the committed CSV files, and CSV validation. */
+#include <setjmp.h>
+#include <stdarg.h>
+#include <stddef.h>
+#include <stdint.h>
+#include <errno.h>
+#include <math.h>
+#include <stdio.h>
+#include <stdlib.h>
+#include <string.h>
+#include <unistd.h>
+#include <cmocka.h>
+
+#include "alloc_count.h"
+#include "sim_grid.h"
+#include "sim_paths.h"
+#include "sim_plan.h"
+
+#define N_ROBOTS 7
+
+static sim_plan_t plan;
+static sim_grid_t grid;
+
+static int setup(void **state)
+{
+    (void)state;
+    char err[256];
+    if (sim_plan_load("host_sim/plans/apartment.svg", 0.0, &plan, err, sizeof err) != 0)
+        return -1;
+    return sim_grid_from_plan(&plan, 0.05, &grid);
+}
+
+static int teardown(void **state)
+{
+    (void)state;
+    sim_grid_free(&grid);
+    sim_plan_free(&plan);
+    return 0;
+}
+
+/* Checks a fleet of tours: clearance of every segment (exact geometry), waypoints FREE,
+ * coverage >= 90% of free cells within 1.5 m with line of sight, every room visited. */
+static void check_fleet(const sim_path_t *paths, int n, double clearance)
+{
+    int *visited = calloc((size_t)plan.n_rooms, sizeof *visited);
+    assert_non_null(visited);
+    for (int r = 0; r < n; r++) {
+        assert_true(paths[r].n >= 2);
+        alloc_count_reset();
+        double cl = sim_path_min_clearance(&plan, &paths[r]);
+        if (cl < clearance)
+            fail_msg("robot %d: clearance %.4f < %.4f", r, cl, clearance);
+        assert_int_equal(alloc_count_allocations(), 0);
+        for (int i = 0; i < paths[r].n; i++) {
+            assert_int_equal(sim_plan_classify_point(&plan, paths[r].p[i].x, paths[r].p[i].y), SIM_CELL_FREE);
+            int room = sim_plan_room_at(&plan, paths[r].p[i].x, paths[r].p[i].y);
+            if (room >= 0)
+                visited[room] = 1;
+        }
+    }
+    for (int k = 0; k < plan.n_rooms; k++)
+        if (!visited[k])
+            fail_msg("room %d (%s) is visited by no robot", k, plan.rooms[k].type);
+    free(visited);
+    double cov = sim_paths_coverage(&grid, paths, n, 1.5);
+    if (cov < 0.9)
+        fail_msg("coverage %.3f < 0.9", cov);
+}
+
+static void test_generate_default_plan(void **state)
+{
+    (void)state;
+    sim_paths_cfg_t cfg;
+    sim_paths_cfg_default(&cfg);
+    assert_int_equal(cfg.n_robots, 7);
+    assert_true(cfg.clearance_m == 0.2);
+    sim_path_t a[N_ROBOTS], b[N_ROBOTS];
+    char err[256];
+    assert_int_equal(sim_paths_generate(&plan, &cfg, a, err, sizeof err), 0);
+    /* N distinct start rooms, and each path starts in its start room. */
+    for (int r = 0; r < N_ROBOTS; r++) {
+        assert_true(a[r].start_room >= 0 && a[r].start_room < plan.n_rooms);
+        assert_int_equal(sim_plan_room_at(&plan, a[r].p[0].x, a[r].p[0].y), a[r].start_room);
+        for (int q = 0; q < r; q++)
+            assert_int_not_equal(a[r].start_room, a[q].start_room);
+    }
+    check_fleet(a, N_ROBOTS, cfg.clearance_m);
+    /* Deterministic. */
+    assert_int_equal(sim_paths_generate(&plan, &cfg, b, err, sizeof err), 0);
+    for (int r = 0; r < N_ROBOTS; r++) {
+        assert_int_equal(a[r].n, b[r].n);
+        assert_memory_equal(a[r].p, b[r].p, (size_t)a[r].n * sizeof *a[r].p);
+        sim_path_free(&a[r]);
+        sim_path_free(&b[r]);
+    }
+}
+
+static void test_other_fleets(void **state)
+{
+    (void)state;
+    sim_paths_cfg_t cfg;
+    sim_paths_cfg_default(&cfg);
+    sim_path_t p[8];
+    char err[256];
+    /* Fewer robots than rooms: every room still visited; a larger clearance still works. */
+    int counts[] = {1, 3, 8};
+    for (int t = 0; t < 3; t++) {
+        cfg.n_robots = counts[t];
+        cfg.seed = 5 + (uint64_t)t;
+        cfg.clearance_m = t == 1 ? 0.3 : 0.2;
+        assert_int_equal(sim_paths_generate(&plan, &cfg, p, err, sizeof err), 0);
+        check_fleet(p, cfg.n_robots, cfg.clearance_m);
+        for (int r = 0; r < cfg.n_robots; r++)
+            sim_path_free(&p[r]);
+    }
+    /* More robots than rooms: a clear error, nothing allocated left behind. */
+    cfg.n_robots = 9;
+    cfg.clearance_m = 0.2;
+    sim_path_t q[9];
+    assert_int_equal(sim_paths_generate(&plan, &cfg, q, err, sizeof err), -EINVAL);
+    assert_non_null(strstr(err, "8 reachable rooms"));
+    for (int r = 0; r < 9; r++)
+        assert_null(q[r].p);
+    /* Doors of 0.8-1.0 m cannot pass a 0.45 m clearance: rooms become unreachable. */
+    cfg.n_robots = 7;
+    cfg.clearance_m = 0.45;
+    assert_true(sim_paths_generate(&plan, &cfg, q, err, sizeof err) < 0);
+    cfg.n_robots = 0;
+    assert_int_equal(sim_paths_generate(&plan, &cfg, q, err, sizeof err), -EINVAL);
+    assert_non_null(strstr(err, "robots 0"));
+}
+
+/* The committed tours of the default plan parse, keep clearance and cover the plan. */
+static void test_committed_paths(void **state)
+{
+    (void)state;
+    sim_path_t p[N_ROBOTS];
+    char err[256], file[128];
+    for (int r = 0; r < N_ROBOTS; r++) {
+        snprintf(file, sizeof file, "host_sim/plans/apartment/robot_%d.csv", r);
+        if (sim_path_read_csv(file, &plan, &p[r], err, sizeof err) != 0)
+            fail_msg("%s", err);
+    }
+    for (int r = 0; r < N_ROBOTS; r++)
+        for (int q = 0; q < r; q++)
+            assert_int_not_equal(sim_plan_room_at(&plan, p[r].p[0].x, p[r].p[0].y),
+                                 sim_plan_room_at(&plan, p[q].p[0].x, p[q].p[0].y));
+    /* Written with 1 mm precision: allow that much. */
+    check_fleet(p, N_ROBOTS, 0.2 - 0.001);
+    for (int r = 0; r < N_ROBOTS; r++)
+        sim_path_free(&p[r]);
+}
+
+static void test_csv_round_trip(void **state)
+{
+    (void)state;
+    sim_path_t a = {0}, b = {0};
+    sim_vec2_t pts[3] = {{1.0, 1.0}, {2.5, 1.25}, {6.0, 4.4}};
+    a.n = 3;
+    a.p = pts;
+    char dir[] = "/tmp/test_paths_XXXXXX", file[64], err[256];
+    assert_non_null(mkdtemp(dir));
+    snprintf(file, sizeof file, "%s/r.csv", dir);
+    assert_int_equal(sim_path_write_csv(&a, file, err, sizeof err), 0);
+    assert_int_equal(sim_path_read_csv(file, &plan, &b, err, sizeof err), 0);
+    assert_int_equal(b.n, 3);
+    for (int i = 0; i < 3; i++)
+        assert_true(fabs(b.p[i].x - pts[i].x) < 1e-9 && fabs(b.p[i].y - pts[i].y) < 1e-9);
+    assert_int_equal(b.start_room, -1);
+    sim_path_free(&b);
+    unlink(file);
+    rmdir(dir);
+    a.n = 1;
+    assert_true(sim_path_write_csv(&a, file, err, sizeof err) < 0);
+    assert_true(sim_path_read_csv("/no/such.csv", &plan, &b, err, sizeof err) < 0);
+    assert_non_null(strstr(err, "/no/such.csv:0: cannot open"));
+}
+
+static void expect_csv_error(const char *text, int line, const char *what)
+{
+    sim_path_t p;
+    char err[256], prefix[32];
+    int rc = sim_path_parse_csv(text, "r.csv", &plan, &p, err, sizeof err);
+    if (rc >= 0)
+        fail_msg("accepted, expected error at line %d (%s)", line, what);
+    snprintf(prefix, sizeof prefix, "r.csv:%d: ", line);
+    if (strncmp(err, prefix, strlen(prefix)) != 0 || strstr(err, what) == NULL)
+        fail_msg("message '%s', expected prefix '%s' and '%s'", err, prefix, what);
+    assert_null(p.p);
+    assert_int_equal(p.n, 0);
+}
+
+static void test_csv_validation(void **state)
+{
+    (void)state;
+    sim_path_t p;
+    char err[256];
+    /* Comments, blank lines, CRLF and spaces are fine. */
+    assert_int_equal(sim_path_parse_csv("# tour\r\nx_m,y_m\r\n\r\n 1.0 , 1.0\r\n# mid\n2.0,1.5\n", "r.csv", &plan,
+                                        &p, err, sizeof err), 0);
+    assert_int_equal(p.n, 2);
+    sim_path_free(&p);
+    expect_csv_error("", 1, "empty file");
+    expect_csv_error("x,y\n1,1\n2,2\n", 1, "header");
+    expect_csv_error("x_m,y_m\n1,1\n2,2\n3\n", 4, "expected 'x,y'");
+    expect_csv_error("x_m,y_m\n1,1\n2,abc\n", 3, "bad number");
+    expect_csv_error("x_m,y_m\n1,1\n2,inf\n", 3, "bad number");
+    expect_csv_error("x_m,y_m\n1,1\n2,\n", 3, "bad number");
+    expect_csv_error("x_m,y_m\n1,1,1\n", 2, "more than 2 fields");
+    expect_csv_error("x_m,y_m\n1,1\n0.1,0.1\n", 3, "inside a wall");
+    expect_csv_error("x_m,y_m\n1,1\n50,50\n", 3, "outside");
+    expect_csv_error("x_m,y_m\n1,1\n", 2, "at least 2");
+    expect_csv_error("x_m,y_m\n1,1\n1,1\n\n", 4, "at least 2");
+}
+
+int main(void)
+{
+    const struct CMUnitTest tests[] = {
+        cmocka_unit_test(test_generate_default_plan),
+        cmocka_unit_test(test_other_fleets),
+        cmocka_unit_test(test_committed_paths),
+        cmocka_unit_test(test_csv_round_trip),
+        cmocka_unit_test(test_csv_validation),
+    };
+    return cmocka_run_group_tests(tests, setup, teardown);
+}
