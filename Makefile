@@ -167,7 +167,7 @@ $(BIN)/bench_%: $(O)/obj/tools/bench/bench_%.c.o $(LIBS)
 # One program per tests/<module>/test_<name>.c, linked with the allocation counter.
 $(O)/tests/%: $(O)/obj/tests/%.c.o $(LIB)/libtestsupport.a $(LIBS)
 	@mkdir -p $(@D)
-	$(CXX) $(OPT) $< $(LIB)/libtestsupport.a $(LINK_LIBS) -lcmocka $(WRAP) -o $@
+	$(CXX) $(OPT) $< -Wl,--start-group $(LIB)/libtestsupport.a $(LIBS) -Wl,--end-group $(SYS_LIBS) -lcmocka $(WRAP) -o $@
 
 # ---- targets ----------------------------------------------------------------------------
 .PHONY: all layering deps run test test-asan test-tsan tests bench bench-one clean help cross

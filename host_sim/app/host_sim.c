@@ -6,11 +6,19 @@
 
 int cmd_plan(int argc, char **argv);  /* cmd_plan.c */
 int cmd_paths(int argc, char **argv); /* cmd_paths.c */
+int cmd_scan(int argc, char **argv);   /* cmd_scan.c */
+int cmd_valset(int argc, char **argv); /* cmd_valset.c */
+int cmd_render(int argc, char **argv); /* cmd_render.c */
+int cmd_fleet(int argc, char **argv); /* cmd_fleet.c */
 
 /* One row per sub-command, in the order `--help` lists them. */
 static const host_sim_cmd_t commands[] = {
     {"plan", cmd_plan, "floor plans: check an SVG plan, generate one, rasterise the ground truth"},
     {"paths", cmd_paths, "robot waypoint tours: generate for N robots, check CSV files"},
+    {"scan", cmd_scan, "drive one robot along its path in the ODE world, write its lidar samples"},
+    {"valset", cmd_valset, "validation set: random free poses x noise-free labelled scans"},
+    {"render", cmd_render, "offscreen 3D image (PNG) of the plan, robots, paths and a lidar sweep"},
+    {"fleet", cmd_fleet, "DiNNO fleet in one process (--inproc): train N BNNs, baselines, metrics, maps"},
     {NULL, NULL, NULL},
 };
 

@@ -1,0 +1,120 @@
+/* Branch-free single-precision exp, log, log1p and sincos for the AI core's hot loops.
+ *
+ * Why: glibc's scalar expf/logf/sinf calls stop GCC from vectorising the loops that draw
+ * Gaussians, evaluate the SIREN layer and softplus; these inline versions are plain C
+ * (bit manipulation through memcpy, selects instead of branches) so the loops vectorise
+ * at -O3 on any target, and they give bit-identical results whatever the LA back end.
+ * Accuracy (Cephes polynomials): a few ulp over the ranges used here:
+ *   ai_fm_expf: x in [-87, 88];  ai_fm_logf: x > 0 normal;  ai_fm_sincosf: |x| < 8192.
+ */
+#ifndef AI_FASTMATH_H
+#define AI_FASTMATH_H
+
+#include <stdint.h>
+#include <string.h>
+
+static inline float ai_fm_bits2f(uint32_t u)
+{
+    float f;
+    memcpy(&f, &u, sizeof f);
+    return f;
+}
+
+static inline uint32_t ai_fm_f2bits(float f)
+{
+    uint32_t u;
+    memcpy(&u, &f, sizeof u);
+    return u;
+}
+
+/* c ? a : b on the bit patterns. Both values are computed before the choice, so GCC's
+ * if-conversion never has to speculate a floating-point operation (which it refuses under the
+ * default -ftrapping-math, and then does not vectorise the loop). */
+static inline float ai_fm_sel(int c, float a, float b)
+{
+    const uint32_t mask = (uint32_t)0 - (uint32_t)(c != 0);
+    return ai_fm_bits2f((ai_fm_f2bits(a) & mask) | (ai_fm_f2bits(b) & ~mask));
+}
+
+static inline float ai_fm_expf(float x)
+{
+    x = ai_fm_sel(x < -87.0f, -87.0f, x);
+    x = ai_fm_sel(x > 88.0f, 88.0f, x);
+    float fx = x * 1.44269504088896341f;
+    /* round to nearest without lrintf (keeps the loop vectorisable) */
+    float n = (float)(int32_t)(fx + ai_fm_sel(fx >= 0.0f, 0.5f, -0.5f));
+    float r = x - n * 0.693359375f;
+    r = r - n * -2.12194440e-4f;
+    float z = r * r;
+    float y = ((((( 1.9875691500E-4f * r + 1.3981999507E-3f) * r + 8.3334519073E-3f) * r
+                 + 4.1665795894E-2f) * r + 1.6666665459E-1f) * r + 5.0000001201E-1f);
+    y = y * z + r + 1.0f;
+    int32_t e = (int32_t)n + 127;
+    return y * ai_fm_bits2f((uint32_t)e << 23);
+}
+
+/* x > 0, finite, normal. */
+static inline float ai_fm_logf(float x)
+{
+    uint32_t u = ai_fm_f2bits(x);
+    int32_t e = (int32_t)(u >> 23) - 127;
+    float m = ai_fm_bits2f((u & 0x007fffffu) | 0x3f800000u); /* [1, 2) */
+    int big = m > 1.41421356f;
+    m = ai_fm_sel(big, m * 0.5f, m);
+    e += big;
+    float fe = (float)e;
+    float t = m - 1.0f;
+    float z = t * t;
+    float y = ((((((((7.0376836292E-2f * t - 1.1514610310E-1f) * t + 1.1676998740E-1f) * t
+                   - 1.2420140846E-1f) * t + 1.4249322787E-1f) * t - 1.6668057665E-1f) * t
+                + 2.0000714765E-1f) * t - 2.4999993993E-1f) * t + 3.3333331174E-1f) * t * z;
+    y += fe * -2.12194440e-4f;
+    y += -0.5f * z;
+    t = t + y;
+    return t + fe * 0.693359375f;
+}
+
+/* sqrt(x) for x >= 0 (x < 1e-30 gives 0): inverse square root by the bit trick and three
+ * Newton steps (libm's sqrtf keeps errno handling, which stops vectorisation). */
+static inline float ai_fm_sqrtf(float x)
+{
+    const float xs = ai_fm_sel(x > 1e-30f, x, 1e-30f);
+    float y = ai_fm_bits2f(0x5f3759dfu - (ai_fm_f2bits(xs) >> 1));
+    y = y * (1.5f - 0.5f * xs * y * y);
+    y = y * (1.5f - 0.5f * xs * y * y);
+    y = y * (1.5f - 0.5f * xs * y * y);
+    const float r = xs * y;
+    return ai_fm_sel(x > 1e-30f, r, 0.0f);
+}
+
+/* log(1 + u) for u >= 0 (Kahan's trick keeps it accurate for tiny u). */
+static inline float ai_fm_log1pf(float u)
+{
+    float w = 1.0f + u;
+    float d = w - 1.0f;
+    float l = ai_fm_logf(w);
+    float r = l * (u / ai_fm_sel(d == 0.0f, 1.0f, d));
+    return ai_fm_sel(d == 0.0f, u, r);
+}
+
+static inline void ai_fm_sincosf(float x, float *s, float *c)
+{
+    float ax = x < 0.0f ? -x : x;
+    int32_t j = (int32_t)(ax * 1.27323954473516f);
+    j = (j + 1) & ~1;
+    float y = (float)j;
+    float r = ((ax - y * 0.78515625f) - y * 2.4187564849853515625e-4f) - y * 3.77489497744594108e-8f;
+    float z = r * r;
+    float ps = ((-1.9515295891E-4f * z + 8.3321608736E-3f) * z - 1.6666654611E-1f) * z * r + r;
+    float pc = ((2.443315711809948E-5f * z - 1.388731625493765E-3f) * z + 4.166664568298827E-2f) * z * z
+               - 0.5f * z + 1.0f;
+    int32_t q = (j >> 1) & 3;
+    float sv = (q & 1) ? pc : ps;
+    float cv = (q & 1) ? ps : pc;
+    sv = (q & 2) ? -sv : sv;
+    cv = ((q + 1) & 2) ? -cv : cv;
+    *s = x < 0.0f ? -sv : sv;
+    *c = cv;
+}
+
+#endif /* AI_FASTMATH_H */

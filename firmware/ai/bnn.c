@@ -1,0 +1,666 @@
+/* BNN trainer: see bnn.h for the contract and the parameter layout.
+ *
+ * Implementation notes (why it looks the way it does):
+ * - Activations are row-major [n x width]; a Bayesian layer's forward is ONE GEMM
+ *   h_l = h_{l-1} W^T (la_sgemm N,T), its backward two GEMMs: dW = da^T h_{l-1} (T,N) and
+ *   dh_{l-1} = da W (N,N). Everything else is a fused elementwise pass written so GCC
+ *   vectorises it (ai_fastmath.h instead of libm calls in hot loops).
+ * - The Bayesian mu block of theta (after the SIREN tensors) and the rho group have the same
+ *   element order, so rho element j pairs with theta[3S + j]; the sampled weights, eps and
+ *   sigma buffers use that order too, and one pass over j does sampling (forward) or the
+ *   reparameterisation + KL gradient (backward).
+ * - d total / d rho = (dL/dw * eps + c * (sigma/p^2 - 1/sigma)) * sigmoid(rho),
+ *   d total / d mu   =  dL/dw + c * mu / p^2,     c = kl_weight / (elements of the tensor),
+ *   using KL = log(p/s) + (s^2 + mu^2)/(2p^2) - 1/2 and d softplus / d rho = sigmoid(rho).
+ */
+#include "ai/bnn.h"
+
+#include <errno.h>
+#include <math.h>
+#include <string.h>
+
+#include "ai/ai_fastmath.h"
+#include "ai/ai_rng.h"
+#include "ai/la.h"
+
+_Static_assert(BNN_SIREN_MAX >= 1 && BNN_HIDDEN_MAX >= 1 && BNN_LAYERS_MAX >= 1, "preset dims");
+_Static_assert(BNN_MAX_BATCH >= 1 && BNN_MAX_BATCH <= (1u << 20), "preset batch");
+
+#define INIT_STREAM 0x1A17ull     /* stream of the initialisation uniforms */
+#define SEED_SALT 0xB4B1ull      /* model seed -> Philox key */
+
+typedef struct layout {
+    size_t S, H, L, B, W;            /* widths, layers, max batch, max(S,H) */
+    size_t lay_off[BNN_LAYERS_MAX];  /* layer l's W within the Bayesian block / rho group */
+    size_t lay_in[BNN_LAYERS_MAX];
+    size_t R;                        /* Bayesian block length = n_rho */
+    size_t bay;                      /* theta offset of the Bayesian mu block (3S) */
+    size_t wout, bout, n_mu, P;
+    /* arena regions (floats) */
+    size_t grads, am, av, wsamp, eps, sigma, xy, cos0, h0, h, g1, g2, logit, dlogit;
+} layout_t;
+
+static void make_layout(const bnn_config_t *c, layout_t *y)
+{
+    y->S = c->siren_width;
+    y->H = c->hidden_width;
+    y->L = c->n_bayes;
+    y->B = c->max_batch;
+    y->W = y->S > y->H ? y->S : y->H;
+    size_t off = 0;
+    for (size_t l = 0; l < y->L; l++) {
+        y->lay_off[l] = off;
+        y->lay_in[l] = l == 0 ? y->S : y->H;
+        off += y->lay_in[l] * y->H + y->H;
+    }
+    y->R = off;
+    y->bay = 3 * y->S;
+    y->wout = y->bay + y->R;
+    y->bout = y->wout + y->H;
+    y->n_mu = y->bout + 1;
+    y->P = y->n_mu + y->R;
+    y->grads = y->P;
+    y->am = 2 * y->P;
+    y->av = 3 * y->P;
+    y->wsamp = 4 * y->P;
+    y->eps = y->wsamp + y->R;
+    y->sigma = y->eps + y->R;
+    /* Activations are sized for the preset batch so a smaller runtime config never overlaps. */
+    const size_t B = BNN_MAX_BATCH;
+    y->xy = y->sigma + y->R;
+    y->cos0 = y->xy + 2 * B;
+    y->h0 = y->cos0 + B * y->S;
+    y->h = y->h0 + B * y->S;
+    y->g1 = y->h + B * y->L * y->H;
+    y->g2 = y->g1 + B * y->W;
+    y->logit = y->g2 + B * y->W;
+    y->dlogit = y->logit + B;
+}
+
+bnn_config_t bnn_default_config(void)
+{
+    bnn_config_t c = {
+        .siren_width = BNN_SIREN_MAX,
+        .hidden_width = BNN_HIDDEN_MAX,
+        .n_bayes = BNN_LAYERS_MAX,
+        .max_batch = BNN_MAX_BATCH,
+        .w0 = BNN_W0,
+        .rho_init = BNN_RHO_INIT,
+        .prior_sigma = BNN_PRIOR_SIGMA,
+    };
+    return c;
+}
+
+size_t bnn_get_buffer_size(void)
+{
+    return BNN_ARENA_BYTES;
+}
+
+static int config_ok(const bnn_config_t *c)
+{
+    return c->siren_width >= 1 && c->siren_width <= BNN_SIREN_MAX && c->hidden_width >= 1 &&
+           c->hidden_width <= BNN_HIDDEN_MAX && c->n_bayes >= 1 && c->n_bayes <= BNN_LAYERS_MAX &&
+           c->max_batch >= 1 && c->max_batch <= BNN_MAX_BATCH && isfinite(c->w0) && c->w0 > 0.0f &&
+           isfinite(c->rho_init) && isfinite(c->prior_sigma) && c->prior_sigma > 0.0f;
+}
+
+static uint64_t philox_key(const bnn_model_t *m)
+{
+    return ai_rng_mix64(m->seed ^ SEED_SALT);
+}
+
+/* theta[off .. off+len) = U(-a, a) from the init stream, numbers [first, first+len). */
+static void init_uniform(bnn_model_t *m, size_t off, size_t len, float a)
+{
+    float *t = m->arena + off;
+    ai_rng_uniform_fill(philox_key(m), INIT_STREAM, off, t, len);
+    for (size_t i = 0; i < len; i++)
+        t[i] = a * (2.0f * t[i] - 1.0f);
+}
+
+int bnn_init(bnn_model_t *m, const bnn_config_t *cfg, uint64_t seed)
+{
+    if (!m)
+        return -EINVAL;
+    bnn_config_t c = cfg ? *cfg : bnn_default_config();
+    if (!config_ok(&c))
+        return -EINVAL;
+    layout_t y;
+    make_layout(&c, &y);
+    if (y.dlogit + BNN_MAX_BATCH > BNN_ARENA_FLOATS)
+        return -EINVAL; /* cannot happen for valid configs; kept as a guard */
+    memset(m, 0, offsetof(bnn_model_t, arena));
+    m->cfg = c;
+    m->seed = seed;
+    m->n_params = y.P;
+    m->n_mu = y.n_mu;
+    m->n_rho = y.R;
+    for (int g = 0; g < 2; g++) {
+        m->adam[g].beta1 = 0.9f;
+        m->adam[g].beta2 = 0.999f;
+        m->adam[g].eps = 1e-8f;
+        m->adam[g].t = 0;
+    }
+    memset(m->arena, 0, 4 * y.P * sizeof(float)); /* theta, grads, Adam moments */
+    init_uniform(m, 0, 3 * y.S, 1.0f / (float)BNN_IN);
+    for (size_t l = 0; l < y.L; l++) {
+        size_t n = y.lay_in[l] * y.H + y.H;
+        init_uniform(m, y.bay + y.lay_off[l], n, 1.0f / sqrtf((float)y.lay_in[l]));
+        float *rho = m->arena + y.n_mu + y.lay_off[l];
+        for (size_t i = 0; i < n; i++)
+            rho[i] = c.rho_init;
+    }
+    init_uniform(m, y.wout, y.H + 1, 1.0f / sqrtf((float)y.H));
+    return 0;
+}
+
+float *bnn_params(bnn_model_t *m)
+{
+    return m ? m->arena : NULL;
+}
+
+const float *bnn_params_const(const bnn_model_t *m)
+{
+    return m ? m->arena : NULL;
+}
+
+float *bnn_grads(bnn_model_t *m)
+{
+    return m ? m->arena + m->n_params : NULL;
+}
+
+size_t bnn_n_params(const bnn_model_t *m)
+{
+    return m ? m->n_params : 0;
+}
+
+size_t bnn_group_offset(const bnn_model_t *m, bnn_group_t g)
+{
+    return (m && g == BNN_GROUP_RHO) ? m->n_mu : 0;
+}
+
+size_t bnn_group_len(const bnn_model_t *m, bnn_group_t g)
+{
+    if (!m)
+        return 0;
+    switch (g) {
+    case BNN_GROUP_MU:
+        return m->n_mu;
+    case BNN_GROUP_RHO:
+        return m->n_rho;
+    case BNN_GROUP_ALL:
+        return m->n_params;
+    }
+    return 0;
+}
+
+size_t bnn_rho_to_mu(const bnn_model_t *m, size_t j)
+{
+    return 3u * (size_t)m->cfg.siren_width + j;
+}
+
+size_t bnn_tensors(const bnn_model_t *m, bnn_tensor_t *out, size_t max_out)
+{
+    if (!m || !out)
+        return 0;
+    layout_t y;
+    make_layout(&m->cfg, &y);
+    size_t k = 0;
+#define PUT(off_, rows_, cols_, grp_, lay_, bias_)                                               \
+    do {                                                                                       \
+        if (k < max_out)                                                                       \
+            out[k] = (bnn_tensor_t){(off_), (uint32_t)(rows_), (uint32_t)(cols_), (grp_),      \
+                                    (lay_), (bias_)};                                          \
+        k++;                                                                                   \
+    } while (0)
+    PUT(0, y.S, BNN_IN, BNN_GROUP_MU, 0, 0);
+    PUT(2 * y.S, 1, y.S, BNN_GROUP_MU, 0, 1);
+    for (size_t l = 0; l < y.L; l++) {
+        size_t o = y.bay + y.lay_off[l];
+        PUT(o, y.H, y.lay_in[l], BNN_GROUP_MU, (int)l + 1, 0);
+        PUT(o + y.H * y.lay_in[l], 1, y.H, BNN_GROUP_MU, (int)l + 1, 1);
+    }
+    PUT(y.wout, 1, y.H, BNN_GROUP_MU, -1, 0);
+    PUT(y.bout, 1, 1, BNN_GROUP_MU, -1, 1);
+    for (size_t l = 0; l < y.L; l++) {
+        size_t o = y.n_mu + y.lay_off[l];
+        PUT(o, y.H, y.lay_in[l], BNN_GROUP_RHO, (int)l + 1, 0);
+        PUT(o + y.H * y.lay_in[l], 1, y.H, BNN_GROUP_RHO, (int)l + 1, 1);
+    }
+#undef PUT
+    return k < max_out ? k : max_out;
+}
+
+/* ---- math helpers ----------------------------------------------------------------------- */
+float bnn_softplus(float r)
+{
+    float e = ai_fm_expf(-fabsf(r));
+    return ai_fm_sel(r > 0.0f, r, 0.0f) + ai_fm_log1pf(e);
+}
+
+double bnn_kl_normal(double mu, double s, double p)
+{
+    return log(p / s) + (s * s + mu * mu) / (2.0 * p * p) - 0.5;
+}
+
+double bnn_kl_loss(const bnn_model_t *m)
+{
+    if (!m)
+        return 0.0;
+    layout_t y;
+    make_layout(&m->cfg, &y);
+    const float *mu = m->arena + y.bay, *rho = m->arena + y.n_mu;
+    const double p = m->cfg.prior_sigma;
+    double total = 0.0;
+    for (size_t l = 0; l < y.L; l++) {
+        size_t o = y.lay_off[l], nw = y.H * y.lay_in[l];
+        size_t seg[2][2] = {{o, nw}, {o + nw, y.H}};
+        for (int t = 0; t < 2; t++) {
+            double s = 0.0;
+            for (size_t j = seg[t][0]; j < seg[t][0] + seg[t][1]; j++)
+                s += bnn_kl_normal(mu[j], bnn_softplus(rho[j]), p);
+            total += s / (double)seg[t][1];
+        }
+    }
+    return total;
+}
+
+/* sigma = softplus(rho), w = mu + sigma * eps over the Bayesian block. */
+static void sample_weights(bnn_model_t *m, const layout_t *y, uint64_t noise_key)
+{
+    float *restrict eps = m->arena + y->eps;
+    float *restrict sig = m->arena + y->sigma;
+    float *restrict w = m->arena + y->wsamp;
+    const float *restrict mu = m->arena + y->bay;
+    const float *restrict rho = m->arena + y->n_mu;
+    ai_rng_normal_fill(philox_key(m), noise_key, 0, eps, y->R);
+    const size_t R = y->R;
+    for (size_t j = 0; j < R; j++) {
+        float r = rho[j];
+        float e = ai_fm_expf(-fabsf(r));
+        float s = ai_fm_sel(r > 0.0f, r, 0.0f) + ai_fm_log1pf(e);
+        sig[j] = s;
+        w[j] = mu[j] + s * eps[j];
+    }
+}
+
+/* Forward of n points whose inputs are in the arena's xy buffer; wb = Bayesian block of the
+ * weights to use (sampled or mu). Leaves cos0, h0, h_l and logits in the arena. */
+static void forward(bnn_model_t *m, const layout_t *y, const float *wb, size_t n)
+{
+    float *a = m->arena;
+    const size_t S = y->S, H = y->H;
+    const float w0 = m->cfg.w0;
+    const float *restrict W0 = a, *restrict b0 = a + 2 * S;
+    const float *restrict xy = a + y->xy;
+    float *restrict h0 = a + y->h0, *restrict c0 = a + y->cos0;
+    for (size_t i = 0; i < n; i++) {
+        const float px = xy[2 * i], py = xy[2 * i + 1];
+        float *hr = h0 + i * S, *cr = c0 + i * S;
+        for (size_t j = 0; j < S; j++) {
+            float t = w0 * (W0[2 * j] * px + W0[2 * j + 1] * py + b0[j]);
+            float s, c;
+            ai_fm_sincosf(t, &s, &c);
+            hr[j] = s;
+            cr[j] = c;
+        }
+    }
+    const float *prev = h0;
+    for (size_t l = 0; l < y->L; l++) {
+        const size_t in = y->lay_in[l];
+        const float *Wl = wb + y->lay_off[l];
+        const float *restrict bl = Wl + H * in;
+        float *restrict hl = a + y->h + l * BNN_MAX_BATCH * H;
+        la_sgemm(LA_NO_TRANS, LA_TRANS, (int)n, (int)H, (int)in, 1.0f, prev, (int)in, Wl, (int)in,
+                 0.0f, hl, (int)H);
+        for (size_t i = 0; i < n; i++) {
+            float *r = hl + i * H;
+            for (size_t j = 0; j < H; j++) {
+                float v = r[j] + bl[j];
+                r[j] = v > 0.0f ? v : 0.0f;
+            }
+        }
+        prev = hl;
+    }
+    float *logit = a + y->logit;
+    la_sgemm(LA_NO_TRANS, LA_NO_TRANS, (int)n, 1, (int)H, 1.0f, prev, (int)H, a + y->wout, 1, 0.0f,
+             logit, 1);
+    const float bo = a[y->bout];
+    for (size_t i = 0; i < n; i++)
+        logit[i] += bo;
+}
+
+static double bce_logit(double l, double t)
+{
+    /* max(l,0) - l t + log(1 + e^-|l|): never overflows */
+    return (l > 0.0 ? l : 0.0) - l * t + log1p(exp(-fabs(l)));
+}
+
+static int samples_ok(const ai_sample_t *s, size_t n)
+{
+    for (size_t i = 0; i < n; i++)
+        if (!isfinite(s[i].x) || !isfinite(s[i].y) || !(s[i].occ >= 0.0f && s[i].occ <= 1.0f))
+            return 0;
+    return 1;
+}
+
+/* Backward of the last forward (sampled weights), data term only: fills every gradient of
+ * the mu group (the Bayesian entries hold dL/dw) from dlogit. */
+static void backward(bnn_model_t *m, const layout_t *y, size_t n)
+{
+    float *a = m->arena;
+    float *g = a + y->grads;
+    const size_t S = y->S, H = y->H;
+    const float *restrict dl = a + y->dlogit;
+    const float *restrict wout = a + y->wout;
+    const float *hL = a + y->h + (y->L - 1) * BNN_MAX_BATCH * H;
+
+    la_sgemm(LA_TRANS, LA_NO_TRANS, 1, (int)H, (int)n, 1.0f, dl, 1, hL, (int)H, 0.0f, g + y->wout,
+             (int)H);
+    double sb = 0.0;
+    for (size_t i = 0; i < n; i++)
+        sb += dl[i];
+    g[y->bout] = (float)sb;
+
+    float *cur = a + y->g1, *oth = a + y->g2;
+    for (size_t i = 0; i < n; i++) {
+        const float *hr = hL + i * H;
+        float *cr = cur + i * H;
+        const float d = dl[i];
+        for (size_t k = 0; k < H; k++)
+            cr[k] = ai_fm_sel(hr[k] > 0.0f, d * wout[k], 0.0f);
+    }
+    for (size_t l = y->L; l-- > 0;) {
+        const size_t in = y->lay_in[l];
+        const float *prev = l == 0 ? a + y->h0 : a + y->h + (l - 1) * BNN_MAX_BATCH * H;
+        const float *Wl = a + y->wsamp + y->lay_off[l];
+        float *gW = g + y->bay + y->lay_off[l];
+        float *restrict gb = gW + H * in;
+        la_sgemm(LA_TRANS, LA_NO_TRANS, (int)H, (int)in, (int)n, 1.0f, cur, (int)H, prev, (int)in,
+                 0.0f, gW, (int)in);
+        for (size_t k = 0; k < H; k++)
+            gb[k] = 0.0f;
+        for (size_t i = 0; i < n; i++) {
+            const float *restrict cr = cur + i * H;
+            for (size_t k = 0; k < H; k++)
+                gb[k] += cr[k];
+        }
+        la_sgemm(LA_NO_TRANS, LA_NO_TRANS, (int)n, (int)in, (int)H, 1.0f, cur, (int)H, Wl, (int)in,
+                 0.0f, oth, (int)in);
+        if (l > 0) {
+            for (size_t i = 0; i < n * in; i++)
+                oth[i] = prev[i] > 0.0f ? oth[i] : 0.0f;
+        } else {
+            const float w0 = m->cfg.w0;
+            const float *restrict c0 = a + y->cos0;
+            for (size_t i = 0; i < n * in; i++)
+                oth[i] *= w0 * c0[i];
+        }
+        float *t = cur;
+        cur = oth;
+        oth = t;
+    }
+    /* SIREN: cur = d total / d (W0 x + b0) */
+    float *restrict gW0 = g, *restrict gb0 = g + 2 * S;
+    const float *restrict xy = a + y->xy;
+    for (size_t j = 0; j < 3 * S; j++)
+        g[j] = 0.0f;
+    for (size_t i = 0; i < n; i++) {
+        const float px = xy[2 * i], py = xy[2 * i + 1];
+        const float *restrict dz = cur + i * S;
+        for (size_t j = 0; j < S; j++) {
+            gW0[2 * j] += dz[j] * px;
+            gW0[2 * j + 1] += dz[j] * py;
+            gb0[j] += dz[j];
+        }
+    }
+}
+
+/* Reparameterisation and KL over one Bayesian tensor [j0, j0+cnt): turns dL/dw (in the mu
+ * gradient) into mu and rho gradients with the KL term. Returns the tensor's KL sum. */
+static double bayes_tensor_grad(bnn_model_t *m, const layout_t *y, size_t j0, size_t cnt,
+                                float kl_weight)
+{
+    float *a = m->arena;
+    const float *restrict mu = a + y->bay + j0;
+    const float *restrict rho = a + y->n_mu + j0;
+    const float *restrict eps = a + y->eps + j0;
+    const float *restrict sig = a + y->sigma + j0;
+    float *restrict gmu = a + y->grads + y->bay + j0;
+    float *restrict grho = a + y->grads + y->n_mu + j0;
+    const float p = m->cfg.prior_sigma, ip2 = 1.0f / (p * p), logp = logf(p);
+    const float c = kl_weight / (float)cnt;
+    float acc[8] = {0};
+    size_t j = 0;
+    for (; j + 8 <= cnt; j += 8) {
+        for (size_t q = 0; q < 8; q++) {
+            const size_t k = j + q;
+            const float r = rho[k], s = sig[k], u = mu[k];
+            const float e = ai_fm_expf(-fabsf(r));
+            const float sg = ai_fm_sel(r >= 0.0f, 1.0f, e) / (1.0f + e);
+            const float gw = gmu[k];
+            grho[k] = (gw * eps[k] + c * (s * ip2 - 1.0f / s)) * sg;
+            gmu[k] = gw + c * u * ip2;
+            acc[q] += logp - ai_fm_logf(s) + 0.5f * (s * s + u * u) * ip2 - 0.5f;
+        }
+    }
+    double kl = 0.0;
+    for (; j < cnt; j++) {
+        const float r = rho[j], s = sig[j], u = mu[j];
+        const float e = ai_fm_expf(-fabsf(r));
+        const float sg = ai_fm_sel(r >= 0.0f, 1.0f, e) / (1.0f + e);
+        const float gw = gmu[j];
+        grho[j] = (gw * eps[j] + c * (s * ip2 - 1.0f / s)) * sg;
+        gmu[j] = gw + c * u * ip2;
+        kl += logp - ai_fm_logf(s) + 0.5f * (s * s + u * u) * ip2 - 0.5f;
+    }
+    for (int q = 0; q < 8; q++)
+        kl += acc[q];
+    return kl;
+}
+
+int bnn_loss_grad(bnn_model_t *m, const ai_sample_t *batch, size_t n, float kl_weight,
+                  uint64_t noise_key, bnn_loss_t *out)
+{
+    if (!m || !batch || n == 0 || n > m->cfg.max_batch || !isfinite(kl_weight) || kl_weight < 0.0f)
+        return -EINVAL;
+    if (!samples_ok(batch, n))
+        return -EINVAL;
+    layout_t y;
+    make_layout(&m->cfg, &y);
+    float *a = m->arena;
+    float *xy = a + y.xy;
+    for (size_t i = 0; i < n; i++) {
+        xy[2 * i] = batch[i].x;
+        xy[2 * i + 1] = batch[i].y;
+    }
+    sample_weights(m, &y, noise_key);
+    forward(m, &y, a + y.wsamp, n);
+    const float *logit = a + y.logit;
+    float *dl = a + y.dlogit;
+    double bce = 0.0;
+    const float inv_n = 1.0f / (float)n;
+    for (size_t i = 0; i < n; i++) {
+        const double l = logit[i], t = batch[i].occ;
+        bce += bce_logit(l, t);
+        const double p = 1.0 / (1.0 + exp(-l));
+        dl[i] = (float)(p - t) * inv_n;
+    }
+    bce /= (double)n;
+    m->batch_n = n;
+    backward(m, &y, n);
+    double kl = 0.0;
+    for (size_t l = 0; l < y.L; l++) {
+        const size_t nw = y.H * y.lay_in[l];
+        const double klw = bayes_tensor_grad(m, &y, y.lay_off[l], nw, kl_weight);
+        const double klb = bayes_tensor_grad(m, &y, y.lay_off[l] + nw, y.H, kl_weight);
+        kl += klw / (double)nw + klb / (double)y.H;
+    }
+    if (out) {
+        out->bce = (float)bce;
+        out->kl = (float)kl;
+        out->total = (float)(bce + (double)kl_weight * kl);
+    }
+    return 0;
+}
+
+int bnn_adam_step(bnn_model_t *m, bnn_group_t g, float lr)
+{
+    if (!m || (g != BNN_GROUP_MU && g != BNN_GROUP_RHO) || !isfinite(lr) || lr < 0.0f)
+        return -EINVAL;
+    bnn_adam_t *st = &m->adam[g];
+    st->t++;
+    const size_t off = bnn_group_offset(m, g), len = bnn_group_len(m, g), P = m->n_params;
+    float *restrict th = m->arena + off;
+    const float *restrict gr = m->arena + P + off;
+    float *restrict am = m->arena + 2 * P + off;
+    float *restrict av = m->arena + 3 * P + off;
+    const float b1 = st->beta1, b2 = st->beta2, ep = st->eps;
+    const double bc1 = 1.0 - pow((double)b1, (double)st->t);
+    const double bc2 = 1.0 - pow((double)b2, (double)st->t);
+    const float step = (float)((double)lr / bc1);
+    const float isb2 = (float)(1.0 / sqrt(bc2));
+    const float c1 = 1.0f - b1, c2 = 1.0f - b2;
+    for (size_t i = 0; i < len; i++) {
+        const float gi = gr[i];
+        const float mi = b1 * am[i] + c1 * gi;
+        const float vi = b2 * av[i] + c2 * gi * gi;
+        am[i] = mi;
+        av[i] = vi;
+        th[i] -= step * mi / (ai_fm_sqrtf(vi) * isb2 + ep);
+    }
+    return 0;
+}
+
+void bnn_adam_reset(bnn_model_t *m, bnn_group_t g)
+{
+    if (!m || (g != BNN_GROUP_MU && g != BNN_GROUP_RHO))
+        return;
+    const size_t off = bnn_group_offset(m, g), len = bnn_group_len(m, g), P = m->n_params;
+    memset(m->arena + 2 * P + off, 0, len * sizeof(float));
+    memset(m->arena + 3 * P + off, 0, len * sizeof(float));
+    m->adam[g].t = 0;
+}
+
+int bnn_train_step(bnn_model_t *m, const ai_sample_t *batch, size_t n, float kl_weight,
+                   uint64_t noise_key, float lr, bnn_loss_t *out)
+{
+    int rc = bnn_loss_grad(m, batch, n, kl_weight, noise_key, out);
+    if (rc)
+        return rc;
+    rc = bnn_adam_step(m, BNN_GROUP_MU, lr);
+    if (rc)
+        return rc;
+    return bnn_adam_step(m, BNN_GROUP_RHO, lr);
+}
+
+/* ---- inference ---------------------------------------------------------------------------- */
+static uint64_t mc_key(uint64_t seed, uint32_t k)
+{
+    return ai_rng_mix64(seed) + (uint64_t)k;
+}
+
+static int xy_ok(const float *xy, size_t n)
+{
+    for (size_t i = 0; i < 2 * n; i++)
+        if (!isfinite(xy[i]))
+            return 0;
+    return 1;
+}
+
+int bnn_forward_logits(bnn_model_t *m, const float *xy, size_t n, int use_mean, uint64_t noise_key,
+                       float *logits)
+{
+    if (!m || !xy || !logits || n == 0 || n > m->cfg.max_batch || !xy_ok(xy, n))
+        return -EINVAL;
+    layout_t y;
+    make_layout(&m->cfg, &y);
+    memcpy(m->arena + y.xy, xy, 2 * n * sizeof(float));
+    if (!use_mean)
+        sample_weights(m, &y, noise_key);
+    forward(m, &y, use_mean ? m->arena + y.bay : m->arena + y.wsamp, n);
+    memcpy(logits, m->arena + y.logit, n * sizeof(float));
+    return 0;
+}
+
+int bnn_predict_mc(bnn_model_t *m, const float *xy, size_t n, uint32_t K,
+                                  uint64_t seed, float *mean, float *std)
+{
+    if (!m || !xy || !mean || n == 0 || K == 0 || !xy_ok(xy, n))
+        return -EINVAL;
+    layout_t y;
+    make_layout(&m->cfg, &y);
+    float *a = m->arena;
+    for (size_t i = 0; i < n; i++)
+        mean[i] = 0.0f;
+    if (std)
+        for (size_t i = 0; i < n; i++)
+            std[i] = 0.0f; /* holds Welford's M2 until the end */
+    const size_t B = m->cfg.max_batch;
+    for (uint32_t k = 0; k < K; k++) {
+        sample_weights(m, &y, mc_key(seed, k));
+        const float inv = 1.0f / (float)(k + 1);
+        for (size_t c0 = 0; c0 < n; c0 += B) {
+            const size_t nc = n - c0 < B ? n - c0 : B;
+            memcpy(a + y.xy, xy + 2 * c0, 2 * nc * sizeof(float));
+            forward(m, &y, a + y.wsamp, nc);
+            const float *restrict lg = a + y.logit;
+            float *restrict mu = mean + c0;
+            float *restrict m2 = std ? std + c0 : a + y.dlogit; /* scratch when std == NULL */
+            for (size_t i = 0; i < nc; i++) {
+                const float l = lg[i];
+                const float e = ai_fm_expf(-fabsf(l));
+                const float p = ai_fm_sel(l >= 0.0f, 1.0f, e) / (1.0f + e);
+                const float d = p - mu[i];
+                const float mn = mu[i] + d * inv;
+                mu[i] = mn;
+                m2[i] += d * (p - mn);
+            }
+        }
+    }
+    if (std)
+        for (size_t i = 0; i < n; i++)
+            std[i] = ai_fm_sqrtf(std[i] / (float)K);
+    return 0;
+}
+
+int bnn_eval_bce(bnn_model_t *m, const ai_sample_t *samples, size_t n, uint32_t K, uint64_t seed,
+                 float *bce)
+{
+    if (!m || !samples || !bce || n == 0 || !samples_ok(samples, n))
+        return -EINVAL;
+    layout_t y;
+    make_layout(&m->cfg, &y);
+    float *a = m->arena;
+    const size_t B = m->cfg.max_batch;
+    double sum = 0.0;
+    for (size_t c0 = 0; c0 < n; c0 += B) {
+        const size_t nc = n - c0 < B ? n - c0 : B;
+        for (size_t i = 0; i < nc; i++) {
+            a[y.xy + 2 * i] = samples[c0 + i].x;
+            a[y.xy + 2 * i + 1] = samples[c0 + i].y;
+        }
+        if (K == 0) {
+            forward(m, &y, a + y.bay, nc);
+            for (size_t i = 0; i < nc; i++)
+                sum += bce_logit(a[y.logit + i], samples[c0 + i].occ);
+            continue;
+        }
+        float *pm = a + y.dlogit; /* MC-mean probability of the chunk */
+        for (size_t i = 0; i < nc; i++)
+            pm[i] = 0.0f;
+        for (uint32_t k = 0; k < K; k++) {
+            sample_weights(m, &y, mc_key(seed, k));
+            forward(m, &y, a + y.wsamp, nc);
+            for (size_t i = 0; i < nc; i++)
+                pm[i] += (float)(1.0 / (1.0 + exp(-(double)a[y.logit + i])));
+        }
+        for (size_t i = 0; i < nc; i++) {
+            double p = pm[i] / (double)K, t = samples[c0 + i].occ;
+            p = p < 1e-7 ? 1e-7 : (p > 1.0 - 1e-7 ? 1.0 - 1e-7 : p);
+            sum += -(t * log(p) + (1.0 - t) * log(1.0 - p));
+        }
+    }
+    *bce = (float)(sum / (double)n);
+    return 0;
+}

@@ -1,0 +1,50 @@
+/* Small linear-algebra API of the AI core: row-major single-precision GEMM.
+ *
+ *   C[M x N] = alpha * op(A) * op(B) + beta * C
+ *   op(A) is M x K: A itself (ta == LA_NO_TRANS, A is M x K, row stride lda >= K) or A^T
+ *   (ta == LA_TRANS, A is K x M, lda >= M); likewise op(B) is K x N (tb: B is K x N with
+ *   ldb >= N, or N x K with ldb >= K). C has row stride ldc >= N. beta == 0 never reads C
+ *   (NaN in C does not propagate). M, N, K >= 0; K == 0 gives C = beta * C.
+ *
+ * Back ends: la_ref_* (pure C11, cache-blocked, always built) and la_eigen_* (Eigen 3.4 in
+ * la_eigen.cpp, extern "C", built only when LA_BACKEND=eigen). la_* dispatches to the board's
+ * back end (LA_BACKEND_EIGEN or LA_BACKEND_REF). No function allocates: the Eigen shim keeps
+ * its GEMM blocking buffers on the stack (at most LA_EIGEN_STACK_BYTES per call), the
+ * reference path uses a fixed 16 KB stack tile. Thread-safe (no shared state).
+ */
+#ifndef AI_LA_H
+#define AI_LA_H
+
+#ifdef __cplusplus
+extern "C" {
+#endif
+
+typedef enum la_trans { LA_NO_TRANS = 0, LA_TRANS = 1 } la_trans_t;
+
+/* Stack bytes the Eigen back end may use per GEMM call for its packing buffers. */
+#define LA_EIGEN_STACK_BYTES (2u * 1024u * 1024u)
+
+void la_sgemm(la_trans_t ta, la_trans_t tb, int M, int N, int K, float alpha, const float *A,
+              int lda, const float *B, int ldb, float beta, float *C, int ldc);
+
+void la_ref_sgemm(la_trans_t ta, la_trans_t tb, int M, int N, int K, float alpha,
+                  const float *A, int lda, const float *B, int ldb, float beta, float *C,
+                  int ldc);
+
+void la_eigen_sgemm(la_trans_t ta, la_trans_t tb, int M, int N, int K, float alpha,
+                    const float *A, int lda, const float *B, int ldb, float beta, float *C,
+                    int ldc);
+
+/* Name of the back end la_* dispatches to ("eigen" or "ref"). */
+const char *la_backend_name(void);
+
+/* For benchmarks and tests only: make la_* use the reference back end (ref != 0) or the
+ * board's back end (ref == 0), process-wide. Not to be called while another thread is inside
+ * la_*. Default: the board's back end. */
+void la_force_ref(int ref);
+
+#ifdef __cplusplus
+}
+#endif
+
+#endif /* AI_LA_H */

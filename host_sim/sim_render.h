@@ -1,0 +1,62 @@
+/* Offscreen 3D picture of a host_sim scene, rendered with OSMesa (no display needed) and
+ * legacy OpenGL 1.x immediate mode, saved as PNG.
+ *
+ * Scene: the floor (room outlines tinted), walls = plan solids extruded to wall_height with
+ * one directional light, robots as chassis boxes with wheels and a heading mark, paths as
+ * coloured polylines just above the floor, and at most one lidar sweep drawn as rays from
+ * the sensor to their hits (red) or to max range (faint) for beams without a hit.
+ * Camera: perspective (fov_deg), looking at the plan centre from azimuth_deg (0 = from +x,
+ * -90 = from the south) and elevation_deg above the floor, at the distance that fits the
+ * plan's bounding box in the view.
+ * Not thread-safe (one OSMesa context per call, made current on the calling thread). */
+#ifndef SIM_RENDER_H
+#define SIM_RENDER_H
+
+#include <stddef.h>
+#include <stdint.h>
+
+#include "sim_paths.h"
+#include "sim_plan.h"
+#include "sim_world.h"
+
+#define SIM_RENDER_MAX_SIDE 4096
+
+typedef struct sim_render_sweep {
+    sim_pose_t pose;       /* sensor pose */
+    const double *ranges;  /* n distances, +INFINITY (or >= range_max) = no hit */
+    int n;                 /* beams over a full turn, beam i at pose.theta + i * 2 pi / n */
+    double range_max;
+    double height;         /* sensor height, m */
+} sim_render_sweep_t;
+
+typedef struct sim_render_scene {
+    const sim_plan_t *plan;
+    const sim_path_t *paths;
+    int n_paths;
+    const sim_pose_t *robots;
+    int n_robots;
+    const sim_render_sweep_t *sweep; /* NULL: none */
+    double wall_height;              /* m, default 2.5 when <= 0 */
+} sim_render_scene_t;
+
+typedef struct sim_render_cfg {
+    int width, height;      /* pixels, 16 .. SIM_RENDER_MAX_SIDE */
+    double fov_deg;         /* vertical field of view, (5, 120) */
+    double azimuth_deg;
+    double elevation_deg;   /* (5, 90] */
+} sim_render_cfg_t;
+
+sim_render_cfg_t sim_render_default_cfg(void); /* 1024 x 768, fov 40, azimuth -90, elevation 72 */
+
+/* Renders into rgb (width * height * 3 bytes, row-major, top row first).
+ * Returns 0, -EINVAL or -EIO (OSMesa failure) with a message in err. */
+__attribute__((warn_unused_result))
+int sim_render_rgb(const sim_render_scene_t *scene, const sim_render_cfg_t *cfg, uint8_t *rgb,
+                   char *err, size_t errlen);
+
+/* Renders and writes a PNG. */
+__attribute__((warn_unused_result))
+int sim_render_png(const sim_render_scene_t *scene, const sim_render_cfg_t *cfg, const char *path,
+                   char *err, size_t errlen);
+
+#endif /* SIM_RENDER_H */

@@ -1,0 +1,134 @@
+/* OSMesa renderer: an image of the requested size, not one colour, lidar rays visible, the
+ * plan framed in a top view, the PNG written and readable, bad arguments rejected. */
+#include <setjmp.h>
+#include <stdarg.h>
+#include <stddef.h>
+#include <stdint.h>
+#include <errno.h>
+#include <math.h>
+#include <png.h>
+#include <stdio.h>
+#include <stdlib.h>
+#include <string.h>
+#include <unistd.h>
+#include <cmocka.h>
+
+#include "alloc_count.h"
+#include "sim_render.h"
+#include "sim_test_util.h"
+
+/* LeakSanitizer: libOSMesa (Mesa 22.3) leaks ~170 bytes per destroyed context inside the
+ * library (measured: 1 render 5 allocations, 4 renders 11); that is not our code. Only
+ * leaks whose stack passes through libOSMesa are suppressed. */
+const char *__lsan_default_suppressions(void);
+const char *__lsan_default_suppressions(void) { return "leak:libOSMesa.so\n"; }
+
+static void scene_box(sim_plan_t *p, sim_solid_t s[4], sim_room_t *room)
+{
+    tu_box_room(p, s, room, 4.0, 3.0, 0);
+}
+
+static void test_render_image(void **st)
+{
+    (void)st;
+    sim_plan_t p;
+    sim_solid_t s[4];
+    sim_room_t room;
+    scene_box(&p, s, &room);
+    sim_vec2_t pts[3] = {{0.5, 0.5}, {3.5, 0.5}, {3.5, 2.5}};
+    sim_path_t path = {3, pts, -1};
+    sim_pose_t robot = {0.5, 0.5, 0.0};
+    double ranges[36];
+    for (int i = 0; i < 36; i++)
+        ranges[i] = 1.0;
+    sim_render_sweep_t sw = {robot, ranges, 36, 3.5, 0.17};
+    sim_render_scene_t sc = {&p, &path, 1, &robot, 1, &sw, 2.5};
+    sim_render_cfg_t c = sim_render_default_cfg();
+    c.width = 160;
+    c.height = 120;
+    uint8_t *rgb = malloc(160 * 120 * 3);
+    char err[256];
+    assert_int_equal(sim_render_rgb(&sc, &c, rgb, err, sizeof err), 0);
+    /* Not one colour: count distinct colours (coarsely). */
+    int seen[512] = {0}, distinct = 0;
+    for (int i = 0; i < 160 * 120; i++) {
+        int k = (rgb[3 * i] >> 5) << 6 | (rgb[3 * i + 1] >> 5) << 3 | (rgb[3 * i + 2] >> 5);
+        if (!seen[k]++)
+            distinct++;
+    }
+    assert_true(distinct >= 4);
+    /* Red lidar rays are present (r high, g and b low). */
+    int red = 0;
+    for (int i = 0; i < 160 * 120; i++)
+        red += rgb[3 * i] > 200 && rgb[3 * i + 1] < 80 && rgb[3 * i + 2] < 80;
+    assert_true(red > 10);
+
+    /* Top view, no overlays: the image centre shows the room's floor, a different colour
+     * from the background in the corner (the camera framed the plan). */
+    c.elevation_deg = 90;
+    sim_render_scene_t bare = {&p, NULL, 0, NULL, 0, NULL, 2.5};
+    assert_int_equal(sim_render_rgb(&bare, &c, rgb, err, sizeof err), 0);
+    const uint8_t *centre = rgb + 3 * (60 * 160 + 80), *corner = rgb;
+    assert_true(memcmp(centre, corner, 3) != 0);
+    free(rgb);
+}
+
+static void test_render_png(void **st)
+{
+    (void)st;
+    sim_plan_t p;
+    sim_solid_t s[4];
+    sim_room_t room;
+    scene_box(&p, s, &room);
+    sim_render_scene_t sc = {&p, NULL, 0, NULL, 0, NULL, 0};
+    sim_render_cfg_t c = sim_render_default_cfg();
+    c.width = 200;
+    c.height = 100;
+    char out[64], err[256];
+    snprintf(out, sizeof out, "/tmp/test_render_%d.png", (int)getpid());
+    assert_int_equal(sim_render_png(&sc, &c, out, err, sizeof err), 0);
+    png_image img;
+    memset(&img, 0, sizeof img);
+    img.version = PNG_IMAGE_VERSION;
+    assert_true(png_image_begin_read_from_file(&img, out));
+    assert_int_equal(img.width, 200);
+    assert_int_equal(img.height, 100);
+    png_image_free(&img);
+    remove(out);
+}
+
+static void test_render_errors(void **st)
+{
+    (void)st;
+    sim_plan_t p;
+    sim_solid_t s[4];
+    sim_room_t room;
+    scene_box(&p, s, &room);
+    sim_render_scene_t sc = {&p, NULL, 0, NULL, 0, NULL, 0};
+    sim_render_cfg_t c = sim_render_default_cfg();
+    uint8_t px[3 * 16 * 16];
+    char err[256];
+    c.width = 8;
+    assert_int_equal(sim_render_rgb(&sc, &c, px, err, sizeof err), -EINVAL);
+    c = sim_render_default_cfg();
+    c.width = c.height = 16;
+    c.elevation_deg = 0;
+    assert_int_equal(sim_render_rgb(&sc, &c, px, err, sizeof err), -EINVAL);
+    c.elevation_deg = 45;
+    sc.n_paths = 1; /* paths NULL */
+    assert_int_equal(sim_render_rgb(&sc, &c, px, err, sizeof err), -EINVAL);
+    sc.n_paths = 0;
+    assert_int_equal(sim_render_rgb(&sc, &c, px, err, sizeof err), 0);
+    assert_int_equal(sim_render_png(&sc, &c, "/nonexistent-dir/x.png", err, sizeof err) < 0, 1);
+}
+
+int main(void)
+{
+    alloc_count_reset();
+    const struct CMUnitTest tests[] = {
+        cmocka_unit_test(test_render_image),
+        cmocka_unit_test(test_render_png),
+        cmocka_unit_test(test_render_errors),
+    };
+    return cmocka_run_group_tests(tests, NULL, NULL);
+}

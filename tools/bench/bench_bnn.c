@@ -1,0 +1,216 @@
+/* BNN trainer benchmark (not a test): prints `BENCH <name> <value> <unit>` lines.
+ *
+ *   bnn_train_step_ms_<preset>_b<B>      full step at the preset's max batch, single thread:
+ *                                         sampling, forward, BCE+KL, backward, Adam on both groups
+ *   bnn_train_gflops_<preset>_b<B>       GEMM FLOPs of that step / its time
+ *   bnn_train_step_ms_ref_<preset>_b<B>  the same step with the pure-C reference GEMM
+ *   sgemm_gflops_256x256x1024            single-thread Eigen GEMM rate, [1024x256] x [256x256]^T
+ *   sgemm_ref_gflops_256x256x1024        the same product with la_ref_sgemm
+ *   bnn_mc50_points_per_s_<preset>       MC inference with K = 50
+ *   bnn_arena_bytes_<preset>             static storage of one model
+ *   bnn_phase_ms_<phase>_<preset>        where the step's time goes (see below)
+ * Times are medians of repeated runs (CLOCK_MONOTONIC). Run it under `taskset -c 1`. */
+#include <errno.h>
+#include <stdio.h>
+#include <stdlib.h>
+#include <string.h>
+#include <time.h>
+
+#include "ai/ai_rng.h"
+#include "ai/bnn.h"
+#include "ai/la.h"
+
+static bnn_model_t model;
+static ai_sample_t batch[BNN_MAX_BATCH];
+static float xy[2 * 4096], mean[4096], sd[4096], logits[BNN_MAX_BATCH];
+static float ga[1024 * 256], gb[256 * 256], gc[1024 * 256];
+static float eps_buf[BNN_N_RHO];
+
+static double now_s(void)
+{
+    struct timespec t;
+    clock_gettime(CLOCK_MONOTONIC, &t);
+    return (double)t.tv_sec + 1e-9 * (double)t.tv_nsec;
+}
+
+static int cmp_d(const void *a, const void *b)
+{
+    double x = *(const double *)a, y = *(const double *)b;
+    return x < y ? -1 : x > y;
+}
+
+#define MAX_REPS 512
+static double samples_[MAX_REPS];
+
+static double median(int n)
+{
+    qsort(samples_, (size_t)n, sizeof(double), cmp_d);
+    return samples_[n / 2];
+}
+
+static void die(const char *what, int rc)
+{
+    fprintf(stderr, "bench_bnn: %s failed (%d)\n", what, rc);
+    exit(1);
+}
+
+static void usage(FILE *f)
+{
+    fprintf(f, "usage: bench_bnn [--reps N]\n"
+               "  Times the BNN training step, GEMM rate, MC inference of the compiled preset\n"
+               "  and prints `BENCH <name> <value> <unit>` lines. --reps: timed repetitions\n"
+               "  (default 30 for paper, 100 otherwise; 3..%d).\n",
+            MAX_REPS);
+}
+
+int main(int argc, char **argv)
+{
+    int reps = BNN_MAX_BATCH >= 1024 && BNN_HIDDEN_MAX >= 256 ? 30 : 100;
+    for (int i = 1; i < argc; i++) {
+        if (!strcmp(argv[i], "--help") || !strcmp(argv[i], "-h")) {
+            usage(stdout);
+            return 0;
+        } else if (!strcmp(argv[i], "--reps") && i + 1 < argc) {
+            char *end;
+            long v = strtol(argv[++i], &end, 10);
+            if (*end || v < 3 || v > MAX_REPS) {
+                fprintf(stderr, "bench_bnn: --reps must be an integer in 3..%d\n", MAX_REPS);
+                return 2;
+            }
+            reps = (int)v;
+        } else {
+            usage(stderr);
+            return 2;
+        }
+    }
+    const char *P = BNN_PRESET_NAME;
+    const unsigned B = BNN_MAX_BATCH;
+    int rc = bnn_init(&model, NULL, 1);
+    if (rc)
+        die("bnn_init", rc);
+    float u[3 * BNN_MAX_BATCH];
+    ai_rng_uniform_fill(9, 9, 0, u, 3 * B);
+    for (unsigned i = 0; i < B; i++)
+        batch[i] = (ai_sample_t){2 * u[3 * i] - 1, 2 * u[3 * i + 1] - 1, u[3 * i + 2] > 0.8f};
+
+    /* GEMM FLOPs of one step: per Bayesian layer forward, dW and dX (3 GEMMs of 2*B*in*H),
+     * plus the output layer's forward and dW (2 x 2*B*H). */
+    const bnn_config_t c = model.cfg;
+    double flops = 0.0;
+    for (unsigned l = 0; l < c.n_bayes; l++) {
+        double in = l == 0 ? c.siren_width : c.hidden_width;
+        flops += 3.0 * 2.0 * B * in * c.hidden_width;
+    }
+    flops += 2.0 * 2.0 * B * c.hidden_width;
+
+    for (int backend = 0; backend < 2; backend++) {
+        la_force_ref(backend == 1);
+        int n = backend == 1 ? (reps / 5 > 3 ? reps / 5 : 3) : reps;
+        for (int w = 0; w < 3; w++)
+            if ((rc = bnn_train_step(&model, batch, B, 1e-4f, (uint64_t)w, 1e-4f, NULL)))
+                die("bnn_train_step", rc);
+        for (int r = 0; r < n; r++) {
+            double t0 = now_s();
+            rc = bnn_train_step(&model, batch, B, 1e-4f, 100 + (uint64_t)r, 1e-4f, NULL);
+            samples_[r] = now_s() - t0;
+            if (rc)
+                die("bnn_train_step", rc);
+        }
+        double t = median(n);
+        if (backend == 0) {
+            printf("BENCH bnn_train_step_ms_%s_b%u %.3f ms\n", P, B, 1e3 * t);
+            printf("BENCH bnn_train_step_ms_best_%s_b%u %.3f ms\n", P, B, 1e3 * samples_[0]);
+            printf("BENCH bnn_train_gflops_%s_b%u %.2f GFLOP/s\n", P, B, flops / t * 1e-9);
+        } else {
+            printf("BENCH bnn_train_step_ms_ref_%s_b%u %.3f ms\n", P, B, 1e3 * t);
+        }
+    }
+    la_force_ref(0);
+
+    /* where the step's time goes (Eigen back end) */
+    {
+        const size_t R = bnn_group_len(&model, BNN_GROUP_RHO);
+        double ph[5];
+        for (int phase = 0; phase < 5; phase++) {
+            for (int r = 0; r < reps; r++) {
+                double t0 = now_s();
+                switch (phase) {
+                case 0: ai_rng_normal_fill(1, (uint64_t)r, 0, eps_buf, R); break;
+                case 1:
+                    for (unsigned i = 0; i < B; i++) {
+                        xy[2 * i] = batch[i].x;
+                        xy[2 * i + 1] = batch[i].y;
+                    }
+                    rc = bnn_forward_logits(&model, xy, B, 1, 0, logits);
+                    break;
+                case 2: rc = bnn_forward_logits(&model, xy, B, 0, (uint64_t)r, logits); break;
+                case 3: rc = bnn_loss_grad(&model, batch, B, 1e-4f, (uint64_t)r, NULL); break;
+                case 4:
+                    rc = bnn_adam_step(&model, BNN_GROUP_MU, 1e-5f);
+                    if (!rc)
+                        rc = bnn_adam_step(&model, BNN_GROUP_RHO, 1e-5f);
+                    break;
+                }
+                samples_[r] = now_s() - t0;
+                if (rc)
+                    die("phase", rc);
+            }
+            ph[phase] = median(reps);
+        }
+        printf("BENCH bnn_phase_ms_gaussians_%s %.3f ms\n", P, 1e3 * ph[0]);
+        printf("BENCH bnn_phase_ms_forward_mean_%s %.3f ms\n", P, 1e3 * ph[1]);
+        printf("BENCH bnn_phase_ms_sample_weights_%s %.3f ms\n", P, 1e3 * (ph[2] - ph[1]));
+        printf("BENCH bnn_phase_ms_loss_grad_%s %.3f ms\n", P, 1e3 * ph[3]);
+        printf("BENCH bnn_phase_ms_backward_kl_%s %.3f ms\n", P, 1e3 * (ph[3] - ph[2]));
+        printf("BENCH bnn_phase_ms_adam_both_%s %.3f ms\n", P, 1e3 * ph[4]);
+    }
+
+    /* raw GEMM rate at the step's shape */
+    {
+        ai_rng_uniform_fill(1, 1, 0, ga, 1024 * 256);
+        ai_rng_uniform_fill(1, 2, 0, gb, 256 * 256);
+        const double gf = 2.0 * 1024 * 256 * 256;
+        for (int backend = 0; backend < 2; backend++) {
+            int n = backend ? 10 : 50;
+            for (int r = 0; r < n; r++) {
+                double t0 = now_s();
+                if (backend == 0)
+#if defined(LA_BACKEND_EIGEN)
+                    la_eigen_sgemm(LA_NO_TRANS, LA_TRANS, 1024, 256, 256, 1.0f, ga, 256, gb, 256,
+                                   0.0f, gc, 256);
+#else
+                    la_ref_sgemm(LA_NO_TRANS, LA_TRANS, 1024, 256, 256, 1.0f, ga, 256, gb, 256,
+                                 0.0f, gc, 256);
+#endif
+                else
+                    la_ref_sgemm(LA_NO_TRANS, LA_TRANS, 1024, 256, 256, 1.0f, ga, 256, gb, 256,
+                                 0.0f, gc, 256);
+                samples_[r] = now_s() - t0;
+            }
+            printf("BENCH %s_256x256x1024 %.2f GFLOP/s\n",
+                   backend ? "sgemm_ref_gflops" : "sgemm_gflops", gf / median(n) * 1e-9);
+            printf("BENCH %s_256x256x1024_best %.2f GFLOP/s\n",
+                   backend ? "sgemm_ref_gflops" : "sgemm_gflops", gf / samples_[0] * 1e-9);
+        }
+    }
+
+    /* MC inference, K = 50 */
+    {
+        const size_t n = 4096;
+        ai_rng_uniform_fill(2, 2, 0, xy, 2 * n);
+        for (size_t i = 0; i < 2 * n; i++)
+            xy[i] = 2 * xy[i] - 1;
+        int nrep = 3;
+        for (int r = 0; r < nrep; r++) {
+            double t0 = now_s();
+            rc = bnn_predict_mc(&model, xy, n, BNN_MC_DEFAULT_K, 7, mean, sd);
+            samples_[r] = now_s() - t0;
+            if (rc)
+                die("bnn_predict_mc", rc);
+        }
+        printf("BENCH bnn_mc50_points_per_s_%s %.0f points/s\n", P, (double)n / median(nrep));
+    }
+    printf("BENCH bnn_arena_bytes_%s %zu bytes\n", P, bnn_get_buffer_size());
+    printf("BENCH bnn_params_%s %zu params\n", P, bnn_n_params(&model));
+    return 0;
+}
