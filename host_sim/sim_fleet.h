@@ -15,8 +15,8 @@
  * Graph positions (disk graph): agent i at round k is at arc-length fraction k / rounds of
  * its path.
  *
- * Data (offline mode, the paper's main experiments): each agent's samples are the scans
- * taken along its whole path (sim_fleet_scan_path) before training starts.
+ * Data (offline mode, the paper's main experiments): each agent trains on the samples of its
+ * whole path (host_sim scan / sim_scan_run) from round 0; the caller passes them in.
  *
  * Host side: allocates. Not thread-safe per fleet. Deterministic for (inputs, seed). */
 #ifndef SIM_FLEET_H
@@ -30,10 +30,8 @@
 #include "ai/dinno.h"
 #include "ai/dinno_graph.h"
 #include "sim_grid.h"
-#include "sim_lidar.h"
 #include "sim_paths.h"
 #include "sim_plan.h"
-#include "sim_world.h"
 
 #define SIM_FLEET_MAX_AGENTS ((int)DINNO_GRAPH_MAX_NODES)
 
@@ -85,31 +83,6 @@ int sim_fleet_position(const sim_fleet_t *f, int i, uint32_t k, double *x, doubl
 
 /* ||theta_i - mean|| / ||mean|| over the fleet's models (0 for one model). */
 double sim_fleet_consensus_error(const sim_fleet_t *f, int i);
-
-/* ---- data ------------------------------------------------------------------------------- */
-typedef struct sim_scan_cfg {
-    double step_m;        /* distance between scans along the path, > 0; default 0.1 */
-    int n_beams;          /* beams turned into samples per scan; default 20 */
-    int points_per_beam;  /* default 25 */
-    sim_lidar_cfg_t lidar; /* the sensor (default: 360 beams, 3.5 m, 1 cm noise) */
-} sim_scan_cfg_t;
-
-void sim_scan_cfg_default(sim_scan_cfg_t *cfg);
-
-/* Scans along `path` (poses every step_m of arc length, heading along the segment; the
- * robot moves kinematically along the polyline) with the lidar noise keyed by (seed, robot,
- * scan index), converted to samples (rt_samples_from_scan). *out is malloc'd. Returns 0 or a
- * negative code. */
-__attribute__((warn_unused_result))
-int sim_fleet_scan_path(const sim_world_t *w, const sim_plan_t *plan, const sim_path_t *path, uint32_t robot,
-                        const sim_scan_cfg_t *cfg, uint64_t seed, ai_sample_t **out, size_t *n_out);
-
-/* DiNNO-like validation set: n_poses random poses (uniform over the plan's FREE cells, at
- * least 0.15 m from any wall, uniform heading) x one noise-free scan of n_beams beams and
- * points_per_beam points (range_max as cfg->lidar). *out is malloc'd. */
-__attribute__((warn_unused_result))
-int sim_fleet_valset(const sim_world_t *w, const sim_plan_t *plan, int n_poses, const sim_scan_cfg_t *cfg,
-                     uint64_t seed, ai_sample_t **out, size_t *n_out);
 
 /* ---- occupancy metrics -------------------------------------------------------------------- */
 /* Known cells of a coarse grid: a coarse cell is WALL when any of its fine sub-cells (of the

@@ -101,6 +101,12 @@ static int ode_ready(char *err, size_t errlen)
     return 0;
 }
 
+int sim_world_thread_init(void)
+{
+    char err[128];
+    return ode_ready(err, sizeof err);
+}
+
 /* ---- defaults ---------------------------------------------------------------------------- */
 sim_world_cfg_t sim_world_default_cfg(void)
 {

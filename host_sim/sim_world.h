@@ -68,6 +68,12 @@ typedef struct sim_pose {
 typedef struct sim_world sim_world_t;
 
 sim_world_cfg_t sim_world_default_cfg(void);
+
+/* Initialises ODE for the process (once) and ODE's per-thread data for the calling thread.
+ * sim_world_create() does this for its caller; a thread that steps a world or casts rays in a
+ * world created by another thread calls this first. Returns 0 or a negative code. */
+__attribute__((warn_unused_result))
+int sim_world_thread_init(void);
 sim_robot_params_t sim_robot_default_params(void);
 
 /* Builds the world for `plan` (not retained; the world copies what it needs).

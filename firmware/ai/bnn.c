@@ -400,19 +400,17 @@ static void backward(bnn_model_t *m, const layout_t *y, size_t n)
         cur = oth;
         oth = t;
     }
-    /* SIREN: cur = d total / d (W0 x + b0) */
-    float *restrict gW0 = g, *restrict gb0 = g + 2 * S;
-    const float *restrict xy = a + y->xy;
-    for (size_t j = 0; j < 3 * S; j++)
-        g[j] = 0.0f;
+    /* SIREN: cur = d total / d (W0 x + b0); dW0 [S x 2] = dz^T xy (one thin GEMM), db0 =
+     * column sums of dz. */
+    float *restrict gb0 = g + 2 * S;
+    la_sgemm(LA_TRANS, LA_NO_TRANS, (int)S, (int)BNN_IN, (int)n, 1.0f, cur, (int)S, a + y->xy,
+             (int)BNN_IN, 0.0f, g, (int)BNN_IN);
+    for (size_t j = 0; j < S; j++)
+        gb0[j] = 0.0f;
     for (size_t i = 0; i < n; i++) {
-        const float px = xy[2 * i], py = xy[2 * i + 1];
         const float *restrict dz = cur + i * S;
-        for (size_t j = 0; j < S; j++) {
-            gW0[2 * j] += dz[j] * px;
-            gW0[2 * j + 1] += dz[j] * py;
+        for (size_t j = 0; j < S; j++)
             gb0[j] += dz[j];
-        }
     }
 }
 

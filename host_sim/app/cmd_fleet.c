@@ -12,7 +12,8 @@
 #include "sim_paths.h"
 #include "sim_plan.h"
 #include "sim_samples.h"
-#include "sim_world.h"
+#include "sim_scan.h"
+#include "sim_valset.h"
 
 static void fleet_usage(FILE *out)
 {
@@ -28,6 +29,9 @@ static void fleet_usage(FILE *out)
             "required. Baselines with the same network and step budget: 'central' (one model on the\n"
             "pooled data) and 'isolated' (no communication).\n"
             "\n"
+            "Training data: each robot drives its path in the ODE world (the same loop as host_sim scan,\n"
+            "seed S, robot i) unless --samples gives host_sim sample files. Validation: host_sim valset\n"
+            "(seed S) unless --valset.\n"
             "Writes into --out: samples/robot_<i>.samples (training data, unless --samples), valset.samples,\n"
             "metrics.csv (round,agent,train_loss,val_loss,kl_loss,consensus_error,occ_mse,occ_iou,\n"
             "reg_mu,reg_rho,neighbours), map_mean.png and map_std.png (agent 0, MC mean / std, paths on\n"
@@ -46,8 +50,7 @@ static void fleet_usage(FILE *out)
             "  --samples DIR       train on DIR/robot_<i>.samples (host_sim sample files) instead of\n"
             "                      scanning the paths\n"
             "  --valset FILE       validation samples file (default: generate --val-poses poses)\n"
-            "  --val-poses N       random free poses x one 500-point scan (default 200)\n"
-            "  --scan-step M       metres between scans along a path (default 0.1)\n"
+            "  --val-poses N       random free poses x one 500-point scan (default 500, as DiNNO)\n"
             "  --occ-res M         grid of the occupancy metrics (default 0.1)\n"
             "  --map-res M         grid of the final maps (default 0.05);  --mc K passes (default 50)\n"
             "  --threads T         worker threads for node updates (default 1; results identical)\n"
@@ -77,7 +80,7 @@ static int mkdir_p(const char *dir)
 typedef struct opts {
     const char *plan, *paths, *out, *samples, *valset;
     long long robots, rounds, seed, metrics_every, val_poses, mc, threads;
-    double radius, scan_step, occ_res, map_res, scale;
+    double radius, occ_res, map_res, scale;
     int inproc;
     sim_fleet_mode_t mode;
     dinno_cfg_t d;
@@ -91,11 +94,10 @@ static int parse(int argc, char **argv, opts_t *o)
     memset(o, 0, sizeof *o);
     o->robots = o->rounds = o->seed = -1;
     o->metrics_every = 0;
-    o->val_poses = 200;
+    o->val_poses = 500;
     o->mc = 50;
     o->threads = 1;
     o->radius = 4.0;
-    o->scan_step = 0.1;
     o->occ_res = 0.1;
     o->map_res = 0.05;
     o->scale = SIM_PLAN_DEFAULT_SCALE;
@@ -177,8 +179,6 @@ static int parse(int argc, char **argv, opts_t *o)
             o->d.lr_end = (float)dv;
         } else if (strcmp(a, "--radius") == 0)
             bad = cmd_parse_double(v, a, 1e-6, 1e6, &o->radius);
-        else if (strcmp(a, "--scan-step") == 0)
-            bad = cmd_parse_double(v, a, 0.005, 100.0, &o->scan_step);
         else if (strcmp(a, "--occ-res") == 0)
             bad = cmd_parse_double(v, a, 0.01, 10.0, &o->occ_res);
         else if (strcmp(a, "--map-res") == 0)
@@ -241,19 +241,6 @@ static int load_paths(const opts_t *o, const sim_plan_t *plan, sim_path_t *paths
     return 0;
 }
 
-static int write_samples(const char *file, const sim_plan_t *plan, uint64_t seed, const char *src,
-                         const ai_sample_t *s, size_t n)
-{
-    sim_samples_writer_t w;
-    int rc = sim_samples_open(&w, file, plan->min.x, plan->min.y, plan->max.x, plan->max.y, seed, src);
-    if (rc == 0)
-        rc = sim_samples_append(&w, s, n);
-    if (rc == 0)
-        return sim_samples_close(&w);
-    sim_samples_abort(&w, file);
-    return rc;
-}
-
 static int read_samples(const char *file, const sim_plan_t *plan, ai_sample_t **s, size_t *n)
 {
     sim_samples_header_t h;
@@ -290,7 +277,6 @@ int cmd_fleet(int argc, char **argv)
     char err[512];
     sim_plan_t plan;
     memset(&plan, 0, sizeof plan);
-    sim_world_t *world = NULL;
     sim_path_t paths[SIM_FLEET_MAX_AGENTS];
     memset(paths, 0, sizeof paths);
     ai_sample_t *data[SIM_FLEET_MAX_AGENTS] = {0}, *val = NULL;
@@ -311,10 +297,6 @@ int cmd_fleet(int argc, char **argv)
         fprintf(stderr, "host_sim fleet: cannot create %s: %s\n", o.out, strerror(errno));
         goto out;
     }
-    if (sim_world_create(&plan, NULL, &world, err, sizeof err) != 0) {
-        fprintf(stderr, "host_sim fleet: world: %s\n", err);
-        goto out;
-    }
     const uint64_t seed = (uint64_t)o.seed;
     printf("fleet (in-process, one host_sim process; the multi-process LCM fleet is on the roadmap)\n");
     printf("seed %llu, preset %s, %d agents, %lld rounds, strategy %s, graph %s", (unsigned long long)seed,
@@ -322,9 +304,6 @@ int cmd_fleet(int argc, char **argv)
     if (o.graph == DINNO_GRAPH_DISK)
         printf(" (radius %.2f m)", o.radius);
     printf("\n");
-    sim_scan_cfg_t sc;
-    sim_scan_cfg_default(&sc);
-    sc.step_m = o.scan_step;
     /* ---- training data ---- */
     char sdir[2048];
     snprintf(sdir, sizeof sdir, "%s/samples", o.out);
@@ -338,19 +317,20 @@ int cmd_fleet(int argc, char **argv)
             if (read_samples(file, &plan, &data[i], &n_data[i]) != 0)
                 goto out;
         } else {
-            int rc = sim_fleet_scan_path(world, &plan, &paths[i], (uint32_t)i, &sc, seed, &data[i], &n_data[i]);
-            if (rc || n_data[i] == 0) {
-                fprintf(stderr, "host_sim fleet: scanning path %d failed (%d)\n", i, rc);
-                goto out;
-            }
+            sim_scan_cfg_t sc = sim_scan_default_cfg();
+            sc.seed = seed;
+            sc.robot = (uint32_t)i;
             char src[160];
-            snprintf(src, sizeof src, "scan path=%s/robot_%d.csv step=%g beams=%d points=%d", o.paths, i,
-                     sc.step_m, sc.n_beams, sc.points_per_beam);
+            snprintf(src, sizeof src, "scan (fleet) path=%s/robot_%d.csv seed=%llu robot=%d", o.paths, i,
+                     (unsigned long long)seed, i);
             snprintf(file, sizeof file, "%s/robot_%d.samples", sdir, i);
-            if (write_samples(file, &plan, seed, src, data[i], n_data[i]) != 0) {
-                fprintf(stderr, "host_sim fleet: cannot write %s\n", file);
+            sim_scan_stats_t ss;
+            if (sim_scan_run(&plan, &paths[i], &sc, file, src, &ss, NULL, NULL, err, sizeof err) != 0) {
+                fprintf(stderr, "host_sim fleet: scanning path %d: %s\n", i, err);
                 goto out;
             }
+            if (read_samples(file, &plan, &data[i], &n_data[i]) != 0)
+                goto out;
         }
         printf("agent %d: %zu samples\n", i, n_data[i]);
     }
@@ -359,19 +339,18 @@ int cmd_fleet(int argc, char **argv)
         if (read_samples(o.valset, &plan, &val, &n_val) != 0)
             goto out;
     } else {
-        int rc = sim_fleet_valset(world, &plan, (int)o.val_poses, &sc, seed ^ 0x7A1D5E7ull, &val, &n_val);
-        if (rc) {
-            fprintf(stderr, "host_sim fleet: building the validation set failed (%d)\n", rc);
-            goto out;
-        }
+        sim_valset_cfg_t vc = sim_valset_default_cfg();
+        vc.n_poses = (int)o.val_poses;
+        vc.seed = seed;
         char src[160];
-        snprintf(src, sizeof src, "valset poses=%lld beams=%d points=%d noise-free", o.val_poses, sc.n_beams,
-                 sc.points_per_beam);
+        snprintf(src, sizeof src, "valset (fleet) poses=%lld seed=%llu", o.val_poses, (unsigned long long)seed);
         snprintf(file, sizeof file, "%s/valset.samples", o.out);
-        if (write_samples(file, &plan, seed, src, val, n_val) != 0) {
-            fprintf(stderr, "host_sim fleet: cannot write %s\n", file);
+        if (sim_valset_write(&plan, &vc, file, src, NULL, err, sizeof err) != 0) {
+            fprintf(stderr, "host_sim fleet: validation set: %s\n", err);
             goto out;
         }
+        if (read_samples(file, &plan, &val, &n_val) != 0)
+            goto out;
     }
     printf("validation set: %zu points\n", n_val);
     if (sim_occ_eval_build(&plan, o.occ_res, &ev) != 0) {
@@ -525,7 +504,6 @@ out:
         sim_path_free(&paths[i]);
     }
     free(val);
-    sim_world_destroy(world);
     sim_plan_free(&plan);
     return status;
 }

@@ -38,6 +38,8 @@ static void test_create_validation(void **st)
     tu_box_room(&p, s, NULL, 2, 2, 0);
     sim_world_t *w = NULL;
     char err[128];
+    assert_int_equal(sim_world_thread_init(), 0);
+    assert_int_equal(sim_world_thread_init(), 0); /* idempotent */
     sim_world_cfg_t c = sim_world_default_cfg();
     c.dt = 0;
     assert_int_equal(sim_world_create(&p, &c, &w, err, sizeof err), -EINVAL);

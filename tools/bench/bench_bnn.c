@@ -56,20 +56,24 @@ static void die(const char *what, int rc)
 
 static void usage(FILE *f)
 {
-    fprintf(f, "usage: bench_bnn [--reps N]\n"
+    fprintf(f, "usage: bench_bnn [--reps N] [--steps-only]\n"
                "  Times the BNN training step, GEMM rate, MC inference of the compiled preset\n"
                "  and prints `BENCH <name> <value> <unit>` lines. --reps: timed repetitions\n"
-               "  (default 30 for paper, 100 otherwise; 3..%d).\n",
+               "  (default 30 for paper, 100 otherwise; 3..%d). --steps-only: only the Eigen\n"
+               "  training step (for profiling).\n",
             MAX_REPS);
 }
 
 int main(int argc, char **argv)
 {
     int reps = BNN_MAX_BATCH >= 1024 && BNN_HIDDEN_MAX >= 256 ? 30 : 100;
+    int steps_only = 0;
     for (int i = 1; i < argc; i++) {
         if (!strcmp(argv[i], "--help") || !strcmp(argv[i], "-h")) {
             usage(stdout);
             return 0;
+        } else if (!strcmp(argv[i], "--steps-only")) {
+            steps_only = 1;
         } else if (!strcmp(argv[i], "--reps") && i + 1 < argc) {
             char *end;
             long v = strtol(argv[++i], &end, 10);
@@ -103,7 +107,7 @@ int main(int argc, char **argv)
     }
     flops += 2.0 * 2.0 * B * c.hidden_width;
 
-    for (int backend = 0; backend < 2; backend++) {
+    for (int backend = 0; backend < (steps_only ? 1 : 2); backend++) {
         la_force_ref(backend == 1);
         int n = backend == 1 ? (reps / 5 > 3 ? reps / 5 : 3) : reps;
         for (int w = 0; w < 3; w++)
@@ -126,6 +130,8 @@ int main(int argc, char **argv)
         }
     }
     la_force_ref(0);
+    if (steps_only)
+        return 0;
 
     /* where the step's time goes (Eigen back end) */
     {
