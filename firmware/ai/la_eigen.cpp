@@ -76,6 +76,11 @@ void pack_a(la_trans_t ta, const float *A, int lda, int i0, int mc, int p0, int 
                 for (int r = 0; r < MR; r++)
                     dst[k * MR + r] = src[r];
             }
+        } else if (mr == MR) {
+            const float *src = A + (size_t)(i0 + s) * lda + p0;
+            for (int k = 0; k < kc; k++)
+                for (int r = 0; r < MR; r++)
+                    dst[k * MR + r] = src[(size_t)r * lda + k];
         } else {
             for (int r = 0; r < MR; r++)
                 for (int k = 0; k < kc; k++)
