@@ -1,4 +1,6 @@
-// Eigen back end of ai/la.h (the only C++ file of the firmware).
+// Eigen back end of ai/la.h (the only C++ file of the firmware). With AVX2+FMA the large
+// products go to the packed kernel below (gemm_avx2), the thin ones (the output layer, the
+// SIREN weight gradient) and other targets to Eigen.
 //
 // No heap: Eigen's GEMM packs its operands into blocking buffers that it places on the stack
 // (alloca) when they fit EIGEN_STACK_ALLOCATION_LIMIT, and on the heap otherwise. The limit is
