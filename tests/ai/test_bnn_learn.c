@@ -10,8 +10,9 @@
  *    w0 = 3 instead of 30.
  * 3. Two runs with the same seed give bit-identical parameters.
  *
- * Why w0 = 3 for the uncertainty check (measured with this data, 1500 steps, batch 512; ratio =
- * far/near mean MC std of the probability; "logit" = the same ratio for the std of the logits):
+ * Why w0 = 3 for the uncertainty check (measured with this data, 1500 steps, batch 512, Eigen
+ * GEMM; ratio = far/near mean MC std of the probability; "logit" = the same ratio for the std
+ * of the logits; with the AVX2 GEMM kernel seeds 1-5 give 3.07 2.75 4.11 2.65 3.45):
  *   w0 = 30, kl 1e-4 (seeds 1-6):  ratio 0.88 1.50 1.38 2.04 7.15 5.57   logit 0.79-0.91
  *   w0 = 30, kl 5e-3 (seeds 1-6):  ratio 0.55 0.55 3.09 2.65 6.21 3.28   logit 0.78-0.88
  *   w0 = 30, kl 5e-1 (5 seeds):    ratio 0.66-1.49 ("noise everywhere", BCE ~0.1)
