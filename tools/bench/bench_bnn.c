@@ -112,7 +112,7 @@ static int bench_shapes(int reps)
 int main(int argc, char **argv)
 {
     int reps = BNN_MAX_BATCH >= 1024 && BNN_HIDDEN_MAX >= 256 ? 30 : 100;
-    int steps_only = 0;
+    int steps_only = 0, shapes_only = 0;
     for (int i = 1; i < argc; i++) {
         if (!strcmp(argv[i], "--help") || !strcmp(argv[i], "-h")) {
             usage(stdout);
@@ -120,7 +120,7 @@ int main(int argc, char **argv)
         } else if (!strcmp(argv[i], "--steps-only")) {
             steps_only = 1;
         } else if (!strcmp(argv[i], "--shapes")) {
-            return bench_shapes(reps);
+            shapes_only = 1;
         } else if (!strcmp(argv[i], "--reps") && i + 1 < argc) {
             char *end;
             long v = strtol(argv[++i], &end, 10);
@@ -134,6 +134,8 @@ int main(int argc, char **argv)
             return 2;
         }
     }
+    if (shapes_only)
+        return bench_shapes(reps);
     const char *P = BNN_PRESET_NAME;
     const unsigned B = BNN_MAX_BATCH;
     int rc = bnn_init(&model, NULL, 1);
