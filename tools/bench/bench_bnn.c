@@ -4,7 +4,8 @@
  *                                         sampling, forward, BCE+KL, backward, Adam on both groups
  *   bnn_train_gflops_<preset>_b<B>       GEMM FLOPs of that step / its time
  *   bnn_train_step_ms_ref_<preset>_b<B>  the same step with the pure-C reference GEMM
- *   sgemm_gflops_256x256x1024            single-thread Eigen GEMM rate, [1024x256] x [256x256]^T
+ *   sgemm_gflops_256x256x1024            single-thread la_eigen_sgemm rate (the AVX2 kernel when
+ *                                         built with AVX2+FMA), [1024x256] x [256x256]^T
  *   sgemm_ref_gflops_256x256x1024        the same product with la_ref_sgemm
  *   bnn_mc50_points_per_s_<preset>       MC inference with K = 50
  *   bnn_arena_bytes_<preset>             static storage of one model
