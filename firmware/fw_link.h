@@ -24,8 +24,10 @@
  *   3. AI: sees ready(k): copies the valid slots into its DiNNO node, runs the node update
  *      (B optimiser steps on the sample pool), publishes ckpt(k) (FINAL flag for k = C-1),
  *      applies the pool policy (DR clears). The next state(k+1) comes only after this.
- *   4. GP: fetches ckpt(k) after state(k+1) at the latest (program order of the AI), writes
- *      it through the storage HAL, logs and publishes telemetry.
+ *   4. GP: fetches ckpt(k) at the start of each tick and, at the latest, right after taking
+ *      state(k+1) and BEFORE publishing ready(k+1) (the AI published ckpt(k) before state(k+1),
+ *      and cannot publish ckpt(k+1) before ready(k+1), so no checkpoint is ever skipped);
+ *      writes it through the storage HAL, logs and publishes telemetry.
  *
  * fw_link_reset() puts every link back to empty; call it before the cores start (never
  * while they run). Thread-safety: as ring.h and mbox.h (one writer, one reader each). */
