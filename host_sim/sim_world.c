@@ -39,7 +39,8 @@ typedef struct robot {
     dJointID hinge[2];
     dGeomID geom[KIND_COUNT];
     geom_tag_t tag[KIND_COUNT];
-    int touching, touching_now;
+    int touching_now;
+    double last_touch; /* simulated time of the last wall contact, -inf before any */
     uint64_t collisions;
 } robot_t;
 
@@ -100,6 +101,12 @@ static int ode_ready(char *err, size_t errlen)
     return 0;
 }
 
+int sim_world_thread_init(void)
+{
+    char err[128];
+    return ode_ready(err, sizeof err);
+}
+
 /* ---- defaults ---------------------------------------------------------------------------- */
 sim_world_cfg_t sim_world_default_cfg(void)
 {
@@ -108,7 +115,7 @@ sim_world_cfg_t sim_world_default_cfg(void)
         .wall_height = 2.5,
         .gravity = 9.81,
         .solver_iterations = 0,
-        .mu_wheel = INFINITY,
+        .mu_wheel = 1.0,
         .mu_wall = 0.3,
     };
     return c;
@@ -383,6 +390,7 @@ int sim_world_add_robot(sim_world_t *w, const sim_robot_params_t *params, sim_po
     if (r == NULL)
         return -ENOMEM;
     r->p = p;
+    r->last_touch = -INFINITY;
     int idx = w->n_robots;
     double c = cos(pose.theta), s = sin(pose.theta);
     dMatrix3 R;
@@ -549,9 +557,14 @@ int sim_world_step(sim_world_t *w, int n_steps)
         w->time += w->cfg.dt;
         for (int i = 0; i < w->n_robots; i++) {
             robot_t *r = w->robot[i];
-            if (r->touching_now && !r->touching)
-                r->collisions++;
-            r->touching = r->touching_now;
+            /* A robot pressing on a wall makes and breaks contact from step to step; one
+             * collision is counted per contact episode: contact after at least
+             * SIM_WORLD_COLLISION_GAP_S without any. */
+            if (r->touching_now) {
+                if (w->time - r->last_touch > SIM_WORLD_COLLISION_GAP_S)
+                    r->collisions++;
+                r->last_touch = w->time;
+            }
             const dReal *p = dBodyGetPosition(r->chassis);
             if (!isfinite(p[0]) || !isfinite(p[1]) || !isfinite(p[2]))
                 return -EIO;

@@ -14,8 +14,8 @@
  *     hinge joints along the robot's y axis, driven by velocity motors (dParamVel, with
  *     torque limit dParamFMax = motor_fmax), and a frictionless sphere caster fixed to
  *     the chassis at caster_offset_x;
- *   - contacts: wheel/floor friction mu_wheel (no slip by default, or Coulomb with the
- *     friction pyramid, dContactApprox1),
+ *   - contacts: wheel/floor Coulomb friction mu_wheel (friction pyramid, dContactApprox1;
+ *     or no slip),
  *     caster/floor mu = 0, anything/wall mu_wall; contacts are rebuilt every step.
  * Time is simulated only: sim_world_step() advances a fixed dt with dWorldStep (or
  * dWorldQuickStep when configured).
@@ -41,8 +41,9 @@ typedef struct sim_world_cfg {
     double wall_height;     /* m, > 0; default 2.5 */
     double gravity;         /* m/s^2 downwards, >= 0; default 9.81 */
     int solver_iterations;  /* 0 = exact dWorldStep (default); 1..1000 = dWorldQuickStep iterations */
-    double mu_wheel;        /* wheel/floor friction: INFINITY = no slip (default; unbounded
-                             * friction rows, ~30% faster steps), or a Coulomb coefficient >= 0 */
+    double mu_wheel;        /* wheel/floor Coulomb friction coefficient >= 0 (default 1.0), or
+                             * INFINITY for no-slip wheels (unbounded friction rows: faster, but
+                             * ODE's LCP degenerates when a robot presses on a wall) */
     double mu_wall;         /* friction against walls; default 0.3 */
 } sim_world_cfg_t;
 
@@ -67,6 +68,12 @@ typedef struct sim_pose {
 typedef struct sim_world sim_world_t;
 
 sim_world_cfg_t sim_world_default_cfg(void);
+
+/* Initialises ODE for the process (once) and ODE's per-thread data for the calling thread.
+ * sim_world_create() does this for its caller; a thread that steps a world or casts rays in a
+ * world created by another thread calls this first. Returns 0 or a negative code. */
+__attribute__((warn_unused_result))
+int sim_world_thread_init(void);
 sim_robot_params_t sim_robot_default_params(void);
 
 /* Builds the world for `plan` (not retained; the world copies what it needs).
@@ -104,8 +111,10 @@ int sim_world_pose(const sim_world_t *w, int id, sim_pose_t *pose);
 __attribute__((warn_unused_result))
 int sim_world_wheel_rates(const sim_world_t *w, int id, double *left, double *right);
 
-/* Number of times the robot started touching a wall (rising edges of "some robot geom is in
- * contact with a wall"), since it was added. */
+/* Number of wall contact episodes since the robot was added: a contact between any robot geom
+ * and a wall counts as a new collision when the robot had no wall contact during the previous
+ * SIM_WORLD_COLLISION_GAP_S simulated seconds (pressing on a wall is one collision). */
+#define SIM_WORLD_COLLISION_GAP_S 0.5
 uint64_t sim_world_collisions(const sim_world_t *w, int id);
 
 double sim_world_time(const sim_world_t *w);  /* simulated seconds since create */

@@ -13,6 +13,7 @@
 
 #include "ai/ai_rng.h"
 #include "ai/bnn.h"
+#include "ai/la.h"
 
 static bnn_model_t model;
 
@@ -230,12 +231,44 @@ static void test_rejects_bad_input(void **state)
     assert_int_equal(bnn_predict_mc(&model, xy, 1, 0, 1, &mean, &sd), -EINVAL);
 }
 
+/* The same loss/gradient through the reference GEMM and through the board's back end: the
+ * draws are identical (counter-based), so only GEMM rounding differs. */
+static void test_backends_same_gradient(void **state)
+{
+    (void)state;
+    static float g_board[BNN_N_PARAMS];
+    bnn_config_t c = bnn_default_config();
+    c.max_batch = NB;
+    assert_int_equal(bnn_init(&model, &c, 17), 0);
+    make_batch(17);
+    bnn_loss_t a, b;
+    la_force_ref(0);
+    assert_int_equal(bnn_loss_grad(&model, batch, NB, 0.01f, 3, &a), 0);
+    const size_t P = bnn_n_params(&model);
+    for (size_t i = 0; i < P; i++)
+        g_board[i] = bnn_grads(&model)[i];
+    la_force_ref(1);
+    assert_int_equal(bnn_loss_grad(&model, batch, NB, 0.01f, 3, &b), 0);
+    la_force_ref(0);
+    double num = 0.0, den = 0.0;
+    for (size_t i = 0; i < P; i++) {
+        double d = (double)g_board[i] - bnn_grads(&model)[i];
+        num += d * d;
+        den += (double)g_board[i] * g_board[i];
+    }
+    print_message("ref vs %s: loss %.7f vs %.7f, gradient rel L2 diff %.2e\n", la_backend_name(),
+                  b.total, a.total, sqrt(num / den));
+    assert_true(fabs(a.total - b.total) < 1e-5 * fabs(a.total));
+    assert_true(sqrt(num / den) < 1e-4);
+}
+
 int main(void)
 {
     const struct CMUnitTest tests[] = {
         cmocka_unit_test(test_grad_low_frequency), cmocka_unit_test(test_grad_siren_w30),
         cmocka_unit_test(test_grad_overwrites),    cmocka_unit_test(test_kl_closed_form),
         cmocka_unit_test(test_kl_reduction),       cmocka_unit_test(test_rejects_bad_input),
+        cmocka_unit_test(test_backends_same_gradient),
     };
     return cmocka_run_group_tests_name("ai/bnn_grad", tests, NULL, NULL);
 }

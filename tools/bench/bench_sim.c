@@ -2,9 +2,13 @@
  *   BENCH lidar_rays_per_s <n> rays/s          single-thread ODE ray casts (360-beam scans
  *                                              from random free-ish poses)
  *   BENCH sim_realtime_factor_1robot <x> x     physics + a 360-beam scan at 10 Hz simulated,
- *                                              one robot driving arcs, simulated s / wall s
+ *                                              one robot following host_sim/plans/apartment/
+ *                                              robot_1.csv (firmware follower at 20 Hz, the
+ *                                              tour driven forth and back), simulated s / wall s
  * The monotonic wall clock is used here only (never inside the simulation).
- * Usage: bench_sim [--plan P] [--seconds S]   (S = simulated seconds for the second figure) */
+ * Usage: bench_sim [--plan P] [--path F] [--seconds S]   (S = simulated seconds, 2nd figure)
+ * Comment lines (#) add the same figures on process CPU time, which other load on the core
+ * disturbs less than the wall clock. */
 #include <errno.h>
 #include <math.h>
 #include <stdio.h>
@@ -12,7 +16,9 @@
 #include <string.h>
 #include <time.h>
 
+#include "rt/rt_follow.h"
 #include "sim_lidar.h"
+#include "sim_paths.h"
 #include "sim_plan.h"
 #include "sim_rng.h"
 #include "sim_shape.h"
@@ -55,14 +61,17 @@ static sim_pose_t pick_pose(const sim_plan_t *p, uint64_t i)
 int main(int argc, char **argv)
 {
     const char *plan_path = "host_sim/plans/apartment.svg";
+    const char *path_file = "host_sim/plans/apartment/robot_1.csv";
     double sim_seconds = 60.0;
     for (int i = 1; i < argc; i++) {
         if (strcmp(argv[i], "--plan") == 0 && i + 1 < argc)
             plan_path = argv[++i];
+        else if (strcmp(argv[i], "--path") == 0 && i + 1 < argc)
+            path_file = argv[++i];
         else if (strcmp(argv[i], "--seconds") == 0 && i + 1 < argc)
             sim_seconds = atof(argv[++i]);
         else if (strcmp(argv[i], "--help") == 0) {
-            printf("usage: bench_sim [--plan FILE.svg] [--seconds SIMULATED_S]\n");
+            printf("usage: bench_sim [--plan FILE.svg] [--path ROBOT.csv] [--seconds SIMULATED_S]\n");
             return 0;
         } else {
             fprintf(stderr, "bench_sim: bad argument '%s' (see --help)\n", argv[i]);
@@ -115,21 +124,56 @@ int main(int argc, char **argv)
            t1 - t0, 100.0 * hits / rays, plan.n_solids, (double)rays / (cpu_s() - c_start));
     printf("BENCH lidar_rays_per_s %.0f rays/s\n", (double)rays / (t1 - t0));
 
-    /* 2. one robot: physics at dt plus a 360-beam scan every 0.1 simulated seconds. */
+    /* 2. one robot: physics at dt plus a 360-beam scan every 0.1 simulated seconds, driven
+     * by the firmware follower along a real path. */
+    sim_path_t path;
+    if (sim_path_read_csv(path_file, &plan, &path, err, sizeof err) < 0) {
+        fprintf(stderr, "bench_sim: %s\n", err);
+        return 1;
+    }
+    rt_waypoint_t *wps = malloc(sizeof(rt_waypoint_t) * (size_t)path.n);
+    if (wps == NULL)
+        return 1;
+    for (int i = 0; i < path.n; i++) {
+        wps[i].x = (float)path.p[i].x;
+        wps[i].y = (float)path.p[i].y;
+    }
     int id;
-    sim_pose_t start = pick_pose(&plan, 1000);
+    sim_pose_t start = {path.p[0].x, path.p[0].y,
+                        atan2(path.p[1].y - path.p[0].y, path.p[1].x - path.p[0].x)};
     if (sim_world_add_robot(w, NULL, start, &id) < 0)
         return 1;
+    rt_follow_t fol;
+    rt_follow_cfg_t fc = rt_follow_default_cfg();
+    if (rt_follow_init(&fol, &fc) < 0)
+        return 1;
     int steps_per_scan = (int)lround(0.1 / sim_world_dt(w));
+    int steps_per_ctl = steps_per_scan / 2; /* 20 Hz */
+    int laps = 0;
     int n_scans = (int)ceil(sim_seconds * 10.0);
     double t_scan = 0.0, c0 = cpu_s();
     t0 = now_s();
     for (int s = 0; s < n_scans; s++) {
-        /* Gentle arcs, alternating direction every 5 s. */
-        double omega = ((s / 50) % 2) ? 0.4 : -0.4;
-        if (sim_world_set_twist(w, id, 0.15, omega) < 0 || sim_world_step(w, steps_per_scan) < 0)
-            return 1;
         sim_pose_t p;
+        for (int half = 0; half < 2; half++) {
+            rt_follow_cmd_t cmd;
+            if (sim_world_pose(w, id, &p) < 0 ||
+                rt_follow_step(&fol, wps, path.n, (float)p.x, (float)p.y, (float)p.theta, &cmd) < 0)
+                return 1;
+            if (cmd.finished) { /* drive the tour back, from its end to its start */
+                laps++;
+                for (int i = 0; i < path.n / 2; i++) {
+                    rt_waypoint_t t = wps[i];
+                    wps[i] = wps[path.n - 1 - i];
+                    wps[path.n - 1 - i] = t;
+                }
+                if (rt_follow_init(&fol, &fc) < 0)
+                    return 1;
+            }
+            if (sim_world_set_wheels(w, id, cmd.wheel_left, cmd.wheel_right) < 0 ||
+                sim_world_step(w, steps_per_ctl) < 0)
+                return 1;
+        }
         double ts = now_s();
         if (sim_world_pose(w, id, &p) < 0 ||
             sim_lidar_scan(lid, w, p.x, p.y, p.theta, 0, (uint64_t)s, ranges, NULL) < 0)
@@ -139,13 +183,16 @@ int main(int argc, char **argv)
     t1 = now_s();
     double cpu = cpu_s() - c0;
     double simulated = sim_world_time(w);
-    printf("# %.1f simulated s (%d steps of %.4f s, %d scans) in %.3f wall s, %llu collisions\n",
-           simulated, n_scans * steps_per_scan, sim_world_dt(w), n_scans, t1 - t0,
+    printf("# %.1f simulated s (%d steps of %.4f s, %d scans, %d laps of %s) in %.3f wall s, "
+           "%llu collisions\n",
+           simulated, n_scans * steps_per_scan, sim_world_dt(w), n_scans, laps, path_file, t1 - t0,
            (unsigned long long)sim_world_collisions(w, id));
     printf("# of which lidar %.3f s, physics %.1f us per step; %.1f x on process CPU time "
            "(insensitive to other load on the core)\n",
            t_scan, 1e6 * (t1 - t0 - t_scan) / (n_scans * steps_per_scan), simulated / cpu);
     printf("BENCH sim_realtime_factor_1robot %.1f x\n", simulated / (t1 - t0));
+    free(wps);
+    sim_path_free(&path);
     sim_lidar_destroy(lid);
     sim_world_destroy(w);
     sim_plan_free(&plan);
