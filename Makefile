@@ -195,7 +195,7 @@ test-asan:
 	@$(MAKE) --no-print-directory BUILD=asan test
 
 # ThreadSanitizer runs the tests whose subject is concurrency.
-TSAN_TESTS ?= tests/common tests/hal
+TSAN_TESTS ?= tests/common tests/hal tests/image
 test-tsan:
 	@$(MAKE) --no-print-directory BUILD=tsan TEST_C="$$(find $(TSAN_TESTS) -name 'test_*.c' | sort)" test
 

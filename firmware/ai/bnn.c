@@ -265,7 +265,11 @@ double bnn_kl_loss(const bnn_model_t *m)
     return total;
 }
 
-/* sigma = softplus(rho), w = mu + sigma * eps over the Bayesian block. */
+/* sigma = softplus(rho), w = mu + sigma * eps over the Bayesian block, in ONE pass: the
+ * Gaussians are drawn a tile at a time (Philox is counter-based, so drawing numbers
+ * [j0, j0 + tile) separately gives exactly the numbers of one fill of the whole block) and
+ * each tile is consumed while it is still in L1. */
+#define SAMPLE_TILE 2048u
 static void sample_weights(bnn_model_t *m, const layout_t *y, uint64_t noise_key)
 {
     float *restrict eps = m->arena + y->eps;
@@ -273,14 +277,18 @@ static void sample_weights(bnn_model_t *m, const layout_t *y, uint64_t noise_key
     float *restrict w = m->arena + y->wsamp;
     const float *restrict mu = m->arena + y->bay;
     const float *restrict rho = m->arena + y->n_mu;
-    ai_rng_normal_fill(philox_key(m), noise_key, 0, eps, y->R);
+    const uint64_t key = philox_key(m);
     const size_t R = y->R;
-    for (size_t j = 0; j < R; j++) {
-        float r = rho[j];
-        float e = ai_fm_expf(-fabsf(r));
-        float s = ai_fm_sel(r > 0.0f, r, 0.0f) + ai_fm_log1pf(e);
-        sig[j] = s;
-        w[j] = mu[j] + s * eps[j];
+    for (size_t j0 = 0; j0 < R; j0 += SAMPLE_TILE) {
+        const size_t j1 = R - j0 < SAMPLE_TILE ? R : j0 + SAMPLE_TILE;
+        ai_rng_normal_fill(key, noise_key, j0, eps + j0, j1 - j0);
+        for (size_t j = j0; j < j1; j++) {
+            float r = rho[j];
+            float e = ai_fm_expf(-fabsf(r));
+            float s = ai_fm_sel(r > 0.0f, r, 0.0f) + ai_fm_log1pf(e);
+            sig[j] = s;
+            w[j] = mu[j] + s * eps[j];
+        }
     }
 }
 
@@ -362,56 +370,68 @@ static void backward(bnn_model_t *m, const layout_t *y, size_t n)
         sb += dl[i];
     g[y->bout] = (float)sb;
 
+    /* Each pass that produces a layer's delta (d total / d pre-activation) also sums its
+     * columns into that layer's bias gradient, so the delta is read once less. */
     float *cur = a + y->g1, *oth = a + y->g2;
-    for (size_t i = 0; i < n; i++) {
-        const float *hr = hL + i * H;
-        float *cr = cur + i * H;
-        const float d = dl[i];
+    {
+        float *restrict gb = g + y->bay + y->lay_off[y->L - 1] + H * y->lay_in[y->L - 1];
         for (size_t k = 0; k < H; k++)
-            cr[k] = ai_fm_sel(hr[k] > 0.0f, d * wout[k], 0.0f);
+            gb[k] = 0.0f;
+        for (size_t i = 0; i < n; i++) {
+            const float *restrict hr = hL + i * H;
+            float *restrict cr = cur + i * H;
+            const float d = dl[i];
+            for (size_t k = 0; k < H; k++) {
+                const float v = ai_fm_sel(hr[k] > 0.0f, d * wout[k], 0.0f);
+                cr[k] = v;
+                gb[k] += v;
+            }
+        }
     }
     for (size_t l = y->L; l-- > 0;) {
         const size_t in = y->lay_in[l];
         const float *prev = l == 0 ? a + y->h0 : a + y->h + (l - 1) * BNN_MAX_BATCH * H;
         const float *Wl = a + y->wsamp + y->lay_off[l];
         float *gW = g + y->bay + y->lay_off[l];
-        float *restrict gb = gW + H * in;
         la_sgemm(LA_TRANS, LA_NO_TRANS, (int)H, (int)in, (int)n, 1.0f, cur, (int)H, prev, (int)in,
                  0.0f, gW, (int)in);
-        for (size_t k = 0; k < H; k++)
-            gb[k] = 0.0f;
-        for (size_t i = 0; i < n; i++) {
-            const float *restrict cr = cur + i * H;
-            for (size_t k = 0; k < H; k++)
-                gb[k] += cr[k];
-        }
         la_sgemm(LA_NO_TRANS, LA_NO_TRANS, (int)n, (int)in, (int)H, 1.0f, cur, (int)H, Wl, (int)in,
                  0.0f, oth, (int)in);
+        /* bias gradient of the layer below: layer l-1's b, or the SIREN b0 */
+        float *restrict gbp = l > 0 ? g + y->bay + y->lay_off[l - 1] + H * y->lay_in[l - 1]
+                                    : g + 2 * S;
+        for (size_t k = 0; k < in; k++)
+            gbp[k] = 0.0f;
         if (l > 0) {
-            for (size_t i = 0; i < n * in; i++)
-                oth[i] = prev[i] > 0.0f ? oth[i] : 0.0f;
+            for (size_t i = 0; i < n; i++) {
+                const float *restrict pr = prev + i * in;
+                float *restrict orow = oth + i * in;
+                for (size_t k = 0; k < in; k++) {
+                    const float v = ai_fm_sel(pr[k] > 0.0f, orow[k], 0.0f);
+                    orow[k] = v;
+                    gbp[k] += v;
+                }
+            }
         } else {
             const float w0 = m->cfg.w0;
-            const float *restrict c0 = a + y->cos0;
-            for (size_t i = 0; i < n * in; i++)
-                oth[i] *= w0 * c0[i];
+            for (size_t i = 0; i < n; i++) {
+                const float *restrict cr0 = a + y->cos0 + i * in;
+                float *restrict orow = oth + i * in;
+                for (size_t k = 0; k < in; k++) {
+                    const float v = orow[k] * (w0 * cr0[k]);
+                    orow[k] = v;
+                    gbp[k] += v;
+                }
+            }
         }
         float *t = cur;
         cur = oth;
         oth = t;
     }
-    /* SIREN: cur = d total / d (W0 x + b0); dW0 [S x 2] = dz^T xy (one thin GEMM), db0 =
-     * column sums of dz. */
-    float *restrict gb0 = g + 2 * S;
+    /* SIREN: cur = d total / d (W0 x + b0); dW0 [S x 2] = dz^T xy (one thin GEMM); db0 was
+     * summed above. */
     la_sgemm(LA_TRANS, LA_NO_TRANS, (int)S, (int)BNN_IN, (int)n, 1.0f, cur, (int)S, a + y->xy,
              (int)BNN_IN, 0.0f, g, (int)BNN_IN);
-    for (size_t j = 0; j < S; j++)
-        gb0[j] = 0.0f;
-    for (size_t i = 0; i < n; i++) {
-        const float *restrict dz = cur + i * S;
-        for (size_t j = 0; j < S; j++)
-            gb0[j] += dz[j];
-    }
 }
 
 /* Reparameterisation and KL over one Bayesian tensor [j0, j0+cnt): turns dL/dw (in the mu

@@ -6,11 +6,14 @@
  *   ldb >= N, or N x K with ldb >= K). C has row stride ldc >= N. beta == 0 never reads C
  *   (NaN in C does not propagate). M, N, K >= 0; K == 0 gives C = beta * C.
  *
- * Back ends: la_ref_* (pure C11, cache-blocked, always built) and la_eigen_* (Eigen 3.4 in
- * la_eigen.cpp, extern "C", built only when LA_BACKEND=eigen). la_* dispatches to the board's
- * back end (LA_BACKEND_EIGEN or LA_BACKEND_REF). No function allocates: the Eigen shim keeps
- * its GEMM blocking buffers on the stack (at most LA_EIGEN_STACK_BYTES per call), the
- * reference path uses a fixed 16 KB stack tile. Thread-safe (no shared state).
+ * Back ends: la_ref_* (pure C11, cache-blocked, always built) and la_eigen_* (la_eigen.cpp,
+ * extern "C", built only when LA_BACKEND=eigen: when compiled with AVX2+FMA, products with
+ * M >= 12, N >= 16, K >= 16 use a packed 6x16 AVX2/FMA kernel, everything else Eigen 3.4).
+ * la_* dispatches to the board's back end (LA_BACKEND_EIGEN or LA_BACKEND_REF). No function
+ * allocates: the Eigen shim keeps its packing/blocking buffers on the stack (at most
+ * LA_EIGEN_STACK_BYTES per call; the AVX2 kernel uses 352 KB), the reference path uses a
+ * fixed 16 KB stack tile. Results are deterministic for a given back end and build (the
+ * summation order depends only on the shape). Thread-safe (no shared state).
  */
 #ifndef AI_LA_H
 #define AI_LA_H

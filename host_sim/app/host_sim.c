@@ -9,6 +9,8 @@ int cmd_paths(int argc, char **argv); /* cmd_paths.c */
 int cmd_scan(int argc, char **argv);   /* cmd_scan.c */
 int cmd_valset(int argc, char **argv); /* cmd_valset.c */
 int cmd_render(int argc, char **argv); /* cmd_render.c */
+int cmd_fleet(int argc, char **argv); /* cmd_fleet.c */
+int cmd_run(int argc, char **argv);   /* cmd_run.c */
 
 /* One row per sub-command, in the order `--help` lists them. */
 static const host_sim_cmd_t commands[] = {
@@ -17,6 +19,8 @@ static const host_sim_cmd_t commands[] = {
     {"scan", cmd_scan, "drive one robot along its path in the ODE world, write its lidar samples"},
     {"valset", cmd_valset, "validation set: random free poses x noise-free labelled scans"},
     {"render", cmd_render, "offscreen 3D image (PNG) of the plan, robots, paths and a lidar sweep"},
+    {"fleet", cmd_fleet, "DiNNO fleet in one process (--inproc): train N BNNs, baselines, metrics, maps"},
+    {"run", cmd_run, "one robot's firmware image (RT/AI/GP cores) in lockstep with the world, online learning"},
     {NULL, NULL, NULL},
 };
 

@@ -4,12 +4,16 @@
  *                                         sampling, forward, BCE+KL, backward, Adam on both groups
  *   bnn_train_gflops_<preset>_b<B>       GEMM FLOPs of that step / its time
  *   bnn_train_step_ms_ref_<preset>_b<B>  the same step with the pure-C reference GEMM
- *   sgemm_gflops_256x256x1024            single-thread Eigen GEMM rate, [1024x256] x [256x256]^T
+ *   sgemm_gflops_256x256x1024            single-thread la_eigen_sgemm rate (the AVX2 kernel when
+ *                                         built with AVX2+FMA), [1024x256] x [256x256]^T
  *   sgemm_ref_gflops_256x256x1024        the same product with la_ref_sgemm
  *   bnn_mc50_points_per_s_<preset>       MC inference with K = 50
  *   bnn_arena_bytes_<preset>             static storage of one model
  *   bnn_phase_ms_<phase>_<preset>        where the step's time goes (best-of times; the
  *                                         backward and sampling figures are differences)
+ *   sgemm_shape_gflops_<op>_<M>x<N>x<K>  (--shapes) each GEMM shape of the step alone, through
+ *                                         la_sgemm: fwd = X W^T (N,T), dx = dY W (N,N),
+ *                                         dw = dY^T X (T,N); median and best
  * Times are medians of repeated runs (CLOCK_MONOTONIC). Run it under `taskset -c 1`. */
 #include <errno.h>
 #include <stdio.h>
@@ -57,24 +61,67 @@ static void die(const char *what, int rc)
 
 static void usage(FILE *f)
 {
-    fprintf(f, "usage: bench_bnn [--reps N] [--steps-only]\n"
+    fprintf(f, "usage: bench_bnn [--reps N] [--steps-only] [--shapes]\n"
                "  Times the BNN training step, GEMM rate, MC inference of the compiled preset\n"
                "  and prints `BENCH <name> <value> <unit>` lines. --reps: timed repetitions\n"
                "  (default 30 for paper, 100 otherwise; 3..%d). --steps-only: only the Eigen\n"
-               "  training step (for profiling).\n",
+               "  training step (for profiling). --shapes: only the step's GEMM shapes, each\n"
+               "  alone (la_sgemm on the board's back end).\n",
             MAX_REPS);
+}
+
+/* The step's three big GEMM shapes (layer 2 of the preset: in = out = H), each alone. */
+static int bench_shapes(int reps)
+{
+    const int n = (int)BNN_MAX_BATCH, H = (int)BNN_HIDDEN_MAX, I = (int)BNN_HIDDEN_MAX;
+    if ((size_t)n * (size_t)I > sizeof ga / sizeof ga[0] || (size_t)H * (size_t)I > sizeof gb / sizeof gb[0]) {
+        fprintf(stderr, "bench_bnn: --shapes buffers too small for this preset\n");
+        return 1;
+    }
+    ai_rng_uniform_fill(1, 1, 0, ga, (size_t)n * (size_t)I);
+    ai_rng_uniform_fill(1, 2, 0, gb, (size_t)H * (size_t)I);
+    ai_rng_uniform_fill(1, 3, 0, gc, (size_t)n * (size_t)H);
+    static float out[1024 * 256];
+    const double gf = 2.0 * n * H * I;
+    for (int op = 0; op < 3; op++) {
+        for (int r = -3; r < reps; r++) {
+            double t0 = now_s();
+            switch (op) {
+            case 0: /* forward: Y[n x H] = X[n x I] W[H x I]^T */
+                la_sgemm(LA_NO_TRANS, LA_TRANS, n, H, I, 1.0f, ga, I, gb, I, 0.0f, out, H);
+                break;
+            case 1: /* dX[n x I] = dY[n x H] W[H x I] */
+                la_sgemm(LA_NO_TRANS, LA_NO_TRANS, n, I, H, 1.0f, gc, H, gb, I, 0.0f, out, I);
+                break;
+            default: /* dW[H x I] = dY[n x H]^T X[n x I] */
+                la_sgemm(LA_TRANS, LA_NO_TRANS, H, I, n, 1.0f, gc, H, ga, I, 0.0f, out, I);
+                break;
+            }
+            if (r >= 0)
+                samples_[r] = now_s() - t0;
+        }
+        const char *nm = op == 0 ? "fwd" : op == 1 ? "dx" : "dw";
+        const int M = op == 2 ? H : n, N = op == 0 ? H : I, K = op == 0 ? I : op == 1 ? H : n;
+        printf("BENCH sgemm_shape_gflops_%s_%dx%dx%d %.2f GFLOP/s\n", nm, M, N, K,
+               gf / median(reps) * 1e-9);
+        printf("BENCH sgemm_shape_gflops_best_%s_%dx%dx%d %.2f GFLOP/s\n", nm, M, N, K,
+               gf / samples_[0] * 1e-9);
+    }
+    return 0;
 }
 
 int main(int argc, char **argv)
 {
     int reps = BNN_MAX_BATCH >= 1024 && BNN_HIDDEN_MAX >= 256 ? 30 : 100;
-    int steps_only = 0;
+    int steps_only = 0, shapes_only = 0;
     for (int i = 1; i < argc; i++) {
         if (!strcmp(argv[i], "--help") || !strcmp(argv[i], "-h")) {
             usage(stdout);
             return 0;
         } else if (!strcmp(argv[i], "--steps-only")) {
             steps_only = 1;
+        } else if (!strcmp(argv[i], "--shapes")) {
+            shapes_only = 1;
         } else if (!strcmp(argv[i], "--reps") && i + 1 < argc) {
             char *end;
             long v = strtol(argv[++i], &end, 10);
@@ -88,6 +135,8 @@ int main(int argc, char **argv)
             return 2;
         }
     }
+    if (shapes_only)
+        return bench_shapes(reps);
     const char *P = BNN_PRESET_NAME;
     const unsigned B = BNN_MAX_BATCH;
     int rc = bnn_init(&model, NULL, 1);

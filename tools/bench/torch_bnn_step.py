@@ -7,9 +7,10 @@ BCE (from logits, mean) + kl_weight * sum over Bayesian tensors of the mean clos
 N(0, 1); backward; Adam on the mu group and on the rho group (two optimisers).
 
 Usage: torch_bnn_step.py [--preset paper|small] [--batch 1024] [--reps 30] [--threads 1]
-Prints `BENCH torch_bnn_train_step_ms_<preset>_b<batch> <ms> ms` (median). Needs torch; on
-this project's build machine the PyPI wheel could not be imported (it requires the CUDA
-libraries), so this script is provided for machines where a CPU torch is installed.
+Prints `BENCH torch_bnn_train_step_ms_<preset>_b<batch> <ms> ms` (median) and the best
+repetition. Needs torch (not a project dependency): the PyPI wheel imports once its CUDA
+dependency packages are installed; only the CPU path is timed. See firmware/ai/README.md
+("Same-machine PyTorch comparison") for the commands.
 """
 import argparse
 import statistics
@@ -35,6 +36,10 @@ def main():
         print(f"torch_bnn_step: cannot import torch: {e}", file=sys.stderr)
         return 2
     torch.set_num_threads(a.threads)
+    try:
+        torch.set_num_interop_threads(1)
+    except RuntimeError:
+        pass  # already set (only possible before any parallel work)
     torch.manual_seed(0)
     S, H, L = PRESETS[a.preset]
     B = a.batch

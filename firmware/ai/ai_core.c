@@ -1,0 +1,206 @@
+/* The AI core loop: see ai_core.h. */
+#include "ai/ai_core.h"
+
+#include <math.h>
+#include <string.h>
+
+#include "ai/ai_rng.h"
+#include "ai/bnn_ckpt.h"
+#include "hal/hal.h"
+
+_Static_assert(AI_CORE_BYTES + FW_LINK_AI_BYTES <= BOARD_RAM_AI_BYTES,
+               "AI core (DiNNO node, pool, batch) and its links exceed the board's AI RAM");
+_Static_assert(AI_POOL_CAPACITY > 0 && AI_POOL_CAPACITY <= 0xFFFFFFFFu, "pool capacity");
+
+ai_core_cfg_t ai_core_default_cfg(void)
+{
+    ai_core_cfg_t c;
+    memset(&c, 0, sizeof c);
+    c.rounds = 8;
+    c.policy = AI_POOL_CDR;
+    c.dinno = dinno_default_cfg();
+    c.model_seed = 1;
+    c.seed = 1;
+    return c;
+}
+
+int ai_core_init(ai_core_t *ai, const ai_core_cfg_t *cfg, const fw_link_t *link)
+{
+    if (ai == NULL || cfg == NULL || link == NULL || cfg->rounds < 1 ||
+        cfg->rounds > AI_CORE_MAX_ROUNDS || cfg->train_between < 0 || cfg->train_between > 1)
+        return -EINVAL;
+    /* The big members are left as they are: dinno_node_init and the pool set what they use. */
+    ai->cfg = *cfg;
+    ai->cfg.dinno.total_rounds = cfg->rounds;
+    ai->link = link;
+    ai->phase = AI_PHASE_COLLECT;
+    ai->next_round = 0;
+    memset(&ai->rt, 0, sizeof ai->rt);
+    memset(&ai->status, 0, sizeof ai->status);
+    memset(&ai->pending, 0, sizeof ai->pending);
+    ai->ticks = 0;
+    ai->empty_rounds = 0;
+    int r = dinno_node_init(&ai->node, &ai->cfg.dinno, NULL, cfg->model_seed, cfg->seed,
+                            cfg->node_id);
+    if (r != 0)
+        return r;
+    r = ai_pool_init(&ai->pool, ai->pool_data, AI_POOL_CAPACITY, cfg->policy,
+                     ai_rng_mix64(cfg->seed ^ 0x504F4F4C53454544ull));
+    if (r != 0)
+        return r;
+    ai->status.rounds_total = cfg->rounds;
+    ai->status.pool_capacity = AI_POOL_CAPACITY;
+    ai->status.loss_train = NAN;
+    return 0;
+}
+
+static uint32_t rounds_due(const ai_core_t *ai)
+{
+    const uint32_t C = ai->cfg.rounds;
+    if (ai->rt.finished)
+        return C;
+    if (!(ai->rt.path_length_m > 0.0f))
+        return 0;
+    double f = (double)ai->rt.progress_m / (double)ai->rt.path_length_m * (double)C;
+    uint32_t due = f >= (double)C ? C : (uint32_t)f;
+    return due;
+}
+
+/* One optimiser step between boundaries on a minibatch drawn uniformly from the pool. */
+static int train_between(ai_core_t *ai)
+{
+    const uint32_t B = ai->cfg.dinno.batch;
+    const uint32_t fill = ai->pool.fill;
+    const uint64_t step = ai->status.between_steps;
+    size_t n;
+    if (fill <= B) {
+        n = fill;
+        memcpy(ai->batch, ai->pool.data, sizeof(ai_sample_t) * n);
+    } else {
+        n = B;
+        for (uint32_t i = 0; i < B; i += 4) {
+            uint32_t key[2] = {(uint32_t)ai->cfg.seed, (uint32_t)(ai->cfg.seed >> 32) ^ 0x42455457u};
+            uint32_t ctr[4] = {i, (uint32_t)step, (uint32_t)(step >> 32), 0x54524E42u};
+            uint32_t out[4];
+            ai_rng_philox4x32(key, ctr, out);
+            for (uint32_t q = 0; q < 4 && i + q < B; q++)
+                ai->batch[i + q] = ai->pool.data[out[q] % fill];
+        }
+    }
+    float lr = dinno_lr_at(&ai->cfg.dinno, ai->next_round);
+    uint64_t noise = ai_rng_mix64(ai->cfg.seed ^ 0x4245545745454E00ull ^ step);
+    int r = bnn_train_step(&ai->node.model, ai->batch, n, ai->cfg.dinno.kl_weight, noise, lr, NULL);
+    if (r == 0)
+        ai->status.between_steps++;
+    return r;
+}
+
+static void publish_state(ai_core_t *ai, uint64_t now_us)
+{
+    const uint32_t k = ai->next_round;
+    ai_state_msg_t *st = mbox_write_buffer(ai->link->ai_state);
+    st->round = k;
+    st->n_params = (uint32_t)bnn_n_params(&ai->node.model);
+    memcpy(st->theta, bnn_params_const(&ai->node.model), sizeof(float) * st->n_params);
+    (void)mbox_publish(ai->link->ai_state);
+    ai_round_info_t *p = &ai->pending;
+    memset(p, 0, sizeof *p);
+    p->round = k;
+    p->stamp_us = now_us;
+    p->progress_m = ai->rt.progress_m;
+    p->distance_m = ai->rt.distance_m;
+    p->ring_drops = ai->rt.ring_drops;
+    ai->phase = AI_PHASE_WAIT_SLOTS;
+}
+
+static int run_round(ai_core_t *ai, const gp_ready_t *ready)
+{
+    const uint32_t k = ai->next_round;
+    ai_round_info_t *p = &ai->pending;
+    int rc = 0;
+    dinno_slots_clear(&ai->node);
+    const dinno_slots_t *slots = ai->link->slots;
+    const size_t np = bnn_n_params(&ai->node.model);
+    for (uint32_t s = 0; s < DINNO_MAX_PEERS && ready->neighbours > 0; s++) {
+        if (slots->valid[s] && slots->round[s] == k) {
+            int r = dinno_slot_put(&ai->node, s, k, slots->theta[s], np);
+            if (r != 0)
+                rc = r;
+        }
+    }
+    p->pool_fill = ai->pool.fill;
+    p->pool_capacity = ai->pool.capacity;
+    p->pool_offered = ai->pool.offered;
+    if (ai->pool.fill > 0) {
+        dinno_round_stats_t st;
+        int r = dinno_node_round(&ai->node, ai->pool.data, ai->pool.fill, &st);
+        if (r == 0) {
+            p->neighbours = st.neighbours;
+            p->steps = ai->cfg.dinno.primal_steps;
+            p->loss_train = st.pred_total;
+            p->bce = st.bce;
+            p->kl = st.kl_prior;
+            p->lr = st.lr;
+            p->rho_k = st.rho_k;
+        } else {
+            rc = r;
+        }
+    } else {
+        ai->empty_rounds++;
+        p->loss_train = p->bce = NAN;
+        p->kl = (float)bnn_kl_loss(&ai->node.model);
+        hal_log(HAL_LOG_WARN, "round %u: empty pool, no update", k);
+    }
+    if (rc != 0) {
+        p->loss_train = p->bce = NAN;
+        p->steps = 0;
+    }
+    ai_ckpt_msg_t *msg = mbox_write_buffer(ai->link->ai_ckpt);
+    msg->info = *p;
+    msg->flags = k + 1u == ai->cfg.rounds ? AI_CKPT_FLAG_FINAL : 0u;
+    size_t written = 0;
+    int r = bnn_ckpt_save(&ai->node.model, 0, msg->bytes, sizeof msg->bytes, &written);
+    msg->n_bytes = r == 0 ? (uint32_t)written : 0u;
+    if (r != 0)
+        rc = r;
+    (void)mbox_publish(ai->link->ai_ckpt);
+    ai->status.loss_train = p->loss_train;
+    ai_pool_boundary(&ai->pool);
+    ai->next_round++;
+    ai->status.round = ai->next_round;
+    ai->phase = ai->next_round >= ai->cfg.rounds ? AI_PHASE_DONE : AI_PHASE_COLLECT;
+    return rc;
+}
+
+int ai_core_tick(void *arg, const fw_tick_t *tick)
+{
+    ai_core_t *ai = arg;
+    ai->ticks++;
+    int rc = 0;
+    /* Drain at most one ring's worth: bounded work per tick even if the RT core keeps up. */
+    ai_sample_t s;
+    for (uint32_t i = 0; i < FW_LINK_RING_CAPACITY && ring_get(ai->link->samples, &s) == 0; i++) {
+        if (ai->phase != AI_PHASE_DONE)
+            (void)ai_pool_offer(&ai->pool, &s);
+    }
+    if (mbox_get(ai->link->rt_to_ai, &ai->rt, NULL) < 0)
+        rc = -EINVAL;
+    if (ai->phase == AI_PHASE_COLLECT) {
+        if (ai->next_round < rounds_due(ai)) {
+            publish_state(ai, tick->now_us);
+        } else if (ai->cfg.train_between && ai->pool.fill > 0) {
+            rc = train_between(ai);
+        }
+    } else if (ai->phase == AI_PHASE_WAIT_SLOTS) {
+        gp_ready_t ready;
+        if (mbox_get(ai->link->gp_ready, &ready, NULL) == 1 && ready.round == ai->next_round)
+            rc = run_round(ai, &ready);
+    }
+    ai->status.stamp_us = tick->now_us;
+    ai->status.pool_fill = ai->pool.fill;
+    ai->status.pool_offered = ai->pool.offered;
+    ai->status.done = ai->phase == AI_PHASE_DONE;
+    if (mbox_put(ai->link->ai_status, &ai->status) != 0)
+        rc = -EINVAL;
+    return rc;
+}

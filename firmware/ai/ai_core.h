@@ -1,0 +1,87 @@
+/* The AI core of the robot image: drains the RT -> AI sample ring into a fixed-capacity
+ * sample pool and learns online by communication rounds (paper section 6.2).
+ *
+ * The path is split into C rounds of equal path progress (rt_status_t.progress_m, published
+ * by the RT core): boundary k (0 <= k < C) is reached when progress >= (k + 1) * L / C, or
+ * when the RT core reports the path finished (then every remaining round runs). At each
+ * boundary the core takes part in DiNNO round k (fw_link.h protocol): it publishes its
+ * state, waits (without blocking: a state machine over its ticks) for the GP core's
+ * ready(k), copies the valid neighbour slots into its dinno_node_t and runs
+ * dinno_node_round() on the pool: B = steps_per_round optimiser steps (a node without
+ * neighbours trains locally, as DiNNO does). Then it publishes the checkpoint of round k and
+ * applies the pool policy (ai_pool.h: CDR keeps, DR clears).
+ * Option train_between: on every tick between boundaries with a non-empty pool, one more
+ * optimiser step (bnn_train_step, lr of the coming round) on a minibatch drawn from the pool.
+ *
+ * Storage: ai_core_t is static (the image declares it): the DiNNO node (model, duals,
+ * slots), the pool of AI_POOL_CAPACITY samples and a minibatch buffer, checked with the
+ * AI core's links against BOARD_RAM_AI_BYTES. No allocation. One AI core per image. */
+#ifndef AI_AI_CORE_H
+#define AI_AI_CORE_H
+
+#include <stdint.h>
+
+#include "ai/ai_pool.h"
+#include "ai/dinno.h"
+#include "common/fw_core.h"
+#include "fw_link.h"
+
+/* Pool capacity in samples, from the preset (a -D may override). One scan gives 500. */
+#ifndef AI_POOL_CAPACITY
+#if defined(BNN_PRESET_PAPER)
+#define AI_POOL_CAPACITY (1u << 18)
+#elif defined(BNN_PRESET_MCU)
+#define AI_POOL_CAPACITY (1u << 12)
+#else
+#define AI_POOL_CAPACITY (1u << 17)
+#endif
+#endif
+
+#define AI_CORE_MAX_ROUNDS 100000u
+
+typedef struct ai_core_cfg {
+    uint32_t rounds;          /* C, 1 .. AI_CORE_MAX_ROUNDS */
+    ai_pool_policy_t policy;
+    dinno_cfg_t dinno;        /* primal_steps = B; total_rounds is set to C */
+    uint64_t model_seed;      /* initial weights */
+    uint64_t seed;            /* minibatches, BNN noise, reservoir */
+    uint32_t node_id;
+    int train_between;        /* 0/1 */
+} ai_core_cfg_t;
+
+typedef enum ai_core_phase {
+    AI_PHASE_COLLECT = 0,     /* between boundaries */
+    AI_PHASE_WAIT_SLOTS = 1,  /* state published, waiting for the GP core's ready(k) */
+    AI_PHASE_DONE = 2,        /* all C rounds done */
+} ai_core_phase_t;
+
+typedef struct ai_core {
+    ai_core_cfg_t cfg;
+    const fw_link_t *link;
+    ai_core_phase_t phase;
+    uint32_t next_round;      /* k of the next boundary */
+    rt_status_t rt;           /* latest RT status */
+    ai_status_t status;
+    ai_round_info_t pending;  /* the boundary being processed */
+    uint64_t ticks;
+    uint64_t empty_rounds;    /* boundaries reached with an empty pool (no update) */
+    ai_pool_t pool;
+    dinno_node_t node;
+    ai_sample_t batch[BNN_MAX_BATCH];
+    ai_sample_t pool_data[AI_POOL_CAPACITY];
+} ai_core_t;
+
+#define AI_CORE_BYTES (sizeof(ai_core_t))
+
+/* The default configuration: C = 8, CDR, dinno_default_cfg() (B = 5), seeds 1. */
+ai_core_cfg_t ai_core_default_cfg(void);
+
+/* Validates cfg and initialises the core (model from model_seed). Before the cores start.
+ * 0 or -EINVAL. */
+__attribute__((warn_unused_result)) int ai_core_init(ai_core_t *ai, const ai_core_cfg_t *cfg,
+                                                     const fw_link_t *link);
+
+/* fw_core_t tick function: arg is the ai_core_t. */
+int ai_core_tick(void *arg, const fw_tick_t *tick);
+
+#endif /* AI_AI_CORE_H */

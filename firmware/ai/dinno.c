@@ -1,0 +1,364 @@
+/* DiNNO node update: see dinno.h for the contract and the choice of weights and reductions.
+ *
+ * Why it is organised this way:
+ * - Every regulariser is separable per element and its per-neighbour sums can be collected
+ *   once per round (theta_i and the slots do not change during the primal steps), so each
+ *   primal step costs one pass over theta whatever the number of neighbours:
+ *     L2:  sum_j ||t - mid_j||^2 = m ||t||^2 - 2 t . (sum_j mid_j) + sum_j ||mid_j||^2,
+ *          gradient 2 (m t - sum_j mid_j);
+ *     KL:  sum_j [log r_j - log s + s^2 / (2 r_j^2) - 1/2]
+ *          = (sum_j log r_j) - m log s + (s^2 / 2) (sum_j 1/r_j^2) - m/2,
+ *          d/drho = sigmoid(rho) * (-m / s + s * sum_j 1/r_j^2)   (s = softplus(rho)).
+ *   aux1 holds sum_j mid_j (or sum_j 1/r_j^2 on the rho group for KL), aux2 sum_j log r_j.
+ * - Sums are accumulated in slot order, so the result does not depend on timing.
+ * - Values use double accumulators (they are diagnostics and the finite-difference reference);
+ *   gradients are float, elementwise.
+ */
+#include "ai/dinno.h"
+
+#include <errno.h>
+#include <math.h>
+#include <string.h>
+
+#include "ai/ai_rng.h"
+
+#define DRAW_SALT 0xD1A0B47Cull  /* minibatch index stream */
+#define NOISE_SALT 0xD1A0E95Eull /* BNN weight-noise keys */
+
+dinno_cfg_t dinno_default_cfg(void)
+{
+    dinno_cfg_t c = {
+        .strategy = DINNO_KL,
+        .rho0 = 0.3f,
+        .rho_scaling = 1.0004f,
+        .primal_steps = 5,
+        .lr_start = 1e-3f,
+        .lr_end = 1e-4f,
+        .total_rounds = 1000,
+        .persistent_adam = 0,
+        .w_mu = 1.0f,
+        .w_rho = 1.0f,
+        .kl_weight = 1e-4f,
+        .batch = BNN_MAX_BATCH < 512u ? BNN_MAX_BATCH : 512u,
+    };
+    return c;
+}
+
+size_t dinno_get_buffer_size(void)
+{
+    return DINNO_NODE_BYTES;
+}
+
+static int finite_pos(float v)
+{
+    return isfinite(v) && v > 0.0f;
+}
+
+static int cfg_ok(const dinno_cfg_t *c, const bnn_config_t *b)
+{
+    return (c->strategy == DINNO_UNIFORM || c->strategy == DINNO_SEPARATE || c->strategy == DINNO_KL) &&
+           finite_pos(c->rho0) && finite_pos(c->rho_scaling) && c->primal_steps >= 1 &&
+           c->primal_steps <= 100000u && finite_pos(c->lr_start) && finite_pos(c->lr_end) &&
+           c->total_rounds >= 1 && (c->persistent_adam == 0 || c->persistent_adam == 1) &&
+           isfinite(c->w_mu) && c->w_mu >= 0.0f && isfinite(c->w_rho) && c->w_rho >= 0.0f &&
+           isfinite(c->kl_weight) && c->kl_weight >= 0.0f && c->batch >= 1 && c->batch <= b->max_batch;
+}
+
+int dinno_node_init(dinno_node_t *n, const dinno_cfg_t *cfg, const bnn_config_t *bcfg,
+                    uint64_t model_seed, uint64_t seed, uint32_t id)
+{
+    if (!n)
+        return -EINVAL;
+    const dinno_cfg_t c = cfg ? *cfg : dinno_default_cfg();
+    const bnn_config_t b = bcfg ? *bcfg : bnn_default_config();
+    if (!cfg_ok(&c, &b))
+        return -EINVAL;
+    int rc = bnn_init(&n->model, &b, model_seed);
+    if (rc)
+        return rc;
+    n->cfg = c;
+    n->seed = seed;
+    n->id = id;
+    n->round = 0;
+    n->n_nb = 0;
+    n->mid_sq[0] = n->mid_sq[1] = 0.0;
+    const size_t P = bnn_n_params(&n->model);
+    memset(n->dual, 0, P * sizeof(float));
+    memcpy(n->theta0, bnn_params(&n->model), P * sizeof(float));
+    memset(n->aux1, 0, P * sizeof(float));
+    memset(n->aux2, 0, n->model.n_rho * sizeof(float));
+    dinno_slots_clear(n);
+    return 0;
+}
+
+void dinno_slots_clear(dinno_node_t *n)
+{
+    if (!n)
+        return;
+    memset(n->slots.valid, 0, sizeof n->slots.valid);
+    memset(n->slots.round, 0, sizeof n->slots.round);
+}
+
+int dinno_slot_put(dinno_node_t *n, uint32_t s, uint32_t round, const float *theta, size_t n_params)
+{
+    if (!n || !theta || s >= DINNO_MAX_PEERS || n_params != bnn_n_params(&n->model))
+        return -EINVAL;
+    memcpy(n->slots.theta[s], theta, n_params * sizeof(float));
+    n->slots.round[s] = round;
+    n->slots.valid[s] = 1;
+    return 0;
+}
+
+float dinno_rho_at(const dinno_cfg_t *cfg, uint32_t k)
+{
+    return (float)((double)cfg->rho0 * pow((double)cfg->rho_scaling, (double)k));
+}
+
+float dinno_lr_at(const dinno_cfg_t *cfg, uint32_t k)
+{
+    if (cfg->total_rounds <= 1)
+        return cfg->lr_start;
+    const double t = (double)(k < cfg->total_rounds - 1 ? k : cfg->total_rounds - 1) /
+                     (double)(cfg->total_rounds - 1);
+    return (float)((double)cfg->lr_start * pow((double)cfg->lr_end / (double)cfg->lr_start, t));
+}
+
+uint32_t dinno_dual_update(dinno_node_t *n, float rho_k)
+{
+    const size_t P = bnn_n_params(&n->model);
+    float *th = bnn_params(&n->model);
+    memcpy(n->theta0, th, P * sizeof(float));
+    uint32_t m = 0;
+    for (uint32_t s = 0; s < DINNO_MAX_PEERS; s++) {
+        if (!n->slots.valid[s])
+            continue;
+        m++;
+        const float *tj = n->slots.theta[s];
+        for (size_t i = 0; i < P; i++)
+            n->dual[i] += rho_k * (n->theta0[i] - tj[i]);
+    }
+    n->n_nb = m;
+    return m;
+}
+
+static float sigmoidf_(float r)
+{
+    if (r >= 0.0f)
+        return 1.0f / (1.0f + expf(-r));
+    const float e = expf(r);
+    return e / (1.0f + e);
+}
+
+void dinno_prepare(dinno_node_t *n)
+{
+    const size_t P = bnn_n_params(&n->model), M = n->model.n_mu, R = n->model.n_rho;
+    const int kl = n->cfg.strategy == DINNO_KL;
+    memset(n->aux1, 0, P * sizeof(float));
+    memset(n->aux2, 0, R * sizeof(float));
+    double sq[2] = {0.0, 0.0};
+    for (uint32_t s = 0; s < DINNO_MAX_PEERS; s++) {
+        if (!n->slots.valid[s])
+            continue;
+        const float *tj = n->slots.theta[s];
+        const size_t l2_end = kl ? M : P;
+        for (size_t i = 0; i < l2_end; i++) {
+            const float mid = 0.5f * (n->theta0[i] + tj[i]);
+            n->aux1[i] += mid;
+            sq[i < M ? 0 : 1] += (double)mid * mid;
+        }
+        if (kl) {
+            for (size_t e = 0; e < R; e++) {
+                const float r = bnn_softplus(0.5f * (n->theta0[M + e] + tj[M + e]));
+                n->aux1[M + e] += 1.0f / (r * r);
+                n->aux2[e] += logf(r);
+            }
+        }
+    }
+    n->mid_sq[0] = sq[0];
+    n->mid_sq[1] = sq[1];
+}
+
+/* Weights of the mu and rho regularisers for the strategy (before rho_k). */
+static void weights(const dinno_node_t *n, float *wm, float *wr)
+{
+    if (n->cfg.strategy == DINNO_UNIFORM) {
+        *wm = 1.0f;
+        *wr = 1.0f;
+    } else {
+        *wm = n->cfg.w_mu;
+        *wr = n->cfg.w_rho;
+    }
+}
+
+void dinno_add_reg_grad(dinno_node_t *n, float rho_k, float *reg_mu, float *reg_rho, float *dual_dot)
+{
+    const size_t P = bnn_n_params(&n->model), M = n->model.n_mu, R = n->model.n_rho;
+    const float *th = bnn_params(&n->model);
+    float *g = bnn_grads(&n->model);
+    const float m = (float)n->n_nb;
+    float wm, wr;
+    weights(n, &wm, &wr);
+    const float cm = 2.0f * rho_k * wm, cr = 2.0f * rho_k * wr;
+    double dd = 0.0, tsq = 0.0, tdot = 0.0;
+    for (size_t i = 0; i < M; i++) {
+        const float t = th[i];
+        g[i] += n->dual[i] + cm * (m * t - n->aux1[i]);
+        dd += (double)t * n->dual[i];
+        tsq += (double)t * t;
+        tdot += (double)t * n->aux1[i];
+    }
+    const double rmu = (double)m * tsq - 2.0 * tdot + n->mid_sq[0];
+    double rr = 0.0;
+    if (n->cfg.strategy == DINNO_KL) {
+        const float kr = rho_k * wr;
+        for (size_t e = 0; e < R; e++) {
+            const float r = th[M + e];
+            const float s = bnn_softplus(r), inv2 = n->aux1[M + e];
+            g[M + e] += n->dual[M + e] + kr * sigmoidf_(r) * (s * inv2 - m / s);
+            dd += (double)r * n->dual[M + e];
+            rr += (double)n->aux2[e] - (double)m * log((double)s) + 0.5 * (double)s * s * inv2 - 0.5 * m;
+        }
+    } else {
+        tsq = tdot = 0.0;
+        for (size_t i = M; i < P; i++) {
+            const float t = th[i];
+            g[i] += n->dual[i] + cr * (m * t - n->aux1[i]);
+            dd += (double)t * n->dual[i];
+            tsq += (double)t * t;
+            tdot += (double)t * n->aux1[i];
+        }
+        rr = (double)m * tsq - 2.0 * tdot + n->mid_sq[1];
+    }
+    if (reg_mu)
+        *reg_mu = (float)rmu;
+    if (reg_rho)
+        *reg_rho = (float)rr;
+    if (dual_dot)
+        *dual_dot = (float)dd;
+}
+
+double dinno_reg_value(const dinno_node_t *n, float rho_k)
+{
+    const size_t P = bnn_n_params(&n->model), M = n->model.n_mu, R = n->model.n_rho;
+    const float *th = bnn_params_const(&n->model);
+    float wm, wr;
+    weights(n, &wm, &wr);
+    double dd = 0.0, l2mu = 0.0, l2rho = 0.0, kl = 0.0;
+    for (size_t i = 0; i < P; i++)
+        dd += (double)th[i] * n->dual[i];
+    /* Direct per-neighbour evaluation (independent of the aux sums), in double. */
+    for (uint32_t s = 0; s < DINNO_MAX_PEERS; s++) {
+        if (!n->slots.valid[s])
+            continue;
+        const float *tj = n->slots.theta[s];
+        for (size_t i = 0; i < P; i++) {
+            const double mid = 0.5 * ((double)n->theta0[i] + tj[i]);
+            const double d = (double)th[i] - mid;
+            if (i < M)
+                l2mu += d * d;
+            else
+                l2rho += d * d;
+        }
+        for (size_t e = 0; e < R; e++) {
+            const double r = log1p(exp(0.5 * ((double)n->theta0[M + e] + tj[M + e])));
+            const double sg = log1p(exp((double)th[M + e]));
+            kl += log(r / sg) + sg * sg / (2.0 * r * r) - 0.5;
+        }
+    }
+    const double rhoterm = n->cfg.strategy == DINNO_KL ? kl : l2rho;
+    return dd + (double)rho_k * ((double)wm * l2mu + (double)wr * rhoterm);
+}
+
+int dinno_node_round(dinno_node_t *n, const ai_sample_t *data, size_t n_data, dinno_round_stats_t *stats)
+{
+    if (!n || !data || n_data == 0)
+        return -EINVAL;
+    const uint32_t k = n->round;
+    for (uint32_t s = 0; s < DINNO_MAX_PEERS; s++)
+        if (n->slots.valid[s] && n->slots.round[s] != k)
+            return -EINVAL;
+    const dinno_cfg_t *c = &n->cfg;
+    const float rho_k = dinno_rho_at(c, k), lr = dinno_lr_at(c, k);
+    const uint32_t m = dinno_dual_update(n, rho_k);
+    if (m > 0)
+        dinno_prepare(n);
+    if (!c->persistent_adam) {
+        bnn_adam_reset(&n->model, BNN_GROUP_MU);
+        bnn_adam_reset(&n->model, BNN_GROUP_RHO);
+    }
+    const uint64_t draw_key = ai_rng_mix64(n->seed ^ DRAW_SALT);
+    const uint64_t noise_base = ai_rng_mix64(n->seed ^ NOISE_SALT);
+    const size_t nb = n_data <= c->batch ? n_data : c->batch;
+    double acc[6] = {0};
+    for (uint32_t b = 0; b < c->primal_steps; b++) {
+        const uint64_t step = (uint64_t)k * c->primal_steps + b;
+        const ai_sample_t *batch = data;
+        if (n_data > c->batch) {
+            ai_rng_uniform_fill(draw_key, 0, step * c->batch, n->draw, nb);
+            for (size_t i = 0; i < nb; i++) {
+                size_t idx = (size_t)((double)n->draw[i] * (double)n_data);
+                n->batch[i] = data[idx < n_data ? idx : n_data - 1];
+            }
+            batch = n->batch;
+        }
+        bnn_loss_t loss;
+        int rc = bnn_loss_grad(&n->model, batch, nb, c->kl_weight, noise_base + step, &loss);
+        if (rc)
+            return rc;
+        float rm = 0.0f, rr = 0.0f, dd = 0.0f;
+        if (m > 0)
+            dinno_add_reg_grad(n, rho_k, &rm, &rr, &dd);
+        rc = bnn_adam_step(&n->model, BNN_GROUP_MU, lr);
+        if (!rc)
+            rc = bnn_adam_step(&n->model, BNN_GROUP_RHO, lr);
+        if (rc)
+            return rc;
+        acc[0] += loss.total;
+        acc[1] += loss.bce;
+        acc[2] += loss.kl;
+        acc[3] += rm;
+        acc[4] += rr;
+        acc[5] += dd;
+    }
+    n->round = k + 1;
+    if (stats) {
+        const double B = (double)c->primal_steps;
+        stats->round = k;
+        stats->neighbours = m;
+        stats->rho_k = rho_k;
+        stats->lr = lr;
+        stats->pred_total = (float)(acc[0] / B);
+        stats->bce = (float)(acc[1] / B);
+        stats->kl_prior = (float)(acc[2] / B);
+        stats->reg_mu = (float)(acc[3] / B);
+        stats->reg_rho = (float)(acc[4] / B);
+        stats->dual_dot = (float)(acc[5] / B);
+    }
+    return 0;
+}
+
+const char *dinno_strategy_name(dinno_strategy_t s)
+{
+    switch (s) {
+    case DINNO_UNIFORM:
+        return "uniform";
+    case DINNO_SEPARATE:
+        return "separate";
+    case DINNO_KL:
+        return "kl";
+    }
+    return "?";
+}
+
+int dinno_strategy_parse(const char *name, dinno_strategy_t *out)
+{
+    if (!name || !out)
+        return -EINVAL;
+    for (int s = DINNO_UNIFORM; s <= DINNO_KL; s++) {
+        if (strcmp(name, dinno_strategy_name((dinno_strategy_t)s)) == 0) {
+            *out = (dinno_strategy_t)s;
+            return 0;
+        }
+    }
+    return -EINVAL;
+}

@@ -1,0 +1,173 @@
+/* DiNNO consensus for the BNN (DESIGN.md section 5, paper Algorithm 2): one node's state and
+ * its round update (dual ascent, then B primal optimiser steps).
+ *
+ * Round k at node i, neighbour states theta_j (j in N(i), read from the FIXED SLOTS below):
+ *   1. rho_k = rho0 * rho_scaling^k
+ *   2. dual:  p_i += rho_k * sum_j (theta_i - theta_j)          (theta_i = theta at round start)
+ *   3. primal: B Adam steps, lr_k = lr_start * (lr_end / lr_start)^(k / (total_rounds - 1))
+ *      (log-decay, the reference's logspace), on
+ *        loss_i(theta) + <theta, p_i> + REG(theta)
+ *      where loss_i = BCE + kl_weight * kl_loss on a minibatch of the node's own data
+ *      (bnn_loss_grad) and REG depends on the strategy. mid_j = (theta_i + theta_j) / 2:
+ *      - DINNO_UNIFORM : REG = rho_k * sum_j ||theta - mid_j||^2 over the whole vector
+ *                        (plain DiNNO; both Adam groups stepped with the same lr, which is
+ *                        exactly one Adam over the whole vector since Adam is elementwise).
+ *      - DINNO_SEPARATE: REG = rho_k * W_mu  * sum_j ||theta_mu  - mid_j,mu ||^2
+ *                            + rho_k * W_rho * sum_j ||theta_rho - mid_j,rho||^2
+ *      - DINNO_KL      : REG = rho_k * W_mu  * sum_j ||theta_mu - mid_j,mu||^2
+ *                            + rho_k * W_rho * sum_j sum_e KL(N(mu_e, s_e) || N(mu_e, r_je))
+ *                        with s_e = softplus(rho_e), r_je = softplus(mid_j,rho,e) and, equal
+ *                        means, KL = log(r/s) + s^2 / (2 r^2) - 1/2 (paper eq. 6).
+ *   The regulariser weight is rho_k * W (W_mu, W_rho default 1), so the penalty grows with
+ *   rho_k like plain DiNNO's. With W_mu = W_rho = 1, SEPARATE is the same computation as
+ *   UNIFORM (bit for bit): the strategies only differ when the weights differ.
+ *   The KL term is SUMMED over elements (and neighbours), like the L2 term: near agreement
+ *   KL(d) with d = rho - rho_reg is ~ (sigmoid(rho)/softplus(rho))^2 * d^2, and that ratio is
+ *   ~1 for rho << 0 (0.95 at the initial rho = -3), so the summed KL has the same local
+ *   curvature as the summed squared L2 and rho_k means the same for both. (A mean would divide
+ *   it by n_rho, ~1.7e4 in the small preset, and switch the consensus on rho off.) Away from
+ *   agreement it is asymmetric: exponential when sigma exceeds the midpoint's, linear below.
+ *   The dual step uses rho_k for both groups (Algorithm 2 has no W on the duals).
+ *   A node with no valid slot skips steps 2 and the REG terms: pure local training.
+ *
+ * Neighbour states arrive in FIXED SLOTS: node->slots.theta[s] (s < DINNO_MAX_PEERS) with
+ * node->slots.valid[s] != 0; the writer (GP core, or the in-process fleet driver) fills them
+ * before dinno_node_round(), which reads them and nothing else. Slots must hold the states
+ * of the same round k (the caller's job; the round is recorded for checking).
+ *
+ * Minibatches: step b of round k draws `batch` indices uniformly with replacement from the
+ * node's data, keyed by (node seed, k, b) with Philox (a pure function), or uses the whole
+ * data when it has at most `batch` samples. BNN noise keys are derived from (seed, k, b) too,
+ * so a node's trajectory is a pure function of (seed, data, slots).
+ *
+ * Memory: a dinno_node_t holds everything inline (the bnn_model_t, duals, the round-start
+ * snapshot, two auxiliary vectors, the neighbour slots, a batch buffer): DINNO_NODE_BYTES,
+ * checked against the board's AI RAM. Declare it static. No function allocates.
+ * Thread-safety: one thread per node at a time; nodes are independent. */
+#ifndef AI_DINNO_H
+#define AI_DINNO_H
+
+#include <stddef.h>
+#include <stdint.h>
+
+#include "ai/ai_sample.h"
+#include "ai/bnn.h"
+#include "common/board_check.h"
+
+#define DINNO_WUR __attribute__((warn_unused_result))
+
+#define DINNO_MAX_PEERS BOARD_MAX_PEERS
+
+typedef enum dinno_strategy {
+    DINNO_UNIFORM = 0,
+    DINNO_SEPARATE = 1,
+    DINNO_KL = 2,
+} dinno_strategy_t;
+
+typedef struct dinno_cfg {
+    dinno_strategy_t strategy;
+    float rho0;            /* > 0, default 0.3 */
+    float rho_scaling;     /* >= 1 (finite), default 1.0004 */
+    uint32_t primal_steps; /* B >= 1, default 5 */
+    float lr_start;        /* > 0, default 1e-3 */
+    float lr_end;          /* > 0, default 1e-4 */
+    uint32_t total_rounds; /* >= 1: rounds of the lr decay (after it lr stays at lr_end) */
+    int persistent_adam;   /* 0 (default): fresh Adam state each round; 1: keep it */
+    float w_mu;            /* >= 0, default 1 (SEPARATE, KL) */
+    float w_rho;           /* >= 0, default 1 (SEPARATE, KL) */
+    float kl_weight;       /* >= 0, weight of the BNN prior KL in loss_i, default 1e-4 */
+    uint32_t batch;        /* 1..bnn max_batch, default min(512, max_batch) */
+} dinno_cfg_t;
+
+/* Neighbour states of one round, in fixed slots (one per possible peer). */
+typedef struct dinno_slots {
+    uint32_t valid[DINNO_MAX_PEERS];  /* != 0: theta[s] holds a neighbour's state */
+    uint32_t round[DINNO_MAX_PEERS];  /* the round that state belongs to */
+    _Alignas(64) float theta[DINNO_MAX_PEERS][BNN_N_PARAMS]; /* first n_params floats used */
+} dinno_slots_t;
+
+/* What one round did (means over its B primal steps unless said otherwise). */
+typedef struct dinno_round_stats {
+    uint32_t round;        /* k of the round just done */
+    uint32_t neighbours;   /* valid slots used */
+    float rho_k, lr;
+    float pred_total;      /* BCE + kl_weight * kl_loss (the prediction loss) */
+    float bce;
+    float kl_prior;        /* BNN kl_loss (unweighted) */
+    float reg_mu;          /* sum_j ||theta_mu - mid_j,mu||^2 (unweighted; UNIFORM: mu part) */
+    float reg_rho;         /* rho-group term (unweighted): squared L2 or the summed KL */
+    float dual_dot;        /* <theta, p_i> */
+} dinno_round_stats_t;
+
+typedef struct dinno_node {
+    dinno_cfg_t cfg;
+    uint64_t seed;
+    uint32_t id;
+    uint32_t round;        /* rounds done */
+    uint32_t n_nb;         /* neighbours of the round being run (set by dinno_dual_update) */
+    double mid_sq[2];      /* sum_j ||mid_j||^2 of the mu and the rho group (L2 values) */
+    bnn_model_t model;
+    dinno_slots_t slots;
+    _Alignas(64) float dual[BNN_N_PARAMS];  /* p_i: [mu-group duals | rho-group duals] */
+    _Alignas(64) float theta0[BNN_N_PARAMS]; /* theta_i at the start of the round */
+    _Alignas(64) float aux1[BNN_N_PARAMS];   /* L2: sum_j mid_j; KL rho part: sum_j 1/r_j^2 */
+    _Alignas(64) float aux2[BNN_N_RHO];      /* KL: sum_j log r_j */
+    ai_sample_t batch[BNN_MAX_BATCH];
+    float draw[BNN_MAX_BATCH];
+} dinno_node_t;
+
+#define DINNO_NODE_BYTES (sizeof(dinno_node_t))
+_Static_assert(sizeof(dinno_node_t) <= BOARD_RAM_AI_BYTES, "DiNNO node exceeds the board's AI RAM");
+
+/* Defaults above; total_rounds = 1000. */
+dinno_cfg_t dinno_default_cfg(void);
+
+/* Bytes of storage a node holds (the module's buffer size). */
+size_t dinno_get_buffer_size(void);
+
+/* Validates cfg (NULL = defaults) against bcfg (NULL = the preset), initialises the model
+ * from model_seed (nodes of one fleet share model_seed for a common start, as the reference
+ * does), zeroes duals and slots; `seed` keys this node's minibatches and BNN noise (give
+ * each node its own). Returns 0 or -EINVAL. */
+DINNO_WUR int dinno_node_init(dinno_node_t *n, const dinno_cfg_t *cfg, const bnn_config_t *bcfg,
+                              uint64_t model_seed, uint64_t seed, uint32_t id);
+
+/* Marks every slot invalid. */
+void dinno_slots_clear(dinno_node_t *n);
+
+/* Copies a neighbour's state (n_params floats) of round `round` into slot s and marks it
+ * valid. Returns 0 or -EINVAL (s out of range, NULL). */
+DINNO_WUR int dinno_slot_put(dinno_node_t *n, uint32_t s, uint32_t round, const float *theta,
+                             size_t n_params);
+
+/* rho_k and lr_k of round k under cfg. */
+float dinno_rho_at(const dinno_cfg_t *cfg, uint32_t k);
+float dinno_lr_at(const dinno_cfg_t *cfg, uint32_t k);
+
+/* One round (k = n->round): dual update from the valid slots, then B primal steps on
+ * data[0..n_data). Valid slots must carry round k (else -EINVAL, nothing changed).
+ * Increments n->round. stats may be NULL. Returns 0 or -EINVAL (NULL, n_data == 0, bad
+ * samples). Allocates nothing. */
+DINNO_WUR int dinno_node_round(dinno_node_t *n, const ai_sample_t *data, size_t n_data,
+                               dinno_round_stats_t *stats);
+
+/* Building blocks, exposed for tests ------------------------------------------------------- */
+/* Dual update only: p += rho_k * sum_{valid s} (theta - slot_s); also snapshots theta0.
+ * Returns the number of neighbours used. */
+uint32_t dinno_dual_update(dinno_node_t *n, float rho_k);
+
+/* Adds the gradient of <theta, p> + REG(theta) (strategy terms, weight rho_k) to the model's
+ * gradient buffer, using theta0 and the slots as prepared by dinno_prepare(). Writes the
+ * unweighted term values to reg_mu/reg_rho/dual_dot when non-NULL. */
+void dinno_prepare(dinno_node_t *n);
+void dinno_add_reg_grad(dinno_node_t *n, float rho_k, float *reg_mu, float *reg_rho,
+                        float *dual_dot);
+
+/* The value of <theta, p> + REG(theta) at the current theta (double, for finite differences). */
+double dinno_reg_value(const dinno_node_t *n, float rho_k);
+
+const char *dinno_strategy_name(dinno_strategy_t s);
+/* "uniform" | "separate" | "kl" -> strategy; returns 0 or -EINVAL. */
+DINNO_WUR int dinno_strategy_parse(const char *name, dinno_strategy_t *out);
+
+#endif /* AI_DINNO_H */

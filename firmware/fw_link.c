@@ -1,0 +1,75 @@
+/* Static storage of the links between the cores (see fw_link.h). */
+#include "fw_link.h"
+
+#include <stdatomic.h>
+#include <string.h>
+
+RING_DEFINE(fw_samples_ring, sizeof(ai_sample_t), FW_LINK_RING_CAPACITY);
+MBOX_DEFINE(fw_rt_to_ai, sizeof(rt_status_t));
+MBOX_DEFINE(fw_rt_to_gp, sizeof(rt_status_t));
+MBOX_DEFINE(fw_ai_status, sizeof(ai_status_t));
+MBOX_DEFINE(fw_ai_state, sizeof(ai_state_msg_t));
+MBOX_DEFINE(fw_ai_ckpt, sizeof(ai_ckpt_msg_t));
+MBOX_DEFINE(fw_gp_ready, sizeof(gp_ready_t));
+static dinno_slots_t fw_slots;
+
+
+_Static_assert(FW_LINK_RT_BYTES <= BOARD_RAM_RT_BYTES, "RT links exceed the board's RT RAM");
+_Static_assert(FW_LINK_GP_BYTES <= BOARD_RAM_GP_BYTES, "GP links exceed the board's GP RAM");
+_Static_assert(FW_LINK_AI_BYTES <= BOARD_RAM_AI_BYTES, "AI links exceed the board's AI RAM");
+
+static const fw_link_t fw_link = {
+    .samples = &fw_samples_ring,
+    .rt_to_ai = &fw_rt_to_ai,
+    .rt_to_gp = &fw_rt_to_gp,
+    .ai_status = &fw_ai_status,
+    .ai_state = &fw_ai_state,
+    .ai_ckpt = &fw_ai_ckpt,
+    .gp_ready = &fw_gp_ready,
+    .slots = &fw_slots,
+};
+
+const fw_link_t *fw_link_get(void)
+{
+    return &fw_link;
+}
+
+static void mbox_reset(mbox_t *m)
+{
+    /* The initial state MBOX_DEFINE gives; only valid while nobody uses the mailbox. */
+    atomic_store(&m->middle, 2u);
+    m->write_idx = 0u;
+    m->read_idx = 1u;
+    m->write_seq = 0u;
+    m->seq[0] = m->seq[1] = m->seq[2] = 0u;
+}
+
+void fw_link_reset(void)
+{
+    atomic_store(&fw_samples_ring.head, 0u);
+    atomic_store(&fw_samples_ring.tail, 0u);
+    atomic_store(&fw_samples_ring.drops, 0u);
+    mbox_reset(&fw_rt_to_ai);
+    mbox_reset(&fw_rt_to_gp);
+    mbox_reset(&fw_ai_status);
+    mbox_reset(&fw_ai_state);
+    mbox_reset(&fw_ai_ckpt);
+    mbox_reset(&fw_gp_ready);
+    memset(fw_slots.valid, 0, sizeof fw_slots.valid);
+    memset(fw_slots.round, 0, sizeof fw_slots.round);
+}
+
+size_t fw_link_bytes_rt(void)
+{
+    return FW_LINK_RT_BYTES;
+}
+
+size_t fw_link_bytes_ai(void)
+{
+    return FW_LINK_AI_BYTES;
+}
+
+size_t fw_link_bytes_gp(void)
+{
+    return FW_LINK_GP_BYTES;
+}

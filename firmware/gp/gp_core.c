@@ -1,0 +1,164 @@
+/* The GP core loop: see gp_core.h. */
+#include "gp/gp_core.h"
+
+#include <math.h>
+#include <stdio.h>
+#include <string.h>
+
+#include "hal/hal.h"
+
+_Static_assert(sizeof(gp_core_t) + FW_LINK_GP_BYTES <= BOARD_RAM_GP_BYTES,
+               "GP core state and its links exceed the board's GP RAM");
+
+gp_core_cfg_t gp_core_default_cfg(void)
+{
+    gp_core_cfg_t c;
+    memset(&c, 0, sizeof c);
+    c.telemetry_every = 10;
+    c.write_round_ckpts = 1;
+    return c;
+}
+
+int gp_core_init(gp_core_t *gp, const gp_core_cfg_t *cfg, const fw_link_t *link)
+{
+    if (gp == NULL || cfg == NULL || link == NULL || cfg->telemetry_every < 1)
+        return -EINVAL;
+    memset(gp, 0, sizeof *gp);
+    gp->cfg = *cfg;
+    gp->link = link;
+    int n = snprintf(gp->channel, sizeof gp->channel, "%s%u", GP_TELEMETRY_CHANNEL_PREFIX,
+                     cfg->robot_id);
+    if (n < 0 || (size_t)n >= sizeof gp->channel || !hal_net_channel_valid(gp->channel))
+        return -EINVAL;
+    atomic_store(&gp->n_log, 0u);
+    atomic_store(&gp->done, 0u);
+    return 0;
+}
+
+void gp_core_ckpt_name(uint32_t round, char *buf, size_t cap)
+{
+    snprintf(buf, cap, "round_%04u.bnn", round);
+}
+
+static void send_telemetry(gp_core_t *gp, uint64_t now_us)
+{
+    gp_telemetry_t t;
+    memset(&t, 0, sizeof t);
+    t.robot_id = gp->cfg.robot_id;
+    t.round = gp->have_ai ? gp->ai.round : 0u;
+    t.stamp_us = now_us;
+    t.x_m = gp->rt.x_m;
+    t.y_m = gp->rt.y_m;
+    t.heading_rad = gp->rt.heading_rad;
+    t.loss_train = gp->have_ai ? gp->ai.loss_train : NAN;
+    t.loss_val = NAN; /* the robot has no validation data; the host computes it */
+    t.pool_fill = gp->have_ai ? gp->ai.pool_fill : 0u;
+    t.pool_capacity = gp->have_ai ? gp->ai.pool_capacity : 0u;
+    t.ring_drops = gp->rt.ring_drops;
+    hal_net_stats_t ns;
+    if (hal_net_get_stats(&ns) == 0) {
+        uint64_t d = ns.rx_dropped_full + ns.rx_dropped_invalid + ns.rx_dropped_small;
+        t.net_drops = d > 0xFFFFFFFFu ? 0xFFFFFFFFu : (uint32_t)d;
+    }
+    t.neighbours = gp->neighbours > 255u ? 255u : gp->neighbours;
+    if (gp_telemetry_encode(&t, gp->tele, sizeof gp->tele) == 0 &&
+        hal_net_publish(gp->channel, gp->tele, sizeof gp->tele) == 0)
+        gp->stats.telemetry_sent++;
+    else
+        gp->stats.telemetry_failed++;
+}
+
+static void handle_ckpt(gp_core_t *gp, uint64_t now_us);
+
+static void coordinate(gp_core_t *gp, uint64_t now_us)
+{
+    if (!gp->exchange_pending) {
+        if (mbox_fetch(gp->link->ai_state) != 1)
+            return;
+        const ai_state_msg_t *st = mbox_read_buffer(gp->link->ai_state, NULL);
+        gp->exchange_pending = 1;
+        gp->exchange_round = st->round;
+        /* ckpt(k-1) was published before state(k): take it now, before ready(k) lets the
+         * AI core publish ckpt(k) over it (a mailbox keeps only the latest). */
+        handle_ckpt(gp, now_us);
+    }
+    /* The slots are the GP core's until ready(k) is published. */
+    dinno_slots_t *slots = gp->link->slots;
+    int n = 0;
+    if (gp->cfg.exchange != NULL) {
+        const ai_state_msg_t *st = mbox_read_buffer(gp->link->ai_state, NULL);
+        n = gp->cfg.exchange(gp->cfg.exchange_ctx, gp->exchange_round, st->theta, st->n_params,
+                             slots);
+        if (n == -EAGAIN)
+            return;
+        if (n < 0) {
+            gp->stats.exchange_errors++;
+            hal_log(HAL_LOG_WARN, "round %u: state exchange failed (%d), local round",
+                    gp->exchange_round, n);
+            n = 0;
+        }
+    }
+    if (n == 0)
+        memset(slots->valid, 0, sizeof slots->valid);
+    gp_ready_t ready = {gp->exchange_round, (uint32_t)n};
+    gp->neighbours = (uint32_t)n;
+    if (mbox_put(gp->link->gp_ready, &ready) != 0)
+        return;
+    gp->exchange_pending = 0;
+    gp->stats.rounds_coordinated++;
+}
+
+static void handle_ckpt(gp_core_t *gp, uint64_t now_us)
+{
+    if (mbox_fetch(gp->link->ai_ckpt) != 1)
+        return;
+    const ai_ckpt_msg_t *m = mbox_read_buffer(gp->link->ai_ckpt, NULL);
+    const ai_round_info_t *in = &m->info;
+    char name[HAL_STORAGE_NAME_MAX];
+    int r = 0;
+    if (m->n_bytes == 0) {
+        r = -EINVAL;
+    } else {
+        if (gp->cfg.write_round_ckpts) {
+            gp_core_ckpt_name(in->round, name, sizeof name);
+            r = hal_storage_write(name, m->bytes, m->n_bytes);
+        }
+        if (r == 0 && (m->flags & AI_CKPT_FLAG_FINAL))
+            r = hal_storage_write("final.bnn", m->bytes, m->n_bytes);
+    }
+    if (r == 0)
+        gp->stats.ckpt_written++;
+    else
+        gp->stats.ckpt_failed++;
+    uint32_t n = atomic_load_explicit(&gp->n_log, memory_order_relaxed);
+    if (n < GP_CORE_LOG_ROUNDS) {
+        gp->log[n] = *in;
+        atomic_store_explicit(&gp->n_log, n + 1u, memory_order_release);
+    }
+    hal_log(HAL_LOG_INFO,
+            "round %u done: progress %.2f m, pool %u/%u, drops %u, loss %.4f (bce %.4f, kl %.2f), "
+            "%u neighbours, ckpt %s",
+            in->round, (double)in->progress_m, in->pool_fill, in->pool_capacity, in->ring_drops,
+            (double)in->loss_train, (double)in->bce, (double)in->kl, in->neighbours,
+            r == 0 ? "written" : "FAILED");
+    send_telemetry(gp, now_us);
+    if (m->flags & AI_CKPT_FLAG_FINAL) {
+        gp->final_ckpt_status = r;
+        atomic_store_explicit(&gp->done, 1u, memory_order_release);
+    }
+}
+
+int gp_core_tick(void *arg, const fw_tick_t *tick)
+{
+    gp_core_t *gp = arg;
+    gp->stats.ticks++;
+    if (mbox_get(gp->link->rt_to_gp, &gp->rt, NULL) == 1)
+        gp->have_rt = 1;
+    if (mbox_get(gp->link->ai_status, &gp->ai, NULL) == 1)
+        gp->have_ai = 1;
+    handle_ckpt(gp, tick->now_us);
+    coordinate(gp, tick->now_us);
+    if (tick->index % gp->cfg.telemetry_every == 0)
+        send_telemetry(gp, tick->now_us);
+    return 0;
+}

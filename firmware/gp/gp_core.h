@@ -1,0 +1,92 @@
+/* The general-purpose core of the robot image: the round coordinator between the AI core and
+ * the network, telemetry and checkpoints.
+ *
+ * Each tick (default 10 Hz):
+ *   - takes the latest RT and AI status (mailboxes);
+ *   - round coordination (fw_link.h protocol): when the AI core published its state of
+ *     round k, the GP core obtains the neighbours' states of round k into the fixed slots
+ *     (fw_link_t.slots, one per possible peer) and publishes ready(k). Who the neighbours are
+ *     and how their states arrive is the `exchange` hook: NULL (no peers configured) means
+ *     no neighbour, so the round completes locally at once; the multi-process fleet plugs in
+ *     a hook that sends this robot's state over hal_net (Algorithm 1) and fills the slots
+ *     when every neighbour's state arrived (-EAGAIN until then; the GP core asks again on
+ *     its next tick, the AI core keeps waiting without blocking anything);
+ *   - when the AI core published the checkpoint of round k: writes it through the storage
+ *     HAL as "round_<k>.bnn" (4 digits) and, after the last round, as "final.bnn"; appends
+ *     the round's record to a fixed log (the host reads it for metrics); logs a line;
+ *   - publishes a gp_telemetry_t on GP_TELEMETRY_CHANNEL_PREFIX<robot> every
+ *     telemetry_every ticks and at every round (no network: counted, not an error).
+ *
+ * Storage: gp_core_t is static (declared by the image). No allocation. One GP core per image.
+ * The round log and `done` may be read by the host between hal_host_run_until() calls (all
+ * cores are then blocked in the lockstep) or after the cores stopped. */
+#ifndef GP_GP_CORE_H
+#define GP_GP_CORE_H
+
+#include <stdatomic.h>
+#include <stdint.h>
+
+#include "common/fw_core.h"
+#include "fw_link.h"
+#include "gp/gp_telemetry.h"
+
+#ifndef GP_CORE_LOG_ROUNDS
+#define GP_CORE_LOG_ROUNDS 1024u /* round records kept (the first ones) */
+#endif
+
+/* Fills slots with neighbour states of `round` (valid/round/theta per slot) for this
+ * robot's state `theta` (n_params floats). Returns the number of neighbours (>= 0), -EAGAIN
+ * when the states are not all there yet (called again next tick), or another negative code
+ * (the round then completes without neighbours and the error is counted). */
+typedef int (*gp_exchange_fn)(void *ctx, uint32_t round, const float *theta, uint32_t n_params,
+                              dinno_slots_t *slots);
+
+typedef struct gp_core_cfg {
+    uint32_t robot_id;
+    uint32_t telemetry_every;  /* ticks between telemetry records, >= 1 (default 10) */
+    gp_exchange_fn exchange;   /* NULL: no peers */
+    void *exchange_ctx;
+    int write_round_ckpts;     /* 1 (default): every round's checkpoint; 0: final only */
+} gp_core_cfg_t;
+
+typedef struct gp_core_stats {
+    uint64_t ticks;
+    uint64_t telemetry_sent;
+    uint64_t telemetry_failed;  /* publish refused (no network, ...) */
+    uint64_t ckpt_written;
+    uint64_t ckpt_failed;
+    uint64_t exchange_errors;
+    uint64_t rounds_coordinated;
+} gp_core_stats_t;
+
+typedef struct gp_core {
+    gp_core_cfg_t cfg;
+    const fw_link_t *link;
+    rt_status_t rt;
+    ai_status_t ai;
+    int have_rt, have_ai;
+    int exchange_pending;      /* a state was taken, ready not yet published */
+    uint32_t exchange_round;
+    uint32_t neighbours;
+    gp_core_stats_t stats;
+    _Atomic uint32_t n_log;    /* records in log[] */
+    _Atomic uint32_t done;     /* 1 once the final checkpoint was handled */
+    int32_t final_ckpt_status; /* 0 or the storage error of final.bnn */
+    ai_round_info_t log[GP_CORE_LOG_ROUNDS];
+    uint8_t tele[GP_TELEMETRY_WIRE_BYTES];
+    char channel[64];
+} gp_core_t;
+
+gp_core_cfg_t gp_core_default_cfg(void);
+
+/* Validates and resets (before the cores start). 0 or -EINVAL. */
+__attribute__((warn_unused_result)) int gp_core_init(gp_core_t *gp, const gp_core_cfg_t *cfg,
+                                                     const fw_link_t *link);
+
+/* fw_core_t tick function: arg is the gp_core_t. */
+int gp_core_tick(void *arg, const fw_tick_t *tick);
+
+/* Storage name of round k's checkpoint into buf (>= HAL_STORAGE_NAME_MAX bytes). */
+void gp_core_ckpt_name(uint32_t round, char *buf, size_t cap);
+
+#endif /* GP_GP_CORE_H */

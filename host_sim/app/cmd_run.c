@@ -1,0 +1,518 @@
+/* host_sim run: one robot's firmware image (RT, AI, GP cores as threads) against the ODE
+ * world in lockstep, learning online by communication rounds. */
+#include <errno.h>
+#include <math.h>
+#include <stdio.h>
+#include <stdlib.h>
+#include <string.h>
+#include <sys/stat.h>
+
+#include "ai/bnn_ckpt.h"
+#include "commands.h"
+#include "plan_cli.h"
+#include "sim_fleet.h"
+#include "sim_image.h"
+#include "sim_paths.h"
+#include "sim_plan.h"
+#include "sim_samples.h"
+#include "sim_valset.h"
+
+static void run_usage(FILE *out)
+{
+    const dinno_cfg_t d = dinno_default_cfg();
+    fprintf(out,
+            "usage: host_sim run --plan FILE.svg --path FILE.csv --out DIR [options]\n"
+            "\n"
+            "Runs ONE robot's firmware image in this process: the RT core (50 Hz control, 10 Hz scans\n"
+            "-> samples -> ring), the AI core (sample pool, BNN preset '%s', DiNNO node update) and the\n"
+            "GP core (round coordination, telemetry, checkpoints) as three threads on the host HAL, in\n"
+            "lockstep with the ODE world. The path is split into C communication rounds of equal length;\n"
+            "at each boundary the AI core trains B optimiser steps on its pool (a single robot has no\n"
+            "neighbours: local DiNNO rounds).\n"
+            "\n"
+            "Writes into DIR: metrics.csv (round,sim_time_s,distance_m,progress_m,pool_fill,pool_capacity,\n"
+            "ring_drops,train_loss,bce,val_loss,kl), round_NNNN.bnn (each round's checkpoint, from the GP\n"
+            "core's storage), final.bnn, valset.samples, map_mean.png and map_std.png (MC mean / std of\n"
+            "the final model, path on top), profile.txt and profile.csv (per core: ticks, lateness, wall\n"
+            "time per tick, stack high-water; static memory per core), summary.txt.\n"
+            "\n"
+            "options:\n"
+            "  --online             learn online by communication rounds (the only mode; accepted for clarity)\n"
+            "  --rounds C           communication rounds (default 8)\n"
+            "  --pool cdr|dr        cumulative data retention (default) or data refresh per round\n"
+            "  --seed S             run seed (default 1): noise, weights, minibatches, reservoir\n"
+            "  --steps-per-round B  optimiser steps per round (default %u)\n"
+            "  --kl-weight W        weight of the BNN prior KL (default %g)\n"
+            "  --batch N            minibatch size (default %u, <= %u)\n"
+            "  --lr-start V, --lr-end V   log-decaying learning rate over the rounds (default %g -> %g)\n"
+            "  --train-between      one more optimiser step per AI tick between boundaries\n"
+            "  --time-limit S       simulated seconds before giving up (default 1800)\n"
+            "  --robot I            robot index (noise streams, telemetry channel; default 0)\n"
+            "  --net URL            LCM URL for telemetry (default memq://, in-process; 'none' for none)\n"
+            "  --sched serial|parallel   lockstep release order (default serial: bit-reproducible)\n"
+            "  --val-poses N        validation poses x 500 points (default 500; 0: no validation)\n"
+            "  --map-res M          map grid in metres (default 0.1); --mc K passes (default 50)\n"
+            "  --no-maps            skip the PNG maps\n"
+            "  --quiet              firmware log at WARN (default INFO: a line per round)\n"
+            "  --scale S            plan metres per pixel (default %g)\n",
+            BNN_PRESET_NAME, d.primal_steps, (double)d.kl_weight, d.batch, BNN_MAX_BATCH,
+            (double)d.lr_start, (double)d.lr_end, SIM_PLAN_DEFAULT_SCALE);
+}
+
+static int mkdir_p(const char *dir)
+{
+    char tmp[4096];
+    if (snprintf(tmp, sizeof tmp, "%s", dir) >= (int)sizeof tmp)
+        return -ENAMETOOLONG;
+    for (char *p = tmp + 1; *p; p++) {
+        if (*p != '/')
+            continue;
+        *p = '\0';
+        if (mkdir(tmp, 0777) != 0 && errno != EEXIST)
+            return -errno;
+        *p = '/';
+    }
+    if (mkdir(tmp, 0777) != 0 && errno != EEXIST)
+        return -errno;
+    return 0;
+}
+
+typedef struct run_opts {
+    const char *plan, *path, *out, *net;
+    long long rounds, seed, steps, robot, val_poses, mc, batch;
+    double kl_weight, time_limit, map_res, scale, lr_start, lr_end;
+    ai_pool_policy_t pool;
+    hal_host_sched_t sched;
+    int train_between, no_maps, quiet;
+} run_opts_t;
+
+static int parse(int argc, char **argv, run_opts_t *o)
+{
+    const dinno_cfg_t d = dinno_default_cfg();
+    memset(o, 0, sizeof *o);
+    o->rounds = 8;
+    o->seed = 1;
+    o->steps = d.primal_steps;
+    o->batch = d.batch;
+    o->kl_weight = d.kl_weight;
+    o->lr_start = d.lr_start;
+    o->lr_end = d.lr_end;
+    o->time_limit = 1800;
+    o->val_poses = 500;
+    o->mc = 50;
+    o->map_res = 0.1;
+    o->scale = SIM_PLAN_DEFAULT_SCALE;
+    o->net = "memq://";
+    o->pool = AI_POOL_CDR;
+    o->sched = HAL_HOST_SCHED_SERIAL;
+    for (int i = 1; i < argc; i++) {
+        const char *a = argv[i];
+        if (strcmp(a, "--help") == 0 || strcmp(a, "-h") == 0) {
+            run_usage(stdout);
+            return 1;
+        }
+        if (strcmp(a, "--online") == 0)
+            continue;
+        if (strcmp(a, "--train-between") == 0) {
+            o->train_between = 1;
+            continue;
+        }
+        if (strcmp(a, "--no-maps") == 0) {
+            o->no_maps = 1;
+            continue;
+        }
+        if (strcmp(a, "--quiet") == 0) {
+            o->quiet = 1;
+            continue;
+        }
+        if (strncmp(a, "--", 2) != 0) {
+            fprintf(stderr, "host_sim run: unexpected argument '%s'\n", a);
+            return -1;
+        }
+        if (cmd_need_value(argc, argv, i, "run") != 0)
+            return -1;
+        const char *v = argv[++i];
+        int bad = 0;
+        if (strcmp(a, "--plan") == 0)
+            o->plan = v;
+        else if (strcmp(a, "--path") == 0)
+            o->path = v;
+        else if (strcmp(a, "--out") == 0)
+            o->out = v;
+        else if (strcmp(a, "--net") == 0)
+            o->net = strcmp(v, "none") == 0 ? NULL : v;
+        else if (strcmp(a, "--rounds") == 0)
+            bad = cmd_parse_ll(v, a, 1, GP_CORE_LOG_ROUNDS, &o->rounds);
+        else if (strcmp(a, "--seed") == 0)
+            bad = cmd_parse_ll(v, a, 0, 0x7FFFFFFFFFFFFFFFLL, &o->seed);
+        else if (strcmp(a, "--steps-per-round") == 0)
+            bad = cmd_parse_ll(v, a, 1, 1000000, &o->steps);
+        else if (strcmp(a, "--batch") == 0)
+            bad = cmd_parse_ll(v, a, 1, BNN_MAX_BATCH, &o->batch);
+        else if (strcmp(a, "--robot") == 0)
+            bad = cmd_parse_ll(v, a, 0, 1000000, &o->robot);
+        else if (strcmp(a, "--val-poses") == 0)
+            bad = cmd_parse_ll(v, a, 0, 100000, &o->val_poses);
+        else if (strcmp(a, "--mc") == 0)
+            bad = cmd_parse_ll(v, a, 1, 1000, &o->mc);
+        else if (strcmp(a, "--kl-weight") == 0)
+            bad = cmd_parse_double(v, a, 0.0, 1e6, &o->kl_weight);
+        else if (strcmp(a, "--lr-start") == 0)
+            bad = cmd_parse_double(v, a, 1e-12, 10.0, &o->lr_start);
+        else if (strcmp(a, "--lr-end") == 0)
+            bad = cmd_parse_double(v, a, 1e-12, 10.0, &o->lr_end);
+        else if (strcmp(a, "--time-limit") == 0)
+            bad = cmd_parse_double(v, a, 0.1, 1e6, &o->time_limit);
+        else if (strcmp(a, "--map-res") == 0)
+            bad = cmd_parse_double(v, a, 0.01, 10.0, &o->map_res);
+        else if (strcmp(a, "--scale") == 0)
+            bad = cmd_parse_double(v, a, 1e-6, 100.0, &o->scale);
+        else if (strcmp(a, "--pool") == 0) {
+            if (ai_pool_policy_parse(v, &o->pool) != 0) {
+                fprintf(stderr, "host_sim run: --pool: '%s' is not cdr or dr\n", v);
+                bad = 1;
+            }
+        } else if (strcmp(a, "--sched") == 0) {
+            if (strcmp(v, "serial") == 0)
+                o->sched = HAL_HOST_SCHED_SERIAL;
+            else if (strcmp(v, "parallel") == 0)
+                o->sched = HAL_HOST_SCHED_PARALLEL;
+            else {
+                fprintf(stderr, "host_sim run: --sched: '%s' is not serial or parallel\n", v);
+                bad = 1;
+            }
+        } else {
+            fprintf(stderr, "host_sim run: unknown option '%s' (see --help)\n", a);
+            return -1;
+        }
+        if (bad)
+            return -1;
+    }
+    const char *missing = !o->plan ? "--plan" : !o->path ? "--path" : !o->out ? "--out" : NULL;
+    if (missing) {
+        fprintf(stderr, "host_sim run: %s is required (see --help)\n", missing);
+        return -1;
+    }
+    return 0;
+}
+
+typedef struct run_ctx {
+    const run_opts_t *o;
+    FILE *csv;
+    bnn_model_t *model;
+    const ai_sample_t *val;
+    size_t n_val;
+    int failed;
+    double last_val;
+} run_ctx_t;
+
+static int load_ckpt(bnn_model_t *m, const char *file)
+{
+    FILE *f = fopen(file, "rb");
+    if (f == NULL) {
+        fprintf(stderr, "host_sim run: cannot open %s: %s\n", file, strerror(errno));
+        return -errno;
+    }
+    static uint8_t buf[BNN_CKPT_MAX_BYTES];
+    size_t n = fread(buf, 1, sizeof buf, f);
+    fclose(f);
+    const char *why = NULL;
+    int rc = bnn_ckpt_load(m, buf, n, &why);
+    if (rc != 0)
+        fprintf(stderr, "host_sim run: %s: %s\n", file, why ? why : "invalid checkpoint");
+    return rc;
+}
+
+static void on_round(const ai_round_info_t *in, void *user)
+{
+    run_ctx_t *c = user;
+    double val = NAN;
+    if (c->n_val > 0) {
+        char file[4200], name[64];
+        gp_core_ckpt_name(in->round, name, sizeof name);
+        snprintf(file, sizeof file, "%s/%s", c->o->out, name);
+        float v = NAN;
+        if (load_ckpt(c->model, file) != 0 || bnn_eval_bce(c->model, c->val, c->n_val, 0, 0, &v) != 0)
+            c->failed = 1;
+        val = v;
+    }
+    c->last_val = val;
+    printf("round %3u/%lld  t %7.1f s  progress %6.2f m  distance %6.2f m  pool %7u/%u  drops %u  "
+           "train %.4f  val %.4f  kl %.2f\n",
+           in->round + 1, c->o->rounds, (double)in->stamp_us * 1e-6, (double)in->progress_m,
+           (double)in->distance_m, in->pool_fill, in->pool_capacity, in->ring_drops,
+           (double)in->loss_train, val, (double)in->kl);
+    fflush(stdout);
+    fprintf(c->csv, "%u,%.3f,%.4f,%.4f,%u,%u,%u,%.6g,%.6g,%.6g,%.6g\n", in->round,
+            (double)in->stamp_us * 1e-6, (double)in->distance_m, (double)in->progress_m, in->pool_fill,
+            in->pool_capacity, in->ring_drops, (double)in->loss_train, (double)in->bce, val,
+            (double)in->kl);
+    fflush(c->csv);
+}
+
+static void write_profile(const run_opts_t *o, const sim_image_result_t *r, FILE *txt, FILE *csv)
+{
+    static const char *names[HAL_CORE_COUNT] = {"RT", "GP", "AI"};
+    static const double hz[HAL_CORE_COUNT] = {1e6 / FW_RT_PERIOD_US, 1e6 / FW_GP_PERIOD_US,
+                                              1e6 / FW_AI_PERIOD_US};
+    const fw_robot_memory_t *m = &r->mem;
+    const size_t mem_core[HAL_CORE_COUNT] = {m->rt_state + m->rt_links, m->gp_state + m->gp_links,
+                                             m->ai_state + m->ai_links};
+    if (csv)
+        fprintf(csv, "core,rate_hz,ticks,late_ticks,lateness_max_us,wall_min_us,wall_mean_us,wall_max_us,"
+                 "stack_used_bytes,stack_size_bytes,static_bytes\n");
+    fprintf(txt, "host_sim run profile (board %s, preset %s, seed %lld, sched %s)\n", BOARD_NAME,
+            BNN_PRESET_NAME, o->seed, o->sched == HAL_HOST_SCHED_SERIAL ? "serial" : "parallel");
+    fprintf(txt, "simulated %.2f s in %.2f s wall (%.1f x real time); %llu physics steps\n\n",
+            (double)r->sim_time_us * 1e-6, r->wall_s, (double)r->sim_time_us * 1e-6 / r->wall_s,
+            (unsigned long long)r->host_world_steps);
+    fprintf(txt, "%-4s %6s %9s %6s %12s %12s %12s %12s %22s %14s\n", "core", "Hz", "ticks", "late",
+            "late_max_us", "wall_min_us", "wall_mean_us", "wall_max_us", "stack used/size (B)",
+            "static (B)");
+    for (int i = 0; i < HAL_CORE_COUNT; i++) {
+        const hal_host_core_stats_t *s = &r->core[i];
+        double mean = s->wall_ticks ? (double)s->wall_total_ns / (double)s->wall_ticks * 1e-3 : 0;
+        double mn = s->wall_ticks ? (double)s->wall_min_ns * 1e-3 : 0;
+        double mx = (double)s->wall_max_ns * 1e-3;
+        if (csv)
+            fprintf(csv, "%s,%g,%llu,%llu,%llu,%.3f,%.3f,%.3f,%zu,%zu,%zu\n", names[i], hz[i],
+                (unsigned long long)s->ticks, (unsigned long long)s->late_ticks,
+                (unsigned long long)s->lateness_max_us, mn, mean, mx, s->stack_used_bytes,
+                s->stack_size_bytes, mem_core[i]);
+        char stk[64];
+        snprintf(stk, sizeof stk, "%zu/%zu", s->stack_used_bytes, s->stack_size_bytes);
+        fprintf(txt, "%-4s %6g %9llu %6llu %12llu %12.1f %12.1f %12.1f %22s %14zu\n", names[i], hz[i],
+                (unsigned long long)s->ticks, (unsigned long long)s->late_ticks,
+                (unsigned long long)s->lateness_max_us, mn, mean, mx, stk, mem_core[i]);
+    }
+    fprintf(txt, "\nstatic memory (bytes, sizeof / _get_buffer_size):\n");
+    fprintf(txt, "  RT  core state (waypoints, scan, sample scratch) %12zu\n", m->rt_state);
+    fprintf(txt, "  RT  links (sample ring %zu + 2 status mailboxes) %12zu\n", m->ring, m->rt_links);
+    fprintf(txt, "  AI  core state total                             %12zu\n", m->ai_state);
+    fprintf(txt, "        DiNNO node (model, duals, slots, batch)    %12zu\n", m->ai_node);
+    fprintf(txt, "          BNN arena (bnn_get_buffer_size)          %12zu\n", m->ai_model_arena);
+    fprintf(txt, "        sample pool (%u samples)               %12zu\n", (unsigned)AI_POOL_CAPACITY,
+            m->ai_pool);
+    fprintf(txt, "  AI  links (status, state, ckpt mailboxes)        %12zu\n", m->ai_links);
+    fprintf(txt, "  GP  core state (round log, telemetry)            %12zu\n", m->gp_state);
+    fprintf(txt, "  GP  links (ready mailbox + neighbour slots)      %12zu\n", m->gp_links);
+    fprintf(txt, "  board budgets: RT %u, GP %u, AI %u; stacks RT %u, GP %u, AI %u\n",
+            (unsigned)BOARD_RAM_RT_BYTES, (unsigned)BOARD_RAM_GP_BYTES, (unsigned)BOARD_RAM_AI_BYTES,
+            (unsigned)BOARD_STACK_RT_BYTES, (unsigned)BOARD_STACK_GP_BYTES, (unsigned)BOARD_STACK_AI_BYTES);
+    if (csv)
+        fprintf(csv, "mem,rt_state,%zu\nmem,rt_links,%zu\nmem,ring,%zu\nmem,ai_state,%zu\nmem,ai_node,%zu\n"
+                 "mem,ai_model_arena,%zu\nmem,ai_pool,%zu\nmem,ai_links,%zu\nmem,gp_state,%zu\nmem,gp_links,%zu\n",
+            m->rt_state, m->rt_links, m->ring, m->ai_state, m->ai_node, m->ai_model_arena, m->ai_pool,
+            m->ai_links, m->gp_state, m->gp_links);
+}
+
+int cmd_run(int argc, char **argv)
+{
+    run_opts_t o;
+    int pr = parse(argc, argv, &o);
+    if (pr > 0)
+        return 0;
+    if (pr < 0)
+        return 2;
+    int status = 1;
+    char err[512], file[4200];
+    sim_plan_t plan;
+    memset(&plan, 0, sizeof plan);
+    sim_path_t path;
+    memset(&path, 0, sizeof path);
+    ai_sample_t *val = NULL;
+    size_t n_val = 0;
+    bnn_model_t *model = NULL;
+    FILE *csv = NULL;
+    sim_image_result_t *res = calloc(1, sizeof *res);
+    if (res == NULL)
+        return 1;
+
+    if (sim_plan_load(o.plan, o.scale, &plan, err, sizeof err) != 0) {
+        fprintf(stderr, "host_sim run: %s\n", err);
+        goto out;
+    }
+    if (sim_path_read_csv(o.path, &plan, &path, err, sizeof err) != 0) {
+        fprintf(stderr, "host_sim run: %s\n", err);
+        goto out;
+    }
+    if (path.n > RT_CORE_MAX_WAYPOINTS) {
+        fprintf(stderr, "host_sim run: %s has %d waypoints; the RT core holds at most %d\n", o.path, path.n,
+                RT_CORE_MAX_WAYPOINTS);
+        goto out;
+    }
+    if (mkdir_p(o.out) != 0) {
+        fprintf(stderr, "host_sim run: cannot create %s: %s\n", o.out, strerror(errno));
+        goto out;
+    }
+    printf("run: one robot's firmware image (RT %u Hz / scans %u Hz, GP %u Hz, AI %u Hz), lockstep\n",
+           1000000u / FW_RT_PERIOD_US, 1000000u / (FW_RT_PERIOD_US * FW_RT_SCAN_DIVIDER),
+           1000000u / FW_GP_PERIOD_US, 1000000u / FW_AI_PERIOD_US);
+    printf("seed %lld, preset %s, %lld rounds, pool %s (capacity %u), %lld steps/round, batch %lld, "
+           "kl_weight %g%s\n",
+           o.seed, BNN_PRESET_NAME, o.rounds, ai_pool_policy_name(o.pool), (unsigned)AI_POOL_CAPACITY,
+           o.steps, o.batch, o.kl_weight, o.train_between ? ", training between boundaries" : "");
+    fflush(stdout);
+    model = malloc(sizeof *model);
+    if (model == NULL || bnn_init(model, NULL, 1) != 0) {
+        fprintf(stderr, "host_sim run: out of memory\n");
+        goto out;
+    }
+    if (o.val_poses > 0) {
+        sim_valset_cfg_t vc = sim_valset_default_cfg();
+        vc.n_poses = (int)o.val_poses;
+        vc.seed = (uint64_t)o.seed;
+        char src[160];
+        snprintf(src, sizeof src, "valset (run) poses=%lld seed=%lld", o.val_poses, o.seed);
+        snprintf(file, sizeof file, "%s/valset.samples", o.out);
+        sim_samples_header_t hdr;
+        if (sim_valset_write(&plan, &vc, file, src, NULL, err, sizeof err) != 0 ||
+            sim_samples_read(file, &hdr, &val, err, sizeof err) != 0) {
+            fprintf(stderr, "host_sim run: validation set: %s\n", err);
+            goto out;
+        }
+        n_val = (size_t)hdr.count;
+        printf("validation set: %zu points (%lld poses)\n", n_val, o.val_poses);
+        fflush(stdout);
+    }
+    snprintf(file, sizeof file, "%s/metrics.csv", o.out);
+    csv = fopen(file, "w");
+    if (csv == NULL) {
+        fprintf(stderr, "host_sim run: cannot write %s: %s\n", file, strerror(errno));
+        goto out;
+    }
+    fprintf(csv, "round,sim_time_s,distance_m,progress_m,pool_fill,pool_capacity,ring_drops,train_loss,bce,"
+                 "val_loss,kl\n");
+    run_ctx_t ctx = {&o, csv, model, val, n_val, 0, NAN};
+    sim_image_cfg_t ic;
+    sim_image_cfg_default(&ic);
+    ic.seed = (uint64_t)o.seed;
+    ic.robot = (uint32_t)o.robot;
+    ic.rounds = (uint32_t)o.rounds;
+    ic.policy = o.pool;
+    ic.steps_per_round = (uint32_t)o.steps;
+    ic.kl_weight = (float)o.kl_weight;
+    ic.dinno.batch = (uint32_t)o.batch;
+    ic.dinno.lr_start = (float)o.lr_start;
+    ic.dinno.lr_end = (float)o.lr_end;
+    ic.train_between = o.train_between;
+    ic.time_limit_s = o.time_limit;
+    ic.storage_dir = o.out;
+    ic.net_url = o.net;
+    ic.sched = o.sched;
+    ic.log_level = o.quiet ? HAL_LOG_WARN : HAL_LOG_INFO;
+    ic.on_round = on_round;
+    ic.user = &ctx;
+    if (sim_image_run(&plan, &path, &ic, res, err, sizeof err) != 0) {
+        fprintf(stderr, "host_sim run: %s\n", err);
+        goto out;
+    }
+    if (fclose(csv) != 0) {
+        csv = NULL;
+        fprintf(stderr, "host_sim run: writing metrics.csv failed\n");
+        goto out;
+    }
+    csv = NULL;
+    if (ctx.failed)
+        goto out;
+    /* ---- profile ---- */
+    char f2[4200];
+    snprintf(file, sizeof file, "%s/profile.txt", o.out);
+    snprintf(f2, sizeof f2, "%s/profile.csv", o.out);
+    FILE *pt = fopen(file, "w"), *pc = fopen(f2, "w");
+    if (pt == NULL || pc == NULL) {
+        fprintf(stderr, "host_sim run: cannot write the profile files in %s\n", o.out);
+        if (pt)
+            fclose(pt);
+        if (pc)
+            fclose(pc);
+        goto out;
+    }
+    write_profile(&o, res, pt, pc);
+    write_profile(&o, res, stdout, NULL);
+    int perr = fclose(pc) != 0;
+    perr |= fclose(pt) != 0;
+    if (perr) {
+        fprintf(stderr, "host_sim run: writing the profile failed\n");
+        goto out;
+    }
+    if (!res->completed) {
+        fprintf(stderr,
+                "host_sim run: only %u of %lld rounds done within --time-limit %.1f s (path progress %.2f of "
+                "%.2f m); no final checkpoint\n",
+                res->rounds_done, o.rounds, o.time_limit, (double)res->rt_status.progress_m,
+                (double)res->path_length_m);
+        goto out;
+    }
+    if (res->final_ckpt_status != 0) {
+        fprintf(stderr, "host_sim run: the GP core could not write final.bnn (%d)\n", res->final_ckpt_status);
+        goto out;
+    }
+    /* ---- final model: maps, occupancy near the path ---- */
+    snprintf(file, sizeof file, "%s/final.bnn", o.out);
+    if (load_ckpt(model, file) != 0)
+        goto out;
+    double occ = NAN;
+    size_t cells = 0;
+    if (sim_image_occ_near_path(&plan, &path, model, 0.1, 1.0, &occ, &cells) != 0) {
+        fprintf(stderr, "host_sim run: occupancy metric failed\n");
+        goto out;
+    }
+    double smax = 0;
+    char mean_png[4200], std_png[4200];
+    snprintf(mean_png, sizeof mean_png, "%s/map_mean.png", o.out);
+    snprintf(std_png, sizeof std_png, "%s/map_std.png", o.out);
+    if (!o.no_maps) {
+        int zoom = (int)ceil(0.02 / o.map_res * 5.0);
+        zoom = zoom < 1 ? 1 : zoom > 8 ? 8 : zoom;
+        if (sim_fleet_write_maps(model, &plan, o.map_res, (uint32_t)o.mc, (uint64_t)o.seed, &path, 1, zoom,
+                                 mean_png, std_png, &smax, err, sizeof err) != 0) {
+            fprintf(stderr, "host_sim run: maps: %s\n", err);
+            goto out;
+        }
+    }
+    snprintf(file, sizeof file, "%s/summary.txt", o.out);
+    FILE *s = fopen(file, "w");
+    if (s == NULL) {
+        fprintf(stderr, "host_sim run: cannot write %s\n", file);
+        goto out;
+    }
+    for (int pass = 0; pass < 2; pass++) {
+        FILE *f = pass ? stdout : s;
+        fprintf(f, "seed: %lld\npreset: %s (%zu parameters)\nrounds: %lld\npool: %s (capacity %u)\n"
+                   "steps_per_round: %lld\nbatch: %lld\nkl_weight: %g\ntrain_between: %d\n",
+                o.seed, BNN_PRESET_NAME, bnn_n_params(model), o.rounds, ai_pool_policy_name(o.pool),
+                (unsigned)AI_POOL_CAPACITY, o.steps, o.batch, o.kl_weight, o.train_between);
+        fprintf(f, "path: %s (%d waypoints, %.2f m)\nsimulated: %.2f s; wall: %.2f s\n", o.path, path.n,
+                (double)res->path_length_m, (double)res->sim_time_us * 1e-6, res->wall_s);
+        fprintf(f, "distance (true pose): %.2f m; odometry: %.2f m; collisions: %llu\n", res->world.distance_m,
+                (double)res->rt_status.distance_m, (unsigned long long)res->world.collisions);
+        fprintf(f, "scans: %u; samples: %u; ring drops: %u; pool offered: %llu\n", res->rt_status.scans,
+                res->rt_status.samples, res->rt_status.ring_drops,
+                (unsigned long long)res->ai_status.pool_offered);
+        fprintf(f, "final train loss: %.5f; final val loss: %.5f\n", (double)res->ai_status.loss_train,
+                ctx.last_val);
+        fprintf(f, "occupancy MSE within 1 m of the path (0.1 m grid, %zu cells): %.5f\n", cells, occ);
+        fprintf(f, "checkpoints: %llu written, %llu failed; telemetry: %llu sent, %llu not sent\n",
+                (unsigned long long)res->gp.ckpt_written, (unsigned long long)res->gp.ckpt_failed,
+                (unsigned long long)res->gp.telemetry_sent, (unsigned long long)res->gp.telemetry_failed);
+        if (!o.no_maps)
+            fprintf(f, "maps: %lld MC passes, %.3f m grid, max std %.4f: %s %s\n", o.mc, o.map_res, smax,
+                    mean_png, std_png);
+    }
+    if (fclose(s) != 0) {
+        fprintf(stderr, "host_sim run: writing summary.txt failed\n");
+        goto out;
+    }
+    printf("results in %s\n", o.out);
+    status = 0;
+out:
+    if (csv)
+        fclose(csv);
+    free(res);
+    free(model);
+    free(val);
+    sim_path_free(&path);
+    sim_plan_free(&plan);
+    return status;
+}

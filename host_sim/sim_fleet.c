@@ -1,0 +1,588 @@
+/* The in-process DiNNO fleet: see sim_fleet.h.
+ *
+ * Why it looks like this:
+ * - A round is two phases. Phase 1 copies every node's round-start theta into the slots of
+ *   its neighbours (all copies are made before any node moves, so every node sees the
+ *   states of round k exactly, as Algorithm 1 delivers them). Phase 2 runs the node updates,
+ *   which touch only their own node, so they can run on worker threads in any order without
+ *   changing a bit of the result.
+ * - Positions for the disk graph come from the paths' arc length, not from the ODE robots:
+ *   the training data is collected offline, and the positions only decide who talks.
+ */
+#include "sim_fleet.h"
+
+#include <errno.h>
+#include <math.h>
+#include <pthread.h>
+#include <stdio.h>
+#include <stdlib.h>
+#include <string.h>
+
+#include "sim_rng.h"
+
+struct sim_fleet {
+    sim_fleet_cfg_t cfg;
+    int n_models;
+    dinno_node_t **nodes;
+    ai_sample_t **data;
+    size_t *n_data;
+    sim_path_t *paths; /* copies, or NULL */
+    double *path_len;  /* total arc length per path */
+    dinno_round_stats_t *stats;
+    dinno_graph_t graph;
+    uint32_t rounds_done;
+};
+
+void sim_fleet_cfg_default(sim_fleet_cfg_t *cfg)
+{
+    memset(cfg, 0, sizeof *cfg);
+    cfg->n_agents = 7;
+    cfg->rounds = 1000;
+    cfg->mode = SIM_FLEET_DINNO;
+    cfg->dinno = dinno_default_cfg();
+    cfg->graph = DINNO_GRAPH_DISK;
+    cfg->radius = 4.0;
+    cfg->seed = 1;
+    cfg->threads = 1;
+}
+
+static double arc_length(const sim_path_t *p)
+{
+    double len = 0.0;
+    for (int i = 0; i + 1 < p->n; i++)
+        len += hypot(p->p[i + 1].x - p->p[i].x, p->p[i + 1].y - p->p[i].y);
+    return len;
+}
+
+/* Point at arc length s along p (clamped to the ends). */
+static void point_at(const sim_path_t *p, double s, double *x, double *y, double *heading)
+{
+    *x = p->p[0].x;
+    *y = p->p[0].y;
+    if (heading)
+        *heading = p->n > 1 ? atan2(p->p[1].y - p->p[0].y, p->p[1].x - p->p[0].x) : 0.0;
+    for (int i = 0; i + 1 < p->n; i++) {
+        const double dx = p->p[i + 1].x - p->p[i].x, dy = p->p[i + 1].y - p->p[i].y;
+        const double l = hypot(dx, dy);
+        if (l <= 0.0)
+            continue;
+        if (heading)
+            *heading = atan2(dy, dx);
+        if (s <= l || i + 2 == p->n) {
+            const double t = fmin(fmax(s / l, 0.0), 1.0);
+            *x = p->p[i].x + t * dx;
+            *y = p->p[i].y + t * dy;
+            return;
+        }
+        s -= l;
+    }
+}
+
+static void free_fleet(sim_fleet_t *f)
+{
+    if (!f)
+        return;
+    if (f->nodes)
+        for (int i = 0; i < f->n_models; i++)
+            free(f->nodes[i]);
+    if (f->data)
+        for (int i = 0; i < f->n_models; i++)
+            free(f->data[i]);
+    if (f->paths)
+        for (int i = 0; i < f->cfg.n_agents; i++)
+            sim_path_free(&f->paths[i]);
+    free(f->nodes);
+    free(f->data);
+    free(f->n_data);
+    free(f->paths);
+    free(f->path_len);
+    free(f->stats);
+    free(f);
+}
+
+void sim_fleet_destroy(sim_fleet_t *f)
+{
+    free_fleet(f);
+}
+
+int sim_fleet_create(const sim_fleet_cfg_t *cfg, const bnn_config_t *bcfg, const ai_sample_t *const *data,
+                     const size_t *n_data, const sim_path_t *paths, sim_fleet_t **out, char *err, size_t errlen)
+{
+    if (err && errlen)
+        err[0] = '\0';
+    if (!cfg || !data || !n_data || !out) {
+        snprintf(err, errlen, "NULL argument");
+        return -EINVAL;
+    }
+    *out = NULL;
+    if (cfg->n_agents < 1 || cfg->n_agents > SIM_FLEET_MAX_AGENTS) {
+        snprintf(err, errlen, "agents must be 1..%d", SIM_FLEET_MAX_AGENTS);
+        return -EINVAL;
+    }
+    if (cfg->rounds < 1 || cfg->mode < SIM_FLEET_DINNO || cfg->mode > SIM_FLEET_ISOLATED ||
+        cfg->threads < 1 || cfg->threads > 16) {
+        snprintf(err, errlen, "bad rounds, mode or threads");
+        return -EINVAL;
+    }
+    if (cfg->mode == SIM_FLEET_DINNO && cfg->graph == DINNO_GRAPH_DISK &&
+        (!paths || !isfinite(cfg->radius) || cfg->radius <= 0.0)) {
+        snprintf(err, errlen, "the disk graph needs the agents' paths and a radius > 0");
+        return -EINVAL;
+    }
+    for (int i = 0; i < cfg->n_agents; i++) {
+        if (!data[i] || n_data[i] == 0) {
+            snprintf(err, errlen, "agent %d has no samples", i);
+            return -EINVAL;
+        }
+        if (paths && paths[i].n < 1) {
+            snprintf(err, errlen, "agent %d has an empty path", i);
+            return -EINVAL;
+        }
+    }
+    sim_fleet_t *f = calloc(1, sizeof *f);
+    if (!f)
+        return -ENOMEM;
+    f->cfg = *cfg;
+    f->cfg.dinno.total_rounds = cfg->rounds;
+    f->n_models = cfg->mode == SIM_FLEET_CENTRAL ? 1 : cfg->n_agents;
+    f->nodes = calloc((size_t)f->n_models, sizeof *f->nodes);
+    f->data = calloc((size_t)f->n_models, sizeof *f->data);
+    f->n_data = calloc((size_t)f->n_models, sizeof *f->n_data);
+    f->stats = calloc((size_t)f->n_models, sizeof *f->stats);
+    if (!f->nodes || !f->data || !f->n_data || !f->stats)
+        goto oom;
+    if (paths) {
+        f->paths = calloc((size_t)cfg->n_agents, sizeof *f->paths);
+        f->path_len = calloc((size_t)cfg->n_agents, sizeof *f->path_len);
+        if (!f->paths || !f->path_len)
+            goto oom;
+        for (int i = 0; i < cfg->n_agents; i++) {
+            f->paths[i].p = malloc((size_t)paths[i].n * sizeof(sim_vec2_t));
+            if (!f->paths[i].p)
+                goto oom;
+            memcpy(f->paths[i].p, paths[i].p, (size_t)paths[i].n * sizeof(sim_vec2_t));
+            f->paths[i].n = paths[i].n;
+            f->paths[i].start_room = paths[i].start_room;
+            f->path_len[i] = arc_length(&paths[i]);
+        }
+    }
+    if (cfg->mode == SIM_FLEET_CENTRAL) {
+        size_t total = 0;
+        for (int i = 0; i < cfg->n_agents; i++)
+            total += n_data[i];
+        f->data[0] = malloc(total * sizeof(ai_sample_t));
+        if (!f->data[0])
+            goto oom;
+        size_t o = 0;
+        for (int i = 0; i < cfg->n_agents; i++) {
+            memcpy(f->data[0] + o, data[i], n_data[i] * sizeof(ai_sample_t));
+            o += n_data[i];
+        }
+        f->n_data[0] = total;
+    } else {
+        for (int i = 0; i < cfg->n_agents; i++) {
+            f->data[i] = malloc(n_data[i] * sizeof(ai_sample_t));
+            if (!f->data[i])
+                goto oom;
+            memcpy(f->data[i], data[i], n_data[i] * sizeof(ai_sample_t));
+            f->n_data[i] = n_data[i];
+        }
+    }
+    const uint64_t model_seed = sim_rng_mix(cfg->seed ^ 0x5EEDB4B1ull);
+    for (int i = 0; i < f->n_models; i++) {
+        f->nodes[i] = aligned_alloc(64, (sizeof(dinno_node_t) + 63) / 64 * 64);
+        if (!f->nodes[i])
+            goto oom;
+        const uint64_t node_seed = sim_rng_mix(cfg->seed ^ sim_rng_mix(0xA6E7ull + (uint64_t)i));
+        int rc = dinno_node_init(f->nodes[i], &f->cfg.dinno, bcfg, model_seed, node_seed, (uint32_t)i);
+        if (rc) {
+            snprintf(err, errlen, "invalid DiNNO/BNN configuration");
+            free_fleet(f);
+            return rc;
+        }
+    }
+    *out = f;
+    return 0;
+oom:
+    snprintf(err, errlen, "out of memory");
+    free_fleet(f);
+    return -ENOMEM;
+}
+
+int sim_fleet_position(const sim_fleet_t *f, int i, uint32_t k, double *x, double *y)
+{
+    if (!f || !f->paths || i < 0 || i >= f->cfg.n_agents || !x || !y)
+        return -EINVAL;
+    const double frac = (double)k / (double)f->cfg.rounds;
+    point_at(&f->paths[i], fmin(frac, 1.0) * f->path_len[i], x, y, NULL);
+    return 0;
+}
+
+static int build_graph(sim_fleet_t *f, uint32_t k)
+{
+    const uint32_t n = (uint32_t)f->cfg.n_agents;
+    switch (f->cfg.graph) {
+    case DINNO_GRAPH_FULL:
+        return dinno_graph_full(&f->graph, n);
+    case DINNO_GRAPH_RING:
+        return dinno_graph_ring(&f->graph, n);
+    case DINNO_GRAPH_DISK: {
+        double xy[2 * SIM_FLEET_MAX_AGENTS];
+        for (uint32_t i = 0; i < n; i++) {
+            int rc = sim_fleet_position(f, (int)i, k, &xy[2 * i], &xy[2 * i + 1]);
+            if (rc)
+                return rc;
+        }
+        return dinno_graph_disk(&f->graph, n, xy, f->cfg.radius);
+    }
+    }
+    return -EINVAL;
+}
+
+typedef struct worker {
+    sim_fleet_t *f;
+    int first, stride;
+    int rc;
+} worker_t;
+
+static void *run_worker(void *arg)
+{
+    worker_t *w = arg;
+    w->rc = 0;
+    for (int i = w->first; i < w->f->n_models; i += w->stride) {
+        int rc = dinno_node_round(w->f->nodes[i], w->f->data[i], w->f->n_data[i], &w->f->stats[i]);
+        if (rc && !w->rc)
+            w->rc = rc;
+    }
+    return NULL;
+}
+
+int sim_fleet_round(sim_fleet_t *f, dinno_graph_report_t *rep)
+{
+    if (!f)
+        return -EINVAL;
+    const uint32_t k = f->rounds_done;
+    if (f->cfg.mode == SIM_FLEET_DINNO) {
+        int rc = build_graph(f, k);
+        if (rc)
+            return rc;
+        const size_t P = bnn_n_params(&f->nodes[0]->model);
+        for (int i = 0; i < f->n_models; i++) {
+            dinno_slots_clear(f->nodes[i]);
+            for (int j = 0; j < f->n_models; j++) {
+                if (!dinno_graph_has_edge(&f->graph, (uint32_t)i, (uint32_t)j))
+                    continue;
+                rc = dinno_slot_put(f->nodes[i], (uint32_t)j, k, bnn_params_const(&f->nodes[j]->model), P);
+                if (rc)
+                    return rc;
+            }
+        }
+        if (rep)
+            dinno_graph_report(&f->graph, rep);
+    } else {
+        memset(&f->graph, 0, sizeof f->graph);
+        f->graph.n = (uint32_t)f->n_models;
+        if (rep)
+            dinno_graph_report(&f->graph, rep);
+    }
+    int nt = f->cfg.threads < f->n_models ? f->cfg.threads : f->n_models;
+    worker_t w[16];
+    pthread_t th[16];
+    for (int t = 0; t < nt; t++)
+        w[t] = (worker_t){.f = f, .first = t, .stride = nt, .rc = 0};
+    int started = 0;
+    for (int t = 1; t < nt; t++) {
+        if (pthread_create(&th[t], NULL, run_worker, &w[t]) != 0)
+            break;
+        started = t;
+    }
+    /* Threads that failed to start: run their share here (same results, just slower). */
+    run_worker(&w[0]);
+    for (int t = started + 1; t < nt; t++)
+        run_worker(&w[t]);
+    for (int t = 1; t <= started; t++)
+        pthread_join(th[t], NULL);
+    for (int t = 0; t < nt; t++)
+        if (w[t].rc)
+            return w[t].rc;
+    f->rounds_done = k + 1;
+    return 0;
+}
+
+uint32_t sim_fleet_rounds_done(const sim_fleet_t *f)
+{
+    return f ? f->rounds_done : 0;
+}
+
+int sim_fleet_models(const sim_fleet_t *f)
+{
+    return f ? f->n_models : 0;
+}
+
+dinno_node_t *sim_fleet_node(sim_fleet_t *f, int i)
+{
+    return f && i >= 0 && i < f->n_models ? f->nodes[i] : NULL;
+}
+
+const dinno_round_stats_t *sim_fleet_last_stats(const sim_fleet_t *f, int i)
+{
+    return f && i >= 0 && i < f->n_models ? &f->stats[i] : NULL;
+}
+
+const dinno_graph_t *sim_fleet_graph(const sim_fleet_t *f)
+{
+    return f ? &f->graph : NULL;
+}
+
+double sim_fleet_consensus_error(const sim_fleet_t *f, int i)
+{
+    if (!f || i < 0 || i >= f->n_models || f->n_models < 2)
+        return 0.0;
+    const size_t P = bnn_n_params(&f->nodes[0]->model);
+    double num = 0.0, den = 0.0;
+    const double inv = 1.0 / f->n_models;
+    for (size_t p = 0; p < P; p++) {
+        double mean = 0.0;
+        for (int j = 0; j < f->n_models; j++)
+            mean += bnn_params_const(&f->nodes[j]->model)[p];
+        mean *= inv;
+        const double d = bnn_params_const(&f->nodes[i]->model)[p] - mean;
+        num += d * d;
+        den += mean * mean;
+    }
+    return den > 0.0 ? sqrt(num / den) : 0.0;
+}
+
+/* ---- occupancy metrics -------------------------------------------------------------------- */
+void sim_occ_eval_free(sim_occ_eval_t *ev)
+{
+    if (!ev)
+        return;
+    free(ev->xy);
+    free(ev->truth);
+    free(ev->cell);
+    free(ev->pred);
+    memset(ev, 0, sizeof *ev);
+}
+
+int sim_occ_eval_build(const sim_plan_t *plan, double res, sim_occ_eval_t *ev)
+{
+    if (!plan || !ev || !isfinite(res) || res <= 0.0)
+        return -EINVAL;
+    memset(ev, 0, sizeof *ev);
+    const int sub = 2;
+    sim_grid_t fine;
+    int rc = sim_grid_from_plan(plan, res / sub, &fine);
+    if (rc)
+        return rc;
+    const int w = (fine.w + sub - 1) / sub, h = (fine.h + sub - 1) / sub;
+    const size_t cells = (size_t)w * (size_t)h;
+    ev->xy = malloc(cells * 2 * sizeof(float));
+    ev->truth = malloc(cells);
+    ev->cell = malloc(cells * sizeof(int));
+    ev->pred = malloc(cells * sizeof(float));
+    if (!ev->xy || !ev->truth || !ev->cell || !ev->pred) {
+        sim_grid_free(&fine);
+        sim_occ_eval_free(ev);
+        return -ENOMEM;
+    }
+    ev->res = res;
+    ev->w = w;
+    ev->h = h;
+    for (int r = 0; r < h; r++)
+        for (int c = 0; c < w; c++) {
+            int wall = 0, free_ = 0;
+            for (int a = 0; a < sub; a++)
+                for (int b = 0; b < sub; b++) {
+                    const int v = sim_grid_at(&fine, c * sub + a, r * sub + b);
+                    wall |= v == SIM_CELL_WALL;
+                    free_ |= v == SIM_CELL_FREE;
+                }
+            if (!wall && !free_)
+                continue;
+            const double xm = fine.origin.x + (c + 0.5) * res, ym = fine.origin.y + (r + 0.5) * res;
+            float xn, yn;
+            sim_plan_normalise(plan, xm, ym, &xn, &yn);
+            xn = fminf(fmaxf(xn, -1.0f), 1.0f);
+            yn = fminf(fmaxf(yn, -1.0f), 1.0f);
+            ev->xy[2 * ev->n] = xn;
+            ev->xy[2 * ev->n + 1] = yn;
+            ev->truth[ev->n] = (uint8_t)wall;
+            ev->cell[ev->n] = r * w + c;
+            ev->n++;
+        }
+    sim_grid_free(&fine);
+    return ev->n > 0 ? 0 : -ENOENT;
+}
+
+static int mean_map(bnn_model_t *m, const float *xy, size_t n, float *p)
+{
+    const size_t chunk = m->cfg.max_batch;
+    for (size_t o = 0; o < n; o += chunk) {
+        const size_t c = n - o < chunk ? n - o : chunk;
+        int rc = bnn_forward_logits(m, xy + 2 * o, c, 1, 0, p + o);
+        if (rc)
+            return rc;
+        for (size_t i = 0; i < c; i++)
+            p[o + i] = 1.0f / (1.0f + expf(-p[o + i]));
+    }
+    return 0;
+}
+
+int sim_occ_eval_run(const sim_occ_eval_t *ev, bnn_model_t *m, double *mse, double *iou)
+{
+    if (!ev || !m || !mse || !iou || ev->n == 0)
+        return -EINVAL;
+    int rc = mean_map(m, ev->xy, ev->n, ev->pred);
+    if (rc)
+        return rc;
+    double se = 0.0;
+    size_t inter = 0, uni = 0;
+    for (size_t i = 0; i < ev->n; i++) {
+        const double d = (double)ev->pred[i] - ev->truth[i];
+        se += d * d;
+        const int p = ev->pred[i] >= 0.5f, t = ev->truth[i];
+        inter += (size_t)(p && t);
+        uni += (size_t)(p || t);
+    }
+    *mse = se / (double)ev->n;
+    *iou = uni ? (double)inter / (double)uni : 1.0;
+    return 0;
+}
+
+int sim_fleet_metrics(sim_fleet_t *f, int i, const ai_sample_t *val, size_t n_val, const sim_occ_eval_t *ev,
+                      sim_fleet_metrics_t *out)
+{
+    if (!f || i < 0 || i >= f->n_models || !out)
+        return -EINVAL;
+    bnn_model_t *m = &f->nodes[i]->model;
+    const dinno_round_stats_t *st = &f->stats[i];
+    out->train_loss = f->rounds_done ? st->pred_total : NAN;
+    out->reg_mu = f->rounds_done ? st->reg_mu : NAN;
+    out->reg_rho = f->rounds_done ? st->reg_rho : NAN;
+    out->kl_loss = bnn_kl_loss(m);
+    out->consensus_error = sim_fleet_consensus_error(f, i);
+    out->val_loss = NAN;
+    if (val && n_val) {
+        float b;
+        int rc = bnn_eval_bce(m, val, n_val, 0, 0, &b);
+        if (rc)
+            return rc;
+        out->val_loss = b;
+    }
+    out->occ_mse = out->occ_iou = NAN;
+    if (ev) {
+        int rc = sim_occ_eval_run(ev, m, &out->occ_mse, &out->occ_iou);
+        if (rc)
+            return rc;
+    }
+    return 0;
+}
+
+/* ---- maps ---------------------------------------------------------------------------------- */
+static const uint8_t PALETTE[8][3] = {{230, 25, 75}, {60, 180, 75}, {0, 130, 200}, {245, 130, 48},
+                                      {145, 30, 180}, {70, 200, 200}, {240, 50, 230}, {128, 128, 0}};
+
+/* A compact perceptual ramp (dark blue -> teal -> yellow), t in [0, 1]. */
+static void ramp(double t, uint8_t *px)
+{
+    static const double K[5][3] = {{13, 8, 135}, {84, 2, 163}, {33, 145, 140}, {122, 209, 81}, {253, 231, 37}};
+    t = fmin(fmax(t, 0.0), 1.0) * 4.0;
+    int i = (int)t;
+    if (i > 3)
+        i = 3;
+    const double u = t - i;
+    for (int c = 0; c < 3; c++)
+        px[c] = (uint8_t)lround(K[i][c] + u * (K[i + 1][c] - K[i][c]));
+}
+
+static void draw_paths(uint8_t *rgb, int W, int H, const sim_plan_t *plan, double res, int zoom,
+                       const sim_path_t *paths, int n_paths)
+{
+    const double pix = res / zoom;
+    for (int k = 0; k < n_paths; k++) {
+        const uint8_t *col = PALETTE[k % 8];
+        for (int i = 0; i + 1 < paths[k].n; i++) {
+            const double x0 = paths[k].p[i].x, y0 = paths[k].p[i].y;
+            const double x1 = paths[k].p[i + 1].x, y1 = paths[k].p[i + 1].y;
+            const int steps = (int)ceil(hypot(x1 - x0, y1 - y0) / (pix * 0.5)) + 1;
+            for (int s = 0; s <= steps; s++) {
+                const double t = (double)s / steps;
+                const int c = (int)floor((x0 + t * (x1 - x0) - plan->min.x) / pix);
+                const int r = (int)floor((y0 + t * (y1 - y0) - plan->min.y) / pix);
+                for (int d = 0; d < 2; d++)
+                    for (int e = 0; e < 2; e++) {
+                        const int cc = c + d, rr = r + e;
+                        if (cc < 0 || rr < 0 || cc >= W || rr >= H)
+                            continue;
+                        memcpy(rgb + 3 * ((size_t)rr * W + cc), col, 3);
+                    }
+            }
+        }
+    }
+}
+
+int sim_fleet_write_maps(bnn_model_t *m, const sim_plan_t *plan, double res, uint32_t K, uint64_t seed,
+                         const sim_path_t *paths, int n_paths, int zoom, const char *mean_png, const char *std_png,
+                         double *std_max_out, char *err, size_t errlen)
+{
+    if (!m || !plan || !isfinite(res) || res <= 0.0 || K < 1 || zoom < 1 || zoom > 16 || !mean_png || !std_png ||
+        (n_paths > 0 && !paths)) {
+        snprintf(err, errlen, "bad map arguments");
+        return -EINVAL;
+    }
+    const int w = (int)ceil((plan->max.x - plan->min.x) / res), h = (int)ceil((plan->max.y - plan->min.y) / res);
+    if (w < 1 || h < 1 || (size_t)w * h > 4000000u) {
+        snprintf(err, errlen, "map of %d x %d cells is out of range", w, h);
+        return -EINVAL;
+    }
+    const size_t n = (size_t)w * h;
+    const int W = w * zoom, H = h * zoom;
+    float *xy = malloc(n * 2 * sizeof *xy), *mean = malloc(n * sizeof *mean), *sd = malloc(n * sizeof *sd);
+    uint8_t *rgb = malloc((size_t)W * H * 3);
+    int rc = -ENOMEM;
+    if (!xy || !mean || !sd || !rgb) {
+        snprintf(err, errlen, "out of memory");
+        goto done;
+    }
+    for (int r = 0; r < h; r++)
+        for (int c = 0; c < w; c++) {
+            float xn, yn;
+            sim_plan_normalise(plan, plan->min.x + (c + 0.5) * res, plan->min.y + (r + 0.5) * res, &xn, &yn);
+            xy[2 * ((size_t)r * w + c)] = fminf(fmaxf(xn, -1.0f), 1.0f);
+            xy[2 * ((size_t)r * w + c) + 1] = fminf(fmaxf(yn, -1.0f), 1.0f);
+        }
+    rc = bnn_predict_mc(m, xy, n, K, seed, mean, sd);
+    if (rc) {
+        snprintf(err, errlen, "MC prediction failed (%d)", rc);
+        goto done;
+    }
+    double smax = 0.0;
+    for (size_t i = 0; i < n; i++)
+        smax = fmax(smax, sd[i]);
+    if (std_max_out)
+        *std_max_out = smax;
+    for (int pass = 0; pass < 2; pass++) {
+        for (int R = 0; R < H; R++)
+            for (int C = 0; C < W; C++) {
+                const size_t i = (size_t)(R / zoom) * w + (size_t)(C / zoom);
+                uint8_t *px = rgb + 3 * ((size_t)R * W + C);
+                if (pass == 0) {
+                    const uint8_t v = (uint8_t)lround(255.0 * (1.0 - fmin(fmax(mean[i], 0.0f), 1.0f)));
+                    px[0] = px[1] = px[2] = v;
+                } else {
+                    ramp(smax > 0.0 ? sd[i] / smax : 0.0, px);
+                }
+            }
+        draw_paths(rgb, W, H, plan, res, zoom, paths, n_paths);
+        rc = sim_png_write_rgb(pass == 0 ? mean_png : std_png, W, H, rgb, err, errlen);
+        if (rc)
+            goto done;
+    }
+done:
+    free(xy);
+    free(mean);
+    free(sd);
+    free(rgb);
+    return rc;
+}

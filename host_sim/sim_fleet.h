@@ -1,0 +1,134 @@
+/* The deterministic in-process DiNNO fleet: N agents (firmware dinno_node_t each) trained in
+ * synchronous rounds in one process, plus the baselines, the data they train on, and the
+ * metrics. The multi-process fleet over LCM is on the roadmap (DESIGN.md section 9); this
+ * driver is its reference: same node update, same seeds.
+ *
+ * Modes:
+ *   SIM_FLEET_DINNO    N nodes, each round every node receives the round-start states of its
+ *                      graph neighbours in slot j = neighbour id, then runs dinno_node_round.
+ *   SIM_FLEET_CENTRAL  one node on the pooled data of all agents, no neighbours.
+ *   SIM_FLEET_ISOLATED N nodes on their own data, never any neighbour.
+ * Every model makes rounds x primal_steps optimiser steps of `batch` samples with the same
+ * lr schedule and Adam resets, so the baselines have the same step budget per model.
+ * All nodes start from the same model seed (like the reference's copies of one base model);
+ * node i's minibatch/noise seed is a mix of (run seed, i).
+ * Graph positions (disk graph): agent i at round k is at arc-length fraction k / rounds of
+ * its path.
+ *
+ * Data (offline mode, the paper's main experiments): each agent trains on the samples of its
+ * whole path (host_sim scan / sim_scan_run) from round 0; the caller passes them in.
+ *
+ * Host side: allocates. Not thread-safe per fleet. Deterministic for (inputs, seed). */
+#ifndef SIM_FLEET_H
+#define SIM_FLEET_H
+
+#include <stddef.h>
+#include <stdint.h>
+
+#include "ai/ai_sample.h"
+#include "ai/bnn.h"
+#include "ai/dinno.h"
+#include "ai/dinno_graph.h"
+#include "sim_grid.h"
+#include "sim_paths.h"
+#include "sim_plan.h"
+
+#define SIM_FLEET_MAX_AGENTS ((int)DINNO_GRAPH_MAX_NODES)
+
+typedef enum sim_fleet_mode {
+    SIM_FLEET_DINNO = 0,
+    SIM_FLEET_CENTRAL = 1,
+    SIM_FLEET_ISOLATED = 2,
+} sim_fleet_mode_t;
+
+typedef struct sim_fleet_cfg {
+    int n_agents;               /* 1 .. SIM_FLEET_MAX_AGENTS */
+    uint32_t rounds;            /* >= 1 (also dinno.total_rounds for the lr decay) */
+    sim_fleet_mode_t mode;
+    dinno_cfg_t dinno;          /* strategy and optimiser settings (strategy unused by baselines) */
+    dinno_graph_kind_t graph;
+    double radius;              /* disk graph radius, metres (> 0) */
+    uint64_t seed;              /* run seed */
+    int threads;                /* worker threads for the node updates, 1 .. 16 (results do
+                                   not depend on it) */
+} sim_fleet_cfg_t;
+
+void sim_fleet_cfg_default(sim_fleet_cfg_t *cfg);
+
+typedef struct sim_fleet sim_fleet_t;
+
+/* data[i], n_data[i]: agent i's samples (copied). paths: n_agents paths (needed for the disk
+ * graph, may be NULL otherwise; copied). bcfg NULL = preset. Returns 0, -EINVAL (bad cfg, an
+ * agent without data, a disk graph without paths) or -ENOMEM; err says why. */
+__attribute__((warn_unused_result))
+int sim_fleet_create(const sim_fleet_cfg_t *cfg, const bnn_config_t *bcfg, const ai_sample_t *const *data,
+                     const size_t *n_data, const sim_path_t *paths, sim_fleet_t **out, char *err, size_t errlen);
+void sim_fleet_destroy(sim_fleet_t *f);
+
+/* One synchronous round for every model. rep (may be NULL) receives the connectivity of the
+ * round's graph (DINNO mode; baselines report n isolated nodes). Returns 0 or a negative code. */
+__attribute__((warn_unused_result))
+int sim_fleet_round(sim_fleet_t *f, dinno_graph_report_t *rep);
+
+uint32_t sim_fleet_rounds_done(const sim_fleet_t *f);
+int sim_fleet_models(const sim_fleet_t *f); /* 1 for CENTRAL, n_agents otherwise */
+dinno_node_t *sim_fleet_node(sim_fleet_t *f, int i);
+const dinno_round_stats_t *sim_fleet_last_stats(const sim_fleet_t *f, int i);
+/* The graph of the last round (DINNO mode). */
+const dinno_graph_t *sim_fleet_graph(const sim_fleet_t *f);
+/* Position of agent i at round k (arc-length fraction k / rounds of its path); -EINVAL
+ * without paths. */
+__attribute__((warn_unused_result))
+int sim_fleet_position(const sim_fleet_t *f, int i, uint32_t k, double *x, double *y);
+
+/* ||theta_i - mean|| / ||mean|| over the fleet's models (0 for one model). */
+double sim_fleet_consensus_error(const sim_fleet_t *f, int i);
+
+/* ---- occupancy metrics -------------------------------------------------------------------- */
+/* Known cells of a coarse grid: a coarse cell is WALL when any of its fine sub-cells (of the
+ * plan rasterised at res / sub) is WALL, else FREE when any is FREE, else unknown (skipped).
+ * This keeps 10 cm walls visible on a 0.1 m grid. */
+typedef struct sim_occ_eval {
+    double res;
+    int w, h;           /* coarse grid */
+    size_t n;           /* known cells */
+    float *xy;          /* n normalised centres (interleaved) */
+    uint8_t *truth;     /* n labels 0 free / 1 wall */
+    int *cell;          /* n cell indices (row * w + col) */
+    float *pred;        /* scratch, n */
+} sim_occ_eval_t;
+
+__attribute__((warn_unused_result))
+int sim_occ_eval_build(const sim_plan_t *plan, double res, sim_occ_eval_t *ev);
+void sim_occ_eval_free(sim_occ_eval_t *ev);
+/* Mean-weight map (one pass, eps = 0) of m on the known cells: MSE against the labels and
+ * IoU of the wall class with the map thresholded at 0.5. */
+__attribute__((warn_unused_result))
+int sim_occ_eval_run(const sim_occ_eval_t *ev, bnn_model_t *m, double *mse, double *iou);
+
+/* ---- per-agent metrics --------------------------------------------------------------------- */
+typedef struct sim_fleet_metrics {
+    double train_loss;      /* prediction loss of the last round (mean over its steps) */
+    double val_loss;        /* mean per-point BCE on the validation set, mean weights */
+    double kl_loss;         /* the BNN's prior kl_loss */
+    double consensus_error;
+    double occ_mse, occ_iou;
+    double reg_mu, reg_rho; /* unweighted consensus terms of the last round */
+} sim_fleet_metrics_t;
+
+/* val may be NULL (val_loss = NaN), ev may be NULL (occ_* = NaN). */
+__attribute__((warn_unused_result))
+int sim_fleet_metrics(sim_fleet_t *f, int i, const ai_sample_t *val, size_t n_val, const sim_occ_eval_t *ev,
+                      sim_fleet_metrics_t *out);
+
+/* ---- maps ---------------------------------------------------------------------------------- */
+/* MC mean and std (K passes) of model m on the plan's bounding box at res metres, written as
+ * two PNGs (mean: white free .. black wall; std: dark blue .. yellow, scaled to the map's
+ * max std, printed in the file name's companion line of `scale_out`), the paths drawn on
+ * top in colour, each pixel scaled up `zoom` times. Returns 0 or a negative code, err. */
+__attribute__((warn_unused_result))
+int sim_fleet_write_maps(bnn_model_t *m, const sim_plan_t *plan, double res, uint32_t K, uint64_t seed,
+                         const sim_path_t *paths, int n_paths, int zoom, const char *mean_png, const char *std_png,
+                         double *std_max_out, char *err, size_t errlen);
+
+#endif /* SIM_FLEET_H */

@@ -1,0 +1,245 @@
+/* Host driver of one robot's firmware image: see sim_image.h. */
+#include "sim_image.h"
+
+#include <errno.h>
+#include <math.h>
+#include <stdio.h>
+#include <stdlib.h>
+#include <string.h>
+#include <time.h>
+
+#include "ai/ai_rng.h"
+#include "sim_fleet.h"
+
+void sim_image_cfg_default(sim_image_cfg_t *cfg)
+{
+    memset(cfg, 0, sizeof *cfg);
+    cfg->seed = 1;
+    cfg->rounds = 8;
+    cfg->policy = AI_POOL_CDR;
+    cfg->dinno = dinno_default_cfg();
+    cfg->steps_per_round = cfg->dinno.primal_steps;
+    cfg->kl_weight = cfg->dinno.kl_weight;
+    cfg->time_limit_s = 3600.0;
+    cfg->sched = HAL_HOST_SCHED_SERIAL;
+    cfg->log_level = HAL_LOG_INFO;
+    cfg->write_round_ckpts = 1;
+}
+
+static double wall_now(void)
+{
+    struct timespec ts;
+    clock_gettime(CLOCK_MONOTONIC, &ts);
+    return (double)ts.tv_sec + 1e-9 * (double)ts.tv_nsec;
+}
+
+int sim_image_run(const sim_plan_t *plan, const sim_path_t *path, const sim_image_cfg_t *cfg,
+                  sim_image_result_t *res, char *err, size_t errlen)
+{
+    char dummy[2];
+    if (err == NULL || errlen == 0) {
+        err = dummy;
+        errlen = sizeof dummy;
+    }
+    if (plan == NULL || path == NULL || cfg == NULL || res == NULL) {
+        snprintf(err, errlen, "image: NULL argument");
+        return -EINVAL;
+    }
+    memset(res, 0, sizeof *res);
+    if (path->n < 2 || path->n > RT_CORE_MAX_WAYPOINTS) {
+        snprintf(err, errlen, "image: the path needs 2 .. %d waypoints (has %d)", RT_CORE_MAX_WAYPOINTS,
+                 path->n);
+        return -EINVAL;
+    }
+    if (cfg->rounds < 1 || cfg->rounds > AI_CORE_MAX_ROUNDS || cfg->steps_per_round < 1 ||
+        !(cfg->time_limit_s > 0) || !isfinite(cfg->time_limit_s) || !(cfg->kl_weight >= 0) ||
+        !isfinite(cfg->kl_weight)) {
+        snprintf(err, errlen, "image: need 1 <= rounds <= %u, steps per round >= 1, a positive time "
+                              "limit and a finite kl weight >= 0", AI_CORE_MAX_ROUNDS);
+        return -EINVAL;
+    }
+    int rc;
+    sim_hal_world_t *hw = NULL;
+    hal_host_t *h = NULL;
+    rt_waypoint_t *wps = malloc(sizeof(rt_waypoint_t) * (size_t)path->n);
+    if (wps == NULL) {
+        snprintf(err, errlen, "image: out of memory");
+        return -ENOMEM;
+    }
+    for (int i = 0; i < path->n; i++)
+        wps[i] = (rt_waypoint_t){(float)path->p[i].x, (float)path->p[i].y};
+
+    sim_hal_world_cfg_t wc = sim_hal_world_default_cfg();
+    wc.robot = cfg->robot;
+    wc.seed = cfg->seed;
+    rc = sim_hal_world_create(plan, path, &wc, &hw, err, errlen);
+    if (rc < 0)
+        goto out;
+
+    hal_host_config_t hc = hal_host_config_default();
+    hc.robot_id = cfg->robot;
+    hc.world = sim_hal_world_ops(hw);
+    hc.sched = cfg->sched;
+    sim_hal_world_wheels(hw, &hc.wheel_radius_m, &hc.wheel_separation_m);
+    hc.net_url = cfg->net_url;
+    hc.storage_dir = cfg->storage_dir;
+    hc.log_level = cfg->log_level;
+    rc = hal_host_create(&hc, &h);
+    if (rc < 0) {
+        snprintf(err, errlen, "image: host board not created (%d: %s)", rc, strerror(-rc));
+        goto out;
+    }
+    rc = hal_board_install(hal_host_board(h));
+    if (rc < 0) {
+        snprintf(err, errlen, "image: board not installed (%d)", rc);
+        goto out;
+    }
+
+    fw_robot_cfg_t fc = fw_robot_default_cfg();
+    const sim_robot_params_t rp = sim_robot_default_params();
+    fc.rt.waypoints = wps;
+    fc.rt.n_waypoints = path->n;
+    fc.rt.follow.v_max = (float)rp.v_max;
+    fc.rt.follow.w_max = (float)rp.w_max;
+    fc.rt.follow.wheel_radius = (float)rp.wheel_radius;
+    fc.rt.follow.wheel_separation = (float)rp.wheel_separation;
+    fc.rt.samples.min_x = (float)plan->min.x;
+    fc.rt.samples.min_y = (float)plan->min.y;
+    fc.rt.samples.max_x = (float)plan->max.x;
+    fc.rt.samples.max_y = (float)plan->max.y;
+    fc.ai.rounds = cfg->rounds;
+    fc.ai.policy = cfg->policy;
+    fc.ai.dinno = cfg->dinno;
+    fc.ai.dinno.primal_steps = cfg->steps_per_round;
+    fc.ai.dinno.kl_weight = cfg->kl_weight;
+    fc.ai.model_seed = ai_rng_mix64(cfg->seed ^ 1u);
+    fc.ai.seed = ai_rng_mix64(cfg->seed ^ (2u + (uint64_t)cfg->robot));
+    fc.ai.node_id = cfg->robot;
+    fc.ai.train_between = cfg->train_between;
+    fc.gp.robot_id = cfg->robot;
+    fc.gp.write_round_ckpts = cfg->write_round_ckpts;
+    rc = fw_robot_start(&fc);
+    if (rc < 0) {
+        snprintf(err, errlen, "image: firmware not started (%d): check the options", rc);
+        goto out;
+    }
+    res->path_length_m = rt_core_path_length(fw_robot_rt());
+
+    gp_core_t *gp = fw_robot_gp();
+    const uint64_t slice = 1000000u;
+    const uint64_t limit = (uint64_t)llround(cfg->time_limit_s * 1e6);
+    uint32_t seen = 0;
+    double t0 = wall_now();
+    for (uint64_t t = 0; t < limit;) {
+        t = t + slice < limit ? t + slice : limit;
+        rc = hal_host_run_until(h, t);
+        if (rc < 0) {
+            snprintf(err, errlen, "image: simulation failed at t = %.2f s (%d)", (double)t * 1e-6, rc);
+            goto out;
+        }
+        /* Every core is blocked in the lockstep now: the round log is stable. */
+        uint32_t n = atomic_load_explicit(&gp->n_log, memory_order_acquire);
+        for (; seen < n; seen++)
+            if (cfg->on_round)
+                cfg->on_round(&gp->log[seen], cfg->user);
+        if (atomic_load_explicit(&gp->done, memory_order_acquire)) {
+            res->completed = 1;
+            break;
+        }
+    }
+    res->sim_time_us = hal_host_now_us(h);
+    hal_host_stop(h);
+    res->wall_s = wall_now() - t0;
+    for (int i = 0; i < HAL_CORE_COUNT; i++) {
+        if (hal_host_core_stats(h, (hal_core_id_t)i, &res->core[i]) != 0)
+            memset(&res->core[i], 0, sizeof res->core[i]);
+        res->fw[i] = fw_robot_image()->stats[i];
+    }
+    res->host_world_steps = hal_host_world_steps(h);
+    sim_hal_world_get_stats(hw, &res->world);
+    res->rt = fw_robot_rt()->stats;
+    res->rt_status = fw_robot_rt()->status;
+    res->ai_status = fw_robot_ai()->status;
+    res->ai_empty_rounds = fw_robot_ai()->empty_rounds;
+    res->gp = gp->stats;
+    res->final_ckpt_status = gp->final_ckpt_status;
+    res->rounds_done = fw_robot_ai()->next_round;
+    fw_robot_memory(&res->mem);
+    rc = 0;
+out:
+    hal_host_destroy(h);
+    sim_hal_world_destroy(hw);
+    free(wps);
+    return rc;
+}
+
+static double seg_dist(double px, double py, sim_vec2_t a, sim_vec2_t b)
+{
+    double dx = b.x - a.x, dy = b.y - a.y;
+    double l2 = dx * dx + dy * dy;
+    double t = l2 > 0 ? ((px - a.x) * dx + (py - a.y) * dy) / l2 : 0.0;
+    t = t < 0 ? 0 : t > 1 ? 1 : t;
+    return hypot(px - (a.x + t * dx), py - (a.y + t * dy));
+}
+
+int sim_image_occ_near_path(const sim_plan_t *plan, const sim_path_t *path, bnn_model_t *m,
+                            double res, double radius_m, double *mse, size_t *n_cells)
+{
+    if (plan == NULL || path == NULL || m == NULL || mse == NULL || n_cells == NULL ||
+        path->n < 1 || !(res > 0) || !(radius_m >= 0))
+        return -EINVAL;
+    sim_occ_eval_t ev;
+    memset(&ev, 0, sizeof ev);
+    int rc = sim_occ_eval_build(plan, res, &ev);
+    if (rc != 0)
+        return rc;
+    const size_t chunk = m->cfg.max_batch;
+    float *xy = malloc(sizeof(float) * 2 * chunk);
+    float *lg = malloc(sizeof(float) * chunk);
+    uint8_t *truth = malloc(chunk);
+    if (xy == NULL || lg == NULL || truth == NULL) {
+        rc = -ENOMEM;
+        goto out;
+    }
+    double sx = 0.5 * (plan->max.x - plan->min.x), sy = 0.5 * (plan->max.y - plan->min.y);
+    double sum = 0;
+    size_t cnt = 0, k = 0;
+    for (size_t i = 0; i <= ev.n; i++) {
+        if (i < ev.n) {
+            double x = plan->min.x + (ev.xy[2 * i] + 1.0) * sx;
+            double y = plan->min.y + (ev.xy[2 * i + 1] + 1.0) * sy;
+            double d = INFINITY;
+            for (int j = 0; j + 1 < path->n && d > radius_m; j++)
+                d = fmin(d, seg_dist(x, y, path->p[j], path->p[j + 1]));
+            if (path->n == 1)
+                d = hypot(x - path->p[0].x, y - path->p[0].y);
+            if (d <= radius_m) {
+                xy[2 * k] = ev.xy[2 * i];
+                xy[2 * k + 1] = ev.xy[2 * i + 1];
+                truth[k] = ev.truth[i];
+                k++;
+            }
+        }
+        if (k > 0 && (k == chunk || i == ev.n)) {
+            rc = bnn_forward_logits(m, xy, k, 1, 0, lg);
+            if (rc != 0)
+                goto out;
+            for (size_t q = 0; q < k; q++) {
+                double p = 1.0 / (1.0 + exp(-(double)lg[q]));
+                double e = p - (double)truth[q];
+                sum += e * e;
+            }
+            cnt += k;
+            k = 0;
+        }
+    }
+    *n_cells = cnt;
+    *mse = cnt > 0 ? sum / (double)cnt : NAN;
+    rc = 0;
+out:
+    free(xy);
+    free(lg);
+    free(truth);
+    sim_occ_eval_free(&ev);
+    return rc;
+}

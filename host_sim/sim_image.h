@@ -1,0 +1,87 @@
+/* One robot's firmware image (fw_robot: RT, AI, GP cores as threads) run by the host HAL in
+ * lockstep against the ODE world (sim_hal_world), in this process: the engine behind
+ * `host_sim run` and the tests in tests/image.
+ *
+ * sim_image_run() builds the world binding and the host board (serial lockstep by default,
+ * storage in cfg->storage_dir, network cfg->net_url), starts the image, and advances
+ * simulated time in slices of one second until the GP core handled the final checkpoint
+ * (all C rounds done) or time_limit_s passed. After each slice it hands every new round
+ * record (the GP core's log) to the callback, which may read the checkpoint the GP core wrote
+ * and print. Then it stops the cores and fills *res with every figure (profiling included).
+ * Static firmware state: one run at a time per process.
+ *
+ * Seeds (all from cfg->seed): lidar and GPS noise = seed; model weights = mix(seed, 1);
+ * minibatches, BNN noise and reservoir = mix(seed, 2 + robot). Same seed, same inputs ->
+ * bit-identical checkpoints (serial lockstep), whatever the CPU count or load. */
+#ifndef SIM_IMAGE_H
+#define SIM_IMAGE_H
+
+#include <stddef.h>
+#include <stdint.h>
+
+#include "fw_robot.h"
+#include "hal_host.h"
+#include "sim_hal_world.h"
+#include "sim_paths.h"
+#include "sim_plan.h"
+
+typedef void (*sim_image_round_fn)(const ai_round_info_t *info, void *user);
+
+typedef struct sim_image_cfg {
+    uint64_t seed;
+    uint32_t robot;
+    uint32_t rounds;             /* C */
+    ai_pool_policy_t policy;
+    uint32_t steps_per_round;    /* B (DiNNO primal steps) */
+    float kl_weight;
+    int train_between;
+    dinno_cfg_t dinno;           /* other optimiser settings (primal_steps, kl_weight overridden) */
+    double time_limit_s;         /* simulated seconds, > 0 */
+    const char *storage_dir;     /* checkpoints go here (created); NULL: no storage */
+    const char *net_url;         /* NULL: no network; "memq://" in-process */
+    hal_host_sched_t sched;
+    hal_log_level_t log_level;
+    int write_round_ckpts;
+    sim_image_round_fn on_round;  /* may be NULL */
+    void *user;
+} sim_image_cfg_t;
+
+typedef struct sim_image_result {
+    int completed;                /* 1 when all C rounds were done before the time limit */
+    uint64_t sim_time_us;
+    double wall_s;
+    uint32_t rounds_done;
+    sim_hal_world_stats_t world;
+    uint64_t host_world_steps;    /* hal_host_world_steps */
+    hal_host_core_stats_t core[HAL_CORE_COUNT];
+    fw_core_stats_t fw[HAL_CORE_COUNT];
+    rt_core_stats_t rt;
+    rt_status_t rt_status;
+    ai_status_t ai_status;
+    uint64_t ai_empty_rounds;
+    gp_core_stats_t gp;
+    int32_t final_ckpt_status;
+    fw_robot_memory_t mem;
+    float path_length_m;
+} sim_image_result_t;
+
+void sim_image_cfg_default(sim_image_cfg_t *cfg);
+
+/* Runs the image. Returns 0 when it ran (check res->completed), or a negative code with a
+ * message in err (bad configuration, world or board creation failed, physics failed). */
+__attribute__((warn_unused_result)) int sim_image_run(const sim_plan_t *plan,
+                                                      const sim_path_t *path,
+                                                      const sim_image_cfg_t *cfg,
+                                                      sim_image_result_t *res, char *err,
+                                                      size_t errlen);
+
+/* Occupancy MSE of the mean-weight map of m against the plan's ground truth, over the known
+ * cells of a res-metre grid (sim_occ_eval) whose centre lies within radius_m of the path
+ * polyline. *n_cells receives how many cells counted. Returns 0 or a negative code. */
+__attribute__((warn_unused_result)) int sim_image_occ_near_path(const sim_plan_t *plan,
+                                                                const sim_path_t *path,
+                                                                bnn_model_t *m, double res,
+                                                                double radius_m, double *mse,
+                                                                size_t *n_cells);
+
+#endif /* SIM_IMAGE_H */

@@ -1,0 +1,86 @@
+/* Communication graphs: full, ring, disk, connectivity report. */
+#include <errno.h>
+#include <math.h>
+#include <setjmp.h>
+#include <stdarg.h>
+#include <stddef.h>
+#include <stdint.h>
+#include <cmocka.h>
+
+#include "ai/dinno_graph.h"
+
+static void test_full_and_ring(void **st)
+{
+    (void)st;
+    dinno_graph_t g;
+    dinno_graph_report_t r;
+    assert_int_equal(dinno_graph_full(&g, 7), 0);
+    dinno_graph_report(&g, &r);
+    assert_int_equal(r.edges, 21);
+    assert_int_equal(r.components, 1);
+    assert_int_equal(r.isolated, 0);
+    assert_int_equal(r.largest, 7);
+    for (uint32_t i = 0; i < 7; i++) {
+        assert_false(dinno_graph_has_edge(&g, i, i));
+        assert_int_equal(dinno_graph_degree(&g, i), 6);
+    }
+    assert_int_equal(dinno_graph_ring(&g, 7), 0);
+    dinno_graph_report(&g, &r);
+    assert_int_equal(r.edges, 7);
+    assert_true(dinno_graph_has_edge(&g, 6, 0));
+    assert_false(dinno_graph_has_edge(&g, 0, 2));
+    assert_int_equal(dinno_graph_ring(&g, 2), 0);
+    dinno_graph_report(&g, &r);
+    assert_int_equal(r.edges, 1);
+    assert_int_equal(dinno_graph_ring(&g, 1), 0);
+    dinno_graph_report(&g, &r);
+    assert_int_equal(r.edges, 0);
+    assert_int_equal(r.isolated, 1);
+    assert_int_equal(r.components, 1);
+    assert_int_equal(dinno_graph_full(&g, 0), -EINVAL);
+    assert_int_equal(dinno_graph_full(&g, DINNO_GRAPH_MAX_NODES + 1), -EINVAL);
+    dinno_graph_kind_t k;
+    assert_int_equal(dinno_graph_parse("disk", &k), 0);
+    assert_int_equal(k, DINNO_GRAPH_DISK);
+    assert_int_equal(dinno_graph_parse("star", &k), -EINVAL);
+}
+
+static void test_disk_components(void **st)
+{
+    (void)st;
+    /* 0-1-2 chained at 1 m, 3-4 at 0.5 m far away, 5 alone. */
+    const double xy[] = {0, 0, 1, 0, 2, 0, 10, 10, 10.5, 10, -20, 5};
+    dinno_graph_t g;
+    dinno_graph_report_t r;
+    assert_int_equal(dinno_graph_disk(&g, 6, xy, 1.0), 0);
+    dinno_graph_report(&g, &r);
+    assert_true(dinno_graph_has_edge(&g, 0, 1));
+    assert_true(dinno_graph_has_edge(&g, 1, 2));
+    assert_false(dinno_graph_has_edge(&g, 0, 2)); /* 2 m > radius */
+    assert_true(dinno_graph_has_edge(&g, 4, 3));
+    assert_int_equal(r.edges, 3);
+    assert_int_equal(r.components, 3);
+    assert_int_equal(r.isolated, 1);
+    assert_int_equal(r.largest, 3);
+    assert_int_equal(dinno_graph_disk(&g, 6, xy, 100.0), 0);
+    dinno_graph_report(&g, &r);
+    assert_int_equal(r.edges, 15);
+    assert_int_equal(r.components, 1);
+    assert_int_equal(dinno_graph_disk(&g, 6, xy, 0.0), 0);
+    dinno_graph_report(&g, &r);
+    assert_int_equal(r.isolated, 6);
+    assert_int_equal(r.components, 6);
+    const double bad[] = {0, NAN};
+    assert_int_equal(dinno_graph_disk(&g, 1, bad, 1.0), -EINVAL);
+    assert_int_equal(dinno_graph_disk(&g, 6, xy, -1.0), -EINVAL);
+    assert_int_equal(dinno_graph_disk(&g, 6, NULL, 1.0), -EINVAL);
+}
+
+int main(void)
+{
+    const struct CMUnitTest tests[] = {
+        cmocka_unit_test(test_full_and_ring),
+        cmocka_unit_test(test_disk_components),
+    };
+    return cmocka_run_group_tests_name("dinno/graph", tests, NULL, NULL);
+}

@@ -1,0 +1,339 @@
+/* DiNNO node update on a tiny BNN: the dual update and the midpoint (L2) terms against
+ * hand-computed values, the KL strategy's rho gradient against finite differences, uniform ==
+ * separate at unit weights, a node without neighbours trains alone, no allocation. */
+#include <errno.h>
+#include <math.h>
+#include <setjmp.h>
+#include <stdarg.h>
+#include <stddef.h>
+#include <stdint.h>
+#include <string.h>
+#include <cmocka.h>
+
+#include "alloc_count.h"
+#include "ai/ai_rng.h"
+#include "ai/bnn.h"
+#include "ai/dinno.h"
+
+static dinno_node_t node, other;
+static ai_sample_t data[256];
+
+/* S = 3, H = 2, L = 1: mu-group 3*2+3 + (3*2+2) + 2+1 = 20, rho-group 8. */
+static bnn_config_t tiny(void)
+{
+    bnn_config_t c = bnn_default_config();
+    c.siren_width = 3;
+    c.hidden_width = 2;
+    c.n_bayes = 1;
+    c.max_batch = 16;
+    return c;
+}
+
+static void make_data(void)
+{
+    float u[3 * 256];
+    ai_rng_uniform_fill(11, 3, 0, u, 3 * 256);
+    for (int i = 0; i < 256; i++) {
+        data[i].x = 2 * u[3 * i] - 1;
+        data[i].y = 2 * u[3 * i + 1] - 1;
+        data[i].occ = (data[i].x * data[i].x + data[i].y * data[i].y) < 0.3f ? 1.0f : 0.0f;
+    }
+}
+
+static dinno_cfg_t cfg_of(dinno_strategy_t s)
+{
+    dinno_cfg_t c = dinno_default_cfg();
+    c.strategy = s;
+    c.batch = 16;
+    c.total_rounds = 10;
+    return c;
+}
+
+static void test_sizes_and_layout(void **st)
+{
+    (void)st;
+    bnn_config_t b = tiny();
+    dinno_cfg_t c = cfg_of(DINNO_KL);
+    assert_int_equal(dinno_node_init(&node, &c, &b, 1, 2, 0), 0);
+    assert_int_equal(bnn_n_params(&node.model), 28);
+    assert_int_equal(node.model.n_mu, 20);
+    assert_int_equal(node.model.n_rho, 8);
+    assert_true(dinno_get_buffer_size() >= sizeof(bnn_model_t) + DINNO_MAX_PEERS * BNN_N_PARAMS * sizeof(float));
+    /* bad configs */
+    c.batch = 17;
+    assert_int_equal(dinno_node_init(&node, &c, &b, 1, 2, 0), -EINVAL);
+    c = cfg_of(DINNO_KL);
+    c.rho0 = 0;
+    assert_int_equal(dinno_node_init(&node, &c, &b, 1, 2, 0), -EINVAL);
+    c = cfg_of(DINNO_KL);
+    c.w_rho = -1;
+    assert_int_equal(dinno_node_init(&node, &c, &b, 1, 2, 0), -EINVAL);
+    c = cfg_of((dinno_strategy_t)7);
+    assert_int_equal(dinno_node_init(&node, &c, &b, 1, 2, 0), -EINVAL);
+    dinno_strategy_t s;
+    assert_int_equal(dinno_strategy_parse("kl", &s), 0);
+    assert_int_equal(s, DINNO_KL);
+    assert_int_equal(dinno_strategy_parse("KL", &s), -EINVAL);
+}
+
+static void test_schedules(void **st)
+{
+    (void)st;
+    dinno_cfg_t c = dinno_default_cfg();
+    c.total_rounds = 101;
+    assert_float_equal(dinno_rho_at(&c, 0), 0.3f, 1e-7);
+    assert_float_equal(dinno_rho_at(&c, 1000), (double)0.3f * pow((double)1.0004f, 1000), 1e-5);
+    assert_float_equal(dinno_lr_at(&c, 0), 1e-3f, 1e-9);
+    assert_float_equal(dinno_lr_at(&c, 50), sqrt(1e-3 * 1e-4), 1e-8); /* log-midpoint */
+    assert_float_equal(dinno_lr_at(&c, 100), 1e-4f, 1e-9);
+    assert_float_equal(dinno_lr_at(&c, 5000), 1e-4f, 1e-9);
+}
+
+/* theta = 0.1 * (i + 1) (i < 20) and -3 + 0.05 i on the rho group; neighbours a, b. */
+static void set_known(dinno_node_t *n, float *ta, float *tb)
+{
+    float *th = bnn_params(&n->model);
+    for (int i = 0; i < 28; i++) {
+        th[i] = i < 20 ? 0.1f * (float)(i + 1) : -3.0f + 0.05f * (float)(i - 20);
+        ta[i] = i < 20 ? 0.5f - 0.02f * (float)i : -2.5f - 0.1f * (float)(i - 20);
+        tb[i] = i < 20 ? -0.3f + 0.01f * (float)i : -3.5f + 0.02f * (float)(i - 20);
+    }
+}
+
+static void test_dual_and_l2_midpoints_by_hand(void **st)
+{
+    (void)st;
+    bnn_config_t b = tiny();
+    dinno_cfg_t c = cfg_of(DINNO_SEPARATE);
+    c.w_mu = 2.0f;
+    c.w_rho = 0.5f;
+    assert_int_equal(dinno_node_init(&node, &c, &b, 1, 2, 0), 0);
+    float ta[28], tb[28], th0[28];
+    set_known(&node, ta, tb);
+    memcpy(th0, bnn_params(&node.model), sizeof th0);
+    for (int i = 0; i < 28; i++)
+        node.dual[i] = 0.01f * (float)i; /* a previous dual */
+    assert_int_equal(dinno_slot_put(&node, 3, 0, ta, 28), 0);
+    assert_int_equal(dinno_slot_put(&node, 9, 0, tb, 28), 0);
+    assert_int_equal(dinno_slot_put(&node, DINNO_MAX_PEERS, 0, tb, 28), -EINVAL);
+    assert_int_equal(dinno_slot_put(&node, 1, 0, tb, 27), -EINVAL);
+    const float rho = 0.4f;
+    assert_int_equal(dinno_dual_update(&node, rho), 2);
+    for (int i = 0; i < 28; i++) {
+        const double want = 0.01 * i + 0.4 * ((th0[i] - ta[i]) + (th0[i] - tb[i]));
+        assert_float_equal(node.dual[i], want, 1e-6);
+    }
+    /* element 0 by hand: theta0 = 0.1, a = 0.5, b = -0.3: dual = 0 + 0.4*(-0.4 + 0.4) = 0;
+       element 5: theta0 = 0.6, a = 0.4, b = -0.25: dual = 0.05 + 0.4*(0.2 + 0.85) = 0.47 */
+    assert_float_equal(node.dual[0], 0.0, 1e-6);
+    assert_float_equal(node.dual[5], 0.47, 1e-6);
+    dinno_prepare(&node);
+    /* Move theta away from theta0 (as during the primal steps), then check the gradient. */
+    float *th = bnn_params(&node.model);
+    for (int i = 0; i < 28; i++)
+        th[i] += 0.03f * (float)((i % 5) - 2);
+    memset(bnn_grads(&node.model), 0, 28 * sizeof(float));
+    float reg_mu, reg_rho, dd;
+    dinno_add_reg_grad(&node, rho, &reg_mu, &reg_rho, &dd);
+    double want_mu = 0, want_rho = 0, want_dd = 0;
+    for (int i = 0; i < 28; i++) {
+        const double ma = 0.5 * (th0[i] + ta[i]), mb = 0.5 * (th0[i] + tb[i]);
+        const double w = i < 20 ? 2.0 : 0.5;
+        const double g = node.dual[i] + 2.0 * rho * w * ((th[i] - ma) + (th[i] - mb));
+        assert_float_equal(bnn_grads(&node.model)[i], g, 1e-5);
+        const double r = (th[i] - ma) * (th[i] - ma) + (th[i] - mb) * (th[i] - mb);
+        if (i < 20)
+            want_mu += r;
+        else
+            want_rho += r;
+        want_dd += (double)th[i] * node.dual[i];
+    }
+    assert_float_equal(reg_mu, want_mu, 1e-4 * (1 + want_mu));
+    assert_float_equal(reg_rho, want_rho, 1e-4 * (1 + want_rho));
+    assert_float_equal(dd, want_dd, 1e-4 * (1 + fabs(want_dd)));
+    /* element 0 by hand: theta = 0.1 - 0.06 = 0.04, midpoints 0.3 and -0.1, dual 0:
+       g = 2 * 0.4 * 2 * ((0.04 - 0.3) + (0.04 + 0.1)) = 1.6 * (-0.12) = -0.192 */
+    assert_float_equal(bnn_grads(&node.model)[0], -0.192, 1e-5);
+    /* the value used for finite differences agrees */
+    const double v = dinno_reg_value(&node, rho);
+    assert_float_equal(v, want_dd + rho * (2.0 * want_mu + 0.5 * want_rho), 1e-4);
+}
+
+static void test_kl_rho_gradient_finite_differences(void **st)
+{
+    (void)st;
+    bnn_config_t b = tiny();
+    dinno_cfg_t c = cfg_of(DINNO_KL);
+    c.w_mu = 1.5f;
+    c.w_rho = 0.7f;
+    assert_int_equal(dinno_node_init(&node, &c, &b, 1, 2, 0), 0);
+    float ta[28], tb[28];
+    set_known(&node, ta, tb);
+    assert_int_equal(dinno_slot_put(&node, 0, 0, ta, 28), 0);
+    assert_int_equal(dinno_slot_put(&node, 15, 0, tb, 28), 0);
+    const float rho = 0.3f;
+    assert_int_equal(dinno_dual_update(&node, rho), 2);
+    dinno_prepare(&node);
+    float *th = bnn_params(&node.model);
+    for (int i = 0; i < 28; i++) /* off the midpoints, both signs of rho - rho_reg */
+        th[i] += 0.2f * (float)((i % 7) - 3) / 3.0f;
+    memset(bnn_grads(&node.model), 0, 28 * sizeof(float));
+    float reg_mu, reg_rho;
+    dinno_add_reg_grad(&node, rho, &reg_mu, &reg_rho, NULL);
+    /* closed form value by hand for one element: KL with equal means */
+    double kl = 0;
+    for (int e = 0; e < 8; e++) {
+        const double s = log1p(exp((double)th[20 + e]));
+        for (int j = 0; j < 2; j++) {
+            const double r = log1p(exp(0.5 * ((double)node.theta0[20 + e] + (j ? tb : ta)[20 + e])));
+            kl += log(r / s) + s * s / (2 * r * r) - 0.5;
+        }
+    }
+    assert_float_equal(reg_rho, kl, 1e-4 * (1 + kl));
+    assert_true(kl > 0);
+    for (int i = 0; i < 28; i++) {
+        const float keep = th[i];
+        const float h = 1e-3f;
+        th[i] = keep + h;
+        const double up = dinno_reg_value(&node, rho);
+        th[i] = keep - h;
+        const double dn = dinno_reg_value(&node, rho);
+        th[i] = keep;
+        const double fd = (up - dn) / (2.0 * ((double)(keep + h) - (double)keep));
+        const double an = bnn_grads(&node.model)[i];
+        assert_float_equal(an, fd, 2e-3 * (1 + fabs(fd)));
+    }
+    /* At agreement (theta = every midpoint) the KL term and its gradient vanish. */
+    assert_int_equal(dinno_node_init(&node, &c, &b, 1, 2, 0), 0);
+    const float *t0 = bnn_params(&node.model);
+    assert_int_equal(dinno_slot_put(&node, 0, 0, t0, 28), 0);
+    (void)dinno_dual_update(&node, rho);
+    dinno_prepare(&node);
+    memset(bnn_grads(&node.model), 0, 28 * sizeof(float));
+    dinno_add_reg_grad(&node, rho, &reg_mu, &reg_rho, NULL);
+    assert_float_equal(reg_rho, 0.0, 1e-5);
+    for (int i = 20; i < 28; i++)
+        assert_float_equal(bnn_grads(&node.model)[i], 0.0, 1e-5);
+}
+
+static void run_pair(dinno_strategy_t s, float w_rho, float *out, int rounds)
+{
+    bnn_config_t b = tiny();
+    dinno_cfg_t c = cfg_of(s);
+    c.w_rho = w_rho;
+    assert_int_equal(dinno_node_init(&node, &c, &b, 5, 100, 0), 0);
+    assert_int_equal(dinno_node_init(&other, &c, &b, 5, 101, 1), 0);
+    float tn[28], to[28];
+    for (int k = 0; k < rounds; k++) {
+        memcpy(tn, bnn_params(&node.model), sizeof tn);
+        memcpy(to, bnn_params(&other.model), sizeof to);
+        dinno_slots_clear(&node);
+        dinno_slots_clear(&other);
+        assert_int_equal(dinno_slot_put(&node, 1, (uint32_t)k, to, 28), 0);
+        assert_int_equal(dinno_slot_put(&other, 0, (uint32_t)k, tn, 28), 0);
+        assert_int_equal(dinno_node_round(&node, data, 128, NULL), 0);
+        assert_int_equal(dinno_node_round(&other, data + 128, 128, NULL), 0);
+    }
+    memcpy(out, bnn_params(&node.model), 28 * sizeof(float));
+}
+
+static void test_uniform_equals_separate_at_unit_weights(void **st)
+{
+    (void)st;
+    float u[28], s[28], s2[28];
+    run_pair(DINNO_UNIFORM, 5.0f /* ignored by uniform */, u, 6);
+    run_pair(DINNO_SEPARATE, 1.0f, s, 6);
+    assert_memory_equal(u, s, sizeof u);
+    run_pair(DINNO_SEPARATE, 5.0f, s2, 6);
+    assert_memory_not_equal(u, s2, sizeof u);
+}
+
+static void test_slot_round_mismatch_rejected(void **st)
+{
+    (void)st;
+    bnn_config_t b = tiny();
+    dinno_cfg_t c = cfg_of(DINNO_KL);
+    assert_int_equal(dinno_node_init(&node, &c, &b, 1, 2, 0), 0);
+    float t[28];
+    memcpy(t, bnn_params(&node.model), sizeof t);
+    assert_int_equal(dinno_slot_put(&node, 2, 1, t, 28), 0); /* round 1 state in round 0 */
+    assert_int_equal(dinno_node_round(&node, data, 256, NULL), -EINVAL);
+    assert_memory_equal(t, bnn_params(&node.model), sizeof t);
+    assert_int_equal(node.round, 0);
+    assert_int_equal(dinno_node_round(&node, data, 0, NULL), -EINVAL);
+    assert_int_equal(dinno_node_round(NULL, data, 5, NULL), -EINVAL);
+}
+
+static void test_no_neighbours_trains_alone(void **st)
+{
+    (void)st;
+    bnn_config_t b = tiny();
+    dinno_cfg_t c = cfg_of(DINNO_SEPARATE);
+    c.total_rounds = 40;
+    /* A: never a neighbour. B: a neighbour every round whose state equals B's own, with zero
+       weights: its dual stays 0 and every consensus term adds exactly 0, so B is "local
+       training" computed through the consensus path. A must match it bit for bit. */
+    assert_int_equal(dinno_node_init(&node, &c, &b, 9, 10, 0), 0);
+    c.w_mu = 0.0f;
+    c.w_rho = 0.0f;
+    assert_int_equal(dinno_node_init(&other, &c, &b, 9, 10, 0), 0);
+    dinno_round_stats_t sa, sb, first = {0};
+    for (int k = 0; k < 40; k++) {
+        dinno_slots_clear(&other);
+        assert_int_equal(dinno_slot_put(&other, 4, (uint32_t)k, bnn_params(&other.model), 28), 0);
+        assert_int_equal(dinno_node_round(&node, data, 256, &sa), 0);
+        assert_int_equal(dinno_node_round(&other, data, 256, &sb), 0);
+        if (k == 0)
+            first = sa;
+        assert_int_equal(sa.neighbours, 0);
+        assert_int_equal(sb.neighbours, 1);
+    }
+    assert_memory_equal(bnn_params(&node.model), bnn_params(&other.model), 28 * sizeof(float));
+    for (int i = 0; i < 28; i++)
+        assert_true(node.dual[i] == 0.0f);
+    assert_true(sa.pred_total < first.pred_total); /* it learned */
+}
+
+static void test_round_allocates_nothing(void **st)
+{
+    (void)st;
+    /* Preset-sized node (static storage), full set of neighbour slots, batch drawn from data. */
+    static dinno_node_t big;
+    static ai_sample_t many[2048];
+    for (int i = 0; i < 2048; i++)
+        many[i] = data[i % 256];
+    dinno_cfg_t c = dinno_default_cfg();
+    c.batch = 64;
+    c.primal_steps = 2;
+    alloc_count_reset();
+    assert_int_equal(dinno_node_init(&big, &c, NULL, 1, 2, 0), 0);
+    for (uint32_t s = 0; s < DINNO_MAX_PEERS; s++)
+        assert_int_equal(dinno_slot_put(&big, s, 0, bnn_params(&big.model), bnn_n_params(&big.model)), 0);
+    dinno_round_stats_t rs;
+    assert_int_equal(dinno_node_round(&big, many, 2048, &rs), 0);
+    assert_int_equal(rs.neighbours, DINNO_MAX_PEERS);
+    big.cfg.strategy = DINNO_UNIFORM;
+    for (uint32_t s = 0; s < DINNO_MAX_PEERS; s++)
+        assert_int_equal(dinno_slot_put(&big, s, 1, bnn_params(&big.model), bnn_n_params(&big.model)), 0);
+    assert_int_equal(dinno_node_round(&big, many, 2048, &rs), 0);
+    print_message("node %zu bytes: %llu allocations\n", dinno_get_buffer_size(),
+                  (unsigned long long)alloc_count_allocations());
+    assert_int_equal(alloc_count_allocations(), 0);
+    assert_int_equal(alloc_count_frees(), 0);
+}
+
+int main(void)
+{
+    make_data();
+    const struct CMUnitTest tests[] = {
+        cmocka_unit_test(test_sizes_and_layout),
+        cmocka_unit_test(test_schedules),
+        cmocka_unit_test(test_dual_and_l2_midpoints_by_hand),
+        cmocka_unit_test(test_kl_rho_gradient_finite_differences),
+        cmocka_unit_test(test_uniform_equals_separate_at_unit_weights),
+        cmocka_unit_test(test_slot_round_mismatch_rejected),
+        cmocka_unit_test(test_no_neighbours_trains_alone),
+        cmocka_unit_test(test_round_allocates_nothing),
+    };
+    return cmocka_run_group_tests_name("dinno/node", tests, NULL, NULL);
+}
