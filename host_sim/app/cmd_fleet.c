@@ -124,8 +124,8 @@ static int parse(int argc, char **argv, opts_t *o)
             return -1;
         const char *v = argv[++i];
         int bad = 0;
-        long long ll;
-        double dv;
+        long long ll = 0; // set by the parsers on success; 0 keeps -O1 -Wmaybe-uninitialized quiet
+        double dv = 0.0;
         if (strcmp(a, "--plan") == 0)
             o->plan = v;
         else if (strcmp(a, "--paths") == 0)

@@ -52,7 +52,7 @@ int cmd_render(int argc, char **argv)
     double scale = SIM_PLAN_DEFAULT_SCALE, wall_h = 2.5;
     for (int i = 1; i < argc; i++) {
         const char *a = argv[i];
-        long long ll;
+        long long ll = 0; // set by the parsers on success; 0 keeps -O1 -Wmaybe-uninitialized quiet
         if (strcmp(a, "--help") == 0 || strcmp(a, "-h") == 0) {
             render_usage(stdout);
             return 0;

@@ -60,7 +60,7 @@ int cmd_scan(int argc, char **argv)
     int quiet = 0;
     for (int i = 1; i < argc; i++) {
         const char *a = argv[i];
-        long long ll;
+        long long ll = 0; // set by the parsers on success; 0 keeps -O1 -Wmaybe-uninitialized quiet
         double d;
         if (strcmp(a, "--help") == 0 || strcmp(a, "-h") == 0) {
             scan_usage(stdout);
