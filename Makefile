@@ -10,6 +10,7 @@
 #
 # Configuration (all optional):
 #   BUILD=release|debug|asan|tsan   BOARD=<dir in boards/>   PRESET=small|paper|mcu
+#   LA_BACKEND=eigen|ref            V=1 (print whole commands)
 # Objects and programs go to build/<BUILD>-<BOARD>-<PRESET>/; build/bin points at the
 # programs of the last release build.
 
@@ -107,35 +108,42 @@ LIBS := $(LIB)/libsim.a $(LIB)/libhal_host.a $(LIB)/libfirmware.a $(LIB)/libmsg.
 LINK_LIBS := -Wl,--start-group $(LIBS) -Wl,--end-group $(SYS_LIBS)
 
 # ---- compile rules ----------------------------------------------------------------------
+# One short line per step; V=1 prints the whole commands.
+ifeq ($(V),1)
+say =
+else
+say = @printf '  %-4s %s\n' '$(1)' '$(2)';
+endif
+
 $(O)/obj/firmware/%.c.o: firmware/%.c
 	@mkdir -p $(@D)
-	$(CC) $(CFLAGS) $(FW_INC) -c $< -o $@
+	$(call say,CC,$<)$(CC) $(CFLAGS) $(FW_INC) -c $< -o $@
 
 $(O)/obj/firmware/%.cpp.o: firmware/%.cpp
 	@mkdir -p $(@D)
-	$(CXX) $(CXXFLAGS) $(FW_INC) -isystem /usr/include/eigen3 -c $< -o $@
+	$(call say,CXX,$<)$(CXX) $(CXXFLAGS) $(FW_INC) -isystem /usr/include/eigen3 -c $< -o $@
 
 # The bottom half may include generated LCM headers: they are built first (order-only).
 $(O)/obj/hal/%.c.o: hal/%.c | $(GEN)/.stamp
 	@mkdir -p $(@D)
-	$(CC) $(CFLAGS) $(HOST_INC) -c $< -o $@
+	$(call say,CC,$<)$(CC) $(CFLAGS) $(HOST_INC) -c $< -o $@
 
 $(O)/obj/host_sim/%.c.o: host_sim/%.c | $(GEN)/.stamp
 	@mkdir -p $(@D)
-	$(CC) $(CFLAGS) $(HOST_INC) -c $< -o $@
+	$(call say,CC,$<)$(CC) $(CFLAGS) $(HOST_INC) -c $< -o $@
 
 $(O)/obj/tools/%.c.o: tools/%.c | $(GEN)/.stamp
 	@mkdir -p $(@D)
-	$(CC) $(CFLAGS) $(HOST_INC) -c $< -o $@
+	$(call say,CC,$<)$(CC) $(CFLAGS) $(HOST_INC) -c $< -o $@
 
 $(O)/obj/tests/%.c.o: tests/%.c | $(GEN)/.stamp
 	@mkdir -p $(@D)
-	$(CC) $(CFLAGS) $(TEST_INC) -c $< -o $@
+	$(call say,CC,$<)$(CC) $(CFLAGS) $(TEST_INC) -c $< -o $@
 
 # LCM message types: generated at build time, never committed.
 $(GEN)/.stamp: $(MSG_LCM)
 	@rm -rf $(GEN)/lcm && mkdir -p $(GEN)/lcm
-	$(if $(MSG_LCM),$(LCMGEN) -c --c-cpath $(GEN)/lcm --c-hpath $(GEN)/lcm --cinclude lcm $(MSG_LCM))
+	$(call say,GEN,$(GEN)/lcm)$(if $(MSG_LCM),$(LCMGEN) -c --c-cpath $(GEN)/lcm --c-hpath $(GEN)/lcm --cinclude lcm $(MSG_LCM))
 	@touch $@
 
 # Generated code is not ours to keep warning-free beyond what lcm-gen emits.
@@ -143,10 +151,10 @@ $(LIB)/libmsg.a: $(GEN)/.stamp
 	@mkdir -p $(@D) $(O)/obj/gen
 	@rm -f $@ $(O)/obj/gen/*.o
 	@for c in $(GEN)/lcm/*.c; do [ -e "$$c" ] || continue; \
-	    echo "$(CC) [lcm] $$c"; \
+	    printf '  %-4s %s\n' CC "$$c"; \
 	    $(CC) -std=c11 $(OPT) -Wall -Wno-unused-parameter -I$(GEN) -c "$$c" \
 	        -o $(O)/obj/gen/$$(basename "$$c" .c).o || exit 1; done
-	$(AR) rcs $@ $$(ls $(O)/obj/gen/*.o 2>/dev/null)
+	$(call say,AR,$@)$(AR) rcs $@ $$(ls $(O)/obj/gen/*.o 2>/dev/null)
 
 # ---- libraries and programs -------------------------------------------------------------
 $(LIB)/libfirmware.a: $(FW_OBJ)
@@ -156,20 +164,20 @@ $(LIB)/libtestsupport.a: $(SUPPORT_OBJ)
 $(LIB)/libfirmware.a $(LIB)/libhal_host.a $(LIB)/libsim.a $(LIB)/libtestsupport.a:
 	@mkdir -p $(@D)
 	@rm -f $@
-	$(AR) rcs $@ $^
+	$(call say,AR,$@)$(AR) rcs $@ $^
 
 $(BIN)/host_sim: $(APP_OBJ) $(LIBS)
 	@mkdir -p $(@D)
-	$(CXX) $(OPT) $(APP_OBJ) $(LINK_LIBS) -o $@
+	$(call say,LD,$@)$(CXX) $(OPT) $(APP_OBJ) $(LINK_LIBS) -o $@
 
 $(BIN)/bench_%: $(O)/obj/tools/bench/bench_%.c.o $(LIBS)
 	@mkdir -p $(@D)
-	$(CXX) $(OPT) $< $(LINK_LIBS) -o $@
+	$(call say,LD,$@)$(CXX) $(OPT) $< $(LINK_LIBS) -o $@
 
 # One program per tests/<module>/test_<name>.c, linked with the allocation counter.
 $(O)/tests/%: $(O)/obj/tests/%.c.o $(LIB)/libtestsupport.a $(LIBS)
 	@mkdir -p $(@D)
-	$(CXX) $(OPT) $< -Wl,--start-group $(LIB)/libtestsupport.a $(LIBS) -Wl,--end-group $(SYS_LIBS) -lcmocka $(WRAP) -o $@
+	$(call say,LD,$@)$(CXX) $(OPT) $< -Wl,--start-group $(LIB)/libtestsupport.a $(LIBS) -Wl,--end-group $(SYS_LIBS) -lcmocka $(WRAP) -o $@
 
 # ---- targets ----------------------------------------------------------------------------
 .PHONY: all layering deps run test test-asan test-tsan tests bench bench-one clean help cross

@@ -6,8 +6,8 @@
 #include <string.h>
 #include <sys/stat.h>
 
+#include "cli.h"
 #include "commands.h"
-#include "plan_cli.h"
 #include "sim_fleet.h"
 #include "sim_paths.h"
 #include "sim_plan.h"
@@ -57,24 +57,6 @@ static void fleet_usage(FILE *out)
             "  --scale S           plan metres per pixel (default %g)\n",
             BNN_PRESET_NAME, d.batch, BNN_MAX_BATCH, d.primal_steps, (double)d.kl_weight, (double)d.rho0,
             (double)d.rho_scaling, (double)d.lr_start, (double)d.lr_end, SIM_PLAN_DEFAULT_SCALE);
-}
-
-static int mkdir_p(const char *dir)
-{
-    char tmp[4096];
-    if (snprintf(tmp, sizeof tmp, "%s", dir) >= (int)sizeof tmp)
-        return -ENAMETOOLONG;
-    for (char *p = tmp + 1; *p; p++) {
-        if (*p != '/')
-            continue;
-        *p = '\0';
-        if (mkdir(tmp, 0777) != 0 && errno != EEXIST)
-            return -errno;
-        *p = '/';
-    }
-    if (mkdir(tmp, 0777) != 0 && errno != EEXIST)
-        return -errno;
-    return 0;
 }
 
 typedef struct opts {
@@ -293,7 +275,7 @@ int cmd_fleet(int argc, char **argv)
     }
     if (load_paths(&o, &plan, paths) != 0)
         goto out;
-    if (mkdir_p(o.out) != 0) {
+    if (cmd_mkdir_p(o.out) != 0) {
         fprintf(stderr, "host_sim fleet: cannot create %s: %s\n", o.out, strerror(errno));
         goto out;
     }
@@ -307,7 +289,7 @@ int cmd_fleet(int argc, char **argv)
     /* ---- training data ---- */
     char sdir[2048];
     snprintf(sdir, sizeof sdir, "%s/samples", o.out);
-    if (!o.samples && mkdir_p(sdir) != 0) {
+    if (!o.samples && cmd_mkdir_p(sdir) != 0) {
         fprintf(stderr, "host_sim fleet: cannot create %s\n", sdir);
         goto out;
     }

@@ -7,7 +7,7 @@
 #include <sys/stat.h>
 
 #include "commands.h"
-#include "plan_cli.h"
+#include "cli.h"
 #include "sim_grid.h"
 #include "sim_paths.h"
 #include "sim_plan.h"

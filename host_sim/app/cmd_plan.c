@@ -5,7 +5,7 @@
 #include <stdlib.h>
 #include <string.h>
 
-#include "plan_cli.h"
+#include "cli.h"
 #include "commands.h"
 #include "sim_grid.h"
 #include "sim_plan.h"

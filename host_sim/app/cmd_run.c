@@ -8,8 +8,8 @@
 #include <sys/stat.h>
 
 #include "ai/bnn_ckpt.h"
+#include "cli.h"
 #include "commands.h"
-#include "plan_cli.h"
 #include "sim_fleet.h"
 #include "sim_image.h"
 #include "sim_paths.h"
@@ -57,24 +57,6 @@ static void run_usage(FILE *out)
             "  --scale S            plan metres per pixel (default %g)\n",
             BNN_PRESET_NAME, d.primal_steps, (double)d.kl_weight, d.batch, BNN_MAX_BATCH,
             (double)d.lr_start, (double)d.lr_end, SIM_PLAN_DEFAULT_SCALE);
-}
-
-static int mkdir_p(const char *dir)
-{
-    char tmp[4096];
-    if (snprintf(tmp, sizeof tmp, "%s", dir) >= (int)sizeof tmp)
-        return -ENAMETOOLONG;
-    for (char *p = tmp + 1; *p; p++) {
-        if (*p != '/')
-            continue;
-        *p = '\0';
-        if (mkdir(tmp, 0777) != 0 && errno != EEXIST)
-            return -errno;
-        *p = '/';
-    }
-    if (mkdir(tmp, 0777) != 0 && errno != EEXIST)
-        return -errno;
-    return 0;
 }
 
 typedef struct run_opts {
@@ -341,7 +323,7 @@ int cmd_run(int argc, char **argv)
                 RT_CORE_MAX_WAYPOINTS);
         goto out;
     }
-    if (mkdir_p(o.out) != 0) {
+    if (cmd_mkdir_p(o.out) != 0) {
         fprintf(stderr, "host_sim run: cannot create %s: %s\n", o.out, strerror(errno));
         goto out;
     }

@@ -3,7 +3,7 @@
 #include <string.h>
 
 #include "commands.h"
-#include "plan_cli.h"
+#include "cli.h"
 #include "sim_plan.h"
 #include "sim_valset.h"
 

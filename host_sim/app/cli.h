@@ -1,11 +1,13 @@
-/* Option-value parsing shared by the plan and paths sub-commands: strict, with messages. */
-#ifndef HOST_SIM_APP_PLAN_CLI_H
-#define HOST_SIM_APP_PLAN_CLI_H
+/* Helpers shared by the host_sim sub-commands: strict option-value parsing with messages,
+ * and creating an output directory. */
+#ifndef HOST_SIM_APP_CLI_H
+#define HOST_SIM_APP_CLI_H
 
 #include <errno.h>
 #include <math.h>
 #include <stdio.h>
 #include <stdlib.h>
+#include <sys/stat.h>
 
 /* 0 when argv[i] has a value after it; prints an error otherwise. */
 static inline int cmd_need_value(int argc, char **argv, int i, const char *cmd)
@@ -42,4 +44,23 @@ static inline int cmd_parse_ll(const char *s, const char *opt, long long lo, lon
     return 0;
 }
 
-#endif /* HOST_SIM_APP_PLAN_CLI_H */
+/* mkdir -p: 0, or -errno (-ENAMETOOLONG for a path over 4095 characters). */
+static inline int cmd_mkdir_p(const char *dir)
+{
+    char tmp[4096];
+    if (snprintf(tmp, sizeof tmp, "%s", dir) >= (int)sizeof tmp)
+        return -ENAMETOOLONG;
+    for (char *p = tmp + 1; *p; p++) {
+        if (*p != '/')
+            continue;
+        *p = '\0';
+        if (mkdir(tmp, 0777) != 0 && errno != EEXIST)
+            return -errno;
+        *p = '/';
+    }
+    if (mkdir(tmp, 0777) != 0 && errno != EEXIST)
+        return -errno;
+    return 0;
+}
+
+#endif /* HOST_SIM_APP_CLI_H */
