@@ -229,7 +229,7 @@ static int read_samples(const char *file, const sim_plan_t *plan, ai_sample_t **
     char err[512];
     int rc = sim_samples_read(file, &h, s, err, sizeof err);
     if (rc) {
-        fprintf(stderr, "host_sim fleet: %s: %s\n", file, err);
+        fprintf(stderr, "host_sim fleet: %s\n", err); /* err names the file */
         return rc;
     }
     if (fabs(h.min_x - plan->min.x) > 1e-6 || fabs(h.min_y - plan->min.y) > 1e-6 || fabs(h.max_x - plan->max.x) > 1e-6 ||
