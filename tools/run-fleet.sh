@@ -19,6 +19,10 @@
 # This is the in-process fleet; the multi-process fleet (one host_sim per robot over LCM) is
 # on the roadmap.
 set -euo pipefail
+if [[ "${1:-}" == -h || "${1:-}" == --help ]]; then
+    sed -n '2,/^set -euo/{/^set -euo/d;s/^# \{0,1\}//;p}' "$0"
+    exit 0
+fi
 bin=${1:-build/bin}
 rounds=${ROUNDS:-1500}
 seed=${SEED:-1}
