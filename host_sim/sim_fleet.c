@@ -46,14 +46,6 @@ void sim_fleet_cfg_default(sim_fleet_cfg_t *cfg)
     cfg->threads = 1;
 }
 
-static double arc_length(const sim_path_t *p)
-{
-    double len = 0.0;
-    for (int i = 0; i + 1 < p->n; i++)
-        len += hypot(p->p[i + 1].x - p->p[i].x, p->p[i + 1].y - p->p[i].y);
-    return len;
-}
-
 /* Point at arc length s along p (clamped to the ends). */
 static void point_at(const sim_path_t *p, double s, double *x, double *y, double *heading)
 {
@@ -163,7 +155,7 @@ int sim_fleet_create(const sim_fleet_cfg_t *cfg, const bnn_config_t *bcfg, const
             memcpy(f->paths[i].p, paths[i].p, (size_t)paths[i].n * sizeof(sim_vec2_t));
             f->paths[i].n = paths[i].n;
             f->paths[i].start_room = paths[i].start_room;
-            f->path_len[i] = arc_length(&paths[i]);
+            f->path_len[i] = sim_path_length(&paths[i]);
         }
     }
     if (cfg->mode == SIM_FLEET_CENTRAL) {
@@ -480,9 +472,6 @@ int sim_fleet_metrics(sim_fleet_t *f, int i, const ai_sample_t *val, size_t n_va
 }
 
 /* ---- maps ---------------------------------------------------------------------------------- */
-static const uint8_t PALETTE[8][3] = {{230, 25, 75}, {60, 180, 75}, {0, 130, 200}, {245, 130, 48},
-                                      {145, 30, 180}, {70, 200, 200}, {240, 50, 230}, {128, 128, 0}};
-
 /* A compact perceptual ramp (dark blue -> teal -> yellow), t in [0, 1]. */
 static void ramp(double t, uint8_t *px)
 {
@@ -501,7 +490,7 @@ static void draw_paths(uint8_t *rgb, int W, int H, const sim_plan_t *plan, doubl
 {
     const double pix = res / zoom;
     for (int k = 0; k < n_paths; k++) {
-        const uint8_t *col = PALETTE[k % 8];
+        const uint8_t *col = SIM_PATH_COLOURS[k % 8];
         for (int i = 0; i + 1 < paths[k].n; i++) {
             const double x0 = paths[k].p[i].x, y0 = paths[k].p[i].y;
             const double x1 = paths[k].p[i + 1].x, y1 = paths[k].p[i + 1].y;
@@ -523,14 +512,15 @@ static void draw_paths(uint8_t *rgb, int W, int H, const sim_plan_t *plan, doubl
 }
 
 int sim_fleet_write_maps(bnn_model_t *m, const sim_plan_t *plan, double res, uint32_t K, uint64_t seed,
-                         const sim_path_t *paths, int n_paths, int zoom, const char *mean_png, const char *std_png,
+                         const sim_path_t *paths, int n_paths, const char *mean_png, const char *std_png,
                          double *std_max_out, char *err, size_t errlen)
 {
-    if (!m || !plan || !isfinite(res) || res <= 0.0 || K < 1 || zoom < 1 || zoom > 16 || !mean_png || !std_png ||
-        (n_paths > 0 && !paths)) {
+    if (!m || !plan || !isfinite(res) || res <= 0.0 || K < 1 || !mean_png || !std_png || (n_paths > 0 && !paths)) {
         snprintf(err, errlen, "bad map arguments");
         return -EINVAL;
     }
+    const double z = ceil(0.02 / res * 5.0);
+    const int zoom = z < 1.0 ? 1 : z > 8.0 ? 8 : (int)z;
     const int w = (int)ceil((plan->max.x - plan->min.x) / res), h = (int)ceil((plan->max.y - plan->min.y) / res);
     if (w < 1 || h < 1 || (size_t)w * h > 4000000u) {
         snprintf(err, errlen, "map of %d x %d cells is out of range", w, h);

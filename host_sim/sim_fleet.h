@@ -124,11 +124,12 @@ int sim_fleet_metrics(sim_fleet_t *f, int i, const ai_sample_t *val, size_t n_va
 /* ---- maps ---------------------------------------------------------------------------------- */
 /* MC mean and std (K passes) of model m on the plan's bounding box at res metres, written as
  * two PNGs (mean: white free .. black wall; std: dark blue .. yellow, scaled to the map's
- * max std, printed in the file name's companion line of `scale_out`), the paths drawn on
- * top in colour, each pixel scaled up `zoom` times. Returns 0 or a negative code, err. */
+ * max std, which goes to *std_max_out when not NULL), the paths drawn on top in colour. Each
+ * cell is drawn as zoom x zoom pixels, zoom = ceil(0.1 m / res) within 1..8, so every map
+ * shows about 10 pixels per metre or more. Returns 0 or a negative code, err. */
 __attribute__((warn_unused_result))
 int sim_fleet_write_maps(bnn_model_t *m, const sim_plan_t *plan, double res, uint32_t K, uint64_t seed,
-                         const sim_path_t *paths, int n_paths, int zoom, const char *mean_png, const char *std_png,
+                         const sim_path_t *paths, int n_paths, const char *mean_png, const char *std_png,
                          double *std_max_out, char *err, size_t errlen);
 
 #endif /* SIM_FLEET_H */

@@ -173,15 +173,6 @@ out:
     return rc;
 }
 
-static double seg_dist(double px, double py, sim_vec2_t a, sim_vec2_t b)
-{
-    double dx = b.x - a.x, dy = b.y - a.y;
-    double l2 = dx * dx + dy * dy;
-    double t = l2 > 0 ? ((px - a.x) * dx + (py - a.y) * dy) / l2 : 0.0;
-    t = t < 0 ? 0 : t > 1 ? 1 : t;
-    return hypot(px - (a.x + t * dx), py - (a.y + t * dy));
-}
-
 int sim_image_occ_near_path(const sim_plan_t *plan, const sim_path_t *path, bnn_model_t *m,
                             double res, double radius_m, double *mse, size_t *n_cells)
 {
@@ -193,53 +184,25 @@ int sim_image_occ_near_path(const sim_plan_t *plan, const sim_path_t *path, bnn_
     int rc = sim_occ_eval_build(plan, res, &ev);
     if (rc != 0)
         return rc;
-    const size_t chunk = m->cfg.max_batch;
-    float *xy = malloc(sizeof(float) * 2 * chunk);
-    float *lg = malloc(sizeof(float) * chunk);
-    uint8_t *truth = malloc(chunk);
-    if (xy == NULL || lg == NULL || truth == NULL) {
-        rc = -ENOMEM;
-        goto out;
+    /* Keep the cells near the path (in place), then score them like the fleet does. */
+    size_t k = 0;
+    for (size_t i = 0; i < ev.n; i++) {
+        double x, y;
+        sim_plan_denormalise(plan, ev.xy[2 * i], ev.xy[2 * i + 1], &x, &y);
+        if (sim_path_distance(path, x, y) > radius_m)
+            continue;
+        ev.xy[2 * k] = ev.xy[2 * i];
+        ev.xy[2 * k + 1] = ev.xy[2 * i + 1];
+        ev.truth[k] = ev.truth[i];
+        ev.cell[k] = ev.cell[i];
+        k++;
     }
-    double sx = 0.5 * (plan->max.x - plan->min.x), sy = 0.5 * (plan->max.y - plan->min.y);
-    double sum = 0;
-    size_t cnt = 0, k = 0;
-    for (size_t i = 0; i <= ev.n; i++) {
-        if (i < ev.n) {
-            double x = plan->min.x + (ev.xy[2 * i] + 1.0) * sx;
-            double y = plan->min.y + (ev.xy[2 * i + 1] + 1.0) * sy;
-            double d = INFINITY;
-            for (int j = 0; j + 1 < path->n && d > radius_m; j++)
-                d = fmin(d, seg_dist(x, y, path->p[j], path->p[j + 1]));
-            if (path->n == 1)
-                d = hypot(x - path->p[0].x, y - path->p[0].y);
-            if (d <= radius_m) {
-                xy[2 * k] = ev.xy[2 * i];
-                xy[2 * k + 1] = ev.xy[2 * i + 1];
-                truth[k] = ev.truth[i];
-                k++;
-            }
-        }
-        if (k > 0 && (k == chunk || i == ev.n)) {
-            rc = bnn_forward_logits(m, xy, k, 1, 0, lg);
-            if (rc != 0)
-                goto out;
-            for (size_t q = 0; q < k; q++) {
-                double p = 1.0 / (1.0 + exp(-(double)lg[q]));
-                double e = p - (double)truth[q];
-                sum += e * e;
-            }
-            cnt += k;
-            k = 0;
-        }
-    }
-    *n_cells = cnt;
-    *mse = cnt > 0 ? sum / (double)cnt : NAN;
-    rc = 0;
-out:
-    free(xy);
-    free(lg);
-    free(truth);
+    ev.n = k;
+    *n_cells = k;
+    *mse = NAN;
+    double iou;
+    if (k > 0)
+        rc = sim_occ_eval_run(&ev, m, mse, &iou);
     sim_occ_eval_free(&ev);
     return rc;
 }

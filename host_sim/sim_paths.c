@@ -96,6 +96,27 @@ static double pt_seg_dist(double px, double py, sim_vec2_t a, sim_vec2_t b)
     return hypot(px - (a.x + t * dx), py - (a.y + t * dy));
 }
 
+double sim_path_length(const sim_path_t *path)
+{
+    double len = 0.0;
+    for (int i = 0; i + 1 < path->n; i++)
+        len += hypot(path->p[i + 1].x - path->p[i].x, path->p[i + 1].y - path->p[i].y);
+    return len;
+}
+
+double sim_path_distance(const sim_path_t *path, double x_m, double y_m)
+{
+    if (path->n == 1)
+        return hypot(x_m - path->p[0].x, y_m - path->p[0].y);
+    double d = INFINITY;
+    for (int i = 0; i + 1 < path->n; i++)
+        d = fmin(d, pt_seg_dist(x_m, y_m, path->p[i], path->p[i + 1]));
+    return d;
+}
+
+const uint8_t SIM_PATH_COLOURS[8][3] = {{230, 25, 75},  {60, 180, 75},  {0, 130, 200},  {245, 130, 48},
+                                        {145, 30, 180}, {70, 200, 200}, {240, 50, 230}, {128, 128, 0}};
+
 static double cross(sim_vec2_t o, sim_vec2_t a, sim_vec2_t b)
 {
     return (a.x - o.x) * (b.y - o.y) - (a.y - o.y) * (b.x - o.x);

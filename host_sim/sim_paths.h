@@ -52,6 +52,16 @@ int sim_paths_generate(const sim_plan_t *plan, const sim_paths_cfg_t *cfg, sim_p
 
 void sim_path_free(sim_path_t *path);
 
+/* Arc length of the polyline in metres (0 for fewer than 2 waypoints). */
+double sim_path_length(const sim_path_t *path);
+
+/* Distance in metres from (x, y) to the polyline (to the single waypoint when n == 1;
+ * INFINITY when the path is empty). */
+double sim_path_distance(const sim_path_t *path, double x_m, double y_m);
+
+/* Colour of robot k's path in the PNG pictures: SIM_PATH_COLOURS[k % 8], RGB. */
+extern const uint8_t SIM_PATH_COLOURS[8][3];
+
 __attribute__((warn_unused_result))
 int sim_path_write_csv(const sim_path_t *path, const char *file, char *err, size_t errlen);
 

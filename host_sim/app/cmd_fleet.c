@@ -345,8 +345,7 @@ int cmd_fleet(int argc, char **argv)
     fc.n_agents = N;
     fc.rounds = (uint32_t)o.rounds;
     fc.mode = o.mode;
-    fc.dinno = o.d;
-    fc.dinno.total_rounds = (uint32_t)o.rounds;
+    fc.dinno = o.d; /* sim_fleet_create sets total_rounds from fc.rounds */
     fc.graph = o.graph;
     fc.radius = o.radius;
     fc.seed = seed;
@@ -419,13 +418,8 @@ int cmd_fleet(int argc, char **argv)
     snprintf(mean_png, sizeof mean_png, "%s/map_mean.png", o.out);
     snprintf(std_png, sizeof std_png, "%s/map_std.png", o.out);
     double smax = 0;
-    int zoom = (int)ceil(0.02 / o.map_res * 5.0);
-    if (zoom < 1)
-        zoom = 1;
-    if (zoom > 8)
-        zoom = 8;
     if (sim_fleet_write_maps(&sim_fleet_node(fleet, 0)->model, &plan, o.map_res, (uint32_t)o.mc, seed, paths, N,
-                             zoom, mean_png, std_png, &smax, err, sizeof err) != 0) {
+                             mean_png, std_png, &smax, err, sizeof err) != 0) {
         fprintf(stderr, "host_sim fleet: maps: %s\n", err);
         goto out;
     }

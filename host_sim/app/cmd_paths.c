@@ -32,9 +32,6 @@ static void paths_usage(FILE *out)
             SIM_PLAN_DEFAULT_SCALE);
 }
 
-static const uint8_t PALETTE[8][3] = {{230, 25, 75}, {60, 180, 75}, {0, 130, 200}, {245, 130, 48},
-                                      {145, 30, 180}, {70, 200, 200}, {240, 50, 230}, {128, 128, 0}};
-
 /* The picture: K x K pixels per grid cell (K chosen so the long side is about 1000 px). */
 typedef struct {
     uint8_t *rgb;
@@ -75,7 +72,7 @@ static int draw_png(const sim_grid_t *g, const sim_path_t *paths, int n, const c
             put_px(&cv, x, y, col);
         }
     for (int k = 0; k < n; k++) {
-        const uint8_t *col = PALETTE[k % 8];
+        const uint8_t *col = SIM_PATH_COLOURS[k % 8];
         for (int i = 0; i + 1 < paths[k].n; i++) {
             double x0 = paths[k].p[i].x, y0 = paths[k].p[i].y, x1 = paths[k].p[i + 1].x, y1 = paths[k].p[i + 1].y;
             int steps = (int)ceil(hypot(x1 - x0, y1 - y0) / g->res * cv.k) + 1;
@@ -113,9 +110,7 @@ static void report(const sim_plan_t *plan, const sim_grid_t *g, const sim_path_t
 {
     double min_clear = INFINITY;
     for (int k = 0; k < n; k++) {
-        double len = 0;
-        for (int i = 0; i + 1 < paths[k].n; i++)
-            len += hypot(paths[k].p[i + 1].x - paths[k].p[i].x, paths[k].p[i + 1].y - paths[k].p[i].y);
+        double len = sim_path_length(&paths[k]);
         double cl = sim_path_min_clearance(plan, &paths[k]);
         min_clear = fmin(min_clear, cl);
         int room = sim_plan_room_at(plan, paths[k].p[0].x, paths[k].p[0].y);

@@ -445,10 +445,8 @@ int cmd_run(int argc, char **argv)
     snprintf(mean_png, sizeof mean_png, "%s/map_mean.png", o.out);
     snprintf(std_png, sizeof std_png, "%s/map_std.png", o.out);
     if (!o.no_maps) {
-        int zoom = (int)ceil(0.02 / o.map_res * 5.0);
-        zoom = zoom < 1 ? 1 : zoom > 8 ? 8 : zoom;
-        if (sim_fleet_write_maps(model, &plan, o.map_res, (uint32_t)o.mc, (uint64_t)o.seed, &path, 1, zoom,
-                                 mean_png, std_png, &smax, err, sizeof err) != 0) {
+        if (sim_fleet_write_maps(model, &plan, o.map_res, (uint32_t)o.mc, (uint64_t)o.seed, &path, 1, mean_png,
+                                 std_png, &smax, err, sizeof err) != 0) {
             fprintf(stderr, "host_sim run: maps: %s\n", err);
             goto out;
         }
