@@ -18,9 +18,8 @@ struct sim_hal_world {
     double wl, wr;         /* command to apply at the next advance */
     int wheels_dirty;
     hal_pose_t fix;
-    hal_lidar_scan_t scan;
+    hal_lidar_scan_t scan; /* the latest scan (n_beams <= HAL_LIDAR_MAX_BEAMS is checked at create) */
     int have_scan;
-    float ranges[SIM_LIDAR_MAX_BEAMS];
     sim_hal_world_stats_t st;
     hal_host_world_t ops;
 };
@@ -59,19 +58,18 @@ static int refresh_fix(sim_hal_world_t *hw)
 static int take_scan(sim_hal_world_t *hw)
 {
     const sim_pose_t *p = &hw->st.truth;
+    hal_lidar_scan_t *s = &hw->scan;
     int rc = sim_lidar_scan(hw->lidar, hw->w, p->x, p->y, p->theta, hw->cfg.robot, hw->st.scans,
-                            hw->ranges, NULL);
+                            s->ranges_m, NULL);
     if (rc < 0)
         return rc;
     const sim_lidar_cfg_t *lc = sim_lidar_cfg(hw->lidar);
-    hal_lidar_scan_t *s = &hw->scan;
     s->stamp_us = hw->st.t_us;
     s->angle_min_rad = (float)lc->angle_min;
     s->angle_step_rad = (float)sim_lidar_angle_inc(hw->lidar);
     s->range_min_m = (float)lc->range_min;
     s->range_max_m = (float)lc->range_max;
     s->count = (uint32_t)lc->n_beams;
-    memcpy(s->ranges_m, hw->ranges, sizeof(float) * (size_t)lc->n_beams);
     hw->have_scan = 1;
     hw->st.scans++;
     return 0;
