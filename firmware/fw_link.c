@@ -1,7 +1,6 @@
 /* Static storage of the links between the cores (see fw_link.h). */
 #include "fw_link.h"
 
-#include <stdatomic.h>
 #include <string.h>
 
 RING_DEFINE(fw_samples_ring, sizeof(ai_sample_t), FW_LINK_RING_CAPACITY);
@@ -34,21 +33,9 @@ const fw_link_t *fw_link_get(void)
     return &fw_link;
 }
 
-static void mbox_reset(mbox_t *m)
-{
-    /* The initial state MBOX_DEFINE gives; only valid while nobody uses the mailbox. */
-    atomic_store(&m->middle, 2u);
-    m->write_idx = 0u;
-    m->read_idx = 1u;
-    m->write_seq = 0u;
-    m->seq[0] = m->seq[1] = m->seq[2] = 0u;
-}
-
 void fw_link_reset(void)
 {
-    atomic_store(&fw_samples_ring.head, 0u);
-    atomic_store(&fw_samples_ring.tail, 0u);
-    atomic_store(&fw_samples_ring.drops, 0u);
+    ring_reset(&fw_samples_ring);
     mbox_reset(&fw_rt_to_ai);
     mbox_reset(&fw_rt_to_gp);
     mbox_reset(&fw_ai_status);

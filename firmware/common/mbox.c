@@ -61,3 +61,12 @@ int mbox_get(mbox_t *mbox, void *dst, uint64_t *seq)
         memcpy(dst, src, mbox->block_size);
     return fresh;
 }
+
+void mbox_reset(mbox_t *mbox)
+{
+    atomic_store(&mbox->middle, 2u);
+    mbox->write_idx = 0u;
+    mbox->read_idx = 1u;
+    mbox->write_seq = 0u;
+    mbox->seq[0] = mbox->seq[1] = mbox->seq[2] = 0u;
+}

@@ -42,6 +42,10 @@ typedef struct mbox {
 
 #define MBOX_STORAGE_BYTES(block_size_) (3u * (size_t)(block_size_))
 
+/* Back to "nothing ever published", the state MBOX_DEFINE() gives (the buffers' bytes are
+ * left as they are). Only while neither writer nor reader uses the mailbox. */
+void mbox_reset(mbox_t *mbox);
+
 /* Writer only. The buffer the writer may fill; valid until the next mbox_publish(). */
 void *mbox_write_buffer(mbox_t *mbox);
 

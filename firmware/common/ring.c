@@ -34,6 +34,13 @@ int ring_get(ring_t *ring, void *record)
     return 0;
 }
 
+void ring_reset(ring_t *ring)
+{
+    atomic_store(&ring->head, 0u);
+    atomic_store(&ring->tail, 0u);
+    atomic_store(&ring->drops, 0u);
+}
+
 uint32_t ring_count(const ring_t *ring)
 {
     /* Casts drop const only for the atomic load API of older libcs; nothing is written. */

@@ -56,6 +56,10 @@ __attribute__((warn_unused_result)) int ring_put(ring_t *ring, const void *recor
  * Returns 0, or -EAGAIN when empty, -EINVAL on NULL. */
 __attribute__((warn_unused_result)) int ring_get(ring_t *ring, void *record);
 
+/* Empties the ring and zeroes the drop count: the state RING_DEFINE() gives. Only while
+ * neither producer nor consumer uses the ring (before the cores start). */
+void ring_reset(ring_t *ring);
+
 /* Records waiting. Exact for the consumer; a snapshot for anyone else. */
 uint32_t ring_count(const ring_t *ring);
 

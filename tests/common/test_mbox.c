@@ -60,6 +60,24 @@ static void test_sequence_semantics(void **state)
     assert_int_equal(mbox_get(&box, NULL, NULL), -EINVAL);
 }
 
+/* A reset mailbox is as MBOX_DEFINE made it: nothing published, sequences from 1 again. */
+static void test_reset(void **state)
+{
+    (void)state;
+    static uint64_t dst[WORDS], src[WORDS];
+    uint64_t seq = 0;
+    fill(src, 5);
+    assert_int_equal(mbox_put(&box, src), 0);
+    mbox_reset(&box);
+    assert_int_equal(mbox_get(&box, dst, &seq), 0);
+    assert_int_equal(seq, 0);
+    fill(src, 1);
+    assert_int_equal(mbox_put(&box, src), 0);
+    assert_int_equal(mbox_get(&box, dst, &seq), 1);
+    assert_int_equal(seq, 1);
+    assert_true(whole(dst, 1));
+}
+
 #define PUBLISHES 20000u
 MBOX_DEFINE(stress_box, WORDS * sizeof(uint64_t));
 static atomic_int writer_done;
@@ -111,6 +129,7 @@ int main(void)
 {
     const struct CMUnitTest tests[] = {
         cmocka_unit_test(test_sequence_semantics),
+        cmocka_unit_test(test_reset),
         cmocka_unit_test(test_reader_never_sees_torn_block),
     };
     return cmocka_run_group_tests_name("common/mbox", tests, NULL, NULL);

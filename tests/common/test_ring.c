@@ -48,6 +48,27 @@ static void test_put_get_fifo_and_full(void **state)
     assert_int_equal(ring_count(&small_ring), 0);
 }
 
+/* A reset ring is empty, has no drops and takes records again. */
+static void test_reset(void **state)
+{
+    (void)state;
+    rec_t r = {0}, out;
+    for (uint64_t i = 0; i < 8; i++)
+        assert_int_equal(ring_put(&small_ring, &r), 0);
+    assert_int_equal(ring_put(&small_ring, &r), -ENOSPC); /* dropped and counted */
+    assert_true(ring_drops(&small_ring) > 0);
+    ring_reset(&small_ring);
+    assert_int_equal(ring_count(&small_ring), 0);
+    assert_int_equal(ring_drops(&small_ring), 0);
+    assert_int_equal(ring_get(&small_ring, &out), -EAGAIN);
+    r.seq = 7;
+    r.check = check_of(7);
+    assert_int_equal(ring_put(&small_ring, &r), 0);
+    assert_int_equal(ring_get(&small_ring, &out), 0);
+    assert_int_equal(out.seq, 7);
+    assert_int_equal(out.check, check_of(7));
+}
+
 static void test_rejects_null(void **state)
 {
     (void)state;
@@ -134,6 +155,7 @@ int main(void)
 {
     const struct CMUnitTest tests[] = {
         cmocka_unit_test(test_put_get_fifo_and_full),
+        cmocka_unit_test(test_reset),
         cmocka_unit_test(test_rejects_null),
         cmocka_unit_test(test_wraps_and_allocates_nothing),
         cmocka_unit_test(test_two_thread_stress),
