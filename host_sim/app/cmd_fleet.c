@@ -367,9 +367,10 @@ int cmd_fleet(int argc, char **argv)
     const int M = sim_fleet_models(fleet);
     sim_fleet_metrics_t last[SIM_FLEET_MAX_AGENTS];
     uint64_t isolated_rounds = 0, split_rounds = 0;
+    dinno_graph_report_t rep; /* of the last round's graph */
+    memset(&rep, 0, sizeof rep);
     for (uint32_t k = 0; k <= (uint32_t)o.rounds; k++) {
         if (k > 0) {
-            dinno_graph_report_t rep;
             int rc = sim_fleet_round(fleet, &rep);
             if (rc) {
                 fprintf(stderr, "host_sim fleet: round %u failed (%d)\n", k - 1, rc);
@@ -399,8 +400,6 @@ int cmd_fleet(int argc, char **argv)
             cmax = fmax(cmax, m->consensus_error);
         }
         fflush(csv);
-        dinno_graph_report_t rep;
-        dinno_graph_report(sim_fleet_graph(fleet), &rep);
         printf("round %6u/%lld  val_loss %.4f  occ_iou %.3f  consensus_err(max) %.4f", k, o.rounds, vmean, iou, cmax);
         if (o.mode == SIM_FLEET_DINNO && k > 0)
             printf("  graph: %u edges, %u components, %u isolated", rep.edges, rep.components, rep.isolated);
