@@ -6,13 +6,16 @@
 #   make test-asan    the tests under AddressSanitizer + UndefinedBehaviorSanitizer
 #   make test-tsan    the threaded tests under ThreadSanitizer
 #   make bench        benchmarks; one `BENCH <name> <value> <unit>` line per figure
+#   make check-portable  the math compiled for x86-64-v2/v3/v4 and aarch64, all built with clang
 #   make clean
 #
 # Configuration (all optional):
 #   BUILD=release|debug|asan|tsan   BOARD=<dir in boards/>   PRESET=small|paper|mcu
-#   LA_BACKEND=eigen|ref            V=1 (print whole commands)
-# Objects and programs go to build/<BUILD>-<BOARD>-<PRESET>/; build/bin points at the
-# programs of the last release build.
+#   LA_BACKEND=eigen|ref            ARCH=native|portable (release code for this CPU, or a
+#   CC=gcc|clang, CXX=g++|clang++   baseline that runs on any CPU of its family)
+#   V=1 (print whole commands)
+# Objects and programs go to build/<BUILD>-<BOARD>-<PRESET>[-<LA_BACKEND>][-<ARCH>][-clang]/;
+# build/bin points at the programs of the last release build.
 
 .DEFAULT_GOAL := all
 SHELL := /bin/bash
@@ -27,7 +30,7 @@ ifeq ($(wildcard boards/$(BOARD)/board.mk),)
 $(error unknown BOARD '$(BOARD)': there is no boards/$(BOARD)/board.mk (boards: $(notdir $(wildcard boards/*))))
 endif
 include boards/$(BOARD)/board.mk
-$(foreach v,BOARD_PRESET BOARD_LA_BACKEND,$(if $($(v)),,$(error boards/$(BOARD)/board.mk must set $(v))))
+$(foreach v,BOARD_PRESET BOARD_LA_BACKEND BOARD_ARCHES,$(if $($(v)),,$(error boards/$(BOARD)/board.mk must set $(v))))
 
 PRESET     ?= $(BOARD_PRESET)
 LA_BACKEND ?= $(BOARD_LA_BACKEND)
@@ -39,18 +42,26 @@ ifeq ($(filter $(LA_BACKEND),ref eigen),)
 $(error unknown LA_BACKEND '$(LA_BACKEND)' (ref or eigen))
 endif
 
+ARCH ?= $(firstword $(BOARD_ARCHES))
+ifeq ($(filter $(ARCH),$(BOARD_ARCHES)),)
+$(error unknown ARCH '$(ARCH)' (board $(BOARD): $(BOARD_ARCHES)))
+endif
+BOARD_ARCH_FLAGS := $(BOARD_ARCH_FLAGS_$(ARCH))
+
 uc = $(shell echo '$(1)' | tr a-z A-Z)
 
+CC      := gcc
+CXX     := g++
+
 BUILD_ROOT ?= build
-# A math back end other than the board default gets its own objects (no mixing on switch).
-CONFIG := $(BUILD)-$(BOARD)-$(PRESET)$(if $(filter-out $(BOARD_LA_BACKEND),$(LA_BACKEND)),-$(LA_BACKEND))
+# Anything that changes the generated code gets its own objects (no mixing on a switch): a
+# math back end, an ARCH other than the board default, another compiler.
+CONFIG := $(BUILD)-$(BOARD)-$(PRESET)$(if $(filter-out $(BOARD_LA_BACKEND),$(LA_BACKEND)),-$(LA_BACKEND))$(if $(filter-out $(firstword $(BOARD_ARCHES)),$(ARCH)),-$(ARCH))$(if $(findstring clang,$(CC)),-clang)
 O   := $(BUILD_ROOT)/$(CONFIG)
 BIN := $(O)/bin
 LIB := $(O)/lib
 GEN := $(O)/gen
 
-CC      := gcc
-CXX     := g++
 AR      := ar
 PYTHON  ?= /usr/bin/python3
 LCMGEN  := lcm-gen
@@ -180,7 +191,7 @@ $(O)/tests/%: $(O)/obj/tests/%.c.o $(LIB)/libtestsupport.a $(LIBS)
 	$(call say,LD,$@)$(CXX) $(OPT) $< -Wl,--start-group $(LIB)/libtestsupport.a $(LIBS) -Wl,--end-group $(SYS_LIBS) -lcmocka $(WRAP) -o $@
 
 # ---- targets ----------------------------------------------------------------------------
-.PHONY: all layering deps run test test-asan test-tsan tests bench bench-one clean help cross
+.PHONY: all layering deps run test test-asan test-tsan tests bench bench-one clean help cross check-portable
 
 all: deps layering $(LIBS) $(PROGRAMS)
 ifeq ($(BUILD),release)
@@ -225,6 +236,14 @@ bench-one: all
 
 run: all
 	@tools/run-fleet.sh $(BIN)
+
+# The math compiled for every x86-64 level and aarch64 (GCC and clang), then the whole tree
+# and its tests built and run with clang. Compile only for the other CPUs: this one need not
+# have their instructions.
+check-portable: deps
+	@tools/install-deps.sh --portable
+	@tools/check-portable.sh "$(DEFS) $(FW_INC)"
+	@$(MAKE) --no-print-directory CC=clang CXX=clang++ test
 
 cross:
 	@echo "make cross: cross builds for the boards of the roadmap (Cortex-M7, Cortex-A53, RV32) do not exist yet." >&2

@@ -1,12 +1,14 @@
 #!/usr/bin/env bash
-# Installs the Debian packages fleetsim builds and runs with (DESIGN.md section 8).
+# Installs the Debian packages fleetsim builds and runs with.
 #
 # Idempotent and cheap on a ready machine: it first looks for one file per package and
 # returns at once when all are there. Otherwise, as root, it runs `apt-get update` once and
 # installs only what is missing; as another user it prints the exact command and exits 1.
 #
-#   tools/install-deps.sh          check, install what is missing
-#   tools/install-deps.sh --check  check only; list what is missing, exit 1 if anything is
+#   tools/install-deps.sh             check, install what is missing
+#   tools/install-deps.sh --check     check only; list what is missing, exit 1 if anything is
+#   tools/install-deps.sh --portable  also the compilers of `make check-portable` (clang, the
+#                                     aarch64 cross g++); combines with --check
 set -euo pipefail
 
 # package  file-that-proves-it-is-installed
@@ -25,14 +27,21 @@ deps=(
     "python3-scipy        /usr/lib/python3/dist-packages/scipy/__init__.py"
     "python3-matplotlib   /usr/lib/python3/dist-packages/matplotlib/__init__.py"
 )
+# Other compilers, for the portability checks only (users of `make run` do not need them).
+portable_deps=(
+    "clang                  /usr/bin/clang"
+    "g++-aarch64-linux-gnu  /usr/bin/aarch64-linux-gnu-g++"
+)
 
 check_only=0
-case "${1:-}" in
-    --check) check_only=1 ;;
-    -h|--help) sed -n '2,9p' "$0" | sed 's/^# \{0,1\}//'; exit 0 ;;
-    "") ;;
-    *) echo "install-deps: unknown option '$1' (see --help)" >&2; exit 2 ;;
-esac
+for arg in "$@"; do
+    case "$arg" in
+        --check) check_only=1 ;;
+        --portable) deps+=("${portable_deps[@]}") ;;
+        -h|--help) sed -n '2,11p' "$0" | sed 's/^# \{0,1\}//'; exit 0 ;;
+        *) echo "install-deps: unknown option '$arg' (see --help)" >&2; exit 2 ;;
+    esac
+done
 
 missing=()
 for d in "${deps[@]}"; do

@@ -160,11 +160,18 @@ void dinno_prepare(dinno_node_t *n)
         if (!n->slots.valid[s])
             continue;
         const float *tj = n->slots.theta[s];
-        const size_t l2_end = kl ? M : P;
-        for (size_t i = 0; i < l2_end; i++) {
+        /* One loop per group with its own accumulator: clang 14 vectorised the former
+           single loop's `sq[i < M ? 0 : 1] +=` wrongly (AVX2 and AVX-512 builds lost terms).
+           Same summation order as before, so GCC's results are unchanged. */
+        for (size_t i = 0; i < M; i++) {
             const float mid = 0.5f * (n->theta0[i] + tj[i]);
             n->aux1[i] += mid;
-            sq[i < M ? 0 : 1] += (double)mid * mid;
+            sq[0] += (double)mid * mid;
+        }
+        for (size_t i = M; !kl && i < P; i++) {
+            const float mid = 0.5f * (n->theta0[i] + tj[i]);
+            n->aux1[i] += mid;
+            sq[1] += (double)mid * mid;
         }
         if (kl) {
             for (size_t e = 0; e < R; e++) {

@@ -39,3 +39,12 @@ const char *la_backend_name(void)
     return "ref";
 #endif
 }
+
+const char *la_kernel_name(void)
+{
+#if defined(LA_BACKEND_EIGEN)
+    if (!atomic_load_explicit(&g_force_ref, memory_order_relaxed))
+        return la_eigen_kernel_name();
+#endif
+    return "ref-c";
+}

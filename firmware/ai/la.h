@@ -7,8 +7,9 @@
  *   (NaN in C does not propagate). M, N, K >= 0; K == 0 gives C = beta * C.
  *
  * Back ends: la_ref_* (pure C11, cache-blocked, always built) and la_eigen_* (la_eigen.cpp,
- * extern "C", built only when LA_BACKEND=eigen: when compiled with AVX2+FMA, products with
- * M >= 12, N >= 16, K >= 16 use a packed 6x16 AVX2/FMA kernel, everything else Eigen 3.4).
+ * extern "C", built only when LA_BACKEND=eigen: when compiled with AVX2+FMA but not AVX-512,
+ * products with M >= 12, N >= 16, K >= 16 use a packed 6x16 AVX2/FMA kernel, everything else
+ * Eigen 3.4 with the widest vectors the target has).
  * la_* dispatches to the board's back end (LA_BACKEND_EIGEN or LA_BACKEND_REF). No function
  * allocates: the Eigen shim keeps its packing/blocking buffers on the stack (at most
  * LA_EIGEN_STACK_BYTES per call; the AVX2 kernel uses 352 KB), the reference path uses a
@@ -40,6 +41,13 @@ void la_eigen_sgemm(la_trans_t ta, la_trans_t tb, int M, int N, int K, float alp
 
 /* Name of the back end la_* dispatches to ("eigen" or "ref"). */
 const char *la_backend_name(void);
+
+/* Name of the kernel the large products of la_sgemm take in this build, so that figures can
+ * be compared across machines: "avx2-fma-6x16+eigen" (the packed AVX2 kernel, Eigen for thin
+ * shapes), "eigen-avx512", "eigen-avx2", "eigen-avx", "eigen-sse", "eigen-neon",
+ * "eigen-scalar", or "ref-c" (pure C). Follows la_force_ref. */
+const char *la_kernel_name(void);
+const char *la_eigen_kernel_name(void);
 
 /* For benchmarks and tests only: make la_* use the reference back end (ref != 0) or the
  * board's back end (ref == 0), process-wide. Not to be called while another thread is inside

@@ -11,6 +11,7 @@
  *   bnn_arena_bytes_<preset>             static storage of one model
  *   bnn_phase_ms_<phase>_<preset>        where the step's time goes (best-of times; the
  *                                         backward and sampling figures are differences)
+ *   gemm_kernel <name>                   the kernel the large products take (la_kernel_name)
  *   sgemm_shape_gflops_<op>_<M>x<N>x<K>  (--shapes) each GEMM shape of the step alone, through
  *                                         la_sgemm: fwd = X W^T (N,T), dx = dY W (N,N),
  *                                         dw = dY^T X (T,N); median and best
@@ -135,6 +136,7 @@ int main(int argc, char **argv)
             return 2;
         }
     }
+    printf("BENCH gemm_kernel %s -\n", la_kernel_name());
     if (shapes_only)
         return bench_shapes(reps);
     const char *P = BNN_PRESET_NAME;
