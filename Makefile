@@ -7,6 +7,7 @@
 #   make test-tsan    the threaded tests under ThreadSanitizer
 #   make bench        benchmarks; one `BENCH <name> <value> <unit>` line per figure
 #   make check-portable  the math compiled for x86-64-v2/v3/v4 and aarch64, all built with clang
+#   make check-config the tree built for a board with other sizes; every file agrees on them
 #   make clean
 #
 # Configuration (all optional):
@@ -86,7 +87,9 @@ CXXFLAGS := -std=c++17 $(WARN) $(OPT) $(DEFS) -MMD -MP -fno-exceptions -fno-rtti
 # The house rule (DESIGN.md section 2): firmware/ sees only its own headers, hal/include and
 # the board. The bottom half (hal/host, host_sim, tools, tests) also sees POSIX, the
 # generated LCM types and host_sim.
-FW_INC   := -Ifirmware -Ihal/include -Iboards/$(BOARD)
+# Every file, C or C++, of every layer sees the same build configuration (board settings and
+# the defaults for what the board leaves out): firmware/common/fw_config.h, with -imacros.
+FW_INC   := -Ifirmware -Ihal/include -Iboards/$(BOARD) -imacros firmware/common/fw_config.h
 HOST_INC := $(FW_INC) -Ihal/host -Ihost_sim -I$(GEN) -D_POSIX_C_SOURCE=200809L
 TEST_INC := $(HOST_INC) -Itests/support -Itests
 
@@ -96,6 +99,7 @@ WRAP     := $(foreach f,malloc calloc realloc free aligned_alloc posix_memalign,
 # ---- sources ----------------------------------------------------------------------------
 FW_C      := $(sort $(shell find firmware -name '*.c'))
 FW_CXX    := $(if $(filter eigen,$(LA_BACKEND)),$(sort $(shell find firmware -name '*.cpp')))
+HAL_COMMON_C := $(sort $(wildcard hal/common/*.c))
 HAL_C     := $(sort $(shell find hal/host -name '*.c'))
 SIM_C     := $(sort $(shell find host_sim -name '*.c' -not -path 'host_sim/app/*'))
 APP_C     := $(sort $(wildcard host_sim/app/*.c))
@@ -107,6 +111,7 @@ BENCH_C   := $(sort $(wildcard tools/bench/bench_*.c))
 obj = $(patsubst %,$(O)/obj/%.o,$(1))
 
 FW_OBJ      := $(call obj,$(FW_C) $(FW_CXX))
+HAL_COMMON_OBJ := $(call obj,$(HAL_COMMON_C))
 HAL_OBJ     := $(call obj,$(HAL_C))
 SIM_OBJ     := $(call obj,$(SIM_C))
 APP_OBJ     := $(call obj,$(APP_C))
@@ -115,7 +120,7 @@ TEST_BIN    := $(patsubst %.c,$(O)/%,$(TEST_C))
 BENCH_BIN   := $(patsubst tools/bench/%.c,$(BIN)/%,$(BENCH_C))
 PROGRAMS    := $(if $(APP_C),$(BIN)/host_sim) $(BENCH_BIN)
 
-LIBS := $(LIB)/libsim.a $(LIB)/libhal_host.a $(LIB)/libfirmware.a $(LIB)/libmsg.a
+LIBS := $(LIB)/libsim.a $(LIB)/libhal_host.a $(LIB)/libfirmware.a $(LIB)/libhal.a $(LIB)/libmsg.a
 LINK_LIBS := -Wl,--start-group $(LIBS) -Wl,--end-group $(SYS_LIBS)
 
 # ---- compile rules ----------------------------------------------------------------------
@@ -133,6 +138,11 @@ $(O)/obj/firmware/%.c.o: firmware/%.c
 $(O)/obj/firmware/%.cpp.o: firmware/%.cpp
 	@mkdir -p $(@D)
 	$(call say,CXX,$<)$(CXX) $(CXXFLAGS) $(FW_INC) -isystem /usr/include/eigen3 -c $< -o $@
+
+# hal/common (the board registry every port shares) obeys the firmware's rules.
+$(O)/obj/hal/common/%.c.o: hal/common/%.c
+	@mkdir -p $(@D)
+	$(call say,CC,$<)$(CC) $(CFLAGS) $(FW_INC) -c $< -o $@
 
 # The bottom half may include generated LCM headers: they are built first (order-only).
 $(O)/obj/hal/%.c.o: hal/%.c | $(GEN)/.stamp
@@ -169,10 +179,11 @@ $(LIB)/libmsg.a: $(GEN)/.stamp
 
 # ---- libraries and programs -------------------------------------------------------------
 $(LIB)/libfirmware.a: $(FW_OBJ)
+$(LIB)/libhal.a: $(HAL_COMMON_OBJ)
 $(LIB)/libhal_host.a: $(HAL_OBJ)
 $(LIB)/libsim.a: $(SIM_OBJ)
 $(LIB)/libtestsupport.a: $(SUPPORT_OBJ)
-$(LIB)/libfirmware.a $(LIB)/libhal_host.a $(LIB)/libsim.a $(LIB)/libtestsupport.a:
+$(LIB)/libfirmware.a $(LIB)/libhal.a $(LIB)/libhal_host.a $(LIB)/libsim.a $(LIB)/libtestsupport.a:
 	@mkdir -p $(@D)
 	@rm -f $@
 	$(call say,AR,$@)$(AR) rcs $@ $^
@@ -191,7 +202,7 @@ $(O)/tests/%: $(O)/obj/tests/%.c.o $(LIB)/libtestsupport.a $(LIBS)
 	$(call say,LD,$@)$(CXX) $(OPT) $< -Wl,--start-group $(LIB)/libtestsupport.a $(LIBS) -Wl,--end-group $(SYS_LIBS) -lcmocka $(WRAP) -o $@
 
 # ---- targets ----------------------------------------------------------------------------
-.PHONY: all layering deps run test test-asan test-tsan tests bench bench-one clean help cross check-portable
+.PHONY: all layering deps run test test-asan test-tsan tests bench bench-one clean help cross check-portable check-config
 
 all: deps layering $(LIBS) $(PROGRAMS)
 ifeq ($(BUILD),release)
@@ -244,6 +255,12 @@ check-portable: deps
 	@tools/install-deps.sh --portable
 	@tools/check-portable.sh "$(DEFS) $(FW_INC)"
 	@$(MAKE) --no-print-directory CC=clang CXX=clang++ test
+
+# One build configuration per image: the tree built for boards/host_alt (every size changed)
+# and tests/common/test_config.c run there, so a file that ignores the board shows up.
+check-config:
+	@$(MAKE) --no-print-directory BOARD=host_alt all $(BUILD_ROOT)/release-host_alt-$(PRESET)/tests/common/test_config
+	@tools/run-tests.sh $(BUILD_ROOT)/release-host_alt-$(PRESET)/tests/common/test_config
 
 cross:
 	@echo "make cross: cross builds for the boards of the roadmap (Cortex-M7, Cortex-A53, RV32) do not exist yet." >&2

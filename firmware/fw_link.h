@@ -41,16 +41,11 @@
 #include "ai/bnn.h"
 #include "ai/bnn_ckpt.h"
 #include "ai/dinno.h"
-#include "common/board_check.h"
 #include "common/mbox.h"
 #include "common/ring.h"
 
-/* RT -> AI sample ring: 16 scans of 20 x 25 samples. The AI core drains it every 100 ms
- * while the RT core fills it with one scan (500 samples) per 100 ms, so it never holds more
- * than a few scans unless the AI core falls behind. Power of two. */
-#ifndef FW_LINK_RING_CAPACITY
-#define FW_LINK_RING_CAPACITY 8192u
-#endif
+/* FW_LINK_RING_CAPACITY, the RT -> AI sample ring in samples, comes from common/fw_config.h:
+ * 16 scans by default, so it never holds more than a few unless the AI core falls behind. */
 
 /* Checkpoint bytes carried by a ckpt message: theta only (no Adam moments). */
 #define FW_LINK_CKPT_BYTES (BNN_CKPT_HEADER_BYTES + BNN_N_PARAMS * 4u)

@@ -1,26 +1,41 @@
 #!/usr/bin/env bash
-# The house rule of DESIGN.md section 2, checked: firmware/ includes only the C standard
-# library, its own headers, hal/include and the board. Include paths already hide host_sim
-# and the generated LCM code from it; this catches system headers that paths cannot hide
-# (POSIX, ODE, LCM, ZMQ, GL) and heap calls. Exits 1 and lists every violation.
+# The house rule, checked (docs/architecture.md, "Layers"): firmware/ and hal/common/ (the code
+# every board runs) include only the C standard library, their own headers, hal/include and
+# the board. Include paths already hide host_sim and the generated LCM code from them; this
+# catches what paths cannot hide:
+#   - system headers (POSIX, ODE, LCM, ZMQ, GL),
+#   - heap calls (storage is static and sized at compile time),
+#   - host services named by symbol even though their header is standard C (files, console,
+#     wall-clock time, signals, process exit, environment, threads): on a board those go
+#     through the HAL (storage, log, clock, core operations).
+# Exits 1 and lists every violation.
 set -uo pipefail
 cd "$(dirname "$0")/.."
 
+dirs=(firmware hal/common)
+src=(--include='*.c' --include='*.h' --include='*.cpp')
 std='assert|complex|ctype|errno|fenv|float|inttypes|iso646|limits|locale|math|setjmp|signal|stdalign|stdarg|stdatomic|stdbool|stddef|stdint|stdio|stdlib|stdnoreturn|string|tgmath|time|uchar|wchar|wctype'
+# A hit on a comment line (one that starts with *, // or /*) is prose, not a call.
+code_only() { grep -vE ':[0-9]+:[[:space:]]*(\*|//|/\*)'; }
 bad=0
-# Angle-bracket includes in firmware/ must be C standard headers; the one C++ shim may also
-# take Eigen and the compiler's SIMD intrinsics (guarded there by the target's feature macros).
+# Angle-bracket includes must be C standard headers; the one C++ shim may also take Eigen and
+# the compiler's SIMD intrinsics (guarded there by the target's feature macros).
 while IFS= read -r hit; do
     file=${hit%%:*}
     hdr=$(sed -E 's/.*#[[:space:]]*include[[:space:]]*<([^>]+)>.*/\1/' <<<"$hit")
     if [[ "$hdr" =~ ^($std)\.h$ ]]; then continue; fi
     if [[ "$file" == *.cpp && ( "$hdr" == Eigen/* || "$hdr" =~ ^(immintrin|arm_neon)\.h$ ) ]]; then continue; fi
-    echo "layering: $hit: <$hdr> is not allowed in firmware/ (it belongs in hal/host or host_sim)"
+    echo "layering: $hit: <$hdr> is not allowed here (it belongs in hal/host or host_sim)"
     bad=1
-done < <(grep -rnE '^[[:space:]]*#[[:space:]]*include[[:space:]]*<' firmware --include='*.c' --include='*.h' --include='*.cpp')
-# No heap in firmware/: storage is static and sized at compile time.
+done < <(grep -rnE '^[[:space:]]*#[[:space:]]*include[[:space:]]*<' "${dirs[@]}" "${src[@]}")
 while IFS= read -r hit; do
-    echo "layering: $hit: firmware/ must not allocate from the heap"
+    echo "layering: $hit: no heap here: storage is static and sized at compile time"
     bad=1
-done < <(grep -rnE '\b(malloc|calloc|realloc|free|aligned_alloc|posix_memalign)[[:space:]]*\(' firmware --include='*.c' --include='*.h' --include='*.cpp' | grep -vE ':[[:space:]]*(\*|//|/\*)')
+done < <(grep -rnE '\b(malloc|calloc|realloc|free|aligned_alloc|posix_memalign)[[:space:]]*\(' "${dirs[@]}" "${src[@]}" | code_only)
+host='fopen|freopen|fclose|fread|fwrite|fgetc|fgets|fputc|fputs|fprintf|printf|vprintf|vfprintf|puts|putchar|getchar|scanf|fscanf|perror|fflush|setvbuf|tmpfile|tmpnam|remove|rename|time|clock|difftime|mktime|localtime|gmtime|strftime|clock_gettime|signal|raise|exit|_Exit|quick_exit|atexit|abort|system|getenv|thrd_[a-z_]+|mtx_[a-z_]+|cnd_[a-z_]+|pthread_[a-z_]+|sleep|usleep|nanosleep'
+while IFS= read -r hit; do
+    sym=$(grep -oE "\\b($host)[[:space:]]*\\(" <<<"${hit#*:*:}" | head -1 | tr -d ' (')
+    echo "layering: $hit: $sym() is a host service; use the HAL (storage, log, clock, core)"
+    bad=1
+done < <(grep -rnE "(^|[^._>[:alnum:]])($host)[[:space:]]*\\(" "${dirs[@]}" "${src[@]}" | code_only)
 exit $bad

@@ -1,7 +1,8 @@
 /* Board "host": memory budgets and limits of a Linux PC standing in for the robot's SoC.
  *
- * Every firmware buffer is sized at compile time and checked with _Static_assert against
- * these budgets (see firmware/common/board_check.h for the required settings).
+ * Every firmware buffer is sized at compile time and checked against these budgets. The build
+ * reads this file through firmware/common/fw_config.h, which lists the required settings and
+ * the sizes a board may override here (lidar beams, ring and pool capacities, round log).
  * Units: bytes unless the name says otherwise. */
 #ifndef BOARD_HOST_BOARD_H
 #define BOARD_HOST_BOARD_H

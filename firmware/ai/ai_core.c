@@ -10,7 +10,6 @@
 
 _Static_assert(AI_CORE_BYTES + FW_LINK_AI_BYTES <= BOARD_RAM_AI_BYTES,
                "AI core (DiNNO node, pool, batch) and its links exceed the board's AI RAM");
-_Static_assert(AI_POOL_CAPACITY > 0 && AI_POOL_CAPACITY <= 0xFFFFFFFFu, "pool capacity");
 
 ai_core_cfg_t ai_core_default_cfg(void)
 {

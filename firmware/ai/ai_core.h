@@ -26,16 +26,7 @@
 #include "common/fw_core.h"
 #include "fw_link.h"
 
-/* Pool capacity in samples, from the preset (a -D may override). One scan gives 500. */
-#ifndef AI_POOL_CAPACITY
-#if defined(BNN_PRESET_PAPER)
-#define AI_POOL_CAPACITY (1u << 18)
-#elif defined(BNN_PRESET_MCU)
-#define AI_POOL_CAPACITY (1u << 12)
-#else
-#define AI_POOL_CAPACITY (1u << 17)
-#endif
-#endif
+/* AI_POOL_CAPACITY (samples) comes from the build configuration, common/fw_config.h. */
 
 #define AI_CORE_MAX_ROUNDS 100000u
 

@@ -44,7 +44,6 @@
 #include <stdint.h>
 
 #include "ai/ai_sample.h"
-#include "common/board_check.h"
 
 #define BNN_WUR __attribute__((warn_unused_result))
 

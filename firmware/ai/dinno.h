@@ -52,7 +52,6 @@
 
 #include "ai/ai_sample.h"
 #include "ai/bnn.h"
-#include "common/board_check.h"
 
 #define DINNO_WUR __attribute__((warn_unused_result))
 

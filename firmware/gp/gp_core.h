@@ -30,9 +30,7 @@
 #include "fw_link.h"
 #include "gp/gp_telemetry.h"
 
-#ifndef GP_CORE_LOG_ROUNDS
-#define GP_CORE_LOG_ROUNDS 1024u /* round records kept (the first ones) */
-#endif
+/* GP_CORE_LOG_ROUNDS (round records kept, the first ones) comes from common/fw_config.h. */
 
 /* Fills slots with neighbour states of `round` (valid/round/theta per slot) for this
  * robot's state `theta` (n_params floats). Returns the number of neighbours (>= 0), -EAGAIN

@@ -25,13 +25,7 @@
 #include "rt/rt_follow.h"
 #include "rt/rt_samples.h"
 
-#ifndef RT_CORE_MAX_WAYPOINTS
-#define RT_CORE_MAX_WAYPOINTS 512
-#endif
-/* Largest number of samples one scan may give (n_beams * points_per_beam). */
-#ifndef RT_CORE_MAX_SCAN_SAMPLES
-#define RT_CORE_MAX_SCAN_SAMPLES 2048
-#endif
+/* RT_CORE_MAX_WAYPOINTS and RT_CORE_MAX_SCAN_SAMPLES come from common/fw_config.h. */
 
 typedef struct rt_core_cfg {
     const rt_waypoint_t *waypoints; /* copied at init */

@@ -17,7 +17,6 @@
 #include <time.h>
 #include <unistd.h>
 
-#include "board.h"
 
 #define STACK_PAINT 0xA5u
 

@@ -13,9 +13,10 @@
 
 #include "hal/hal_board.h"
 
-/* Compile-time maximum number of beams; a board may lower or raise it. */
+/* HAL_LIDAR_MAX_BEAMS, the beams a scan record holds, is a board setting (its default is in
+ * firmware/common/fw_config.h, which the build gives every file). */
 #ifndef HAL_LIDAR_MAX_BEAMS
-#define HAL_LIDAR_MAX_BEAMS 360u
+#error "HAL_LIDAR_MAX_BEAMS is not set: build with the board configuration (see the Makefile)"
 #endif
 
 typedef struct hal_lidar_scan {

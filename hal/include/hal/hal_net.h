@@ -20,11 +20,10 @@
 #ifndef HAL_NET_H
 #define HAL_NET_H
 
-#include "board.h"
 #include "hal/hal_board.h"
 
 #ifndef BOARD_NET_MTU_BYTES
-#error "board.h must define BOARD_NET_MTU_BYTES"
+#error "BOARD_NET_MTU_BYTES is not set: build with the board configuration (see the Makefile)"
 #endif
 
 #define HAL_NET_MTU_BYTES ((size_t)BOARD_NET_MTU_BYTES)

@@ -1,5 +1,6 @@
-/* The board registry of the HAL (hal/include/hal/hal_board.h). It lives with the firmware
- * because every board port shares it: a port provides operations, not the registry. */
+/* The board registry of the HAL (hal/include/hal/hal_board.h), shared by every board port: a
+ * port provides operation tables, not the registry. Like firmware/, it sees only the C library
+ * and hal/include (tools/check-layering.sh), so it builds for bare-metal boards as it is. */
 #include "hal/hal.h"
 
 const hal_board_t *hal_board_current;

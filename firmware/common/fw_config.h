@@ -1,0 +1,93 @@
+/* The build configuration of a firmware image: the one place every setting that sizes a type
+ * or a buffer is decided. The Makefile hands it to every translation unit (firmware, HAL back
+ * end, host_sim, tests, benchmarks; C and C++) with `-imacros`, so no file can see another
+ * value than its neighbours: a board that changes HAL_LIDAR_MAX_BEAMS changes hal_lidar_scan_t
+ * everywhere at once.
+ *
+ * Order: the board's own boards/<BOARD>/board.h first (required settings, and any default
+ * below it wants to change), then the defaults for what it left out, then the checks. Only
+ * macros survive -imacros, so every check here is a preprocessor #if / #error; the few
+ * _Static_assert checks on types live in firmware/common/fw_config.c.
+ * Units: bytes unless the name says otherwise. Do not include this file; the build does. */
+#ifndef COMMON_FW_CONFIG_H
+#define COMMON_FW_CONFIG_H
+
+#include "board.h"
+
+/* ---- required from the board ------------------------------------------------------------ */
+#ifndef BOARD_NAME
+#error "board.h must define BOARD_NAME"
+#endif
+#if !defined(BOARD_RAM_RT_BYTES) || !defined(BOARD_RAM_GP_BYTES) || !defined(BOARD_RAM_AI_BYTES)
+#error "board.h must define BOARD_RAM_RT_BYTES, BOARD_RAM_GP_BYTES and BOARD_RAM_AI_BYTES"
+#endif
+#if !defined(BOARD_STACK_RT_BYTES) || !defined(BOARD_STACK_GP_BYTES) || !defined(BOARD_STACK_AI_BYTES)
+#error "board.h must define BOARD_STACK_RT_BYTES, BOARD_STACK_GP_BYTES and BOARD_STACK_AI_BYTES"
+#endif
+#ifndef BOARD_NET_MTU_BYTES
+#error "board.h must define BOARD_NET_MTU_BYTES (the largest datagram of its network)"
+#endif
+#ifndef BOARD_MAX_PEERS
+#error "board.h must define BOARD_MAX_PEERS (the fleet size its tables are dimensioned for)"
+#endif
+
+/* ---- defaults a board may override in its board.h ---------------------------------------- */
+/* Lidar beams per scan the HAL scan record holds. */
+#ifndef HAL_LIDAR_MAX_BEAMS
+#define HAL_LIDAR_MAX_BEAMS 360u
+#endif
+/* Waypoints of the RT core's tour table. */
+#ifndef RT_CORE_MAX_WAYPOINTS
+#define RT_CORE_MAX_WAYPOINTS 512
+#endif
+/* Samples one scan may give (n_beams * points_per_beam). */
+#ifndef RT_CORE_MAX_SCAN_SAMPLES
+#define RT_CORE_MAX_SCAN_SAMPLES 2048
+#endif
+/* RT -> AI sample ring: 16 scans of 20 x 25 samples. The AI core drains it every 100 ms while
+ * the RT core adds one scan (500 samples) per 100 ms. Power of two. */
+#ifndef FW_LINK_RING_CAPACITY
+#define FW_LINK_RING_CAPACITY 8192u
+#endif
+/* AI core sample pool, in samples, from the network preset (one scan gives 500). */
+#ifndef AI_POOL_CAPACITY
+#if defined(BNN_PRESET_PAPER)
+#define AI_POOL_CAPACITY (1u << 18)
+#elif defined(BNN_PRESET_MCU)
+#define AI_POOL_CAPACITY (1u << 12)
+#else
+#define AI_POOL_CAPACITY (1u << 17)
+#endif
+#endif
+/* Round records the GP core keeps (the first ones). */
+#ifndef GP_CORE_LOG_ROUNDS
+#define GP_CORE_LOG_ROUNDS 1024u
+#endif
+
+/* ---- checks -------------------------------------------------------------------------------- */
+#if BOARD_RAM_RT_BYTES <= 0 || BOARD_RAM_GP_BYTES <= 0 || BOARD_RAM_AI_BYTES <= 0
+#error "board memory budgets must be positive"
+#endif
+#if BOARD_MAX_PEERS < 1 || BOARD_MAX_PEERS > 255
+#error "BOARD_MAX_PEERS must be 1 .. 255"
+#endif
+#if BOARD_NET_MTU_BYTES < 1024
+#error "BOARD_NET_MTU_BYTES must be at least 1024"
+#endif
+#if HAL_LIDAR_MAX_BEAMS < 1 || HAL_LIDAR_MAX_BEAMS > 4096
+#error "HAL_LIDAR_MAX_BEAMS must be 1 .. 4096"
+#endif
+#if RT_CORE_MAX_WAYPOINTS < 2 || RT_CORE_MAX_SCAN_SAMPLES < 1
+#error "RT_CORE_MAX_WAYPOINTS must be >= 2 and RT_CORE_MAX_SCAN_SAMPLES >= 1"
+#endif
+#if FW_LINK_RING_CAPACITY < 2 || (FW_LINK_RING_CAPACITY & (FW_LINK_RING_CAPACITY - 1)) != 0
+#error "FW_LINK_RING_CAPACITY must be a power of two >= 2"
+#endif
+#if AI_POOL_CAPACITY < 1 || AI_POOL_CAPACITY > 0xFFFFFFFF
+#error "AI_POOL_CAPACITY must be 1 .. 2^32 - 1"
+#endif
+#if GP_CORE_LOG_ROUNDS < 1
+#error "GP_CORE_LOG_ROUNDS must be >= 1"
+#endif
+
+#endif /* COMMON_FW_CONFIG_H */
