@@ -5,17 +5,21 @@
 
 #include "hal/hal.h"
 
+const fw_core_timing_t fw_core_timing_default[HAL_CORE_COUNT] = {
+    [HAL_CORE_RT] = {FW_RT_PERIOD_US, FW_RT_SCAN_DIVIDER},
+    [HAL_CORE_GP] = {FW_GP_PERIOD_US, 1u},
+    [HAL_CORE_AI] = {FW_AI_PERIOD_US, 1u},
+};
+
 void fw_image_defaults(fw_image_t *img)
 {
     if (img == NULL)
         return;
     memset(img, 0, sizeof(*img));
-    img->core[HAL_CORE_RT].period_us = FW_RT_PERIOD_US;
-    img->core[HAL_CORE_RT].sub_divider = FW_RT_SCAN_DIVIDER;
-    img->core[HAL_CORE_GP].period_us = FW_GP_PERIOD_US;
-    img->core[HAL_CORE_GP].sub_divider = 1u;
-    img->core[HAL_CORE_AI].period_us = FW_AI_PERIOD_US;
-    img->core[HAL_CORE_AI].sub_divider = 1u;
+    for (int id = 0; id < HAL_CORE_COUNT; id++) {
+        img->core[id].period_us = fw_core_timing_default[id].period_us;
+        img->core[id].sub_divider = fw_core_timing_default[id].sub_divider;
+    }
 }
 
 static const char *core_label(const fw_core_t *c, hal_core_id_t id)

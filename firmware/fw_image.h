@@ -21,6 +21,17 @@
 #define FW_GP_PERIOD_US 100000u  /* 10 Hz */
 #define FW_AI_PERIOD_US 100000u  /* 10 Hz */
 
+/* When a core ticks: every period_us of simulated time, with every sub_divider-th tick a
+ * sub-rate tick (common/fw_core.h). */
+typedef struct fw_core_timing {
+    uint32_t period_us;   /* > 0 */
+    uint32_t sub_divider; /* >= 1 */
+} fw_core_timing_t;
+
+/* The one table of default core timings, indexed by hal_core_id_t (built from the macros
+ * above): fw_image_defaults() and fw_robot_default_cfg() both take it from here. */
+extern const fw_core_timing_t fw_core_timing_default[HAL_CORE_COUNT];
+
 typedef struct fw_image fw_image_t;
 
 typedef struct fw_image_slot {

@@ -17,22 +17,21 @@ fw_robot_cfg_t fw_robot_default_cfg(void)
     c.rt.samples.points_per_beam = RT_SAMPLES_DEFAULT_POINTS;
     c.ai = ai_core_default_cfg();
     c.gp = gp_core_default_cfg();
-    c.rt_period_us = FW_RT_PERIOD_US;
-    c.rt_scan_divider = FW_RT_SCAN_DIVIDER;
-    c.gp_period_us = FW_GP_PERIOD_US;
-    c.ai_period_us = FW_AI_PERIOD_US;
+    memcpy(c.timing, fw_core_timing_default, sizeof c.timing);
     return c;
 }
 
 int fw_robot_start(const fw_robot_cfg_t *cfg)
 {
-    if (cfg == NULL || cfg->rt_period_us == 0 || cfg->rt_scan_divider == 0 ||
-        cfg->gp_period_us == 0 || cfg->ai_period_us == 0)
+    if (cfg == NULL)
         return -EINVAL;
+    for (int id = 0; id < HAL_CORE_COUNT; id++)
+        if (cfg->timing[id].period_us == 0 || cfg->timing[id].sub_divider == 0)
+            return -EINVAL;
     fw_link_reset();
     const fw_link_t *link = fw_link_get();
     rt_core_cfg_t rc = cfg->rt;
-    rc.period_us = cfg->rt_period_us;
+    rc.period_us = cfg->timing[HAL_CORE_RT].period_us;
     int r = rt_core_init(&fw_rt, &rc, link);
     if (r == 0)
         r = ai_core_init(&fw_ai, &cfg->ai, link);
@@ -41,10 +40,20 @@ int fw_robot_start(const fw_robot_cfg_t *cfg)
     if (r != 0)
         return r;
     fw_image_defaults(&fw_img);
-    fw_img.core[HAL_CORE_RT] = (fw_core_t){"RT", cfg->rt_period_us, cfg->rt_scan_divider, NULL,
-                                           rt_core_tick, &fw_rt};
-    fw_img.core[HAL_CORE_GP] = (fw_core_t){"GP", cfg->gp_period_us, 1u, NULL, gp_core_tick, &fw_gp};
-    fw_img.core[HAL_CORE_AI] = (fw_core_t){"AI", cfg->ai_period_us, 1u, NULL, ai_core_tick, &fw_ai};
+    static const struct {
+        fw_core_tick_fn tick;
+        void *arg;
+    } loop[HAL_CORE_COUNT] = {
+        [HAL_CORE_RT] = {rt_core_tick, &fw_rt},
+        [HAL_CORE_GP] = {gp_core_tick, &fw_gp},
+        [HAL_CORE_AI] = {ai_core_tick, &fw_ai},
+    };
+    for (int id = 0; id < HAL_CORE_COUNT; id++)
+        fw_img.core[id] = (fw_core_t){.name = hal_core_name((hal_core_id_t)id),
+                                      .period_us = cfg->timing[id].period_us,
+                                      .sub_divider = cfg->timing[id].sub_divider,
+                                      .tick = loop[id].tick,
+                                      .arg = loop[id].arg};
     return fw_image_start(&fw_img);
 }
 

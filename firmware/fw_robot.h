@@ -19,13 +19,10 @@
 #include "rt/rt_core.h"
 
 typedef struct fw_robot_cfg {
-    rt_core_cfg_t rt;          /* rt.period_us is set from rt_period_us */
+    rt_core_cfg_t rt;          /* rt.period_us is set from timing[HAL_CORE_RT] */
     ai_core_cfg_t ai;
     gp_core_cfg_t gp;
-    uint32_t rt_period_us;     /* default FW_RT_PERIOD_US (50 Hz) */
-    uint32_t rt_scan_divider;  /* default FW_RT_SCAN_DIVIDER (10 Hz scans) */
-    uint32_t gp_period_us;     /* default FW_GP_PERIOD_US */
-    uint32_t ai_period_us;     /* default FW_AI_PERIOD_US */
+    fw_core_timing_t timing[HAL_CORE_COUNT]; /* default fw_core_timing_default */
 } fw_robot_cfg_t;
 
 /* Defaults for everything but the path and the plan box (rt.waypoints, rt.samples box). */
