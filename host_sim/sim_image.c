@@ -138,11 +138,10 @@ int sim_image_run(const sim_plan_t *plan, const sim_path_t *path, const sim_imag
             goto out;
         }
         /* Every core is blocked in the lockstep now: the round log is stable. */
-        uint32_t n = atomic_load_explicit(&gp->n_log, memory_order_acquire);
-        for (; seen < n; seen++)
+        for (const ai_round_info_t *r; (r = gp_core_round(gp, seen)) != NULL; seen++)
             if (cfg->on_round)
-                cfg->on_round(&gp->log[seen], cfg->user);
-        if (atomic_load_explicit(&gp->done, memory_order_acquire)) {
+                cfg->on_round(r, cfg->user);
+        if (gp_core_done(gp)) {
             res->completed = 1;
             break;
         }

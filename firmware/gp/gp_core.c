@@ -162,3 +162,18 @@ int gp_core_tick(void *arg, const fw_tick_t *tick)
         send_telemetry(gp, tick->now_us);
     return 0;
 }
+
+uint32_t gp_core_rounds_logged(gp_core_t *gp)
+{
+    return atomic_load_explicit(&gp->n_log, memory_order_acquire);
+}
+
+const ai_round_info_t *gp_core_round(gp_core_t *gp, uint32_t i)
+{
+    return i < gp_core_rounds_logged(gp) ? &gp->log[i] : NULL;
+}
+
+int gp_core_done(gp_core_t *gp)
+{
+    return atomic_load_explicit(&gp->done, memory_order_acquire) != 0u;
+}

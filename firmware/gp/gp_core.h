@@ -84,6 +84,14 @@ __attribute__((warn_unused_result)) int gp_core_init(gp_core_t *gp, const gp_cor
 /* fw_core_t tick function: arg is the gp_core_t. */
 int gp_core_tick(void *arg, const fw_tick_t *tick);
 
+/* For the host, while the cores are held (lockstep) or stopped; any thread. The round log
+ * grows by release stores, so the records below gp_core_rounds_logged() are complete. */
+uint32_t gp_core_rounds_logged(gp_core_t *gp);
+/* Record i (< gp_core_rounds_logged()) of the round log, NULL otherwise. */
+const ai_round_info_t *gp_core_round(gp_core_t *gp, uint32_t i);
+/* 1 once the final checkpoint was handled (its storage status in final_ckpt_status). */
+int gp_core_done(gp_core_t *gp);
+
 /* Storage name of round k's checkpoint into buf (>= HAL_STORAGE_NAME_MAX bytes). */
 void gp_core_ckpt_name(uint32_t round, char *buf, size_t cap);
 
