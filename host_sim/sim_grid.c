@@ -1,5 +1,6 @@
 /* Ground-truth occupancy grid from a floor plan (rule and layout in sim_grid.h). */
 #include "sim_grid.h"
+#include "hal_host_file.h"
 
 #include <errno.h>
 #include <math.h>
@@ -145,29 +146,30 @@ int sim_grid_from_plan(const sim_plan_t *plan, double res_m, sim_grid_t *grid)
 static int set_err(char *err, size_t errlen, int rc, const char *fmt, const char *path)
 {
     if (err != NULL && errlen > 0)
-        snprintf(err, errlen, fmt, path, strerror(rc < 0 ? -rc : rc));
+        snprintf(err, errlen, fmt, path, hal_host_file_strerror(rc < 0 ? rc : -rc));
     return rc;
 }
 
 /* libpng reports errors by longjmp; keep that contained in one function with plain locals. */
 static int write_png(const char *path, int w, int h, int channels, const uint8_t *pix, char *err, size_t errlen)
 {
-    FILE *f = fopen(path, "wb");
-    if (f == NULL)
-        return set_err(err, errlen, -(errno ? errno : EIO), "%s: cannot create: %s", path);
+    hal_host_file_t out; /* not modified after setjmp, so still valid after libpng's longjmp */
+    int rc = hal_host_file_begin(&out, path);
+    if (rc < 0)
+        return set_err(err, errlen, rc, "%s: %s", path);
     png_structp png = png_create_write_struct(PNG_LIBPNG_VER_STRING, NULL, NULL, NULL);
     png_infop info = png ? png_create_info_struct(png) : NULL;
     if (png == NULL || info == NULL) {
         png_destroy_write_struct(&png, &info);
-        fclose(f);
+        hal_host_file_abort(&out);
         return set_err(err, errlen, -ENOMEM, "%s: libpng: %s", path);
     }
     if (setjmp(png_jmpbuf(png))) {
         png_destroy_write_struct(&png, &info);
-        fclose(f);
+        hal_host_file_abort(&out);
         return set_err(err, errlen, -EIO, "%s: libpng write failed: %s", path);
     }
-    png_init_io(png, f);
+    png_init_io(png, hal_host_file_stream(&out));
     png_set_IHDR(png, info, (png_uint_32)w, (png_uint_32)h, 8, channels == 3 ? PNG_COLOR_TYPE_RGB : PNG_COLOR_TYPE_GRAY,
                  PNG_INTERLACE_NONE, PNG_COMPRESSION_TYPE_DEFAULT, PNG_FILTER_TYPE_DEFAULT);
     png_write_info(png, info);
@@ -175,8 +177,9 @@ static int write_png(const char *path, int w, int h, int channels, const uint8_t
         png_write_row(png, (png_const_bytep)(pix + (size_t)r * (size_t)w * (size_t)channels));
     png_write_end(png, NULL);
     png_destroy_write_struct(&png, &info);
-    if (fclose(f) != 0)
-        return set_err(err, errlen, -EIO, "%s: write failed: %s", path);
+    rc = hal_host_file_commit(&out);
+    if (rc < 0)
+        return set_err(err, errlen, rc, "%s: %s", path);
     return 0;
 }
 
@@ -217,15 +220,21 @@ int sim_grid_write_image(const sim_grid_t *grid, const char *path, char *err, si
     if (png) {
         rc = write_png(path, grid->w, grid->h, 1, pix, err, errlen);
     } else {
-        FILE *f = fopen(path, "wb");
-        if (f == NULL) {
-            rc = set_err(err, errlen, -(errno ? errno : EIO), "%s: cannot create: %s", path);
-        } else {
-            fprintf(f, "P5\n%d %d\n255\n", grid->w, grid->h);
-            size_t k = fwrite(pix, 1, n, f);
-            if (fclose(f) != 0 || k != n)
-                rc = set_err(err, errlen, -EIO, "%s: write failed: %s", path);
+        hal_host_file_t out;
+        rc = hal_host_file_begin(&out, path);
+        if (rc == 0) {
+            char head[64];
+            int hn = snprintf(head, sizeof head, "P5\n%d %d\n255\n", grid->w, grid->h);
+            rc = hal_host_file_write(&out, head, (size_t)hn);
+            if (rc == 0)
+                rc = hal_host_file_write(&out, pix, n);
+            if (rc == 0)
+                rc = hal_host_file_commit(&out);
+            if (rc < 0)
+                hal_host_file_abort(&out);
         }
+        if (rc < 0)
+            set_err(err, errlen, rc, "%s: %s", path);
     }
     free(pix);
     return rc;

@@ -1,5 +1,6 @@
 /* Waypoint files and the multi-robot coverage tour generator (contract in sim_paths.h). */
 #include "sim_paths.h"
+#include "hal_host_file.h"
 
 #include <errno.h>
 #include <math.h>
@@ -877,18 +878,20 @@ int sim_path_write_csv(const sim_path_t *path, const char *file, char *err, size
 {
     if (path == NULL || file == NULL || path->n < 2)
         return errf(err, errlen, "%s: a path needs at least 2 waypoints", file ? file : "(null)");
-    FILE *f = fopen(file, "w");
-    if (f == NULL) {
-        int e = errno ? errno : EIO;
-        errf(err, errlen, "%s: cannot create: %s", file, strerror(e));
-        return -e;
+    hal_host_file_t out;
+    int rc = hal_host_file_begin(&out, file);
+    if (rc == 0) {
+        FILE *f = hal_host_file_stream(&out);
+        fprintf(f, "x_m,y_m\n");
+        for (int i = 0; i < path->n; i++)
+            fprintf(f, "%.3f,%.3f\n", path->p[i].x, path->p[i].y);
+        rc = hal_host_file_commit(&out);
+        if (rc < 0)
+            hal_host_file_abort(&out);
     }
-    fprintf(f, "x_m,y_m\n");
-    for (int i = 0; i < path->n; i++)
-        fprintf(f, "%.3f,%.3f\n", path->p[i].x, path->p[i].y);
-    if (fclose(f) != 0) {
-        errf(err, errlen, "%s: write failed", file);
-        return -EIO;
+    if (rc < 0) {
+        errf(err, errlen, "%s: %s", file, hal_host_file_strerror(rc));
+        return rc;
     }
     return 0;
 }
@@ -1003,11 +1006,11 @@ int sim_path_read_csv(const char *file, const sim_plan_t *plan, sim_path_t *path
     path->start_room = -1;
     if (file == NULL)
         return errf(err, errlen, "(null):0: no file name");
-    FILE *f = fopen(file, "rb");
-    if (f == NULL) {
-        int e = errno ? errno : EIO;
-        errf(err, errlen, "%s:0: cannot open: %s", file, strerror(e));
-        return -e;
+    FILE *f = NULL;
+    int orc = hal_host_file_open_read(file, &f);
+    if (orc < 0) {
+        errf(err, errlen, "%s:0: %s", file, strerror(-orc));
+        return orc;
     }
     /* Waypoint files are small: cap at 16 MB. */
     const size_t max = 16u << 20;

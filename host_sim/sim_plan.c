@@ -9,6 +9,7 @@
  * `transform` attributes (matrix, translate, scale, rotate, skewX, skewY) on any element are
  * composed down the tree and applied to polygon points before the metric scale. */
 #include "sim_plan.h"
+#include "hal_host_file.h"
 
 #include <errno.h>
 #include <math.h>
@@ -1008,12 +1009,12 @@ int sim_plan_load(const char *path, double scale, sim_plan_t *plan, char *err, s
             snprintf(err, errlen, "(null):0: no path");
         return -EINVAL;
     }
-    FILE *f = fopen(path, "rb");
-    if (f == NULL) {
-        int code = errno ? errno : EIO;
+    FILE *f = NULL;
+    int orc = hal_host_file_open_read(path, &f);
+    if (orc < 0) {
         if (err != NULL && errlen > 0)
-            snprintf(err, errlen, "%s:0: cannot open: %s", path, strerror(code));
-        return -code;
+            snprintf(err, errlen, "%s:0: %s", path, strerror(-orc));
+        return orc;
     }
     size_t cap = 1 << 16, len = 0;
     char *buf = malloc(cap + 1);

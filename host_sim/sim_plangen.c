@@ -1,6 +1,7 @@
 /* Procedural floor plans (layout in sim_plangen.h). All geometry is in integer pixels
  * (1 px = 1 cm at the default scale), so the output is exact and reproducible text. */
 #include "sim_plangen.h"
+#include "hal_host_file.h"
 
 #include <errno.h>
 #include <stdint.h>
@@ -210,21 +211,9 @@ int sim_plangen_write(const char *path, unsigned long seed, int rooms, char *err
             snprintf(err, errlen, "cannot generate a plan with %d rooms: %s", rooms, strerror(-rc));
         return rc;
     }
-    FILE *f = fopen(path, "wb");
-    if (f == NULL) {
-        rc = -(errno ? errno : EIO);
-        if (err != NULL && errlen > 0)
-            snprintf(err, errlen, "%s: cannot create: %s", path, strerror(-rc));
-        free(text);
-        return rc;
-    }
-    size_t n = strlen(text);
-    size_t k = fwrite(text, 1, n, f);
-    if (fclose(f) != 0 || k != n) {
-        if (err != NULL && errlen > 0)
-            snprintf(err, errlen, "%s: write failed", path);
-        rc = -EIO;
-    }
+    rc = hal_host_file_write_all(path, text, strlen(text));
+    if (rc < 0 && err != NULL && errlen > 0)
+        snprintf(err, errlen, "%s: %s", path, hal_host_file_strerror(rc));
     free(text);
     return rc;
 }

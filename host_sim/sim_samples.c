@@ -125,22 +125,23 @@ int sim_samples_open(sim_samples_writer_t *w, const char *path, double min_x, do
     w->hdr.seed = seed;
     if (source)
         strncpy(w->hdr.source, source, SIM_SAMPLES_SOURCE_MAX);
-    w->f = fopen(path, "wb");
-    if (w->f == NULL)
-        return -errno;
+    int rc = hal_host_file_begin(&w->file, path);
+    if (rc < 0)
+        return rc;
     uint8_t h[SIM_SAMPLES_HEADER_SIZE];
     encode_header(&w->hdr, h);
-    if (fwrite(h, 1, sizeof h, w->f) != sizeof h) {
-        fclose(w->f);
-        w->f = NULL;
-        return -EIO;
+    rc = hal_host_file_write(&w->file, h, sizeof h);
+    if (rc < 0) {
+        hal_host_file_abort(&w->file);
+        return rc;
     }
+    w->open = 1;
     return 0;
 }
 
 int sim_samples_append(sim_samples_writer_t *w, const ai_sample_t *s, size_t n)
 {
-    if (w == NULL || w->f == NULL || (s == NULL && n > 0))
+    if (w == NULL || !w->open || (s == NULL && n > 0))
         return -EINVAL;
     uint8_t buf[12 * 256];
     while (n > 0) {
@@ -152,8 +153,9 @@ int sim_samples_append(sim_samples_writer_t *w, const ai_sample_t *s, size_t n)
             put_f32(buf + 12 * i + 4, s[i].y);
             put_f32(buf + 12 * i + 8, s[i].occ);
         }
-        if (fwrite(buf, 12, m, w->f) != m)
-            return -EIO;
+        int rc = hal_host_file_write(&w->file, buf, 12 * m);
+        if (rc < 0)
+            return rc;
         w->crc = sim_crc32_update(w->crc, buf, 12 * m);
         w->hdr.count += m;
         s += m;
@@ -164,29 +166,29 @@ int sim_samples_append(sim_samples_writer_t *w, const ai_sample_t *s, size_t n)
 
 int sim_samples_close(sim_samples_writer_t *w)
 {
-    if (w == NULL || w->f == NULL)
+    if (w == NULL || !w->open)
         return -EINVAL;
-    int rc = 0;
+    w->open = 0;
     uint8_t t[4], h[SIM_SAMPLES_HEADER_SIZE];
     put_u32(t, w->crc);
     encode_header(&w->hdr, h);
-    if (fwrite(t, 1, 4, w->f) != 4 || fseek(w->f, 0, SEEK_SET) != 0 ||
-        fwrite(h, 1, sizeof h, w->f) != sizeof h || fflush(w->f) != 0)
-        rc = -EIO;
-    if (fclose(w->f) != 0)
-        rc = -EIO;
-    w->f = NULL;
+    int rc = hal_host_file_write(&w->file, t, 4);
+    FILE *f = hal_host_file_stream(&w->file);
+    if (rc == 0 && (fseek(f, 0, SEEK_SET) != 0 || fwrite(h, 1, sizeof h, f) != sizeof h))
+        rc = errno ? -errno : -EIO;
+    if (rc == 0)
+        rc = hal_host_file_commit(&w->file);
+    if (rc < 0)
+        hal_host_file_abort(&w->file);
     return rc;
 }
 
-void sim_samples_abort(sim_samples_writer_t *w, const char *path)
+void sim_samples_abort(sim_samples_writer_t *w)
 {
-    if (w && w->f) {
-        fclose(w->f);
-        w->f = NULL;
-    }
-    if (path)
-        remove(path);
+    if (w == NULL)
+        return;
+    w->open = 0;
+    hal_host_file_abort(&w->file);
 }
 
 #define FAIL(code, ...)                                                                    \
@@ -212,10 +214,10 @@ int sim_samples_read(const char *path, sim_samples_header_t *hdr, ai_sample_t **
     int rc = 0;
     ai_sample_t *rec = NULL;
     uint8_t *buf = NULL;
-    FILE *f = fopen(path, "rb");
-    if (f == NULL) {
-        rc = -errno;
-        snprintf(err, errlen, "%s: cannot open: %s", path, strerror(-rc));
+    FILE *f = NULL;
+    rc = hal_host_file_open_read(path, &f);
+    if (rc < 0) {
+        snprintf(err, errlen, "%s: %s", path, strerror(-rc));
         return rc;
     }
     uint8_t h[SIM_SAMPLES_HEADER_SIZE];

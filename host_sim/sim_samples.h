@@ -30,6 +30,7 @@
 #include <stdio.h>
 
 #include "ai/ai_sample.h"
+#include "hal_host_file.h"
 
 #define SIM_SAMPLES_MAGIC "FSSAMPLE"
 #define SIM_SAMPLES_VERSION 1u
@@ -45,7 +46,8 @@ typedef struct sim_samples_header {
 } sim_samples_header_t;
 
 typedef struct sim_samples_writer {
-    FILE *f;
+    hal_host_file_t file; /* written whole or not at all (hal_host_file.h) */
+    int open;
     sim_samples_header_t hdr;
     uint32_t crc; /* running CRC of the records */
 } sim_samples_writer_t;
@@ -53,24 +55,27 @@ typedef struct sim_samples_writer {
 /* CRC-32 (IEEE, reflected, init/xorout 0xFFFFFFFF). crc32_update(0, ...) starts a new one. */
 uint32_t sim_crc32_update(uint32_t crc, const void *data, size_t n);
 
-/* Creates `path` (truncating) and writes a provisional header. The bounding box must be
- * non-empty and finite; source is truncated to SIM_SAMPLES_SOURCE_MAX bytes.
- * Returns 0, -EINVAL or -errno of the failing I/O call. */
+/* Starts `path` (a temporary file beside it until close) and writes a provisional header.
+ * The bounding box must be non-empty and finite; source is truncated to
+ * SIM_SAMPLES_SOURCE_MAX bytes. Returns 0, -EINVAL or the writer's error
+ * (hal_host_file_begin: -EISDIR, -EEXIST for a device, -ENAMETOOLONG, -errno). */
 __attribute__((warn_unused_result))
 int sim_samples_open(sim_samples_writer_t *w, const char *path, double min_x, double min_y,
                      double max_x, double max_y, uint64_t seed, const char *source);
 
-/* Appends n records (each validated like the reader does). Returns 0, -EINVAL or -EIO. */
+/* Appends n records (each validated like the reader does). Returns 0, -EINVAL or -errno
+ * of the write (-ENOSPC on a full disk). */
 __attribute__((warn_unused_result))
 int sim_samples_append(sim_samples_writer_t *w, const ai_sample_t *s, size_t n);
 
-/* Writes the data CRC, patches count and the header CRC, closes. Returns 0 or -EIO.
- * The writer is closed whatever the result. */
+/* Writes the data CRC, patches count and the header CRC, then replaces `path` with the
+ * whole file. Returns 0 or -errno, and then `path` is as it was before open. The writer is
+ * closed whatever the result. */
 __attribute__((warn_unused_result))
 int sim_samples_close(sim_samples_writer_t *w);
 
-/* Closes and deletes a partly written file (after an error). */
-void sim_samples_abort(sim_samples_writer_t *w, const char *path);
+/* Drops a partly written file (after an error): `path` stays as it was. Safe after close. */
+void sim_samples_abort(sim_samples_writer_t *w);
 
 /* Reads and validates the whole file. On success *records is a malloc'd array of
  * hdr->count records (NULL when count is 0), free() it. On failure returns -EINVAL

@@ -143,7 +143,7 @@ int sim_scan_run(const sim_plan_t *plan, const sim_path_t *path, const sim_scan_
     rc = sim_samples_open(&wr, out, plan->min.x, plan->min.y, plan->max.x, plan->max.y, c->seed,
                           source);
     if (rc < 0) {
-        snprintf(err, errlen, "%s: cannot create: %s", out, strerror(rc == -EINVAL ? EINVAL : -rc));
+        snprintf(err, errlen, "%s: %s", out, hal_host_file_strerror(rc));
         goto out;
     }
     opened = 1;
@@ -184,7 +184,7 @@ int sim_scan_run(const sim_plan_t *plan, const sim_path_t *path, const sim_scan_
                 goto out;
             }
             if ((rc = sim_samples_append(&wr, buf, (size_t)n)) < 0) {
-                snprintf(err, errlen, "%s: write error", out);
+                snprintf(err, errlen, "%s: %s", out, hal_host_file_strerror(rc));
                 goto out;
             }
             for (int32_t i = 0; i < n; i++)
@@ -220,13 +220,11 @@ int sim_scan_run(const sim_plan_t *plan, const sim_path_t *path, const sim_scan_
     }
     opened = 0;
     rc = sim_samples_close(&wr);
-    if (rc < 0) {
-        snprintf(err, errlen, "%s: write error", out);
-        remove(out);
-    }
+    if (rc < 0)
+        snprintf(err, errlen, "%s: %s", out, hal_host_file_strerror(rc));
 out:
-    if (opened)
-        sim_samples_abort(&wr, out);
+    if (opened) /* a failed or stopped run leaves the previous `out` as it was */
+        sim_samples_abort(&wr);
     if (stats)
         *stats = st;
     sim_lidar_destroy(lid);

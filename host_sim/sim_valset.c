@@ -137,7 +137,7 @@ int sim_valset_write(const sim_plan_t *plan, const sim_valset_cfg_t *cfg, const 
     rc = sim_samples_open(&wr, path, plan->min.x, plan->min.y, plan->max.x, plan->max.y,
                           cfg->seed, source);
     if (rc < 0) {
-        snprintf(err, errlen, "%s: cannot write: %s", path, rc == -EINVAL ? "bad box" : "I/O error");
+        snprintf(err, errlen, "%s: %s", path, rc == -EINVAL ? "bad bounding box" : hal_host_file_strerror(rc));
         goto out;
     }
     opened = 1;
@@ -155,10 +155,13 @@ int sim_valset_write(const sim_plan_t *plan, const sim_valset_cfg_t *cfg, const 
                                       (float)poses[i].theta, buf,
                                       RT_SAMPLES_MAX_OUT(cfg->n_beams, cfg->points_per_beam), &n,
                                       NULL);
-        if (rc == 0)
-            rc = sim_samples_append(&wr, buf, (size_t)n);
         if (rc < 0) {
-            snprintf(err, errlen, "valset: pose %d: %s", i, rc == -EIO ? "write error" : "scan failed");
+            snprintf(err, errlen, "valset: pose %d: scan failed (%d)", i, rc);
+            goto out;
+        }
+        rc = sim_samples_append(&wr, buf, (size_t)n);
+        if (rc < 0) {
+            snprintf(err, errlen, "%s: %s", path, hal_host_file_strerror(rc));
             goto out;
         }
         total += (uint64_t)n;
@@ -166,15 +169,14 @@ int sim_valset_write(const sim_plan_t *plan, const sim_valset_cfg_t *cfg, const 
     opened = 0;
     rc = sim_samples_close(&wr);
     if (rc < 0) {
-        snprintf(err, errlen, "%s: write error", path);
-        remove(path);
+        snprintf(err, errlen, "%s: %s", path, hal_host_file_strerror(rc));
         goto out;
     }
     if (n_samples)
         *n_samples = total;
 out:
     if (opened)
-        sim_samples_abort(&wr, path);
+        sim_samples_abort(&wr);
     sim_lidar_destroy(lid);
     sim_world_destroy(w);
     free(poses);

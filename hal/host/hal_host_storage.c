@@ -1,9 +1,12 @@
-/* hal_storage in a directory. A write goes to a temporary file in the same directory, is
- * flushed with fsync, then renamed over the blob (rename is atomic on POSIX file systems),
- * and the directory is fsynced so the rename itself survives a power loss. Temporary names
- * start with '.', which no valid blob name does, so they can never collide with a blob. */
+/* hal_storage in a directory. A write goes through the host's one writer (hal_host_file.h):
+ * a temporary file in the same directory, flushed with fsync, renamed over the blob (rename
+ * is atomic on POSIX file systems), the directory fsynced so the rename itself survives a
+ * power loss. Temporary names start with '.', which no valid blob name does, so they can
+ * never collide with a blob; opening the storage removes the ones a killed run left. */
 #include "hal_host.h"
+#include "hal_host_file.h"
 
+#include <dirent.h>
 #include <errno.h>
 #include <fcntl.h>
 #include <stdio.h>
@@ -15,6 +18,28 @@
 struct hal_host_storage {
     char *dir;
 };
+
+/* Temporary files of earlier versions (".NAME.tmp", NAME a valid blob name) that a killed
+ * run left: ours to remove. */
+static void clean_legacy_tmp(const char *dir)
+{
+    DIR *d = opendir(dir);
+    if (d == NULL)
+        return;
+    for (struct dirent *e; (e = readdir(d)) != NULL;) {
+        size_t n = strlen(e->d_name);
+        char blob[HAL_STORAGE_NAME_MAX];
+        if (n < 6 || e->d_name[0] != '.' || strcmp(e->d_name + n - 4, ".tmp") != 0 ||
+            n - 5 >= sizeof blob)
+            continue;
+        memcpy(blob, e->d_name + 1, n - 5);
+        blob[n - 5] = '\0';
+        char p[4096];
+        if (hal_storage_name_valid(blob) && snprintf(p, sizeof p, "%s/%s", dir, e->d_name) < (int)sizeof p)
+            unlink(p);
+    }
+    closedir(d);
+}
 
 int hal_host_storage_open(const char *dir, hal_host_storage_t **out)
 {
@@ -30,6 +55,8 @@ int hal_host_storage_open(const char *dir, hal_host_storage_t **out)
         fprintf(stderr, "hal_host_storage: '%s' is not a directory\n", dir);
         return -EIO;
     }
+    (void)hal_host_file_clean_stale(dir); /* best effort: a leftover is only a hidden file */
+    clean_legacy_tmp(dir);
     hal_host_storage_t *s = calloc(1, sizeof(*s));
     if (s == NULL)
         return -ENOMEM;
@@ -74,48 +101,11 @@ int hal_host_storage_write(hal_host_storage_t *s, const char *name, const void *
 {
     if (s == NULL || !hal_storage_name_valid(name) || (data == NULL && len > 0))
         return -EINVAL;
-    char path[PATH_CAP], tmp[PATH_CAP];
-    if (make_path(s, "", name, "", path) != 0 || make_path(s, ".", name, ".tmp", tmp) != 0)
+    char path[PATH_CAP];
+    if (make_path(s, "", name, "", path) != 0)
         return -EINVAL;
-    int fd = open(tmp, O_WRONLY | O_CREAT | O_TRUNC | O_CLOEXEC, 0644);
-    if (fd < 0)
-        return errno_to_code(errno);
-    const uint8_t *p = data;
-    size_t left = len;
-    while (left > 0) {
-        ssize_t w = write(fd, p, left);
-        if (w < 0 && errno == EINTR)
-            continue;
-        if (w <= 0) {
-            int code = errno_to_code(w < 0 ? errno : EIO);
-            close(fd);
-            unlink(tmp);
-            return code;
-        }
-        p += w;
-        left -= (size_t)w;
-    }
-    if (fsync(fd) != 0) {
-        int code = errno_to_code(errno);
-        close(fd);
-        unlink(tmp);
-        return code;
-    }
-    if (close(fd) != 0) {
-        unlink(tmp);
-        return -EIO;
-    }
-    if (rename(tmp, path) != 0) {
-        int code = errno_to_code(errno);
-        unlink(tmp);
-        return code;
-    }
-    int dfd = open(s->dir, O_RDONLY | O_DIRECTORY | O_CLOEXEC);
-    if (dfd >= 0) {
-        (void)fsync(dfd); /* some file systems refuse fsync on a directory: not an error */
-        close(dfd);
-    }
-    return 0;
+    int rc = hal_host_file_write_all(path, data, len);
+    return rc == 0 ? 0 : errno_to_code(-rc);
 }
 
 int hal_host_storage_read(hal_host_storage_t *s, const char *name, void *buf, size_t cap,

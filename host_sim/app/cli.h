@@ -1,5 +1,5 @@
 /* Helpers shared by the host_sim sub-commands: strict option-value parsing with messages,
- * and creating an output directory. */
+ * and preparing output directories. */
 #ifndef HOST_SIM_APP_CLI_H
 #define HOST_SIM_APP_CLI_H
 
@@ -7,7 +7,9 @@
 #include <math.h>
 #include <stdio.h>
 #include <stdlib.h>
-#include <sys/stat.h>
+#include <string.h>
+
+#include "hal_host_file.h"
 
 /* 0 when argv[i] has a value after it; prints an error otherwise. */
 static inline int cmd_need_value(int argc, char **argv, int i, const char *cmd)
@@ -44,22 +46,18 @@ static inline int cmd_parse_ll(const char *s, const char *opt, long long lo, lon
     return 0;
 }
 
-/* mkdir -p: 0, or -errno (-ENAMETOOLONG for a path over 4095 characters). */
-static inline int cmd_mkdir_p(const char *dir)
+/* An output directory of `host_sim CMD`: created with its parents, refused when it (or a
+ * parent) exists and is not a directory, and cleared of the temporary files an earlier run of
+ * ours left when it was killed. Prints "host_sim CMD: DIR: reason" and returns -1 on error. */
+static inline int cmd_prepare_out_dir(const char *cmd, const char *dir)
 {
-    char tmp[4096];
-    if (snprintf(tmp, sizeof tmp, "%s", dir) >= (int)sizeof tmp)
-        return -ENAMETOOLONG;
-    for (char *p = tmp + 1; *p; p++) {
-        if (*p != '/')
-            continue;
-        *p = '\0';
-        if (mkdir(tmp, 0777) != 0 && errno != EEXIST)
-            return -errno;
-        *p = '/';
+    int rc = hal_host_file_mkdirs(dir);
+    if (rc == 0 && (rc = hal_host_file_clean_stale(dir)) > 0)
+        rc = 0;
+    if (rc < 0) {
+        fprintf(stderr, "host_sim %s: %s: %s\n", cmd, dir, hal_host_file_strerror(rc));
+        return -1;
     }
-    if (mkdir(tmp, 0777) != 0 && errno != EEXIST)
-        return -errno;
     return 0;
 }
 

@@ -223,24 +223,28 @@ static int load_paths(const opts_t *o, const sim_plan_t *plan, sim_path_t *paths
     return 0;
 }
 
+/* Reads `file` into *s (the caller frees it). On any error *s is NULL and nothing is left
+ * allocated: the buffer has one owner at a time. */
 static int read_samples(const char *file, const sim_plan_t *plan, ai_sample_t **s, size_t *n)
 {
     sim_samples_header_t h;
     char err[512];
+    *s = NULL;
     int rc = sim_samples_read(file, &h, s, err, sizeof err);
     if (rc) {
         fprintf(stderr, "host_sim fleet: %s\n", err); /* err names the file */
-        return rc;
-    }
-    if (fabs(h.min_x - plan->min.x) > 1e-6 || fabs(h.min_y - plan->min.y) > 1e-6 || fabs(h.max_x - plan->max.x) > 1e-6 ||
-        fabs(h.max_y - plan->max.y) > 1e-6) {
+    } else if (fabs(h.min_x - plan->min.x) > 1e-6 || fabs(h.min_y - plan->min.y) > 1e-6 ||
+               fabs(h.max_x - plan->max.x) > 1e-6 || fabs(h.max_y - plan->max.y) > 1e-6) {
         fprintf(stderr, "host_sim fleet: %s: its bounding box is not the plan's (another plan?)\n", file);
-        free(*s);
-        return -EINVAL;
-    }
-    if (h.count == 0) {
+        rc = -EINVAL;
+    } else if (h.count == 0) {
         fprintf(stderr, "host_sim fleet: %s holds no samples\n", file);
-        return -EINVAL;
+        rc = -EINVAL;
+    }
+    if (rc) {
+        free(*s);
+        *s = NULL;
+        return rc;
     }
     *n = (size_t)h.count;
     return 0;
@@ -266,6 +270,9 @@ int cmd_fleet(int argc, char **argv)
     sim_fleet_t *fleet = NULL;
     sim_occ_eval_t ev;
     memset(&ev, 0, sizeof ev);
+    hal_host_file_t csv_out, sum_out; /* whole files or none (hal_host_file.h) */
+    memset(&csv_out, 0, sizeof csv_out);
+    memset(&sum_out, 0, sizeof sum_out);
     FILE *csv = NULL;
     char file[4096];
 
@@ -275,10 +282,8 @@ int cmd_fleet(int argc, char **argv)
     }
     if (load_paths(&o, &plan, paths) != 0)
         goto out;
-    if (cmd_mkdir_p(o.out) != 0) {
-        fprintf(stderr, "host_sim fleet: cannot create %s: %s\n", o.out, strerror(errno));
+    if (cmd_prepare_out_dir("fleet", o.out) != 0)
         goto out;
-    }
     const uint64_t seed = (uint64_t)o.seed;
     printf("fleet (in-process, one host_sim process; the multi-process LCM fleet is on the roadmap)\n");
     printf("seed %llu, preset %s, %d agents, %lld rounds, strategy %s, graph %s", (unsigned long long)seed,
@@ -289,10 +294,8 @@ int cmd_fleet(int argc, char **argv)
     /* ---- training data ---- */
     char sdir[2048];
     snprintf(sdir, sizeof sdir, "%s/samples", o.out);
-    if (!o.samples && cmd_mkdir_p(sdir) != 0) {
-        fprintf(stderr, "host_sim fleet: cannot create %s\n", sdir);
+    if (!o.samples && cmd_prepare_out_dir("fleet", sdir) != 0)
         goto out;
-    }
     for (int i = 0; i < N; i++) {
         if (o.samples) {
             snprintf(file, sizeof file, "%s/robot_%d.samples", o.samples, i);
@@ -358,11 +361,12 @@ int cmd_fleet(int argc, char **argv)
         goto out;
     }
     snprintf(file, sizeof file, "%s/metrics.csv", o.out);
-    csv = fopen(file, "w");
-    if (!csv) {
-        fprintf(stderr, "host_sim fleet: cannot write %s: %s\n", file, strerror(errno));
+    int wrc = hal_host_file_begin(&csv_out, file);
+    if (wrc < 0) {
+        fprintf(stderr, "host_sim fleet: %s: %s\n", file, hal_host_file_strerror(wrc));
         goto out;
     }
+    csv = hal_host_file_stream(&csv_out); /* fed as rounds go; replaces metrics.csv at the end */
     fprintf(csv, "round,agent,train_loss,val_loss,kl_loss,consensus_error,occ_mse,occ_iou,reg_mu,reg_rho,neighbours\n");
     const int M = sim_fleet_models(fleet);
     sim_fleet_metrics_t last[SIM_FLEET_MAX_AGENTS];
@@ -406,12 +410,12 @@ int cmd_fleet(int argc, char **argv)
         printf("\n");
         fflush(stdout);
     }
-    if (fclose(csv) != 0) {
-        csv = NULL;
-        fprintf(stderr, "host_sim fleet: writing metrics.csv failed\n");
+    csv = NULL;
+    snprintf(file, sizeof file, "%s/metrics.csv", o.out);
+    if ((wrc = hal_host_file_commit(&csv_out)) < 0) {
+        fprintf(stderr, "host_sim fleet: %s: %s\n", file, hal_host_file_strerror(wrc));
         goto out;
     }
-    csv = NULL;
     /* ---- maps and summary ---- */
     char mean_png[4096], std_png[4096];
     snprintf(mean_png, sizeof mean_png, "%s/map_mean.png", o.out);
@@ -423,11 +427,11 @@ int cmd_fleet(int argc, char **argv)
         goto out;
     }
     snprintf(file, sizeof file, "%s/summary.txt", o.out);
-    FILE *s = fopen(file, "w");
-    if (!s) {
-        fprintf(stderr, "host_sim fleet: cannot write %s\n", file);
+    if ((wrc = hal_host_file_begin(&sum_out, file)) < 0) {
+        fprintf(stderr, "host_sim fleet: %s: %s\n", file, hal_host_file_strerror(wrc));
         goto out;
     }
+    FILE *s = hal_host_file_stream(&sum_out);
     double v = 0, vmin = INFINITY, vmax = -INFINITY, mse = 0, io = 0, ce = 0, tl = 0;
     for (int i = 0; i < M; i++) {
         v += last[i].val_loss / M;
@@ -463,15 +467,15 @@ int cmd_fleet(int argc, char **argv)
         fprintf(f, "maps: agent 0, %lld MC passes, %.3f m grid, max std %.4f: %s %s\n", o.mc, o.map_res, smax,
                 mean_png, std_png);
     }
-    if (fclose(s) != 0) {
-        fprintf(stderr, "host_sim fleet: writing summary.txt failed\n");
+    if ((wrc = hal_host_file_commit(&sum_out)) < 0) {
+        fprintf(stderr, "host_sim fleet: %s: %s\n", file, hal_host_file_strerror(wrc));
         goto out;
     }
     printf("results in %s (metrics.csv, map_mean.png, map_std.png, summary.txt)\n", o.out);
     status = 0;
 out:
-    if (csv)
-        fclose(csv);
+    hal_host_file_abort(&csv_out); /* no-ops after a commit */
+    hal_host_file_abort(&sum_out);
     sim_fleet_destroy(fleet);
     sim_occ_eval_free(&ev);
     for (int i = 0; i < SIM_FLEET_MAX_AGENTS; i++) {

@@ -206,16 +206,8 @@ static int paths_gen(int argc, char **argv)
         fprintf(stderr, "host_sim paths gen: %s: %s\n", plan_file, err);
         goto done;
     }
-    struct stat st;
-    if (stat(out, &st) != 0) {
-        if (mkdir(out, 0777) != 0) {
-            fprintf(stderr, "host_sim paths gen: cannot create directory %s: %s\n", out, strerror(errno));
-            goto done_paths;
-        }
-    } else if (!S_ISDIR(st.st_mode)) {
-        fprintf(stderr, "host_sim paths gen: %s exists and is not a directory\n", out);
+    if (cmd_prepare_out_dir("paths gen", out) != 0)
         goto done_paths;
-    }
     for (int k = 0; k < cfg.n_robots; k++) {
         char file[4096];
         if (snprintf(file, sizeof file, "%s/robot_%d.csv", out, k) >= (int)sizeof file) {

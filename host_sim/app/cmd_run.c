@@ -8,6 +8,7 @@
 #include <sys/stat.h>
 
 #include "ai/bnn_ckpt.h"
+#include "hal_host_file.h"
 #include "cli.h"
 #include "commands.h"
 #include "sim_fleet.h"
@@ -190,10 +191,11 @@ typedef struct run_ctx {
 
 static int load_ckpt(bnn_model_t *m, const char *file)
 {
-    FILE *f = fopen(file, "rb");
-    if (f == NULL) {
-        fprintf(stderr, "host_sim run: cannot open %s: %s\n", file, strerror(errno));
-        return -errno;
+    FILE *f = NULL;
+    int orc = hal_host_file_open_read(file, &f);
+    if (orc < 0) {
+        fprintf(stderr, "host_sim run: %s: %s\n", file, strerror(-orc));
+        return orc;
     }
     static uint8_t buf[BNN_CKPT_MAX_BYTES];
     size_t n = fread(buf, 1, sizeof buf, f);
@@ -306,6 +308,12 @@ int cmd_run(int argc, char **argv)
     size_t n_val = 0;
     bnn_model_t *model = NULL;
     FILE *csv = NULL;
+    hal_host_file_t csv_out, pt_out, pc_out, sum_out; /* whole files or none */
+    memset(&csv_out, 0, sizeof csv_out);
+    memset(&pt_out, 0, sizeof pt_out);
+    memset(&pc_out, 0, sizeof pc_out);
+    memset(&sum_out, 0, sizeof sum_out);
+    int wrc;
     sim_image_result_t *res = calloc(1, sizeof *res);
     if (res == NULL)
         return 1;
@@ -323,10 +331,8 @@ int cmd_run(int argc, char **argv)
                 RT_CORE_MAX_WAYPOINTS);
         goto out;
     }
-    if (cmd_mkdir_p(o.out) != 0) {
-        fprintf(stderr, "host_sim run: cannot create %s: %s\n", o.out, strerror(errno));
+    if (cmd_prepare_out_dir("run", o.out) != 0)
         goto out;
-    }
     printf("run: one robot's firmware image (RT %u Hz / scans %u Hz, GP %u Hz, AI %u Hz), lockstep\n",
            1000000u / FW_RT_PERIOD_US, 1000000u / (FW_RT_PERIOD_US * FW_RT_SCAN_DIVIDER),
            1000000u / FW_GP_PERIOD_US, 1000000u / FW_AI_PERIOD_US);
@@ -358,11 +364,11 @@ int cmd_run(int argc, char **argv)
         fflush(stdout);
     }
     snprintf(file, sizeof file, "%s/metrics.csv", o.out);
-    csv = fopen(file, "w");
-    if (csv == NULL) {
-        fprintf(stderr, "host_sim run: cannot write %s: %s\n", file, strerror(errno));
+    if ((wrc = hal_host_file_begin(&csv_out, file)) < 0) {
+        fprintf(stderr, "host_sim run: %s: %s\n", file, hal_host_file_strerror(wrc));
         goto out;
     }
+    csv = hal_host_file_stream(&csv_out);
     fprintf(csv, "round,sim_time_s,distance_m,progress_m,pool_fill,pool_capacity,ring_drops,train_loss,bce,"
                  "val_loss,kl\n");
     run_ctx_t ctx = {&o, csv, model, val, n_val, 0, NAN};
@@ -389,33 +395,27 @@ int cmd_run(int argc, char **argv)
         fprintf(stderr, "host_sim run: %s\n", err);
         goto out;
     }
-    if (fclose(csv) != 0) {
-        csv = NULL;
-        fprintf(stderr, "host_sim run: writing metrics.csv failed\n");
+    csv = NULL;
+    snprintf(file, sizeof file, "%s/metrics.csv", o.out);
+    if ((wrc = hal_host_file_commit(&csv_out)) < 0) {
+        fprintf(stderr, "host_sim run: %s: %s\n", file, hal_host_file_strerror(wrc));
         goto out;
     }
-    csv = NULL;
     if (ctx.failed)
         goto out;
     /* ---- profile ---- */
     char f2[4200];
     snprintf(file, sizeof file, "%s/profile.txt", o.out);
     snprintf(f2, sizeof f2, "%s/profile.csv", o.out);
-    FILE *pt = fopen(file, "w"), *pc = fopen(f2, "w");
-    if (pt == NULL || pc == NULL) {
-        fprintf(stderr, "host_sim run: cannot write the profile files in %s\n", o.out);
-        if (pt)
-            fclose(pt);
-        if (pc)
-            fclose(pc);
-        goto out;
+    const char *failed = file;
+    if ((wrc = hal_host_file_begin(&pt_out, file)) == 0 && (failed = f2, wrc = hal_host_file_begin(&pc_out, f2)) == 0) {
+        write_profile(&o, res, hal_host_file_stream(&pt_out), hal_host_file_stream(&pc_out));
+        write_profile(&o, res, stdout, NULL);
+        if ((failed = file, wrc = hal_host_file_commit(&pt_out)) == 0)
+            failed = f2, wrc = hal_host_file_commit(&pc_out);
     }
-    write_profile(&o, res, pt, pc);
-    write_profile(&o, res, stdout, NULL);
-    int perr = fclose(pc) != 0;
-    perr |= fclose(pt) != 0;
-    if (perr) {
-        fprintf(stderr, "host_sim run: writing the profile failed\n");
+    if (wrc < 0) {
+        fprintf(stderr, "host_sim run: %s: %s\n", failed, hal_host_file_strerror(wrc));
         goto out;
     }
     if (!res->completed) {
@@ -427,7 +427,14 @@ int cmd_run(int argc, char **argv)
         goto out;
     }
     if (res->final_ckpt_status != 0) {
-        fprintf(stderr, "host_sim run: the GP core could not write final.bnn (%d)\n", res->final_ckpt_status);
+        fprintf(stderr, "host_sim run: %s/final.bnn: %s\n", o.out, hal_host_file_strerror(res->final_ckpt_status));
+        goto out;
+    }
+    if (res->gp.ckpt_failed > 0) {
+        fprintf(stderr,
+                "host_sim run: %llu round checkpoint(s) could not be written (see the log above); the "
+                "round_NNNN.bnn files of those rounds in %s are not from this run\n",
+                (unsigned long long)res->gp.ckpt_failed, o.out);
         goto out;
     }
     /* ---- final model: maps, occupancy near the path ---- */
@@ -452,11 +459,11 @@ int cmd_run(int argc, char **argv)
         }
     }
     snprintf(file, sizeof file, "%s/summary.txt", o.out);
-    FILE *s = fopen(file, "w");
-    if (s == NULL) {
-        fprintf(stderr, "host_sim run: cannot write %s\n", file);
+    if ((wrc = hal_host_file_begin(&sum_out, file)) < 0) {
+        fprintf(stderr, "host_sim run: %s: %s\n", file, hal_host_file_strerror(wrc));
         goto out;
     }
+    FILE *s = hal_host_file_stream(&sum_out);
     for (int pass = 0; pass < 2; pass++) {
         FILE *f = pass ? stdout : s;
         fprintf(f, "seed: %lld\npreset: %s (%zu parameters)\nrounds: %lld\npool: %s (capacity %u)\n"
@@ -480,15 +487,17 @@ int cmd_run(int argc, char **argv)
             fprintf(f, "maps: %lld MC passes, %.3f m grid, max std %.4f: %s %s\n", o.mc, o.map_res, smax,
                     mean_png, std_png);
     }
-    if (fclose(s) != 0) {
-        fprintf(stderr, "host_sim run: writing summary.txt failed\n");
+    if ((wrc = hal_host_file_commit(&sum_out)) < 0) {
+        fprintf(stderr, "host_sim run: %s: %s\n", file, hal_host_file_strerror(wrc));
         goto out;
     }
     printf("results in %s\n", o.out);
     status = 0;
 out:
-    if (csv)
-        fclose(csv);
+    hal_host_file_abort(&csv_out); /* no-ops after a commit */
+    hal_host_file_abort(&pt_out);
+    hal_host_file_abort(&pc_out);
+    hal_host_file_abort(&sum_out);
     free(res);
     free(model);
     free(val);

@@ -427,7 +427,7 @@ static void test_load_default_plan(void **state)
     sim_plan_free(&p);
 
     assert_true(sim_plan_load("no/such/file.svg", 0.0, &p, err, sizeof err) < 0);
-    assert_non_null(strstr(err, "no/such/file.svg:0: cannot open"));
+    assert_non_null(strstr(err, "no/such/file.svg:0: No such file or directory"));
 }
 
 int main(void)

@@ -163,7 +163,7 @@ static void test_file_round_trip(void **st)
     assert_int_equal(sim_samples_open(&w, p, 0, 0, 1, 1, 0, NULL), 0);
     ai_sample_t bad = {1.5f, 0, 0};
     assert_int_equal(sim_samples_append(&w, &bad, 1), -EINVAL);
-    sim_samples_abort(&w, p);
+    sim_samples_abort(&w);
     assert_int_equal(sim_samples_open(&w, p, 0, 0, 0, 1, 0, NULL), -EINVAL);
     remove(p);
 }

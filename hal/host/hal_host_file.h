@@ -1,0 +1,77 @@
+/* Files of the host programs, written whole or not at all, and inputs opened with a clear
+ * reason when they cannot be read.
+ *
+ * Every output file of fleetsim (samples, validation sets, plans, tours, checkpoints through
+ * the storage HAL, metrics, maps, summaries, profiles) goes through one writer:
+ *   - hal_host_file_begin() refuses a target that exists but is not a regular file (a
+ *     directory, a device such as /dev/full, a socket) and a path longer than PATH_MAX,
+ *     creates the target's missing parent directories, then a temporary file
+ *     `.NAME.PID.fstmp` beside the target (exclusively: it never opens an existing file);
+ *   - every write is checked; hal_host_file_commit() flushes, fsyncs and closes it, then
+ *     renames it over the target, so the target is either the previous file or the whole new
+ *     one, never a part;
+ *   - on any failure, and on hal_host_file_abort(), only the temporary file is removed. A
+ *     path the program did not create is never unlinked or truncated.
+ * Errors are negative errno codes of the real cause (-ENOSPC for a full disk, -EISDIR,
+ * -ENAMETOOLONG, ...); hal_host_file_strerror() words them (-EEXIST: "exists and is not a
+ * regular file"). Callers print "PATH: reason" and exit non-zero.
+ *
+ * Test seam: FLEETSIM_FAIL_WRITE_AFTER=N in the environment (read once per process) makes
+ * the writers fail with ENOSPC once N bytes in total have been written through them, so
+ * tests can exercise a full disk without a small file system.
+ *
+ * Not thread-safe per writer; distinct writers may be used from distinct threads. */
+#ifndef HAL_HOST_FILE_H
+#define HAL_HOST_FILE_H
+
+#include <limits.h>
+#include <stddef.h>
+#include <stdio.h>
+
+#define HAL_HOST_FILE_TMP_SUFFIX ".fstmp"
+
+typedef struct hal_host_file {
+    FILE *f;
+    int err;             /* first error seen (negative errno), 0 if none */
+    long long counted;   /* bytes charged to the test seam so far */
+    char path[PATH_MAX]; /* the target */
+    char tmp[PATH_MAX];  /* the temporary file beside it */
+} hal_host_file_t;
+
+/* Starts writing `path`. 0 or a negative errno (nothing was created then). */
+__attribute__((warn_unused_result)) int hal_host_file_begin(hal_host_file_t *w, const char *path);
+
+/* The stream to write to (fprintf, fwrite, libpng...). Errors are caught at commit. */
+FILE *hal_host_file_stream(hal_host_file_t *w);
+
+/* Writes len bytes. 0 or a negative errno (the writer then stays failed). */
+__attribute__((warn_unused_result)) int hal_host_file_write(hal_host_file_t *w, const void *data, size_t len);
+
+/* Makes the target the new file: flush, fsync, close, rename, fsync of the directory.
+ * 0, or a negative errno and the target is untouched (the temporary file is removed). */
+__attribute__((warn_unused_result)) int hal_host_file_commit(hal_host_file_t *w);
+
+/* Gives up: closes and removes the temporary file; the target is untouched. Safe to call
+ * after a failed begin or commit, and twice. */
+void hal_host_file_abort(hal_host_file_t *w);
+
+/* begin + write + commit. */
+__attribute__((warn_unused_result)) int hal_host_file_write_all(const char *path, const void *data, size_t len);
+
+/* Removes temporary files that writers in `dir` left behind when their process was killed
+ * (`.*.fstmp` whose PID is not a live process).
+ * Returns the number removed, or a negative errno when dir cannot be read. */
+int hal_host_file_clean_stale(const char *dir);
+
+/* Opens an input file for reading: 0 and *out, or a negative errno: -ENOENT, -EACCES,
+ * -EISDIR for a directory, ... */
+__attribute__((warn_unused_result)) int hal_host_file_open_read(const char *path, FILE **out);
+
+/* Makes `dir` and its missing parents (mkdir -p), refusing a component that exists and is
+ * not a directory. 0 or a negative errno. */
+__attribute__((warn_unused_result)) int hal_host_file_mkdirs(const char *dir);
+
+/* strerror(-code), except -EEXIST: "exists and is not a regular file". */
+const char *hal_host_file_strerror(int code);
+
+#endif /* HAL_HOST_FILE_H */
