@@ -8,15 +8,47 @@
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
+#include <string.h>
 
 #include "hal_host_file.h"
 
-/* 0 when argv[i] has a value after it; prints an error otherwise. */
-static inline int cmd_need_value(int argc, char **argv, int i, const char *cmd)
+typedef void (*cmd_usage_fn)(FILE *out);
+
+/* 1 when `opt` stands in the command's --help text as a whole word: the usage text is the
+ * one list of a command's options. */
+static inline int cmd_option_listed(cmd_usage_fn usage, const char *opt)
+{
+    char *text = NULL;
+    size_t len = 0;
+    FILE *f = open_memstream(&text, &len);
+    if (f == NULL)
+        return 0;
+    usage(f);
+    fclose(f);
+    int found = 0;
+    const size_t n = strlen(opt);
+    for (const char *p = text; n > 0 && (p = strstr(p, opt)) != NULL; p += n) {
+        const char before = p == text ? ' ' : p[-1], after = p[n];
+        if ((before == ' ' || before == '[' || before == '|' || before == '\n') &&
+            (after == ' ' || after == ']' || after == '\n' || after == '|' || after == '=' || after == '\0')) {
+            found = 1;
+            break;
+        }
+    }
+    free(text);
+    return found;
+}
+
+/* 0 when argv[i] has a value after it. Otherwise prints why, naming the option: "unknown
+ * option" when the command's --help does not list it, "needs a value" when it does. */
+static inline int cmd_need_value(int argc, char **argv, int i, const char *cmd, cmd_usage_fn usage)
 {
     if (i + 1 < argc)
         return 0;
-    fprintf(stderr, "host_sim %s: option %s needs a value\n", cmd, argv[i]);
+    if (usage != NULL && !cmd_option_listed(usage, argv[i]))
+        fprintf(stderr, "host_sim %s: unknown option '%s' (see --help)\n", cmd, argv[i]);
+    else
+        fprintf(stderr, "host_sim %s: option %s needs a value\n", cmd, argv[i]);
     return -1;
 }
 

@@ -102,7 +102,7 @@ static int parse(int argc, char **argv, opts_t *o)
             fprintf(stderr, "host_sim fleet: unexpected argument '%s'\n", a);
             return -1;
         }
-        if (cmd_need_value(argc, argv, i, "fleet") != 0)
+        if (cmd_need_value(argc, argv, i, "fleet", fleet_usage) != 0)
             return -1;
         const char *v = argv[++i];
         int bad = 0;

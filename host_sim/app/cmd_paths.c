@@ -153,7 +153,7 @@ static int paths_gen(int argc, char **argv)
             fprintf(stderr, "host_sim paths gen: unexpected argument '%s'\n", o);
             return 2;
         }
-        if (cmd_need_value(argc, argv, i, "paths gen") != 0)
+        if (cmd_need_value(argc, argv, i, "paths gen", paths_usage) != 0)
             return 2;
         const char *v = argv[++i];
         int bad = 0;
@@ -261,7 +261,7 @@ static int paths_check(int argc, char **argv)
             fprintf(stderr, "host_sim paths check: options must come before the CSV files ('%s')\n", o);
             return 2;
         }
-        if (cmd_need_value(argc, argv, i, "paths check") != 0)
+        if (cmd_need_value(argc, argv, i, "paths check", paths_usage) != 0)
             return 2;
         const char *v = argv[++i];
         if (strcmp(o, "--plan") == 0)

@@ -38,7 +38,7 @@ static int plan_check(int argc, char **argv)
             plan_usage(stdout);
             return 0;
         } else if (strcmp(argv[i], "--scale") == 0) {
-            if (cmd_need_value(argc, argv, i, "plan check") != 0 ||
+            if (cmd_need_value(argc, argv, i, "plan check", plan_usage) != 0 ||
                 cmd_parse_double(argv[i + 1], "--scale", 1e-6, 100.0, &scale) != 0)
                 return 2;
             i++;
@@ -97,17 +97,17 @@ static int plan_gen(int argc, char **argv)
             plan_usage(stdout);
             return 0;
         } else if (strcmp(argv[i], "--seed") == 0) {
-            if (cmd_need_value(argc, argv, i, "plan gen") != 0 ||
+            if (cmd_need_value(argc, argv, i, "plan gen", plan_usage) != 0 ||
                 cmd_parse_ll(argv[i + 1], "--seed", 0, 0xFFFFFFFFLL, &seed) != 0)
                 return 2;
             i++;
         } else if (strcmp(argv[i], "--out") == 0) {
-            if (cmd_need_value(argc, argv, i, "plan gen") != 0)
+            if (cmd_need_value(argc, argv, i, "plan gen", plan_usage) != 0)
                 return 2;
             out = argv[++i];
         } else if (strcmp(argv[i], "--rooms") == 0) {
             long long r;
-            if (cmd_need_value(argc, argv, i, "plan gen") != 0 ||
+            if (cmd_need_value(argc, argv, i, "plan gen", plan_usage) != 0 ||
                 cmd_parse_ll(argv[i + 1], "--rooms", SIM_PLANGEN_MIN_ROOMS, SIM_PLANGEN_MAX_ROOMS, &r) != 0)
                 return 2;
             rooms = (int)r;
@@ -141,17 +141,17 @@ static int plan_grid(int argc, char **argv)
             plan_usage(stdout);
             return 0;
         } else if (strcmp(argv[i], "--scale") == 0) {
-            if (cmd_need_value(argc, argv, i, "plan grid") != 0 ||
+            if (cmd_need_value(argc, argv, i, "plan grid", plan_usage) != 0 ||
                 cmd_parse_double(argv[i + 1], "--scale", 1e-6, 100.0, &scale) != 0)
                 return 2;
             i++;
         } else if (strcmp(argv[i], "--res") == 0) {
-            if (cmd_need_value(argc, argv, i, "plan grid") != 0 ||
+            if (cmd_need_value(argc, argv, i, "plan grid", plan_usage) != 0 ||
                 cmd_parse_double(argv[i + 1], "--res", 0.005, 10.0, &res) != 0)
                 return 2;
             i++;
         } else if (strcmp(argv[i], "--out") == 0) {
-            if (cmd_need_value(argc, argv, i, "plan grid") != 0)
+            if (cmd_need_value(argc, argv, i, "plan grid", plan_usage) != 0)
                 return 2;
             out = argv[++i];
         } else if (argv[i][0] == '-') {

@@ -61,7 +61,7 @@ int cmd_render(int argc, char **argv)
             fprintf(stderr, "host_sim render: unexpected argument '%s' (see --help)\n", a);
             return 2;
         }
-        if (cmd_need_value(argc, argv, i, "render") < 0)
+        if (cmd_need_value(argc, argv, i, "render", render_usage) < 0)
             return 2;
         const char *v = argv[++i];
         int bad = 0;

@@ -112,7 +112,7 @@ static int parse(int argc, char **argv, run_opts_t *o)
             fprintf(stderr, "host_sim run: unexpected argument '%s'\n", a);
             return -1;
         }
-        if (cmd_need_value(argc, argv, i, "run") != 0)
+        if (cmd_need_value(argc, argv, i, "run", run_usage) != 0)
             return -1;
         const char *v = argv[++i];
         int bad = 0;

@@ -73,7 +73,7 @@ int cmd_scan(int argc, char **argv)
             fprintf(stderr, "host_sim scan: unexpected argument '%s' (see --help)\n", a);
             return 2;
         }
-        if (cmd_need_value(argc, argv, i, "scan") < 0)
+        if (cmd_need_value(argc, argv, i, "scan", scan_usage) < 0)
             return 2;
         const char *v = argv[++i];
         int bad = 0;

@@ -47,7 +47,7 @@ int cmd_valset(int argc, char **argv)
             fprintf(stderr, "host_sim valset: unexpected argument '%s' (see --help)\n", a);
             return 2;
         }
-        if (cmd_need_value(argc, argv, i, "valset") < 0)
+        if (cmd_need_value(argc, argv, i, "valset", valset_usage) < 0)
             return 2;
         const char *v = argv[++i];
         int bad = 0;
