@@ -228,7 +228,7 @@ static int load_paths(const opts_t *o, const sim_plan_t *plan, sim_path_t *paths
 static int read_samples(const char *file, const sim_plan_t *plan, ai_sample_t **s, size_t *n)
 {
     sim_samples_header_t h;
-    char err[512];
+    char err[8192];
     *s = NULL;
     int rc = sim_samples_read(file, &h, s, err, sizeof err);
     if (rc) {
@@ -260,7 +260,7 @@ int cmd_fleet(int argc, char **argv)
         return 2;
     const int N = (int)o.robots;
     int status = 1;
-    char err[512];
+    char err[8192];
     sim_plan_t plan;
     memset(&plan, 0, sizeof plan);
     sim_path_t paths[SIM_FLEET_MAX_AGENTS];

@@ -190,7 +190,7 @@ static int paths_gen(int argc, char **argv)
     cfg.n_robots = (int)robots;
     cfg.seed = (uint64_t)seed;
     sim_plan_t plan;
-    char err[512];
+    char err[8192];
     if (sim_plan_load(plan_file, scale, &plan, err, sizeof err) != 0) {
         fprintf(stderr, "%s\n", err);
         return 1;
@@ -287,7 +287,7 @@ static int paths_check(int argc, char **argv)
         return 2;
     }
     sim_plan_t plan;
-    char err[512];
+    char err[8192];
     if (sim_plan_load(plan_file, scale, &plan, err, sizeof err) != 0) {
         fprintf(stderr, "%s\n", err);
         return 1;

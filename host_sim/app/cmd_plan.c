@@ -58,7 +58,7 @@ static int plan_check(int argc, char **argv)
         return 2;
     }
     sim_plan_t plan;
-    char err[512];
+    char err[8192];
     if (sim_plan_load(file, scale, &plan, err, sizeof err) != 0) {
         fprintf(stderr, "%s\n", err);
         return 1;
@@ -122,7 +122,7 @@ static int plan_gen(int argc, char **argv)
         plan_usage(stderr);
         return 2;
     }
-    char err[512];
+    char err[8192];
     int rc = sim_plangen_write(out, (unsigned long)seed, rooms, err, sizeof err);
     if (rc != 0) {
         fprintf(stderr, "host_sim plan gen: %s\n", err);
@@ -170,7 +170,7 @@ static int plan_grid(int argc, char **argv)
         return 2;
     }
     sim_plan_t plan;
-    char err[512];
+    char err[8192];
     if (sim_plan_load(file, scale, &plan, err, sizeof err) != 0) {
         fprintf(stderr, "%s\n", err);
         return 1;

@@ -104,7 +104,7 @@ int cmd_render(int argc, char **argv)
         fprintf(stderr, "host_sim render: --plan and --out are required (see --help)\n");
         return 2;
     }
-    char err[512];
+    char err[8192];
     int status = 1;
     sim_plan_t plan;
     if (sim_plan_load(plan_file, scale, &plan, err, sizeof err) < 0) {

@@ -299,7 +299,7 @@ int cmd_run(int argc, char **argv)
     if (pr < 0)
         return 2;
     int status = 1;
-    char err[512], file[4200];
+    char err[8192], file[4200];
     sim_plan_t plan;
     memset(&plan, 0, sizeof plan);
     sim_path_t path;

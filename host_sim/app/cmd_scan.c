@@ -126,7 +126,7 @@ int cmd_scan(int argc, char **argv)
         fprintf(stderr, "host_sim scan: --beams %d exceeds --lidar-beams %d\n", c.beams, c.sensor_beams);
         return 2;
     }
-    char err[512];
+    char err[8192];
     sim_plan_t plan;
     if (sim_plan_load(plan_file, scale, &plan, err, sizeof err) < 0) {
         fprintf(stderr, "host_sim scan: %s\n", err);

@@ -80,7 +80,7 @@ int cmd_valset(int argc, char **argv)
         fprintf(stderr, "host_sim valset: --plan and --out are required (see --help)\n");
         return 2;
     }
-    char err[512];
+    char err[8192];
     sim_plan_t plan;
     if (sim_plan_load(plan_file, scale, &plan, err, sizeof err) < 0) {
         fprintf(stderr, "host_sim valset: %s\n", err);

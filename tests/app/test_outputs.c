@@ -1,0 +1,428 @@
+/* "A failed run never replaces or removes an earlier result", tested on the real program:
+ * every host_sim command that writes files is run as a subprocess over the outputs of an
+ * earlier good run, through each way a run can fail (a full disk, through the
+ * FLEETSIM_FAIL_WRITE_AFTER seam of hal/host/hal_host_file.h; a run stopped early; input
+ * rejected half-way; an --out that is a directory, a device or too long). Each time: the exit
+ * status is non-zero, the message names the path and the real reason, the earlier files are
+ * byte-identical, no temporary file is left and nothing else in the folder was removed.
+ * Also: inputs that are directories, an unknown last option, a validation set of another
+ * plan (once a heap corruption), --out parents created, stale temporary files cleared. */
+#define _XOPEN_SOURCE 700 /* realpath */
+#include <errno.h>
+#include <fcntl.h>
+#include <limits.h>
+#include <setjmp.h>
+#include <stdarg.h>
+#include <stddef.h>
+#include <stdint.h>
+#include <stdio.h>
+#include <stdlib.h>
+#include <string.h>
+#include <sys/stat.h>
+#include <sys/wait.h>
+#include <unistd.h>
+#include <cmocka.h>
+
+#define SHORT_PATH 1024 /* our own paths; PATH_MAX-sized buffers hold them with a name added */
+static char g_bin[SHORT_PATH];   /* build/<config>/bin/host_sim */
+static char g_dir[SHORT_PATH];   /* scratch folder of this test */
+static char g_plan[PATH_MAX];    /* host_sim/plans/apartment.svg */
+static char g_paths[PATH_MAX];
+static char g_err[1 << 16];   /* stderr of the last run */
+
+/* Runs host_sim with argv (NULL-terminated; argv[0] is ignored) and optionally the disk-full
+ * seam; returns the exit status (128 + signal when killed) and keeps stderr in g_err. */
+static int hs(long fail_after, const char *const *args)
+{
+    char errfile[PATH_MAX + 16];
+    snprintf(errfile, sizeof errfile, "%s/.stderr", g_dir);
+    pid_t pid = fork();
+    assert_true(pid >= 0);
+    if (pid == 0) {
+        int fd = open(errfile, O_WRONLY | O_CREAT | O_TRUNC, 0644);
+        int null = open("/dev/null", O_WRONLY);
+        if (fd < 0 || null < 0)
+            _exit(127);
+        dup2(fd, 2);
+        dup2(null, 1);
+        if (fail_after >= 0) {
+            char v[32];
+            snprintf(v, sizeof v, "%ld", fail_after);
+            setenv("FLEETSIM_FAIL_WRITE_AFTER", v, 1);
+        }
+        execv(g_bin, (char *const *)args);
+        _exit(127);
+    }
+    int st = 0;
+    assert_int_equal(waitpid(pid, &st, 0), pid);
+    FILE *f = fopen(errfile, "r");
+    assert_non_null(f);
+    size_t n = fread(g_err, 1, sizeof g_err - 1, f);
+    g_err[n] = '\0';
+    fclose(f);
+    unlink(errfile);
+    return WIFEXITED(st) ? WEXITSTATUS(st) : 128 + WTERMSIG(st);
+}
+
+#define HS(fail, ...) hs((fail), (const char *const[]){"host_sim", __VA_ARGS__, NULL})
+/* A run that must succeed; on failure its stderr is shown. */
+#define HS_OK(...)                                                                           \
+    do {                                                                                     \
+        int rc_ = HS(-1, __VA_ARGS__);                                                       \
+        if (rc_ != 0)                                                                        \
+            fail_msg("host_sim exited %d:\n%s", rc_, g_err);                                 \
+    } while (0)
+
+static void path_in(char *out, const char *name)
+{
+    assert_true(strlen(name) < 64);
+    snprintf(out, PATH_MAX, "%.1023s/%.63s", g_dir, name);
+}
+
+/* The bytes of a file (malloc'd; *n its size), NULL when it does not exist. */
+static uint8_t *slurp(const char *p, size_t *n)
+{
+    FILE *f = fopen(p, "rb");
+    if (f == NULL)
+        return NULL;
+    fseek(f, 0, SEEK_END);
+    long sz = ftell(f);
+    fseek(f, 0, SEEK_SET);
+    uint8_t *b = malloc((size_t)sz + 1);
+    assert_non_null(b);
+    assert_int_equal(fread(b, 1, (size_t)sz, f), (size_t)sz);
+    fclose(f);
+    *n = (size_t)sz;
+    return b;
+}
+
+/* A snapshot of every file directly in a folder: names and bytes. */
+typedef struct {
+    int n;
+    char name[64][300];
+    uint8_t *data[64];
+    size_t len[64];
+} snap_t;
+
+static void snap_take(snap_t *s, const char *dir)
+{
+    memset(s, 0, sizeof *s);
+    char cmd[PATH_MAX + 32];
+    snprintf(cmd, sizeof cmd, "ls -A '%s'", dir);
+    FILE *p = popen(cmd, "r");
+    assert_non_null(p);
+    char line[300];
+    while (fgets(line, sizeof line, p) && s->n < 64) {
+        line[strcspn(line, "\n")] = '\0';
+        char full[PATH_MAX + 300];
+        snprintf(full, sizeof full, "%s/%s", dir, line);
+        if (strlen(line) >= sizeof s->name[0])
+            continue;
+        struct stat st;
+        if (stat(full, &st) != 0 || !S_ISREG(st.st_mode))
+            continue;
+        snprintf(s->name[s->n], sizeof s->name[0], "%s", line);
+        s->data[s->n] = slurp(full, &s->len[s->n]);
+        s->n++;
+    }
+    pclose(p);
+}
+
+/* Every file of the snapshot is still there, byte for byte, and no temporary file is left. */
+static void snap_check(const snap_t *s, const char *dir)
+{
+    for (int i = 0; i < s->n; i++) {
+        char full[PATH_MAX + 300];
+        snprintf(full, sizeof full, "%s/%s", dir, s->name[i]);
+        size_t n = 0;
+        uint8_t *now = slurp(full, &n);
+        if (now == NULL || n != s->len[i] || memcmp(now, s->data[i], n) != 0)
+            fail_msg("%s changed or vanished", full);
+        free(now);
+    }
+    char cmd[PATH_MAX + 64];
+    snprintf(cmd, sizeof cmd, "ls -A '%s' | grep -c 'fstmp$'", dir);
+    FILE *p = popen(cmd, "r");
+    int left = -1;
+    assert_int_equal(fscanf(p, "%d", &left), 1);
+    pclose(p);
+    if (left != 0)
+        fail_msg("%d temporary file(s) left in %s", left, dir);
+}
+
+static void snap_free(snap_t *s)
+{
+    for (int i = 0; i < s->n; i++)
+        free(s->data[i]);
+}
+
+static void expect_err(const char *a, const char *b)
+{
+    if (strstr(g_err, a) == NULL || (b != NULL && strstr(g_err, b) == NULL))
+        fail_msg("stderr lacks '%s'%s%s:\n%s", a, b ? " / " : "", b ? b : "", g_err);
+}
+
+static int setup(void **st)
+{
+    (void)st;
+    char self[SHORT_PATH - 16];
+    ssize_t n = readlink("/proc/self/exe", self, sizeof self - 1);
+    assert_true(n > 0);
+    self[n] = '\0';
+    /* build/<config>/tests/app/test_outputs -> build/<config>/bin/host_sim */
+    char *cut = strstr(self, "/tests/app/");
+    assert_non_null(cut);
+    *cut = '\0';
+    snprintf(g_bin, sizeof g_bin, "%s/bin/host_sim", self);
+    snprintf(g_dir, sizeof g_dir, "/tmp/fleetsim-outputs-XXXXXX");
+    assert_non_null(mkdtemp(g_dir));
+    assert_non_null(realpath("host_sim/plans/apartment.svg", g_plan));
+    assert_non_null(realpath("host_sim/plans/apartment", g_paths));
+    assert_true(strlen(g_plan) < SHORT_PATH && strlen(g_paths) < SHORT_PATH);
+    return 0;
+}
+
+static int teardown(void **st)
+{
+    (void)st;
+    char cmd[PATH_MAX + 16];
+    snprintf(cmd, sizeof cmd, "rm -rf '%s'", g_dir);
+    return system(cmd) == 0 ? 0 : -1;
+}
+
+/* The files commands write into g_dir, from one good run each. */
+static void good_outputs(void)
+{
+    char p[PATH_MAX], q[PATH_MAX];
+    path_in(p, "good.samples");
+    char r2[PATH_MAX + 32];
+    snprintf(r2, sizeof r2, "%s/robot_2.csv", g_paths);
+    HS_OK("scan", "--plan", g_plan, "--path", r2, "--out", p, "-q");
+    path_in(p, "v.samples");
+    HS_OK("valset", "--plan", g_plan, "--out", p, "--poses", "3");
+    path_in(p, "p.svg");
+    HS_OK("plan", "gen", "--seed", "3", "--out", p);
+    path_in(p, "g.png");
+    HS_OK("plan", "grid", g_plan, "--res", "0.2", "--out", p);
+    path_in(p, "scene.png");
+    HS_OK("render", "--plan", g_plan, "--out", p);
+    path_in(p, "tours");
+    HS_OK("paths", "gen", "--plan", g_plan, "--robots", "2", "--seed", "1", "--out", p);
+    path_in(p, "fleet");
+    path_in(q, "v.samples");
+    HS_OK("fleet", "--inproc", "--plan", g_plan, "--paths", g_paths, "--robots", "2",
+                        "--rounds", "2", "--strategy", "kl", "--graph", "full", "--seed", "1", "--out", p,
+                        "--valset", q, "--mc", "2", "--map-res", "0.2");
+    path_in(p, "run");
+    HS_OK("run", "--plan", g_plan, "--path", r2, "--out", p, "--online", "--rounds", "2",
+                        "--steps-per-round", "5", "--val-poses", "2", "--mc", "2", "--map-res", "0.2", "--quiet");
+}
+
+static void test_full_disk_keeps_every_earlier_output(void **st)
+{
+    (void)st;
+    good_outputs();
+    char p[PATH_MAX], q[PATH_MAX], fleet[PATH_MAX], run[PATH_MAX], tours[PATH_MAX], r2[PATH_MAX + 32];
+    snprintf(r2, sizeof r2, "%s/robot_2.csv", g_paths);
+    path_in(fleet, "fleet");
+    path_in(run, "run");
+    path_in(tours, "tours");
+    snap_t top, sf, sr, st2;
+    snap_take(&top, g_dir);
+    snap_take(&sf, fleet);
+    snap_take(&sr, run);
+    snap_take(&st2, tours);
+    assert_true(top.n == 5 && sf.n == 4 && sr.n == 10 && st2.n == 2); /* what good_outputs() wrote */
+    /* A disk that takes 100 more bytes, then no more: every writer must fail whole. */
+    const long room = 100;
+    path_in(p, "good.samples");
+    assert_int_equal(HS(room, "scan", "--plan", g_plan, "--path", r2, "--out", p, "-q"), 1);
+    expect_err(p, "No space left on device");
+    path_in(p, "v.samples");
+    assert_int_equal(HS(room, "valset", "--plan", g_plan, "--out", p, "--poses", "3"), 1);
+    expect_err(p, "No space left on device");
+    path_in(p, "p.svg");
+    assert_int_equal(HS(room, "plan", "gen", "--seed", "4", "--out", p), 1);
+    expect_err(p, "No space left on device");
+    path_in(p, "g.png");
+    assert_true(HS(room, "plan", "grid", g_plan, "--res", "0.1", "--out", p) != 0);
+    expect_err(p, "No space left on device");
+    path_in(p, "scene.png");
+    assert_true(HS(room, "render", "--plan", g_plan, "--out", p) != 0);
+    expect_err(p, "No space left on device");
+    assert_true(HS(room, "paths", "gen", "--plan", g_plan, "--robots", "2", "--seed", "2", "--out", tours) != 0);
+    expect_err(tours, "No space left on device");
+    path_in(q, "v.samples");
+    assert_true(HS(room, "fleet", "--inproc", "--plan", g_plan, "--paths", g_paths, "--robots", "2", "--rounds",
+                   "3", "--strategy", "kl", "--graph", "full", "--seed", "2", "--out", fleet, "--valset", q,
+                   "--mc", "2", "--map-res", "0.2") != 0);
+    expect_err(fleet, "No space left on device");
+    assert_true(HS(room, "run", "--plan", g_plan, "--path", r2, "--out", run, "--online", "--rounds", "2",
+                   "--steps-per-round", "5", "--val-poses", "2", "--mc", "2", "--map-res", "0.2", "--seed", "2",
+                   "--quiet") != 0);
+    expect_err(run, "No space left on device");
+    snap_check(&top, g_dir);
+    snap_check(&sf, fleet);
+    snap_check(&sr, run);
+    snap_check(&st2, tours);
+    snap_free(&top);
+    snap_free(&sf);
+    snap_free(&sr);
+    snap_free(&st2);
+}
+
+static void test_stopped_or_rejected_run_keeps_earlier_output(void **st)
+{
+    (void)st;
+    good_outputs();
+    char p[PATH_MAX], fleet[PATH_MAX], r2[PATH_MAX + 32], bad[PATH_MAX + 32], sdir[PATH_MAX];
+    snprintf(r2, sizeof r2, "%s/robot_2.csv", g_paths);
+    snap_t top;
+    snap_take(&top, g_dir);
+    /* Stopped early: the path is not finished within --max-time. */
+    path_in(p, "good.samples");
+    assert_int_equal(HS(-1, "scan", "--plan", g_plan, "--path", r2, "--out", p, "--max-time", "1", "-q"), 1);
+    expect_err("path not finished", NULL);
+    /* Input rejected half-way: robot 1's training samples are corrupt after robot 0's were read. */
+    path_in(sdir, "bad_samples");
+    assert_int_equal(mkdir(sdir, 0755), 0);
+    path_in(p, "good.samples");
+    snprintf(bad, sizeof bad, "%s/robot_0.samples", sdir);
+    assert_int_equal(link(p, bad), 0);
+    snprintf(bad, sizeof bad, "%s/robot_1.samples", sdir);
+    FILE *f = fopen(bad, "wb");
+    fputs("FLEETSMP but not really", f);
+    fclose(f);
+    path_in(fleet, "fleet");
+    snap_t sf;
+    snap_take(&sf, fleet);
+    assert_int_equal(HS(-1, "fleet", "--inproc", "--plan", g_plan, "--paths", g_paths, "--robots", "2", "--rounds",
+                        "2", "--strategy", "kl", "--graph", "full", "--seed", "1", "--out", fleet, "--samples",
+                        sdir),
+                     1);
+    expect_err(bad, NULL);
+    snap_check(&top, g_dir);
+    snap_check(&sf, fleet);
+    snap_free(&top);
+    snap_free(&sf);
+}
+
+static void test_out_that_is_not_ours(void **st)
+{
+    (void)st;
+    char p[PATH_MAX], r2[PATH_MAX + 32];
+    snprintf(r2, sizeof r2, "%s/robot_2.csv", g_paths);
+    /* A directory where a file is written. */
+    path_in(p, "a_dir");
+    assert_int_equal(mkdir(p, 0755), 0);
+    assert_int_equal(HS(-1, "scan", "--plan", g_plan, "--path", r2, "--out", p, "-q"), 1);
+    expect_err(p, "Is a directory");
+    assert_int_equal(HS(-1, "plan", "gen", "--seed", "3", "--out", p), 1);
+    expect_err(p, "Is a directory");
+    /* A regular file where a directory is written. */
+    path_in(p, "a_file");
+    FILE *f = fopen(p, "w");
+    fputs("mine\n", f);
+    fclose(f);
+    assert_true(HS(-1, "paths", "gen", "--plan", g_plan, "--robots", "2", "--seed", "1", "--out", p) != 0);
+    expect_err(p, "Not a directory");
+    size_t n = 0;
+    uint8_t *b = slurp(p, &n);
+    assert_true(b != NULL && n == 5 && memcmp(b, "mine\n", 5) == 0);
+    free(b);
+    /* A device: refused, and still there afterwards (running as root must not remove it). */
+    const char *dev = access("/dev/full", F_OK) == 0 ? "/dev/full" : "/dev/null";
+    assert_int_equal(HS(-1, "scan", "--plan", g_plan, "--path", r2, "--out", dev, "-q"), 1);
+    expect_err(dev, "exists and is not a regular file");
+    assert_int_equal(HS(-1, "valset", "--plan", g_plan, "--out", dev, "--poses", "2"), 1);
+    expect_err(dev, "exists and is not a regular file");
+    struct stat sb;
+    assert_int_equal(stat(dev, &sb), 0);
+    assert_true(S_ISCHR(sb.st_mode));
+    /* A path too long for the system. */
+    char longp[5200];
+    int k = snprintf(longp, sizeof longp, "%s/", g_dir);
+    memset(longp + k, 'x', 5000);
+    longp[k + 5000] = '\0';
+    assert_int_equal(HS(-1, "scan", "--plan", g_plan, "--path", r2, "--out", longp, "-q"), 1);
+    expect_err("File name too long", NULL);
+    assert_true(HS(-1, "fleet", "--inproc", "--plan", g_plan, "--paths", g_paths, "--robots", "1", "--rounds", "1",
+                   "--strategy", "kl", "--graph", "full", "--seed", "1", "--out", longp) != 0);
+    expect_err("File name too long", NULL);
+}
+
+static void test_inputs_and_options(void **st)
+{
+    (void)st;
+    char p[PATH_MAX], q[PATH_MAX], r2[PATH_MAX + 32];
+    snprintf(r2, sizeof r2, "%s/robot_2.csv", g_paths);
+    /* Directories given as input files. */
+    assert_int_equal(HS(-1, "scan", "--plan", g_dir, "--path", r2, "--out", "x.samples"), 1);
+    expect_err(g_dir, "Is a directory");
+    assert_int_equal(HS(-1, "paths", "check", "--plan", g_plan, g_dir), 1);
+    expect_err(g_dir, "Is a directory");
+    path_in(p, "f");
+    assert_true(HS(-1, "fleet", "--inproc", "--plan", g_plan, "--paths", g_paths, "--robots", "1", "--rounds", "1",
+                   "--strategy", "kl", "--graph", "full", "--seed", "1", "--out", p, "--valset", g_dir) != 0);
+    expect_err(g_dir, "Is a directory");
+    /* An unknown option given last is unknown, not "needs a value". */
+    assert_int_equal(HS(-1, "scan", "--plan", g_plan, "--bogus"), 2);
+    expect_err("unknown option '--bogus'", NULL);
+    assert_int_equal(HS(-1, "fleet", "--inproc", "--bogus"), 2);
+    expect_err("unknown option '--bogus'", NULL);
+    assert_int_equal(HS(-1, "scan", "--plan", g_plan, "--out"), 2);
+    expect_err("option --out needs a value", NULL);
+    /* A validation set of another plan: a clear error, no crash (was a double free). */
+    path_in(p, "other.svg");
+    HS_OK("plan", "gen", "--seed", "3", "--out", p);
+    path_in(q, "other.samples");
+    HS_OK("valset", "--plan", p, "--out", q, "--poses", "5");
+    path_in(p, "f2");
+    assert_int_equal(HS(-1, "fleet", "--inproc", "--plan", g_plan, "--paths", g_paths, "--robots", "1", "--rounds",
+                        "1", "--strategy", "kl", "--graph", "full", "--seed", "1", "--out", p, "--valset", q),
+                     1);
+    expect_err(q, "its bounding box is not the plan's");
+}
+
+static void test_out_parents_and_stale_temporaries(void **st)
+{
+    (void)st;
+    char p[PATH_MAX], f[PATH_MAX + 64], r2[PATH_MAX + 32];
+    snprintf(r2, sizeof r2, "%s/robot_2.csv", g_paths);
+    path_in(p, "a/b/c");
+    HS_OK("paths", "gen", "--plan", g_plan, "--robots", "2", "--seed", "1", "--out", p);
+    snprintf(f, sizeof f, "%s/robot_1.csv", p);
+    assert_int_equal(access(f, R_OK), 0);
+    path_in(p, "d/e/scan.samples");
+    HS_OK("scan", "--plan", g_plan, "--path", r2, "--out", p, "--max-time", "1000", "-q");
+    assert_int_equal(access(p, R_OK), 0);
+    /* A killed run's temporary files (a PID that cannot be alive) are cleared by the next run
+       in that folder; files that are not ours stay. */
+    path_in(p, "r");
+    assert_int_equal(mkdir(p, 0755), 0);
+    const char *names[] = {".metrics.csv.2147483646.fstmp", ".round_0001.bnn.tmp", "notes.txt", ".hidden"};
+    for (int i = 0; i < 4; i++) {
+        snprintf(f, sizeof f, "%s/%s", p, names[i]);
+        FILE *o = fopen(f, "w");
+        fputs("x", o);
+        fclose(o);
+    }
+    HS_OK("run", "--plan", g_plan, "--path", r2, "--out", p, "--online", "--rounds", "1",
+                        "--steps-per-round", "2", "--val-poses", "2", "--mc", "2", "--map-res", "0.2", "--quiet");
+    for (int i = 0; i < 4; i++) {
+        snprintf(f, sizeof f, "%s/%s", p, names[i]);
+        assert_int_equal(access(f, F_OK) == 0, i >= 2);
+    }
+}
+
+int main(void)
+{
+    const struct CMUnitTest tests[] = {
+        cmocka_unit_test(test_full_disk_keeps_every_earlier_output),
+        cmocka_unit_test(test_stopped_or_rejected_run_keeps_earlier_output),
+        cmocka_unit_test(test_out_that_is_not_ours),
+        cmocka_unit_test(test_inputs_and_options),
+        cmocka_unit_test(test_out_parents_and_stale_temporaries),
+    };
+    return cmocka_run_group_tests_name("app/outputs", tests, setup, teardown);
+}
