@@ -63,7 +63,9 @@ void sim_path_free(sim_path_t *path)
     if (path == NULL)
         return;
     free(path->p);
+    free(path->line);
     path->p = NULL;
+    path->line = NULL;
     path->n = 0;
     path->start_room = -1;
 }
@@ -163,6 +165,33 @@ double sim_path_min_clearance(const sim_plan_t *plan, const sim_path_t *path)
         }
     }
     return m;
+}
+
+int sim_path_first_tight_segment(const sim_plan_t *plan, const sim_path_t *path, double clearance_m, int *seg,
+                                 double *dist_m)
+{
+    if (plan == NULL || path == NULL)
+        return 0;
+    for (int i = 0; i + 1 < path->n; i++) {
+        double m = INFINITY;
+        for (int s = 0; s < plan->n_solids && m >= clearance_m; s++) {
+            const sim_poly_t *o = &plan->solids[s].outline;
+            if (sim_poly_contains(o, path->p[i].x, path->p[i].y)) {
+                m = 0.0;
+                break;
+            }
+            for (int k = 0; k < o->n; k++)
+                m = fmin(m, seg_seg_dist(path->p[i], path->p[i + 1], o->p[k], o->p[(k + 1) % o->n]));
+        }
+        if (m < clearance_m) {
+            if (seg)
+                *seg = i;
+            if (dist_m)
+                *dist_m = m;
+            return 1;
+        }
+    }
+    return 0;
 }
 
 /* ---- traversability --------------------------------------------------------------------- */
@@ -621,6 +650,7 @@ int sim_paths_generate(const sim_plan_t *plan, const sim_paths_cfg_t *cfg, sim_p
     for (int r = 0; r < N; r++) {
         paths[r].n = 0;
         paths[r].p = NULL;
+        paths[r].line = NULL;
         paths[r].start_room = -1;
     }
     planner_t pl = {.plan = plan, .need = cfg->clearance_m + cfg->res_m};
@@ -819,8 +849,10 @@ static int line_of_sight(const sim_grid_t *g, double x0, double y0, double x1, d
     return 1;
 }
 
-static void cover_from(const sim_grid_t *g, uint8_t *covered, double x, double y, double range)
+/* Marks the FREE cells seen from (x, y) within range; returns how many were new. */
+static size_t cover_from(const sim_grid_t *g, uint8_t *covered, double x, double y, double range)
 {
+    size_t added = 0;
     int rad = (int)ceil(range / g->res) + 1, pc, pr;
     (void)sim_grid_world_to_cell(g, x, y, &pc, &pr);
     for (int r = pr - rad; r <= pr + rad; r++)
@@ -834,9 +866,12 @@ static void cover_from(const sim_grid_t *g, uint8_t *covered, double x, double y
             sim_grid_cell_centre(g, c, r, &cx, &cy);
             if (hypot(cx - x, cy - y) > range)
                 continue;
-            if (line_of_sight(g, x, y, cx, cy))
+            if (line_of_sight(g, x, y, cx, cy)) {
                 covered[i] = 1;
+                added++;
+            }
         }
+    return added;
 }
 
 double sim_paths_coverage(const sim_grid_t *grid, const sim_path_t *paths, int n, double range_m)
@@ -844,31 +879,37 @@ double sim_paths_coverage(const sim_grid_t *grid, const sim_path_t *paths, int n
     if (grid == NULL || grid->cells == NULL || paths == NULL || n <= 0 || !(range_m > 0))
         return 0.0;
     size_t ncell = (size_t)grid->w * (size_t)grid->h;
-    uint8_t *covered = calloc(ncell, 1);
-    if (covered == NULL)
+    uint8_t *covered = calloc(ncell, 1), *sourced = calloc(ncell, 1);
+    if (covered == NULL || sourced == NULL) {
+        free(covered);
+        free(sourced);
         return -1.0;
-    for (int k = 0; k < n; k++) {
+    }
+    size_t free_cells = 0;
+    for (size_t i = 0; i < ncell; i++)
+        free_cells += grid->cells[i] == SIM_CELL_FREE;
+    size_t hit = 0;
+    for (int k = 0; k < n && hit < free_cells; k++) {
         const sim_path_t *p = &paths[k];
-        for (int i = 0; i < p->n; i++) {
-            if (i + 1 == p->n) {
-                cover_from(grid, covered, p->p[i].x, p->p[i].y, range_m);
-                break;
-            }
-            double dx = p->p[i + 1].x - p->p[i].x, dy = p->p[i + 1].y - p->p[i].y;
-            int steps = (int)ceil(hypot(dx, dy) / COVER_STEP_M);
+        for (int i = 0; i < p->n && hit < free_cells; i++) {
+            const int last = i + 1 == p->n;
+            double dx = last ? 0 : p->p[i + 1].x - p->p[i].x, dy = last ? 0 : p->p[i + 1].y - p->p[i].y;
+            int steps = last ? 1 : (int)ceil(hypot(dx, dy) / COVER_STEP_M);
             for (int s = 0; s < steps; s++) {
-                double t = (double)s / steps;
-                cover_from(grid, covered, p->p[i].x + t * dx, p->p[i].y + t * dy, range_m);
+                double t = (double)s / steps, x = p->p[i].x + t * dx, y = p->p[i].y + t * dy;
+                int c, r;
+                if (sim_grid_world_to_cell(grid, x, y, &c, &r) == 0) {
+                    uint8_t *src = &sourced[(size_t)r * (size_t)grid->w + (size_t)c];
+                    if (*src) /* a place seen from already (a tour passing again) */
+                        continue;
+                    *src = 1;
+                }
+                hit += cover_from(grid, covered, x, y, range_m);
             }
         }
     }
-    size_t free_cells = 0, hit = 0;
-    for (size_t i = 0; i < ncell; i++)
-        if (grid->cells[i] == SIM_CELL_FREE) {
-            free_cells++;
-            hit += covered[i];
-        }
     free(covered);
+    free(sourced);
     return free_cells ? (double)hit / (double)free_cells : 0.0;
 }
 
@@ -927,9 +968,11 @@ int sim_path_parse_csv(const char *text, const char *name, const sim_plan_t *pla
         return -EINVAL;
     path->n = 0;
     path->p = NULL;
+    path->line = NULL;
     path->start_room = -1;
     if (name == NULL)
         name = "<memory>";
+    int line_cap = 0;
     if (text == NULL || plan == NULL)
         return errf(err, errlen, "%s:0: no text or no plan", name);
     int cap = 0, line = 0, header = 0, rc = 0;
@@ -979,7 +1022,19 @@ int sim_path_parse_csv(const char *text, const char *name, const sim_plan_t *pla
                       cls == SIM_CELL_WALL ? "inside a wall" : "outside the plan's rooms");
             break;
         }
+        const int before = path->n;
         rc = push_point(path, &cap, x, y);
+        if (rc == 0 && path->n > before) {
+            if (path->n > line_cap) {
+                int *nl = realloc(path->line, (size_t)cap * sizeof *nl);
+                if (nl == NULL)
+                    rc = -ENOMEM;
+                else
+                    path->line = nl, line_cap = cap;
+            }
+            if (rc == 0)
+                path->line[path->n - 1] = line;
+        }
         if (rc == -E2BIG)
             errf(err, errlen, "%s:%d: more than %d waypoints", name, line, SIM_PATH_MAX_POINTS);
         else if (rc == -ENOMEM)
@@ -992,6 +1047,11 @@ int sim_path_parse_csv(const char *text, const char *name, const sim_plan_t *pla
     if (rc == 0 && path->n < 2)
         rc = errf(err, errlen, "%s:%d: %d distinct waypoint%s, at least 2 needed", name, line, path->n,
                   path->n == 1 ? "" : "s");
+    /* Free waypoints are not enough: a segment between two of them may cross a wall. */
+    int seg = -1;
+    if (rc == 0 && sim_path_first_tight_segment(plan, path, 1e-9, &seg, NULL))
+        rc = errf(err, errlen, "%s:%d: the segment (%g, %g) -> (%g, %g) crosses a wall", name,
+                  path->line[seg + 1], path->p[seg].x, path->p[seg].y, path->p[seg + 1].x, path->p[seg + 1].y);
     if (rc != 0)
         sim_path_free(path);
     return rc;
@@ -1003,6 +1063,7 @@ int sim_path_read_csv(const char *file, const sim_plan_t *plan, sim_path_t *path
         return -EINVAL;
     path->n = 0;
     path->p = NULL;
+    path->line = NULL;
     path->start_room = -1;
     if (file == NULL)
         return errf(err, errlen, "(null):0: no file name");

@@ -32,6 +32,7 @@ typedef struct sim_path {
     int n;          /* waypoints */
     sim_vec2_t *p;  /* n waypoints, metres */
     int start_room; /* index into plan->rooms of the start room; -1 when read from a file */
+    int *line;      /* CSV line of each waypoint when read from a file, else NULL */
 } sim_path_t;
 
 typedef struct sim_paths_cfg {
@@ -78,9 +79,17 @@ int sim_path_parse_csv(const char *text, const char *name, const sim_plan_t *pla
  * is inside a solid). Exact segment-polygon geometry. */
 double sim_path_min_clearance(const sim_plan_t *plan, const sim_path_t *path);
 
+/* The first segment (i -> i+1) of the polyline that comes closer than clearance_m to a solid
+ * (crossing one counts as 0 m), its index in *seg and its clearance in *dist_m: 1; 0 when every
+ * point of every segment keeps clearance_m. Exact geometry, cost O(segments x solid edges). */
+int sim_path_first_tight_segment(const sim_plan_t *plan, const sim_path_t *path, double clearance_m, int *seg,
+                                 double *dist_m);
+
 /* Fraction (0..1) of the grid's FREE cells whose centre is within range_m of a point of
- * some path (points sampled every res/2 along the segments) with a line of sight that
- * crosses no WALL cell. */
+ * some path (points sampled every 0.2 m along the segments) with a line of sight that
+ * crosses no WALL cell. A sample point in a grid cell that an earlier sample point already
+ * occupied adds nothing (tours that pass a place again cost nothing more), and the sweep
+ * stops once every FREE cell is covered. Negative on allocation failure. */
 double sim_paths_coverage(const sim_grid_t *grid, const sim_path_t *paths, int n, double range_m);
 
 /* Index of the room containing (x, y), or -1. */

@@ -23,9 +23,10 @@ static void paths_usage(FILE *out)
             "      DIR/robot_<i>.csv (header x_m,y_m); prints waypoints, length and start room per\n"
             "      robot, the clearance kept and the coverage of the free cells (line of sight\n"
             "      within 1.5 m and 3.5 m); --png draws the ground truth with the tours\n"
-            "  host_sim paths check --plan FILE [--scale S] [--png FILE.png] CSV...\n"
-            "      validate waypoint files against the plan (FILE:LINE: reason on error) and print\n"
-            "      the same figures\n"
+            "  host_sim paths check --plan FILE [--clearance M] [--scale S] [--png FILE.png] CSV...\n"
+            "      validate waypoint files against the plan and print the same figures; exit 1 with\n"
+            "      FILE:LINE: reason when a waypoint is not free or a segment comes closer than\n"
+            "      --clearance to a wall (LINE: the waypoint the segment ends at)\n"
             "\n"
             "  defaults: --clearance 0.2 (TurtleBot3 burger radius 0.105 m + margin), --res 0.05,\n"
             "            --sweep 1.0 (spacing of the sweep goals in each room), --scale %g\n",
@@ -245,6 +246,9 @@ static int paths_check(int argc, char **argv)
 {
     const char *plan_file = NULL, *png = NULL;
     double scale = SIM_PLAN_DEFAULT_SCALE;
+    sim_paths_cfg_t defaults;
+    sim_paths_cfg_default(&defaults);
+    double clearance = defaults.clearance_m;
     int first_csv = -1;
     for (int i = 1; i < argc; i++) {
         const char *o = argv[i];
@@ -270,6 +274,9 @@ static int paths_check(int argc, char **argv)
             png = v;
         else if (strcmp(o, "--scale") == 0) {
             if (cmd_parse_double(v, o, 1e-6, 100.0, &scale) != 0)
+                return 2;
+        } else if (strcmp(o, "--clearance") == 0) {
+            if (cmd_parse_double(v, o, 0.0, 10.0, &clearance) != 0)
                 return 2;
         } else {
             fprintf(stderr, "host_sim paths check: unknown option '%s'\n", o);
@@ -300,6 +307,20 @@ static int paths_check(int argc, char **argv)
             fprintf(stderr, "%s\n", err);
             goto done;
         }
+    /* Every point of every segment, not only the waypoints: the robot drives the segments. */
+    for (int k = 0; k < n; k++) {
+        int seg = -1;
+        double d = 0.0;
+        if (sim_path_first_tight_segment(&plan, &paths[k], clearance, &seg, &d)) {
+            const sim_path_t *p = &paths[k];
+            fprintf(stderr,
+                    "%s:%d: the segment (%.3f, %.3f) -> (%.3f, %.3f) passes %.3f m from a wall; the robot "
+                    "needs %.3f m (--clearance)\n",
+                    argv[first_csv + k], p->line ? p->line[seg + 1] : 0, p->p[seg].x, p->p[seg].y,
+                    p->p[seg + 1].x, p->p[seg + 1].y, d, clearance);
+            goto done;
+        }
+    }
     if (sim_grid_from_plan(&plan, 0.05, &g) != 0) {
         fprintf(stderr, "host_sim paths check: cannot rasterise the plan\n");
         goto done;

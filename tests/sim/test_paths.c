@@ -156,7 +156,7 @@ static void test_csv_round_trip(void **state)
 {
     (void)state;
     sim_path_t a = {0}, b = {0};
-    sim_vec2_t pts[3] = {{1.0, 1.0}, {2.5, 1.25}, {6.0, 4.4}};
+    sim_vec2_t pts[3] = {{0.575, 0.475}, {2.5, 1.25}, {3.575, 0.475}}; /* inside the living room */
     a.n = 3;
     a.p = pts;
     char dir[] = "/tmp/test_paths_XXXXXX", file[64], err[256];
@@ -191,6 +191,37 @@ static void expect_csv_error(const char *text, int line, const char *what)
     assert_int_equal(p.n, 0);
 }
 
+/* Free waypoints are not enough: every segment is checked against the walls (a tour from
+ * the living room straight up through the hall wall used to pass with "min clearance 0"). */
+static void test_segments_through_walls(void **state)
+{
+    (void)state;
+    expect_csv_error("x_m,y_m\n0.575,0.475\n0.575,8.4\n11.4,8.4\n", 3, "crosses a wall");
+    expect_csv_error("x_m,y_m\n# first\n0.575,0.475\n1.575,0.475\n\n0.575,8.4\n", 6, "crosses a wall");
+    /* Close to a wall but not through it: read fine; the tight segment is found with its
+       clearance, and the committed tours keep the generator's 0.2 m everywhere. */
+    sim_path_t p;
+    char err[256];
+    assert_int_equal(sim_path_parse_csv("x_m,y_m\n0.575,0.475\n1.5,0.475\n1.5,0.3\n", "r.csv", &plan, &p, err,
+                                        sizeof err),
+                     0);
+    int seg = -1;
+    double d = -1;
+    assert_int_equal(sim_path_first_tight_segment(&plan, &p, 0.2, &seg, &d), 1);
+    assert_int_equal(seg, 1);
+    assert_int_equal(p.line[seg + 1], 4);
+    assert_true(d > 0.05 && d < 0.2);
+    assert_int_equal(sim_path_first_tight_segment(&plan, &p, 0.05, &seg, &d), 0);
+    sim_path_free(&p);
+    for (int r = 0; r < 7; r++) {
+        char file[64];
+        snprintf(file, sizeof file, "host_sim/plans/apartment/robot_%d.csv", r);
+        assert_int_equal(sim_path_read_csv(file, &plan, &p, err, sizeof err), 0);
+        assert_int_equal(sim_path_first_tight_segment(&plan, &p, 0.2, &seg, &d), 0);
+        sim_path_free(&p);
+    }
+}
+
 static void test_csv_validation(void **state)
 {
     (void)state;
@@ -222,6 +253,7 @@ int main(void)
         cmocka_unit_test(test_committed_paths),
         cmocka_unit_test(test_csv_round_trip),
         cmocka_unit_test(test_csv_validation),
+        cmocka_unit_test(test_segments_through_walls),
     };
     return cmocka_run_group_tests(tests, setup, teardown);
 }

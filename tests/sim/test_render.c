@@ -34,7 +34,7 @@ static void test_render_image(void **st)
     sim_room_t room;
     scene_box(&p, s, &room);
     sim_vec2_t pts[3] = {{0.5, 0.5}, {3.5, 0.5}, {3.5, 2.5}};
-    sim_path_t path = {3, pts, -1};
+    sim_path_t path = {3, pts, -1, NULL};
     sim_pose_t robot = {0.5, 0.5, 0.0};
     double ranges[36];
     for (int i = 0; i < 36; i++)

@@ -43,7 +43,7 @@ static void run(uint64_t seed, const char *out, sim_scan_stats_t *st, int expect
     sim_solid_t s[4];
     sim_room_t room;
     tu_box_room(&p, s, &room, 4.0, 3.0, 0);
-    sim_path_t path = {4, wp, -1};
+    sim_path_t path = {4, wp, -1, NULL};
     sim_scan_cfg_t c = sim_scan_default_cfg();
     c.seed = seed;
     c.dropout_p = 0.05;
@@ -127,7 +127,7 @@ static void test_scan_errors(void **state)
     sim_plan_t p;
     sim_solid_t s[4];
     tu_box_room(&p, s, NULL, 4.0, 3.0, 0);
-    sim_path_t path = {4, wp, -1};
+    sim_path_t path = {4, wp, -1, NULL};
     sim_scan_cfg_t c = sim_scan_default_cfg();
     sim_scan_stats_t st;
     char err[256];

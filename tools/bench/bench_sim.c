@@ -5,6 +5,11 @@
  *                                              one robot following host_sim/plans/apartment/
  *                                              robot_1.csv (firmware follower at 20 Hz, the
  *                                              tour driven forth and back), simulated s / wall s
+ *   BENCH paths_check_100k_waypoints_s <s> s   what `host_sim paths check` does (CSV parse with
+ *                                              the per-segment wall check, the 0.2 m clearance
+ *                                              check, min clearance, coverage within 1.5 and
+ *                                              3.5 m) for robot_1's tour driven forth and back
+ *                                              to 100,000 waypoints
  * The monotonic wall clock is used here only (never inside the simulation).
  * Usage: bench_sim [--plan P] [--path F] [--seconds S]   (S = simulated seconds, 2nd figure)
  * Comment lines (#) add the same figures on process CPU time, which other load on the core
@@ -17,6 +22,7 @@
 #include <time.h>
 
 #include "rt/rt_follow.h"
+#include "sim_grid.h"
 #include "sim_lidar.h"
 #include "sim_paths.h"
 #include "sim_plan.h"
@@ -191,6 +197,44 @@ int main(int argc, char **argv)
            "(insensitive to other load on the core)\n",
            t_scan, 1e6 * (t1 - t0 - t_scan) / (n_scans * steps_per_scan), simulated / cpu);
     printf("BENCH sim_realtime_factor_1robot %.1f x\n", simulated / (t1 - t0));
+
+    /* paths check on a long tour: 100,000 waypoints of the tour forth and back, as CSV. */
+    {
+        const int n_target = 100000;
+        size_t cap = (size_t)n_target * 32 + 64, len = 0;
+        char *csv = malloc(cap);
+        if (csv == NULL)
+            return 1;
+        len += (size_t)snprintf(csv, cap, "x_m,y_m\n");
+        for (int k = 0; k < n_target; k++) {
+            const int lap = k / (path.n - 1), j = k % (path.n - 1);
+            const int idx = lap % 2 == 0 ? j : path.n - 1 - j;
+            len += (size_t)snprintf(csv + len, cap - len, "%.3f,%.3f\n", path.p[idx].x, path.p[idx].y);
+        }
+        sim_grid_t g = {0};
+        if (sim_grid_from_plan(&plan, 0.05, &g) != 0)
+            return 1;
+        char perr[256];
+        sim_path_t big;
+        const double c0 = now_s();
+        if (sim_path_parse_csv(csv, "bench.csv", &plan, &big, perr, sizeof perr) != 0) {
+            fprintf(stderr, "bench_sim: %s\n", perr);
+            return 1;
+        }
+        int seg;
+        double dist;
+        const int tight = sim_path_first_tight_segment(&plan, &big, 0.2, &seg, &dist);
+        const double mc = sim_path_min_clearance(&plan, &big);
+        const double cov15 = sim_paths_coverage(&g, &big, 1, 1.5), cov35 = sim_paths_coverage(&g, &big, 1, 3.5);
+        const double c1 = now_s();
+        printf("# paths check: %d waypoints (%.0f m), tight segments %d, min clearance %.3f m, coverage "
+               "%.1f%% / %.1f%% within 1.5 / 3.5 m\n",
+               big.n, sim_path_length(&big), tight, mc, 100 * cov15, 100 * cov35);
+        printf("BENCH paths_check_100k_waypoints_s %.3f s\n", c1 - c0);
+        sim_path_free(&big);
+        sim_grid_free(&g);
+        free(csv);
+    }
     free(wps);
     sim_path_free(&path);
     sim_lidar_destroy(lid);
