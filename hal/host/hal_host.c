@@ -67,14 +67,6 @@ typedef struct host_core {
 struct hal_host {
     hal_host_config_t cfg;
     hal_board_t board;
-    hal_clock_ops_t clock_ops;
-    hal_core_ops_t core_ops;
-    hal_log_ops_t log_ops;
-    hal_lidar_ops_t lidar_ops;
-    hal_pose_ops_t pose_ops;
-    hal_motor_ops_t motor_ops;
-    hal_net_ops_t net_ops;
-    hal_storage_ops_t storage_ops;
 
     pthread_mutex_t mu;
     pthread_cond_t sched_cv;
@@ -435,6 +427,20 @@ static int op_st_remove(void *ctx, const char *name)
     return hal_host_storage_remove(((hal_host_t *)ctx)->storage, name);
 }
 
+/* The operation tables: read-only, one per interface (two for the motors: with and without
+ * twist), shared by every hal_host_t; the instance travels in the board's ctx. */
+static const hal_clock_ops_t host_clock_ops = {.now_us = op_now_us, .sleep_until_us = op_sleep_until_us};
+static const hal_core_ops_t host_core_ops = {
+    .start = op_core_start, .stack_high_water = op_stack_high_water, .self = op_core_self};
+static const hal_log_ops_t host_log_ops = {.vlog = op_vlog};
+static const hal_lidar_ops_t host_lidar_ops = {.read_scan = op_read_scan};
+static const hal_pose_ops_t host_pose_ops = {.read_pose = op_read_pose};
+static const hal_motor_ops_t host_motor_ops_wheels = {.set_wheels = op_set_wheels};
+static const hal_motor_ops_t host_motor_ops_twist = {.set_wheels = op_set_wheels, .set_twist = op_set_twist};
+static const hal_net_ops_t host_net_ops = {
+    .publish = op_net_publish, .subscribe = op_net_subscribe, .receive = op_net_receive, .stats = op_net_stats};
+static const hal_storage_ops_t host_storage_ops = {.write = op_st_write, .read = op_st_read, .remove = op_st_remove};
+
 /* ---- life cycle ------------------------------------------------------------------------- */
 static int config_error(const char *what)
 {
@@ -489,42 +495,28 @@ int hal_host_create(const hal_host_config_t *cfg, hal_host_t **out)
         return r;
     }
 
-    h->clock_ops = (hal_clock_ops_t){.now_us = op_now_us, .sleep_until_us = op_sleep_until_us};
-    h->core_ops = (hal_core_ops_t){.start = op_core_start,
-                                   .stack_high_water = op_stack_high_water,
-                                   .self = op_core_self};
-    h->log_ops = (hal_log_ops_t){.vlog = op_vlog};
     h->board.name = cfg->board_name != NULL ? cfg->board_name : BOARD_NAME;
     h->board.ctx = h;
-    h->board.clock = &h->clock_ops;
-    h->board.core = &h->core_ops;
-    h->board.log = &h->log_ops;
+    h->board.clock = &host_clock_ops;
+    h->board.core = &host_core_ops;
+    h->board.log = &host_log_ops;
     const hal_host_world_t *w = cfg->world;
     if (w != NULL && w->read_scan != NULL) {
-        h->lidar_ops.read_scan = op_read_scan;
-        h->board.lidar = &h->lidar_ops;
+        h->board.lidar = &host_lidar_ops;
     }
     if (w != NULL && w->read_pose != NULL) {
-        h->pose_ops.read_pose = op_read_pose;
-        h->board.pose = &h->pose_ops;
+        h->board.pose = &host_pose_ops;
     }
     if (w != NULL && w->set_wheels != NULL) {
-        h->motor_ops.set_wheels = op_set_wheels;
-        if (cfg->wheel_radius_m > 0.0f && cfg->wheel_separation_m > 0.0f)
-            h->motor_ops.set_twist = op_set_twist;
-        h->board.motor = &h->motor_ops;
+        /* Twist needs the wheel geometry; without it the board offers wheels only. */
+        const int twist = cfg->wheel_radius_m > 0.0f && cfg->wheel_separation_m > 0.0f;
+        h->board.motor = twist ? &host_motor_ops_twist : &host_motor_ops_wheels;
     }
     if (h->net != NULL) {
-        h->net_ops = (hal_net_ops_t){.publish = op_net_publish,
-                                     .subscribe = op_net_subscribe,
-                                     .receive = op_net_receive,
-                                     .stats = op_net_stats};
-        h->board.net = &h->net_ops;
+        h->board.net = &host_net_ops;
     }
     if (h->storage != NULL) {
-        h->storage_ops = (hal_storage_ops_t){
-            .write = op_st_write, .read = op_st_read, .remove = op_st_remove};
-        h->board.storage = &h->storage_ops;
+        h->board.storage = &host_storage_ops;
     }
     *out = h;
     return 0;
