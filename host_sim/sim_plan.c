@@ -434,9 +434,9 @@ static int open_group(reader_t *r, frame_t *f, const attr_t *cls)
         f->kind = FR_WALL;
         f->index = p->n_walls++;
     } else if (strcmp(first, "Door") == 0 || strcmp(first, "Window") == 0) {
+        /* Anywhere in the tree, as CubiCasa5K's loader finds them: nested in a Wall group the
+           opening belongs to that wall; elsewhere finish_plan() gives it the walls it overlaps. */
         int w = innermost_wall(r);
-        if (w < 0)
-            return fail(&r->e, f->line, "%s outside a Wall group", first);
         if (p->n_openings >= PLAN_MAX_ITEMS)
             return fail(&r->e, f->line, "too many openings (more than %d)", PLAN_MAX_ITEMS);
         if ((rc = grow((void **)&p->openings, &r->cap_open, p->n_openings + 1, sizeof *p->openings)) != 0)
@@ -444,7 +444,7 @@ static int open_group(reader_t *r, frame_t *f, const attr_t *cls)
         sim_opening_t *o = &p->openings[p->n_openings];
         memset(o, 0, sizeof *o);
         o->kind = first[0] == 'D' ? SIM_OPENING_DOOR : SIM_OPENING_WINDOW;
-        o->wall = r->stack[w].index;
+        o->wall = w >= 0 ? r->stack[w].index : -1;
         o->line = f->line;
         f->kind = first[0] == 'D' ? FR_DOOR : FR_WINDOW;
         f->index = p->n_openings++;
@@ -819,12 +819,56 @@ static int clip_slab(const sim_poly_t *in, sim_vec2_t c0, double ux, double uy, 
     return m >= 3 && fabs(sim_poly_signed_area(out)) >= PLAN_MIN_AREA_M2;
 }
 
+/* Area of the part of `subject` inside convex `clip` (Sutherland-Hodgman over clip's edges). */
+static double clipped_area(const sim_poly_t *subject, const sim_poly_t *clip)
+{
+    sim_vec2_t a[CLIP_MAX], b[CLIP_MAX];
+    int n = subject->n;
+    memcpy(a, subject->p, (size_t)n * sizeof a[0]);
+    const double orient = sim_poly_signed_area(clip) > 0 ? 1.0 : -1.0;
+    for (int k = 0; k < clip->n && n > 0; k++) {
+        sim_vec2_t e0 = clip->p[k], e1 = clip->p[(k + 1) % clip->n];
+        double ex = e1.x - e0.x, ey = e1.y - e0.y;
+        /* outward normal: (ey, -ex) for a counter-clockwise polygon */
+        n = clip_half(a, n, e0, orient * ey, -orient * ex, 0.0, 1.0, b);
+        memcpy(a, b, (size_t)n * sizeof a[0]);
+    }
+    sim_poly_t out;
+    out.n = n < SIM_POLY_MAX_POINTS ? n : SIM_POLY_MAX_POINTS;
+    memcpy(out.p, a, (size_t)out.n * sizeof a[0]);
+    return out.n >= 3 ? fabs(sim_poly_signed_area(&out)) : 0.0;
+}
+
+/* 1 when an opening and a wall share area (more than touching along an edge). */
+static int opening_overlaps_wall(const sim_poly_t *op, const sim_poly_t *wall)
+{
+    if (poly_is_convex(op))
+        return clipped_area(wall, op) > PLAN_MIN_AREA_M2;
+    if (poly_is_convex(wall))
+        return clipped_area(op, wall) > PLAN_MIN_AREA_M2;
+    /* Both non-convex (rare): sample the opening's interior. */
+    double x0 = INFINITY, y0 = INFINITY, x1 = -INFINITY, y1 = -INFINITY;
+    for (int k = 0; k < op->n; k++) {
+        x0 = fmin(x0, op->p[k].x);
+        x1 = fmax(x1, op->p[k].x);
+        y0 = fmin(y0, op->p[k].y);
+        y1 = fmax(y1, op->p[k].y);
+    }
+    for (int i = 1; i < 16; i++)
+        for (int j = 1; j < 16; j++) {
+            double x = x0 + (x1 - x0) * i / 16.0, y = y0 + (y1 - y0) * j / 16.0;
+            if (sim_poly_contains(op, x, y) && sim_poly_contains(wall, x, y))
+                return 1;
+        }
+    return 0;
+}
+
 /* Walls minus door openings. A convex wall (rectangles, and the trapezoids CubiCasa5K draws
  * at mitred corners) is cut along its long axis, the direction of its longest edge: each door
  * removes the interval of its projection onto that axis, across the full wall thickness, and
  * the wall is clipped to the slabs that remain. Non-convex walls are kept whole even when they
  * hold a door (limitation: an L-shaped wall polygon with a door stays closed). */
-static int build_solids(sim_plan_t *p, const int *door_first, const int *door_next)
+static int build_solids(sim_plan_t *p, const int *door_first, const int *door_next, const int *door_of)
 {
     int cap = 0;
     interval_t *cuts = NULL;
@@ -855,8 +899,8 @@ static int build_solids(sim_plan_t *p, const int *door_first, const int *door_ne
             tmax = fmax(tmax, t);
         }
         int nc = 0;
-        for (int d = door_first[w]; d >= 0; d = door_next[d]) {
-            const sim_poly_t *dp = &p->openings[d].outline;
+        for (int c = door_first[w]; c >= 0; c = door_next[c]) {
+            const sim_poly_t *dp = &p->openings[door_of[c]].outline;
             double lo = INFINITY, hi = -INFINITY;
             for (int k = 0; k < dp->n; k++) {
                 double t = (dp->p[k].x - c0.x) * ux + (dp->p[k].y - c0.y) * uy;
@@ -922,26 +966,61 @@ static int finish_plan(reader_t *r)
         return fail(&r->e, p->walls[0].line, "absurd plan size %.3f x %.3f m (less than %.2f m; wrong scale?)",
                     wx, wy, PLAN_MIN_EXTENT_M);
 
-    /* Doors per wall as linked lists, then the solids. */
-    int *first = malloc((size_t)p->n_walls * sizeof *first);
-    int *next = malloc((size_t)(p->n_openings > 0 ? p->n_openings : 1) * sizeof *next);
-    if (first == NULL || next == NULL) {
-        free(first);
-        free(next);
-        return -ENOMEM;
-    }
-    for (int w = 0; w < p->n_walls; w++)
-        first[w] = -1;
-    for (int d = p->n_openings - 1; d >= 0; d--) {
-        next[d] = -1;
-        if (p->openings[d].kind != SIM_OPENING_DOOR)
+    /* Which walls each door cuts: a door nested in a Wall group cuts that wall; one placed
+       anywhere else (a sibling across a gap or over a wall, as real CubiCasa5K plans also
+       draw them) cuts every wall it overlaps. An opening that overlaps no wall is a warning. */
+    int n_cut = 0, cap_cut = 0, cap_door = 0, rc = 0;
+    int *cut_wall = NULL, *cut_door = NULL;
+    for (int d = 0; d < p->n_openings && rc == 0; d++) {
+        sim_opening_t *o = &p->openings[d];
+        if (o->wall >= 0) {
+            if (o->kind != SIM_OPENING_DOOR)
+                continue;
+            if ((rc = grow((void **)&cut_wall, &cap_cut, n_cut + 1, sizeof *cut_wall)) == 0)
+                rc = grow((void **)&cut_door, &cap_door, n_cut + 1, sizeof *cut_door);
+            if (rc == 0) {
+                cut_wall[n_cut] = o->wall;
+                cut_door[n_cut++] = d;
+            }
             continue;
-        next[d] = first[p->openings[d].wall];
-        first[p->openings[d].wall] = d;
+        }
+        int hits = 0;
+        for (int w = 0; w < p->n_walls && rc == 0; w++) {
+            if (!opening_overlaps_wall(&o->outline, &p->walls[w].outline))
+                continue;
+            if (hits++ == 0)
+                o->wall = w; /* the first wall it overlaps, for the record */
+            if (o->kind != SIM_OPENING_DOOR)
+                continue;
+            if ((rc = grow((void **)&cut_wall, &cap_cut, n_cut + 1, sizeof *cut_wall)) == 0)
+                rc = grow((void **)&cut_door, &cap_door, n_cut + 1, sizeof *cut_door);
+            if (rc == 0) {
+                cut_wall[n_cut] = w;
+                cut_door[n_cut++] = d;
+            }
+        }
+        if (rc == 0 && hits == 0 && p->n_warnings++ == 0)
+            snprintf(p->warning, sizeof p->warning, "%s:%d: warning: %s overlaps no wall (ignored)",
+                     r->e.name, o->line, o->kind == SIM_OPENING_DOOR ? "Door" : "Window");
     }
-    int rc = build_solids(p, first, next);
+    /* Cuts per wall as linked lists (in opening order), then the solids. */
+    int *first = rc == 0 ? malloc((size_t)p->n_walls * sizeof *first) : NULL;
+    int *next = rc == 0 ? malloc((size_t)(n_cut > 0 ? n_cut : 1) * sizeof *next) : NULL;
+    if (rc == 0 && (first == NULL || next == NULL))
+        rc = -ENOMEM;
+    if (rc == 0) {
+        for (int w = 0; w < p->n_walls; w++)
+            first[w] = -1;
+        for (int c = n_cut - 1; c >= 0; c--) {
+            next[c] = first[cut_wall[c]];
+            first[cut_wall[c]] = c;
+        }
+        rc = build_solids(p, first, next, cut_door);
+    }
     free(first);
     free(next);
+    free(cut_wall);
+    free(cut_door);
     return rc;
 }
 
@@ -1060,6 +1139,10 @@ int sim_plan_load(const char *path, double scale, sim_plan_t *plan, char *err, s
         } else {
             buf[len] = '\0';
             rc = sim_plan_parse(buf, path, scale, plan, err, errlen);
+            /* Warnings do not stop a load; the user of a file sees them once, here. */
+            if (rc == 0 && plan->n_warnings > 0)
+                fprintf(stderr, "%s%s\n", plan->warning,
+                        plan->n_warnings > 1 ? " (and more openings like it)" : "");
         }
     } else if (rc == -ENOMEM && err != NULL && errlen > 0) {
         snprintf(err, errlen, "%s:0: out of memory", path);

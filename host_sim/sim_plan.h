@@ -1,8 +1,11 @@
 /* Floor plans: parsing CubiCasa5K-style model.svg files into metric geometry.
  *
  * Structure read (everything else, e.g. furniture and labels, is ignored):
- *   <g id="Wall" class="Wall ...">  first <polygon points="..."> = wall outline;
- *       nested <g class="Door ..."> / <g class="Window ..."> groups with a polygon = openings
+ *   <g id="Wall" class="Wall ...">  first <polygon points="..."> = wall outline
+ *   <g class="Door ..."> / <g class="Window ..."> with a polygon = openings, anywhere in the
+ *       tree (as CubiCasa5K's loader finds them): nested in a Wall group an opening belongs to
+ *       that wall; elsewhere to every wall it overlaps by area; overlapping none it is kept
+ *       and counted in plan->n_warnings ("FILE:LINE: warning: ..."), and the plan still loads
  *   <g class="Space <Type> ...">   first <polygon> = room outline, <Type> its room type
  * Points are "x,y x,y ..." or "x y x y ..." in pixels; metres = pixels * scale.
  *
@@ -18,7 +21,7 @@
  * with several floors (CubiCasa's `Floorplan Floor-2` groups) is read as one merged plan.
  * Rejected with "FILE:LINE: reason": no <svg> root, bad numbers, an odd coordinate count,
  * fewer than 3 distinct points or zero area, more than SIM_POLY_MAX_POINTS points,
- * unclosed tags/groups/quotes/comments, a malformed or singular transform, a Door or Window outside a Wall group, a Wall/Door/
+ * unclosed tags/groups/quotes/comments, a malformed or singular transform, a Wall/Door/
  * Window/Space group without a polygon, no walls, absurd sizes (coordinates beyond 10 km,
  * a plan wider than 2 km or narrower than 5 cm, files over 64 MB, scale over 100 m/px).
  * Door cutting: a convex wall (rectangle, or the trapezoids CubiCasa5K draws at mitred
@@ -54,7 +57,7 @@ typedef struct sim_wall {
 typedef struct sim_opening {
     sim_poly_t outline;
     sim_opening_kind_t kind;
-    int wall; /* index of the wall it belongs to */
+    int wall; /* the Wall group it is nested in, else the first wall it overlaps, else -1 */
     int line;
 } sim_opening_t;
 
@@ -77,6 +80,8 @@ typedef struct sim_plan {
     sim_opening_t *openings; int n_openings;
     sim_room_t *rooms;       int n_rooms;
     sim_solid_t *solids;     int n_solids;
+    int n_warnings;          /* openings that overlap no wall, ... (the plan still loads) */
+    char warning[256];       /* the first warning, "FILE:LINE: warning: ..." */
 } sim_plan_t;
 
 /* Parses `path`. On failure returns a negative code, leaves *plan empty and writes
