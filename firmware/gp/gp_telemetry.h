@@ -31,7 +31,7 @@ typedef struct gp_telemetry {
     uint32_t pool_fill;      /* samples in the AI core's pool, <= pool_capacity */
     uint32_t pool_capacity;
     uint32_t ring_drops;     /* RT->AI samples dropped (ring full) since start */
-    uint32_t net_drops;      /* network messages dropped (queue full or invalid) */
+    uint32_t net_drops;      /* network messages dropped (queue full, invalid or malformed) */
     uint32_t neighbours;     /* neighbours in the current round, <= 255 */
 } gp_telemetry_t;
 

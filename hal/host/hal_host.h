@@ -163,6 +163,11 @@ __attribute__((warn_unused_result)) int hal_host_net_publish(hal_host_net_t *n,
                                                              const void *data, size_t len);
 __attribute__((warn_unused_result)) int hal_host_net_subscribe(hal_host_net_t *n,
                                                                const char *channel);
+/* Declares that `channel` carries only messages of `type` (hal_host_msg.h): from then on a
+ * datagram on it that fails hal_host_msg_check() is dropped before it is queued and counted
+ * in rx_dropped_malformed. HAL_HOST_MSG_ANY makes it raw again. 0, -EINVAL or -ENOSPC. */
+__attribute__((warn_unused_result)) int hal_host_net_expect_type(hal_host_net_t *n, const char *channel,
+                                                                 int type);
 /* Pumps what LCM has ready into the queue without waiting (overflow is dropped and counted;
  * at most 4 * depth + 64 deliveries per call), then pops one message.
  * stamp_us is recorded as the queue time of what the pump delivers. */

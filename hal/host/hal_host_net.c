@@ -2,6 +2,7 @@
  * the GP core polls; the queue is allocated once at open, so receiving never allocates in
  * our code (LCM's own buffers are its business). */
 #include "hal_host.h"
+#include "hal_host_msg.h"
 
 #include <errno.h>
 #include <lcm/lcm.h>
@@ -25,9 +26,36 @@ struct hal_host_net {
     uint32_t n_subs;
     char sub_channel[HAL_HOST_NET_MAX_SUBS][HAL_NET_CHANNEL_MAX];
     lcm_subscription_t *sub[HAL_HOST_NET_MAX_SUBS];
+    uint32_t n_typed;
+    char typed_channel[HAL_HOST_NET_MAX_SUBS][HAL_NET_CHANNEL_MAX];
+    hal_host_msg_type_t typed[HAL_HOST_NET_MAX_SUBS];
     uint64_t pump_stamp_us;
     hal_net_stats_t stats;
 };
+
+static hal_host_msg_type_t channel_type(const hal_host_net_t *n, const char *channel)
+{
+    for (uint32_t i = 0; i < n->n_typed; i++)
+        if (strcmp(n->typed_channel[i], channel) == 0)
+            return n->typed[i];
+    return HAL_HOST_MSG_ANY;
+}
+
+int hal_host_net_expect_type(hal_host_net_t *n, const char *channel, int type)
+{
+    if (n == NULL || !hal_net_channel_valid(channel) || type < 0 || type >= HAL_HOST_MSG_TYPE_COUNT)
+        return -EINVAL;
+    for (uint32_t i = 0; i < n->n_typed; i++)
+        if (strcmp(n->typed_channel[i], channel) == 0) {
+            n->typed[i] = (hal_host_msg_type_t)type;
+            return 0;
+        }
+    if (n->n_typed == HAL_HOST_NET_MAX_SUBS)
+        return -ENOSPC;
+    memcpy(n->typed_channel[n->n_typed], channel, strlen(channel) + 1u);
+    n->typed[n->n_typed++] = (hal_host_msg_type_t)type;
+    return 0;
+}
 
 int hal_host_net_open(const char *url, uint32_t queue_depth, hal_host_net_t **out)
 {
@@ -97,6 +125,11 @@ static void net_on_message(const lcm_recv_buf_t *rbuf, const char *channel, void
     if (rbuf == NULL || !hal_net_channel_valid(channel) || rbuf->data_size > HAL_NET_MTU_BYTES ||
         (rbuf->data == NULL && rbuf->data_size > 0)) {
         n->stats.rx_dropped_invalid++;
+        return;
+    }
+    /* Typed channels: the bytes are checked here, before anything can decode them. */
+    if (hal_host_msg_check(channel_type(n, channel), rbuf->data, rbuf->data_size) != HAL_HOST_MSG_OK) {
+        n->stats.rx_dropped_malformed++;
         return;
     }
     if (n->fill == n->depth) {

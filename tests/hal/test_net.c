@@ -36,6 +36,8 @@
 #include "alloc_count.h"
 #include "hal/hal.h"
 #include "hal_host.h"
+#include "hal_host_msg.h"
+#include "lcm/fleetsim_state_chunk_t.h"
 
 static uint8_t big[HAL_NET_MTU_BYTES + 16u];
 static uint8_t rx[HAL_NET_MTU_BYTES + 16u];
@@ -307,6 +309,130 @@ static void test_udpm_two_processes(void **state)
     assert_true(WIFEXITED(status) && WEXITSTATUS(status) == 0);
 }
 
+/* ---- hostile datagrams over udpm:// ------------------------------------------------------ */
+#define CRAFT_CHANNEL "fleetsim/craft_test"
+#define CRAFT_KINDS 5
+
+/* A state chunk as lcm-gen encodes it, with its n_bytes field then overwritten. */
+static int craft_chunk(uint8_t *b, size_t cap, int32_t n_bytes_field, int32_t real)
+{
+    static uint8_t data[256];
+    fleetsim_state_chunk_t m = {1, 5, 0, 2, 512, 0, 0x1234567, real, data};
+    int n = fleetsim_state_chunk_t_encode(b, 0, (int)cap, &m);
+    const int at = 8 + 6 * 4 + 1;
+    b[at] = (uint8_t)((uint32_t)n_bytes_field >> 24);
+    b[at + 1] = (uint8_t)((uint32_t)n_bytes_field >> 16);
+    b[at + 2] = (uint8_t)((uint32_t)n_bytes_field >> 8);
+    b[at + 3] = (uint8_t)n_bytes_field;
+    return n;
+}
+
+/* Receives on a typed channel until the one valid chunk arrives, then reports through the
+ * pipe how many datagrams the bounds check refused (8 bytes) and exits 0. */
+static void child_craft_receiver(const char *url, int ready_fd, int result_fd)
+{
+    hal_host_net_t *n = NULL;
+    char c = 'E';
+    if (hal_host_net_open(url, 64, &n) != 0 || hal_host_net_subscribe(n, CRAFT_CHANNEL) != 0 ||
+        hal_host_net_expect_type(n, CRAFT_CHANNEL, HAL_HOST_MSG_STATE_CHUNK) != 0) {
+        (void)!write(ready_fd, &c, 1);
+        _exit(2);
+    }
+    c = 'R';
+    (void)!write(ready_fd, &c, 1);
+    static uint8_t b[HAL_NET_MTU_BYTES];
+    for (int i = 0; i < 100; i++) { /* up to 10 s */
+        if (hal_host_net_wait(n, 0, 100) != 0)
+            break;
+        hal_net_rx_info_t info;
+        while (hal_host_net_receive(n, 0, &info, b, sizeof b) == 0) {
+            fleetsim_state_chunk_t d;
+            int ok = fleetsim_state_chunk_t_decode(b, 0, (int)info.len, &d) == (int)info.len && d.n_bytes == 200;
+            if (ok)
+                fleetsim_state_chunk_t_decode_cleanup(&d);
+            hal_net_stats_t st;
+            hal_host_net_get_stats(n, &st);
+            uint64_t rej = st.rx_dropped_malformed;
+            c = ok ? 'K' : 'B';
+            (void)!write(result_fd, &c, 1);
+            (void)!write(result_fd, &rej, sizeof rej);
+            hal_host_net_close(n);
+            _exit(ok ? 0 : 3);
+        }
+    }
+    c = 'T';
+    (void)!write(result_fd, &c, 1);
+    hal_host_net_close(n);
+    _exit(4);
+}
+
+/* A receiving process on a typed channel gets crafted datagrams that would crash or overread
+ * the generated decoder, stays up, counts every one, and still takes the valid message. */
+static void test_udpm_crafted_datagrams(void **state)
+{
+    (void)state;
+    char url[128];
+    snprintf(url, sizeof(url), "udpm://239.255.76.67:%u?ttl=0&recv_buf_size=4194304",
+             7960u + (unsigned)(getpid() % 30));
+    int ready[2], result[2];
+    assert_int_equal(pipe(ready), 0);
+    assert_int_equal(pipe(result), 0);
+    fflush(NULL);
+    pid_t pid = fork();
+    assert_true(pid >= 0);
+    if (pid == 0) {
+        close(ready[0]);
+        close(result[0]);
+        child_craft_receiver(url, ready[1], result[1]);
+    }
+    close(ready[1]);
+    close(result[1]);
+    char c = 0;
+    uint64_t rejected = 0;
+    int ok = 0, rounds = 0;
+    if (wait_byte(ready[0], 10000, &c) == 0 && c == 'R') {
+        hal_host_net_t *n = NULL;
+        assert_int_equal(hal_host_net_open(url, 4, &n), 0);
+        static uint8_t b[4096];
+        for (; rounds < 50 && !ok; rounds++) {
+            /* The hostile ones first, then the valid one; repeated until it is confirmed. */
+            int len;
+            len = craft_chunk(b, sizeof b, -1, 200); /* n_bytes = -1: segfaults the decoder */
+            assert_int_equal(hal_host_net_publish(n, CRAFT_CHANNEL, b, (size_t)len), 0);
+            len = craft_chunk(b, sizeof b, INT32_MAX, 200); /* reads far past the buffer */
+            assert_int_equal(hal_host_net_publish(n, CRAFT_CHANNEL, b, (size_t)len), 0);
+            len = craft_chunk(b, sizeof b, 201, 200); /* one byte past the end */
+            assert_int_equal(hal_host_net_publish(n, CRAFT_CHANNEL, b, (size_t)len), 0);
+            len = craft_chunk(b, sizeof b, 200, 200);
+            assert_int_equal(hal_host_net_publish(n, CRAFT_CHANNEL, b, (size_t)len - 10), 0); /* truncated */
+            b[0] ^= 0xff; /* another type's fingerprint */
+            assert_int_equal(hal_host_net_publish(n, CRAFT_CHANNEL, b, (size_t)len), 0);
+            b[0] ^= 0xff;
+            assert_int_equal(hal_host_net_publish(n, CRAFT_CHANNEL, b, (size_t)len), 0);
+            if (wait_byte(result[0], 200, &c) == 0) {
+                ok = c == 'K' && read(result[0], &rejected, sizeof rejected) == (ssize_t)sizeof rejected;
+                break;
+            }
+        }
+        hal_host_net_close(n);
+    }
+    if (!ok)
+        kill(pid, SIGKILL);
+    int status = 0;
+    waitpid(pid, &status, 0);
+    close(ready[0]);
+    close(result[0]);
+    if (!ok)
+        explain_udpm(url, "the valid message after the crafted ones did not arrive");
+    else
+        printf("# udpm: the receiver refused %llu crafted datagrams (%d kinds) and took the valid one\n",
+               (unsigned long long)rejected, CRAFT_KINDS);
+    assert_true(ok);
+    assert_true(WIFEXITED(status) && WEXITSTATUS(status) == 0);
+    /* Every crafted datagram that reached it was refused; at least one round of them did. */
+    assert_true(rejected >= CRAFT_KINDS);
+}
+
 int main(void)
 {
     const struct CMUnitTest tests[] = {
@@ -314,6 +440,7 @@ int main(void)
         cmocka_unit_test(test_channel_names_and_arguments),
         cmocka_unit_test(test_queue_overflow_drops_and_counts),
         cmocka_unit_test(test_udpm_two_processes),
+        cmocka_unit_test(test_udpm_crafted_datagrams),
     };
     return cmocka_run_group_tests(tests, NULL, NULL);
 }

@@ -44,6 +44,8 @@ typedef struct hal_net_stats {
     uint64_t rx_dropped_full;   /* dropped because the queue was full */
     uint64_t rx_dropped_invalid;/* dropped because length or channel was invalid */
     uint64_t rx_dropped_small;  /* dropped because the caller's buffer was too small */
+    uint64_t rx_dropped_malformed; /* dropped by the bounds check of a typed channel: wrong
+                                      type, lengths out of range or past the datagram's end */
     uint32_t queue_fill;        /* messages waiting now */
     uint32_t queue_depth;       /* capacity of the queue */
 } hal_net_stats_t;
