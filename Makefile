@@ -84,7 +84,7 @@ DEFS     := -DBNN_PRESET_$(call uc,$(PRESET))=1 -DLA_BACKEND_$(call uc,$(LA_BACK
 CFLAGS   := -std=c11 $(WARN) $(OPT) $(DEFS) -MMD -MP
 CXXFLAGS := -std=c++17 $(WARN) $(OPT) $(DEFS) -MMD -MP -fno-exceptions -fno-rtti
 
-# The house rule (DESIGN.md section 2): firmware/ sees only its own headers, hal/include and
+# The house rule (docs/architecture.md section 1): firmware/ sees only its own headers, hal/include and
 # the board. The bottom half (hal/host, host_sim, tools, tests) also sees POSIX, the
 # generated LCM types and host_sim.
 # Every file, C or C++, of every layer sees the same build configuration (board settings and

@@ -1,6 +1,6 @@
 /* The deterministic in-process DiNNO fleet: N agents (firmware dinno_node_t each) trained in
  * synchronous rounds in one process, plus the baselines, the data they train on, and the
- * metrics. The multi-process fleet over LCM is on the roadmap (DESIGN.md section 9); this
+ * metrics. The multi-process fleet over LCM is on the roadmap (docs/architecture.md section 4); this
  * driver is its reference: same node update, same seeds.
  *
  * Modes:

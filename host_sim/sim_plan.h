@@ -96,7 +96,7 @@ int sim_plan_parse(const char *text, const char *name, double scale, sim_plan_t 
 
 void sim_plan_free(sim_plan_t *plan);
 
-/* Normalised coordinates of DESIGN.md section 4 over the plan's bounding box. */
+/* Normalised coordinates of docs/architecture.md section 2 over the plan's bounding box. */
 void sim_plan_normalise(const sim_plan_t *plan, double x_m, double y_m, float *xn, float *yn);
 void sim_plan_denormalise(const sim_plan_t *plan, float xn, float yn, double *x_m, double *y_m);
 

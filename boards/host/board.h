@@ -21,7 +21,7 @@
 #define BOARD_STACK_GP_BYTES (1024u * 1024u)
 #define BOARD_STACK_AI_BYTES (8u * 1024u * 1024u)
 
-/* Largest single network datagram the board's link layer accepts (DESIGN.md section 6). */
+/* Largest single network datagram the board's link layer accepts (docs/architecture.md section 4). */
 #define BOARD_NET_MTU_BYTES (60u * 1024u)
 
 /* Fleet size the neighbour table is dimensioned for. */

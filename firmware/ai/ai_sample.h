@@ -1,7 +1,7 @@
 /* One labelled training point: the unit of data from the RT core's scan processing to the
  * AI core's sample pool, and the record of host_sim's sample files.
  *
- * x, y: position normalised to [-1, 1] over the floor plan's bounding box (DESIGN.md §4):
+ * x, y: position normalised to [-1, 1] over the floor plan's bounding box (docs/architecture.md section 2):
  *       x_n = 2 * (x_m - min_x) / (max_x - min_x) - 1, likewise y.
  * occ:  0.0f free, 1.0f occupied (a lidar hit). */
 #ifndef AI_SAMPLE_H

@@ -1,5 +1,5 @@
 /* Bayesian neural network of the AI core: SIREN input layer, L Bayesian linear layers with
- * ReLU, a deterministic linear output with a sigmoid (DESIGN.md section 4, paper section 5).
+ * ReLU, a deterministic linear output with a sigmoid (docs/architecture.md section 2, paper section 5).
  *
  *   (x, y) in [-1, 1]^2
  *   h0 = sin(w0 * (W0 [x y]^T + b0))                  SIREN, w0 = 30, W0,b0 ~ U(-1/2, 1/2)

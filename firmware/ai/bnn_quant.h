@@ -1,4 +1,4 @@
-/* Int8 symmetric per-row quantisation of the BNN parameter state (DESIGN.md section 4):
+/* Int8 symmetric per-row quantisation of the BNN parameter state (docs/architecture.md section 2):
  * for exchanged states (DiNNO) and for inference; training keeps fp32 master weights.
  *
  * Packing of one group (BNN_GROUP_MU, BNN_GROUP_RHO or BNN_GROUP_ALL) of theta: its tensors

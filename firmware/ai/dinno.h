@@ -1,4 +1,4 @@
-/* DiNNO consensus for the BNN (DESIGN.md section 5, paper Algorithm 2): one node's state and
+/* DiNNO consensus for the BNN (docs/architecture.md section 2, paper Algorithm 2): one node's state and
  * its round update (dual ascent, then B primal optimiser steps).
  *
  * Round k at node i, neighbour states theta_j (j in N(i), read from the FIXED SLOTS below):

@@ -1,6 +1,6 @@
 /* Lidar scan -> labelled training samples (RT core, pure C11, no allocation).
  *
- * Follows the DiNNO reference mapping setup (DESIGN.md section 5): from a scan, n_beams
+ * Follows the DiNNO reference mapping setup (docs/architecture.md section 2): from a scan, n_beams
  * beams are taken evenly spaced (beam j uses scan index floor(j * n_scan / n_beams)); along
  * each beam, K = points_per_beam points are placed evenly from the robot to the end point,
  * at distances d * (k + 1) / K for k = 0 .. K-1, so the last point is the end point itself

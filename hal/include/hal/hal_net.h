@@ -3,7 +3,7 @@
  * Contract
  * - A message is 0 .. BOARD_NET_MTU_BYTES bytes (the board's largest datagram); longer ones
  *   are rejected with -EMSGSIZE, never fragmented by the HAL (fragmenting is the caller's
- *   business, see DESIGN.md section 6).
+ *   business, see docs/architecture.md section 4).
  * - Channel names: 1 .. HAL_NET_CHANNEL_MAX-1 characters from [A-Za-z0-9_./-]; -EINVAL
  *   otherwise.
  * - Delivery is best effort (datagrams: loss, duplication and reordering are possible).
