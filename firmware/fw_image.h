@@ -51,6 +51,6 @@ void fw_image_defaults(fw_image_t *img);
 /* Validates the cores (period > 0, sub_divider >= 1, at least one tick) and starts every
  * core that has a tick function through hal_core_start(). Returns 0, -EINVAL, or the HAL's
  * error (cores already started stay started). */
-__attribute__((warn_unused_result)) int fw_image_start(fw_image_t *img);
+FS_MUST_CHECK int fw_image_start(fw_image_t *img);
 
 #endif /* FW_IMAGE_H */

@@ -62,6 +62,8 @@ typedef struct rt_status {
     uint32_t samples;        /* samples pushed into the ring (accepted) */
     uint32_t ring_drops;     /* samples dropped because the ring was full */
     uint32_t errors;         /* HAL calls that failed (pose, lidar, motor) */
+    uint32_t sample_errors;  /* scans rt_samples refused, and samples the ring refused for any
+                                reason but full (a contract broken: never expected) */
 } rt_status_t;
 
 typedef struct ai_status {

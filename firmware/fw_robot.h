@@ -29,7 +29,7 @@ typedef struct fw_robot_cfg {
 fw_robot_cfg_t fw_robot_default_cfg(void);
 
 /* Initialises the cores from cfg and starts them. 0, -EINVAL (bad cfg) or the HAL's error. */
-__attribute__((warn_unused_result)) int fw_robot_start(const fw_robot_cfg_t *cfg);
+FS_MUST_CHECK int fw_robot_start(const fw_robot_cfg_t *cfg);
 
 const rt_core_t *fw_robot_rt(void);
 const ai_core_t *fw_robot_ai(void);

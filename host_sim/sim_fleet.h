@@ -60,14 +60,14 @@ typedef struct sim_fleet sim_fleet_t;
 /* data[i], n_data[i]: agent i's samples (copied). paths: n_agents paths (needed for the disk
  * graph, may be NULL otherwise; copied). bcfg NULL = preset. Returns 0, -EINVAL (bad cfg, an
  * agent without data, a disk graph without paths) or -ENOMEM; err says why. */
-__attribute__((warn_unused_result))
+FS_MUST_CHECK
 int sim_fleet_create(const sim_fleet_cfg_t *cfg, const bnn_config_t *bcfg, const ai_sample_t *const *data,
                      const size_t *n_data, const sim_path_t *paths, sim_fleet_t **out, char *err, size_t errlen);
 void sim_fleet_destroy(sim_fleet_t *f);
 
 /* One synchronous round for every model. rep (may be NULL) receives the connectivity of the
  * round's graph (DINNO mode; baselines report n isolated nodes). Returns 0 or a negative code. */
-__attribute__((warn_unused_result))
+FS_MUST_CHECK
 int sim_fleet_round(sim_fleet_t *f, dinno_graph_report_t *rep);
 
 uint32_t sim_fleet_rounds_done(const sim_fleet_t *f);
@@ -78,7 +78,7 @@ const dinno_round_stats_t *sim_fleet_last_stats(const sim_fleet_t *f, int i);
 const dinno_graph_t *sim_fleet_graph(const sim_fleet_t *f);
 /* Position of agent i at round k (arc-length fraction k / rounds of its path); -EINVAL
  * without paths. */
-__attribute__((warn_unused_result))
+FS_MUST_CHECK
 int sim_fleet_position(const sim_fleet_t *f, int i, uint32_t k, double *x, double *y);
 
 /* ||theta_i - mean|| / ||mean|| over the fleet's models (0 for one model). */
@@ -98,12 +98,12 @@ typedef struct sim_occ_eval {
     float *pred;        /* scratch, n */
 } sim_occ_eval_t;
 
-__attribute__((warn_unused_result))
+FS_MUST_CHECK
 int sim_occ_eval_build(const sim_plan_t *plan, double res, sim_occ_eval_t *ev);
 void sim_occ_eval_free(sim_occ_eval_t *ev);
 /* Mean-weight map (one pass, eps = 0) of m on the known cells: MSE against the labels and
  * IoU of the wall class with the map thresholded at 0.5. */
-__attribute__((warn_unused_result))
+FS_MUST_CHECK
 int sim_occ_eval_run(const sim_occ_eval_t *ev, bnn_model_t *m, double *mse, double *iou);
 
 /* ---- per-agent metrics --------------------------------------------------------------------- */
@@ -117,7 +117,7 @@ typedef struct sim_fleet_metrics {
 } sim_fleet_metrics_t;
 
 /* val may be NULL (val_loss = NaN), ev may be NULL (occ_* = NaN). */
-__attribute__((warn_unused_result))
+FS_MUST_CHECK
 int sim_fleet_metrics(sim_fleet_t *f, int i, const ai_sample_t *val, size_t n_val, const sim_occ_eval_t *ev,
                       sim_fleet_metrics_t *out);
 
@@ -127,7 +127,7 @@ int sim_fleet_metrics(sim_fleet_t *f, int i, const ai_sample_t *val, size_t n_va
  * max std, which goes to *std_max_out when not NULL), the paths drawn on top in colour. Each
  * cell is drawn as zoom x zoom pixels, zoom = ceil(0.1 m / res) within 1..8, so every map
  * shows about 10 pixels per metre or more. Returns 0 or a negative code, err. */
-__attribute__((warn_unused_result))
+FS_MUST_CHECK
 int sim_fleet_write_maps(bnn_model_t *m, const sim_plan_t *plan, double res, uint32_t K, uint64_t seed,
                          const sim_path_t *paths, int n_paths, const char *mean_png, const char *std_png,
                          double *std_max_out, char *err, size_t errlen);

@@ -37,11 +37,11 @@ int sim_plan_classify_point(const sim_plan_t *plan, double x_m, double y_m);
 
 /* Rasterises `plan` at `res_m` metres per cell. -EINVAL on bad arguments, -E2BIG when a side
  * would exceed SIM_GRID_MAX_SIDE, -ENOMEM. On failure *grid is left empty. */
-__attribute__((warn_unused_result))
+FS_MUST_CHECK
 int sim_grid_from_plan(const sim_plan_t *plan, double res_m, sim_grid_t *grid);
 
 /* An all-OUTSIDE grid of w x h cells (for tests and tools). */
-__attribute__((warn_unused_result))
+FS_MUST_CHECK
 int sim_grid_init(sim_grid_t *grid, double res_m, double origin_x, double origin_y, int w, int h);
 
 void sim_grid_free(sim_grid_t *grid);
@@ -64,11 +64,11 @@ static inline int sim_grid_at(const sim_grid_t *grid, int col, int row)
 
 /* Writes the grid as an 8-bit grey image, chosen by the file name's extension: ".png"
  * (libpng) or ".pgm" (binary P5). Free 255, wall 0, outside 160. */
-__attribute__((warn_unused_result))
+FS_MUST_CHECK
 int sim_grid_write_image(const sim_grid_t *grid, const char *path, char *err, size_t errlen);
 
 /* Writes an 8-bit RGB PNG (rgb: w * h * 3 bytes, row-major). */
-__attribute__((warn_unused_result))
+FS_MUST_CHECK
 int sim_png_write_rgb(const char *path, int w, int h, const uint8_t *rgb, char *err, size_t errlen);
 
 #endif /* SIM_GRID_H */

@@ -57,7 +57,7 @@ sim_hal_world_cfg_t sim_hal_world_default_cfg(void);
 
 /* Builds the world for plan, a robot at the start of path. Returns 0 or a negative code with
  * a message in err. */
-__attribute__((warn_unused_result)) int sim_hal_world_create(const sim_plan_t *plan,
+FS_MUST_CHECK int sim_hal_world_create(const sim_plan_t *plan,
                                                              const sim_path_t *path,
                                                              const sim_hal_world_cfg_t *cfg,
                                                              sim_hal_world_t **out, char *err,

@@ -69,7 +69,7 @@ void sim_image_cfg_default(sim_image_cfg_t *cfg);
 
 /* Runs the image. Returns 0 when it ran (check res->completed), or a negative code with a
  * message in err (bad configuration, world or board creation failed, physics failed). */
-__attribute__((warn_unused_result)) int sim_image_run(const sim_plan_t *plan,
+FS_MUST_CHECK int sim_image_run(const sim_plan_t *plan,
                                                       const sim_path_t *path,
                                                       const sim_image_cfg_t *cfg,
                                                       sim_image_result_t *res, char *err,
@@ -78,7 +78,7 @@ __attribute__((warn_unused_result)) int sim_image_run(const sim_plan_t *plan,
 /* Occupancy MSE of the mean-weight map of m against the plan's ground truth, over the known
  * cells of a res-metre grid (sim_occ_eval) whose centre lies within radius_m of the path
  * polyline. *n_cells receives how many cells counted. Returns 0 or a negative code. */
-__attribute__((warn_unused_result)) int sim_image_occ_near_path(const sim_plan_t *plan,
+FS_MUST_CHECK int sim_image_occ_near_path(const sim_plan_t *plan,
                                                                 const sim_path_t *path,
                                                                 bnn_model_t *m, double res,
                                                                 double radius_m, double *mse,

@@ -39,7 +39,7 @@ typedef struct sim_lidar sim_lidar_t;
 sim_lidar_cfg_t sim_lidar_default_cfg(void);
 
 /* Returns 0, -EINVAL (bad cfg) or -ENOMEM. */
-__attribute__((warn_unused_result))
+FS_MUST_CHECK
 int sim_lidar_create(const sim_lidar_cfg_t *cfg, sim_lidar_t **out);
 void sim_lidar_destroy(sim_lidar_t *l);
 const sim_lidar_cfg_t *sim_lidar_cfg(const sim_lidar_t *l);
@@ -54,7 +54,7 @@ double sim_lidar_cast(sim_lidar_t *l, const sim_world_t *w, double x, double y, 
 /* One full scan from pose (x, y, theta) into ranges[n_beams] with the noise model above.
  * robot and scan_index key the noise. When `truth` is non-NULL it receives the noise-free
  * distances (+INFINITY for no hit). Returns 0 or -EINVAL. */
-__attribute__((warn_unused_result))
+FS_MUST_CHECK
 int sim_lidar_scan(sim_lidar_t *l, const sim_world_t *w, double x, double y, double theta,
                    uint32_t robot, uint64_t scan_index, float *ranges, double *truth);
 
@@ -69,7 +69,7 @@ sim_gps_cfg_t sim_gps_default_cfg(void);
 
 /* Noisy reading of the true pose; noise keyed by (seed, robot, index).
  * Returns 0 or -EINVAL. theta is wrapped to (-pi, pi]. */
-__attribute__((warn_unused_result))
+FS_MUST_CHECK
 int sim_gps_read(const sim_gps_cfg_t *cfg, uint32_t robot, uint64_t index,
                  const sim_pose_t *truth, sim_pose_t *out);
 

@@ -47,7 +47,7 @@ void sim_paths_cfg_default(sim_paths_cfg_t *cfg);
 
 /* Fills paths[0 .. cfg->n_robots-1]. On failure every path is left empty, err says why
  * (e.g. fewer reachable rooms than robots) and a negative code is returned. */
-__attribute__((warn_unused_result))
+FS_MUST_CHECK
 int sim_paths_generate(const sim_plan_t *plan, const sim_paths_cfg_t *cfg, sim_path_t *paths, char *err,
                        size_t errlen);
 
@@ -63,15 +63,15 @@ double sim_path_distance(const sim_path_t *path, double x_m, double y_m);
 /* Colour of robot k's path in the PNG pictures: SIM_PATH_COLOURS[k % 8], RGB. */
 extern const uint8_t SIM_PATH_COLOURS[8][3];
 
-__attribute__((warn_unused_result))
+FS_MUST_CHECK
 int sim_path_write_csv(const sim_path_t *path, const char *file, char *err, size_t errlen);
 
 /* Reads and validates a CSV against `plan` (see above). On failure *path is left empty. */
-__attribute__((warn_unused_result))
+FS_MUST_CHECK
 int sim_path_read_csv(const char *file, const sim_plan_t *plan, sim_path_t *path, char *err, size_t errlen);
 
 /* Same, from text in memory (`name` for messages). */
-__attribute__((warn_unused_result))
+FS_MUST_CHECK
 int sim_path_parse_csv(const char *text, const char *name, const sim_plan_t *plan, sim_path_t *path, char *err,
                        size_t errlen);
 

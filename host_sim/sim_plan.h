@@ -86,11 +86,11 @@ typedef struct sim_plan {
 
 /* Parses `path`. On failure returns a negative code, leaves *plan empty and writes
  * "FILE:LINE: reason" into err (errlen bytes). scale <= 0 means SIM_PLAN_DEFAULT_SCALE. */
-__attribute__((warn_unused_result))
+FS_MUST_CHECK
 int sim_plan_load(const char *path, double scale, sim_plan_t *plan, char *err, size_t errlen);
 
 /* Same, from a string in memory; `name` is used in messages. */
-__attribute__((warn_unused_result))
+FS_MUST_CHECK
 int sim_plan_parse(const char *text, const char *name, double scale, sim_plan_t *plan,
                    char *err, size_t errlen);
 

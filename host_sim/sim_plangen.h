@@ -17,11 +17,11 @@
 
 /* Writes the SVG text into a malloc'ed string *out (caller frees). rooms counts the rooms
  * besides the corridor, SIM_PLANGEN_MIN_ROOMS..SIM_PLANGEN_MAX_ROOMS. */
-__attribute__((warn_unused_result))
+FS_MUST_CHECK
 int sim_plangen_svg(unsigned long seed, int rooms, char **out);
 
 /* Same, written to `path`; on failure writes a reason into err. */
-__attribute__((warn_unused_result))
+FS_MUST_CHECK
 int sim_plangen_write(const char *path, unsigned long seed, int rooms, char *err, size_t errlen);
 
 #endif /* SIM_PLANGEN_H */

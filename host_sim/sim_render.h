@@ -50,12 +50,12 @@ sim_render_cfg_t sim_render_default_cfg(void); /* 1024 x 768, fov 40, azimuth -9
 
 /* Renders into rgb (width * height * 3 bytes, row-major, top row first).
  * Returns 0, -EINVAL or -EIO (OSMesa failure) with a message in err. */
-__attribute__((warn_unused_result))
+FS_MUST_CHECK
 int sim_render_rgb(const sim_render_scene_t *scene, const sim_render_cfg_t *cfg, uint8_t *rgb,
                    char *err, size_t errlen);
 
 /* Renders and writes a PNG. */
-__attribute__((warn_unused_result))
+FS_MUST_CHECK
 int sim_render_png(const sim_render_scene_t *scene, const sim_render_cfg_t *cfg, const char *path,
                    char *err, size_t errlen);
 

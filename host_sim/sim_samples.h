@@ -59,19 +59,19 @@ uint32_t sim_crc32_update(uint32_t crc, const void *data, size_t n);
  * The bounding box must be non-empty and finite; source is truncated to
  * SIM_SAMPLES_SOURCE_MAX bytes. Returns 0, -EINVAL or the writer's error
  * (hal_host_file_begin: -EISDIR, -EEXIST for a device, -ENAMETOOLONG, -errno). */
-__attribute__((warn_unused_result))
+FS_MUST_CHECK
 int sim_samples_open(sim_samples_writer_t *w, const char *path, double min_x, double min_y,
                      double max_x, double max_y, uint64_t seed, const char *source);
 
 /* Appends n records (each validated like the reader does). Returns 0, -EINVAL or -errno
  * of the write (-ENOSPC on a full disk). */
-__attribute__((warn_unused_result))
+FS_MUST_CHECK
 int sim_samples_append(sim_samples_writer_t *w, const ai_sample_t *s, size_t n);
 
 /* Writes the data CRC, patches count and the header CRC, then replaces `path` with the
  * whole file. Returns 0 or -errno, and then `path` is as it was before open. The writer is
  * closed whatever the result. */
-__attribute__((warn_unused_result))
+FS_MUST_CHECK
 int sim_samples_close(sim_samples_writer_t *w);
 
 /* Drops a partly written file (after an error): `path` stays as it was. Safe after close. */
@@ -81,7 +81,7 @@ void sim_samples_abort(sim_samples_writer_t *w);
  * hdr->count records (NULL when count is 0), free() it. On failure returns -EINVAL
  * (malformed: bad magic, version, sizes, CRC, truncation, bad count, bad record),
  * -ENOMEM or -errno of the I/O, with a one-line reason in err. */
-__attribute__((warn_unused_result))
+FS_MUST_CHECK
 int sim_samples_read(const char *path, sim_samples_header_t *hdr, ai_sample_t **records,
                      char *err, size_t errlen);
 

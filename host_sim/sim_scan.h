@@ -53,7 +53,7 @@ sim_scan_cfg_t sim_scan_default_cfg(void);
 /* Runs the loop and writes `out` (samples format, `source` in its header).
  * Returns 0 when the path was finished; -ETIMEDOUT when max_time_s passed first (the file
  * is removed); other negative codes with a message in err. stats is filled either way. */
-__attribute__((warn_unused_result))
+FS_MUST_CHECK
 int sim_scan_run(const sim_plan_t *plan, const sim_path_t *path, const sim_scan_cfg_t *cfg,
                  const char *out, const char *source, sim_scan_stats_t *stats,
                  sim_scan_progress_fn progress, void *user, char *err, size_t errlen);

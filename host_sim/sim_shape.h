@@ -11,7 +11,7 @@ double sim_shape_area(const sim_poly_t *p);
 /* Triangulates a simple polygon by ear clipping. tris receives n-2 triangles as point
  * indices, counter-clockwise. Returns the number of triangles, or a negative code
  * (-EINVAL for fewer than 3 points or a polygon that is not simple enough to clip). */
-__attribute__((warn_unused_result))
+FS_MUST_CHECK
 int sim_shape_triangulate(const sim_poly_t *p, int tris[][3], int max_tris);
 
 /* 1 when (x, y) is inside the polygon (even-odd rule), else 0. */

@@ -31,14 +31,14 @@ sim_valset_cfg_t sim_valset_default_cfg(void);
 
 /* Draws the poses only (poses[cfg->n_poses]). Returns 0, -EINVAL, or -ENOENT when no free
  * pose was found within 100000 attempts for some pose (the plan has no free room space). */
-__attribute__((warn_unused_result))
+FS_MUST_CHECK
 int sim_valset_poses(const sim_plan_t *plan, const sim_valset_cfg_t *cfg, sim_pose_t *poses,
                      char *err, size_t errlen);
 
 /* Generates the set and writes it to `path` in the samples format (sim_samples.h), with
  * `source` in the header. *n_samples (optional) receives the record count.
  * Returns 0 or a negative code with a message in err. */
-__attribute__((warn_unused_result))
+FS_MUST_CHECK
 int sim_valset_write(const sim_plan_t *plan, const sim_valset_cfg_t *cfg, const char *path,
                      const char *source, uint64_t *n_samples, char *err, size_t errlen);
 

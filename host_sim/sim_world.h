@@ -72,43 +72,43 @@ sim_world_cfg_t sim_world_default_cfg(void);
 /* Initialises ODE for the process (once) and ODE's per-thread data for the calling thread.
  * sim_world_create() does this for its caller; a thread that steps a world or casts rays in a
  * world created by another thread calls this first. Returns 0 or a negative code. */
-__attribute__((warn_unused_result))
+FS_MUST_CHECK
 int sim_world_thread_init(void);
 sim_robot_params_t sim_robot_default_params(void);
 
 /* Builds the world for `plan` (not retained; the world copies what it needs).
  * cfg NULL = defaults. On failure returns a negative code and a message in err. */
-__attribute__((warn_unused_result))
+FS_MUST_CHECK
 int sim_world_create(const sim_plan_t *plan, const sim_world_cfg_t *cfg, sim_world_t **out,
                      char *err, size_t errlen);
 void sim_world_destroy(sim_world_t *w);
 
 /* Adds a robot at pose (the robot rests on the floor). params NULL = defaults.
  * *id receives its index (0, 1, ...). Returns 0, -EINVAL or -ENOMEM. */
-__attribute__((warn_unused_result))
+FS_MUST_CHECK
 int sim_world_add_robot(sim_world_t *w, const sim_robot_params_t *params, sim_pose_t pose,
                         int *id);
 
 /* Wheel angular velocity targets, rad/s (positive = forward), each clamped to
  * +-v_max / wheel_radius. Held until changed. Returns 0 or -EINVAL. */
-__attribute__((warn_unused_result))
+FS_MUST_CHECK
 int sim_world_set_wheels(sim_world_t *w, int id, double left, double right);
 
 /* Same from a body twist: v (m/s) and omega (rad/s) through the differential-drive
  * inverse kinematics (rt_follow_wheels), with the same wheel clamp. */
-__attribute__((warn_unused_result))
+FS_MUST_CHECK
 int sim_world_set_twist(sim_world_t *w, int id, double v, double omega);
 
 /* Advances n_steps fixed steps. Returns 0, -EINVAL, or -EIO if the simulation produced
  * a non-finite state (the world is unusable then). */
-__attribute__((warn_unused_result))
+FS_MUST_CHECK
 int sim_world_step(sim_world_t *w, int n_steps);
 
-__attribute__((warn_unused_result))
+FS_MUST_CHECK
 int sim_world_pose(const sim_world_t *w, int id, sim_pose_t *pose);
 
 /* Wheel angular velocities actually reached (rad/s), for odometry. */
-__attribute__((warn_unused_result))
+FS_MUST_CHECK
 int sim_world_wheel_rates(const sim_world_t *w, int id, double *left, double *right);
 
 /* Number of wall contact episodes since the robot was added: a contact between any robot geom

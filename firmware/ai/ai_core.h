@@ -69,7 +69,7 @@ ai_core_cfg_t ai_core_default_cfg(void);
 
 /* Validates cfg and initialises the core (model from model_seed). Before the cores start.
  * 0 or -EINVAL. */
-__attribute__((warn_unused_result)) int ai_core_init(ai_core_t *ai, const ai_core_cfg_t *cfg,
+FS_MUST_CHECK int ai_core_init(ai_core_t *ai, const ai_core_cfg_t *cfg,
                                                      const fw_link_t *link);
 
 /* fw_core_t tick function: arg is the ai_core_t. */

@@ -35,7 +35,7 @@ typedef struct ai_pool {
 } ai_pool_t;
 
 /* 0 or -EINVAL (NULL data, capacity 0, bad policy). */
-__attribute__((warn_unused_result)) int ai_pool_init(ai_pool_t *p, ai_sample_t *data,
+FS_MUST_CHECK int ai_pool_init(ai_pool_t *p, ai_sample_t *data,
                                                      uint32_t capacity, ai_pool_policy_t policy,
                                                      uint64_t seed);
 /* Offers one sample. Returns 1 when it was stored, 0 when the reservoir rejected it. */
@@ -46,6 +46,6 @@ void ai_pool_clear(ai_pool_t *p);
 
 const char *ai_pool_policy_name(ai_pool_policy_t p);
 /* "cdr" | "dr" -> policy. 0 or -EINVAL. */
-__attribute__((warn_unused_result)) int ai_pool_policy_parse(const char *s, ai_pool_policy_t *out);
+FS_MUST_CHECK int ai_pool_policy_parse(const char *s, ai_pool_policy_t *out);
 
 #endif /* AI_AI_POOL_H */

@@ -45,7 +45,6 @@
 
 #include "ai/ai_sample.h"
 
-#define BNN_WUR __attribute__((warn_unused_result))
 
 /* ---- compile-time presets (Makefile defines exactly one BNN_PRESET_*) ------------------- */
 #if defined(BNN_PRESET_PAPER)
@@ -163,7 +162,7 @@ size_t bnn_get_buffer_size(void);
 /* Validates cfg (NULL = default), lays out the arena, initialises theta from `seed`
  * (SIREN U(-1/in,1/in); Bayesian mu U(+-1/sqrt(fan_in)), rho = rho_init; output layer
  * U(+-1/sqrt(H))), zeroes gradients and both Adam states. Returns 0 or -EINVAL. */
-BNN_WUR int bnn_init(bnn_model_t *m, const bnn_config_t *cfg, uint64_t seed);
+FS_MUST_CHECK int bnn_init(bnn_model_t *m, const bnn_config_t *cfg, uint64_t seed);
 
 /* ---- the parameter vector --------------------------------------------------------------- */
 float *bnn_params(bnn_model_t *m);              /* n_params floats, layout above */
@@ -183,19 +182,19 @@ size_t bnn_tensors(const bnn_model_t *m, bnn_tensor_t *out, size_t max_out);
  * caller may then add its own terms into bnn_grads() before bnn_adam_step.
  * 1 <= n <= cfg.max_batch; labels outside [0,1] or non-finite inputs give -EINVAL.
  * out may be NULL. Returns 0 or -EINVAL. */
-BNN_WUR int bnn_loss_grad(bnn_model_t *m, const ai_sample_t *batch, size_t n, float kl_weight,
+FS_MUST_CHECK int bnn_loss_grad(bnn_model_t *m, const ai_sample_t *batch, size_t n, float kl_weight,
                           uint64_t noise_key, bnn_loss_t *out);
 
 /* One Adam step (bias-corrected, beta1 0.9, beta2 0.999, eps 1e-8) of one group
  * (BNN_GROUP_MU or BNN_GROUP_RHO) with that group's own moments, using the current
  * gradient buffer. Returns 0 or -EINVAL. */
-BNN_WUR int bnn_adam_step(bnn_model_t *m, bnn_group_t g, float lr);
+FS_MUST_CHECK int bnn_adam_step(bnn_model_t *m, bnn_group_t g, float lr);
 
 /* Zero a group's Adam moments and step count (DiNNO: fresh optimiser each round). */
 void bnn_adam_reset(bnn_model_t *m, bnn_group_t g);
 
 /* bnn_loss_grad then bnn_adam_step on MU and on RHO with the same lr. */
-BNN_WUR int bnn_train_step(bnn_model_t *m, const ai_sample_t *batch, size_t n, float kl_weight,
+FS_MUST_CHECK int bnn_train_step(bnn_model_t *m, const ai_sample_t *batch, size_t n, float kl_weight,
                            uint64_t noise_key, float lr, bnn_loss_t *out);
 
 /* ---- inference ---------------------------------------------------------------------------- */
@@ -205,7 +204,7 @@ BNN_WUR int bnn_train_step(bnn_model_t *m, const ai_sample_t *batch, size_t n, f
  * outputs; std[i]: their population standard deviation (std may be NULL). Any n >= 1 (the
  * points are processed in chunks of max_batch). Clobbers the activation scratch and the
  * sampled weights, not theta or the gradients. Returns 0 or -EINVAL. */
-BNN_WUR int bnn_predict_mc(bnn_model_t *m, const float *xy, size_t n, uint32_t K, uint64_t seed,
+FS_MUST_CHECK int bnn_predict_mc(bnn_model_t *m, const float *xy, size_t n, uint32_t K, uint64_t seed,
                            float *mean, float *std);
 
 /* Validation loss: mean per-point BCE over n samples (any n >= 1).
@@ -214,7 +213,7 @@ BNN_WUR int bnn_predict_mc(bnn_model_t *m, const float *xy, size_t n, uint32_t K
  * K >= 1: BCE of the MC-mean probability of K sampled passes (keyed like bnn_predict_mc),
  *         with p clamped to [1e-7, 1-1e-7].
  * Returns 0 or -EINVAL. */
-BNN_WUR int bnn_eval_bce(bnn_model_t *m, const ai_sample_t *samples, size_t n, uint32_t K,
+FS_MUST_CHECK int bnn_eval_bce(bnn_model_t *m, const ai_sample_t *samples, size_t n, uint32_t K,
                          uint64_t seed, float *bce);
 
 /* ---- building blocks exposed for tests and for DiNNO ---------------------------------- */
@@ -227,7 +226,7 @@ double bnn_kl_loss(const bnn_model_t *m);
 
 /* Forward pass only (no gradient) with the weights of the draw (seed, noise_key), or with
  * the mean weights when use_mean != 0. logits: n floats. 1 <= n <= max_batch. */
-BNN_WUR int bnn_forward_logits(bnn_model_t *m, const float *xy, size_t n, int use_mean,
+FS_MUST_CHECK int bnn_forward_logits(bnn_model_t *m, const float *xy, size_t n, int use_mean,
                                uint64_t noise_key, float *logits);
 
 #endif /* AI_BNN_H */

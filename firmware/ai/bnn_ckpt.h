@@ -38,7 +38,7 @@ size_t bnn_ckpt_size(const bnn_model_t *m, int with_adam);
 
 /* Serialise into buf (cap bytes). *written = bytes used. Returns 0, -EINVAL, or -ENOSPC
  * when cap < bnn_ckpt_size(). */
-BNN_WUR int bnn_ckpt_save(const bnn_model_t *m, int with_adam, uint8_t *buf, size_t cap,
+FS_MUST_CHECK int bnn_ckpt_save(const bnn_model_t *m, int with_adam, uint8_t *buf, size_t cap,
                           size_t *written);
 
 /* Parse buf (len bytes) into m, whose configuration (bnn_init) must match the checkpoint's
@@ -52,6 +52,6 @@ BNN_WUR int bnn_ckpt_save(const bnn_model_t *m, int with_adam, uint8_t *buf, siz
  *   -ENOEXEC  fingerprint (dimensions) differ from the model's: another preset/config
  *   -EILSEQ   CRC mismatch (corrupt)
  * On error m is unchanged. */
-BNN_WUR int bnn_ckpt_load(bnn_model_t *m, const uint8_t *buf, size_t len, const char **reason);
+FS_MUST_CHECK int bnn_ckpt_load(bnn_model_t *m, const uint8_t *buf, size_t len, const char **reason);
 
 #endif /* AI_BNN_CKPT_H */

@@ -34,18 +34,18 @@ size_t bnn_quant_packed_size(const bnn_model_t *m, bnn_group_t g);
 #define BNN_QUANT_MAX_BYTES (BNN_N_PARAMS + 4u * BNN_QUANT_MAX_ROWS_)
 
 /* Quantise group g of theta into buf. *written = bytes. Returns 0, -EINVAL or -ENOSPC. */
-BNN_WUR int bnn_quant_pack(const bnn_model_t *m, bnn_group_t g, uint8_t *buf, size_t cap,
+FS_MUST_CHECK int bnn_quant_pack(const bnn_model_t *m, bnn_group_t g, uint8_t *buf, size_t cap,
                            size_t *written);
 
 /* Dequantise buf (exactly bnn_quant_packed_size(m, g) bytes) into group g of theta.
  * Validates the length and that every scale is finite and >= 0 before writing anything.
  * Returns 0, -EINVAL or -EBADMSG. */
-BNN_WUR int bnn_quant_unpack(bnn_model_t *m, bnn_group_t g, const uint8_t *buf, size_t len);
+FS_MUST_CHECK int bnn_quant_unpack(bnn_model_t *m, bnn_group_t g, const uint8_t *buf, size_t len);
 
 /* Int8 inference with the mean weights from a packed state of group BNN_GROUP_ALL or
  * BNN_GROUP_MU (the rho group is not needed) of a model with configuration cfg.
  * xy: n interleaved points; logits: n outputs. Returns 0, -EINVAL or -EBADMSG. */
-BNN_WUR int bnn_quant_forward_mean(const bnn_config_t *cfg, bnn_group_t g, const uint8_t *packed,
+FS_MUST_CHECK int bnn_quant_forward_mean(const bnn_config_t *cfg, bnn_group_t g, const uint8_t *packed,
                                    size_t len, const float *xy, size_t n, float *logits);
 
 #endif /* AI_BNN_QUANT_H */

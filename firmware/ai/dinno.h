@@ -53,7 +53,6 @@
 #include "ai/ai_sample.h"
 #include "ai/bnn.h"
 
-#define DINNO_WUR __attribute__((warn_unused_result))
 
 #define DINNO_MAX_PEERS BOARD_MAX_PEERS
 
@@ -128,7 +127,7 @@ size_t dinno_get_buffer_size(void);
  * from model_seed (nodes of one fleet share model_seed for a common start, as the reference
  * does), zeroes duals and slots; `seed` keys this node's minibatches and BNN noise (give
  * each node its own). Returns 0 or -EINVAL. */
-DINNO_WUR int dinno_node_init(dinno_node_t *n, const dinno_cfg_t *cfg, const bnn_config_t *bcfg,
+FS_MUST_CHECK int dinno_node_init(dinno_node_t *n, const dinno_cfg_t *cfg, const bnn_config_t *bcfg,
                               uint64_t model_seed, uint64_t seed, uint32_t id);
 
 /* Marks every slot invalid. */
@@ -136,7 +135,7 @@ void dinno_slots_clear(dinno_node_t *n);
 
 /* Copies a neighbour's state (n_params floats) of round `round` into slot s and marks it
  * valid. Returns 0 or -EINVAL (s out of range, NULL). */
-DINNO_WUR int dinno_slot_put(dinno_node_t *n, uint32_t s, uint32_t round, const float *theta,
+FS_MUST_CHECK int dinno_slot_put(dinno_node_t *n, uint32_t s, uint32_t round, const float *theta,
                              size_t n_params);
 
 /* rho_k and lr_k of round k under cfg. */
@@ -147,7 +146,7 @@ float dinno_lr_at(const dinno_cfg_t *cfg, uint32_t k);
  * data[0..n_data). Valid slots must carry round k (else -EINVAL, nothing changed).
  * Increments n->round. stats may be NULL. Returns 0 or -EINVAL (NULL, n_data == 0, bad
  * samples). Allocates nothing. */
-DINNO_WUR int dinno_node_round(dinno_node_t *n, const ai_sample_t *data, size_t n_data,
+FS_MUST_CHECK int dinno_node_round(dinno_node_t *n, const ai_sample_t *data, size_t n_data,
                                dinno_round_stats_t *stats);
 
 /* Building blocks, exposed for tests ------------------------------------------------------- */
@@ -167,6 +166,6 @@ double dinno_reg_value(const dinno_node_t *n, float rho_k);
 
 const char *dinno_strategy_name(dinno_strategy_t s);
 /* "uniform" | "separate" | "kl" -> strategy; returns 0 or -EINVAL. */
-DINNO_WUR int dinno_strategy_parse(const char *name, dinno_strategy_t *out);
+FS_MUST_CHECK int dinno_strategy_parse(const char *name, dinno_strategy_t *out);
 
 #endif /* AI_DINNO_H */

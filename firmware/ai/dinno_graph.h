@@ -37,9 +37,9 @@ typedef struct dinno_graph_report {
 
 /* Each returns 0 or -EINVAL (n == 0 or n > DINNO_GRAPH_MAX_NODES; disk: NULL xy, radius not
  * finite or < 0, a non-finite position). xy: n interleaved positions (x0, y0, x1, y1, ...). */
-__attribute__((warn_unused_result)) int dinno_graph_full(dinno_graph_t *g, uint32_t n);
-__attribute__((warn_unused_result)) int dinno_graph_ring(dinno_graph_t *g, uint32_t n);
-__attribute__((warn_unused_result)) int dinno_graph_disk(dinno_graph_t *g, uint32_t n, const double *xy,
+FS_MUST_CHECK int dinno_graph_full(dinno_graph_t *g, uint32_t n);
+FS_MUST_CHECK int dinno_graph_ring(dinno_graph_t *g, uint32_t n);
+FS_MUST_CHECK int dinno_graph_disk(dinno_graph_t *g, uint32_t n, const double *xy,
                                                          double radius);
 
 static inline int dinno_graph_has_edge(const dinno_graph_t *g, uint32_t i, uint32_t j)
@@ -52,6 +52,6 @@ void dinno_graph_report(const dinno_graph_t *g, dinno_graph_report_t *r);
 
 const char *dinno_graph_name(dinno_graph_kind_t k);
 /* "full" | "ring" | "disk"; returns 0 or -EINVAL. */
-__attribute__((warn_unused_result)) int dinno_graph_parse(const char *name, dinno_graph_kind_t *out);
+FS_MUST_CHECK int dinno_graph_parse(const char *name, dinno_graph_kind_t *out);
 
 #endif /* AI_DINNO_GRAPH_H */

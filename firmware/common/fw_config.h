@@ -64,6 +64,11 @@
 #define GP_CORE_LOG_ROUNDS 1024u
 #endif
 
+/* ---- toolchain --------------------------------------------------------------------------- */
+/* The one check-return marker: a function that can fail (0 or a negative errno) carries it,
+ * and the compiler makes every caller look at the result. */
+#define FS_MUST_CHECK __attribute__((warn_unused_result))
+
 /* ---- checks -------------------------------------------------------------------------------- */
 #if BOARD_RAM_RT_BYTES <= 0 || BOARD_RAM_GP_BYTES <= 0 || BOARD_RAM_AI_BYTES <= 0
 #error "board memory budgets must be positive"

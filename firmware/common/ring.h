@@ -50,11 +50,11 @@ typedef struct ring {
 
 /* Producer only. Copies ring->record_size bytes from `record`.
  * Returns 0, or -ENOSPC when full (the record is dropped and counted), -EINVAL on NULL. */
-__attribute__((warn_unused_result)) int ring_put(ring_t *ring, const void *record);
+FS_MUST_CHECK int ring_put(ring_t *ring, const void *record);
 
 /* Consumer only. Copies the oldest record into `record`.
  * Returns 0, or -EAGAIN when empty, -EINVAL on NULL. */
-__attribute__((warn_unused_result)) int ring_get(ring_t *ring, void *record);
+FS_MUST_CHECK int ring_get(ring_t *ring, void *record);
 
 /* Empties the ring and zeroes the drop count: the state RING_DEFINE() gives. Only while
  * neither producer nor consumer uses the ring (before the cores start). */

@@ -78,7 +78,7 @@ typedef struct gp_core {
 gp_core_cfg_t gp_core_default_cfg(void);
 
 /* Validates and resets (before the cores start). 0 or -EINVAL. */
-__attribute__((warn_unused_result)) int gp_core_init(gp_core_t *gp, const gp_core_cfg_t *cfg,
+FS_MUST_CHECK int gp_core_init(gp_core_t *gp, const gp_core_cfg_t *cfg,
                                                      const fw_link_t *link);
 
 /* fw_core_t tick function: arg is the gp_core_t. */

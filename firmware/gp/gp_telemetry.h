@@ -37,12 +37,12 @@ typedef struct gp_telemetry {
 
 /* Writes the wire form into buf (cap >= GP_TELEMETRY_WIRE_BYTES). 0 or -EINVAL (NULL, small
  * buffer, or a field out of range). */
-__attribute__((warn_unused_result)) int gp_telemetry_encode(const gp_telemetry_t *t, uint8_t *buf,
+FS_MUST_CHECK int gp_telemetry_encode(const gp_telemetry_t *t, uint8_t *buf,
                                                             size_t cap);
 
 /* Parses and validates len bytes. 0, -EINVAL (NULL), -EBADMSG (wrong magic, version, size or
  * a field out of range). */
-__attribute__((warn_unused_result)) int gp_telemetry_decode(const uint8_t *buf, size_t len,
+FS_MUST_CHECK int gp_telemetry_decode(const uint8_t *buf, size_t len,
                                                             gp_telemetry_t *t);
 
 #endif /* GP_TELEMETRY_H */

@@ -83,15 +83,19 @@ static void process_scan(rt_core_t *rt, const hal_pose_t *pose)
     r = rt_samples_from_scan(&rt->cfg.samples, &view, pose->x_m, pose->y_m, pose->heading_rad,
                              rt->out, RT_CORE_MAX_SCAN_SAMPLES, &n, NULL);
     if (r != 0) {
-        rt->status.errors++;
+        rt->status.sample_errors++;
         return;
     }
     rt->status.scans++;
     for (int32_t i = 0; i < n; i++) {
-        if (ring_put(rt->link->samples, &rt->out[i]) == 0)
+        /* A full ring is the expected overload (dropped and counted); anything else is not. */
+        r = ring_put(rt->link->samples, &rt->out[i]);
+        if (r == 0)
             rt->status.samples++;
-        else
+        else if (r == -ENOSPC)
             rt->status.ring_drops++;
+        else
+            rt->status.sample_errors++;
     }
 }
 

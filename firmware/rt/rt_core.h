@@ -58,7 +58,7 @@ typedef struct rt_core {
 } rt_core_t;
 
 /* Validates cfg and resets rt (before the cores start). 0 or -EINVAL. */
-__attribute__((warn_unused_result)) int rt_core_init(rt_core_t *rt, const rt_core_cfg_t *cfg,
+FS_MUST_CHECK int rt_core_init(rt_core_t *rt, const rt_core_cfg_t *cfg,
                                                      const fw_link_t *link);
 
 /* fw_core_t tick function: arg is the rt_core_t. */

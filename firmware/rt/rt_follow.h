@@ -56,13 +56,13 @@ rt_follow_cfg_t rt_follow_default_cfg(void);
 
 /* Validates cfg (every field positive and finite, turn_in_place_rad <= pi) and resets the
  * follower to waypoint 0. Returns 0 or -EINVAL. */
-__attribute__((warn_unused_result))
+FS_MUST_CHECK
 int rt_follow_init(rt_follow_t *f, const rt_follow_cfg_t *cfg);
 
 /* One control step from the pose (x, y, theta). wps: n >= 1 waypoints (the same list on
  * every call). Fills *cmd. Returns 0, or -EINVAL on a NULL pointer, n < 1 or a non-finite
  * pose. When n is smaller than the current index the follower reports finished. */
-__attribute__((warn_unused_result))
+FS_MUST_CHECK
 int rt_follow_step(rt_follow_t *f, const rt_waypoint_t *wps, int32_t n, float x, float y,
                    float theta, rt_follow_cmd_t *cmd);
 
@@ -70,7 +70,7 @@ int rt_follow_step(rt_follow_t *f, const rt_waypoint_t *wps, int32_t n, float x,
  *   left = (v - omega * sep / 2) / r,  right = (v + omega * sep / 2) / r,
  * both scaled by the same factor so that neither exceeds wheel_max (rad/s, > 0).
  * Returns 0 or -EINVAL. */
-__attribute__((warn_unused_result))
+FS_MUST_CHECK
 int rt_follow_wheels(float v, float omega, float wheel_radius, float wheel_separation,
                      float wheel_max, float *left, float *right);
 

@@ -62,7 +62,7 @@ typedef struct rt_samples_stats {
  * *n_out receives the count; stats may be NULL. Returns 0, -EINVAL on bad arguments
  * (NULL, non-finite pose, n_beams > n_scan, empty box, ...) or -ENOSPC when cap is below
  * RT_SAMPLES_MAX_OUT(n_beams, points_per_beam) (nothing is written then). */
-__attribute__((warn_unused_result))
+FS_MUST_CHECK
 int rt_samples_from_scan(const rt_samples_cfg_t *cfg, const rt_scan_view_t *scan, float x,
                          float y, float theta, ai_sample_t *out, int32_t cap, int32_t *n_out,
                          rt_samples_stats_t *stats);

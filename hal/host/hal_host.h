@@ -100,7 +100,7 @@ typedef struct hal_host hal_host_t;
 /* Creates a host board from cfg (validated: -EINVAL with a message on stderr) and opens the
  * network (-EIO when LCM cannot be created on the URL) and storage (-EIO). Does not install
  * it: call hal_board_install(hal_host_board(h)). */
-__attribute__((warn_unused_result)) int hal_host_create(const hal_host_config_t *cfg,
+FS_MUST_CHECK int hal_host_create(const hal_host_config_t *cfg,
                                                         hal_host_t **out);
 
 /* The board to install. Valid until hal_host_destroy(). */
@@ -110,7 +110,7 @@ const hal_board_t *hal_host_board(const hal_host_t *h);
  * <= t_end_us is processed, then the world is advanced to t_end_us and the clock reads
  * t_end_us. May be called repeatedly with growing t_end_us. Returns 0, -EINVAL
  * (t_end_us < now), -ECANCELED (already stopped) or the world's error. */
-__attribute__((warn_unused_result)) int hal_host_run_until(hal_host_t *h, uint64_t t_end_us);
+FS_MUST_CHECK int hal_host_run_until(hal_host_t *h, uint64_t t_end_us);
 
 /* Stops the cores: each blocked core's hal_sleep_until_us() returns -ECANCELED (serial mode:
  * one at a time in core-id order), every later call too; waits for every entry to return
@@ -142,7 +142,7 @@ typedef struct hal_host_core_stats {
 } hal_host_core_stats_t;
 
 /* Per-core figures. 0 or -EINVAL. */
-__attribute__((warn_unused_result)) int hal_host_core_stats(hal_host_t *h, hal_core_id_t id,
+FS_MUST_CHECK int hal_host_core_stats(hal_host_t *h, hal_core_id_t id,
                                                             hal_host_core_stats_t *stats);
 
 /* Times the watchdog reported a core (see hal_host_config_t.watchdog_ms). */
@@ -155,43 +155,43 @@ uint64_t hal_host_world_steps(const hal_host_t *h);
 
 /* Network over LCM. Not thread-safe: one thread uses one hal_host_net_t. */
 typedef struct hal_host_net hal_host_net_t;
-__attribute__((warn_unused_result)) int hal_host_net_open(const char *url, uint32_t queue_depth,
+FS_MUST_CHECK int hal_host_net_open(const char *url, uint32_t queue_depth,
                                                           hal_host_net_t **out);
 void hal_host_net_close(hal_host_net_t *n);
-__attribute__((warn_unused_result)) int hal_host_net_publish(hal_host_net_t *n,
+FS_MUST_CHECK int hal_host_net_publish(hal_host_net_t *n,
                                                              const char *channel,
                                                              const void *data, size_t len);
-__attribute__((warn_unused_result)) int hal_host_net_subscribe(hal_host_net_t *n,
+FS_MUST_CHECK int hal_host_net_subscribe(hal_host_net_t *n,
                                                                const char *channel);
 /* Declares that `channel` carries only messages of `type` (hal_host_msg.h): from then on a
  * datagram on it that fails hal_host_msg_check() is dropped before it is queued and counted
  * in rx_dropped_malformed. HAL_HOST_MSG_ANY makes it raw again. 0, -EINVAL or -ENOSPC. */
-__attribute__((warn_unused_result)) int hal_host_net_expect_type(hal_host_net_t *n, const char *channel,
+FS_MUST_CHECK int hal_host_net_expect_type(hal_host_net_t *n, const char *channel,
                                                                  int type);
 /* Pumps what LCM has ready into the queue without waiting (overflow is dropped and counted;
  * at most 4 * depth + 64 deliveries per call), then pops one message.
  * stamp_us is recorded as the queue time of what the pump delivers. */
-__attribute__((warn_unused_result)) int hal_host_net_receive(hal_host_net_t *n, uint64_t stamp_us,
+FS_MUST_CHECK int hal_host_net_receive(hal_host_net_t *n, uint64_t stamp_us,
                                                              hal_net_rx_info_t *info, void *buf,
                                                              size_t cap);
 /* Like receive's pump, but waits up to timeout_ms wall time for the first message (for
  * tools and tests outside the lockstep, never for cores). 0 or -EIO. */
-__attribute__((warn_unused_result)) int hal_host_net_wait(hal_host_net_t *n, uint64_t stamp_us,
+FS_MUST_CHECK int hal_host_net_wait(hal_host_net_t *n, uint64_t stamp_us,
                                                           int timeout_ms);
 void hal_host_net_get_stats(const hal_host_net_t *n, hal_net_stats_t *stats);
 
 /* Storage in a directory. Thread-safe as far as the file system is (one writer per name). */
 typedef struct hal_host_storage hal_host_storage_t;
-__attribute__((warn_unused_result)) int hal_host_storage_open(const char *dir,
+FS_MUST_CHECK int hal_host_storage_open(const char *dir,
                                                               hal_host_storage_t **out);
 void hal_host_storage_close(hal_host_storage_t *s);
-__attribute__((warn_unused_result)) int hal_host_storage_write(hal_host_storage_t *s,
+FS_MUST_CHECK int hal_host_storage_write(hal_host_storage_t *s,
                                                                const char *name,
                                                                const void *data, size_t len);
-__attribute__((warn_unused_result)) int hal_host_storage_read(hal_host_storage_t *s,
+FS_MUST_CHECK int hal_host_storage_read(hal_host_storage_t *s,
                                                               const char *name, void *buf,
                                                               size_t cap, size_t *len);
-__attribute__((warn_unused_result)) int hal_host_storage_remove(hal_host_storage_t *s,
+FS_MUST_CHECK int hal_host_storage_remove(hal_host_storage_t *s,
                                                                 const char *name);
 
 #ifdef __cplusplus

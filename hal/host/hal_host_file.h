@@ -39,24 +39,24 @@ typedef struct hal_host_file {
 } hal_host_file_t;
 
 /* Starts writing `path`. 0 or a negative errno (nothing was created then). */
-__attribute__((warn_unused_result)) int hal_host_file_begin(hal_host_file_t *w, const char *path);
+FS_MUST_CHECK int hal_host_file_begin(hal_host_file_t *w, const char *path);
 
 /* The stream to write to (fprintf, fwrite, libpng...). Errors are caught at commit. */
 FILE *hal_host_file_stream(hal_host_file_t *w);
 
 /* Writes len bytes. 0 or a negative errno (the writer then stays failed). */
-__attribute__((warn_unused_result)) int hal_host_file_write(hal_host_file_t *w, const void *data, size_t len);
+FS_MUST_CHECK int hal_host_file_write(hal_host_file_t *w, const void *data, size_t len);
 
 /* Makes the target the new file: flush, fsync, close, rename, fsync of the directory.
  * 0, or a negative errno and the target is untouched (the temporary file is removed). */
-__attribute__((warn_unused_result)) int hal_host_file_commit(hal_host_file_t *w);
+FS_MUST_CHECK int hal_host_file_commit(hal_host_file_t *w);
 
 /* Gives up: closes and removes the temporary file; the target is untouched. Safe to call
  * after a failed begin or commit, and twice. */
 void hal_host_file_abort(hal_host_file_t *w);
 
 /* begin + write + commit. */
-__attribute__((warn_unused_result)) int hal_host_file_write_all(const char *path, const void *data, size_t len);
+FS_MUST_CHECK int hal_host_file_write_all(const char *path, const void *data, size_t len);
 
 /* Removes temporary files that writers in `dir` left behind when their process was killed
  * (`.*.fstmp` whose PID is not a live process).
@@ -65,11 +65,11 @@ int hal_host_file_clean_stale(const char *dir);
 
 /* Opens an input file for reading: 0 and *out, or a negative errno: -ENOENT, -EACCES,
  * -EISDIR for a directory, ... */
-__attribute__((warn_unused_result)) int hal_host_file_open_read(const char *path, FILE **out);
+FS_MUST_CHECK int hal_host_file_open_read(const char *path, FILE **out);
 
 /* Makes `dir` and its missing parents (mkdir -p), refusing a component that exists and is
  * not a directory. 0 or a negative errno. */
-__attribute__((warn_unused_result)) int hal_host_file_mkdirs(const char *dir);
+FS_MUST_CHECK int hal_host_file_mkdirs(const char *dir);
 
 /* strerror(-code), except -EEXIST: "exists and is not a regular file". */
 const char *hal_host_file_strerror(int code);

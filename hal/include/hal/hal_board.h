@@ -24,7 +24,6 @@
 #include <stddef.h>
 #include <stdint.h>
 
-#define HAL_WUR __attribute__((warn_unused_result))
 
 #ifdef __cplusplus
 extern "C" {
@@ -65,7 +64,7 @@ extern const hal_board_t *hal_board_current;
 
 /* Installs `board` (NULL uninstalls). Returns 0, or -EINVAL when the board lacks a name, a
  * required interface (clock, core, log) or a required operation of an interface it has. */
-HAL_WUR int hal_board_install(const hal_board_t *board);
+FS_MUST_CHECK int hal_board_install(const hal_board_t *board);
 
 /* Short upper-case name of a core ("RT", "GP", "AI"), "?" for an invalid id. */
 const char *hal_core_name(hal_core_id_t id);

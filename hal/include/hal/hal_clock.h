@@ -23,7 +23,7 @@ typedef struct hal_clock_ops {
 } hal_clock_ops_t;
 
 /* Current simulated time in microseconds into *now_us. 0 or -EINVAL/-ENODEV. */
-HAL_WUR static inline int hal_clock_now_us(uint64_t *now_us)
+FS_MUST_CHECK static inline int hal_clock_now_us(uint64_t *now_us)
 {
     const hal_board_t *b = hal_board_current;
     if (now_us == NULL)
@@ -35,7 +35,7 @@ HAL_WUR static inline int hal_clock_now_us(uint64_t *now_us)
 
 /* Blocks the calling core until simulated time wake_us. See hal_clock_ops_t for returns.
  * The only blocking call of the HAL besides what a back end documents. */
-HAL_WUR static inline int hal_sleep_until_us(uint64_t wake_us)
+FS_MUST_CHECK static inline int hal_sleep_until_us(uint64_t wake_us)
 {
     const hal_board_t *b = hal_board_current;
     if (b == NULL || b->clock == NULL)

@@ -32,7 +32,7 @@ typedef struct hal_core_ops {
 
 /* Starts core `id` running entry(arg). 0, -EINVAL, -EBUSY (already started), -EAGAIN
  * (the back end could not create it), -ENODEV. */
-HAL_WUR static inline int hal_core_start(hal_core_id_t id, hal_core_entry_t entry, void *arg)
+FS_MUST_CHECK static inline int hal_core_start(hal_core_id_t id, hal_core_entry_t entry, void *arg)
 {
     const hal_board_t *b = hal_board_current;
     if ((unsigned)id >= (unsigned)HAL_CORE_COUNT || entry == NULL)
@@ -45,7 +45,7 @@ HAL_WUR static inline int hal_core_start(hal_core_id_t id, hal_core_entry_t entr
 /* High-water mark of core `id`'s stack: bytes the core ever used below its entry frame, and
  * the board's stack size for it (BOARD_STACK_<core>_BYTES; a host may keep thread-local
  * storage in a reserve above it, which is not counted). 0, -EINVAL, -ESRCH (never started), -ENOTSUP, -ENODEV. */
-HAL_WUR static inline int hal_core_stack_high_water(hal_core_id_t id, size_t *used_bytes,
+FS_MUST_CHECK static inline int hal_core_stack_high_water(hal_core_id_t id, size_t *used_bytes,
                                                     size_t *size_bytes)
 {
     const hal_board_t *b = hal_board_current;
@@ -59,7 +59,7 @@ HAL_WUR static inline int hal_core_stack_high_water(hal_core_id_t id, size_t *us
 }
 
 /* The calling core's id. 0, -EINVAL, -EPERM (not called from a core), -ENOTSUP, -ENODEV. */
-HAL_WUR static inline int hal_core_self(hal_core_id_t *id)
+FS_MUST_CHECK static inline int hal_core_self(hal_core_id_t *id)
 {
     const hal_board_t *b = hal_board_current;
     if (id == NULL)

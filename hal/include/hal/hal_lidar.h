@@ -34,7 +34,7 @@ typedef struct hal_lidar_ops {
     int (*read_scan)(void *ctx, hal_lidar_scan_t *scan);
 } hal_lidar_ops_t;
 
-HAL_WUR static inline int hal_lidar_read_scan(hal_lidar_scan_t *scan)
+FS_MUST_CHECK static inline int hal_lidar_read_scan(hal_lidar_scan_t *scan)
 {
     const hal_board_t *b = hal_board_current;
     if (scan == NULL)

@@ -25,7 +25,7 @@ static inline int hal_motor_finite_(float x)
     return x == x && x < 3.0e38f && x > -3.0e38f;
 }
 
-HAL_WUR static inline int hal_motor_set_wheels(float left_rad_s, float right_rad_s)
+FS_MUST_CHECK static inline int hal_motor_set_wheels(float left_rad_s, float right_rad_s)
 {
     const hal_board_t *b = hal_board_current;
     if (!hal_motor_finite_(left_rad_s) || !hal_motor_finite_(right_rad_s))
@@ -37,7 +37,7 @@ HAL_WUR static inline int hal_motor_set_wheels(float left_rad_s, float right_rad
     return b->motor->set_wheels(b->ctx, left_rad_s, right_rad_s);
 }
 
-HAL_WUR static inline int hal_motor_set_twist(float v_m_s, float omega_rad_s)
+FS_MUST_CHECK static inline int hal_motor_set_twist(float v_m_s, float omega_rad_s)
 {
     const hal_board_t *b = hal_board_current;
     if (!hal_motor_finite_(v_m_s) || !hal_motor_finite_(omega_rad_s))

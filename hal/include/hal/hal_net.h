@@ -77,7 +77,7 @@ static inline int hal_net_channel_valid(const char *channel)
 
 /* Sends `len` bytes on `channel`. 0, -EINVAL (bad channel, NULL data with len > 0),
  * -EMSGSIZE (len > HAL_NET_MTU_BYTES), -EIO (transport failure), -ENODEV. */
-HAL_WUR static inline int hal_net_publish(const char *channel, const void *data, size_t len)
+FS_MUST_CHECK static inline int hal_net_publish(const char *channel, const void *data, size_t len)
 {
     const hal_board_t *b = hal_board_current;
     if (!hal_net_channel_valid(channel) || (data == NULL && len > 0))
@@ -91,7 +91,7 @@ HAL_WUR static inline int hal_net_publish(const char *channel, const void *data,
 
 /* Starts queueing messages of `channel`. Subscribing twice to one channel is a no-op.
  * 0, -EINVAL, -ENOSPC (the board's subscription table is full), -EIO, -ENODEV. */
-HAL_WUR static inline int hal_net_subscribe(const char *channel)
+FS_MUST_CHECK static inline int hal_net_subscribe(const char *channel)
 {
     const hal_board_t *b = hal_board_current;
     if (!hal_net_channel_valid(channel))
@@ -105,7 +105,7 @@ HAL_WUR static inline int hal_net_subscribe(const char *channel)
  * 0 when a message was taken, -EAGAIN when none waits, -EMSGSIZE when it is longer than
  * cap (it is dropped and counted; info->len tells its length), -EINVAL, -ENODEV.
  * Never blocks. */
-HAL_WUR static inline int hal_net_receive(hal_net_rx_info_t *info, void *buf, size_t cap)
+FS_MUST_CHECK static inline int hal_net_receive(hal_net_rx_info_t *info, void *buf, size_t cap)
 {
     const hal_board_t *b = hal_board_current;
     if (info == NULL || (buf == NULL && cap > 0))
@@ -116,7 +116,7 @@ HAL_WUR static inline int hal_net_receive(hal_net_rx_info_t *info, void *buf, si
 }
 
 /* Counters since start. 0, -EINVAL, -ENOTSUP, -ENODEV. */
-HAL_WUR static inline int hal_net_get_stats(hal_net_stats_t *stats)
+FS_MUST_CHECK static inline int hal_net_get_stats(hal_net_stats_t *stats)
 {
     const hal_board_t *b = hal_board_current;
     if (stats == NULL)

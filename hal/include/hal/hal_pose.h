@@ -23,7 +23,7 @@ typedef struct hal_pose_ops {
     int (*read_pose)(void *ctx, hal_pose_t *pose);
 } hal_pose_ops_t;
 
-HAL_WUR static inline int hal_pose_read(hal_pose_t *pose)
+FS_MUST_CHECK static inline int hal_pose_read(hal_pose_t *pose)
 {
     const hal_board_t *b = hal_board_current;
     if (pose == NULL)

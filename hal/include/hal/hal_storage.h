@@ -43,7 +43,7 @@ static inline int hal_storage_name_valid(const char *name)
 
 /* Stores `len` bytes under `name`, replacing any blob of that name atomically.
  * 0, -EINVAL, -ENOSPC, -EIO, -ENODEV. */
-HAL_WUR static inline int hal_storage_write(const char *name, const void *data, size_t len)
+FS_MUST_CHECK static inline int hal_storage_write(const char *name, const void *data, size_t len)
 {
     const hal_board_t *b = hal_board_current;
     if (!hal_storage_name_valid(name) || (data == NULL && len > 0))
@@ -56,7 +56,7 @@ HAL_WUR static inline int hal_storage_write(const char *name, const void *data, 
 /* Reads blob `name` into buf (cap bytes); *len receives its length. 0, -ENOENT,
  * -EMSGSIZE (blob longer than cap: *len tells the size, buf is unspecified), -EINVAL,
  * -EIO, -ENODEV. */
-HAL_WUR static inline int hal_storage_read(const char *name, void *buf, size_t cap, size_t *len)
+FS_MUST_CHECK static inline int hal_storage_read(const char *name, void *buf, size_t cap, size_t *len)
 {
     const hal_board_t *b = hal_board_current;
     if (!hal_storage_name_valid(name) || len == NULL || (buf == NULL && cap > 0))
@@ -67,7 +67,7 @@ HAL_WUR static inline int hal_storage_read(const char *name, void *buf, size_t c
 }
 
 /* Deletes blob `name`. 0, -ENOENT, -EINVAL, -EIO, -ENOTSUP, -ENODEV. */
-HAL_WUR static inline int hal_storage_remove(const char *name)
+FS_MUST_CHECK static inline int hal_storage_remove(const char *name)
 {
     const hal_board_t *b = hal_board_current;
     if (!hal_storage_name_valid(name))
