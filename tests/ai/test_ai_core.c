@@ -1,0 +1,145 @@
+/* The AI core, one tick at a time on the fake board with scripted RT status and samples: the
+ * ring drains into the pool, a path-progress boundary publishes the state and waits for the
+ * GP core's ready without blocking, the round then trains and publishes its checkpoint, DR
+ * clears the pool where CDR keeps it, and the last round sets done. No allocation. */
+#include <setjmp.h>
+#include <stdarg.h>
+#include <stddef.h>
+#include <stdint.h>
+#include <errno.h>
+#include <math.h>
+#include <string.h>
+#include <cmocka.h>
+
+#include "ai/ai_core.h"
+#include "alloc_count.h"
+#include "fake_board.h"
+#include "fw_link.h"
+
+static fake_board_t fb;
+static ai_core_t ai;
+static const fw_link_t *link_;
+static rt_status_t rt;
+static ai_ckpt_msg_t ckpt;
+
+static void start(ai_pool_policy_t policy)
+{
+    fake_board_init(&fb);
+    fake_board_install(&fb);
+    fw_link_reset();
+    link_ = fw_link_get();
+    ai_core_cfg_t c = ai_core_default_cfg();
+    c.rounds = 2;
+    c.policy = policy;
+    c.dinno.primal_steps = 2;
+    c.dinno.batch = 64;
+    assert_int_equal(ai_core_init(&ai, &c, link_), 0);
+    memset(&rt, 0, sizeof rt);
+    rt.path_length_m = 10.0f;
+}
+
+static int teardown(void **st)
+{
+    (void)st;
+    assert_int_equal(hal_board_install(NULL), 0);
+    return 0;
+}
+
+static void tick(uint64_t k)
+{
+    fb.now_us = k * 100000u;
+    fw_tick_t t = {.now_us = fb.now_us, .index = k, .sub = 1};
+    assert_int_equal(ai_core_tick(&ai, &t), 0);
+}
+
+/* The RT core's part: n samples into the ring and the status with this path progress. */
+static void rt_publishes(uint32_t n, float progress)
+{
+    for (uint32_t i = 0; i < n; i++) {
+        const float x = -0.9f + 1.8f * (float)(i % 97) / 97.0f, y = -0.9f + 1.8f * (float)(i % 89) / 89.0f;
+        ai_sample_t s = {x, y, (i % 5 == 0) ? 1.0f : 0.0f};
+        assert_int_equal(ring_put(link_->samples, &s), 0);
+    }
+    rt.progress_m = progress;
+    rt.samples += n;
+    assert_int_equal(mbox_put(link_->rt_to_ai, &rt), 0);
+}
+
+static void test_round_cycle(void **st)
+{
+    (void)st;
+    start(AI_POOL_DR);
+    rt_publishes(500, 1.0f);
+    tick(0);
+    assert_int_equal(ai.phase, AI_PHASE_COLLECT);
+    assert_int_equal(ai.pool.fill, 500);
+    assert_int_equal(ring_count(link_->samples), 0);
+    /* Boundary 0 at half the path: the state of round 0 goes to the GP core. */
+    rt_publishes(500, 5.0f);
+    alloc_count_reset();
+    tick(1);
+    assert_int_equal(ai.phase, AI_PHASE_WAIT_SLOTS);
+    assert_int_equal(mbox_fetch(link_->ai_state), 1);
+    const ai_state_msg_t *state = mbox_read_buffer(link_->ai_state, NULL);
+    assert_int_equal(state->round, 0);
+    assert_int_equal(state->n_params, bnn_n_params(&ai.node.model));
+    /* No ready yet: the core waits over its ticks, never blocking. */
+    tick(2);
+    tick(3);
+    assert_int_equal(ai.phase, AI_PHASE_WAIT_SLOTS);
+    assert_int_equal(mbox_get(link_->ai_ckpt, &ckpt, NULL), 0);
+    /* ready(0) with no neighbours: a local round, then checkpoint 0, and DR clears the pool. */
+    gp_ready_t r = {0, 0};
+    assert_int_equal(mbox_put(link_->gp_ready, &r), 0);
+    tick(4);
+    assert_int_equal(alloc_count_allocations(), 0);
+    assert_int_equal(mbox_get(link_->ai_ckpt, &ckpt, NULL), 1);
+    assert_int_equal(ckpt.info.round, 0);
+    assert_int_equal(ckpt.info.pool_fill, 1000);
+    assert_int_equal(ckpt.info.steps, 2);
+    assert_true(isfinite(ckpt.info.loss_train));
+    assert_int_equal(ckpt.flags & AI_CKPT_FLAG_FINAL, 0);
+    assert_true(ckpt.n_bytes > 0);
+    assert_int_equal(ai.pool.fill, 0); /* DR */
+    assert_int_equal(ai.phase, AI_PHASE_COLLECT);
+    /* The path finished: the last round runs and sets done. */
+    rt_publishes(300, 10.0f);
+    rt.finished = 1;
+    assert_int_equal(mbox_put(link_->rt_to_ai, &rt), 0);
+    tick(5);
+    assert_int_equal(ai.phase, AI_PHASE_WAIT_SLOTS);
+    r.round = 1;
+    assert_int_equal(mbox_put(link_->gp_ready, &r), 0);
+    tick(6);
+    assert_int_equal(mbox_get(link_->ai_ckpt, &ckpt, NULL), 1);
+    assert_int_equal(ckpt.info.round, 1);
+    assert_int_equal(ckpt.flags & AI_CKPT_FLAG_FINAL, AI_CKPT_FLAG_FINAL);
+    assert_int_equal(ai.phase, AI_PHASE_DONE);
+    ai_status_t s;
+    assert_int_equal(mbox_get(link_->ai_status, &s, NULL), 1);
+    assert_int_equal(s.done, 1);
+    assert_int_equal(s.round, 2);
+}
+
+static void test_cdr_keeps_the_pool(void **st)
+{
+    (void)st;
+    start(AI_POOL_CDR);
+    rt_publishes(800, 6.0f);
+    tick(0);
+    gp_ready_t r = {0, 0};
+    assert_int_equal(mbox_put(link_->gp_ready, &r), 0);
+    tick(1);
+    assert_int_equal(mbox_get(link_->ai_ckpt, &ckpt, NULL), 1);
+    assert_int_equal(ckpt.info.round, 0);
+    assert_int_equal(ai.pool.fill, 800); /* CDR keeps what it learnt from */
+}
+
+int main(void)
+{
+    const struct CMUnitTest tests[] = {
+        cmocka_unit_test_teardown(test_round_cycle, teardown),
+        cmocka_unit_test_teardown(test_cdr_keeps_the_pool, teardown),
+    };
+    return cmocka_run_group_tests_name("ai/core", tests, NULL, NULL);
+}
