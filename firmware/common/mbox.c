@@ -3,6 +3,8 @@
 #include <errno.h>
 #include <string.h>
 
+#include "hal/hal_board.h"
+
 #define MBOX_INDEX_MASK 0x3u
 
 void *mbox_write_buffer(mbox_t *mbox)
@@ -23,8 +25,7 @@ uint64_t mbox_publish(mbox_t *mbox)
 
 int mbox_put(mbox_t *mbox, const void *src)
 {
-    if (mbox == NULL || src == NULL)
-        return -EINVAL;
+    HAL_ASSERT(mbox != NULL && src != NULL);
     memcpy(mbox_write_buffer(mbox), src, mbox->block_size);
     (void)mbox_publish(mbox);
     return 0;
@@ -32,8 +33,7 @@ int mbox_put(mbox_t *mbox, const void *src)
 
 int mbox_fetch(mbox_t *mbox)
 {
-    if (mbox == NULL)
-        return -EINVAL;
+    HAL_ASSERT(mbox != NULL);
     if ((atomic_load_explicit(&mbox->middle, memory_order_relaxed) & MBOX_FRESH) == 0)
         return 0;
     uint32_t old = atomic_exchange_explicit(&mbox->middle, mbox->read_idx, memory_order_acq_rel);
@@ -50,8 +50,7 @@ const void *mbox_read_buffer(const mbox_t *mbox, uint64_t *seq)
 
 int mbox_get(mbox_t *mbox, void *dst, uint64_t *seq)
 {
-    if (mbox == NULL || dst == NULL)
-        return -EINVAL;
+    HAL_ASSERT(mbox != NULL && dst != NULL);
     int fresh = mbox_fetch(mbox);
     uint64_t s;
     const void *src = mbox_read_buffer(mbox, &s);

@@ -52,12 +52,13 @@ void *mbox_write_buffer(mbox_t *mbox);
 /* Writer only. Makes the write buffer the latest block. Returns its sequence number. */
 uint64_t mbox_publish(mbox_t *mbox);
 
-/* Writer only. Copies block_size bytes from `src` and publishes. 0 or -EINVAL. */
+/* Writer only. Copies block_size bytes from `src` and publishes. Always 0;
+ * NULL arguments: HAL_ASSERT. */
 FS_MUST_CHECK int mbox_put(mbox_t *mbox, const void *src);
 
 /* Reader only. Takes the latest block if a newer one was published since the last fetch.
  * Returns 1 when a new block was taken, 0 when nothing new (the reader keeps the block it
- * had), -EINVAL on NULL. */
+ * had); NULL: HAL_ASSERT. */
 FS_MUST_CHECK int mbox_fetch(mbox_t *mbox);
 
 /* Reader only. The block taken by the last mbox_fetch(); valid until the next fetch.
@@ -67,7 +68,7 @@ const void *mbox_read_buffer(const mbox_t *mbox, uint64_t *seq);
 /* Reader only. mbox_fetch() then a copy of the latest block into `dst` (block_size bytes).
  * Returns 1 when the copy is newer than the previous mbox_get(), 0 when there is still no
  * publish at all or nothing new (`dst` then holds the same block as before, or is untouched
- * when nothing was ever published), -EINVAL on NULL. */
+ * when nothing was ever published); NULL arguments: HAL_ASSERT. */
 FS_MUST_CHECK int mbox_get(mbox_t *mbox, void *dst, uint64_t *seq);
 
 #endif /* COMMON_MBOX_H */

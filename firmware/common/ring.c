@@ -3,10 +3,11 @@
 #include <errno.h>
 #include <string.h>
 
+#include "hal/hal_board.h"
+
 int ring_put(ring_t *ring, const void *record)
 {
-    if (ring == NULL || record == NULL)
-        return -EINVAL;
+    HAL_ASSERT(ring != NULL && record != NULL);
     /* Only this thread writes head, so a relaxed load of our own value is exact. */
     uint32_t head = atomic_load_explicit(&ring->head, memory_order_relaxed);
     uint32_t tail = atomic_load_explicit(&ring->tail, memory_order_acquire);
@@ -22,8 +23,7 @@ int ring_put(ring_t *ring, const void *record)
 
 int ring_get(ring_t *ring, void *record)
 {
-    if (ring == NULL || record == NULL)
-        return -EINVAL;
+    HAL_ASSERT(ring != NULL && record != NULL);
     uint32_t tail = atomic_load_explicit(&ring->tail, memory_order_relaxed);
     uint32_t head = atomic_load_explicit(&ring->head, memory_order_acquire);
     if (head == tail)

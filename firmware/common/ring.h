@@ -49,11 +49,12 @@ typedef struct ring {
 #define RING_STORAGE_BYTES(record_size_, capacity_) ((size_t)(capacity_) * (size_t)(record_size_))
 
 /* Producer only. Copies ring->record_size bytes from `record`.
- * Returns 0, or -ENOSPC when full (the record is dropped and counted), -EINVAL on NULL. */
+ * Returns 0, or -ENOSPC when full (the record is dropped and counted). NULL arguments break
+ * the contract: HAL_ASSERT (the board's fault handler). */
 FS_MUST_CHECK int ring_put(ring_t *ring, const void *record);
 
 /* Consumer only. Copies the oldest record into `record`.
- * Returns 0, or -EAGAIN when empty, -EINVAL on NULL. */
+ * Returns 0, or -EAGAIN when empty; NULL arguments: HAL_ASSERT. */
 FS_MUST_CHECK int ring_get(ring_t *ring, void *record);
 
 /* Empties the ring and zeroes the drop count: the state RING_DEFINE() gives. Only while

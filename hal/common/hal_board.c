@@ -5,6 +5,15 @@
 
 const hal_board_t *hal_board_current;
 
+void hal_fault(const char *file, int line, const char *what)
+{
+    const hal_board_t *b = hal_board_current;
+    if (b != NULL && b->fault != NULL)
+        b->fault(b->ctx, file, line, what);
+    /* No handler, or one that returned: stop here rather than run on a broken contract. */
+    __builtin_trap();
+}
+
 const char *hal_core_name(hal_core_id_t id)
 {
     switch (id) {

@@ -427,6 +427,15 @@ static int op_st_remove(void *ctx, const char *name)
     return hal_host_storage_remove(((hal_host_t *)ctx)->storage, name);
 }
 
+/* A broken contract in the firmware: say where, then stop the process (a board would reset). */
+static void op_fault(void *ctx, const char *file, int line, const char *what)
+{
+    (void)ctx;
+    fprintf(stderr, "%s:%d: contract broken: %s\n", file, line, what);
+    fflush(stderr);
+    abort();
+}
+
 /* The operation tables: read-only, one per interface (two for the motors: with and without
  * twist), shared by every hal_host_t; the instance travels in the board's ctx. */
 static const hal_clock_ops_t host_clock_ops = {.now_us = op_now_us, .sleep_until_us = op_sleep_until_us};
@@ -497,6 +506,7 @@ int hal_host_create(const hal_host_config_t *cfg, hal_host_t **out)
 
     h->board.name = cfg->board_name != NULL ? cfg->board_name : BOARD_NAME;
     h->board.ctx = h;
+    h->board.fault = op_fault;
     h->board.clock = &host_clock_ops;
     h->board.core = &host_core_ops;
     h->board.log = &host_log_ops;

@@ -200,6 +200,13 @@ static const hal_net_ops_t fake_net = {
     .publish = op_publish, .subscribe = op_subscribe, .receive = op_receive, .stats = op_net_stats};
 static const hal_storage_ops_t fake_storage = {.write = op_st_write, .read = op_st_read, .remove = op_st_remove};
 
+/* A broken contract (HAL_ASSERT) is a cmocka assertion: expect_assert_failure() catches it. */
+static void op_fault(void *ctx, const char *file, int line, const char *what)
+{
+    (void)ctx;
+    mock_assert(0, what, file, line);
+}
+
 void fake_board_init(fake_board_t *fb)
 {
     memset(fb, 0, sizeof *fb);
@@ -212,7 +219,8 @@ void fake_board_init(fake_board_t *fb)
                               .pose = &fake_pose,
                               .motor = &fake_motor,
                               .net = &fake_net,
-                              .storage = &fake_storage};
+                              .storage = &fake_storage,
+                              .fault = op_fault};
     fb->pose_rc = -EAGAIN;
     fb->lidar_rc = -EAGAIN;
     fb->storage_fail_rc = -EIO;

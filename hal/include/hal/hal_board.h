@@ -57,6 +57,9 @@ typedef struct hal_board {
     const struct hal_motor_ops *motor;    /* may be NULL */
     const struct hal_net_ops *net;        /* may be NULL */
     const struct hal_storage_ops *storage;/* may be NULL */
+    /* Optional: a broken contract (a programmer error, see HAL_ASSERT). Logs or records it
+     * and does not return (a board resets, the host aborts); NULL: the core traps. */
+    void (*fault)(void *ctx, const char *file, int line, const char *what);
 } hal_board_t;
 
 /* The installed board, NULL before hal_board_install(). Read by the wrappers. */
@@ -65,6 +68,12 @@ extern const hal_board_t *hal_board_current;
 /* Installs `board` (NULL uninstalls). Returns 0, or -EINVAL when the board lacks a name, a
  * required interface (clock, core, log) or a required operation of an interface it has. */
 FS_MUST_CHECK int hal_board_install(const hal_board_t *board);
+
+/* Programmer errors (a NULL where the contract forbids it, an impossible state) are not
+ * error codes on hot paths: HAL_ASSERT routes them to the board's fault handler, which does
+ * not return. Errors the caller can meet at run time (full, empty, I/O) stay return codes. */
+__attribute__((noreturn)) void hal_fault(const char *file, int line, const char *what);
+#define HAL_ASSERT(cond) ((cond) ? (void)0 : hal_fault(__FILE__, __LINE__, #cond))
 
 /* Short upper-case name of a core ("RT", "GP", "AI"), "?" for an invalid id. */
 const char *hal_core_name(hal_core_id_t id);
