@@ -31,6 +31,7 @@
 #include "ai/dinno_graph.h"
 #include "sim_grid.h"
 #include "sim_paths.h"
+#include "sim_occ_eval.h"
 #include "sim_plan.h"
 
 #define SIM_FLEET_MAX_AGENTS ((int)DINNO_GRAPH_MAX_NODES)
@@ -84,28 +85,6 @@ int sim_fleet_position(const sim_fleet_t *f, int i, uint32_t k, double *x, doubl
 /* ||theta_i - mean|| / ||mean|| over the fleet's models (0 for one model). */
 double sim_fleet_consensus_error(const sim_fleet_t *f, int i);
 
-/* ---- occupancy metrics -------------------------------------------------------------------- */
-/* Known cells of a coarse grid: a coarse cell is WALL when any of its fine sub-cells (of the
- * plan rasterised at res / sub) is WALL, else FREE when any is FREE, else unknown (skipped).
- * This keeps 10 cm walls visible on a 0.1 m grid. */
-typedef struct sim_occ_eval {
-    double res;
-    int w, h;           /* coarse grid */
-    size_t n;           /* known cells */
-    float *xy;          /* n normalised centres (interleaved) */
-    uint8_t *truth;     /* n labels 0 free / 1 wall */
-    int *cell;          /* n cell indices (row * w + col) */
-    float *pred;        /* scratch, n */
-} sim_occ_eval_t;
-
-FS_MUST_CHECK
-int sim_occ_eval_build(const sim_plan_t *plan, double res, sim_occ_eval_t *ev);
-void sim_occ_eval_free(sim_occ_eval_t *ev);
-/* Mean-weight map (one pass, eps = 0) of m on the known cells: MSE against the labels and
- * IoU of the wall class with the map thresholded at 0.5. */
-FS_MUST_CHECK
-int sim_occ_eval_run(const sim_occ_eval_t *ev, bnn_model_t *m, double *mse, double *iou);
-
 /* ---- per-agent metrics --------------------------------------------------------------------- */
 typedef struct sim_fleet_metrics {
     double train_loss;      /* prediction loss of the last round (mean over its steps) */
@@ -120,16 +99,5 @@ typedef struct sim_fleet_metrics {
 FS_MUST_CHECK
 int sim_fleet_metrics(sim_fleet_t *f, int i, const ai_sample_t *val, size_t n_val, const sim_occ_eval_t *ev,
                       sim_fleet_metrics_t *out);
-
-/* ---- maps ---------------------------------------------------------------------------------- */
-/* MC mean and std (K passes) of model m on the plan's bounding box at res metres, written as
- * two PNGs (mean: white free .. black wall; std: dark blue .. yellow, scaled to the map's
- * max std, which goes to *std_max_out when not NULL), the paths drawn on top in colour. Each
- * cell is drawn as zoom x zoom pixels, zoom = ceil(0.1 m / res) within 1..8, so every map
- * shows about 10 pixels per metre or more. Returns 0 or a negative code, err. */
-FS_MUST_CHECK
-int sim_fleet_write_maps(bnn_model_t *m, const sim_plan_t *plan, double res, uint32_t K, uint64_t seed,
-                         const sim_path_t *paths, int n_paths, const char *mean_png, const char *std_png,
-                         double *std_max_out, char *err, size_t errlen);
 
 #endif /* SIM_FLEET_H */

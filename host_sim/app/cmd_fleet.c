@@ -9,6 +9,7 @@
 #include "cli.h"
 #include "commands.h"
 #include "sim_fleet.h"
+#include "sim_maps.h"
 #include "sim_paths.h"
 #include "sim_plan.h"
 #include "sim_samples.h"
@@ -421,7 +422,7 @@ int cmd_fleet(int argc, char **argv)
     snprintf(mean_png, sizeof mean_png, "%s/map_mean.png", o.out);
     snprintf(std_png, sizeof std_png, "%s/map_std.png", o.out);
     double smax = 0;
-    if (sim_fleet_write_maps(&sim_fleet_node(fleet, 0)->model, &plan, o.map_res, (uint32_t)o.mc, seed, paths, N,
+    if (sim_maps_write(&sim_fleet_node(fleet, 0)->model, &plan, o.map_res, (uint32_t)o.mc, seed, paths, N,
                              mean_png, std_png, &smax, err, sizeof err) != 0) {
         fprintf(stderr, "host_sim fleet: maps: %s\n", err);
         goto out;

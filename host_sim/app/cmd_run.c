@@ -12,6 +12,7 @@
 #include "cli.h"
 #include "commands.h"
 #include "sim_fleet.h"
+#include "sim_maps.h"
 #include "sim_image.h"
 #include "sim_paths.h"
 #include "sim_plan.h"
@@ -452,7 +453,7 @@ int cmd_run(int argc, char **argv)
     snprintf(mean_png, sizeof mean_png, "%s/map_mean.png", o.out);
     snprintf(std_png, sizeof std_png, "%s/map_std.png", o.out);
     if (!o.no_maps) {
-        if (sim_fleet_write_maps(model, &plan, o.map_res, (uint32_t)o.mc, (uint64_t)o.seed, &path, 1, mean_png,
+        if (sim_maps_write(model, &plan, o.map_res, (uint32_t)o.mc, (uint64_t)o.seed, &path, 1, mean_png,
                                  std_png, &smax, err, sizeof err) != 0) {
             fprintf(stderr, "host_sim run: maps: %s\n", err);
             goto out;

@@ -1,0 +1,113 @@
+/* Occupancy and uncertainty maps of a model: see sim_maps.h. */
+#include "sim_maps.h"
+
+#include <errno.h>
+#include <math.h>
+#include <stdio.h>
+#include <stdlib.h>
+#include <string.h>
+
+/* A compact perceptual ramp (dark blue -> teal -> yellow), t in [0, 1]. */
+static void ramp(double t, uint8_t *px)
+{
+    static const double K[5][3] = {{13, 8, 135}, {84, 2, 163}, {33, 145, 140}, {122, 209, 81}, {253, 231, 37}};
+    t = fmin(fmax(t, 0.0), 1.0) * 4.0;
+    int i = (int)t;
+    if (i > 3)
+        i = 3;
+    const double u = t - i;
+    for (int c = 0; c < 3; c++)
+        px[c] = (uint8_t)lround(K[i][c] + u * (K[i + 1][c] - K[i][c]));
+}
+
+static void draw_paths(uint8_t *rgb, int W, int H, const sim_plan_t *plan, double res, int zoom,
+                       const sim_path_t *paths, int n_paths)
+{
+    const double pix = res / zoom;
+    for (int k = 0; k < n_paths; k++) {
+        const uint8_t *col = SIM_PATH_COLOURS[k % 8];
+        for (int i = 0; i + 1 < paths[k].n; i++) {
+            const double x0 = paths[k].p[i].x, y0 = paths[k].p[i].y;
+            const double x1 = paths[k].p[i + 1].x, y1 = paths[k].p[i + 1].y;
+            const int steps = (int)ceil(hypot(x1 - x0, y1 - y0) / (pix * 0.5)) + 1;
+            for (int s = 0; s <= steps; s++) {
+                const double t = (double)s / steps;
+                const int c = (int)floor((x0 + t * (x1 - x0) - plan->min.x) / pix);
+                const int r = (int)floor((y0 + t * (y1 - y0) - plan->min.y) / pix);
+                for (int d = 0; d < 2; d++)
+                    for (int e = 0; e < 2; e++) {
+                        const int cc = c + d, rr = r + e;
+                        if (cc < 0 || rr < 0 || cc >= W || rr >= H)
+                            continue;
+                        memcpy(rgb + 3 * ((size_t)rr * W + cc), col, 3);
+                    }
+            }
+        }
+    }
+}
+
+int sim_maps_write(bnn_model_t *m, const sim_plan_t *plan, double res, uint32_t K, uint64_t seed,
+                         const sim_path_t *paths, int n_paths, const char *mean_png, const char *std_png,
+                         double *std_max_out, char *err, size_t errlen)
+{
+    if (!m || !plan || !isfinite(res) || res <= 0.0 || K < 1 || !mean_png || !std_png || (n_paths > 0 && !paths)) {
+        snprintf(err, errlen, "bad map arguments");
+        return -EINVAL;
+    }
+    const double z = ceil(0.02 / res * 5.0);
+    const int zoom = z < 1.0 ? 1 : z > 8.0 ? 8 : (int)z;
+    const int w = (int)ceil((plan->max.x - plan->min.x) / res), h = (int)ceil((plan->max.y - plan->min.y) / res);
+    if (w < 1 || h < 1 || (size_t)w * h > 4000000u) {
+        snprintf(err, errlen, "map of %d x %d cells is out of range", w, h);
+        return -EINVAL;
+    }
+    const size_t n = (size_t)w * h;
+    const int W = w * zoom, H = h * zoom;
+    float *xy = malloc(n * 2 * sizeof *xy), *mean = malloc(n * sizeof *mean), *sd = malloc(n * sizeof *sd);
+    uint8_t *rgb = malloc((size_t)W * H * 3);
+    int rc = -ENOMEM;
+    if (!xy || !mean || !sd || !rgb) {
+        snprintf(err, errlen, "out of memory");
+        goto done;
+    }
+    for (int r = 0; r < h; r++)
+        for (int c = 0; c < w; c++) {
+            float xn, yn;
+            sim_plan_normalise(plan, plan->min.x + (c + 0.5) * res, plan->min.y + (r + 0.5) * res, &xn, &yn);
+            xy[2 * ((size_t)r * w + c)] = fminf(fmaxf(xn, -1.0f), 1.0f);
+            xy[2 * ((size_t)r * w + c) + 1] = fminf(fmaxf(yn, -1.0f), 1.0f);
+        }
+    rc = bnn_predict_mc(m, xy, n, K, seed, mean, sd);
+    if (rc) {
+        snprintf(err, errlen, "MC prediction failed (%d)", rc);
+        goto done;
+    }
+    double smax = 0.0;
+    for (size_t i = 0; i < n; i++)
+        smax = fmax(smax, sd[i]);
+    if (std_max_out)
+        *std_max_out = smax;
+    for (int pass = 0; pass < 2; pass++) {
+        for (int R = 0; R < H; R++)
+            for (int C = 0; C < W; C++) {
+                const size_t i = (size_t)(R / zoom) * w + (size_t)(C / zoom);
+                uint8_t *px = rgb + 3 * ((size_t)R * W + C);
+                if (pass == 0) {
+                    const uint8_t v = (uint8_t)lround(255.0 * (1.0 - fmin(fmax(mean[i], 0.0f), 1.0f)));
+                    px[0] = px[1] = px[2] = v;
+                } else {
+                    ramp(smax > 0.0 ? sd[i] / smax : 0.0, px);
+                }
+            }
+        draw_paths(rgb, W, H, plan, res, zoom, paths, n_paths);
+        rc = sim_png_write_rgb(pass == 0 ? mean_png : std_png, W, H, rgb, err, errlen);
+        if (rc)
+            goto done;
+    }
+done:
+    free(xy);
+    free(mean);
+    free(sd);
+    free(rgb);
+    return rc;
+}
