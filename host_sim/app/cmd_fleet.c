@@ -251,152 +251,150 @@ static int read_samples(const char *file, const sim_plan_t *plan, ai_sample_t **
     return 0;
 }
 
-int cmd_fleet(int argc, char **argv)
-{
+/* Everything one `host_sim fleet` run holds; freed in one place (job_free). */
+typedef struct job {
     opts_t o;
-    int pr = parse(argc, argv, &o);
-    if (pr > 0)
-        return 0;
-    if (pr < 0)
-        return 2;
-    const int N = (int)o.robots;
-    int status = 1;
-    char err[8192];
+    int n;                       /* agents */
+    uint64_t seed;
     sim_plan_t plan;
-    memset(&plan, 0, sizeof plan);
     sim_path_t paths[SIM_FLEET_MAX_AGENTS];
-    memset(paths, 0, sizeof paths);
-    ai_sample_t *data[SIM_FLEET_MAX_AGENTS] = {0}, *val = NULL;
-    size_t n_data[SIM_FLEET_MAX_AGENTS] = {0}, n_val = 0;
-    sim_fleet_t *fleet = NULL;
+    ai_sample_t *data[SIM_FLEET_MAX_AGENTS], *val;
+    size_t n_data[SIM_FLEET_MAX_AGENTS], n_val;
     sim_occ_eval_t ev;
-    memset(&ev, 0, sizeof ev);
-    hal_host_file_t csv_out, sum_out; /* whole files or none (hal_host_file.h) */
-    memset(&csv_out, 0, sizeof csv_out);
-    memset(&sum_out, 0, sizeof sum_out);
-    FILE *csv = NULL;
-    char file[4096];
+    sim_fleet_t *fleet;
+    sim_fleet_metrics_t last[SIM_FLEET_MAX_AGENTS]; /* metrics of the final round */
+    uint64_t isolated_rounds, split_rounds;
+    char err[8192];
+} job_t;
 
-    if (sim_plan_load(o.plan, o.scale, &plan, err, sizeof err) != 0) {
-        fprintf(stderr, "host_sim fleet: %s\n", err);
-        return 1;
+static void job_free(job_t *j)
+{
+    sim_fleet_destroy(j->fleet);
+    sim_occ_eval_free(&j->ev);
+    for (int i = 0; i < SIM_FLEET_MAX_AGENTS; i++) {
+        free(j->data[i]);
+        sim_path_free(&j->paths[i]);
     }
-    if (load_paths(&o, &plan, paths) != 0)
-        goto out;
-    if (cmd_prepare_out_dir("fleet", o.out) != 0)
-        goto out;
-    const uint64_t seed = (uint64_t)o.seed;
-    printf("fleet (in-process, one host_sim process; the multi-process LCM fleet is on the roadmap)\n");
-    printf("seed %llu, preset %s, %d agents, %lld rounds, strategy %s, graph %s", (unsigned long long)seed,
-           BNN_PRESET_NAME, N, o.rounds, o.strategy_name, dinno_graph_name(o.graph));
-    if (o.graph == DINNO_GRAPH_DISK)
-        printf(" (radius %.2f m)", o.radius);
-    printf("\n");
-    /* ---- training data ---- */
-    char sdir[2048];
-    snprintf(sdir, sizeof sdir, "%s/samples", o.out);
-    if (!o.samples && cmd_prepare_out_dir("fleet", sdir) != 0)
-        goto out;
-    for (int i = 0; i < N; i++) {
-        if (o.samples) {
-            snprintf(file, sizeof file, "%s/robot_%d.samples", o.samples, i);
-            if (read_samples(file, &plan, &data[i], &n_data[i]) != 0)
-                goto out;
+    free(j->val);
+    sim_plan_free(&j->plan);
+}
+
+/* Each agent's training samples: read from --samples, or scanned along its tour now. */
+static int load_training_data(job_t *j)
+{
+    const opts_t *o = &j->o;
+    char sdir[2048], file[4096];
+    snprintf(sdir, sizeof sdir, "%s/samples", o->out);
+    if (!o->samples && cmd_prepare_out_dir("fleet", sdir) != 0)
+        return -1;
+    for (int i = 0; i < j->n; i++) {
+        if (o->samples) {
+            snprintf(file, sizeof file, "%s/robot_%d.samples", o->samples, i);
         } else {
             sim_scan_cfg_t sc = sim_scan_default_cfg();
-            sc.seed = seed;
+            sc.seed = j->seed;
             sc.robot = (uint32_t)i;
             char src[160];
-            snprintf(src, sizeof src, "scan (fleet) path=%s/robot_%d.csv seed=%llu robot=%d", o.paths, i,
-                     (unsigned long long)seed, i);
+            snprintf(src, sizeof src, "scan (fleet) path=%s/robot_%d.csv seed=%llu robot=%d", o->paths, i,
+                     (unsigned long long)j->seed, i);
             snprintf(file, sizeof file, "%s/robot_%d.samples", sdir, i);
             sim_scan_stats_t ss;
-            if (sim_scan_run(&plan, &paths[i], &sc, file, src, &ss, NULL, NULL, err, sizeof err) != 0) {
-                fprintf(stderr, "host_sim fleet: scanning path %d: %s\n", i, err);
-                goto out;
+            if (sim_scan_run(&j->plan, &j->paths[i], &sc, file, src, &ss, NULL, NULL, j->err, sizeof j->err) != 0) {
+                fprintf(stderr, "host_sim fleet: scanning path %d: %s\n", i, j->err);
+                return -1;
             }
-            if (read_samples(file, &plan, &data[i], &n_data[i]) != 0)
-                goto out;
         }
-        printf("agent %d: %zu samples\n", i, n_data[i]);
+        if (read_samples(file, &j->plan, &j->data[i], &j->n_data[i]) != 0)
+            return -1;
+        printf("agent %d: %zu samples\n", i, j->n_data[i]);
     }
-    /* ---- validation set ---- */
-    if (o.valset) {
-        if (read_samples(o.valset, &plan, &val, &n_val) != 0)
-            goto out;
+    return 0;
+}
+
+/* The validation set (--valset, or drawn now) and the ground-truth cells of the metrics. */
+static int load_validation(job_t *j)
+{
+    const opts_t *o = &j->o;
+    if (o->valset) {
+        if (read_samples(o->valset, &j->plan, &j->val, &j->n_val) != 0)
+            return -1;
     } else {
         sim_valset_cfg_t vc = sim_valset_default_cfg();
-        vc.n_poses = (int)o.val_poses;
-        vc.seed = seed;
-        char src[160];
-        snprintf(src, sizeof src, "valset (fleet) poses=%lld seed=%llu", o.val_poses, (unsigned long long)seed);
-        snprintf(file, sizeof file, "%s/valset.samples", o.out);
-        if (sim_valset_write(&plan, &vc, file, src, NULL, err, sizeof err) != 0) {
-            fprintf(stderr, "host_sim fleet: validation set: %s\n", err);
-            goto out;
+        vc.n_poses = (int)o->val_poses;
+        vc.seed = j->seed;
+        char src[160], file[4096];
+        snprintf(src, sizeof src, "valset (fleet) poses=%lld seed=%llu", o->val_poses, (unsigned long long)j->seed);
+        snprintf(file, sizeof file, "%s/valset.samples", o->out);
+        if (sim_valset_write(&j->plan, &vc, file, src, NULL, j->err, sizeof j->err) != 0) {
+            fprintf(stderr, "host_sim fleet: validation set: %s\n", j->err);
+            return -1;
         }
-        if (read_samples(file, &plan, &val, &n_val) != 0)
-            goto out;
+        if (read_samples(file, &j->plan, &j->val, &j->n_val) != 0)
+            return -1;
     }
-    printf("validation set: %zu points\n", n_val);
-    if (sim_occ_eval_build(&plan, o.occ_res, &ev) != 0) {
+    printf("validation set: %zu points\n", j->n_val);
+    if (sim_occ_eval_build(&j->plan, o->occ_res, &j->ev) != 0) {
         fprintf(stderr, "host_sim fleet: cannot rasterise the plan for the occupancy metrics\n");
-        goto out;
+        return -1;
     }
-    /* ---- the fleet ---- */
+    return 0;
+}
+
+/* The rounds, with metrics.csv fed as they go (it replaces the old one at the end). */
+static int train(job_t *j)
+{
+    const opts_t *o = &j->o;
     sim_fleet_cfg_t fc;
     sim_fleet_cfg_default(&fc);
-    fc.n_agents = N;
-    fc.rounds = (uint32_t)o.rounds;
-    fc.mode = o.mode;
-    fc.dinno = o.d; /* sim_fleet_create sets total_rounds from fc.rounds */
-    fc.graph = o.graph;
-    fc.radius = o.radius;
-    fc.seed = seed;
-    fc.threads = (int)o.threads;
+    fc.n_agents = j->n;
+    fc.rounds = (uint32_t)o->rounds;
+    fc.mode = o->mode;
+    fc.dinno = o->d; /* sim_fleet_create sets total_rounds from fc.rounds */
+    fc.graph = o->graph;
+    fc.radius = o->radius;
+    fc.seed = j->seed;
+    fc.threads = (int)o->threads;
     const ai_sample_t *cdata[SIM_FLEET_MAX_AGENTS];
-    for (int i = 0; i < N; i++)
-        cdata[i] = data[i];
-    if (sim_fleet_create(&fc, NULL, cdata, n_data, paths, &fleet, err, sizeof err) != 0) {
-        fprintf(stderr, "host_sim fleet: %s\n", err);
-        goto out;
+    for (int i = 0; i < j->n; i++)
+        cdata[i] = j->data[i];
+    if (sim_fleet_create(&fc, NULL, cdata, j->n_data, j->paths, &j->fleet, j->err, sizeof j->err) != 0) {
+        fprintf(stderr, "host_sim fleet: %s\n", j->err);
+        return -1;
     }
-    snprintf(file, sizeof file, "%s/metrics.csv", o.out);
-    int wrc = hal_host_file_begin(&csv_out, file);
-    if (wrc < 0) {
-        fprintf(stderr, "host_sim fleet: %s: %s\n", file, hal_host_file_strerror(wrc));
-        goto out;
+    char file[4096];
+    snprintf(file, sizeof file, "%s/metrics.csv", o->out);
+    hal_host_file_t out;
+    int rc = hal_host_file_begin(&out, file);
+    if (rc < 0) {
+        fprintf(stderr, "host_sim fleet: %s: %s\n", file, hal_host_file_strerror(rc));
+        return -1;
     }
-    csv = hal_host_file_stream(&csv_out); /* fed as rounds go; replaces metrics.csv at the end */
+    FILE *csv = hal_host_file_stream(&out);
     fprintf(csv, "round,agent,train_loss,val_loss,kl_loss,consensus_error,occ_mse,occ_iou,reg_mu,reg_rho,neighbours\n");
-    const int M = sim_fleet_models(fleet);
-    sim_fleet_metrics_t last[SIM_FLEET_MAX_AGENTS];
-    uint64_t isolated_rounds = 0, split_rounds = 0;
+    const int M = sim_fleet_models(j->fleet);
     dinno_graph_report_t rep; /* of the last round's graph */
     memset(&rep, 0, sizeof rep);
-    for (uint32_t k = 0; k <= (uint32_t)o.rounds; k++) {
+    for (uint32_t k = 0; k <= (uint32_t)o->rounds && rc == 0; k++) {
         if (k > 0) {
-            int rc = sim_fleet_round(fleet, &rep);
-            if (rc) {
+            if ((rc = sim_fleet_round(j->fleet, &rep)) != 0) {
                 fprintf(stderr, "host_sim fleet: round %u failed (%d)\n", k - 1, rc);
-                goto out;
+                break;
             }
-            if (o.mode == SIM_FLEET_DINNO) {
-                isolated_rounds += rep.isolated > 0;
-                split_rounds += rep.components > 1;
+            if (o->mode == SIM_FLEET_DINNO) {
+                j->isolated_rounds += rep.isolated > 0;
+                j->split_rounds += rep.components > 1;
             }
         }
-        if (k % (uint32_t)o.metrics_every != 0 && k != (uint32_t)o.rounds)
+        if (k % (uint32_t)o->metrics_every != 0 && k != (uint32_t)o->rounds)
             continue;
         double vmean = 0, cmax = 0, iou = 0;
-        for (int i = 0; i < M; i++) {
-            int rc = sim_fleet_metrics(fleet, i, val, n_val, &ev, &last[i]);
-            if (rc) {
+        for (int i = 0; i < M && rc == 0; i++) {
+            if ((rc = sim_fleet_metrics(j->fleet, i, j->val, j->n_val, &j->ev, &j->last[i])) != 0) {
                 fprintf(stderr, "host_sim fleet: metrics failed (%d)\n", rc);
-                goto out;
+                break;
             }
-            const sim_fleet_metrics_t *m = &last[i];
-            const dinno_round_stats_t *st = sim_fleet_last_stats(fleet, i);
+            const sim_fleet_metrics_t *m = &j->last[i];
+            const dinno_round_stats_t *st = sim_fleet_last_stats(j->fleet, i);
             fprintf(csv, "%u,%d,%.6g,%.6g,%.6g,%.6g,%.6g,%.6g,%.6g,%.6g,%u\n", k, i, m->train_loss, m->val_loss,
                     m->kl_loss, m->consensus_error, m->occ_mse, m->occ_iou, m->reg_mu, m->reg_rho,
                     k ? st->neighbours : 0);
@@ -404,86 +402,113 @@ int cmd_fleet(int argc, char **argv)
             iou += m->occ_iou / M;
             cmax = fmax(cmax, m->consensus_error);
         }
+        if (rc != 0)
+            break;
         fflush(csv);
-        printf("round %6u/%lld  val_loss %.4f  occ_iou %.3f  consensus_err(max) %.4f", k, o.rounds, vmean, iou, cmax);
-        if (o.mode == SIM_FLEET_DINNO && k > 0)
+        printf("round %6u/%lld  val_loss %.4f  occ_iou %.3f  consensus_err(max) %.4f", k, o->rounds, vmean, iou, cmax);
+        if (o->mode == SIM_FLEET_DINNO && k > 0)
             printf("  graph: %u edges, %u components, %u isolated", rep.edges, rep.components, rep.isolated);
         printf("\n");
         fflush(stdout);
     }
-    csv = NULL;
-    snprintf(file, sizeof file, "%s/metrics.csv", o.out);
-    if ((wrc = hal_host_file_commit(&csv_out)) < 0) {
-        fprintf(stderr, "host_sim fleet: %s: %s\n", file, hal_host_file_strerror(wrc));
-        goto out;
-    }
-    /* ---- maps and summary ---- */
-    char mean_png[4096], std_png[4096];
-    snprintf(mean_png, sizeof mean_png, "%s/map_mean.png", o.out);
-    snprintf(std_png, sizeof std_png, "%s/map_std.png", o.out);
+    if (rc == 0 && (rc = hal_host_file_commit(&out)) < 0)
+        fprintf(stderr, "host_sim fleet: %s: %s\n", file, hal_host_file_strerror(rc));
+    hal_host_file_abort(&out); /* a no-op after a commit */
+    return rc == 0 ? 0 : -1;
+}
+
+/* Maps of agent 0 and summary.txt (also on stdout). */
+static int report(job_t *j)
+{
+    const opts_t *o = &j->o;
+    const int M = sim_fleet_models(j->fleet);
+    char mean_png[4096], std_png[4096], file[4096];
+    snprintf(mean_png, sizeof mean_png, "%s/map_mean.png", o->out);
+    snprintf(std_png, sizeof std_png, "%s/map_std.png", o->out);
     double smax = 0;
-    if (sim_maps_write(&sim_fleet_node(fleet, 0)->model, &plan, o.map_res, (uint32_t)o.mc, seed, paths, N,
-                             mean_png, std_png, &smax, err, sizeof err) != 0) {
-        fprintf(stderr, "host_sim fleet: maps: %s\n", err);
-        goto out;
+    if (sim_maps_write(&sim_fleet_node(j->fleet, 0)->model, &j->plan, o->map_res, (uint32_t)o->mc, j->seed, j->paths,
+                       j->n, mean_png, std_png, &smax, j->err, sizeof j->err) != 0) {
+        fprintf(stderr, "host_sim fleet: maps: %s\n", j->err);
+        return -1;
     }
-    snprintf(file, sizeof file, "%s/summary.txt", o.out);
-    if ((wrc = hal_host_file_begin(&sum_out, file)) < 0) {
-        fprintf(stderr, "host_sim fleet: %s: %s\n", file, hal_host_file_strerror(wrc));
-        goto out;
+    snprintf(file, sizeof file, "%s/summary.txt", o->out);
+    hal_host_file_t out;
+    int rc = hal_host_file_begin(&out, file);
+    if (rc < 0) {
+        fprintf(stderr, "host_sim fleet: %s: %s\n", file, hal_host_file_strerror(rc));
+        return -1;
     }
-    FILE *s = hal_host_file_stream(&sum_out);
     double v = 0, vmin = INFINITY, vmax = -INFINITY, mse = 0, io = 0, ce = 0, tl = 0;
     for (int i = 0; i < M; i++) {
-        v += last[i].val_loss / M;
-        vmin = fmin(vmin, last[i].val_loss);
-        vmax = fmax(vmax, last[i].val_loss);
-        mse += last[i].occ_mse / M;
-        io += last[i].occ_iou / M;
-        ce = fmax(ce, last[i].consensus_error);
-        tl += last[i].train_loss / M;
+        const sim_fleet_metrics_t *m = &j->last[i];
+        v += m->val_loss / M;
+        vmin = fmin(vmin, m->val_loss);
+        vmax = fmax(vmax, m->val_loss);
+        mse += m->occ_mse / M;
+        io += m->occ_iou / M;
+        ce = fmax(ce, m->consensus_error);
+        tl += m->train_loss / M;
     }
     for (int pass = 0; pass < 2; pass++) {
-        FILE *f = pass ? stdout : s;
+        FILE *f = pass ? stdout : hal_host_file_stream(&out);
         fprintf(f, "mode: in-process fleet (one process; the multi-process LCM fleet is on the roadmap)\n");
         fprintf(f, "seed: %llu\npreset: %s (%zu parameters)\nagents: %d\nmodels: %d\nrounds: %lld\n",
-                (unsigned long long)seed, BNN_PRESET_NAME, bnn_n_params(&sim_fleet_node(fleet, 0)->model), N, M,
-                o.rounds);
-        fprintf(f, "strategy: %s\ngraph: %s\n", o.strategy_name, dinno_graph_name(o.graph));
-        if (o.graph == DINNO_GRAPH_DISK)
-            fprintf(f, "radius_m: %g\n", o.radius);
+                (unsigned long long)j->seed, BNN_PRESET_NAME, bnn_n_params(&sim_fleet_node(j->fleet, 0)->model),
+                j->n, M, o->rounds);
+        fprintf(f, "strategy: %s\ngraph: %s\n", o->strategy_name, dinno_graph_name(o->graph));
+        if (o->graph == DINNO_GRAPH_DISK)
+            fprintf(f, "radius_m: %g\n", o->radius);
         fprintf(f, "rho0: %g\nrho_scaling: %g\nprimal_steps: %u\nbatch: %u\nlr: %g -> %g\nkl_weight: %g\n"
                    "w_mu: %g\nw_rho: %g\nadam: %s\n",
-                (double)o.d.rho0, (double)o.d.rho_scaling, o.d.primal_steps, o.d.batch, (double)o.d.lr_start,
-                (double)o.d.lr_end, (double)o.d.kl_weight, (double)o.d.w_mu, (double)o.d.w_rho,
-                o.d.persistent_adam ? "persistent" : "fresh each round");
-        if (o.mode == SIM_FLEET_DINNO)
+                (double)o->d.rho0, (double)o->d.rho_scaling, o->d.primal_steps, o->d.batch, (double)o->d.lr_start,
+                (double)o->d.lr_end, (double)o->d.kl_weight, (double)o->d.w_mu, (double)o->d.w_rho,
+                o->d.persistent_adam ? "persistent" : "fresh each round");
+        if (o->mode == SIM_FLEET_DINNO)
             fprintf(f, "rounds with an isolated agent: %llu; with a split graph: %llu\n",
-                    (unsigned long long)isolated_rounds, (unsigned long long)split_rounds);
-        fprintf(f, "validation points: %zu\n", n_val);
+                    (unsigned long long)j->isolated_rounds, (unsigned long long)j->split_rounds);
+        fprintf(f, "validation points: %zu\n", j->n_val);
         fprintf(f, "final val_loss (mean over models): %.5f (min %.5f, max %.5f)\n", v, vmin, vmax);
         fprintf(f, "final train_loss (mean): %.5f\n", tl);
-        fprintf(f, "final occ_mse (mean, %.2f m grid): %.5f\nfinal occ_iou (mean): %.4f\n", o.occ_res, mse, io);
+        fprintf(f, "final occ_mse (mean, %.2f m grid): %.5f\nfinal occ_iou (mean): %.4f\n", o->occ_res, mse, io);
         fprintf(f, "final consensus_error (max): %.6f\n", ce);
-        fprintf(f, "maps: agent 0, %lld MC passes, %.3f m grid, max std %.4f: %s %s\n", o.mc, o.map_res, smax,
+        fprintf(f, "maps: agent 0, %lld MC passes, %.3f m grid, max std %.4f: %s %s\n", o->mc, o->map_res, smax,
                 mean_png, std_png);
     }
-    if ((wrc = hal_host_file_commit(&sum_out)) < 0) {
-        fprintf(stderr, "host_sim fleet: %s: %s\n", file, hal_host_file_strerror(wrc));
-        goto out;
+    if ((rc = hal_host_file_commit(&out)) < 0) {
+        fprintf(stderr, "host_sim fleet: %s: %s\n", file, hal_host_file_strerror(rc));
+        hal_host_file_abort(&out);
+        return -1;
     }
-    printf("results in %s (metrics.csv, map_mean.png, map_std.png, summary.txt)\n", o.out);
-    status = 0;
-out:
-    hal_host_file_abort(&csv_out); /* no-ops after a commit */
-    hal_host_file_abort(&sum_out);
-    sim_fleet_destroy(fleet);
-    sim_occ_eval_free(&ev);
-    for (int i = 0; i < SIM_FLEET_MAX_AGENTS; i++) {
-        free(data[i]);
-        sim_path_free(&paths[i]);
+    printf("results in %s (metrics.csv, map_mean.png, map_std.png, summary.txt)\n", o->out);
+    return 0;
+}
+
+int cmd_fleet(int argc, char **argv)
+{
+    static job_t job; /* large (paths, metrics): static, one run per process */
+    job_t *j = &job;
+    memset(j, 0, sizeof *j);
+    int pr = parse(argc, argv, &j->o);
+    if (pr > 0)
+        return 0;
+    if (pr < 0)
+        return 2;
+    j->n = (int)j->o.robots;
+    j->seed = (uint64_t)j->o.seed;
+    if (sim_plan_load(j->o.plan, j->o.scale, &j->plan, j->err, sizeof j->err) != 0) {
+        fprintf(stderr, "host_sim fleet: %s\n", j->err);
+        return 1;
     }
-    free(val);
-    sim_plan_free(&plan);
-    return status;
+    int ok = load_paths(&j->o, &j->plan, j->paths) == 0 && cmd_prepare_out_dir("fleet", j->o.out) == 0;
+    if (ok) {
+        printf("fleet (in-process, one host_sim process; the multi-process LCM fleet is on the roadmap)\n");
+        printf("seed %llu, preset %s, %d agents, %lld rounds, strategy %s, graph %s", (unsigned long long)j->seed,
+               BNN_PRESET_NAME, j->n, j->o.rounds, j->o.strategy_name, dinno_graph_name(j->o.graph));
+        if (j->o.graph == DINNO_GRAPH_DISK)
+            printf(" (radius %.2f m)", j->o.radius);
+        printf("\n");
+        ok = load_training_data(j) == 0 && load_validation(j) == 0 && train(j) == 0 && report(j) == 0;
+    }
+    job_free(j);
+    return ok ? 0 : 1;
 }
