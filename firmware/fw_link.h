@@ -94,6 +94,8 @@ typedef struct ai_round_info {
     float bce;
     float kl;                /* BNN prior kl_loss, unweighted */
     float lr, rho_k;
+    int32_t ckpt_status;     /* filled by the GP core in its round log: 0, or the storage
+                                error of this round's checkpoint (the AI core sends 0) */
 } ai_round_info_t;
 
 typedef struct ai_ckpt_msg {

@@ -133,6 +133,7 @@ static void handle_ckpt(gp_core_t *gp, uint64_t now_us)
     uint32_t n = atomic_load_explicit(&gp->n_log, memory_order_relaxed);
     if (n < GP_CORE_LOG_ROUNDS) {
         gp->log[n] = *in;
+        gp->log[n].ckpt_status = r;
         atomic_store_explicit(&gp->n_log, n + 1u, memory_order_release);
     }
     hal_log(HAL_LOG_INFO,

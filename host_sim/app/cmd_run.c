@@ -212,7 +212,13 @@ static void on_round(const ai_round_info_t *in, void *user)
 {
     run_ctx_t *c = user;
     double val = NAN;
-    if (c->n_val > 0) {
+    if (in->ckpt_status != 0) {
+        /* A file of that name may be an earlier run's: never read it as this run's. */
+        char name[64];
+        gp_core_ckpt_name(in->round, name, sizeof name);
+        fprintf(stderr, "host_sim run: %s/%s: %s\n", c->o->out, name, hal_host_file_strerror(in->ckpt_status));
+        c->failed = 1;
+    } else if (c->n_val > 0) {
         char file[4200], name[64];
         gp_core_ckpt_name(in->round, name, sizeof name);
         snprintf(file, sizeof file, "%s/%s", c->o->out, name);
@@ -291,187 +297,204 @@ static void write_profile(const run_opts_t *o, const sim_image_result_t *r, FILE
             m->ai_links, m->gp_state, m->gp_links);
 }
 
-int cmd_run(int argc, char **argv)
-{
+/* Everything one `host_sim run` holds; freed in one place (job_free). */
+typedef struct job {
     run_opts_t o;
-    int pr = parse(argc, argv, &o);
-    if (pr > 0)
-        return 0;
-    if (pr < 0)
-        return 2;
-    int status = 1;
-    char err[8192], file[4200];
     sim_plan_t plan;
-    memset(&plan, 0, sizeof plan);
     sim_path_t path;
-    memset(&path, 0, sizeof path);
-    ai_sample_t *val = NULL;
-    size_t n_val = 0;
-    bnn_model_t *model = NULL;
-    FILE *csv = NULL;
-    hal_host_file_t csv_out, pt_out, pc_out, sum_out; /* whole files or none */
-    memset(&csv_out, 0, sizeof csv_out);
-    memset(&pt_out, 0, sizeof pt_out);
-    memset(&pc_out, 0, sizeof pc_out);
-    memset(&sum_out, 0, sizeof sum_out);
-    int wrc;
-    sim_image_result_t *res = calloc(1, sizeof *res);
-    if (res == NULL)
-        return 1;
+    ai_sample_t *val;
+    size_t n_val;
+    bnn_model_t *model;
+    sim_image_result_t *res;
+    hal_host_file_t csv; /* metrics.csv, fed as rounds go, committed only by a run that succeeded */
+    run_ctx_t ctx;
+    char err[8192];
+} job_t;
 
-    if (sim_plan_load(o.plan, o.scale, &plan, err, sizeof err) != 0) {
-        fprintf(stderr, "host_sim run: %s\n", err);
-        goto out;
+static void job_free(job_t *j)
+{
+    hal_host_file_abort(&j->csv); /* a no-op after a commit */
+    free(j->res);
+    free(j->model);
+    free(j->val);
+    sim_path_free(&j->path);
+    sim_plan_free(&j->plan);
+}
+
+/* Plan, tour, output folder, model scratch and the validation set. */
+static int prepare(job_t *j)
+{
+    const run_opts_t *o = &j->o;
+    if (sim_plan_load(o->plan, o->scale, &j->plan, j->err, sizeof j->err) != 0 ||
+        sim_path_read_csv(o->path, &j->plan, &j->path, j->err, sizeof j->err) != 0) {
+        fprintf(stderr, "host_sim run: %s\n", j->err);
+        return -1;
     }
-    if (sim_path_read_csv(o.path, &plan, &path, err, sizeof err) != 0) {
-        fprintf(stderr, "host_sim run: %s\n", err);
-        goto out;
-    }
-    if (path.n > RT_CORE_MAX_WAYPOINTS) {
-        fprintf(stderr, "host_sim run: %s has %d waypoints; the RT core holds at most %d\n", o.path, path.n,
+    if (j->path.n > RT_CORE_MAX_WAYPOINTS) {
+        fprintf(stderr, "host_sim run: %s has %d waypoints; the RT core holds at most %d\n", o->path, j->path.n,
                 RT_CORE_MAX_WAYPOINTS);
-        goto out;
+        return -1;
     }
-    if (cmd_prepare_out_dir("run", o.out) != 0)
-        goto out;
+    if (cmd_prepare_out_dir("run", o->out) != 0)
+        return -1;
     printf("run: one robot's firmware image (RT %u Hz / scans %u Hz, GP %u Hz, AI %u Hz), lockstep\n",
            1000000u / FW_RT_PERIOD_US, 1000000u / (FW_RT_PERIOD_US * FW_RT_SCAN_DIVIDER),
            1000000u / FW_GP_PERIOD_US, 1000000u / FW_AI_PERIOD_US);
     printf("seed %lld, preset %s, %lld rounds, pool %s (capacity %u), %lld steps/round, batch %lld, "
            "kl_weight %g%s\n",
-           o.seed, BNN_PRESET_NAME, o.rounds, ai_pool_policy_name(o.pool), (unsigned)AI_POOL_CAPACITY,
-           o.steps, o.batch, o.kl_weight, o.train_between ? ", training between boundaries" : "");
+           o->seed, BNN_PRESET_NAME, o->rounds, ai_pool_policy_name(o->pool), (unsigned)AI_POOL_CAPACITY,
+           o->steps, o->batch, o->kl_weight, o->train_between ? ", training between boundaries" : "");
     fflush(stdout);
-    model = malloc(sizeof *model);
-    if (model == NULL || bnn_init(model, NULL, 1) != 0) {
+    j->res = calloc(1, sizeof *j->res);
+    /* bnn_model_t holds 64-byte aligned vectors: malloc's 16 bytes are not enough (the
+       compiler may use aligned vector stores on it). */
+    j->model = aligned_alloc(_Alignof(bnn_model_t), (sizeof *j->model + 63) / 64 * 64);
+    if (j->res == NULL || j->model == NULL || bnn_init(j->model, NULL, 1) != 0) {
         fprintf(stderr, "host_sim run: out of memory\n");
-        goto out;
+        return -1;
     }
-    if (o.val_poses > 0) {
+    if (o->val_poses > 0) {
         sim_valset_cfg_t vc = sim_valset_default_cfg();
-        vc.n_poses = (int)o.val_poses;
-        vc.seed = (uint64_t)o.seed;
-        char src[160];
-        snprintf(src, sizeof src, "valset (run) poses=%lld seed=%lld", o.val_poses, o.seed);
-        snprintf(file, sizeof file, "%s/valset.samples", o.out);
+        vc.n_poses = (int)o->val_poses;
+        vc.seed = (uint64_t)o->seed;
+        char src[160], file[4200];
+        snprintf(src, sizeof src, "valset (run) poses=%lld seed=%lld", o->val_poses, o->seed);
+        snprintf(file, sizeof file, "%s/valset.samples", o->out);
         sim_samples_header_t hdr;
-        if (sim_valset_write(&plan, &vc, file, src, NULL, err, sizeof err) != 0 ||
-            sim_samples_read(file, &hdr, &val, err, sizeof err) != 0) {
-            fprintf(stderr, "host_sim run: validation set: %s\n", err);
-            goto out;
+        if (sim_valset_write(&j->plan, &vc, file, src, NULL, j->err, sizeof j->err) != 0 ||
+            sim_samples_read(file, &hdr, &j->val, j->err, sizeof j->err) != 0) {
+            fprintf(stderr, "host_sim run: validation set: %s\n", j->err);
+            return -1;
         }
-        n_val = (size_t)hdr.count;
-        printf("validation set: %zu points (%lld poses)\n", n_val, o.val_poses);
+        j->n_val = (size_t)hdr.count;
+        printf("validation set: %zu points (%lld poses)\n", j->n_val, o->val_poses);
         fflush(stdout);
     }
-    snprintf(file, sizeof file, "%s/metrics.csv", o.out);
-    if ((wrc = hal_host_file_begin(&csv_out, file)) < 0) {
-        fprintf(stderr, "host_sim run: %s: %s\n", file, hal_host_file_strerror(wrc));
-        goto out;
+    return 0;
+}
+
+/* The firmware image in lockstep with the world, metrics per round; then every check a
+ * result must pass before anything of it replaces an earlier run's files. */
+static int run_image(job_t *j)
+{
+    const run_opts_t *o = &j->o;
+    char file[4200];
+    snprintf(file, sizeof file, "%s/metrics.csv", o->out);
+    int rc = hal_host_file_begin(&j->csv, file);
+    if (rc < 0) {
+        fprintf(stderr, "host_sim run: %s: %s\n", file, hal_host_file_strerror(rc));
+        return -1;
     }
-    csv = hal_host_file_stream(&csv_out);
+    FILE *csv = hal_host_file_stream(&j->csv);
     fprintf(csv, "round,sim_time_s,distance_m,progress_m,pool_fill,pool_capacity,ring_drops,train_loss,bce,"
                  "val_loss,kl\n");
-    run_ctx_t ctx = {&o, csv, model, val, n_val, 0, NAN};
+    j->ctx = (run_ctx_t){o, csv, j->model, j->val, j->n_val, 0, NAN};
     sim_image_cfg_t ic;
     sim_image_cfg_default(&ic);
-    ic.seed = (uint64_t)o.seed;
-    ic.robot = (uint32_t)o.robot;
-    ic.rounds = (uint32_t)o.rounds;
-    ic.policy = o.pool;
-    ic.steps_per_round = (uint32_t)o.steps;
-    ic.kl_weight = (float)o.kl_weight;
-    ic.dinno.batch = (uint32_t)o.batch;
-    ic.dinno.lr_start = (float)o.lr_start;
-    ic.dinno.lr_end = (float)o.lr_end;
-    ic.train_between = o.train_between;
-    ic.time_limit_s = o.time_limit;
-    ic.storage_dir = o.out;
-    ic.net_url = o.net;
-    ic.sched = o.sched;
-    ic.log_level = o.quiet ? HAL_LOG_WARN : HAL_LOG_INFO;
+    ic.seed = (uint64_t)o->seed;
+    ic.robot = (uint32_t)o->robot;
+    ic.rounds = (uint32_t)o->rounds;
+    ic.policy = o->pool;
+    ic.steps_per_round = (uint32_t)o->steps;
+    ic.kl_weight = (float)o->kl_weight;
+    ic.dinno.batch = (uint32_t)o->batch;
+    ic.dinno.lr_start = (float)o->lr_start;
+    ic.dinno.lr_end = (float)o->lr_end;
+    ic.train_between = o->train_between;
+    ic.time_limit_s = o->time_limit;
+    ic.storage_dir = o->out;
+    ic.net_url = o->net;
+    ic.sched = o->sched;
+    ic.log_level = o->quiet ? HAL_LOG_WARN : HAL_LOG_INFO;
     ic.on_round = on_round;
-    ic.user = &ctx;
-    if (sim_image_run(&plan, &path, &ic, res, err, sizeof err) != 0) {
-        fprintf(stderr, "host_sim run: %s\n", err);
-        goto out;
+    ic.user = &j->ctx;
+    const sim_image_result_t *res = j->res;
+    if (sim_image_run(&j->plan, &j->path, &ic, j->res, j->err, sizeof j->err) != 0) {
+        fprintf(stderr, "host_sim run: %s\n", j->err);
+        return -1;
     }
-    csv = NULL;
-    snprintf(file, sizeof file, "%s/metrics.csv", o.out);
-    if ((wrc = hal_host_file_commit(&csv_out)) < 0) {
-        fprintf(stderr, "host_sim run: %s: %s\n", file, hal_host_file_strerror(wrc));
-        goto out;
-    }
-    if (ctx.failed)
-        goto out;
-    /* ---- profile ---- */
-    char f2[4200];
-    snprintf(file, sizeof file, "%s/profile.txt", o.out);
-    snprintf(f2, sizeof f2, "%s/profile.csv", o.out);
-    const char *failed = file;
-    if ((wrc = hal_host_file_begin(&pt_out, file)) == 0 && (failed = f2, wrc = hal_host_file_begin(&pc_out, f2)) == 0) {
-        write_profile(&o, res, hal_host_file_stream(&pt_out), hal_host_file_stream(&pc_out));
-        write_profile(&o, res, stdout, NULL);
-        if ((failed = file, wrc = hal_host_file_commit(&pt_out)) == 0)
-            failed = f2, wrc = hal_host_file_commit(&pc_out);
-    }
-    if (wrc < 0) {
-        fprintf(stderr, "host_sim run: %s: %s\n", failed, hal_host_file_strerror(wrc));
-        goto out;
-    }
+    write_profile(o, res, stdout, NULL);
+    if (j->ctx.failed)
+        return -1;
     if (!res->completed) {
         fprintf(stderr,
                 "host_sim run: only %u of %lld rounds done within --time-limit %.1f s (path progress %.2f of "
                 "%.2f m); no final checkpoint\n",
-                res->rounds_done, o.rounds, o.time_limit, (double)res->rt_status.progress_m,
+                res->rounds_done, o->rounds, o->time_limit, (double)res->rt_status.progress_m,
                 (double)res->path_length_m);
-        goto out;
+        return -1;
     }
     if (res->final_ckpt_status != 0) {
-        fprintf(stderr, "host_sim run: %s/final.bnn: %s\n", o.out, hal_host_file_strerror(res->final_ckpt_status));
-        goto out;
+        fprintf(stderr, "host_sim run: %s/final.bnn: %s\n", o->out, hal_host_file_strerror(res->final_ckpt_status));
+        return -1;
     }
     if (res->gp.ckpt_failed > 0) {
-        fprintf(stderr,
-                "host_sim run: %llu round checkpoint(s) could not be written (see the log above); the "
-                "round_NNNN.bnn files of those rounds in %s are not from this run\n",
-                (unsigned long long)res->gp.ckpt_failed, o.out);
-        goto out;
+        fprintf(stderr, "host_sim run: %llu round checkpoint(s) could not be written (see above)\n",
+                (unsigned long long)res->gp.ckpt_failed);
+        return -1;
     }
-    /* ---- final model: maps, occupancy near the path ---- */
-    snprintf(file, sizeof file, "%s/final.bnn", o.out);
-    if (load_ckpt(model, file) != 0)
-        goto out;
+    return 0;
+}
+
+/* A run that succeeded: the final model's maps and figures, then metrics, profile, summary. */
+static int report(job_t *j)
+{
+    const run_opts_t *o = &j->o;
+    const sim_image_result_t *res = j->res;
+    char file[4200], f2[4200];
+    snprintf(file, sizeof file, "%s/final.bnn", o->out);
+    if (load_ckpt(j->model, file) != 0)
+        return -1;
     double occ = NAN;
     size_t cells = 0;
-    if (sim_image_occ_near_path(&plan, &path, model, 0.1, 1.0, &occ, &cells) != 0) {
+    if (sim_image_occ_near_path(&j->plan, &j->path, j->model, 0.1, 1.0, &occ, &cells) != 0) {
         fprintf(stderr, "host_sim run: occupancy metric failed\n");
-        goto out;
+        return -1;
     }
     double smax = 0;
     char mean_png[4200], std_png[4200];
-    snprintf(mean_png, sizeof mean_png, "%s/map_mean.png", o.out);
-    snprintf(std_png, sizeof std_png, "%s/map_std.png", o.out);
-    if (!o.no_maps) {
-        if (sim_maps_write(model, &plan, o.map_res, (uint32_t)o.mc, (uint64_t)o.seed, &path, 1, mean_png,
-                                 std_png, &smax, err, sizeof err) != 0) {
-            fprintf(stderr, "host_sim run: maps: %s\n", err);
-            goto out;
+    snprintf(mean_png, sizeof mean_png, "%s/map_mean.png", o->out);
+    snprintf(std_png, sizeof std_png, "%s/map_std.png", o->out);
+    if (!o->no_maps && sim_maps_write(j->model, &j->plan, o->map_res, (uint32_t)o->mc, (uint64_t)o->seed, &j->path,
+                                      1, mean_png, std_png, &smax, j->err, sizeof j->err) != 0) {
+        fprintf(stderr, "host_sim run: maps: %s\n", j->err);
+        return -1;
+    }
+    snprintf(file, sizeof file, "%s/metrics.csv", o->out);
+    int rc = hal_host_file_commit(&j->csv);
+    if (rc < 0) {
+        fprintf(stderr, "host_sim run: %s: %s\n", file, hal_host_file_strerror(rc));
+        return -1;
+    }
+    hal_host_file_t pt, pc, sum;
+    snprintf(file, sizeof file, "%s/profile.txt", o->out);
+    snprintf(f2, sizeof f2, "%s/profile.csv", o->out);
+    const char *failed = file;
+    if ((rc = hal_host_file_begin(&pt, file)) == 0) {
+        if ((failed = f2, rc = hal_host_file_begin(&pc, f2)) == 0) {
+            write_profile(o, res, hal_host_file_stream(&pt), hal_host_file_stream(&pc));
+            if ((failed = file, rc = hal_host_file_commit(&pt)) == 0)
+                failed = f2, rc = hal_host_file_commit(&pc);
+            hal_host_file_abort(&pc);
         }
+        hal_host_file_abort(&pt);
     }
-    snprintf(file, sizeof file, "%s/summary.txt", o.out);
-    if ((wrc = hal_host_file_begin(&sum_out, file)) < 0) {
-        fprintf(stderr, "host_sim run: %s: %s\n", file, hal_host_file_strerror(wrc));
-        goto out;
+    if (rc < 0) {
+        fprintf(stderr, "host_sim run: %s: %s\n", failed, hal_host_file_strerror(rc));
+        return -1;
     }
-    FILE *s = hal_host_file_stream(&sum_out);
+    snprintf(file, sizeof file, "%s/summary.txt", o->out);
+    if ((rc = hal_host_file_begin(&sum, file)) < 0) {
+        fprintf(stderr, "host_sim run: %s: %s\n", file, hal_host_file_strerror(rc));
+        return -1;
+    }
     for (int pass = 0; pass < 2; pass++) {
-        FILE *f = pass ? stdout : s;
+        FILE *f = pass ? stdout : hal_host_file_stream(&sum);
         fprintf(f, "seed: %lld\npreset: %s (%zu parameters)\nrounds: %lld\npool: %s (capacity %u)\n"
                    "steps_per_round: %lld\nbatch: %lld\nkl_weight: %g\ntrain_between: %d\n",
-                o.seed, BNN_PRESET_NAME, bnn_n_params(model), o.rounds, ai_pool_policy_name(o.pool),
-                (unsigned)AI_POOL_CAPACITY, o.steps, o.batch, o.kl_weight, o.train_between);
-        fprintf(f, "path: %s (%d waypoints, %.2f m)\nsimulated: %.2f s; wall: %.2f s\n", o.path, path.n,
+                o->seed, BNN_PRESET_NAME, bnn_n_params(j->model), o->rounds, ai_pool_policy_name(o->pool),
+                (unsigned)AI_POOL_CAPACITY, o->steps, o->batch, o->kl_weight, o->train_between);
+        fprintf(f, "path: %s (%d waypoints, %.2f m)\nsimulated: %.2f s; wall: %.2f s\n", o->path, j->path.n,
                 (double)res->path_length_m, (double)res->sim_time_us * 1e-6, res->wall_s);
         fprintf(f, "distance (true pose): %.2f m; odometry: %.2f m; collisions: %llu\n", res->world.distance_m,
                 (double)res->rt_status.distance_m, (unsigned long long)res->world.collisions);
@@ -479,30 +502,35 @@ int cmd_run(int argc, char **argv)
                 res->rt_status.samples, res->rt_status.ring_drops,
                 (unsigned long long)res->ai_status.pool_offered);
         fprintf(f, "final train loss: %.5f; final val loss: %.5f\n", (double)res->ai_status.loss_train,
-                ctx.last_val);
+                j->ctx.last_val);
         fprintf(f, "occupancy MSE within 1 m of the path (0.1 m grid, %zu cells): %.5f\n", cells, occ);
         fprintf(f, "checkpoints: %llu written, %llu failed; telemetry: %llu sent, %llu not sent\n",
                 (unsigned long long)res->gp.ckpt_written, (unsigned long long)res->gp.ckpt_failed,
                 (unsigned long long)res->gp.telemetry_sent, (unsigned long long)res->gp.telemetry_failed);
-        if (!o.no_maps)
-            fprintf(f, "maps: %lld MC passes, %.3f m grid, max std %.4f: %s %s\n", o.mc, o.map_res, smax,
+        if (!o->no_maps)
+            fprintf(f, "maps: %lld MC passes, %.3f m grid, max std %.4f: %s %s\n", o->mc, o->map_res, smax,
                     mean_png, std_png);
     }
-    if ((wrc = hal_host_file_commit(&sum_out)) < 0) {
-        fprintf(stderr, "host_sim run: %s: %s\n", file, hal_host_file_strerror(wrc));
-        goto out;
+    if ((rc = hal_host_file_commit(&sum)) < 0) {
+        fprintf(stderr, "host_sim run: %s: %s\n", file, hal_host_file_strerror(rc));
+        hal_host_file_abort(&sum);
+        return -1;
     }
-    printf("results in %s\n", o.out);
-    status = 0;
-out:
-    hal_host_file_abort(&csv_out); /* no-ops after a commit */
-    hal_host_file_abort(&pt_out);
-    hal_host_file_abort(&pc_out);
-    hal_host_file_abort(&sum_out);
-    free(res);
-    free(model);
-    free(val);
-    sim_path_free(&path);
-    sim_plan_free(&plan);
-    return status;
+    printf("results in %s\n", o->out);
+    return 0;
+}
+
+int cmd_run(int argc, char **argv)
+{
+    static job_t job; /* one run per process */
+    job_t *j = &job;
+    memset(j, 0, sizeof *j);
+    int pr = parse(argc, argv, &j->o);
+    if (pr > 0)
+        return 0;
+    if (pr < 0)
+        return 2;
+    const int ok = prepare(j) == 0 && run_image(j) == 0 && report(j) == 0;
+    job_free(j);
+    return ok ? 0 : 1;
 }

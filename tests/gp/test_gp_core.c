@@ -184,6 +184,10 @@ static void test_checkpoints_and_round_log(void **st)
     assert_int_equal(gp.final_ckpt_status, -ENOSPC);
     assert_true(fake_board_logged(&fb, "FAILED"));
     assert_int_equal(gp_core_rounds_logged(&gp), 2);
+    /* The round log says which checkpoints this run wrote, so the host never reads a file
+       of that name left by an earlier run as this run's. */
+    assert_int_equal(gp_core_round(&gp, 0)->ckpt_status, 0);
+    assert_int_equal(gp_core_round(&gp, 1)->ckpt_status, -ENOSPC);
 }
 
 int main(void)
