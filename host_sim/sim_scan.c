@@ -7,9 +7,10 @@
 #include <stdlib.h>
 #include <string.h>
 
-#include "rt/rt_follow.h"
-#include "rt/rt_samples.h"
-#include "sim_lidar.h"
+#include "fw_image.h"
+#include "fw_link.h"
+#include "rt/rt_core.h"
+#include "sim_hal_world.h"
 #include "sim_samples.h"
 #include "sim_world.h"
 
@@ -22,7 +23,7 @@ sim_scan_cfg_t sim_scan_default_cfg(void)
         .points = RT_SAMPLES_DEFAULT_POINTS,
         .sensor_beams = 360,
         .scan_hz = 10.0,
-        .control_hz = 20.0,
+        .control_hz = 1e6 / FW_RT_PERIOD_US, /* the firmware's RT rate, 50 Hz */
         .dt = 0.01,
         .noise_sigma = 0.01,
         .dropout_p = 0.0,
@@ -45,6 +46,29 @@ static int period_steps(double hz, double dt, int *steps)
     return 0;
 }
 
+/* The RT core and its image: static, as on a board (one scan at a time per process). */
+static rt_core_t scan_rt;
+static fw_image_t scan_img;
+
+/* Drains the RT -> AI ring into the samples file (the host stands in for the AI core). */
+static int drain(const fw_link_t *link, sim_samples_writer_t *wr, sim_scan_stats_t *st)
+{
+    ai_sample_t buf[512];
+    for (;;) {
+        size_t n = 0;
+        while (n < sizeof buf / sizeof buf[0] && ring_get(link->samples, &buf[n]) == 0)
+            n++;
+        if (n == 0)
+            return 0;
+        int rc = sim_samples_append(wr, buf, n);
+        if (rc < 0)
+            return rc;
+        for (size_t i = 0; i < n; i++)
+            st->samples_occupied += buf[i].occ > 0.5f;
+        st->samples += n;
+    }
+}
+
 int sim_scan_run(const sim_plan_t *plan, const sim_path_t *path, const sim_scan_cfg_t *cfg,
                  const char *out, const char *source, sim_scan_stats_t *stats,
                  sim_scan_progress_fn progress, void *user, char *err, size_t errlen)
@@ -59,159 +83,145 @@ int sim_scan_run(const sim_plan_t *plan, const sim_path_t *path, const sim_scan_
     if (stats)
         *stats = st;
     if (plan == NULL || path == NULL || cfg == NULL || out == NULL || path->n < 2 ||
-        path->p == NULL) {
-        snprintf(err, errlen, "scan: a plan, a path of at least 2 waypoints and an output are needed");
+        path->p == NULL || path->n > RT_CORE_MAX_WAYPOINTS) {
+        snprintf(err, errlen, "scan: a plan, a path of 2 .. %d waypoints and an output are needed",
+                 RT_CORE_MAX_WAYPOINTS);
         return -EINVAL;
     }
     const sim_scan_cfg_t *c = cfg;
     int scan_steps, ctl_steps;
     if (!(c->dt > 0 && c->dt <= 0.05) || !(c->scan_hz > 0) || !(c->control_hz > 0) ||
         period_steps(c->scan_hz, c->dt, &scan_steps) < 0 ||
-        period_steps(c->control_hz, c->dt, &ctl_steps) < 0) {
+        period_steps(c->control_hz, c->dt, &ctl_steps) < 0 || scan_steps % ctl_steps != 0) {
         snprintf(err, errlen, "scan: dt must be in (0, 0.05] and 1/scan_hz, 1/control_hz whole "
-                              "multiples of dt (dt %g, scan %g Hz, control %g Hz)",
+                              "multiples of dt, the scan period a multiple of the control period "
+                              "(dt %g, scan %g Hz, control %g Hz)",
                  c->dt, c->scan_hz, c->control_hz);
         return -EINVAL;
     }
     if (c->beams < 1 || c->beams > c->sensor_beams || c->points < 1 ||
         c->points > RT_SAMPLES_MAX_POINTS || c->beams > RT_SAMPLES_MAX_BEAMS ||
+        c->sensor_beams > (int)HAL_LIDAR_MAX_BEAMS ||
+        RT_SAMPLES_MAX_OUT(c->beams, c->points) > RT_CORE_MAX_SCAN_SAMPLES ||
         !(c->max_time_s > 0) || !isfinite(c->max_time_s)) {
-        snprintf(err, errlen, "scan: need 1 <= beams <= sensor beams (%d), 1 <= points <= %d, "
-                              "a positive max time", c->sensor_beams, RT_SAMPLES_MAX_POINTS);
+        snprintf(err, errlen, "scan: need 1 <= beams <= sensor beams <= %u, 1 <= points <= %d, "
+                              "beams x points <= %d, a positive max time", (unsigned)HAL_LIDAR_MAX_BEAMS,
+                 RT_SAMPLES_MAX_POINTS, RT_CORE_MAX_SCAN_SAMPLES);
         return -EINVAL;
     }
 
     int rc;
-    sim_world_t *w = NULL;
-    sim_lidar_t *lid = NULL;
-    rt_waypoint_t *wps = NULL;
-    float *ranges = NULL;
-    ai_sample_t *buf = NULL;
+    sim_hal_world_t *hw = NULL;
+    hal_host_t *h = NULL;
     sim_samples_writer_t wr = {0};
     int opened = 0;
-    const int max_out = RT_SAMPLES_MAX_OUT(c->beams, c->points);
+    rt_waypoint_t *wps = malloc(sizeof(rt_waypoint_t) * (size_t)path->n);
+    if (wps == NULL) {
+        snprintf(err, errlen, "scan: out of memory");
+        return -ENOMEM;
+    }
+    for (int i = 0; i < path->n; i++)
+        wps[i] = (rt_waypoint_t){(float)path->p[i].x, (float)path->p[i].y};
 
-    sim_world_cfg_t wc = sim_world_default_cfg();
-    wc.dt = c->dt;
-    rc = sim_world_create(plan, &wc, &w, err, errlen);
+    /* The world behind the host HAL, as the firmware image sees it. */
+    sim_hal_world_cfg_t wc = sim_hal_world_default_cfg();
+    wc.robot = c->robot;
+    wc.seed = c->seed;
+    wc.world.dt = c->dt;
+    wc.lidar.n_beams = c->sensor_beams;
+    wc.lidar.noise_sigma = c->noise_sigma;
+    wc.lidar.dropout_p = c->dropout_p;
+    wc.gps_sigma_xy = c->gps_sigma_xy;
+    wc.gps_sigma_theta = c->gps_sigma_theta;
+    wc.scan_period_us = (uint32_t)scan_steps * (uint32_t)llround(c->dt * 1e6);
+    rc = sim_hal_world_create(plan, path, &wc, &hw, err, errlen);
     if (rc < 0)
         goto out;
-    sim_lidar_cfg_t lc = sim_lidar_default_cfg();
-    lc.n_beams = c->sensor_beams;
-    lc.noise_sigma = c->noise_sigma;
-    lc.dropout_p = c->dropout_p;
-    lc.seed = c->seed;
-    rc = sim_lidar_create(&lc, &lid);
-    if (rc < 0) {
-        snprintf(err, errlen, "scan: invalid lidar settings (beams 1..%d, noise >= 0, dropout in [0, 1))",
-                 SIM_LIDAR_MAX_BEAMS);
+    hal_host_config_t hc = hal_host_config_default();
+    hc.robot_id = c->robot;
+    hc.world = sim_hal_world_ops(hw);
+    hc.log_level = HAL_LOG_WARN;
+    sim_hal_world_wheels(hw, &hc.wheel_radius_m, &hc.wheel_separation_m);
+    if ((rc = hal_host_create(&hc, &h)) < 0 || (rc = hal_board_install(hal_host_board(h))) < 0) {
+        snprintf(err, errlen, "scan: host board not created (%d)", rc);
         goto out;
     }
-    sim_gps_cfg_t gc = {c->gps_sigma_xy, c->gps_sigma_theta, c->seed};
-    wps = malloc(sizeof(rt_waypoint_t) * (size_t)path->n);
-    ranges = malloc(sizeof(float) * (size_t)c->sensor_beams);
-    buf = malloc(sizeof(ai_sample_t) * (size_t)max_out);
-    if (wps == NULL || ranges == NULL || buf == NULL) {
-        snprintf(err, errlen, "scan: out of memory");
-        rc = -ENOMEM;
+
+    /* The firmware's RT core alone: it follows the tour and turns scans into samples in the
+       RT -> AI ring, which this loop drains in place of the AI core. */
+    fw_link_reset();
+    const fw_link_t *link = fw_link_get();
+    const sim_robot_params_t rp = sim_robot_default_params();
+    rt_core_cfg_t rcfg;
+    memset(&rcfg, 0, sizeof rcfg);
+    rcfg.waypoints = wps;
+    rcfg.n_waypoints = path->n;
+    rcfg.follow = rt_follow_default_cfg();
+    rcfg.follow.v_max = (float)rp.v_max;
+    rcfg.follow.w_max = (float)rp.w_max;
+    rcfg.follow.wheel_radius = (float)rp.wheel_radius;
+    rcfg.follow.wheel_separation = (float)rp.wheel_separation;
+    rcfg.samples = (rt_samples_cfg_t){c->beams, c->points, (float)plan->min.x, (float)plan->min.y,
+                                      (float)plan->max.x, (float)plan->max.y};
+    rcfg.period_us = (uint32_t)ctl_steps * (uint32_t)llround(c->dt * 1e6);
+    if ((rc = rt_core_init(&scan_rt, &rcfg, link)) < 0) {
+        snprintf(err, errlen, "scan: RT core configuration rejected (%d)", rc);
         goto out;
     }
-    for (int i = 0; i < path->n; i++) {
-        wps[i].x = (float)path->p[i].x;
-        wps[i].y = (float)path->p[i].y;
-    }
-    sim_pose_t start = {path->p[0].x, path->p[0].y,
-                        atan2(path->p[1].y - path->p[0].y, path->p[1].x - path->p[0].x)};
-    int id;
-    rc = sim_world_add_robot(w, NULL, start, &id);
-    if (rc < 0) {
-        snprintf(err, errlen, "scan: cannot place the robot at the first waypoint");
+    fw_image_defaults(&scan_img);
+    scan_img.core[HAL_CORE_RT] = (fw_core_t){.name = "RT",
+                                             .period_us = rcfg.period_us,
+                                             .sub_divider = (uint32_t)(scan_steps / ctl_steps),
+                                             .tick = rt_core_tick,
+                                             .arg = &scan_rt};
+    if ((rc = fw_image_start(&scan_img)) < 0) {
+        snprintf(err, errlen, "scan: RT core not started (%d)", rc);
         goto out;
     }
-    const sim_robot_params_t *rp = sim_world_robot_params(w, id);
-    rt_follow_cfg_t fc = rt_follow_default_cfg();
-    fc.v_max = (float)rp->v_max;
-    fc.w_max = (float)rp->w_max;
-    fc.wheel_radius = (float)rp->wheel_radius;
-    fc.wheel_separation = (float)rp->wheel_separation;
-    rt_follow_t fol;
-    rc = rt_follow_init(&fol, &fc);
-    if (rc < 0) {
-        snprintf(err, errlen, "scan: follower configuration rejected");
-        goto out;
-    }
-    rc = sim_samples_open(&wr, out, plan->min.x, plan->min.y, plan->max.x, plan->max.y, c->seed,
-                          source);
+    rc = sim_samples_open(&wr, out, plan->min.x, plan->min.y, plan->max.x, plan->max.y, c->seed, source);
     if (rc < 0) {
         snprintf(err, errlen, "%s: %s", out, hal_host_file_strerror(rc));
         goto out;
     }
     opened = 1;
-    rt_samples_cfg_t sc = {c->beams, c->points, (float)plan->min.x, (float)plan->min.y,
-                           (float)plan->max.x, (float)plan->max.y};
-    rt_scan_view_t view = {ranges, c->sensor_beams, (float)lc.angle_min,
-                           (float)sim_lidar_angle_inc(lid), (float)lc.range_max};
 
-    uint64_t step = 0, ctl_index = 0;
-    long max_steps = lround(c->max_time_s / c->dt);
-    sim_pose_t prev = start;
+    /* One scan period per slice: the ring (FW_LINK_RING_CAPACITY samples) holds several scans. */
+    const uint64_t slice = wc.scan_period_us;
+    const uint64_t limit = (uint64_t)llround(c->max_time_s * 1e6);
     double next_progress = 10.0;
-    while (!st.finished && (long)step < max_steps) {
-        sim_pose_t truth, gps;
-        if ((rc = sim_world_pose(w, id, &truth)) < 0)
-            goto out;
-        if (step % (uint64_t)ctl_steps == 0) {
-            rt_follow_cmd_t cmd;
-            if ((rc = sim_gps_read(&gc, c->robot, ctl_index++, &truth, &gps)) < 0 ||
-                (rc = rt_follow_step(&fol, wps, path->n, (float)gps.x, (float)gps.y,
-                                     (float)gps.theta, &cmd)) < 0 ||
-                (rc = sim_world_set_wheels(w, id, cmd.wheel_left, cmd.wheel_right)) < 0) {
-                snprintf(err, errlen, "scan: control step failed (%d)", rc);
-                goto out;
-            }
-            st.waypoints_reached = cmd.target;
-            st.finished = cmd.finished;
-        }
-        if (step % (uint64_t)scan_steps == 0) {
-            /* GPS keyed apart from the control readings (index offset by 2^40). */
-            int32_t n = 0;
-            if ((rc = sim_gps_read(&gc, c->robot, (1ull << 40) + st.scans, &truth, &gps)) < 0 ||
-                (rc = sim_lidar_scan(lid, w, truth.x, truth.y, truth.theta, c->robot, st.scans,
-                                     ranges, NULL)) < 0 ||
-                (rc = rt_samples_from_scan(&sc, &view, (float)gps.x, (float)gps.y,
-                                           (float)gps.theta, buf, max_out, &n, NULL)) < 0) {
-                snprintf(err, errlen, "scan: scan %llu failed (%d)", (unsigned long long)st.scans, rc);
-                goto out;
-            }
-            if ((rc = sim_samples_append(&wr, buf, (size_t)n)) < 0) {
-                snprintf(err, errlen, "%s: %s", out, hal_host_file_strerror(rc));
-                goto out;
-            }
-            for (int32_t i = 0; i < n; i++)
-                st.samples_occupied += buf[i].occ > 0.5f;
-            st.samples += (uint64_t)n;
-            st.scans++;
-        }
-        if (st.finished)
-            break;
-        if ((rc = sim_world_step(w, 1)) < 0) {
-            snprintf(err, errlen, "scan: physics diverged at t = %.2f s", sim_world_time(w));
+    rt_status_t status;
+    memset(&status, 0, sizeof status);
+    for (uint64_t t = 0; t < limit && !status.finished;) {
+        t = t + slice < limit ? t + slice : limit;
+        if ((rc = hal_host_run_until(h, t)) < 0) {
+            snprintf(err, errlen, "scan: simulation failed at t = %.2f s (%d)", (double)t * 1e-6, rc);
             goto out;
         }
-        step++;
-        if ((rc = sim_world_pose(w, id, &truth)) < 0)
+        /* Every core is blocked in the lockstep now: the ring and the status are stable. */
+        if ((rc = drain(link, &wr, &st)) < 0) {
+            snprintf(err, errlen, "%s: %s", out, hal_host_file_strerror(rc));
             goto out;
-        st.distance_m += hypot(truth.x - prev.x, truth.y - prev.y);
-        prev = truth;
-        st.sim_time_s = sim_world_time(w);
-        st.collisions = sim_world_collisions(w, id);
+        }
+        (void)!mbox_get(link->rt_to_gp, &status, NULL);
+        sim_hal_world_stats_t ws;
+        sim_hal_world_get_stats(hw, &ws);
+        st.sim_time_s = (double)hal_host_now_us(h) * 1e-6;
+        st.scans = status.scans;
+        st.waypoints_reached = (int)status.waypoint;
+        st.finished = (int)status.finished;
+        st.distance_m = ws.distance_m;
+        st.collisions = ws.collisions;
         if (progress && st.sim_time_s >= next_progress) {
             progress(&st, path->n, user);
             next_progress += 10.0;
         }
     }
-    st.sim_time_s = sim_world_time(w);
-    st.collisions = sim_world_collisions(w, id);
+    if (status.ring_drops > 0 || status.sample_errors > 0) {
+        snprintf(err, errlen, "scan: %u samples dropped by the RT core (ring full) and %u refused",
+                 status.ring_drops, status.sample_errors);
+        rc = -EOVERFLOW;
+        goto out;
+    }
     if (!st.finished) {
         snprintf(err, errlen, "scan: path not finished after %.1f simulated s (%d of %d waypoints)",
                  c->max_time_s, st.waypoints_reached, path->n);
@@ -227,10 +237,8 @@ out:
         sim_samples_abort(&wr);
     if (stats)
         *stats = st;
-    sim_lidar_destroy(lid);
-    sim_world_destroy(w);
+    hal_host_destroy(h); /* stops the core first; uninstalls the board */
+    sim_hal_world_destroy(hw);
     free(wps);
-    free(ranges);
-    free(buf);
     return rc;
 }

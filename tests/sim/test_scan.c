@@ -16,6 +16,7 @@
 
 #include "alloc_count.h"
 #include "sim_samples.h"
+#include "sim_image.h"
 #include "sim_scan.h"
 #include "sim_test_util.h"
 #include "sim_valset.h"
@@ -145,6 +146,42 @@ static void test_scan_errors(void **state)
     assert_non_null(strstr(err, "not finished"));
 }
 
+/* One path per job: `host_sim scan` records what the firmware image's RT core produces. The
+ * same path, seed and robot through the whole image (RT, GP, AI cores) offers its AI core
+ * exactly the samples the scan wrote, scan for scan. */
+static void test_scan_is_the_firmware_rt_core(void **state)
+{
+    (void)state;
+    sim_plan_t p;
+    sim_solid_t s[4];
+    sim_room_t room;
+    tu_box_room(&p, s, &room, 4.0, 3.0, 0);
+    sim_path_t path = {4, wp, -1, NULL};
+    char out[64], err[256] = "";
+    snprintf(out, sizeof out, "/tmp/test_scan_%d_img.bin", (int)getpid());
+    sim_scan_cfg_t c = sim_scan_default_cfg();
+    c.seed = 5;
+    c.robot = 2;
+    sim_scan_stats_t st;
+    assert_int_equal(sim_scan_run(&p, &path, &c, out, "unit test", &st, NULL, NULL, err, sizeof err), 0);
+    unlink(out);
+    sim_image_cfg_t ic;
+    sim_image_cfg_default(&ic);
+    ic.seed = 5;
+    ic.robot = 2;
+    ic.rounds = 1;
+    ic.steps_per_round = 1;
+    ic.log_level = HAL_LOG_WARN;
+    static sim_image_result_t res;
+    assert_int_equal(sim_image_run(&p, &path, &ic, &res, err, sizeof err), 0);
+    print_message("scan: %llu scans, %llu samples; image RT core: %u scans, %u samples\n",
+                  (unsigned long long)st.scans, (unsigned long long)st.samples, res.rt_status.scans,
+                  res.rt_status.samples);
+    assert_int_equal(st.scans, res.rt_status.scans);
+    assert_int_equal(st.samples, res.rt_status.samples);
+    assert_int_equal(st.samples, res.ai_status.pool_offered);
+}
+
 static void test_valset(void **state)
 {
     (void)state;
@@ -204,6 +241,7 @@ int main(void)
         cmocka_unit_test(test_scan_follows_path_and_labels),
         cmocka_unit_test(test_scan_deterministic),
         cmocka_unit_test(test_scan_errors),
+        cmocka_unit_test(test_scan_is_the_firmware_rt_core),
         cmocka_unit_test(test_valset),
     };
     return cmocka_run_group_tests(tests, NULL, NULL);
