@@ -235,3 +235,37 @@ void sim_hal_world_wheels(const sim_hal_world_t *hw, float *radius_m, float *sep
     *radius_m = (float)p->wheel_radius;
     *separation_m = (float)p->wheel_separation;
 }
+
+int sim_hal_world_host(sim_hal_world_t *hw, uint32_t robot, hal_host_config_t base, hal_host_t **out, char *err,
+                       size_t errlen)
+{
+    base.robot_id = robot;
+    base.world = sim_hal_world_ops(hw);
+    sim_hal_world_wheels(hw, &base.wheel_radius_m, &base.wheel_separation_m);
+    int rc = hal_host_create(&base, out);
+    if (rc < 0) {
+        snprintf(err, errlen, "host board not created (%d: %s)", rc, strerror(-rc));
+        return rc;
+    }
+    rc = hal_board_install(hal_host_board(*out));
+    if (rc < 0)
+        snprintf(err, errlen, "board not installed (%d)", rc);
+    return rc;
+}
+
+void sim_hal_world_rt_cfg(const sim_plan_t *plan, const sim_path_t *path, rt_waypoint_t *wps, rt_core_cfg_t *rc)
+{
+    for (int i = 0; i < path->n; i++)
+        wps[i] = (rt_waypoint_t){(float)path->p[i].x, (float)path->p[i].y};
+    const sim_robot_params_t rp = sim_robot_default_params();
+    memset(rc, 0, sizeof *rc);
+    rc->waypoints = wps;
+    rc->n_waypoints = path->n;
+    rc->follow = rt_follow_default_cfg();
+    rc->follow.v_max = (float)rp.v_max;
+    rc->follow.w_max = (float)rp.w_max;
+    rc->follow.wheel_radius = (float)rp.wheel_radius;
+    rc->follow.wheel_separation = (float)rp.wheel_separation;
+    rc->samples = (rt_samples_cfg_t){RT_SAMPLES_DEFAULT_BEAMS, RT_SAMPLES_DEFAULT_POINTS, (float)plan->min.x,
+                                     (float)plan->min.y, (float)plan->max.x, (float)plan->max.y};
+}

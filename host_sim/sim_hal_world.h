@@ -25,6 +25,7 @@
 #include <stdint.h>
 
 #include "hal_host.h"
+#include "rt/rt_core.h"
 #include "sim_lidar.h"
 #include "sim_paths.h"
 #include "sim_plan.h"
@@ -72,5 +73,16 @@ void sim_hal_world_get_stats(const sim_hal_world_t *hw, sim_hal_world_stats_t *s
 
 /* The robot's wheel geometry (for hal_host_config_t's twist support). */
 void sim_hal_world_wheels(const sim_hal_world_t *hw, float *radius_m, float *separation_m);
+
+/* The host board on this world, as every firmware run in host_sim uses it: `base` (sched,
+ * log, net, storage) with the robot id, the world callbacks and the wheel geometry set;
+ * created and installed. 0 or a negative code with a message in err. */
+FS_MUST_CHECK int sim_hal_world_host(sim_hal_world_t *hw, uint32_t robot, hal_host_config_t base, hal_host_t **out,
+                                     char *err, size_t errlen);
+
+/* The RT core's configuration for a robot of this world driving `path` on `plan`: the
+ * waypoints (written to wps, path->n of them), the follower at the robot's speed limits and
+ * wheel geometry, the default beams and points over the plan's box. period_us is left 0. */
+void sim_hal_world_rt_cfg(const sim_plan_t *plan, const sim_path_t *path, rt_waypoint_t *wps, rt_core_cfg_t *rc);
 
 #endif /* SIM_HAL_WORLD_H */

@@ -66,9 +66,6 @@ int sim_image_run(const sim_plan_t *plan, const sim_path_t *path, const sim_imag
         snprintf(err, errlen, "image: out of memory");
         return -ENOMEM;
     }
-    for (int i = 0; i < path->n; i++)
-        wps[i] = (rt_waypoint_t){(float)path->p[i].x, (float)path->p[i].y};
-
     sim_hal_world_cfg_t wc = sim_hal_world_default_cfg();
     wc.robot = cfg->robot;
     wc.seed = cfg->seed;
@@ -77,36 +74,15 @@ int sim_image_run(const sim_plan_t *plan, const sim_path_t *path, const sim_imag
         goto out;
 
     hal_host_config_t hc = hal_host_config_default();
-    hc.robot_id = cfg->robot;
-    hc.world = sim_hal_world_ops(hw);
     hc.sched = cfg->sched;
-    sim_hal_world_wheels(hw, &hc.wheel_radius_m, &hc.wheel_separation_m);
     hc.net_url = cfg->net_url;
     hc.storage_dir = cfg->storage_dir;
     hc.log_level = cfg->log_level;
-    rc = hal_host_create(&hc, &h);
-    if (rc < 0) {
-        snprintf(err, errlen, "image: host board not created (%d: %s)", rc, strerror(-rc));
+    if ((rc = sim_hal_world_host(hw, cfg->robot, hc, &h, err, errlen)) < 0)
         goto out;
-    }
-    rc = hal_board_install(hal_host_board(h));
-    if (rc < 0) {
-        snprintf(err, errlen, "image: board not installed (%d)", rc);
-        goto out;
-    }
 
     fw_robot_cfg_t fc = fw_robot_default_cfg();
-    const sim_robot_params_t rp = sim_robot_default_params();
-    fc.rt.waypoints = wps;
-    fc.rt.n_waypoints = path->n;
-    fc.rt.follow.v_max = (float)rp.v_max;
-    fc.rt.follow.w_max = (float)rp.w_max;
-    fc.rt.follow.wheel_radius = (float)rp.wheel_radius;
-    fc.rt.follow.wheel_separation = (float)rp.wheel_separation;
-    fc.rt.samples.min_x = (float)plan->min.x;
-    fc.rt.samples.min_y = (float)plan->min.y;
-    fc.rt.samples.max_x = (float)plan->max.x;
-    fc.rt.samples.max_y = (float)plan->max.y;
+    sim_hal_world_rt_cfg(plan, path, wps, &fc.rt);
     fc.ai.rounds = cfg->rounds;
     fc.ai.policy = cfg->policy;
     fc.ai.dinno = cfg->dinno;

@@ -1,6 +1,7 @@
 /* Procedural floor plans (layout in sim_plangen.h). All geometry is in integer pixels
  * (1 px = 1 cm at the default scale), so the output is exact and reproducible text. */
 #include "sim_plangen.h"
+#include "sim_rng.h"
 #include "hal_host_file.h"
 
 #include <errno.h>
@@ -13,23 +14,10 @@
 #define INT 12 /* interior wall thickness, px */
 #define JAMB 30 /* minimum wall left beside a door, px */
 
-typedef struct {
-    uint64_t s;
-} rng_t;
-
-/* splitmix64: tiny, good enough for layout choices, and identical on every platform. */
-static uint64_t rng_next(rng_t *r)
-{
-    uint64_t z = (r->s += 0x9E3779B97F4A7C15ull);
-    z = (z ^ (z >> 30)) * 0xBF58476D1CE4E5B9ull;
-    z = (z ^ (z >> 27)) * 0x94D049BB133111EBull;
-    return z ^ (z >> 31);
-}
-
 /* Uniform integer in [lo, hi] (hi >= lo). */
-static int rng_range(rng_t *r, int lo, int hi)
+static int rng_range(sim_rng_seq_t *r, int lo, int hi)
 {
-    return lo + (int)(rng_next(r) % (uint64_t)(hi - lo + 1));
+    return lo + (int)(sim_rng_next(r) % (uint64_t)(hi - lo + 1));
 }
 
 static void rect(FILE *f, int x0, int y0, int x1, int y1)
@@ -74,7 +62,7 @@ int sim_plangen_svg(unsigned long seed, int rooms, char **out)
     *out = NULL;
     if (rooms < SIM_PLANGEN_MIN_ROOMS || rooms > SIM_PLANGEN_MAX_ROOMS)
         return -EINVAL;
-    rng_t rng = {(uint64_t)seed * 0xD1B54A32D192ED03ull + 0x2545F4914F6CDD1Dull};
+    sim_rng_seq_t rng = {(uint64_t)seed * 0xD1B54A32D192ED03ull + 0x2545F4914F6CDD1Dull};
 
     int n_top = (rooms + 1) / 2, n_bot = rooms - n_top;
     int wt[SIM_PLANGEN_MAX_ROOMS], wb[SIM_PLANGEN_MAX_ROOMS];

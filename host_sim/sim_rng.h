@@ -16,6 +16,19 @@ static inline uint64_t sim_rng_mix(uint64_t z)
     return z ^ (z >> 31);
 }
 
+/* A sequential SplitMix64 stream, for choices made in order (plan layouts, tour start rooms):
+ * the same numbers on every platform. */
+typedef struct sim_rng_seq {
+    uint64_t s;
+} sim_rng_seq_t;
+
+static inline uint64_t sim_rng_next(sim_rng_seq_t *r)
+{
+    const uint64_t z = r->s;
+    r->s += 0x9E3779B97F4A7C15ull;
+    return sim_rng_mix(z); /* SplitMix64: the finaliser of the advanced state */
+}
+
 /* 64 random bits for the key. `stream` separates independent uses (noise, dropout, ...). */
 static inline uint64_t sim_rng_u64(uint64_t seed, uint32_t stream, uint64_t a, uint64_t b,
                                    uint64_t c)

@@ -120,9 +120,6 @@ int sim_scan_run(const sim_plan_t *plan, const sim_path_t *path, const sim_scan_
         snprintf(err, errlen, "scan: out of memory");
         return -ENOMEM;
     }
-    for (int i = 0; i < path->n; i++)
-        wps[i] = (rt_waypoint_t){(float)path->p[i].x, (float)path->p[i].y};
-
     /* The world behind the host HAL, as the firmware image sees it. */
     sim_hal_world_cfg_t wc = sim_hal_world_default_cfg();
     wc.robot = c->robot;
@@ -138,31 +135,18 @@ int sim_scan_run(const sim_plan_t *plan, const sim_path_t *path, const sim_scan_
     if (rc < 0)
         goto out;
     hal_host_config_t hc = hal_host_config_default();
-    hc.robot_id = c->robot;
-    hc.world = sim_hal_world_ops(hw);
     hc.log_level = HAL_LOG_WARN;
-    sim_hal_world_wheels(hw, &hc.wheel_radius_m, &hc.wheel_separation_m);
-    if ((rc = hal_host_create(&hc, &h)) < 0 || (rc = hal_board_install(hal_host_board(h))) < 0) {
-        snprintf(err, errlen, "scan: host board not created (%d)", rc);
+    if ((rc = sim_hal_world_host(hw, c->robot, hc, &h, err, errlen)) < 0)
         goto out;
-    }
 
     /* The firmware's RT core alone: it follows the tour and turns scans into samples in the
        RT -> AI ring, which this loop drains in place of the AI core. */
     fw_link_reset();
     const fw_link_t *link = fw_link_get();
-    const sim_robot_params_t rp = sim_robot_default_params();
     rt_core_cfg_t rcfg;
-    memset(&rcfg, 0, sizeof rcfg);
-    rcfg.waypoints = wps;
-    rcfg.n_waypoints = path->n;
-    rcfg.follow = rt_follow_default_cfg();
-    rcfg.follow.v_max = (float)rp.v_max;
-    rcfg.follow.w_max = (float)rp.w_max;
-    rcfg.follow.wheel_radius = (float)rp.wheel_radius;
-    rcfg.follow.wheel_separation = (float)rp.wheel_separation;
-    rcfg.samples = (rt_samples_cfg_t){c->beams, c->points, (float)plan->min.x, (float)plan->min.y,
-                                      (float)plan->max.x, (float)plan->max.y};
+    sim_hal_world_rt_cfg(plan, path, wps, &rcfg);
+    rcfg.samples.n_beams = c->beams;
+    rcfg.samples.points_per_beam = c->points;
     rcfg.period_us = (uint32_t)ctl_steps * (uint32_t)llround(c->dt * 1e6);
     if ((rc = rt_core_init(&scan_rt, &rcfg, link)) < 0) {
         snprintf(err, errlen, "scan: RT core configuration rejected (%d)", rc);

@@ -2,6 +2,7 @@
  * rooms shared out between robots (contract in sim_paths.h). */
 #include "sim_paths.h"
 #include "sim_paths_util.h"
+#include "sim_rng.h"
 
 #include <errno.h>
 #include <math.h>
@@ -9,18 +10,6 @@
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
-
-typedef struct {
-    uint64_t s;
-} rng_t;
-
-static uint64_t rng_next(rng_t *r)
-{
-    uint64_t z = (r->s += 0x9E3779B97F4A7C15ull);
-    z = (z ^ (z >> 30)) * 0xBF58476D1CE4E5B9ull;
-    z = (z ^ (z >> 27)) * 0x94D049BB133111EBull;
-    return z ^ (z >> 31);
-}
 
 /* ---- traversability --------------------------------------------------------------------- */
 
@@ -532,9 +521,9 @@ int sim_paths_generate(const sim_plan_t *plan, const sim_paths_cfg_t *cfg, sim_p
     for (int k = 0, e = 0; k < plan->n_rooms; k++)
         if (ri[k].rep >= 0)
             order[e++] = k;
-    rng_t rng = {cfg->seed * 0x9E3779B97F4A7C15ull + 0x632BE59BD9B4E019ull};
+    sim_rng_seq_t rng = {cfg->seed * 0x9E3779B97F4A7C15ull + 0x632BE59BD9B4E019ull};
     for (int k = eligible - 1; k > 0; k--) {
-        int j = (int)(rng_next(&rng) % (uint64_t)(k + 1));
+        int j = (int)(sim_rng_next(&rng) % (uint64_t)(k + 1));
         int t = order[k];
         order[k] = order[j];
         order[j] = t;
