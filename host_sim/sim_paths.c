@@ -47,16 +47,21 @@ int sim_paths_push(sim_path_t *p, int *cap, double x, double y)
     return 0;
 }
 
+void sim_path_init(sim_path_t *path)
+{
+    path->n = 0;
+    path->p = NULL;
+    path->line = NULL;
+    path->start_room = -1;
+}
+
 void sim_path_free(sim_path_t *path)
 {
     if (path == NULL)
         return;
     free(path->p);
     free(path->line);
-    path->p = NULL;
-    path->line = NULL;
-    path->n = 0;
-    path->start_room = -1;
+    sim_path_init(path);
 }
 
 void sim_paths_cfg_default(sim_paths_cfg_t *cfg)

@@ -51,6 +51,8 @@ FS_MUST_CHECK
 int sim_paths_generate(const sim_plan_t *plan, const sim_paths_cfg_t *cfg, sim_path_t *paths, char *err,
                        size_t errlen);
 
+/* An empty path (no allocation): what sim_path_free leaves behind. */
+void sim_path_init(sim_path_t *path);
 void sim_path_free(sim_path_t *path);
 
 /* Arc length of the polyline in metres (0 for fewer than 2 waypoints). */

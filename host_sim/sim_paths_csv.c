@@ -63,10 +63,7 @@ int sim_path_parse_csv(const char *text, const char *name, const sim_plan_t *pla
         err[0] = '\0';
     if (path == NULL)
         return -EINVAL;
-    path->n = 0;
-    path->p = NULL;
-    path->line = NULL;
-    path->start_room = -1;
+    sim_path_init(path);
     if (name == NULL)
         name = "<memory>";
     int line_cap = 0;
@@ -158,10 +155,7 @@ int sim_path_read_csv(const char *file, const sim_plan_t *plan, sim_path_t *path
 {
     if (path == NULL)
         return -EINVAL;
-    path->n = 0;
-    path->p = NULL;
-    path->line = NULL;
-    path->start_room = -1;
+    sim_path_init(path);
     if (file == NULL)
         return sim_paths_errf(err, errlen, "(null):0: no file name");
     FILE *f = NULL;

@@ -467,10 +467,7 @@ int sim_paths_generate(const sim_plan_t *plan, const sim_paths_cfg_t *cfg, sim_p
                     cfg->clearance_m, cfg->sweep_m);
     const int N = cfg->n_robots;
     for (int r = 0; r < N; r++) {
-        paths[r].n = 0;
-        paths[r].p = NULL;
-        paths[r].line = NULL;
-        paths[r].start_room = -1;
+        sim_path_init(&paths[r]);
     }
     planner_t pl = {.plan = plan, .need = cfg->clearance_m + cfg->res_m};
     room_info_t *ri = NULL;

@@ -93,4 +93,24 @@ static inline int cmd_prepare_out_dir(const char *cmd, const char *dir)
     return 0;
 }
 
+/* An output file of `host_sim cmd` through the one writer: begin, and commit (which drops the
+ * file on failure). Each prints "host_sim CMD: PATH: reason" and returns -1 on error. */
+static inline int cmd_out_begin(const char *cmd, hal_host_file_t *out, const char *path)
+{
+    int rc = hal_host_file_begin(out, path);
+    if (rc < 0)
+        fprintf(stderr, "host_sim %s: %s: %s\n", cmd, path, hal_host_file_strerror(rc));
+    return rc < 0 ? -1 : 0;
+}
+
+static inline int cmd_out_commit(const char *cmd, hal_host_file_t *out)
+{
+    int rc = hal_host_file_commit(out);
+    if (rc < 0) {
+        fprintf(stderr, "host_sim %s: %s: %s\n", cmd, out->path, hal_host_file_strerror(rc));
+        hal_host_file_abort(out);
+    }
+    return rc < 0 ? -1 : 0;
+}
+
 #endif /* HOST_SIM_APP_CLI_H */

@@ -364,12 +364,10 @@ static int train(job_t *j)
     char file[4096];
     snprintf(file, sizeof file, "%s/metrics.csv", o->out);
     hal_host_file_t out;
-    int rc = hal_host_file_begin(&out, file);
-    if (rc < 0) {
-        fprintf(stderr, "host_sim fleet: %s: %s\n", file, hal_host_file_strerror(rc));
+    if (cmd_out_begin("fleet", &out, file) != 0)
         return -1;
-    }
     FILE *csv = hal_host_file_stream(&out);
+    int rc = 0;
     fprintf(csv, "round,agent,train_loss,val_loss,kl_loss,consensus_error,occ_mse,occ_iou,reg_mu,reg_rho,neighbours\n");
     const int M = sim_fleet_models(j->fleet);
     dinno_graph_report_t rep; /* of the last round's graph */
@@ -411,10 +409,11 @@ static int train(job_t *j)
         printf("\n");
         fflush(stdout);
     }
-    if (rc == 0 && (rc = hal_host_file_commit(&out)) < 0)
-        fprintf(stderr, "host_sim fleet: %s: %s\n", file, hal_host_file_strerror(rc));
-    hal_host_file_abort(&out); /* a no-op after a commit */
-    return rc == 0 ? 0 : -1;
+    if (rc != 0) {
+        hal_host_file_abort(&out);
+        return -1;
+    }
+    return cmd_out_commit("fleet", &out);
 }
 
 /* Maps of agent 0 and summary.txt (also on stdout). */
@@ -433,11 +432,8 @@ static int report(job_t *j)
     }
     snprintf(file, sizeof file, "%s/summary.txt", o->out);
     hal_host_file_t out;
-    int rc = hal_host_file_begin(&out, file);
-    if (rc < 0) {
-        fprintf(stderr, "host_sim fleet: %s: %s\n", file, hal_host_file_strerror(rc));
+    if (cmd_out_begin("fleet", &out, file) != 0)
         return -1;
-    }
     double v = 0, vmin = INFINITY, vmax = -INFINITY, mse = 0, io = 0, ce = 0, tl = 0;
     for (int i = 0; i < M; i++) {
         const sim_fleet_metrics_t *m = &j->last[i];
@@ -474,11 +470,8 @@ static int report(job_t *j)
         fprintf(f, "maps: agent 0, %lld MC passes, %.3f m grid, max std %.4f: %s %s\n", o->mc, o->map_res, smax,
                 mean_png, std_png);
     }
-    if ((rc = hal_host_file_commit(&out)) < 0) {
-        fprintf(stderr, "host_sim fleet: %s: %s\n", file, hal_host_file_strerror(rc));
-        hal_host_file_abort(&out);
+    if (cmd_out_commit("fleet", &out) != 0)
         return -1;
-    }
     printf("results in %s (metrics.csv, map_mean.png, map_std.png, summary.txt)\n", o->out);
     return 0;
 }

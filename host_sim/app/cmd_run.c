@@ -380,11 +380,8 @@ static int run_image(job_t *j)
     const run_opts_t *o = &j->o;
     char file[4200];
     snprintf(file, sizeof file, "%s/metrics.csv", o->out);
-    int rc = hal_host_file_begin(&j->csv, file);
-    if (rc < 0) {
-        fprintf(stderr, "host_sim run: %s: %s\n", file, hal_host_file_strerror(rc));
+    if (cmd_out_begin("run", &j->csv, file) != 0)
         return -1;
-    }
     FILE *csv = hal_host_file_stream(&j->csv);
     fprintf(csv, "round,sim_time_s,distance_m,progress_m,pool_fill,pool_capacity,ring_drops,train_loss,bce,"
                  "val_loss,kl\n");
@@ -460,34 +457,26 @@ static int report(job_t *j)
         fprintf(stderr, "host_sim run: maps: %s\n", j->err);
         return -1;
     }
-    snprintf(file, sizeof file, "%s/metrics.csv", o->out);
-    int rc = hal_host_file_commit(&j->csv);
-    if (rc < 0) {
-        fprintf(stderr, "host_sim run: %s: %s\n", file, hal_host_file_strerror(rc));
+    if (cmd_out_commit("run", &j->csv) != 0)
         return -1;
-    }
     hal_host_file_t pt, pc, sum;
     snprintf(file, sizeof file, "%s/profile.txt", o->out);
     snprintf(f2, sizeof f2, "%s/profile.csv", o->out);
-    const char *failed = file;
-    if ((rc = hal_host_file_begin(&pt, file)) == 0) {
-        if ((failed = f2, rc = hal_host_file_begin(&pc, f2)) == 0) {
-            write_profile(o, res, hal_host_file_stream(&pt), hal_host_file_stream(&pc));
-            if ((failed = file, rc = hal_host_file_commit(&pt)) == 0)
-                failed = f2, rc = hal_host_file_commit(&pc);
-            hal_host_file_abort(&pc);
-        }
+    if (cmd_out_begin("run", &pt, file) != 0)
+        return -1;
+    if (cmd_out_begin("run", &pc, f2) != 0) {
         hal_host_file_abort(&pt);
+        return -1;
     }
-    if (rc < 0) {
-        fprintf(stderr, "host_sim run: %s: %s\n", failed, hal_host_file_strerror(rc));
+    write_profile(o, res, hal_host_file_stream(&pt), hal_host_file_stream(&pc));
+    const int profile_ok = cmd_out_commit("run", &pt) == 0;
+    if (!profile_ok || cmd_out_commit("run", &pc) != 0) {
+        hal_host_file_abort(&pc);
         return -1;
     }
     snprintf(file, sizeof file, "%s/summary.txt", o->out);
-    if ((rc = hal_host_file_begin(&sum, file)) < 0) {
-        fprintf(stderr, "host_sim run: %s: %s\n", file, hal_host_file_strerror(rc));
+    if (cmd_out_begin("run", &sum, file) != 0)
         return -1;
-    }
     for (int pass = 0; pass < 2; pass++) {
         FILE *f = pass ? stdout : hal_host_file_stream(&sum);
         fprintf(f, "seed: %lld\npreset: %s (%zu parameters)\nrounds: %lld\npool: %s (capacity %u)\n"
@@ -511,11 +500,8 @@ static int report(job_t *j)
             fprintf(f, "maps: %lld MC passes, %.3f m grid, max std %.4f: %s %s\n", o->mc, o->map_res, smax,
                     mean_png, std_png);
     }
-    if ((rc = hal_host_file_commit(&sum)) < 0) {
-        fprintf(stderr, "host_sim run: %s: %s\n", file, hal_host_file_strerror(rc));
-        hal_host_file_abort(&sum);
+    if (cmd_out_commit("run", &sum) != 0)
         return -1;
-    }
     printf("results in %s\n", o->out);
     return 0;
 }
