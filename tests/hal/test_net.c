@@ -247,13 +247,17 @@ static void explain_udpm(const char *url, const char *what)
     (void)r;
 }
 
-static void test_udpm_two_processes(void **state)
+/* A receiving child process on `url`: `child(url, ready_fd, result_fd)` never returns. The
+ * parent gets the read ends of the ready and result pipes and the child's pid. */
+typedef void (*child_fn)(const char *url, int ready_fd, int result_fd);
+
+typedef struct child {
+    pid_t pid;
+    int ready, result; /* read ends */
+} child_t;
+
+static child_t spawn_receiver(child_fn child, const char *url)
 {
-    (void)state;
-    char url[128];
-    /* A port of our own, so that concurrent runs (other fleets on this host) do not cross. */
-    snprintf(url, sizeof(url), "udpm://239.255.76.67:%u?ttl=0&recv_buf_size=4194304",
-             7700u + (unsigned)(getpid() % 250));
     int ready[2], result[2];
     assert_int_equal(pipe(ready), 0);
     assert_int_equal(pipe(result), 0);
@@ -263,14 +267,37 @@ static void test_udpm_two_processes(void **state)
     if (pid == 0) {
         close(ready[0]);
         close(result[0]);
-        child_receiver(url, ready[1], result[1]);
+        child(url, ready[1], result[1]);
     }
     close(ready[1]);
     close(result[1]);
+    return (child_t){pid, ready[0], result[0]};
+}
+
+/* Reaps the child (killed first unless it succeeded); returns its wait status. */
+static int reap(child_t *ch, int ok)
+{
+    if (!ok)
+        kill(ch->pid, SIGKILL);
+    int status = 0;
+    waitpid(ch->pid, &status, 0);
+    close(ch->ready);
+    close(ch->result);
+    return status;
+}
+
+static void test_udpm_two_processes(void **state)
+{
+    (void)state;
+    char url[128];
+    /* A port of our own, so that concurrent runs (other fleets on this host) do not cross. */
+    snprintf(url, sizeof(url), "udpm://239.255.76.67:%u?ttl=0&recv_buf_size=4194304",
+             7700u + (unsigned)(getpid() % 250));
+    child_t ch = spawn_receiver(child_receiver, url);
     char c = 0;
     int ok = 0;
     const char *what = "the receiver did not start";
-    if (wait_byte(ready[0], 10000, &c) == 0 && c == 'R') {
+    if (wait_byte(ch.ready, 10000, &c) == 0 && c == 'R') {
         hal_host_net_t *n = NULL;
         if (hal_host_net_open(url, 4, &n) == 0) {
             static uint8_t msg[UDPM_LEN];
@@ -282,7 +309,7 @@ static void test_udpm_two_processes(void **state)
                     what = "publishing failed";
                     break;
                 }
-                if (wait_byte(result[0], 100, &c) == 0) {
+                if (wait_byte(ch.result, 100, &c) == 0) {
                     ok = c == 'K';
                     what = c == 'B' ? "a corrupted message arrived" : "receiver gave up";
                     break;
@@ -295,12 +322,7 @@ static void test_udpm_two_processes(void **state)
     } else if (c == 'E') {
         what = "the receiver could not open LCM";
     }
-    if (!ok)
-        kill(pid, SIGKILL);
-    int status = 0;
-    waitpid(pid, &status, 0);
-    close(ready[0]);
-    close(result[0]);
+    const int status = reap(&ch, ok);
     if (!ok)
         explain_udpm(url, what);
     else
@@ -374,23 +396,11 @@ static void test_udpm_crafted_datagrams(void **state)
     char url[128];
     snprintf(url, sizeof(url), "udpm://239.255.76.67:%u?ttl=0&recv_buf_size=4194304",
              7960u + (unsigned)(getpid() % 30));
-    int ready[2], result[2];
-    assert_int_equal(pipe(ready), 0);
-    assert_int_equal(pipe(result), 0);
-    fflush(NULL);
-    pid_t pid = fork();
-    assert_true(pid >= 0);
-    if (pid == 0) {
-        close(ready[0]);
-        close(result[0]);
-        child_craft_receiver(url, ready[1], result[1]);
-    }
-    close(ready[1]);
-    close(result[1]);
+    child_t ch = spawn_receiver(child_craft_receiver, url);
     char c = 0;
     uint64_t rejected = 0;
     int ok = 0, rounds = 0;
-    if (wait_byte(ready[0], 10000, &c) == 0 && c == 'R') {
+    if (wait_byte(ch.ready, 10000, &c) == 0 && c == 'R') {
         hal_host_net_t *n = NULL;
         assert_int_equal(hal_host_net_open(url, 4, &n), 0);
         static uint8_t b[4096];
@@ -409,19 +419,14 @@ static void test_udpm_crafted_datagrams(void **state)
             assert_int_equal(hal_host_net_publish(n, CRAFT_CHANNEL, b, (size_t)len), 0);
             b[0] ^= 0xff;
             assert_int_equal(hal_host_net_publish(n, CRAFT_CHANNEL, b, (size_t)len), 0);
-            if (wait_byte(result[0], 200, &c) == 0) {
-                ok = c == 'K' && read(result[0], &rejected, sizeof rejected) == (ssize_t)sizeof rejected;
+            if (wait_byte(ch.result, 200, &c) == 0) {
+                ok = c == 'K' && read(ch.result, &rejected, sizeof rejected) == (ssize_t)sizeof rejected;
                 break;
             }
         }
         hal_host_net_close(n);
     }
-    if (!ok)
-        kill(pid, SIGKILL);
-    int status = 0;
-    waitpid(pid, &status, 0);
-    close(ready[0]);
-    close(result[0]);
+    const int status = reap(&ch, ok);
     if (!ok)
         explain_udpm(url, "the valid message after the crafted ones did not arrive");
     else
