@@ -1,0 +1,156 @@
+/* Peers state exchange: Algorithm 1 of the source paper made loss-proof, as a state machine
+ * with no I/O of its own (docs/architecture.md section 4). The GP core feeds it the messages it
+ * received and the time, and it emits the messages to send through a callback; a codec and a
+ * transport (hal_net over LCM on the host) sit outside it, so it is tested against any order,
+ * loss and duplication of messages one call at a time.
+ *
+ * Round k, at peer `self` of a fleet of n_peers:
+ *   gp_pse_begin_round(k, state, x, y)  our encoded state (state_bytes, kept unchanged by the
+ *                 caller until the round finished) goes out as n_chunks chunks of chunk_bytes
+ *                 (the last shorter), each with the round, the state's CRC-32 and our position;
+ *   gp_pse_on_chunk/on_done/on_request  every field is validated first (sender inside the
+ *                 fleet and not us, round window k .. k+1, sizes equal to the fleet's, chunk
+ *                 bounds, finite position); a peer's chunks reassemble per round (two buffers
+ *                 per peer: a peer may already send k+1) and a state counts only when its CRC
+ *                 matches; duplicates, stale rounds and rounds beyond k+1 are ignored and counted;
+ *   gp_pse_poll(now)  asks again for missing chunks after resend_after_us without progress;
+ *                 a peer that sent nothing for peer_timeout_us leaves this round's neighbour
+ *                 set (counted), and takes part again as soon as it is heard;
+ *   gp_pse_states_ready()  every peer delivered its state of round k or left the round;
+ *   gp_pse_neighbours()  the peers whose round-k position is within radius_m of ours (the same
+ *                 test as dinno_graph_disk), or all of them with radius_m <= 0: it depends on
+ *                 the positions only, never on arrival times;
+ *   gp_pse_complete(now)  after the node update: RoundComplete(k) goes out;
+ *   gp_pse_round_finished()  every peer in the round completed k, or a later round was heard.
+ *
+ * Memory: everything is inside gp_pse_t (static in the image), sized from BOARD_MAX_PEERS and
+ * the preset's state size; no allocation. One thread (the GP core). */
+#ifndef GP_GP_PSE_H
+#define GP_GP_PSE_H
+
+#include <stddef.h>
+#include <stdint.h>
+
+#include "ai/bnn.h"
+
+#define GP_PSE_MAX_PEERS BOARD_MAX_PEERS
+#define GP_PSE_MAX_STATE_BYTES ((uint32_t)BNN_N_PARAMS * 4u) /* the fp32 parameters of the preset */
+#define GP_PSE_MIN_CHUNK_BYTES 1024u
+#define GP_PSE_MAX_CHUNK_BYTES (60u * 1024u) /* one LCM datagram with its header under 64 KB */
+#define GP_PSE_MAX_CHUNKS ((GP_PSE_MAX_STATE_BYTES + GP_PSE_MIN_CHUNK_BYTES - 1u) / GP_PSE_MIN_CHUNK_BYTES)
+#define GP_PSE_MAX_REQUEST 64u /* chunk indices one resend request names */
+
+typedef enum gp_pse_kind { GP_PSE_CHUNK = 0, GP_PSE_DONE = 1, GP_PSE_REQUEST = 2 } gp_pse_kind_t;
+
+/* One piece of a peer's state (fleetsim.state_chunk_t). */
+typedef struct gp_pse_chunk {
+    uint32_t sender, round;
+    uint32_t chunk, n_chunks;
+    uint32_t state_bytes;
+    uint32_t crc32;          /* of the whole state */
+    double x_m, y_m;         /* the sender's position for round `round` */
+    uint32_t n_bytes;
+    const uint8_t *data;
+} gp_pse_chunk_t;
+
+/* RoundComplete (fleetsim.round_complete_t). */
+typedef struct gp_pse_done {
+    uint32_t sender, round;
+} gp_pse_done_t;
+
+/* "Send again these chunks of your state of `round`" (fleetsim.chunk_request_t). */
+typedef struct gp_pse_request {
+    uint32_t requester, target, round, n;
+    uint32_t chunks[GP_PSE_MAX_REQUEST];
+} gp_pse_request_t;
+
+/* Sends one message (msg points to the struct of `kind`). 0, or a negative code (counted:
+ * a lost message is what the protocol is built for). */
+typedef int (*gp_pse_send_fn)(void *ctx, gp_pse_kind_t kind, const void *msg);
+
+typedef struct gp_pse_cfg {
+    uint32_t self, n_peers;     /* self < n_peers <= GP_PSE_MAX_PEERS */
+    uint32_t state_bytes;       /* 1 .. GP_PSE_MAX_STATE_BYTES, the same for the whole fleet */
+    uint32_t chunk_bytes;       /* GP_PSE_MIN_CHUNK_BYTES .. GP_PSE_MAX_CHUNK_BYTES, same for all */
+    double radius_m;            /* neighbours within it; <= 0: every peer (full mesh) */
+    uint64_t resend_after_us;   /* > 0: ask again for missing chunks after this without progress */
+    uint64_t peer_timeout_us;   /* > resend_after_us: a peer silent this long leaves the round */
+    gp_pse_send_fn send;
+    void *send_ctx;
+} gp_pse_cfg_t;
+
+typedef struct gp_pse_stats {
+    uint64_t chunks_sent, chunks_received, chunks_resent;
+    uint64_t duplicates, stale, future, invalid, crc_failures;
+    uint64_t requests_sent, requests_answered;
+    uint64_t send_failures;
+    uint64_t timeouts;          /* peers that left a round */
+    uint64_t rejoins;           /* peers heard again after leaving a round */
+    uint64_t bytes_sent, bytes_received; /* state bytes */
+} gp_pse_stats_t;
+
+typedef struct gp_pse_buf {
+    uint32_t round;
+    int used, complete;
+    uint32_t got;
+    uint32_t crc32;
+    double x_m, y_m;
+    uint64_t progress_us;       /* last chunk or request: when to ask again */
+    uint8_t have[GP_PSE_MAX_CHUNKS];
+    _Alignas(64) uint8_t bytes[GP_PSE_MAX_STATE_BYTES];
+} gp_pse_buf_t;
+
+typedef struct gp_pse_peer {
+    gp_pse_buf_t buf[2];        /* by round parity: k and k + 1 */
+    uint64_t heard_us;          /* last valid message from it */
+    int heard;                  /* heard at all */
+    uint32_t done_round;        /* highest RoundComplete */
+    int has_done;
+    int absent;                 /* left the current round (silent past the timeout) */
+} gp_pse_peer_t;
+
+typedef struct gp_pse {
+    gp_pse_cfg_t cfg;
+    uint32_t n_chunks;          /* of every state */
+    uint32_t round;             /* k */
+    int in_round, completed, later_heard;
+    uint64_t round_start_us, completed_us;
+    const uint8_t *mine;
+    uint32_t my_crc32;
+    double x_m, y_m;
+    gp_pse_peer_t peer[GP_PSE_MAX_PEERS];
+    gp_pse_stats_t stats;
+} gp_pse_t;
+
+/* Validates cfg and resets pse. 0 or -EINVAL. */
+FS_MUST_CHECK int gp_pse_init(gp_pse_t *pse, const gp_pse_cfg_t *cfg);
+
+/* Starts round k (the first call any k, then previous + 1) and sends our state. 0, -EINVAL. */
+FS_MUST_CHECK int gp_pse_begin_round(gp_pse_t *pse, uint32_t round, const uint8_t *state, double x_m, double y_m,
+                                     uint64_t now_us);
+
+/* A received message: 0 when it was used, or a negative code saying why it was not (-EALREADY
+ * duplicate, -ESTALE an old round, -EAGAIN a round beyond k + 1, -EBADMSG a field out of
+ * range or inconsistent, -EILSEQ a CRC mismatch); every case is counted. */
+int gp_pse_on_chunk(gp_pse_t *pse, const gp_pse_chunk_t *c, uint64_t now_us);
+int gp_pse_on_done(gp_pse_t *pse, const gp_pse_done_t *d, uint64_t now_us);
+int gp_pse_on_request(gp_pse_t *pse, const gp_pse_request_t *r, uint64_t now_us);
+
+/* Resend requests and timeouts; call every tick of the round. */
+void gp_pse_poll(gp_pse_t *pse, uint64_t now_us);
+
+/* 1 when every other peer delivered its state of round k or left the round. */
+int gp_pse_states_ready(const gp_pse_t *pse);
+
+/* The neighbours of round k (after states_ready): their ids and states. Returns the count. */
+uint32_t gp_pse_neighbours(const gp_pse_t *pse, uint32_t ids[GP_PSE_MAX_PEERS],
+                           const uint8_t *states[GP_PSE_MAX_PEERS]);
+
+/* Our node update of round k is done: RoundComplete(k) goes out. 0 or -EINVAL. */
+FS_MUST_CHECK int gp_pse_complete(gp_pse_t *pse, uint64_t now_us);
+
+/* 1 when round k is over for us: every peer still in the round completed it, or a later round
+ * was heard. */
+int gp_pse_round_finished(const gp_pse_t *pse);
+
+#endif /* GP_GP_PSE_H */

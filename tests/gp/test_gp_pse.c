@@ -1,0 +1,384 @@
+/* The peers state exchange (firmware/gp/gp_pse.h) against scripted message orders: three
+ * engines joined by an in-memory multicast "network" that can lose, duplicate, reorder and
+ * corrupt messages and let one peer run a round ahead. Every peer ends each round with every
+ * other peer's state bit for bit (or without a peer that went silent), whatever the order. */
+#include <setjmp.h>
+#include <stdarg.h>
+#include <stddef.h>
+#include <stdint.h>
+#include <errno.h>
+#include <math.h>
+#include <string.h>
+#include <cmocka.h>
+
+#include "ai/dinno_graph.h"
+#include "alloc_count.h"
+#include "gp/gp_pse.h"
+
+#define N 3
+#define STATE_BYTES 5000u /* 5 chunks of 1024 */
+#define CHUNK 1024u
+#define RESEND 100000u
+#define TIMEOUT 1000000u
+
+static gp_pse_t eng[N];
+static uint8_t state[N][2][STATE_BYTES]; /* per peer, per round parity */
+
+/* The network: a queue of messages with their payload copied (so they can be corrupted). */
+typedef struct msg {
+    int from;
+    gp_pse_kind_t kind;
+    gp_pse_chunk_t chunk;
+    gp_pse_done_t done;
+    gp_pse_request_t req;
+    uint8_t data[CHUNK];
+} msg_t;
+#define QMAX 256
+static msg_t q[QMAX];
+static int qn;
+static int sender_id[N] = {0, 1, 2};
+
+static int net_send(void *ctx, gp_pse_kind_t kind, const void *m)
+{
+    const int from = *(const int *)ctx;
+    assert_true(qn < QMAX);
+    msg_t *x = &q[qn++];
+    memset(x, 0, sizeof *x);
+    x->from = from;
+    x->kind = kind;
+    if (kind == GP_PSE_CHUNK) {
+        x->chunk = *(const gp_pse_chunk_t *)m;
+        memcpy(x->data, x->chunk.data, x->chunk.n_bytes);
+        x->chunk.data = x->data;
+    } else if (kind == GP_PSE_DONE) {
+        x->done = *(const gp_pse_done_t *)m;
+    } else {
+        x->req = *(const gp_pse_request_t *)m;
+    }
+    return 0;
+}
+
+static void deliver_one(const msg_t *m, int to, uint64_t now)
+{
+    if (m->kind == GP_PSE_CHUNK) {
+        gp_pse_chunk_t c = m->chunk;
+        c.data = m->data; /* this copy's payload (the queue slot may be reused meanwhile) */
+        (void)gp_pse_on_chunk(&eng[to], &c, now);
+    } else if (m->kind == GP_PSE_DONE)
+        (void)gp_pse_on_done(&eng[to], &m->done, now);
+    else
+        (void)gp_pse_on_request(&eng[to], &m->req, now);
+}
+
+/* Delivers what is queued (and what that makes the peers send) to every other peer, unless
+ * drop(m, to) says the copy to `to` is lost. */
+typedef int (*drop_fn)(const msg_t *m, int to);
+static void deliver(uint64_t now, drop_fn drop)
+{
+    static msg_t batch[QMAX];
+    while (qn > 0) {
+        const int n = qn;
+        memcpy(batch, q, sizeof(msg_t) * (size_t)n);
+        qn = 0;
+        for (int i = 0; i < n; i++)
+            for (int to = 0; to < N; to++)
+                if (to != batch[i].from && !(drop && drop(&batch[i], to)))
+                    deliver_one(&batch[i], to, now);
+    }
+}
+
+static void start(double radius)
+{
+    qn = 0;
+    for (int i = 0; i < N; i++) {
+        gp_pse_cfg_t c = {(uint32_t)i, N, STATE_BYTES, CHUNK, radius, RESEND, TIMEOUT, net_send, &sender_id[i]};
+        assert_int_equal(gp_pse_init(&eng[i], &c), 0);
+        for (int r = 0; r < 2; r++)
+            for (uint32_t b = 0; b < STATE_BYTES; b++)
+                state[i][r][b] = (uint8_t)(b * 31u + (uint32_t)i * 7u + (uint32_t)r * 101u);
+    }
+}
+
+static void begin(int i, uint32_t round, uint64_t now)
+{
+    assert_int_equal(gp_pse_begin_round(&eng[i], round, state[i][round & 1u], 1.0 * i, 0.0, now), 0);
+}
+
+/* Every peer has every other peer's state of `round`, byte for byte. */
+static void check_states(uint32_t round)
+{
+    for (int i = 0; i < N; i++) {
+        assert_true(gp_pse_states_ready(&eng[i]));
+        uint32_t ids[GP_PSE_MAX_PEERS];
+        const uint8_t *st[GP_PSE_MAX_PEERS];
+        assert_int_equal(gp_pse_neighbours(&eng[i], ids, st), N - 1);
+        for (int k = 0; k < N - 1; k++)
+            assert_memory_equal(st[k], state[ids[k]][round & 1u], STATE_BYTES);
+    }
+}
+
+static void complete_all(uint64_t now)
+{
+    for (int i = 0; i < N; i++)
+        assert_int_equal(gp_pse_complete(&eng[i], now), 0);
+}
+
+static void test_no_loss_two_rounds(void **st)
+{
+    (void)st;
+    start(0.0);
+    alloc_count_reset();
+    for (uint32_t round = 0; round < 2; round++) {
+        for (int i = 0; i < N; i++)
+            begin(i, round, 1000 * round);
+        deliver(1000 * round, NULL);
+        check_states(round);
+        complete_all(1000 * round);
+        deliver(1000 * round, NULL);
+        for (int i = 0; i < N; i++)
+            assert_true(gp_pse_round_finished(&eng[i]));
+    }
+    assert_int_equal(alloc_count_allocations(), 0);
+    assert_int_equal(eng[0].stats.chunks_sent, 2 * 5);
+    assert_int_equal(eng[0].stats.chunks_received, 2 * 2 * 5);
+    assert_int_equal(eng[0].stats.requests_sent + eng[0].stats.duplicates + eng[0].stats.invalid, 0);
+}
+
+static int drop_chunk2_of_1(const msg_t *m, int to)
+{
+    (void)to;
+    static int dropped;
+    if (m->kind == GP_PSE_CHUNK && m->from == 1 && m->chunk.chunk == 2 && dropped < 2) {
+        dropped++;
+        return 1;
+    }
+    return 0;
+}
+
+static void test_lost_chunk_is_asked_for_again(void **st)
+{
+    (void)st;
+    start(0.0);
+    for (int i = 0; i < N; i++)
+        begin(i, 0, 0);
+    deliver(0, drop_chunk2_of_1);
+    assert_false(gp_pse_states_ready(&eng[0]));
+    assert_false(gp_pse_states_ready(&eng[2]));
+    for (int i = 0; i < N; i++)
+        gp_pse_poll(&eng[i], RESEND - 1); /* too early to ask */
+    assert_int_equal(qn, 0);
+    for (int i = 0; i < N; i++)
+        gp_pse_poll(&eng[i], RESEND);
+    assert_int_equal(eng[0].stats.requests_sent, 1);
+    deliver(RESEND, NULL);
+    check_states(0);
+    assert_true(eng[1].stats.requests_answered >= 1 && eng[1].stats.chunks_resent >= 1);
+}
+
+static void test_duplicated_and_reordered(void **st)
+{
+    (void)st;
+    start(0.0);
+    for (int i = 0; i < N; i++)
+        begin(i, 0, 0);
+    /* Every message twice, in reverse order. */
+    static msg_t copy[QMAX];
+    const int n = qn;
+    memcpy(copy, q, sizeof(msg_t) * (size_t)n);
+    qn = 0;
+    for (int rep = 0; rep < 2; rep++)
+        for (int i = n - 1; i >= 0; i--)
+            for (int to = 0; to < N; to++)
+                if (to != copy[i].from)
+                    deliver_one(&copy[i], to, 0);
+    check_states(0);
+    assert_int_equal(eng[0].stats.duplicates, 2 * 5);
+}
+
+static int drop_done_of_2_to_0(const msg_t *m, int to)
+{
+    return m->kind == GP_PSE_DONE && m->from == 2 && to == 0;
+}
+
+static void test_later_round_first(void **st)
+{
+    (void)st;
+    start(0.0);
+    for (int i = 0; i < N; i++)
+        begin(i, 0, 0);
+    deliver(0, NULL);
+    complete_all(0);
+    deliver(0, drop_done_of_2_to_0); /* peer 0 never hears that peer 2 completed round 0 */
+    assert_false(gp_pse_round_finished(&eng[0]));
+    /* Peer 2 moves on: its round-1 state reaches peer 0 first, which finishes round 0 on it
+       and already holds that state when it begins round 1. */
+    begin(2, 1, 10);
+    deliver(10, NULL);
+    assert_true(gp_pse_round_finished(&eng[0]));
+    begin(0, 1, 20);
+    begin(1, 1, 20);
+    deliver(20, NULL);
+    check_states(1);
+    assert_int_equal(eng[0].stats.stale + eng[0].stats.invalid, 0);
+}
+
+static int corrupt_one(const msg_t *m, int to)
+{
+    static int done;
+    if (!done && m->kind == GP_PSE_CHUNK && m->from == 1 && to == 0 && m->chunk.chunk == 3) {
+        done = 1;
+        ((msg_t *)m)->data[17] ^= 0x40; /* flipped in transit (the copy to peer 0 and after) */
+    }
+    return 0;
+}
+
+static void test_corrupted_chunk(void **st)
+{
+    (void)st;
+    start(0.0);
+    for (int i = 0; i < N; i++)
+        begin(i, 0, 0);
+    deliver(0, corrupt_one);
+    assert_int_equal(eng[0].stats.crc_failures, 1);
+    assert_false(gp_pse_states_ready(&eng[0]));
+    gp_pse_poll(&eng[0], RESEND);
+    deliver(RESEND, NULL);
+    check_states(0);
+}
+
+static int silence_2(const msg_t *m, int to)
+{
+    (void)to;
+    return m->from == 2;
+}
+
+static void test_silent_peer_leaves_and_rejoins(void **st)
+{
+    (void)st;
+    start(0.0);
+    for (int i = 0; i < N; i++)
+        begin(i, 0, 0);
+    deliver(0, silence_2);
+    for (uint64_t t = RESEND; t <= TIMEOUT; t += RESEND) {
+        gp_pse_poll(&eng[0], t);
+        gp_pse_poll(&eng[1], t);
+        deliver(t, silence_2);
+    }
+    assert_true(gp_pse_states_ready(&eng[0]));
+    assert_int_equal(eng[0].stats.timeouts, 1);
+    uint32_t ids[GP_PSE_MAX_PEERS];
+    const uint8_t *s[GP_PSE_MAX_PEERS];
+    assert_int_equal(gp_pse_neighbours(&eng[0], ids, s), 1);
+    assert_int_equal(ids[0], 1);
+    /* Peer 2 speaks again within the round: it is back, is asked for its state, and the
+       state is used. */
+    assert_int_equal(gp_pse_complete(&eng[2], TIMEOUT + 10), 0);
+    deliver(TIMEOUT + 10, NULL);
+    assert_int_equal(eng[0].stats.rejoins, 1);
+    gp_pse_poll(&eng[0], TIMEOUT + 10 + RESEND);
+    gp_pse_poll(&eng[1], TIMEOUT + 10 + RESEND);
+    deliver(TIMEOUT + 10 + RESEND, NULL);
+    check_states(0);
+    complete_all(TIMEOUT + 20);
+    deliver(TIMEOUT + 20, NULL);
+    for (int i = 0; i < N; i++)
+        assert_true(gp_pse_round_finished(&eng[i]));
+    /* Silent through a whole round after completing: the others finish without it. */
+    for (int i = 0; i < N; i++)
+        begin(i, 1, 2 * TIMEOUT);
+    deliver(2 * TIMEOUT, NULL);
+    check_states(1);
+    assert_int_equal(gp_pse_complete(&eng[0], 2 * TIMEOUT), 0);
+    assert_int_equal(gp_pse_complete(&eng[1], 2 * TIMEOUT), 0);
+    deliver(2 * TIMEOUT, NULL);
+    assert_false(gp_pse_round_finished(&eng[0])); /* still waiting for peer 2's RoundComplete */
+    gp_pse_poll(&eng[0], 3 * TIMEOUT);
+    assert_true(gp_pse_round_finished(&eng[0]));
+    assert_int_equal(eng[0].stats.timeouts, 2);
+}
+
+static void test_invalid_messages_change_nothing(void **st)
+{
+    (void)st;
+    start(0.0);
+    begin(0, 0, 0);
+    qn = 0;
+    static uint8_t junk[CHUNK];
+    const gp_pse_chunk_t good = {1, 0, 0, 5, STATE_BYTES, 123, 1.0, 0.0, CHUNK, junk};
+    gp_pse_chunk_t c = good;
+    c.sender = N;
+    assert_int_equal(gp_pse_on_chunk(&eng[0], &c, 0), -EBADMSG);
+    c = good;
+    c.sender = 0; /* ourselves */
+    assert_int_equal(gp_pse_on_chunk(&eng[0], &c, 0), -EBADMSG);
+    c = good;
+    c.state_bytes = STATE_BYTES + 1;
+    assert_int_equal(gp_pse_on_chunk(&eng[0], &c, 0), -EBADMSG);
+    c = good;
+    c.chunk = 5;
+    assert_int_equal(gp_pse_on_chunk(&eng[0], &c, 0), -EBADMSG);
+    c = good;
+    c.n_bytes = CHUNK - 1;
+    assert_int_equal(gp_pse_on_chunk(&eng[0], &c, 0), -EBADMSG);
+    c = good;
+    c.x_m = NAN;
+    assert_int_equal(gp_pse_on_chunk(&eng[0], &c, 0), -EBADMSG);
+    c = good;
+    c.round = 5; /* beyond k + 1 */
+    assert_int_equal(gp_pse_on_chunk(&eng[0], &c, 0), -EAGAIN);
+    gp_pse_request_t r = {1, 2, 0, 1, {0}};
+    assert_int_equal(gp_pse_on_request(&eng[0], &r, 0), -EBADMSG); /* not for us */
+    r.target = 0;
+    r.chunks[0] = 99;
+    assert_int_equal(gp_pse_on_request(&eng[0], &r, 0), -EBADMSG);
+    gp_pse_done_t d = {7, 0};
+    assert_int_equal(gp_pse_on_done(&eng[0], &d, 0), -EBADMSG);
+    assert_int_equal(eng[0].stats.invalid, 9);
+    assert_int_equal(eng[0].stats.future, 1);
+    assert_int_equal(eng[0].stats.chunks_received, 0);
+    assert_int_equal(qn, 0); /* nothing was answered */
+    /* Inconsistent chunks of one state (another CRC) are refused too. */
+    c = good;
+    assert_int_equal(gp_pse_on_chunk(&eng[0], &c, 0), 0);
+    c.chunk = 1;
+    c.crc32 = 124;
+    assert_int_equal(gp_pse_on_chunk(&eng[0], &c, 0), -EBADMSG);
+}
+
+static void test_disk_neighbours_match_dinno_graph(void **st)
+{
+    (void)st;
+    start(1.5);
+    const double xy[2 * N] = {0.0, 0.0, 1.0, 0.0, 2.6, 0.0};
+    for (int i = 0; i < N; i++)
+        assert_int_equal(gp_pse_begin_round(&eng[i], 0, state[i][0], xy[2 * i], xy[2 * i + 1], 0), 0);
+    deliver(0, NULL);
+    dinno_graph_t g;
+    assert_int_equal(dinno_graph_disk(&g, N, xy, 1.5), 0);
+    for (int i = 0; i < N; i++) {
+        uint32_t ids[GP_PSE_MAX_PEERS];
+        const uint8_t *s[GP_PSE_MAX_PEERS];
+        const uint32_t n = gp_pse_neighbours(&eng[i], ids, s);
+        uint32_t want = 0;
+        for (int j = 0; j < N; j++)
+            want += j != i && dinno_graph_has_edge(&g, (uint32_t)i, (uint32_t)j);
+        assert_int_equal(n, want);
+        for (uint32_t k = 0; k < n; k++)
+            assert_true(dinno_graph_has_edge(&g, (uint32_t)i, ids[k]));
+    }
+}
+
+int main(void)
+{
+    const struct CMUnitTest tests[] = {
+        cmocka_unit_test(test_no_loss_two_rounds),
+        cmocka_unit_test(test_lost_chunk_is_asked_for_again),
+        cmocka_unit_test(test_duplicated_and_reordered),
+        cmocka_unit_test(test_later_round_first),
+        cmocka_unit_test(test_corrupted_chunk),
+        cmocka_unit_test(test_silent_peer_leaves_and_rejoins),
+        cmocka_unit_test(test_invalid_messages_change_nothing),
+        cmocka_unit_test(test_disk_neighbours_match_dinno_graph),
+    };
+    return cmocka_run_group_tests_name("gp/pse", tests, NULL, NULL);
+}
