@@ -28,7 +28,8 @@ static void send_chunk(gp_pse_t *p, uint32_t chunk)
 {
     const uint32_t n = chunk_len(p, chunk);
     const gp_pse_chunk_t c = {p->cfg.self, p->round, chunk, p->n_chunks, p->cfg.state_bytes, p->my_crc32,
-                              p->x_m, p->y_m, n, p->mine + (size_t)chunk * p->cfg.chunk_bytes};
+                              p->x_m, p->y_m, n, p->mine + (size_t)chunk * p->cfg.chunk_bytes,
+                              p->cfg.encoding, p->cfg.incarnation};
     send_msg(p, GP_PSE_CHUNK, &c);
     p->stats.chunks_sent++;
     p->stats.bytes_sent += n;
@@ -39,7 +40,8 @@ int gp_pse_init(gp_pse_t *p, const gp_pse_cfg_t *c)
     if (p == NULL || c == NULL || c->send == NULL || c->n_peers < 1 || c->n_peers > GP_PSE_MAX_PEERS ||
         c->self >= c->n_peers || c->state_bytes < 1 || c->state_bytes > GP_PSE_MAX_STATE_BYTES ||
         c->chunk_bytes < GP_PSE_MIN_CHUNK_BYTES || c->chunk_bytes > GP_PSE_MAX_CHUNK_BYTES ||
-        !isfinite(c->radius_m) || c->resend_after_us == 0 || c->peer_timeout_us <= c->resend_after_us)
+        !isfinite(c->radius_m) || c->resend_after_us == 0 || c->peer_timeout_us <= c->resend_after_us ||
+        c->encoding > 1)
         return -EINVAL;
     memset(&p->stats, 0, sizeof p->stats);
     p->cfg = *c;
@@ -127,7 +129,8 @@ int gp_pse_on_chunk(gp_pse_t *p, const gp_pse_chunk_t *c, uint64_t now_us)
 {
     if (c == NULL || c->sender >= p->cfg.n_peers || c->sender == p->cfg.self ||
         c->state_bytes != p->cfg.state_bytes || c->n_chunks != p->n_chunks || c->chunk >= p->n_chunks ||
-        c->n_bytes != chunk_len(p, c->chunk) || c->data == NULL || !isfinite(c->x_m) || !isfinite(c->y_m)) {
+        c->n_bytes != chunk_len(p, c->chunk) || c->data == NULL || !isfinite(c->x_m) || !isfinite(c->y_m) ||
+        c->encoding != p->cfg.encoding) {
         p->stats.invalid++;
         return -EBADMSG;
     }

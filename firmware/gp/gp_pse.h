@@ -51,6 +51,8 @@ typedef struct gp_pse_chunk {
     double x_m, y_m;         /* the sender's position for round `round` */
     uint32_t n_bytes;
     const uint8_t *data;
+    uint8_t encoding;        /* 0 fp32, 1 int8 (the fleet's, from gp_pse_cfg_t) */
+    uint32_t incarnation;    /* the sender's start count (from gp_pse_cfg_t) */
 } gp_pse_chunk_t;
 
 /* RoundComplete (fleetsim.round_complete_t). */
@@ -77,6 +79,8 @@ typedef struct gp_pse_cfg {
     uint64_t peer_timeout_us;   /* > resend_after_us: a peer silent this long leaves the round */
     gp_pse_send_fn send;
     void *send_ctx;
+    uint8_t encoding;           /* of every state in the fleet: 0 fp32, 1 int8 */
+    uint32_t incarnation;       /* ours, carried in our chunks */
 } gp_pse_cfg_t;
 
 typedef struct gp_pse_stats {

@@ -6,7 +6,7 @@
 #include "lcm/fleetsim_round_complete_t.h"
 #include "lcm/fleetsim_state_chunk_t.h"
 
-enum field_kind { F_I8, F_I32, F_BYTES, F_I32_ARRAY, F_END };
+enum field_kind { F_I8, F_I32, F_F64, F_BYTES, F_I32_ARRAY, F_END };
 
 typedef struct field {
     enum field_kind kind;
@@ -27,8 +27,11 @@ static const field_t STATE_CHUNK[] = {
     {F_I32, 0, 0}, /* state_bytes */
     {F_I8, 0, 0},  /* encoding */
     {F_I32, 0, 0}, /* crc32 */
+    {F_F64, 0, 0}, /* x_m */
+    {F_F64, 0, 0}, /* y_m */
+    {F_I32, 0, 0}, /* incarnation */
     {F_I32, 0, 0}, /* n_bytes */
-    {F_BYTES, 7, MAX_BYTES}, /* data[n_bytes] */
+    {F_BYTES, 10, MAX_BYTES}, /* data[n_bytes] */
     {F_END, 0, 0},
 };
 static const field_t ROUND_COMPLETE[] = {
@@ -90,6 +93,9 @@ hal_host_msg_reject_t hal_host_msg_check(hal_host_msg_type_t type, const void *d
             break;
         case F_I32:
             need = 4;
+            break;
+        case F_F64:
+            need = 8;
             break;
         default: {
             const int64_t n = ints[f[i].len_field];

@@ -91,7 +91,7 @@ static void start(double radius)
 {
     qn = 0;
     for (int i = 0; i < N; i++) {
-        gp_pse_cfg_t c = {(uint32_t)i, N, STATE_BYTES, CHUNK, radius, RESEND, TIMEOUT, net_send, &sender_id[i]};
+        gp_pse_cfg_t c = {(uint32_t)i, N, STATE_BYTES, CHUNK, radius, RESEND, TIMEOUT, net_send, &sender_id[i], 0, 0};
         assert_int_equal(gp_pse_init(&eng[i], &c), 0);
         for (int r = 0; r < 2; r++)
             for (uint32_t b = 0; b < STATE_BYTES; b++)
@@ -304,7 +304,7 @@ static void test_invalid_messages_change_nothing(void **st)
     begin(0, 0, 0);
     qn = 0;
     static uint8_t junk[CHUNK];
-    const gp_pse_chunk_t good = {1, 0, 0, 5, STATE_BYTES, 123, 1.0, 0.0, CHUNK, junk};
+    const gp_pse_chunk_t good = {1, 0, 0, 5, STATE_BYTES, 123, 1.0, 0.0, CHUNK, junk, 0, 0};
     gp_pse_chunk_t c = good;
     c.sender = N;
     assert_int_equal(gp_pse_on_chunk(&eng[0], &c, 0), -EBADMSG);

@@ -24,11 +24,11 @@ static int encode_chunk(int32_t n_bytes_field, int32_t real_bytes)
     static uint8_t data[4096];
     for (int i = 0; i < (int)sizeof data; i++)
         data[i] = (uint8_t)(i * 7);
-    fleetsim_state_chunk_t m = {1, 5, 0, 2, 8000, 0, 0x1234567, real_bytes, data};
+    fleetsim_state_chunk_t m = {1, 5, 0, 2, 8000, 0, 0x1234567, 1.5, -2.0, 0, real_bytes, data};
     int n = fleetsim_state_chunk_t_encode(buf, 0, (int)sizeof buf, &m);
     assert_true(n > 0);
-    /* n_bytes sits after the hash (8) and seven fields (6 x 4 + 1). */
-    const int at = 8 + 6 * 4 + 1;
+    /* n_bytes sits after the hash (8) and ten fields (7 x 4 + 1 + 2 x 8). */
+    const int at = 8 + 7 * 4 + 1 + 2 * 8;
     buf[at] = (uint8_t)((uint32_t)n_bytes_field >> 24);
     buf[at + 1] = (uint8_t)((uint32_t)n_bytes_field >> 16);
     buf[at + 2] = (uint8_t)((uint32_t)n_bytes_field >> 8);

@@ -339,9 +339,9 @@ static void test_udpm_two_processes(void **state)
 static int craft_chunk(uint8_t *b, size_t cap, int32_t n_bytes_field, int32_t real)
 {
     static uint8_t data[256];
-    fleetsim_state_chunk_t m = {1, 5, 0, 2, 512, 0, 0x1234567, real, data};
+    fleetsim_state_chunk_t m = {1, 5, 0, 2, 512, 0, 0x1234567, 1.5, -2.0, 0, real, data};
     int n = fleetsim_state_chunk_t_encode(b, 0, (int)cap, &m);
-    const int at = 8 + 6 * 4 + 1;
+    const int at = 8 + 7 * 4 + 1 + 2 * 8; /* n_bytes, after the hash and ten fields */
     b[at] = (uint8_t)((uint32_t)n_bytes_field >> 24);
     b[at + 1] = (uint8_t)((uint32_t)n_bytes_field >> 16);
     b[at + 2] = (uint8_t)((uint32_t)n_bytes_field >> 8);
