@@ -7,7 +7,8 @@
 
 #include "common/crc32.h"
 
-_Static_assert(GP_PSE_MAX_CHUNK_BYTES + 128u <= BOARD_NET_MTU_BYTES + 4096u,
+_Static_assert(GP_PSE_MAX_CHUNK_BYTES >= GP_PSE_MIN_CHUNK_BYTES &&
+                   GP_PSE_MAX_CHUNK_BYTES + GP_PSE_CHUNK_HEADER_ROOM <= BOARD_NET_MTU_BYTES,
                "a chunk and its header fit one datagram of the board");
 _Static_assert(GP_PSE_MAX_CHUNKS <= 0xFFFFu, "chunk indices stay small");
 

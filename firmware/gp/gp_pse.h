@@ -36,7 +36,12 @@
 #define GP_PSE_MAX_PEERS BOARD_MAX_PEERS
 #define GP_PSE_MAX_STATE_BYTES ((uint32_t)BNN_N_PARAMS * 4u) /* the fp32 parameters of the preset */
 #define GP_PSE_MIN_CHUNK_BYTES 1024u
-#define GP_PSE_MAX_CHUNK_BYTES (60u * 1024u) /* one LCM datagram with its header under 64 KB */
+/* A chunk and its header (GP_PSE_CHUNK_HEADER_ROOM bytes at most) fit one datagram of the
+ * board, and 60 KB at most (LCM's UDP multicast drops larger messages). */
+#define GP_PSE_CHUNK_HEADER_ROOM 64u
+#define GP_PSE_MAX_CHUNK_BYTES                                                                 \
+    (BOARD_NET_MTU_BYTES - GP_PSE_CHUNK_HEADER_ROOM < 60u * 1024u ? BOARD_NET_MTU_BYTES - GP_PSE_CHUNK_HEADER_ROOM \
+                                                                  : 60u * 1024u)
 #define GP_PSE_MAX_CHUNKS ((GP_PSE_MAX_STATE_BYTES + GP_PSE_MIN_CHUNK_BYTES - 1u) / GP_PSE_MIN_CHUNK_BYTES)
 #define GP_PSE_MAX_REQUEST 64u /* chunk indices one resend request names */
 

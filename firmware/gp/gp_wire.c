@@ -43,6 +43,8 @@ static double get_f64(const uint8_t *p)
     return d;
 }
 
+_Static_assert(GP_WIRE_CHUNK_HEADER_BYTES <= GP_PSE_CHUNK_HEADER_ROOM, "the chunk header fits the room gp_pse keeps");
+
 /* int32 fields that must not be negative (ids, rounds, counts). */
 #define NONNEG(v) ((v) <= 0x7FFFFFFFu)
 
