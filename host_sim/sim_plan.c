@@ -31,6 +31,13 @@
 #define PLAN_MIN_AREA_M2 1e-8
 /* Wall pieces shorter than this (metres) along the wall are not kept. */
 #define PLAN_MIN_PIECE_M 1e-4
+/* An opening this close to a wall (metres) is not isolated: a door drawn across a gap in a
+ * wall touches the wall ends, and transforms leave rounding far below a millimetre. */
+#define PLAN_TOUCH_M 1e-3
+/* A door cuts a wall it is not nested in when their overlap reaches across at least this
+ * fraction of the wall's thickness (doors are drawn as thick as their wall, or a little
+ * thinner; one grazing a perpendicular wall reaches across a sliver of it). */
+#define PLAN_CROSS_FRACTION 0.5
 
 /* ---- small geometry helpers (exported, see sim_plan.h) ------------------------------- */
 
@@ -434,8 +441,8 @@ static int open_group(reader_t *r, frame_t *f, const attr_t *cls)
         f->kind = FR_WALL;
         f->index = p->n_walls++;
     } else if (strcmp(first, "Door") == 0 || strcmp(first, "Window") == 0) {
-        /* Anywhere in the tree, as CubiCasa5K's loader finds them: nested in a Wall group the
-           opening belongs to that wall; elsewhere finish_plan() gives it the walls it overlaps. */
+        /* Anywhere in the tree, as CubiCasa5K's loader reads them: nested in the wall it
+         * opens, or a sibling drawn across or over walls (finish_plan finds which). */
         int w = innermost_wall(r);
         if (p->n_openings >= PLAN_MAX_ITEMS)
             return fail(&r->e, f->line, "too many openings (more than %d)", PLAN_MAX_ITEMS);
@@ -775,20 +782,23 @@ static int poly_is_convex(const sim_poly_t *o)
 }
 
 #define CLIP_MAX (SIM_POLY_MAX_POINTS + 4)
+/* Room for a door clipped by every edge of a wall: a non-convex door gains a point per
+ * crossing, so the slack is generous; running out only means "does not cross". */
+#define XCLIP_MAX (4 * SIM_POLY_MAX_POINTS)
 
 /* Sutherland-Hodgman against one half-plane: keeps points with s * (t(p) - lim) <= 0, where
- * t(p) = (p - c0) . u. Returns the output count. */
+ * t(p) = (p - c0) . u. Returns the output count (at most cap; points beyond are dropped). */
 static int clip_half(const sim_vec2_t *in, int n, sim_vec2_t c0, double ux, double uy, double lim, double sgn,
-                     sim_vec2_t *out)
+                     sim_vec2_t *out, int cap)
 {
     int m = 0;
     for (int i = 0; i < n; i++) {
         sim_vec2_t a = in[i], b = in[(i + 1) % n];
         double da = sgn * ((a.x - c0.x) * ux + (a.y - c0.y) * uy - lim);
         double db = sgn * ((b.x - c0.x) * ux + (b.y - c0.y) * uy - lim);
-        if (da <= 0 && m < CLIP_MAX)
+        if (da <= 0 && m < cap)
             out[m++] = a;
-        if (((da < 0 && db > 0) || (da > 0 && db < 0)) && m < CLIP_MAX) {
+        if (((da < 0 && db > 0) || (da > 0 && db < 0)) && m < cap) {
             double t = da / (da - db);
             out[m].x = a.x + t * (b.x - a.x);
             out[m].y = a.y + t * (b.y - a.y);
@@ -803,8 +813,8 @@ static int clip_half(const sim_vec2_t *in, int n, sim_vec2_t c0, double ux, doub
 static int clip_slab(const sim_poly_t *in, sim_vec2_t c0, double ux, double uy, double lo, double hi, sim_poly_t *out)
 {
     sim_vec2_t t1[CLIP_MAX], t2[CLIP_MAX];
-    int n = clip_half(in->p, in->n, c0, ux, uy, lo, -1.0, t1);
-    n = clip_half(t1, n, c0, ux, uy, hi, 1.0, t2);
+    int n = clip_half(in->p, in->n, c0, ux, uy, lo, -1.0, t1, CLIP_MAX);
+    n = clip_half(t1, n, c0, ux, uy, hi, 1.0, t2, CLIP_MAX);
     int m = 0;
     for (int i = 0; i < n; i++) {
         if (m > 0 && fabs(t2[i].x - out->p[m - 1].x) < 1e-12 && fabs(t2[i].y - out->p[m - 1].y) < 1e-12)
@@ -819,56 +829,74 @@ static int clip_slab(const sim_poly_t *in, sim_vec2_t c0, double ux, double uy, 
     return m >= 3 && fabs(sim_poly_signed_area(out)) >= PLAN_MIN_AREA_M2;
 }
 
-/* Area of the part of `subject` inside convex `clip` (Sutherland-Hodgman over clip's edges). */
-static double clipped_area(const sim_poly_t *subject, const sim_poly_t *clip)
+/* A convex wall's frame for door cutting: origin c0 (its first point), unit long axis u (the
+ * direction of its longest edge), its extent [tmin, tmax] along u and [nmin, nmax] across. */
+typedef struct {
+    sim_vec2_t c0;
+    double ux, uy;
+    double tmin, tmax, nmin, nmax;
+} wall_axis_t;
+
+static void wall_axis(const sim_poly_t *o, wall_axis_t *ax)
 {
-    sim_vec2_t a[CLIP_MAX], b[CLIP_MAX];
-    int n = subject->n;
-    memcpy(a, subject->p, (size_t)n * sizeof a[0]);
-    const double orient = sim_poly_signed_area(clip) > 0 ? 1.0 : -1.0;
-    for (int k = 0; k < clip->n && n > 0; k++) {
-        sim_vec2_t e0 = clip->p[k], e1 = clip->p[(k + 1) % clip->n];
-        double ex = e1.x - e0.x, ey = e1.y - e0.y;
-        /* outward normal: (ey, -ex) for a counter-clockwise polygon */
-        n = clip_half(a, n, e0, orient * ey, -orient * ex, 0.0, 1.0, b);
-        memcpy(a, b, (size_t)n * sizeof a[0]);
+    ax->c0 = o->p[0];
+    ax->ux = ax->uy = 0;
+    double best = -1;
+    for (int k = 0; k < o->n; k++) {
+        double ex = o->p[(k + 1) % o->n].x - o->p[k].x, ey = o->p[(k + 1) % o->n].y - o->p[k].y;
+        double l = hypot(ex, ey);
+        if (l > best) {
+            best = l;
+            ax->ux = ex / l;
+            ax->uy = ey / l;
+        }
     }
-    sim_poly_t out;
-    out.n = n < SIM_POLY_MAX_POINTS ? n : SIM_POLY_MAX_POINTS;
-    memcpy(out.p, a, (size_t)out.n * sizeof a[0]);
-    return out.n >= 3 ? fabs(sim_poly_signed_area(&out)) : 0.0;
+    ax->tmin = ax->nmin = INFINITY;
+    ax->tmax = ax->nmax = -INFINITY;
+    for (int k = 0; k < o->n; k++) {
+        double dx = o->p[k].x - ax->c0.x, dy = o->p[k].y - ax->c0.y;
+        double t = dx * ax->ux + dy * ax->uy, s = dy * ax->ux - dx * ax->uy;
+        ax->tmin = fmin(ax->tmin, t);
+        ax->tmax = fmax(ax->tmax, t);
+        ax->nmin = fmin(ax->nmin, s);
+        ax->nmax = fmax(ax->nmax, s);
+    }
 }
 
-/* 1 when an opening and a wall share area (more than touching along an edge). */
-static int opening_overlaps_wall(const sim_poly_t *op, const sim_poly_t *wall)
+/* The interval a door removes from a wall: its projection on the long axis, clamped to the
+ * wall. 0 when that is empty (the door is beside the wall, not along it). */
+static int door_interval(const wall_axis_t *ax, const sim_poly_t *dp, interval_t *cut)
 {
-    if (poly_is_convex(op))
-        return clipped_area(wall, op) > PLAN_MIN_AREA_M2;
-    if (poly_is_convex(wall))
-        return clipped_area(op, wall) > PLAN_MIN_AREA_M2;
-    /* Both non-convex (rare): sample the opening's interior. */
-    double x0 = INFINITY, y0 = INFINITY, x1 = -INFINITY, y1 = -INFINITY;
-    for (int k = 0; k < op->n; k++) {
-        x0 = fmin(x0, op->p[k].x);
-        x1 = fmax(x1, op->p[k].x);
-        y0 = fmin(y0, op->p[k].y);
-        y1 = fmax(y1, op->p[k].y);
+    double lo = INFINITY, hi = -INFINITY;
+    for (int k = 0; k < dp->n; k++) {
+        double t = (dp->p[k].x - ax->c0.x) * ax->ux + (dp->p[k].y - ax->c0.y) * ax->uy;
+        lo = fmin(lo, t);
+        hi = fmax(hi, t);
     }
-    for (int i = 1; i < 16; i++)
-        for (int j = 1; j < 16; j++) {
-            double x = x0 + (x1 - x0) * i / 16.0, y = y0 + (y1 - y0) * j / 16.0;
-            if (sim_poly_contains(op, x, y) && sim_poly_contains(wall, x, y))
-                return 1;
-        }
-    return 0;
+    lo = fmax(lo, ax->tmin);
+    hi = fmin(hi, ax->tmax);
+    if (hi <= lo)
+        return 0;
+    cut->a = lo;
+    cut->b = hi;
+    return 1;
 }
+
+/* The doors that cut each wall, as linked lists over the door indices: `first`/`next` for
+ * the doors nested in the wall's group, `xfirst` over (xdoor, xnext) pairs for the other
+ * doors that cross it (a door may cross several walls, hence pairs). */
+typedef struct {
+    int *first, *next;
+    int *xfirst, *xdoor, *xnext;
+    int n_pairs, cap_xdoor, cap_xnext;
+} door_links_t;
 
 /* Walls minus door openings. A convex wall (rectangles, and the trapezoids CubiCasa5K draws
  * at mitred corners) is cut along its long axis, the direction of its longest edge: each door
  * removes the interval of its projection onto that axis, across the full wall thickness, and
  * the wall is clipped to the slabs that remain. Non-convex walls are kept whole even when they
  * hold a door (limitation: an L-shaped wall polygon with a door stays closed). */
-static int build_solids(sim_plan_t *p, const int *door_first, const int *door_next, const int *door_of)
+static int build_solids(sim_plan_t *p, const door_links_t *dl, const unsigned char *convex, const wall_axis_t *axes)
 {
     int cap = 0;
     interval_t *cuts = NULL;
@@ -876,57 +904,40 @@ static int build_solids(sim_plan_t *p, const int *door_first, const int *door_ne
     int rc = 0;
     for (int w = 0; w < p->n_walls && rc == 0; w++) {
         const sim_poly_t *o = &p->walls[w].outline;
-        if (door_first[w] < 0 || !poly_is_convex(o)) {
+        if ((dl->first[w] < 0 && dl->xfirst[w] < 0) || !convex[w]) {
             rc = push_solid(p, &cap, o, sim_poly_is_rect(o));
             continue;
         }
-        /* Long axis: the longest edge. */
-        sim_vec2_t c0 = o->p[0];
-        double ux = 0, uy = 0, best = -1;
-        for (int k = 0; k < o->n; k++) {
-            double ex = o->p[(k + 1) % o->n].x - o->p[k].x, ey = o->p[(k + 1) % o->n].y - o->p[k].y;
-            double l = hypot(ex, ey);
-            if (l > best) {
-                best = l;
-                ux = ex / l;
-                uy = ey / l;
-            }
-        }
-        double tmin = INFINITY, tmax = -INFINITY;
-        for (int k = 0; k < o->n; k++) {
-            double t = (o->p[k].x - c0.x) * ux + (o->p[k].y - c0.y) * uy;
-            tmin = fmin(tmin, t);
-            tmax = fmax(tmax, t);
-        }
+        const wall_axis_t *ax = &axes[w];
         int nc = 0;
-        for (int c = door_first[w]; c >= 0; c = door_next[c]) {
-            const sim_poly_t *dp = &p->openings[door_of[c]].outline;
-            double lo = INFINITY, hi = -INFINITY;
-            for (int k = 0; k < dp->n; k++) {
-                double t = (dp->p[k].x - c0.x) * ux + (dp->p[k].y - c0.y) * uy;
-                lo = fmin(lo, t);
-                hi = fmax(hi, t);
+        /* Nested doors first, then the crossing ones: the order does not matter (the cuts are
+         * sorted and merged), the nested ones alone give exactly the cuts of old. */
+        for (int d = dl->first[w], x = dl->xfirst[w]; rc == 0 && (d >= 0 || x >= 0);) {
+            int door;
+            if (d >= 0) {
+                door = d;
+                d = dl->next[d];
+            } else {
+                door = dl->xdoor[x];
+                x = dl->xnext[x];
             }
-            lo = fmax(lo, tmin);
-            hi = fmin(hi, tmax);
-            if (hi <= lo)
+            interval_t cut;
+            if (!door_interval(ax, &p->openings[door].outline, &cut))
                 continue; /* the door does not overlap this wall along its axis */
             if ((rc = grow((void **)&cuts, &cap_cuts, nc + 1, sizeof *cuts)) != 0)
                 break;
-            cuts[nc].a = lo;
-            cuts[nc].b = hi;
-            nc++;
+            cuts[nc++] = cut;
         }
         if (rc != 0)
             break;
         qsort(cuts, (size_t)nc, sizeof *cuts, cmp_interval);
         /* Clip every piece first: if one is too big for a polygon, keep the wall whole. */
         int first_piece = p->n_solids, overflow = 0;
-        double t = tmin;
+        double t = ax->tmin;
         for (int k = 0; k <= nc && rc == 0 && !overflow; k++) {
-            double end = k < nc ? cuts[k].a : tmax;
+            double end = k < nc ? cuts[k].a : ax->tmax;
             sim_poly_t piece;
-            int got = end - t > PLAN_MIN_PIECE_M ? clip_slab(o, c0, ux, uy, t, end, &piece) : 0;
+            int got = end - t > PLAN_MIN_PIECE_M ? clip_slab(o, ax->c0, ax->ux, ax->uy, t, end, &piece) : 0;
             if (got < 0)
                 overflow = 1;
             else if (got > 0)
@@ -940,6 +951,229 @@ static int build_solids(sim_plan_t *p, const int *door_first, const int *door_ne
         }
     }
     free(cuts);
+    return rc;
+}
+
+/* ---- openings against walls ------------------------------------------------------------- */
+
+typedef struct {
+    double x0, y0, x1, y1;
+} box_t;
+
+static box_t poly_box(const sim_poly_t *o)
+{
+    box_t b = {INFINITY, INFINITY, -INFINITY, -INFINITY};
+    for (int k = 0; k < o->n; k++) {
+        b.x0 = fmin(b.x0, o->p[k].x);
+        b.y0 = fmin(b.y0, o->p[k].y);
+        b.x1 = fmax(b.x1, o->p[k].x);
+        b.y1 = fmax(b.y1, o->p[k].y);
+    }
+    return b;
+}
+
+/* 1 when door dp crosses convex wall o: their overlap has positive area and reaches across
+ * at least PLAN_CROSS_FRACTION of the wall's thickness. The thickness test is what keeps a
+ * door in one wall from punching a hole in a perpendicular wall whose face it grazes. */
+static int door_crosses(const sim_poly_t *o, const wall_axis_t *ax, const sim_poly_t *dp)
+{
+    sim_vec2_t a[XCLIP_MAX], b[XCLIP_MAX];
+    int n = dp->n;
+    memcpy(a, dp->p, (size_t)n * sizeof *a);
+    /* Outward normal of each edge: the interior is on the left of an edge of a polygon with
+     * positive signed area, on the right otherwise. */
+    double side = sim_poly_signed_area(o) > 0 ? 1.0 : -1.0;
+    for (int k = 0; k < o->n && n > 0; k++) {
+        sim_vec2_t e0 = o->p[k], e1 = o->p[(k + 1) % o->n];
+        double ex = e1.x - e0.x, ey = e1.y - e0.y, l = hypot(ex, ey);
+        if (!(l > 0))
+            continue;
+        n = clip_half(a, n, e0, side * ey / l, -side * ex / l, 0.0, 1.0, b, XCLIP_MAX);
+        if (n >= XCLIP_MAX)
+            return 0; /* ran out of room: treated as not crossing, the wall stays closed */
+        memcpy(a, b, (size_t)n * sizeof *a);
+    }
+    if (n < 3)
+        return 0;
+    double area = 0.0, smin = INFINITY, smax = -INFINITY;
+    for (int i = 0; i < n; i++) {
+        const sim_vec2_t *p = &a[i], *q = &a[(i + 1) % n];
+        area += p->x * q->y - q->x * p->y;
+        double s = (p->y - ax->c0.y) * ax->ux - (p->x - ax->c0.x) * ax->uy;
+        smin = fmin(smin, s);
+        smax = fmax(smax, s);
+    }
+    return fabs(0.5 * area) >= PLAN_MIN_AREA_M2 && smax - smin >= PLAN_CROSS_FRACTION * (ax->nmax - ax->nmin);
+}
+
+static double seg_point_dist(sim_vec2_t a, sim_vec2_t b, sim_vec2_t p)
+{
+    double ex = b.x - a.x, ey = b.y - a.y, l2 = ex * ex + ey * ey;
+    double t = l2 > 0 ? ((p.x - a.x) * ex + (p.y - a.y) * ey) / l2 : 0.0;
+    t = fmax(0.0, fmin(1.0, t));
+    return hypot(a.x + t * ex - p.x, a.y + t * ey - p.y);
+}
+
+static double orient(sim_vec2_t a, sim_vec2_t b, sim_vec2_t c)
+{
+    return (b.x - a.x) * (c.y - a.y) - (b.y - a.y) * (c.x - a.x);
+}
+
+/* 1 when polygons a and b overlap or come within tol of each other: two edges cross or pass
+ * within tol, or (no edge near any other) one polygon lies inside the other. */
+static int polys_near(const sim_poly_t *a, const sim_poly_t *b, double tol)
+{
+    for (int i = 0; i < a->n; i++) {
+        sim_vec2_t a0 = a->p[i], a1 = a->p[(i + 1) % a->n];
+        for (int j = 0; j < b->n; j++) {
+            sim_vec2_t b0 = b->p[j], b1 = b->p[(j + 1) % b->n];
+            double o1 = orient(a0, a1, b0), o2 = orient(a0, a1, b1);
+            double o3 = orient(b0, b1, a0), o4 = orient(b0, b1, a1);
+            if (((o1 < 0 && o2 > 0) || (o1 > 0 && o2 < 0)) && ((o3 < 0 && o4 > 0) || (o3 > 0 && o4 < 0)))
+                return 1;
+            if (seg_point_dist(a0, a1, b0) <= tol || seg_point_dist(a0, a1, b1) <= tol ||
+                seg_point_dist(b0, b1, a0) <= tol || seg_point_dist(b0, b1, a1) <= tol)
+                return 1;
+        }
+    }
+    return sim_poly_contains(a, b->p[0].x, b->p[0].y) || sim_poly_contains(b, a->p[0].x, a->p[0].y);
+}
+
+/* Walls bucketed on a uniform grid over the plan (compressed rows: the walls of cell c are
+ * idx[start[c] .. start[c + 1] - 1]), so that an opening is tested against the walls near
+ * it only: linear in the plan's size for real plans, however long some walls are. */
+typedef struct {
+    double x0, y0, cw, ch;
+    int gx, gy;
+    int *start, *idx;
+} wall_grid_t;
+
+/* Cells covered by box b grown by tol, clamped to the grid (openings may lie outside it). */
+static void grid_range(const wall_grid_t *g, box_t b, double tol, int *c0, int *c1, int *r0, int *r1)
+{
+    double f[4] = {floor((b.x0 - tol - g->x0) / g->cw), floor((b.x1 + tol - g->x0) / g->cw),
+                   floor((b.y0 - tol - g->y0) / g->ch), floor((b.y1 + tol - g->y0) / g->ch)};
+    int lim[4] = {g->gx - 1, g->gx - 1, g->gy - 1, g->gy - 1}, out[4];
+    for (int k = 0; k < 4; k++)
+        out[k] = (int)fmax(0.0, fmin((double)lim[k], f[k])); /* clamp as doubles: no int overflow */
+    *c0 = out[0];
+    *c1 = out[1];
+    *r0 = out[2];
+    *r1 = out[3];
+}
+
+static int wall_grid_build(const sim_plan_t *p, const box_t *wb, double tol, wall_grid_t *g)
+{
+    int nw = p->n_walls;
+    double wx = p->max.x - p->min.x, wy = p->max.y - p->min.y;
+    /* About one cell per wall; a plan of long overlapping walls would register each in many
+     * cells, so the grid is coarsened until the registrations fit a budget (1 x 1 always does). */
+    double cs = sqrt(wx * wy / nw);
+    int gx = (int)fmax(1.0, fmin(1024.0, ceil(wx / cs))), gy = (int)fmax(1.0, fmin(1024.0, ceil(wy / cs)));
+    const long long budget = 16LL * nw + 65536;
+    long long total;
+    for (;;) {
+        g->x0 = p->min.x;
+        g->y0 = p->min.y;
+        g->gx = gx;
+        g->gy = gy;
+        g->cw = wx / gx;
+        g->ch = wy / gy;
+        total = 0;
+        for (int w = 0; w < nw; w++) {
+            int c0, c1, r0, r1;
+            grid_range(g, wb[w], tol, &c0, &c1, &r0, &r1);
+            total += (long long)(c1 - c0 + 1) * (r1 - r0 + 1);
+        }
+        if (total <= budget || (gx == 1 && gy == 1))
+            break;
+        gx = (gx + 1) / 2;
+        gy = (gy + 1) / 2;
+    }
+    size_t ncell = (size_t)gx * (size_t)gy;
+    g->start = calloc(ncell + 1, sizeof *g->start);
+    g->idx = malloc((size_t)total * sizeof *g->idx);
+    if (g->start == NULL || g->idx == NULL)
+        return -ENOMEM;
+    for (int pass = 0; pass < 2; pass++) {
+        for (int w = 0; w < nw; w++) {
+            int c0, c1, r0, r1;
+            grid_range(g, wb[w], tol, &c0, &c1, &r0, &r1);
+            for (int r = r0; r <= r1; r++)
+                for (int c = c0; c <= c1; c++) {
+                    size_t cell = (size_t)r * (size_t)gx + (size_t)c;
+                    if (pass == 0)
+                        g->start[cell + 1]++;
+                    else
+                        g->idx[g->start[cell]++] = w;
+                }
+        }
+        if (pass == 0) {
+            for (size_t c = 0; c < ncell; c++)
+                g->start[c + 1] += g->start[c];
+        } else {
+            /* The fill advanced each start to the next cell's: shift back. */
+            for (size_t c = ncell; c > 0; c--)
+                g->start[c] = g->start[c - 1];
+            g->start[0] = 0;
+        }
+    }
+    return 0;
+}
+
+/* For every opening: flags it isolated when it is near no wall, and links each door to the
+ * convex walls it crosses other than the one it is nested in. */
+static int link_openings(sim_plan_t *p, const unsigned char *convex, const wall_axis_t *axes, door_links_t *dl)
+{
+    int nw = p->n_walls;
+    const double tol = PLAN_TOUCH_M;
+    box_t *wb = malloc((size_t)nw * sizeof *wb);
+    int *seen = malloc((size_t)nw * sizeof *seen); /* last opening that looked at each wall */
+    wall_grid_t g = {0};
+    int rc = wb != NULL && seen != NULL ? 0 : -ENOMEM;
+    if (rc == 0) {
+        for (int w = 0; w < nw; w++) {
+            wb[w] = poly_box(&p->walls[w].outline);
+            seen[w] = -1;
+        }
+        rc = wall_grid_build(p, wb, tol, &g);
+    }
+    for (int d = 0; d < p->n_openings && rc == 0; d++) {
+        sim_opening_t *op = &p->openings[d];
+        box_t ob = poly_box(&op->outline);
+        int c0, c1, r0, r1, near = 0;
+        grid_range(&g, ob, tol, &c0, &c1, &r0, &r1);
+        for (int r = r0; r <= r1 && rc == 0; r++)
+            for (int c = c0; c <= c1 && rc == 0; c++) {
+                size_t cell = (size_t)r * (size_t)g.gx + (size_t)c;
+                for (int k = g.start[cell]; k < g.start[cell + 1] && rc == 0; k++) {
+                    int w = g.idx[k];
+                    if (seen[w] == d)
+                        continue;
+                    seen[w] = d;
+                    if (wb[w].x1 < ob.x0 - tol || wb[w].x0 > ob.x1 + tol || wb[w].y0 > ob.y1 + tol ||
+                        wb[w].y1 < ob.y0 - tol)
+                        continue;
+                    const sim_poly_t *wo = &p->walls[w].outline;
+                    if (!near)
+                        near = polys_near(&op->outline, wo, tol);
+                    if (op->kind != SIM_OPENING_DOOR || w == op->wall || !convex[w] ||
+                        !door_crosses(wo, &axes[w], &op->outline))
+                        continue;
+                    if ((rc = grow((void **)&dl->xdoor, &dl->cap_xdoor, dl->n_pairs + 1, sizeof *dl->xdoor)) != 0 ||
+                        (rc = grow((void **)&dl->xnext, &dl->cap_xnext, dl->n_pairs + 1, sizeof *dl->xnext)) != 0)
+                        break;
+                    dl->xdoor[dl->n_pairs] = d;
+                    dl->xnext[dl->n_pairs] = dl->xfirst[w];
+                    dl->xfirst[w] = dl->n_pairs++;
+                }
+            }
+        op->isolated = !near;
+    }
+    free(wb);
+    free(seen);
+    free(g.start);
+    free(g.idx);
     return rc;
 }
 
@@ -966,61 +1200,42 @@ static int finish_plan(reader_t *r)
         return fail(&r->e, p->walls[0].line, "absurd plan size %.3f x %.3f m (less than %.2f m; wrong scale?)",
                     wx, wy, PLAN_MIN_EXTENT_M);
 
-    /* Which walls each door cuts: a door nested in a Wall group cuts that wall; one placed
-       anywhere else (a sibling across a gap or over a wall, as real CubiCasa5K plans also
-       draw them) cuts every wall it overlaps. An opening that overlaps no wall is a warning. */
-    int n_cut = 0, cap_cut = 0, cap_door = 0, rc = 0;
-    int *cut_wall = NULL, *cut_door = NULL;
-    for (int d = 0; d < p->n_openings && rc == 0; d++) {
-        sim_opening_t *o = &p->openings[d];
-        if (o->wall >= 0) {
-            if (o->kind != SIM_OPENING_DOOR)
-                continue;
-            if ((rc = grow((void **)&cut_wall, &cap_cut, n_cut + 1, sizeof *cut_wall)) == 0)
-                rc = grow((void **)&cut_door, &cap_door, n_cut + 1, sizeof *cut_door);
-            if (rc == 0) {
-                cut_wall[n_cut] = o->wall;
-                cut_door[n_cut++] = d;
-            }
-            continue;
-        }
-        int hits = 0;
-        for (int w = 0; w < p->n_walls && rc == 0; w++) {
-            if (!opening_overlaps_wall(&o->outline, &p->walls[w].outline))
-                continue;
-            if (hits++ == 0)
-                o->wall = w; /* the first wall it overlaps, for the record */
-            if (o->kind != SIM_OPENING_DOOR)
-                continue;
-            if ((rc = grow((void **)&cut_wall, &cap_cut, n_cut + 1, sizeof *cut_wall)) == 0)
-                rc = grow((void **)&cut_door, &cap_door, n_cut + 1, sizeof *cut_door);
-            if (rc == 0) {
-                cut_wall[n_cut] = w;
-                cut_door[n_cut++] = d;
-            }
-        }
-        if (rc == 0 && hits == 0 && p->n_warnings++ == 0)
-            snprintf(p->warning, sizeof p->warning, "%s:%d: warning: %s overlaps no wall (ignored)",
-                     r->e.name, o->line, o->kind == SIM_OPENING_DOOR ? "Door" : "Window");
-    }
-    /* Cuts per wall as linked lists (in opening order), then the solids. */
-    int *first = rc == 0 ? malloc((size_t)p->n_walls * sizeof *first) : NULL;
-    int *next = rc == 0 ? malloc((size_t)(n_cut > 0 ? n_cut : 1) * sizeof *next) : NULL;
-    if (rc == 0 && (first == NULL || next == NULL))
+    /* The doors cutting each wall (nested, then crossing), then the solids. */
+    size_t nw = (size_t)p->n_walls, no = (size_t)(p->n_openings > 0 ? p->n_openings : 1);
+    door_links_t dl = {0};
+    dl.first = malloc(nw * sizeof *dl.first);
+    dl.next = malloc(no * sizeof *dl.next);
+    dl.xfirst = malloc(nw * sizeof *dl.xfirst);
+    unsigned char *convex = malloc(nw);
+    wall_axis_t *axes = malloc(nw * sizeof *axes);
+    int rc = 0;
+    if (dl.first == NULL || dl.next == NULL || dl.xfirst == NULL || convex == NULL || axes == NULL)
         rc = -ENOMEM;
     if (rc == 0) {
-        for (int w = 0; w < p->n_walls; w++)
-            first[w] = -1;
-        for (int c = n_cut - 1; c >= 0; c--) {
-            next[c] = first[cut_wall[c]];
-            first[cut_wall[c]] = c;
+        for (int w = 0; w < p->n_walls; w++) {
+            dl.first[w] = dl.xfirst[w] = -1;
+            convex[w] = (unsigned char)poly_is_convex(&p->walls[w].outline);
+            if (convex[w])
+                wall_axis(&p->walls[w].outline, &axes[w]);
         }
-        rc = build_solids(p, first, next, cut_door);
+        for (int d = p->n_openings - 1; d >= 0; d--) {
+            dl.next[d] = -1;
+            if (p->openings[d].kind != SIM_OPENING_DOOR || p->openings[d].wall < 0)
+                continue;
+            dl.next[d] = dl.first[p->openings[d].wall];
+            dl.first[p->openings[d].wall] = d;
+        }
+        rc = link_openings(p, convex, axes, &dl);
     }
-    free(first);
-    free(next);
-    free(cut_wall);
-    free(cut_door);
+    if (rc == 0)
+        rc = build_solids(p, &dl, convex, axes);
+    free(dl.first);
+    free(dl.next);
+    free(dl.xfirst);
+    free(dl.xdoor);
+    free(dl.xnext);
+    free(convex);
+    free(axes);
     return rc;
 }
 
@@ -1035,6 +1250,23 @@ void sim_plan_free(sim_plan_t *plan)
     free(plan->rooms);
     free(plan->solids);
     memset(plan, 0, sizeof *plan);
+}
+
+int sim_plan_warnings(const sim_plan_t *plan, const char *name, FILE *out)
+{
+    if (plan == NULL)
+        return 0;
+    int n = 0;
+    for (int i = 0; i < plan->n_openings; i++) {
+        const sim_opening_t *o = &plan->openings[i];
+        if (!o->isolated)
+            continue;
+        n++;
+        if (out != NULL)
+            fprintf(out, "%s:%d: warning: %s overlaps no wall, it cuts nothing\n", name ? name : "<memory>",
+                    o->line, o->kind == SIM_OPENING_DOOR ? "Door" : "Window");
+    }
+    return n;
 }
 
 int sim_plan_parse(const char *text, const char *name, double scale, sim_plan_t *plan, char *err,
@@ -1139,10 +1371,8 @@ int sim_plan_load(const char *path, double scale, sim_plan_t *plan, char *err, s
         } else {
             buf[len] = '\0';
             rc = sim_plan_parse(buf, path, scale, plan, err, errlen);
-            /* Warnings do not stop a load; the user of a file sees them once, here. */
-            if (rc == 0 && plan->n_warnings > 0)
-                fprintf(stderr, "%s%s\n", plan->warning,
-                        plan->n_warnings > 1 ? " (and more openings like it)" : "");
+            if (rc == 0)
+                (void)sim_plan_warnings(plan, path, stderr);
         }
     } else if (rc == -ENOMEM && err != NULL && errlen > 0) {
         snprintf(err, errlen, "%s:0: out of memory", path);

@@ -2,10 +2,9 @@
  *
  * Structure read (everything else, e.g. furniture and labels, is ignored):
  *   <g id="Wall" class="Wall ...">  first <polygon points="..."> = wall outline
- *   <g class="Door ..."> / <g class="Window ..."> with a polygon = openings, anywhere in the
- *       tree (as CubiCasa5K's loader finds them): nested in a Wall group an opening belongs to
- *       that wall; elsewhere to every wall it overlaps by area; overlapping none it is kept
- *       and counted in plan->n_warnings ("FILE:LINE: warning: ..."), and the plan still loads
+ *   <g class="Door ..."> / <g class="Window ...">  first <polygon> = an opening, wherever the
+ *       group sits in the tree (nested in its Wall group, or a sibling of the walls), as
+ *       CubiCasa5K's own loader (floortrans/loaders/house.py) takes every such group
  *   <g class="Space <Type> ...">   first <polygon> = room outline, <Type> its room type
  * Points are "x,y x,y ..." or "x y x y ..." in pixels; metres = pixels * scale.
  *
@@ -24,14 +23,21 @@
  * unclosed tags/groups/quotes/comments, a malformed or singular transform, a Wall/Door/
  * Window/Space group without a polygon, no walls, absurd sizes (coordinates beyond 10 km,
  * a plan wider than 2 km or narrower than 5 cm, files over 64 MB, scale over 100 m/px).
+ * Warned about, the plan still loads: an opening that neither overlaps nor touches (within
+ * 1 mm) any wall; it cuts nothing (sim_plan_warnings).
  * Door cutting: a convex wall (rectangle, or the trapezoids CubiCasa5K draws at mitred
- * corners) loses the slab of each door's projection onto its long axis (the direction of its
- * longest edge), across its full thickness; a non-convex wall stays whole (doors not cut).
+ * corners) loses the slab of each cutting door's projection onto its long axis (the direction
+ * of its longest edge), across its full thickness; a non-convex wall stays whole (doors not
+ * cut). The doors that cut a wall: those nested in its group (whatever their overlap, as
+ * always), and every other door that crosses it, i.e. overlaps it with positive area over at
+ * least half its thickness; a door that only grazes a wall (the face of a perpendicular wall
+ * at a junction) does not cut it. So a door cuts the same walls nested or as a sibling.
  * Not thread-safe per plan; distinct plans are independent. Allocates (host side). */
 #ifndef SIM_PLAN_H
 #define SIM_PLAN_H
 
 #include <stddef.h>
+#include <stdio.h>
 
 #define SIM_POLY_MAX_POINTS 64
 #define SIM_ROOM_TYPE_MAX 32
@@ -57,8 +63,9 @@ typedef struct sim_wall {
 typedef struct sim_opening {
     sim_poly_t outline;
     sim_opening_kind_t kind;
-    int wall; /* the Wall group it is nested in, else the first wall it overlaps, else -1 */
+    int wall;     /* index of the Wall group it is nested in, -1 when it is in none */
     int line;
+    int isolated; /* 1 when it neither overlaps nor touches any wall: cuts nothing (a warning) */
 } sim_opening_t;
 
 typedef struct sim_room {
@@ -80,19 +87,24 @@ typedef struct sim_plan {
     sim_opening_t *openings; int n_openings;
     sim_room_t *rooms;       int n_rooms;
     sim_solid_t *solids;     int n_solids;
-    int n_warnings;          /* openings that overlap no wall, ... (the plan still loads) */
-    char warning[256];       /* the first warning, "FILE:LINE: warning: ..." */
 } sim_plan_t;
 
 /* Parses `path`. On failure returns a negative code, leaves *plan empty and writes
- * "FILE:LINE: reason" into err (errlen bytes). scale <= 0 means SIM_PLAN_DEFAULT_SCALE. */
+ * "FILE:LINE: reason" into err (errlen bytes). scale <= 0 means SIM_PLAN_DEFAULT_SCALE.
+ * On success the plan's warnings, if any, are printed to stderr (sim_plan_warnings), so
+ * every command that loads a plan shows them. */
 FS_MUST_CHECK
 int sim_plan_load(const char *path, double scale, sim_plan_t *plan, char *err, size_t errlen);
 
-/* Same, from a string in memory; `name` is used in messages. */
+/* Same, from a string in memory; `name` is used in messages. Prints nothing: the caller
+ * decides what to do with the warnings. */
 FS_MUST_CHECK
 int sim_plan_parse(const char *text, const char *name, double scale, sim_plan_t *plan,
                    char *err, size_t errlen);
+
+/* Writes the plan's warnings to `out` (NULL: count only), one "NAME:LINE: warning: reason"
+ * line each, `name` being the file the plan came from. Returns how many there are. */
+int sim_plan_warnings(const sim_plan_t *plan, const char *name, FILE *out);
 
 void sim_plan_free(sim_plan_t *plan);
 

@@ -1,5 +1,7 @@
 /* Floor-plan parser: good inputs (point syntaxes, nesting, room types, scale), every class of
- * bad input with its line number, door cutting geometry, normalisation, and the default plan. */
+ * bad input with its line number, door cutting geometry, openings nested in their wall or
+ * sibling to it (same geometry, warnings for openings over no wall), normalisation, and the
+ * default plan. */
 #include <setjmp.h>
 #include <stdarg.h>
 #include <stddef.h>
@@ -12,6 +14,7 @@
 #include <cmocka.h>
 
 #include "alloc_count.h"
+#include "sim_grid.h"
 #include "sim_plan.h"
 
 #define HEAD "<?xml version=\"1.0\"?>\n<svg xmlns=\"http://www.w3.org/2000/svg\">\n" /* lines 1-2 */
@@ -51,6 +54,8 @@ static void test_good_plan(void **state)
     assert_int_equal(p.openings[0].kind, SIM_OPENING_DOOR);
     assert_int_equal(p.openings[0].wall, 0);
     assert_int_equal(p.openings[0].line, 6);
+    assert_int_equal(p.openings[0].isolated, 0);
+    assert_int_equal(sim_plan_warnings(&p, "good.svg", NULL), 0);
     assert_int_equal(p.openings[1].kind, SIM_OPENING_WINDOW);
     assert_int_equal(p.openings[1].line, 8);
     assert_true(fabs(p.openings[0].outline.p[1].x - 3.0) < 1e-12);
@@ -280,62 +285,6 @@ static void test_door_cutting(void **state)
     sim_plan_free(&p);
 }
 
-/* Openings wherever they sit in the tree, as CubiCasa5K's loader reads them: the same doors
- * and window drawn nested in their wall and as siblings placed over it give the same solids;
- * a sibling door over two walls cuts both; an opening over no wall is a warning. */
-static void test_openings_anywhere(void **state)
-{
-    (void)state;
-    const char *nested = HEAD
-        "<g class=\"Wall\"><polygon points=\"100,0 110,0 110,1000 100,1000\"/>\n"
-        "<g class=\"Door\"><polygon points=\"95,200 115,200 115,300 95,300\"/></g>\n"
-        "<g class=\"Window\"><polygon points=\"100,500 110,500 110,600 100,600\"/></g>\n"
-        "</g>\n"
-        "<g class=\"Wall\"><polygon points=\"110,0 900,0 900,10 110,10\"/></g>\n"
-        "</svg>\n";
-    const char *sibling = HEAD
-        "<g class=\"Wall\"><polygon points=\"100,0 110,0 110,1000 100,1000\"/></g>\n"
-        "<g class=\"Door\"><polygon points=\"95,200 115,200 115,300 95,300\"/></g>\n"
-        "<g class=\"Window\"><polygon points=\"100,500 110,500 110,600 100,600\"/></g>\n"
-        "<g class=\"Wall\"><polygon points=\"110,0 900,0 900,10 110,10\"/></g>\n"
-        "</svg>\n";
-    sim_plan_t a, b;
-    char err[256];
-    assert_int_equal(sim_plan_parse(nested, "n.svg", 0.0, &a, err, sizeof err), 0);
-    assert_int_equal(sim_plan_parse(sibling, "s.svg", 0.0, &b, err, sizeof err), 0);
-    assert_int_equal(a.n_warnings, 0);
-    assert_int_equal(b.n_warnings, 0);
-    assert_int_equal(b.openings[0].wall, 0); /* the wall it overlaps */
-    assert_int_equal(b.openings[1].wall, 0);
-    assert_int_equal(a.n_solids, 3);
-    assert_int_equal(b.n_solids, a.n_solids);
-    for (int i = 0; i < a.n_solids; i++) {
-        assert_int_equal(a.solids[i].outline.n, b.solids[i].outline.n);
-        assert_memory_equal(a.solids[i].outline.p, b.solids[i].outline.p, sizeof(sim_vec2_t) * (size_t)a.solids[i].outline.n);
-    }
-    assert_false(solid_has(&b, 1.05, 2.5)); /* the door's gap is open */
-    assert_true(solid_has(&b, 1.05, 5.5));  /* the window stays solid */
-    sim_plan_free(&a);
-    sim_plan_free(&b);
-    /* A sibling door over the corner of two walls cuts both; one over no wall warns. */
-    const char *corner = HEAD
-        "<g class=\"Wall\"><polygon points=\"0,0 10,0 10,1000 0,1000\"/></g>\n"
-        "<g class=\"Wall\"><polygon points=\"0,0 1000,0 1000,10 0,10\"/></g>\n"
-        "<g class=\"Door\"><polygon points=\"-5,-5 60,-5 60,60 -5,60\"/></g>\n" /* line 5 */
-        "<g class=\"Door\"><polygon points=\"500,500 560,500 560,560 500,560\"/></g>\n" /* line 6 */
-        "<g class=\"Window\"><polygon points=\"300,300 360,300 360,310 300,310\"/></g>\n"
-        "</svg>\n";
-    assert_int_equal(sim_plan_parse(corner, "c.svg", 0.0, &a, err, sizeof err), 0);
-    assert_false(solid_has(&a, 0.05, 0.3)); /* the vertical wall is cut along y 0..0.6 */
-    assert_false(solid_has(&a, 0.3, 0.05)); /* the horizontal one along x 0..0.6 */
-    assert_true(solid_has(&a, 0.05, 5.0));
-    assert_true(solid_has(&a, 5.0, 0.05));
-    assert_int_equal(a.n_warnings, 2);
-    assert_non_null(strstr(a.warning, "c.svg:6: warning: Door overlaps no wall"));
-    assert_int_equal(a.openings[1].wall, -1);
-    sim_plan_free(&a);
-}
-
 /* A rotated (45 degree) rectangular wall is cut along its own axis. */
 static void test_door_cutting_rotated(void **state)
 {
@@ -385,6 +334,267 @@ static void test_transforms(void **state)
     expect_error(HEAD "<g transform=\"scale(1 2 3)\">" WALL_OK "</g></svg>", 3, "wrong argument count");
     expect_error(HEAD "<g transform=\"translate(1,2\">" WALL_OK "</g></svg>", 3, "unclosed '('");
     expect_error(HEAD "<g transform=\"scale(0)\">" WALL_OK "</g></svg>", 3, "degenerate transform");
+}
+
+/* ---- openings wherever they sit in the tree ---------------------------------------------- */
+
+/* A 10 x 3 m flat of two rooms: 20 px walls, a window in the north wall, the entrance door in
+ * the south wall, a door in the partition. The same plan in two layouts: openings nested in
+ * their wall groups, and openings as siblings of the walls (one inside an unrelated group). */
+#define FLAT_ROOMS                                                                       \
+    "<g class=\"Space Kitchen\"><polygon points=\"20,20 490,20 490,280 20,280\"/></g>\n" \
+    "<g class=\"Space Bath\"><polygon points=\"510,20 980,20 980,280 510,280\"/></g>\n"
+#define FLAT_WINDOW "<g class=\"Window\"><polygon points=\"100,0 300,0 300,20 100,20\"/></g>\n"
+#define FLAT_ENTRANCE "<g class=\"Door\"><polygon points=\"700,280 790,280 790,300 700,300\"/></g>\n"
+#define FLAT_INNER_DOOR "<g class=\"Door\"><polygon points=\"490,100 510,100 510,190 490,190\"/></g>\n"
+
+static const char *const FLAT_NESTED =
+    HEAD
+    "<g class=\"Wall\"><polygon points=\"0,0 1000,0 1000,20 0,20\"/>\n" FLAT_WINDOW "</g>\n"
+    "<g class=\"Wall\"><polygon points=\"0,280 1000,280 1000,300 0,300\"/>\n" FLAT_ENTRANCE "</g>\n"
+    "<g class=\"Wall\"><polygon points=\"0,20 20,20 20,280 0,280\"/></g>\n"
+    "<g class=\"Wall\"><polygon points=\"980,20 1000,20 1000,280 980,280\"/></g>\n"
+    "<g class=\"Wall\"><polygon points=\"490,20 510,20 510,280 490,280\"/>\n" FLAT_INNER_DOOR "</g>\n"
+    FLAT_ROOMS "</svg>\n";
+
+static const char *const FLAT_SIBLING =
+    HEAD
+    "<g class=\"Wall\"><polygon points=\"0,0 1000,0 1000,20 0,20\"/></g>\n" FLAT_WINDOW
+    "<g class=\"Wall\"><polygon points=\"0,280 1000,280 1000,300 0,300\"/></g>\n"
+    "<g class=\"Wall\"><polygon points=\"0,20 20,20 20,280 0,280\"/></g>\n"
+    "<g class=\"Wall\"><polygon points=\"980,20 1000,20 1000,280 980,280\"/></g>\n"
+    "<g class=\"Wall\"><polygon points=\"490,20 510,20 510,280 490,280\"/></g>\n"
+    FLAT_INNER_DOOR
+    "<g class=\"Openings\">\n" FLAT_ENTRANCE "</g>\n"
+    FLAT_ROOMS "</svg>\n";
+
+/* The two plans have the same walls, the same solids (bit for bit, same order) and the same
+ * ground-truth raster. */
+static void assert_same_geometry(const sim_plan_t *a, const sim_plan_t *b, double res)
+{
+    assert_int_equal(a->n_walls, b->n_walls);
+    assert_int_equal(a->n_solids, b->n_solids);
+    for (int i = 0; i < a->n_walls; i++)
+        assert_memory_equal(&a->walls[i].outline, &b->walls[i].outline, sizeof a->walls[i].outline);
+    for (int i = 0; i < a->n_solids; i++) {
+        assert_int_equal(a->solids[i].is_rect, b->solids[i].is_rect);
+        assert_int_equal(a->solids[i].outline.n, b->solids[i].outline.n);
+        assert_memory_equal(a->solids[i].outline.p, b->solids[i].outline.p,
+                            (size_t)a->solids[i].outline.n * sizeof a->solids[i].outline.p[0]);
+    }
+    sim_grid_t ga, gb;
+    assert_int_equal(sim_grid_from_plan(a, res, &ga), 0);
+    assert_int_equal(sim_grid_from_plan(b, res, &gb), 0);
+    assert_int_equal(ga.w, gb.w);
+    assert_int_equal(ga.h, gb.h);
+    assert_memory_equal(ga.cells, gb.cells, (size_t)ga.w * (size_t)ga.h);
+    sim_grid_free(&ga);
+    sim_grid_free(&gb);
+}
+
+static int grid_cell_at(const sim_plan_t *p, double res, double x, double y)
+{
+    sim_grid_t g;
+    assert_int_equal(sim_grid_from_plan(p, res, &g), 0);
+    int c, r;
+    assert_int_equal(sim_grid_world_to_cell(&g, x, y, &c, &r), 0);
+    int v = g.cells[(size_t)r * (size_t)g.w + (size_t)c];
+    sim_grid_free(&g);
+    return v;
+}
+
+static void test_sibling_openings_same_as_nested(void **state)
+{
+    (void)state;
+    sim_plan_t n, s;
+    char err[256];
+    assert_int_equal(sim_plan_parse(FLAT_NESTED, "nested.svg", 0.0, &n, err, sizeof err), 0);
+    assert_int_equal(sim_plan_parse(FLAT_SIBLING, "sibling.svg", 0.0, &s, err, sizeof err), 0);
+    assert_int_equal(s.n_openings, 3);
+    for (int i = 0; i < s.n_openings; i++) {
+        assert_int_equal(s.openings[i].wall, -1);
+        assert_int_equal(s.openings[i].isolated, 0);
+    }
+    assert_int_equal(sim_plan_warnings(&s, "sibling.svg", NULL), 0);
+    /* 5 walls, 2 of them cut once: 7 solids. */
+    assert_int_equal(s.n_solids, 7);
+    assert_same_geometry(&n, &s, 0.02);
+    /* The sibling doors open their walls (solid gone, raster free); the window does not. */
+    assert_false(solid_has(&s, 7.45, 2.9));
+    assert_int_equal(grid_cell_at(&s, 0.02, 7.45, 2.9), SIM_CELL_FREE);
+    assert_false(solid_has(&s, 5.0, 1.45));
+    assert_int_equal(grid_cell_at(&s, 0.02, 5.0, 1.45), SIM_CELL_FREE);
+    assert_true(solid_has(&s, 2.0, 0.1));
+    assert_int_equal(grid_cell_at(&s, 0.02, 2.0, 0.1), SIM_CELL_WALL);
+    /* Beside the doors the walls stay. */
+    assert_true(solid_has(&s, 6.9, 2.9) && solid_has(&s, 8.0, 2.9));
+    assert_true(solid_has(&s, 5.0, 0.9) && solid_has(&s, 5.0, 2.0));
+    sim_plan_free(&n);
+    sim_plan_free(&s);
+}
+
+/* The default plan rewritten with every door and window moved out of its wall group, next to
+ * the furniture: the same solids and raster as the plan itself, and no warning. */
+static void test_default_plan_sibling_layout(void **state)
+{
+    (void)state;
+    FILE *f = fopen("host_sim/plans/apartment.svg", "rb");
+    assert_non_null(f);
+    static char text[1 << 16], moved[1 << 16], out[1 << 17];
+    size_t len = fread(text, 1, sizeof text - 1, f);
+    fclose(f);
+    assert_true(len > 0 && len < sizeof text - 1);
+    text[len] = '\0';
+    size_t nm = 0, no = 0;
+    int n_moved = 0;
+    for (char *line = text; *line != '\0';) {
+        char *end = strchr(line, '\n');
+        size_t l = end ? (size_t)(end - line) + 1 : strlen(line);
+        char one[512];
+        assert_true(l < sizeof one);
+        memcpy(one, line, l);
+        one[l] = '\0';
+        if (strstr(one, "class=\"Door ") != NULL || strstr(one, "class=\"Window ") != NULL) {
+            memcpy(moved + nm, line, l);
+            nm += l;
+            n_moved++;
+        } else {
+            if (strstr(one, "<!-- furniture") != NULL) {
+                memcpy(out + no, moved, nm);
+                no += nm;
+            }
+            memcpy(out + no, line, l);
+            no += l;
+        }
+        line += l;
+    }
+    out[no] = '\0';
+    assert_int_equal(n_moved, 17);
+    sim_plan_t a, b;
+    char err[256];
+    assert_int_equal(sim_plan_load("host_sim/plans/apartment.svg", 0.0, &a, err, sizeof err), 0);
+    assert_int_equal(sim_plan_parse(out, "apartment_sibling.svg", 0.0, &b, err, sizeof err), 0);
+    assert_int_equal(b.n_openings, 17);
+    for (int i = 0; i < b.n_openings; i++)
+        assert_int_equal(b.openings[i].wall, -1);
+    assert_int_equal(sim_plan_warnings(&b, "apartment_sibling.svg", NULL), 0);
+    assert_int_equal(b.n_solids, 20);
+    assert_same_geometry(&a, &b, 0.05);
+    assert_same_geometry(&a, &b, 0.02);
+    sim_plan_free(&a);
+    sim_plan_free(&b);
+}
+
+/* A door drawn across a gap between two wall pieces, touching their ends: nothing to cut, no
+ * warning, and the gap is free in the raster even though no room covers it. */
+static void test_sibling_door_in_wall_gap(void **state)
+{
+    (void)state;
+    const char *t = HEAD
+        "<g class=\"Wall\"><polygon points=\"0,0 1000,0 1000,20 0,20\"/></g>\n"
+        "<g class=\"Wall\"><polygon points=\"0,280 700,280 700,300 0,300\"/></g>\n"
+        "<g class=\"Wall\"><polygon points=\"790,280 1000,280 1000,300 790,300\"/></g>\n"
+        FLAT_ENTRANCE
+        "<g class=\"Wall\"><polygon points=\"0,20 20,20 20,280 0,280\"/></g>\n"
+        "<g class=\"Wall\"><polygon points=\"980,20 1000,20 1000,280 980,280\"/></g>\n"
+        FLAT_ROOMS "</svg>\n";
+    sim_plan_t p;
+    char err[256];
+    assert_int_equal(sim_plan_parse(t, "gap.svg", 0.0, &p, err, sizeof err), 0);
+    assert_int_equal(p.n_openings, 1);
+    assert_int_equal(p.openings[0].isolated, 0);
+    assert_int_equal(sim_plan_warnings(&p, "gap.svg", NULL), 0);
+    assert_int_equal(p.n_solids, 5); /* no wall cut */
+    assert_int_equal(grid_cell_at(&p, 0.02, 7.45, 2.9), SIM_CELL_FREE);
+    assert_int_equal(grid_cell_at(&p, 0.02, 6.9, 2.9), SIM_CELL_WALL);
+    sim_plan_free(&p);
+}
+
+/* Openings over no wall load, with one warning each naming their polygon's line, and change
+ * no solid: a sibling door and a sibling window in the middle of a room, and a window nested
+ * in a wall group but drawn 5 mm off it. One drawn 0.5 mm off a wall (within the 1 mm
+ * tolerance) is not warned about. */
+static void test_opening_over_no_wall_warns(void **state)
+{
+    (void)state;
+    const char *t = HEAD
+        "<g class=\"Wall\"><polygon points=\"0,0 1000,0 1000,20 0,20\"/></g>\n"                   /* 3 */
+        "<g class=\"Wall\"><polygon points=\"0,280 1000,280 1000,300 0,300\"/></g>\n"             /* 4 */
+        "<g class=\"Wall\"><polygon points=\"0,20 20,20 20,280 0,280\"/></g>\n"                   /* 5 */
+        "<g class=\"Wall\"><polygon points=\"980,20 1000,20 1000,280 980,280\"/>\n"               /* 6 */
+        "  <g class=\"Window\"><polygon points=\"940,100 979.5,100 979.5,200 940,200\"/></g>\n"   /* 7 */
+        "</g>\n"
+        "<g class=\"Door\">\n"                                                                    /* 9 */
+        "  <polygon points=\"200,100 290,100 290,120 200,120\"/>\n"                               /* 10 */
+        "</g>\n"
+        "<g class=\"Floor\"><g class=\"Window Regular\">\n"                                       /* 12 */
+        "  <polygon points=\"600,20.05 700,20.05 700,40 600,40\"/></g>\n"                         /* 13 */
+        "  <g class=\"Window\"><polygon points=\"600,150 700,150 700,160 600,160\"/></g></g>\n"   /* 14 */
+        FLAT_ROOMS "</svg>\n";
+    sim_plan_t p;
+    char err[256];
+    assert_int_equal(sim_plan_parse(t, "lone.svg", 0.0, &p, err, sizeof err), 0);
+    assert_string_equal(err, "");
+    assert_int_equal(p.n_openings, 4);
+    assert_int_equal(p.openings[0].wall, 3);
+    assert_int_equal(p.openings[0].isolated, 1);
+    assert_int_equal(p.openings[1].isolated, 1);
+    assert_int_equal(p.openings[2].isolated, 0);
+    assert_int_equal(p.openings[3].isolated, 1);
+    assert_int_equal(p.n_solids, 4); /* nothing cut */
+    char *buf = NULL;
+    size_t len = 0;
+    FILE *out = open_memstream(&buf, &len);
+    assert_non_null(out);
+    assert_int_equal(sim_plan_warnings(&p, "lone.svg", out), 3);
+    fclose(out);
+    assert_string_equal(buf, "lone.svg:7: warning: Window overlaps no wall, it cuts nothing\n"
+                             "lone.svg:10: warning: Door overlaps no wall, it cuts nothing\n"
+                             "lone.svg:14: warning: Window overlaps no wall, it cuts nothing\n");
+    free(buf);
+    sim_plan_free(&p);
+}
+
+/* Which walls a door cuts besides its own: one it crosses (a wall drawn double, as two
+ * polygons side by side), whether the door is nested in one of them or a sibling; not one
+ * whose face it only grazes (a quarter of the wall's thickness at a junction). */
+static void test_door_crosses_and_grazes(void **state)
+{
+    (void)state;
+    const char *nested = HEAD
+        "<g class=\"Wall\"><polygon points=\"0,0 1000,0 1000,20 0,20\"/></g>\n"
+        "<g class=\"Wall\"><polygon points=\"0,280 1000,280 1000,290 0,290\"/>\n"
+        FLAT_ENTRANCE "</g>\n"
+        "<g class=\"Wall\"><polygon points=\"0,290 1000,290 1000,300 0,300\"/></g>\n"
+        "<g class=\"Wall\"><polygon points=\"490,20 510,20 510,280 490,280\"/>\n"
+        "<g class=\"Door\"><polygon points=\"490,15 510,15 510,105 490,105\"/></g></g>\n"
+        FLAT_ROOMS "</svg>\n";
+    const char *sibling = HEAD
+        "<g class=\"Wall\"><polygon points=\"0,0 1000,0 1000,20 0,20\"/></g>\n"
+        "<g class=\"Wall\"><polygon points=\"0,280 1000,280 1000,290 0,290\"/></g>\n"
+        "<g class=\"Wall\"><polygon points=\"0,290 1000,290 1000,300 0,300\"/></g>\n"
+        "<g class=\"Wall\"><polygon points=\"490,20 510,20 510,280 490,280\"/></g>\n"
+        FLAT_ENTRANCE "<g class=\"Door\"><polygon points=\"490,15 510,15 510,105 490,105\"/></g>\n"
+        FLAT_ROOMS "</svg>\n";
+    sim_plan_t n, s;
+    char err[256];
+    assert_int_equal(sim_plan_parse(nested, "n.svg", 0.0, &n, err, sizeof err), 0);
+    assert_int_equal(sim_plan_parse(sibling, "s.svg", 0.0, &s, err, sizeof err), 0);
+    assert_same_geometry(&n, &s, 0.02);
+    /* Both halves of the double wall are open under the entrance, the raster too. */
+    assert_false(solid_has(&s, 7.45, 2.85));
+    assert_false(solid_has(&s, 7.45, 2.95));
+    assert_int_equal(grid_cell_at(&s, 0.02, 7.45, 2.85), SIM_CELL_FREE);
+    assert_int_equal(grid_cell_at(&s, 0.02, 7.45, 2.95), SIM_CELL_FREE);
+    /* The partition door grazes the north wall: the partition is cut, the north wall not. */
+    assert_true(solid_has(&s, 5.0, 0.1));
+    assert_true(solid_has(&s, 5.0, 0.18));
+    assert_false(solid_has(&s, 5.0, 0.5));
+    assert_true(solid_has(&s, 5.0, 1.2));
+    /* north 1 + double wall 2 x 2 + partition 1 */
+    assert_int_equal(s.n_solids, 6);
+    sim_plan_free(&n);
+    sim_plan_free(&s);
 }
 
 static void test_normalise_round_trip(void **state)
@@ -493,8 +703,12 @@ int main(void)
         cmocka_unit_test(test_trapezoid_and_nonconvex_walls),
         cmocka_unit_test(test_door_cutting),
         cmocka_unit_test(test_door_cutting_rotated),
-        cmocka_unit_test(test_openings_anywhere),
         cmocka_unit_test(test_transforms),
+        cmocka_unit_test(test_sibling_openings_same_as_nested),
+        cmocka_unit_test(test_default_plan_sibling_layout),
+        cmocka_unit_test(test_sibling_door_in_wall_gap),
+        cmocka_unit_test(test_opening_over_no_wall_warns),
+        cmocka_unit_test(test_door_crosses_and_grazes),
         cmocka_unit_test(test_normalise_round_trip),
         cmocka_unit_test(test_mutations),
         cmocka_unit_test(test_load_default_plan),
