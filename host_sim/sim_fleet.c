@@ -7,7 +7,9 @@
  *   which touch only their own node, so they can run on worker threads in any order without
  *   changing a bit of the result.
  * - Positions for the disk graph come from the paths' arc length, not from the ODE robots:
- *   the training data is collected offline, and the positions only decide who talks.
+ *   the training data is collected offline, and the positions only decide who talks. They are
+ *   computed by the firmware's rt_path on the float waypoints the robots hold, so the
+ *   multi-process fleet builds the same graph.
  */
 #include "sim_fleet.h"
 
@@ -18,6 +20,7 @@
 #include <stdlib.h>
 #include <string.h>
 
+#include "rt/rt_path.h"
 #include "sim_rng.h"
 
 struct sim_fleet {
@@ -26,8 +29,8 @@ struct sim_fleet {
     dinno_node_t **nodes;
     ai_sample_t **data;
     size_t *n_data;
-    sim_path_t *paths; /* copies, or NULL */
-    double *path_len;  /* total arc length per path */
+    rt_waypoint_t **tours; /* the paths as the firmware holds them (float), or NULL */
+    int32_t *tour_n;
     dinno_round_stats_t *stats;
     dinno_graph_t graph;
     uint32_t rounds_done;
@@ -46,30 +49,6 @@ void sim_fleet_cfg_default(sim_fleet_cfg_t *cfg)
     cfg->threads = 1;
 }
 
-/* Point at arc length s along p (clamped to the ends). */
-static void point_at(const sim_path_t *p, double s, double *x, double *y, double *heading)
-{
-    *x = p->p[0].x;
-    *y = p->p[0].y;
-    if (heading)
-        *heading = p->n > 1 ? atan2(p->p[1].y - p->p[0].y, p->p[1].x - p->p[0].x) : 0.0;
-    for (int i = 0; i + 1 < p->n; i++) {
-        const double dx = p->p[i + 1].x - p->p[i].x, dy = p->p[i + 1].y - p->p[i].y;
-        const double l = hypot(dx, dy);
-        if (l <= 0.0)
-            continue;
-        if (heading)
-            *heading = atan2(dy, dx);
-        if (s <= l || i + 2 == p->n) {
-            const double t = fmin(fmax(s / l, 0.0), 1.0);
-            *x = p->p[i].x + t * dx;
-            *y = p->p[i].y + t * dy;
-            return;
-        }
-        s -= l;
-    }
-}
-
 static void free_fleet(sim_fleet_t *f)
 {
     if (!f)
@@ -80,14 +59,14 @@ static void free_fleet(sim_fleet_t *f)
     if (f->data)
         for (int i = 0; i < f->n_models; i++)
             free(f->data[i]);
-    if (f->paths)
+    if (f->tours)
         for (int i = 0; i < f->cfg.n_agents; i++)
-            sim_path_free(&f->paths[i]);
+            free(f->tours[i]);
     free(f->nodes);
     free(f->data);
     free(f->n_data);
-    free(f->paths);
-    free(f->path_len);
+    free(f->tours);
+    free(f->tour_n);
     free(f->stats);
     free(f);
 }
@@ -144,18 +123,17 @@ int sim_fleet_create(const sim_fleet_cfg_t *cfg, const bnn_config_t *bcfg, const
     if (!f->nodes || !f->data || !f->n_data || !f->stats)
         goto oom;
     if (paths) {
-        f->paths = calloc((size_t)cfg->n_agents, sizeof *f->paths);
-        f->path_len = calloc((size_t)cfg->n_agents, sizeof *f->path_len);
-        if (!f->paths || !f->path_len)
+        f->tours = calloc((size_t)cfg->n_agents, sizeof *f->tours);
+        f->tour_n = calloc((size_t)cfg->n_agents, sizeof *f->tour_n);
+        if (!f->tours || !f->tour_n)
             goto oom;
         for (int i = 0; i < cfg->n_agents; i++) {
-            f->paths[i].p = malloc((size_t)paths[i].n * sizeof(sim_vec2_t));
-            if (!f->paths[i].p)
+            f->tours[i] = malloc((size_t)paths[i].n * sizeof(rt_waypoint_t));
+            if (!f->tours[i])
                 goto oom;
-            memcpy(f->paths[i].p, paths[i].p, (size_t)paths[i].n * sizeof(sim_vec2_t));
-            f->paths[i].n = paths[i].n;
-            f->paths[i].start_room = paths[i].start_room;
-            f->path_len[i] = sim_path_length(&paths[i]);
+            for (int k = 0; k < paths[i].n; k++)
+                f->tours[i][k] = (rt_waypoint_t){(float)paths[i].p[k].x, (float)paths[i].p[k].y};
+            f->tour_n[i] = paths[i].n;
         }
     }
     if (cfg->mode == SIM_FLEET_CENTRAL) {
@@ -203,11 +181,9 @@ oom:
 
 int sim_fleet_position(const sim_fleet_t *f, int i, uint32_t k, double *x, double *y)
 {
-    if (!f || !f->paths || i < 0 || i >= f->cfg.n_agents || !x || !y)
+    if (!f || !f->tours || i < 0 || i >= f->cfg.n_agents || !x || !y)
         return -EINVAL;
-    const double frac = (double)k / (double)f->cfg.rounds;
-    point_at(&f->paths[i], fmin(frac, 1.0) * f->path_len[i], x, y, NULL);
-    return 0;
+    return rt_path_point_frac(f->tours[i], f->tour_n[i], k, f->cfg.rounds, x, y);
 }
 
 static int build_graph(sim_fleet_t *f, uint32_t k)

@@ -13,7 +13,7 @@
  * All nodes start from the same model seed (like the reference's copies of one base model);
  * node i's minibatch/noise seed is a mix of (run seed, i).
  * Graph positions (disk graph): agent i at round k is at arc-length fraction k / rounds of
- * its path.
+ * its path (rt_path_point_frac on the path's float waypoints, as the robot's firmware).
  *
  * Data (offline mode, the paper's main experiments): each agent trains on the samples of its
  * whole path (host_sim scan / sim_scan_run) from round 0; the caller passes them in.

@@ -11,9 +11,10 @@
 
 /* Static RAM each core may use for its own buffers (arena, pools, rings it owns).
  * The host is generous so that the `paper` preset (527,361 parameters) fits with its
- * gradients, Adam moments, duals, neighbour slots and a 1024-point batch. */
+ * gradients, Adam moments, duals, neighbour slots and a 1024-point batch, and the GP core
+ * the peers' states of two rounds (gp_pse) for a fleet of BOARD_MAX_PEERS. */
 #define BOARD_RAM_RT_BYTES (1u * 1024u * 1024u)
-#define BOARD_RAM_GP_BYTES (64u * 1024u * 1024u)
+#define BOARD_RAM_GP_BYTES (256u * 1024u * 1024u)
 #define BOARD_RAM_AI_BYTES (512u * 1024u * 1024u)
 
 /* Fixed stack per core thread, painted at start for the high-water mark. */
@@ -24,7 +25,12 @@
 /* Largest single network datagram the board's link layer accepts (docs/architecture.md section 4). */
 #define BOARD_NET_MTU_BYTES (60u * 1024u)
 
-/* Fleet size the neighbour table is dimensioned for. */
-#define BOARD_MAX_PEERS 16u
+/* Fleet size the neighbour tables are dimensioned for (28 robots run in `make bench`). */
+#define BOARD_MAX_PEERS 32u
+
+/* Sample pool of the AI core: 2^20 samples (12 MB), more than one tour of the default plan
+ * gives (~550,000), so an offline robot trains on every sample it took, as the in-process
+ * fleet does. */
+#define AI_POOL_CAPACITY (1u << 20)
 
 #endif /* BOARD_HOST_BOARD_H */

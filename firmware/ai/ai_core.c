@@ -16,6 +16,7 @@ ai_core_cfg_t ai_core_default_cfg(void)
     ai_core_cfg_t c;
     memset(&c, 0, sizeof c);
     c.rounds = 8;
+    c.rounds_per_boundary = 1;
     c.policy = AI_POOL_CDR;
     c.dinno = dinno_default_cfg();
     c.model_seed = 1;
@@ -26,10 +27,14 @@ ai_core_cfg_t ai_core_default_cfg(void)
 int ai_core_init(ai_core_t *ai, const ai_core_cfg_t *cfg, const fw_link_t *link)
 {
     if (ai == NULL || cfg == NULL || link == NULL || cfg->rounds < 1 ||
-        cfg->rounds > AI_CORE_MAX_ROUNDS || cfg->train_between < 0 || cfg->train_between > 1)
+        cfg->rounds > AI_CORE_MAX_ROUNDS || cfg->train_between < 0 || cfg->train_between > 1 ||
+        cfg->offline < 0 || cfg->offline > 1 ||
+        (cfg->rounds_per_boundary > 0 && cfg->rounds % cfg->rounds_per_boundary != 0))
         return -EINVAL;
     /* The big members are left as they are: dinno_node_init and the pool set what they use. */
     ai->cfg = *cfg;
+    if (ai->cfg.rounds_per_boundary == 0)
+        ai->cfg.rounds_per_boundary = 1;
     ai->cfg.dinno.total_rounds = cfg->rounds;
     ai->link = link;
     ai->phase = AI_PHASE_COLLECT;
@@ -55,14 +60,15 @@ int ai_core_init(ai_core_t *ai, const ai_core_cfg_t *cfg, const fw_link_t *link)
 
 static uint32_t rounds_due(const ai_core_t *ai)
 {
-    const uint32_t C = ai->cfg.rounds;
+    const uint32_t R = ai->cfg.rounds_per_boundary;
+    const uint32_t C = ai->cfg.rounds / R; /* boundaries */
     if (ai->rt.finished)
-        return C;
-    if (!(ai->rt.path_length_m > 0.0f))
+        return ai->cfg.rounds;
+    if (ai->cfg.offline || !(ai->rt.path_length_m > 0.0f))
         return 0;
     double f = (double)ai->rt.progress_m / (double)ai->rt.path_length_m * (double)C;
     uint32_t due = f >= (double)C ? C : (uint32_t)f;
-    return due;
+    return due * R;
 }
 
 /* One optimiser step between boundaries on a minibatch drawn uniformly from the pool. */
@@ -164,7 +170,8 @@ static int run_round(ai_core_t *ai, const gp_ready_t *ready)
         rc = r;
     (void)mbox_publish(ai->link->ai_ckpt);
     ai->status.loss_train = p->loss_train;
-    ai_pool_boundary(&ai->pool);
+    if (!ai->cfg.offline && (k + 1u) % ai->cfg.rounds_per_boundary == 0)
+        ai_pool_boundary(&ai->pool);
     ai->next_round++;
     ai->status.round = ai->next_round;
     ai->phase = ai->next_round >= ai->cfg.rounds ? AI_PHASE_DONE : AI_PHASE_COLLECT;

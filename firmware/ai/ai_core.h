@@ -10,6 +10,11 @@
  * dinno_node_round() on the pool: B = steps_per_round optimiser steps (a node without
  * neighbours trains locally, as DiNNO does). Then it publishes the checkpoint of round k and
  * applies the pool policy (ai_pool.h: CDR keeps, DR clears).
+ * Rounds per boundary R (default 1): each boundary runs R DiNNO rounds in a row (the paper's
+ * online mode: C = rounds / R communication rounds, each of R DiNNO rounds with the peers);
+ * the pool policy applies after the last of them.
+ * Offline mode (paper section 6.3): no boundary before the tour is finished; then all rounds
+ * run on the samples of the whole tour, and the pool is never cleared.
  * Option train_between: on every tick between boundaries with a non-empty pool, one more
  * optimiser step (bnn_train_step, lr of the coming round) on a minibatch drawn from the pool.
  *
@@ -31,7 +36,9 @@
 #define AI_CORE_MAX_ROUNDS 100000u
 
 typedef struct ai_core_cfg {
-    uint32_t rounds;          /* C, 1 .. AI_CORE_MAX_ROUNDS */
+    uint32_t rounds;          /* DiNNO rounds in all, 1 .. AI_CORE_MAX_ROUNDS */
+    uint32_t rounds_per_boundary; /* R >= 1 dividing rounds (0 is taken as 1) */
+    int offline;              /* 0/1: every round after the tour */
     ai_pool_policy_t policy;
     dinno_cfg_t dinno;        /* primal_steps = B; total_rounds is set to C */
     uint64_t model_seed;      /* initial weights */

@@ -201,10 +201,15 @@ size_t bnn_rho_to_mu(const bnn_model_t *m, size_t j)
 
 size_t bnn_tensors(const bnn_model_t *m, bnn_tensor_t *out, size_t max_out)
 {
-    if (!m || !out)
+    return m ? bnn_tensors_cfg(&m->cfg, out, max_out) : 0;
+}
+
+size_t bnn_tensors_cfg(const bnn_config_t *cfg, bnn_tensor_t *out, size_t max_out)
+{
+    if (!cfg || !out)
         return 0;
     layout_t y;
-    make_layout(&m->cfg, &y);
+    make_layout(cfg, &y);
     size_t k = 0;
 #define PUT(off_, rows_, cols_, grp_, lay_, bias_)                                               \
     do {                                                                                       \

@@ -175,6 +175,8 @@ size_t bnn_group_len(const bnn_model_t *m, bnn_group_t g);
 size_t bnn_rho_to_mu(const bnn_model_t *m, size_t j);
 /* Tensors in theta order; returns how many were written (<= BNN_MAX_TENSORS). */
 size_t bnn_tensors(const bnn_model_t *m, bnn_tensor_t *out, size_t max_out);
+/* The same from a configuration alone (a valid one: bnn_default_config() or a model's cfg). */
+size_t bnn_tensors_cfg(const bnn_config_t *cfg, bnn_tensor_t *out, size_t max_out);
 
 /* ---- training ----------------------------------------------------------------------------- */
 /* Forward with weights freshly drawn under (seed, noise_key), BCE + kl_weight * KL, backward.

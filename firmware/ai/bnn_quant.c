@@ -47,23 +47,35 @@ static size_t packed_size_of(const bnn_tensor_t *T, size_t nt, bnn_group_t g)
 
 size_t bnn_quant_packed_size(const bnn_model_t *m, bnn_group_t g)
 {
-    if (!m)
+    return m ? bnn_quant_packed_size_cfg(&m->cfg, g) : 0;
+}
+
+size_t bnn_quant_packed_size_cfg(const bnn_config_t *cfg, bnn_group_t g)
+{
+    if (!cfg)
         return 0;
     bnn_tensor_t T[BNN_MAX_TENSORS];
-    size_t nt = bnn_tensors(m, T, BNN_MAX_TENSORS);
+    size_t nt = bnn_tensors_cfg(cfg, T, BNN_MAX_TENSORS);
     return packed_size_of(T, nt, g);
 }
 
 int bnn_quant_pack(const bnn_model_t *m, bnn_group_t g, uint8_t *buf, size_t cap, size_t *written)
 {
-    if (!m || !buf || !written || (g != BNN_GROUP_MU && g != BNN_GROUP_RHO && g != BNN_GROUP_ALL))
+    if (!m)
+        return -EINVAL;
+    return bnn_quant_pack_theta(&m->cfg, g, bnn_params_const(m), buf, cap, written);
+}
+
+int bnn_quant_pack_theta(const bnn_config_t *cfg, bnn_group_t g, const float *th, uint8_t *buf, size_t cap,
+                         size_t *written)
+{
+    if (!cfg || !th || !buf || !written || (g != BNN_GROUP_MU && g != BNN_GROUP_RHO && g != BNN_GROUP_ALL))
         return -EINVAL;
     bnn_tensor_t T[BNN_MAX_TENSORS];
-    size_t nt = bnn_tensors(m, T, BNN_MAX_TENSORS);
+    size_t nt = bnn_tensors_cfg(cfg, T, BNN_MAX_TENSORS);
     const size_t need = packed_size_of(T, nt, g);
     if (cap < need)
         return -ENOSPC;
-    const float *th = bnn_params_const(m);
     uint8_t *p = buf;
     for (size_t t = 0; t < nt; t++) {
         if (!in_group(&T[t], g))
@@ -94,10 +106,17 @@ int bnn_quant_pack(const bnn_model_t *m, bnn_group_t g, uint8_t *buf, size_t cap
 
 int bnn_quant_unpack(bnn_model_t *m, bnn_group_t g, const uint8_t *buf, size_t len)
 {
-    if (!m || !buf || (g != BNN_GROUP_MU && g != BNN_GROUP_RHO && g != BNN_GROUP_ALL))
+    if (!m)
+        return -EINVAL;
+    return bnn_quant_unpack_theta(&m->cfg, g, buf, len, bnn_params(m));
+}
+
+int bnn_quant_unpack_theta(const bnn_config_t *cfg, bnn_group_t g, const uint8_t *buf, size_t len, float *th)
+{
+    if (!cfg || !th || !buf || (g != BNN_GROUP_MU && g != BNN_GROUP_RHO && g != BNN_GROUP_ALL))
         return -EINVAL;
     bnn_tensor_t T[BNN_MAX_TENSORS];
-    size_t nt = bnn_tensors(m, T, BNN_MAX_TENSORS);
+    size_t nt = bnn_tensors_cfg(cfg, T, BNN_MAX_TENSORS);
     if (len != packed_size_of(T, nt, g))
         return -EBADMSG;
     /* validate every scale first */
@@ -113,7 +132,6 @@ int bnn_quant_unpack(bnn_model_t *m, bnn_group_t g, const uint8_t *buf, size_t l
         }
         p += 4 * R + R * C;
     }
-    float *th = bnn_params(m);
     p = buf;
     for (size_t t = 0; t < nt; t++) {
         if (!in_group(&T[t], g))

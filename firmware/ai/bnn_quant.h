@@ -48,4 +48,12 @@ FS_MUST_CHECK int bnn_quant_unpack(bnn_model_t *m, bnn_group_t g, const uint8_t 
 FS_MUST_CHECK int bnn_quant_forward_mean(const bnn_config_t *cfg, bnn_group_t g, const uint8_t *packed,
                                    size_t len, const float *xy, size_t n, float *logits);
 
+/* The same on a bare parameter vector theta (n_params floats of configuration cfg), for code
+ * that holds states but no model (the GP core packs and unpacks the peers' states). */
+size_t bnn_quant_packed_size_cfg(const bnn_config_t *cfg, bnn_group_t g);
+FS_MUST_CHECK int bnn_quant_pack_theta(const bnn_config_t *cfg, bnn_group_t g, const float *theta, uint8_t *buf,
+                                       size_t cap, size_t *written);
+FS_MUST_CHECK int bnn_quant_unpack_theta(const bnn_config_t *cfg, bnn_group_t g, const uint8_t *buf, size_t len,
+                                         float *theta);
+
 #endif /* AI_BNN_QUANT_H */

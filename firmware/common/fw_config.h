@@ -59,7 +59,7 @@
 #define AI_POOL_CAPACITY (1u << 17)
 #endif
 #endif
-/* Round records the GP core keeps (the first ones). */
+/* Round records the GP core keeps (a ring of the latest; the host reads them as they come). */
 #ifndef GP_CORE_LOG_ROUNDS
 #define GP_CORE_LOG_ROUNDS 1024u
 #endif

@@ -85,10 +85,10 @@ static void coordinate(gp_core_t *gp, uint64_t now_us)
     /* The slots are the GP core's until ready(k) is published. */
     dinno_slots_t *slots = gp->link->slots;
     int n = 0;
-    if (gp->cfg.exchange != NULL) {
+    if (gp->cfg.peers != NULL && gp->cfg.peers->exchange != NULL) {
         const ai_state_msg_t *st = mbox_read_buffer(gp->link->ai_state, NULL);
-        n = gp->cfg.exchange(gp->cfg.exchange_ctx, gp->exchange_round, st->theta, st->n_params,
-                             slots);
+        const gp_exchange_req_t req = {gp->exchange_round, st->theta, st->n_params, gp->rt.x_m, gp->rt.y_m};
+        n = gp->cfg.peers->exchange(gp->cfg.peers_ctx, &req, slots);
         if (n == -EAGAIN)
             return;
         if (n < 0) {
@@ -130,18 +130,19 @@ static void handle_ckpt(gp_core_t *gp, uint64_t now_us)
         gp->stats.ckpt_written++;
     else
         gp->stats.ckpt_failed++;
+    /* A ring: the host reads the new records after every slice of simulated time. */
     uint32_t n = atomic_load_explicit(&gp->n_log, memory_order_relaxed);
-    if (n < GP_CORE_LOG_ROUNDS) {
-        gp->log[n] = *in;
-        gp->log[n].ckpt_status = r;
-        atomic_store_explicit(&gp->n_log, n + 1u, memory_order_release);
-    }
+    gp->log[n % GP_CORE_LOG_ROUNDS] = *in;
+    gp->log[n % GP_CORE_LOG_ROUNDS].ckpt_status = r;
+    atomic_store_explicit(&gp->n_log, n + 1u, memory_order_release);
     hal_log(HAL_LOG_INFO,
             "round %u done: progress %.2f m, pool %u/%u, drops %u, loss %.4f (bce %.4f, kl %.2f), "
             "%u neighbours, ckpt %s",
             in->round, (double)in->progress_m, in->pool_fill, in->pool_capacity, in->ring_drops,
             (double)in->loss_train, (double)in->bce, (double)in->kl, in->neighbours,
             r == 0 ? "written" : "FAILED");
+    if (gp->cfg.peers != NULL && gp->cfg.peers->round_done != NULL)
+        gp->cfg.peers->round_done(gp->cfg.peers_ctx, in->round, (m->flags & AI_CKPT_FLAG_FINAL) != 0);
     send_telemetry(gp, now_us);
     if (m->flags & AI_CKPT_FLAG_FINAL) {
         gp->final_ckpt_status = r;
@@ -157,6 +158,8 @@ int gp_core_tick(void *arg, const fw_tick_t *tick)
         gp->have_rt = 1;
     if (mbox_get(gp->link->ai_status, &gp->ai, NULL) == 1)
         gp->have_ai = 1;
+    if (gp->cfg.peers != NULL && gp->cfg.peers->service != NULL)
+        gp->cfg.peers->service(gp->cfg.peers_ctx);
     handle_ckpt(gp, tick->now_us);
     coordinate(gp, tick->now_us);
     if (tick->index % gp->cfg.telemetry_every == 0)
@@ -171,7 +174,8 @@ uint32_t gp_core_rounds_logged(gp_core_t *gp)
 
 const ai_round_info_t *gp_core_round(gp_core_t *gp, uint32_t i)
 {
-    return i < gp_core_rounds_logged(gp) ? &gp->log[i] : NULL;
+    const uint32_t n = gp_core_rounds_logged(gp);
+    return i < n && n - i <= GP_CORE_LOG_ROUNDS ? &gp->log[i % GP_CORE_LOG_ROUNDS] : NULL;
 }
 
 int gp_core_done(gp_core_t *gp)

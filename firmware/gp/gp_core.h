@@ -11,6 +11,10 @@
  *     a hook that sends this robot's state over hal_net (Algorithm 1) and fills the slots
  *     when every neighbour's state arrived (-EAGAIN until then; the GP core asks again on
  *     its next tick, the AI core keeps waiting without blocking anything);
+ *   - the other peers hooks (gp_peers_ops_t, all optional): `service` every tick (the
+ *     network is answered while the AI core trains or the robot drives), `round_done` when the
+ *     checkpoint of round k shows the AI core's node update is over (Algorithm 1's
+ *     RoundComplete; with final = 1 after the last round, before `done` is set);
  *   - when the AI core published the checkpoint of round k: writes it through the storage
  *     HAL as "round_<k>.bnn" (4 digits) and, after the last round, as "final.bnn"; appends
  *     the round's record to a fixed log (the host reads it for metrics); logs a line;
@@ -30,20 +34,34 @@
 #include "fw_link.h"
 #include "gp/gp_telemetry.h"
 
-/* GP_CORE_LOG_ROUNDS (round records kept, the first ones) comes from common/fw_config.h. */
+/* GP_CORE_LOG_ROUNDS (round records kept: a ring of the latest) comes from common/fw_config.h. */
 
-/* Fills slots with neighbour states of `round` (valid/round/theta per slot) for this
- * robot's state `theta` (n_params floats). Returns the number of neighbours (>= 0), -EAGAIN
- * when the states are not all there yet (called again next tick), or another negative code
- * (the round then completes without neighbours and the error is counted). */
-typedef int (*gp_exchange_fn)(void *ctx, uint32_t round, const float *theta, uint32_t n_params,
-                              dinno_slots_t *slots);
+/* This robot's side of round k: its state and where it is (latest RT pose). */
+typedef struct gp_exchange_req {
+    uint32_t round;
+    const float *theta;        /* n_params floats, stable until the hook returned >= 0 */
+    uint32_t n_params;
+    double x_m, y_m;
+} gp_exchange_req_t;
+
+/* How the GP core reaches its peers. Every hook is optional; ctx is gp_core_cfg_t.peers_ctx. */
+typedef struct gp_peers_ops {
+    /* Fills slots with neighbour states of req->round (valid/round/theta per slot). Returns the
+     * number of neighbours (>= 0), -EAGAIN when the states are not all there yet (called again
+     * next tick), or another negative code (the round then completes without neighbours and
+     * the error is counted). NULL: no peers, every round is local. */
+    int (*exchange)(void *ctx, const gp_exchange_req_t *req, dinno_slots_t *slots);
+    /* The node update of `round` is over (its checkpoint arrived); final: it was the last. */
+    void (*round_done)(void *ctx, uint32_t round, int final);
+    /* Every tick: receive, answer the peers, resend. */
+    void (*service)(void *ctx);
+} gp_peers_ops_t;
 
 typedef struct gp_core_cfg {
     uint32_t robot_id;
     uint32_t telemetry_every;  /* ticks between telemetry records, >= 1 (default 10) */
-    gp_exchange_fn exchange;   /* NULL: no peers */
-    void *exchange_ctx;
+    const gp_peers_ops_t *peers; /* NULL: no peers */
+    void *peers_ctx;
     int write_round_ckpts;     /* 1 (default): every round's checkpoint; 0: final only */
 } gp_core_cfg_t;
 
@@ -67,7 +85,7 @@ typedef struct gp_core {
     uint32_t exchange_round;
     uint32_t neighbours;
     gp_core_stats_t stats;
-    _Atomic uint32_t n_log;    /* records in log[] */
+    _Atomic uint32_t n_log;    /* records written so far (log[] keeps the latest) */
     _Atomic uint32_t done;     /* 1 once the final checkpoint was handled */
     int32_t final_ckpt_status; /* 0 or the storage error of final.bnn */
     ai_round_info_t log[GP_CORE_LOG_ROUNDS];
@@ -87,7 +105,8 @@ int gp_core_tick(void *arg, const fw_tick_t *tick);
 /* For the host, while the cores are held (lockstep) or stopped; any thread. The round log
  * grows by release stores, so the records below gp_core_rounds_logged() are complete. */
 uint32_t gp_core_rounds_logged(gp_core_t *gp);
-/* Record i (< gp_core_rounds_logged()) of the round log, NULL otherwise. */
+/* Record i of the round log: NULL unless i < gp_core_rounds_logged() and it is still among
+ * the latest GP_CORE_LOG_ROUNDS. */
 const ai_round_info_t *gp_core_round(gp_core_t *gp, uint32_t i);
 /* 1 once the final checkpoint was handled (its storage status in final_ckpt_status). */
 int gp_core_done(gp_core_t *gp);

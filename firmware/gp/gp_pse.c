@@ -42,6 +42,7 @@ int gp_pse_init(gp_pse_t *p, const gp_pse_cfg_t *c)
         c->self >= c->n_peers || c->state_bytes < 1 || c->state_bytes > GP_PSE_MAX_STATE_BYTES ||
         c->chunk_bytes < GP_PSE_MIN_CHUNK_BYTES || c->chunk_bytes > GP_PSE_MAX_CHUNK_BYTES ||
         !isfinite(c->radius_m) || c->resend_after_us == 0 || c->peer_timeout_us <= c->resend_after_us ||
+        (c->join_timeout_us != 0 && c->join_timeout_us < c->peer_timeout_us) ||
         c->encoding > 1)
         return -EINVAL;
     memset(&p->stats, 0, sizeof p->stats);
@@ -87,7 +88,8 @@ int gp_pse_begin_round(gp_pse_t *p, uint32_t round, const uint8_t *state, double
         if (!b->used || b->round != round) /* an older round's buffer: free for this one */
             buf_reset(b, round, p->n_chunks, now_us);
         b->progress_us = now_us;
-        q->absent = 0;
+        /* A peer that left stays out of the next rounds until it is heard again (heard()),
+           so a crashed peer costs one timeout, not one per round. */
         /* A RoundComplete of this round or later already heard still says the peer is ahead. */
         p->later_heard |= q->has_done && q->done_round > round;
     }
@@ -216,6 +218,14 @@ void gp_pse_poll(gp_pse_t *p, uint64_t now_us)
 {
     if (!p->in_round)
         return;
+    /* Waiting for the others' RoundComplete: ours again, in case it was lost (the last round
+       has no later State to tell a peer that we finished). */
+    if (p->completed && !gp_pse_round_finished(p) && now_us - p->done_sent_us >= p->cfg.resend_after_us) {
+        const gp_pse_done_t d = {p->cfg.self, p->round};
+        send_msg(p, GP_PSE_DONE, &d);
+        p->done_sent_us = now_us;
+        p->stats.done_resent++;
+    }
     for (uint32_t i = 0; i < p->cfg.n_peers; i++) {
         if (i == p->cfg.self)
             continue;
@@ -228,7 +238,9 @@ void gp_pse_poll(gp_pse_t *p, uint64_t now_us)
         uint64_t last = p->completed && b->complete ? p->completed_us : p->round_start_us;
         if (q->heard && q->heard_us > last)
             last = q->heard_us;
-        if (!q->absent && waiting && now_us - last >= p->cfg.peer_timeout_us) {
+        const uint64_t timeout = q->heard || p->cfg.join_timeout_us == 0 ? p->cfg.peer_timeout_us
+                                                                          : p->cfg.join_timeout_us;
+        if (!q->absent && waiting && now_us - last >= timeout) {
             /* Silent too long: the round goes on without it (a state it already delivered is
                still used; only what is missing is no longer waited for). */
             q->absent = 1;
@@ -242,6 +254,7 @@ void gp_pse_poll(gp_pse_t *p, uint64_t now_us)
                 r.chunks[r.n++] = k;
         send_msg(p, GP_PSE_REQUEST, &r);
         p->stats.requests_sent++;
+        p->stats.chunks_requested += r.n;
         b->progress_us = now_us;
     }
 }
@@ -286,6 +299,7 @@ int gp_pse_complete(gp_pse_t *p, uint64_t now_us)
     send_msg(p, GP_PSE_DONE, &d);
     p->completed = 1;
     p->completed_us = now_us;
+    p->done_sent_us = now_us;
     return 0;
 }
 

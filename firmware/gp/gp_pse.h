@@ -13,9 +13,11 @@
  *                 bounds, finite position); a peer's chunks reassemble per round (two buffers
  *                 per peer: a peer may already send k+1) and a state counts only when its CRC
  *                 matches; duplicates, stale rounds and rounds beyond k+1 are ignored and counted;
- *   gp_pse_poll(now)  asks again for missing chunks after resend_after_us without progress;
- *                 a peer that sent nothing for peer_timeout_us leaves this round's neighbour
- *                 set (counted), and takes part again as soon as it is heard;
+ *   gp_pse_poll(now)  asks again for missing chunks after resend_after_us without progress,
+ *                 and sends our RoundComplete again while waiting for the others';
+ *                 a peer that sent nothing for peer_timeout_us (join_timeout_us if never heard)
+ *                 leaves the round's neighbour set (counted) and stays out of the following
+ *                 rounds until it is heard again;
  *   gp_pse_states_ready()  every peer delivered its state of round k or left the round;
  *   gp_pse_neighbours()  the peers whose round-k position is within radius_m of ours (the same
  *                 test as dinno_graph_disk), or all of them with radius_m <= 0: it depends on
@@ -82,6 +84,8 @@ typedef struct gp_pse_cfg {
     double radius_m;            /* neighbours within it; <= 0: every peer (full mesh) */
     uint64_t resend_after_us;   /* > 0: ask again for missing chunks after this without progress */
     uint64_t peer_timeout_us;   /* > resend_after_us: a peer silent this long leaves the round */
+    uint64_t join_timeout_us;   /* the same for a peer never heard yet (start-up); 0: peer_timeout_us,
+                                   else >= peer_timeout_us */
     gp_pse_send_fn send;
     void *send_ctx;
     uint8_t encoding;           /* of every state in the fleet: 0 fp32, 1 int8 */
@@ -92,6 +96,8 @@ typedef struct gp_pse_stats {
     uint64_t chunks_sent, chunks_received, chunks_resent;
     uint64_t duplicates, stale, future, invalid, crc_failures;
     uint64_t requests_sent, requests_answered;
+    uint64_t chunks_requested;  /* chunk indices named in our requests (lost or late chunks) */
+    uint64_t done_resent;       /* our RoundComplete sent again while waiting for the others */
     uint64_t send_failures;
     uint64_t timeouts;          /* peers that left a round */
     uint64_t rejoins;           /* peers heard again after leaving a round */
@@ -123,7 +129,7 @@ typedef struct gp_pse {
     uint32_t n_chunks;          /* of every state */
     uint32_t round;             /* k */
     int in_round, completed, later_heard;
-    uint64_t round_start_us, completed_us;
+    uint64_t round_start_us, completed_us, done_sent_us;
     const uint8_t *mine;
     uint32_t my_crc32;
     double x_m, y_m;

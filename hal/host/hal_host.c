@@ -99,6 +99,27 @@ static int op_net_stats(void *ctx, hal_net_stats_t *stats)
     return 0;
 }
 
+/* The peers are other processes: the network waits in wall-clock time. */
+static int op_net_wait(void *ctx, uint32_t timeout_us)
+{
+    hal_host_t *h = ctx;
+    if (hal_host_net_queued(h->net) == 0) {
+        int r = hal_host_net_wait(h->net, hal_host_now_us(h), (int)((timeout_us + 999u) / 1000u));
+        if (r != 0)
+            return r;
+    }
+    return hal_host_net_queued(h->net) > 0 ? 0 : -EAGAIN;
+}
+
+static int op_net_clock(void *ctx, uint64_t *now_us)
+{
+    (void)ctx;
+    struct timespec ts;
+    clock_gettime(CLOCK_MONOTONIC, &ts);
+    *now_us = (uint64_t)ts.tv_sec * 1000000u + (uint64_t)ts.tv_nsec / 1000u;
+    return 0;
+}
+
 static int op_st_write(void *ctx, const char *name, const void *data, size_t len)
 {
     return hal_host_storage_write(((hal_host_t *)ctx)->storage, name, data, len);
@@ -131,7 +152,8 @@ static const hal_pose_ops_t host_pose_ops = {.read_pose = op_read_pose};
 static const hal_motor_ops_t host_motor_ops_wheels = {.set_wheels = op_set_wheels};
 static const hal_motor_ops_t host_motor_ops_twist = {.set_wheels = op_set_wheels, .set_twist = op_set_twist};
 static const hal_net_ops_t host_net_ops = {
-    .publish = op_net_publish, .subscribe = op_net_subscribe, .receive = op_net_receive, .stats = op_net_stats};
+    .publish = op_net_publish, .subscribe = op_net_subscribe, .receive = op_net_receive, .stats = op_net_stats,
+    .wait = op_net_wait, .clock_us = op_net_clock};
 static const hal_storage_ops_t host_storage_ops = {.write = op_st_write, .read = op_st_read, .remove = op_st_remove};
 
 /* ---- life cycle ------------------------------------------------------------------------- */

@@ -178,6 +178,8 @@ FS_MUST_CHECK int hal_host_net_receive(hal_host_net_t *n, uint64_t stamp_us,
  * tools and tests outside the lockstep, never for cores). 0 or -EIO. */
 FS_MUST_CHECK int hal_host_net_wait(hal_host_net_t *n, uint64_t stamp_us,
                                                           int timeout_ms);
+/* Messages waiting in the queue now. */
+uint32_t hal_host_net_queued(const hal_host_net_t *n);
 void hal_host_net_get_stats(const hal_host_net_t *n, hal_net_stats_t *stats);
 
 /* Storage in a directory. Thread-safe as far as the file system is (one writer per name). */

@@ -223,6 +223,11 @@ int hal_host_net_receive(hal_host_net_t *n, uint64_t stamp_us, hal_net_rx_info_t
     return 0;
 }
 
+uint32_t hal_host_net_queued(const hal_host_net_t *n)
+{
+    return n != NULL ? n->fill : 0u;
+}
+
 void hal_host_net_get_stats(const hal_host_net_t *n, hal_net_stats_t *stats)
 {
     if (n == NULL || stats == NULL)

@@ -32,12 +32,13 @@ static struct {
     float theta0;
 } hook;
 
-static int exchange(void *ctx, uint32_t round, const float *theta, uint32_t n_params, dinno_slots_t *slots)
+static int exchange(void *ctx, const gp_exchange_req_t *req, dinno_slots_t *slots)
 {
     (void)ctx;
-    assert_true(n_params > 0);
+    assert_true(req->n_params > 0);
+    const uint32_t round = req->round;
     hook.round = round;
-    hook.theta0 = theta[0];
+    hook.theta0 = req->theta[0];
     int a = hook.answers[hook.calls < hook.n_answers ? hook.calls : hook.n_answers - 1];
     hook.calls++;
     for (int s = 0; s < a; s++) {
@@ -56,7 +57,8 @@ static void start(int with_hook, int telemetry_every)
     gp_core_cfg_t c = gp_core_default_cfg();
     c.robot_id = 3;
     c.telemetry_every = (uint32_t)telemetry_every;
-    c.exchange = with_hook ? exchange : NULL;
+    static const gp_peers_ops_t peers = {.exchange = exchange};
+    c.peers = with_hook ? &peers : NULL;
     assert_int_equal(gp_core_init(&gp, &c, link_), 0);
     memset(&hook, 0, sizeof hook);
 }

@@ -14,6 +14,11 @@
  *   (hal_net_stats_t.rx_dropped_full). A board may also deliver the node's own publishes
  *   back to it (LCM does); filter by content if that matters.
  * - hal_net_receive() polls: it never blocks. It returns -EAGAIN when nothing waits.
+ * - The network runs in REAL time, whatever the core's clock: hal_net_clock_us() is the clock
+ *   its timeouts are measured on (on a board the same as hal_clock; on the host the wall
+ *   clock, because the peers are other processes that run at their own speed while the
+ *   lockstep's simulated time does not), and hal_net_wait() blocks the caller until a message
+ *   waits or that much real time passed. Both are optional (-ENOTSUP).
  *
  * Who may call: the GP core only (the operations are not thread-safe).
  */
@@ -57,6 +62,8 @@ typedef struct hal_net_ops {
     int (*receive)(void *ctx, hal_net_rx_info_t *info, void *buf, size_t cap);
     /* Optional. */
     int (*stats)(void *ctx, hal_net_stats_t *stats);
+    int (*wait)(void *ctx, uint32_t timeout_us);
+    int (*clock_us)(void *ctx, uint64_t *now_us);
 } hal_net_ops_t;
 
 /* 1 when `channel` is a valid channel name, else 0. */
@@ -126,6 +133,31 @@ FS_MUST_CHECK static inline int hal_net_get_stats(hal_net_stats_t *stats)
     if (b->net->stats == NULL)
         return -ENOTSUP;
     return b->net->stats(b->ctx, stats);
+}
+
+/* Blocks until a message waits in the queue or timeout_us of real time passed. 0 when one
+ * waits, -EAGAIN on timeout, -EIO, -ENOTSUP, -ENODEV. */
+FS_MUST_CHECK static inline int hal_net_wait(uint32_t timeout_us)
+{
+    const hal_board_t *b = hal_board_current;
+    if (b == NULL || b->net == NULL)
+        return -ENODEV;
+    if (b->net->wait == NULL)
+        return -ENOTSUP;
+    return b->net->wait(b->ctx, timeout_us);
+}
+
+/* The network's clock (real time, microseconds, monotonic). 0, -EINVAL, -ENOTSUP, -ENODEV. */
+FS_MUST_CHECK static inline int hal_net_clock_us(uint64_t *now_us)
+{
+    const hal_board_t *b = hal_board_current;
+    if (now_us == NULL)
+        return -EINVAL;
+    if (b == NULL || b->net == NULL)
+        return -ENODEV;
+    if (b->net->clock_us == NULL)
+        return -ENOTSUP;
+    return b->net->clock_us(b->ctx, now_us);
 }
 
 #endif /* HAL_NET_H */
