@@ -76,6 +76,12 @@ void sim_fleet_destroy(sim_fleet_t *f)
     free_fleet(f);
 }
 
+void sim_fleet_seeds(uint64_t seed, int i, uint64_t *model_seed, uint64_t *node_seed)
+{
+    *model_seed = sim_rng_mix(seed ^ 0x5EEDB4B1ull);
+    *node_seed = sim_rng_mix(seed ^ sim_rng_mix(0xA6E7ull + (uint64_t)i));
+}
+
 int sim_fleet_create(const sim_fleet_cfg_t *cfg, const bnn_config_t *bcfg, const ai_sample_t *const *data,
                      const size_t *n_data, const sim_path_t *paths, sim_fleet_t **out, char *err, size_t errlen)
 {
@@ -158,12 +164,12 @@ int sim_fleet_create(const sim_fleet_cfg_t *cfg, const bnn_config_t *bcfg, const
             f->n_data[i] = n_data[i];
         }
     }
-    const uint64_t model_seed = sim_rng_mix(cfg->seed ^ 0x5EEDB4B1ull);
     for (int i = 0; i < f->n_models; i++) {
         f->nodes[i] = aligned_alloc(64, (sizeof(dinno_node_t) + 63) / 64 * 64);
         if (!f->nodes[i])
             goto oom;
-        const uint64_t node_seed = sim_rng_mix(cfg->seed ^ sim_rng_mix(0xA6E7ull + (uint64_t)i));
+        uint64_t model_seed, node_seed;
+        sim_fleet_seeds(cfg->seed, i, &model_seed, &node_seed);
         int rc = dinno_node_init(f->nodes[i], &f->cfg.dinno, bcfg, model_seed, node_seed, (uint32_t)i);
         if (rc) {
             snprintf(err, errlen, "invalid DiNNO/BNN configuration");

@@ -55,6 +55,9 @@ typedef struct sim_fleet_cfg {
 } sim_fleet_cfg_t;
 
 void sim_fleet_cfg_default(sim_fleet_cfg_t *cfg);
+/* The seeds of agent i of a run: initial weights (the same for every agent) and the node's own
+ * stream (minibatches, BNN noise). The robot image uses them too (sim_image). */
+void sim_fleet_seeds(uint64_t seed, int i, uint64_t *model_seed, uint64_t *node_seed);
 
 typedef struct sim_fleet sim_fleet_t;
 

@@ -9,6 +9,7 @@
 #include <time.h>
 
 #include "ai/ai_rng.h"
+#include "hal_host_msg.h"
 #include "sim_fleet.h"
 
 void sim_image_cfg_default(sim_image_cfg_t *cfg)
@@ -23,7 +24,7 @@ void sim_image_cfg_default(sim_image_cfg_t *cfg)
     cfg->time_limit_s = 3600.0;
     cfg->sched = HAL_HOST_SCHED_SERIAL;
     cfg->log_level = HAL_LOG_INFO;
-    cfg->write_round_ckpts = 1;
+    cfg->ckpt_every = 1;
 }
 
 static double wall_now(void)
@@ -31,6 +32,30 @@ static double wall_now(void)
     struct timespec ts;
     clock_gettime(CLOCK_MONOTONIC, &ts);
     return (double)ts.tv_sec + 1e-9 * (double)ts.tv_nsec;
+}
+
+/* The robot's fleet membership: static, as on a board (one image per process). */
+static gp_fleet_t image_fleet;
+
+static int join_fleet(hal_host_t *h, const gp_fleet_cfg_t *fc, char *err, size_t errlen)
+{
+    static const int types[3] = {HAL_HOST_MSG_STATE_CHUNK, HAL_HOST_MSG_ROUND_COMPLETE, HAL_HOST_MSG_CHUNK_REQUEST};
+    hal_host_net_t *net = hal_host_get_net(h);
+    for (int c = 0; c < 3; c++) {
+        char ch[HAL_NET_CHANNEL_MAX];
+        int rc = gp_fleet_channel_name(fc->fleet_id, (gp_fleet_channel_t)c, ch, sizeof ch);
+        if (rc == 0)
+            rc = hal_host_net_expect_type(net, ch, types[c]);
+        if (rc < 0) {
+            snprintf(err, errlen, "image: fleet channels not set up (%d)", rc);
+            return rc;
+        }
+    }
+    int rc = gp_fleet_init(&image_fleet, fc);
+    if (rc < 0)
+        snprintf(err, errlen, "image: fleet membership refused (%d): robot %u of %u, %u rounds", rc, fc->self,
+                 fc->n_peers, fc->rounds);
+    return rc;
 }
 
 int sim_image_run(const sim_plan_t *plan, const sim_path_t *path, const sim_image_cfg_t *cfg,
@@ -52,6 +77,8 @@ int sim_image_run(const sim_plan_t *plan, const sim_path_t *path, const sim_imag
         return -EINVAL;
     }
     if (cfg->rounds < 1 || cfg->rounds > AI_CORE_MAX_ROUNDS || cfg->steps_per_round < 1 ||
+        (cfg->rounds_per_boundary > 1 && cfg->rounds % cfg->rounds_per_boundary != 0) ||
+        (cfg->fleet != NULL && cfg->net_url == NULL) ||
         !(cfg->time_limit_s > 0) || !isfinite(cfg->time_limit_s) || !(cfg->kl_weight >= 0) ||
         !isfinite(cfg->kl_weight)) {
         snprintf(err, errlen, "image: need 1 <= rounds <= %u, steps per round >= 1, a positive time "
@@ -78,22 +105,36 @@ int sim_image_run(const sim_plan_t *plan, const sim_path_t *path, const sim_imag
     hc.net_url = cfg->net_url;
     hc.storage_dir = cfg->storage_dir;
     hc.log_level = cfg->log_level;
+    if (cfg->fleet != NULL) {
+        /* Room for two rounds of every peer's chunks, and their requests and completions. */
+        const uint32_t chunks = (gp_fleet_state_bytes(cfg->fleet->encoding) + GP_PSE_MAX_CHUNK_BYTES - 1u) /
+                                GP_PSE_MAX_CHUNK_BYTES;
+        const uint32_t want = 2u * cfg->fleet->n_peers * (chunks + 2u) + 64u;
+        hc.net_queue_depth = want > 4096u ? 4096u : want;
+    }
     if ((rc = sim_hal_world_host(hw, cfg->robot, hc, &h, err, errlen)) < 0)
+        goto out;
+    if (cfg->fleet != NULL && (rc = join_fleet(h, cfg->fleet, err, errlen)) < 0)
         goto out;
 
     fw_robot_cfg_t fc = fw_robot_default_cfg();
     sim_hal_world_rt_cfg(plan, path, wps, &fc.rt);
     fc.ai.rounds = cfg->rounds;
+    fc.ai.rounds_per_boundary = cfg->rounds_per_boundary ? cfg->rounds_per_boundary : 1u;
+    fc.ai.offline = cfg->offline;
     fc.ai.policy = cfg->policy;
     fc.ai.dinno = cfg->dinno;
     fc.ai.dinno.primal_steps = cfg->steps_per_round;
     fc.ai.dinno.kl_weight = cfg->kl_weight;
-    fc.ai.model_seed = ai_rng_mix64(cfg->seed ^ 1u);
-    fc.ai.seed = ai_rng_mix64(cfg->seed ^ (2u + (uint64_t)cfg->robot));
+    sim_fleet_seeds(cfg->seed, (int)cfg->robot, &fc.ai.model_seed, &fc.ai.seed);
     fc.ai.node_id = cfg->robot;
     fc.ai.train_between = cfg->train_between;
     fc.gp.robot_id = cfg->robot;
-    fc.gp.write_round_ckpts = cfg->write_round_ckpts;
+    fc.gp.ckpt_every = cfg->ckpt_every;
+    if (cfg->fleet != NULL) {
+        fc.gp.peers = &gp_fleet_peers_ops;
+        fc.gp.peers_ctx = &image_fleet;
+    }
     rc = fw_robot_start(&fc);
     if (rc < 0) {
         snprintf(err, errlen, "image: firmware not started (%d): check the options", rc);
@@ -104,7 +145,7 @@ int sim_image_run(const sim_plan_t *plan, const sim_path_t *path, const sim_imag
     gp_core_t *gp = fw_robot_gp();
     const uint64_t slice = 1000000u;
     const uint64_t limit = (uint64_t)llround(cfg->time_limit_s * 1e6);
-    uint32_t seen = 0;
+    uint32_t seen = 0, fleet_seen = 0;
     double t0 = wall_now();
     for (uint64_t t = 0; t < limit;) {
         t = t + slice < limit ? t + slice : limit;
@@ -114,6 +155,10 @@ int sim_image_run(const sim_plan_t *plan, const sim_path_t *path, const sim_imag
             goto out;
         }
         /* Every core is blocked in the lockstep now: the round log is stable. */
+        for (const gp_fleet_round_t *r; cfg->fleet && (r = gp_fleet_round(&image_fleet, fleet_seen)) != NULL;
+             fleet_seen++)
+            if (cfg->on_fleet_round)
+                cfg->on_fleet_round(r, cfg->user);
         for (const ai_round_info_t *r; (r = gp_core_round(gp, seen)) != NULL; seen++)
             if (cfg->on_round)
                 cfg->on_round(r, cfg->user);
@@ -140,6 +185,13 @@ int sim_image_run(const sim_plan_t *plan, const sim_path_t *path, const sim_imag
     res->final_ckpt_status = gp->final_ckpt_status;
     res->rounds_done = fw_robot_ai()->next_round;
     fw_robot_memory(&res->mem);
+    if (cfg->fleet != NULL) {
+        res->fleet = image_fleet.stats;
+        res->pse = image_fleet.pse.stats;
+        const hal_board_t *b = hal_host_board(h);
+        if (b != NULL && b->net != NULL && b->net->stats != NULL)
+            (void)b->net->stats(b->ctx, &res->net);
+    }
     rc = 0;
 out:
     hal_host_destroy(h);

@@ -10,8 +10,11 @@
  * and print. Then it stops the cores and fills *res with every figure (profiling included).
  * Static firmware state: one run at a time per process.
  *
- * Seeds (all from cfg->seed): lidar and GPS noise = seed; model weights = mix(seed, 1);
- * minibatches, BNN noise and reservoir = mix(seed, 2 + robot). Same seed, same inputs ->
+ * Seeds (all from cfg->seed): lidar and GPS noise = seed; model weights, minibatches, BNN
+ * noise and reservoir as agent `robot` of the in-process fleet (sim_fleet_seeds), so a fleet
+ * of processes and `host_sim fleet --inproc` train the same models.
+ * With cfg->fleet the robot is a member of a fleet over the network (gp_fleet): the host
+ * types the fleet's channels (hal_host_msg bounds check) and sizes the receive queue. Same seed, same inputs ->
  * bit-identical checkpoints (serial lockstep), whatever the CPU count or load. */
 #ifndef SIM_IMAGE_H
 #define SIM_IMAGE_H
@@ -20,17 +23,21 @@
 #include <stdint.h>
 
 #include "fw_robot.h"
+#include "gp/gp_fleet.h"
 #include "hal_host.h"
 #include "sim_hal_world.h"
 #include "sim_paths.h"
 #include "sim_plan.h"
 
 typedef void (*sim_image_round_fn)(const ai_round_info_t *info, void *user);
+typedef void (*sim_image_fleet_round_fn)(const gp_fleet_round_t *r, void *user);
 
 typedef struct sim_image_cfg {
     uint64_t seed;
     uint32_t robot;
-    uint32_t rounds;             /* C */
+    uint32_t rounds;             /* DiNNO rounds in all */
+    uint32_t rounds_per_boundary; /* online: DiNNO rounds per communication round (0 = 1) */
+    int offline;                 /* every round after the tour (paper section 6.3) */
     ai_pool_policy_t policy;
     uint32_t steps_per_round;    /* B (DiNNO primal steps) */
     float kl_weight;
@@ -41,8 +48,10 @@ typedef struct sim_image_cfg {
     const char *net_url;         /* NULL: no network; "memq://" in-process */
     hal_host_sched_t sched;
     hal_log_level_t log_level;
-    int write_round_ckpts;
+    uint32_t ckpt_every;         /* round checkpoints every N rounds (1: all; 0: final only) */
+    const gp_fleet_cfg_t *fleet; /* NULL: no peers; else a fleet member over net_url */
     sim_image_round_fn on_round;  /* may be NULL */
+    sim_image_fleet_round_fn on_fleet_round; /* may be NULL: each round's traffic record */
     void *user;
 } sim_image_cfg_t;
 
@@ -62,6 +71,9 @@ typedef struct sim_image_result {
     gp_core_stats_t gp;
     int32_t final_ckpt_status;
     fw_robot_memory_t mem;
+    gp_fleet_stats_t fleet;       /* with cfg->fleet */
+    gp_pse_stats_t pse;
+    hal_net_stats_t net;
     float path_length_m;
 } sim_image_result_t;
 

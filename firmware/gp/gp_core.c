@@ -15,7 +15,7 @@ gp_core_cfg_t gp_core_default_cfg(void)
     gp_core_cfg_t c;
     memset(&c, 0, sizeof c);
     c.telemetry_every = 10;
-    c.write_round_ckpts = 1;
+    c.ckpt_every = 1;
     return c;
 }
 
@@ -119,7 +119,7 @@ static void handle_ckpt(gp_core_t *gp, uint64_t now_us)
     if (m->n_bytes == 0) {
         r = -EINVAL;
     } else {
-        if (gp->cfg.write_round_ckpts) {
+        if (gp->cfg.ckpt_every > 0 && (in->round + 1u) % gp->cfg.ckpt_every == 0) {
             gp_core_ckpt_name(in->round, name, sizeof name);
             r = hal_storage_write(name, m->bytes, m->n_bytes);
         }

@@ -16,7 +16,7 @@
  *     checkpoint of round k shows the AI core's node update is over (Algorithm 1's
  *     RoundComplete; with final = 1 after the last round, before `done` is set);
  *   - when the AI core published the checkpoint of round k: writes it through the storage
- *     HAL as "round_<k>.bnn" (4 digits) and, after the last round, as "final.bnn"; appends
+ *     HAL as "round_<k>.bnn" (4 digits; every ckpt_every rounds) and, after the last round, as "final.bnn"; appends
  *     the round's record to a fixed log (the host reads it for metrics); logs a line;
  *   - publishes a gp_telemetry_t on GP_TELEMETRY_CHANNEL_PREFIX<robot> every
  *     telemetry_every ticks and at every round (no network: counted, not an error).
@@ -62,7 +62,8 @@ typedef struct gp_core_cfg {
     uint32_t telemetry_every;  /* ticks between telemetry records, >= 1 (default 10) */
     const gp_peers_ops_t *peers; /* NULL: no peers */
     void *peers_ctx;
-    int write_round_ckpts;     /* 1 (default): every round's checkpoint; 0: final only */
+    uint32_t ckpt_every;       /* round k's checkpoint when (k + 1) % ckpt_every == 0: 1 (default)
+                                  every round; 0: the final one only */
 } gp_core_cfg_t;
 
 typedef struct gp_core_stats {

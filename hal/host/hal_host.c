@@ -27,6 +27,11 @@ uint64_t hal_host_now_us(const hal_host_t *h)
     return h == NULL ? 0 : atomic_load_explicit(&((hal_host_t *)h)->now_us, memory_order_acquire);
 }
 
+hal_host_net_t *hal_host_get_net(hal_host_t *h)
+{
+    return h != NULL ? h->net : NULL;
+}
+
 uint64_t hal_host_world_steps(const hal_host_t *h)
 {
     if (h == NULL)

@@ -105,6 +105,9 @@ FS_MUST_CHECK int hal_host_create(const hal_host_config_t *cfg,
 
 /* The board to install. Valid until hal_host_destroy(). */
 const hal_board_t *hal_host_board(const hal_host_t *h);
+typedef struct hal_host_net hal_host_net_t;
+/* The network of h (NULL without one), e.g. to type its channels (hal_host_net_expect_type). */
+hal_host_net_t *hal_host_get_net(hal_host_t *h);
 
 /* Runs the lockstep scheduler until simulated time t_end_us: every wake-up at a time
  * <= t_end_us is processed, then the world is advanced to t_end_us and the clock reads
@@ -154,7 +157,6 @@ uint64_t hal_host_world_steps(const hal_host_t *h);
 /* ---- pieces, usable on their own (tests, tools) --------------------------------------- */
 
 /* Network over LCM. Not thread-safe: one thread uses one hal_host_net_t. */
-typedef struct hal_host_net hal_host_net_t;
 FS_MUST_CHECK int hal_host_net_open(const char *url, uint32_t queue_depth,
                                                           hal_host_net_t **out);
 void hal_host_net_close(hal_host_net_t *n);

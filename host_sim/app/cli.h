@@ -8,8 +8,8 @@
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
-#include <string.h>
 
+#include "ai/dinno.h"
 #include "hal_host_file.h"
 
 typedef void (*cmd_usage_fn)(FILE *out);
@@ -111,6 +111,46 @@ static inline int cmd_out_commit(const char *cmd, hal_host_file_t *out)
         hal_host_file_abort(out);
     }
     return rc < 0 ? -1 : 0;
+}
+
+/* The DiNNO optimiser options `host_sim fleet` and `host_sim run` share (one spelling, one
+ * range each). Returns 1 when `opt` is one of them (*bad = 1 when its value was refused, with
+ * the message printed), 0 when it is not. */
+static inline int cmd_parse_dinno_opt(const char *opt, const char *v, dinno_cfg_t *d, int *bad)
+{
+    long long ll = 0;
+    double dv = 0.0;
+    if (strcmp(opt, "--batch") == 0) {
+        *bad = cmd_parse_ll(v, opt, 1, BNN_MAX_BATCH, &ll);
+        d->batch = (uint32_t)ll;
+    } else if (strcmp(opt, "--primal-steps") == 0 || strcmp(opt, "--steps-per-round") == 0) {
+        *bad = cmd_parse_ll(v, opt, 1, 100000, &ll);
+        d->primal_steps = (uint32_t)ll;
+    } else if (strcmp(opt, "--kl-weight") == 0) {
+        *bad = cmd_parse_double(v, opt, 0.0, 1e6, &dv);
+        d->kl_weight = (float)dv;
+    } else if (strcmp(opt, "--w-mu") == 0) {
+        *bad = cmd_parse_double(v, opt, 0.0, 1e6, &dv);
+        d->w_mu = (float)dv;
+    } else if (strcmp(opt, "--w-rho") == 0) {
+        *bad = cmd_parse_double(v, opt, 0.0, 1e6, &dv);
+        d->w_rho = (float)dv;
+    } else if (strcmp(opt, "--rho0") == 0) {
+        *bad = cmd_parse_double(v, opt, 1e-9, 1e6, &dv);
+        d->rho0 = (float)dv;
+    } else if (strcmp(opt, "--rho-scaling") == 0) {
+        *bad = cmd_parse_double(v, opt, 1e-3, 10.0, &dv);
+        d->rho_scaling = (float)dv;
+    } else if (strcmp(opt, "--lr-start") == 0) {
+        *bad = cmd_parse_double(v, opt, 1e-12, 10.0, &dv);
+        d->lr_start = (float)dv;
+    } else if (strcmp(opt, "--lr-end") == 0) {
+        *bad = cmd_parse_double(v, opt, 1e-12, 10.0, &dv);
+        d->lr_end = (float)dv;
+    } else {
+        return 0;
+    }
+    return 1;
 }
 
 #endif /* HOST_SIM_APP_CLI_H */

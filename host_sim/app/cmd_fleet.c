@@ -6,6 +6,7 @@
 #include <string.h>
 #include <sys/stat.h>
 
+#include "ai/bnn_ckpt.h"
 #include "cli.h"
 #include "commands.h"
 #include "sim_fleet.h"
@@ -107,8 +108,6 @@ static int parse(int argc, char **argv, opts_t *o)
             return -1;
         const char *v = argv[++i];
         int bad = 0;
-        long long ll = 0; // set by the parsers on success; 0 keeps -O1 -Wmaybe-uninitialized quiet
-        double dv = 0.0;
         if (strcmp(a, "--plan") == 0)
             o->plan = v;
         else if (strcmp(a, "--paths") == 0)
@@ -133,34 +132,9 @@ static int parse(int argc, char **argv, opts_t *o)
             bad = cmd_parse_ll(v, a, 1, 1000, &o->mc);
         else if (strcmp(a, "--threads") == 0)
             bad = cmd_parse_ll(v, a, 1, 16, &o->threads);
-        else if (strcmp(a, "--batch") == 0) {
-            bad = cmd_parse_ll(v, a, 1, BNN_MAX_BATCH, &ll);
-            o->d.batch = (uint32_t)ll;
-        } else if (strcmp(a, "--primal-steps") == 0) {
-            bad = cmd_parse_ll(v, a, 1, 100000, &ll);
-            o->d.primal_steps = (uint32_t)ll;
-        } else if (strcmp(a, "--kl-weight") == 0) {
-            bad = cmd_parse_double(v, a, 0.0, 1e6, &dv);
-            o->d.kl_weight = (float)dv;
-        } else if (strcmp(a, "--w-mu") == 0) {
-            bad = cmd_parse_double(v, a, 0.0, 1e6, &dv);
-            o->d.w_mu = (float)dv;
-        } else if (strcmp(a, "--w-rho") == 0) {
-            bad = cmd_parse_double(v, a, 0.0, 1e6, &dv);
-            o->d.w_rho = (float)dv;
-        } else if (strcmp(a, "--rho0") == 0) {
-            bad = cmd_parse_double(v, a, 1e-9, 1e6, &dv);
-            o->d.rho0 = (float)dv;
-        } else if (strcmp(a, "--rho-scaling") == 0) {
-            bad = cmd_parse_double(v, a, 1e-3, 10.0, &dv);
-            o->d.rho_scaling = (float)dv;
-        } else if (strcmp(a, "--lr-start") == 0) {
-            bad = cmd_parse_double(v, a, 1e-12, 10.0, &dv);
-            o->d.lr_start = (float)dv;
-        } else if (strcmp(a, "--lr-end") == 0) {
-            bad = cmd_parse_double(v, a, 1e-12, 10.0, &dv);
-            o->d.lr_end = (float)dv;
-        } else if (strcmp(a, "--radius") == 0)
+        else if (cmd_parse_dinno_opt(a, v, &o->d, &bad))
+            ;
+        else if (strcmp(a, "--radius") == 0)
             bad = cmd_parse_double(v, a, 1e-6, 1e6, &o->radius);
         else if (strcmp(a, "--occ-res") == 0)
             bad = cmd_parse_double(v, a, 0.01, 10.0, &o->occ_res);
@@ -430,6 +404,31 @@ static int report(job_t *j)
         fprintf(stderr, "host_sim fleet: maps: %s\n", j->err);
         return -1;
     }
+    /* Every model's final checkpoint: the reference the multi-process fleet is compared with. */
+    snprintf(file, sizeof file, "%s/models", o->out);
+    if (hal_host_file_mkdirs(file) != 0) {
+        fprintf(stderr, "host_sim fleet: cannot create %s\n", file);
+        return -1;
+    }
+    static uint8_t ckpt[BNN_CKPT_MAX_BYTES];
+    for (int i = 0; i < M; i++) {
+        size_t n = 0;
+        hal_host_file_t mf;
+        snprintf(file, sizeof file, "%s/models/robot_%d.bnn", o->out, i);
+        if (bnn_ckpt_save(&sim_fleet_node(j->fleet, i)->model, 0, ckpt, sizeof ckpt, &n) != 0) {
+            fprintf(stderr, "host_sim fleet: model %d: checkpoint failed\n", i);
+            return -1;
+        }
+        if (cmd_out_begin("fleet", &mf, file) != 0)
+            return -1;
+        if (fwrite(ckpt, 1, n, hal_host_file_stream(&mf)) != n) {
+            hal_host_file_abort(&mf);
+            fprintf(stderr, "host_sim fleet: %s: write failed\n", file);
+            return -1;
+        }
+        if (cmd_out_commit("fleet", &mf) != 0)
+            return -1;
+    }
     snprintf(file, sizeof file, "%s/summary.txt", o->out);
     hal_host_file_t out;
     if (cmd_out_begin("fleet", &out, file) != 0)
@@ -472,7 +471,7 @@ static int report(job_t *j)
     }
     if (cmd_out_commit("fleet", &out) != 0)
         return -1;
-    printf("results in %s (metrics.csv, map_mean.png, map_std.png, summary.txt)\n", o->out);
+    printf("results in %s (metrics.csv, map_mean.png, map_std.png, summary.txt, models/robot_<i>.bnn)\n", o->out);
     return 0;
 }
 

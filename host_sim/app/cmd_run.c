@@ -6,6 +6,7 @@
 #include <stdlib.h>
 #include <string.h>
 #include <sys/stat.h>
+#include <time.h>
 
 #include "ai/bnn_ckpt.h"
 #include "hal_host_file.h"
@@ -24,89 +25,119 @@ static void run_usage(FILE *out)
     const dinno_cfg_t d = dinno_default_cfg();
     fprintf(out,
             "usage: host_sim run --plan FILE.svg --path FILE.csv --out DIR [options]\n"
+            "       host_sim run ... --fleet N --id I [--fleet-id F] [--transport lcm] [--lcm-url URL]\n"
             "\n"
             "Runs ONE robot's firmware image in this process: the RT core (50 Hz control, 10 Hz scans\n"
             "-> samples -> ring), the AI core (sample pool, BNN preset '%s', DiNNO node update) and the\n"
             "GP core (round coordination, telemetry, checkpoints) as three threads on the host HAL, in\n"
-            "lockstep with the ODE world. The path is split into C communication rounds of equal length;\n"
-            "at each boundary the AI core trains B optimiser steps on its pool (a single robot has no\n"
-            "neighbours: local DiNNO rounds).\n"
+            "lockstep with the ODE world.\n"
+            "Online (default, paper 6.2): the path is split into C = rounds / R communication rounds of\n"
+            "equal length; at each boundary the robot runs R DiNNO rounds of B optimiser steps on its pool.\n"
+            "Offline (--offline, paper 6.3): the robot drives its whole tour collecting samples, then runs\n"
+            "every round on all of them.\n"
+            "Alone (default) every round is local. With --fleet N the robot is member I of a fleet of N\n"
+            "processes (started with the same seed and settings, e.g. by tools/fleet) that exchange their\n"
+            "states over LCM (UDP multicast) every round: Algorithm 1 with chunking, CRC, resend requests,\n"
+            "timeouts. Neighbours: within --radius of each other (positions carried in the states;\n"
+            "offline: the point at fraction k/rounds of each tour, as `host_sim fleet --inproc`), or all.\n"
+            "With the same seed and no loss the fleet's models equal `host_sim fleet --inproc`'s bit for bit.\n"
+            "Simulated time stands still while the robot waits for its peers.\n"
             "\n"
             "Writes into DIR: metrics.csv (round,sim_time_s,distance_m,progress_m,pool_fill,pool_capacity,\n"
-            "ring_drops,train_loss,bce,val_loss,kl), round_NNNN.bnn (each round's checkpoint, from the GP\n"
-            "core's storage), final.bnn, valset.samples, map_mean.png and map_std.png (MC mean / std of\n"
-            "the final model, path on top), profile.txt and profile.csv (per core: ticks, lateness, wall\n"
-            "time per tick, stack high-water; static memory per core), summary.txt.\n"
+            "ring_drops,train_loss,bce,val_loss,kl,neighbours,disagreement,wall_s), traffic.csv (fleet: per\n"
+            "round wall_ms,wait_ms,bytes_sent,bytes_received,chunks_sent,chunks_received,chunks_resent,\n"
+            "chunks_requested,duplicates,stale,timeouts,rejoins,crc_failures,invalid), round_NNNN.bnn (every\n"
+            "--val-every rounds), final.bnn, train.samples (the pool trained on), valset.samples,\n"
+            "map_mean.png and map_std.png (MC mean / std of the final model, path on top), profile.txt and\n"
+            "profile.csv (per core: ticks, lateness, wall time per tick, stack high-water; static memory),\n"
+            "summary.txt.\n"
             "\n"
             "options:\n"
-            "  --online             learn online by communication rounds (the only mode; accepted for clarity)\n"
-            "  --rounds C           communication rounds (default 8)\n"
-            "  --pool cdr|dr        cumulative data retention (default) or data refresh per round\n"
+            "  --online             rounds at distance boundaries (default)\n"
+            "  --offline            the whole tour first, then every round\n"
+            "  --rounds N           DiNNO rounds in all (default 8)\n"
+            "  --rounds-per-comm R  online: DiNNO rounds per communication round (default 1; divides N)\n"
+            "  --pool cdr|dr        online: cumulative data retention (default) or data refresh per round\n"
             "  --seed S             run seed (default 1): noise, weights, minibatches, reservoir\n"
-            "  --steps-per-round B  optimiser steps per round (default %u)\n"
+            "  --strategy kl|separate|uniform   DiNNO regulariser (default kl)\n"
+            "  --steps-per-round B  optimiser steps per round (default %u; also --primal-steps)\n"
             "  --kl-weight W        weight of the BNN prior KL (default %g)\n"
             "  --batch N            minibatch size (default %u, <= %u)\n"
             "  --lr-start V, --lr-end V   log-decaying learning rate over the rounds (default %g -> %g)\n"
+            "  --rho0 V, --rho-scaling V, --w-mu W, --w-rho W   ADMM penalty (default %g, %g, 1, 1)\n"
             "  --train-between      one more optimiser step per AI tick between boundaries\n"
             "  --time-limit S       simulated seconds before giving up (default 1800)\n"
-            "  --robot I            robot index (noise streams, telemetry channel; default 0)\n"
-            "  --net URL            LCM URL for telemetry (default memq://, in-process; 'none' for none)\n"
+            "  --robot I, --id I    robot index: noise streams, seeds, telemetry, fleet member id (default 0)\n"
+            "  --fleet N            fleet size (default 1: alone); needs the network\n"
+            "  --fleet-id F         fleet number: its LCM channels fleetsim/F/... (default 0)\n"
+            "  --transport lcm      the fleet's transport (LCM is the only one)\n"
+            "  --lcm-url URL        LCM URL (default %s)\n"
+            "  --net URL            the same (alone: default memq://, in-process; 'none' for no network)\n"
+            "  --radius M           fleet: neighbours within M metres (default 6; 0: every peer)\n"
+            "  --encoding fp32|int8 fleet: states as fp32 or int8 with per-row scales (default fp32)\n"
+            "  --peer-timeout S     fleet: a peer silent S seconds leaves the round (default 10)\n"
+            "  --join-timeout S     fleet: the same for a peer never heard yet (default 120)\n"
             "  --sched serial|parallel   lockstep release order (default serial: bit-reproducible)\n"
             "  --val-poses N        validation poses x 500 points (default 500; 0: no validation)\n"
+            "  --val-every M        validation loss (and a round checkpoint) every M rounds and at the end\n"
+            "                       (default 1 alone, rounds/50 in a fleet)\n"
             "  --map-res M          map grid in metres (default 0.1); --mc K passes (default 50)\n"
             "  --no-maps            skip the PNG maps\n"
             "  --quiet              firmware log at WARN (default INFO: a line per round)\n"
             "  --scale S            plan metres per pixel (default %g)\n",
-            BNN_PRESET_NAME, d.primal_steps, (double)d.kl_weight, d.batch, BNN_MAX_BATCH,
-            (double)d.lr_start, (double)d.lr_end, SIM_PLAN_DEFAULT_SCALE);
+            BNN_PRESET_NAME, d.primal_steps, (double)d.kl_weight, d.batch, BNN_MAX_BATCH, (double)d.lr_start,
+            (double)d.lr_end, (double)d.rho0, (double)d.rho_scaling, HAL_HOST_NET_URL_DEFAULT,
+            SIM_PLAN_DEFAULT_SCALE);
 }
 
 typedef struct run_opts {
     const char *plan, *path, *out, *net;
-    long long rounds, seed, steps, robot, val_poses, mc, batch;
-    double kl_weight, time_limit, map_res, scale, lr_start, lr_end;
+    long long rounds, per_comm, seed, robot, val_poses, mc, fleet, fleet_id, val_every;
+    double time_limit, map_res, scale, radius, peer_timeout, join_timeout;
+    dinno_cfg_t d;
     ai_pool_policy_t pool;
     hal_host_sched_t sched;
-    int train_between, no_maps, quiet;
+    gp_fleet_encoding_t encoding;
+    int offline, train_between, no_maps, quiet, net_given;
 } run_opts_t;
 
 static int parse(int argc, char **argv, run_opts_t *o)
 {
-    const dinno_cfg_t d = dinno_default_cfg();
     memset(o, 0, sizeof *o);
+    o->d = dinno_default_cfg();
     o->rounds = 8;
+    o->per_comm = 1;
     o->seed = 1;
-    o->steps = d.primal_steps;
-    o->batch = d.batch;
-    o->kl_weight = d.kl_weight;
-    o->lr_start = d.lr_start;
-    o->lr_end = d.lr_end;
+    o->fleet = 1;
     o->time_limit = 1800;
     o->val_poses = 500;
     o->mc = 50;
     o->map_res = 0.1;
     o->scale = SIM_PLAN_DEFAULT_SCALE;
+    o->radius = 6.0;
+    o->peer_timeout = 10.0;
+    o->join_timeout = 120.0;
     o->net = "memq://";
     o->pool = AI_POOL_CDR;
     o->sched = HAL_HOST_SCHED_SERIAL;
+    o->encoding = GP_FLEET_FP32;
     for (int i = 1; i < argc; i++) {
         const char *a = argv[i];
         if (strcmp(a, "--help") == 0 || strcmp(a, "-h") == 0) {
             run_usage(stdout);
             return 1;
         }
-        if (strcmp(a, "--online") == 0)
-            continue;
-        if (strcmp(a, "--train-between") == 0) {
-            o->train_between = 1;
+        int *flag = strcmp(a, "--train-between") == 0 ? &o->train_between
+                    : strcmp(a, "--no-maps") == 0     ? &o->no_maps
+                    : strcmp(a, "--quiet") == 0       ? &o->quiet
+                    : strcmp(a, "--offline") == 0     ? &o->offline
+                                                      : NULL;
+        if (flag) {
+            *flag = 1;
             continue;
         }
-        if (strcmp(a, "--no-maps") == 0) {
-            o->no_maps = 1;
-            continue;
-        }
-        if (strcmp(a, "--quiet") == 0) {
-            o->quiet = 1;
+        if (strcmp(a, "--online") == 0) {
+            o->offline = 0;
             continue;
         }
         if (strncmp(a, "--", 2) != 0) {
@@ -123,30 +154,56 @@ static int parse(int argc, char **argv, run_opts_t *o)
             o->path = v;
         else if (strcmp(a, "--out") == 0)
             o->out = v;
-        else if (strcmp(a, "--net") == 0)
+        else if (strcmp(a, "--net") == 0 || strcmp(a, "--lcm-url") == 0) {
             o->net = strcmp(v, "none") == 0 ? NULL : v;
-        else if (strcmp(a, "--rounds") == 0)
-            bad = cmd_parse_ll(v, a, 1, GP_CORE_LOG_ROUNDS, &o->rounds);
+            o->net_given = 1;
+        } else if (strcmp(a, "--transport") == 0) {
+            if (strcmp(v, "lcm") != 0) {
+                fprintf(stderr, "host_sim run: --transport: '%s' is not lcm (the only transport)\n", v);
+                bad = 1;
+            }
+        } else if (cmd_parse_dinno_opt(a, v, &o->d, &bad))
+            ;
+        else if (strcmp(a, "--strategy") == 0) {
+            if (dinno_strategy_parse(v, &o->d.strategy) != 0) {
+                fprintf(stderr, "host_sim run: --strategy: '%s' is not kl, separate or uniform\n", v);
+                bad = 1;
+            }
+        } else if (strcmp(a, "--encoding") == 0) {
+            if (strcmp(v, "fp32") == 0)
+                o->encoding = GP_FLEET_FP32;
+            else if (strcmp(v, "int8") == 0)
+                o->encoding = GP_FLEET_INT8;
+            else {
+                fprintf(stderr, "host_sim run: --encoding: '%s' is not fp32 or int8\n", v);
+                bad = 1;
+            }
+        } else if (strcmp(a, "--rounds") == 0)
+            bad = cmd_parse_ll(v, a, 1, AI_CORE_MAX_ROUNDS, &o->rounds);
+        else if (strcmp(a, "--rounds-per-comm") == 0)
+            bad = cmd_parse_ll(v, a, 1, AI_CORE_MAX_ROUNDS, &o->per_comm);
         else if (strcmp(a, "--seed") == 0)
             bad = cmd_parse_ll(v, a, 0, 0x7FFFFFFFFFFFFFFFLL, &o->seed);
-        else if (strcmp(a, "--steps-per-round") == 0)
-            bad = cmd_parse_ll(v, a, 1, 1000000, &o->steps);
-        else if (strcmp(a, "--batch") == 0)
-            bad = cmd_parse_ll(v, a, 1, BNN_MAX_BATCH, &o->batch);
-        else if (strcmp(a, "--robot") == 0)
+        else if (strcmp(a, "--robot") == 0 || strcmp(a, "--id") == 0)
             bad = cmd_parse_ll(v, a, 0, 1000000, &o->robot);
+        else if (strcmp(a, "--fleet") == 0)
+            bad = cmd_parse_ll(v, a, 1, GP_PSE_MAX_PEERS, &o->fleet);
+        else if (strcmp(a, "--fleet-id") == 0)
+            bad = cmd_parse_ll(v, a, 0, 1000000, &o->fleet_id);
         else if (strcmp(a, "--val-poses") == 0)
             bad = cmd_parse_ll(v, a, 0, 100000, &o->val_poses);
+        else if (strcmp(a, "--val-every") == 0)
+            bad = cmd_parse_ll(v, a, 1, AI_CORE_MAX_ROUNDS, &o->val_every);
         else if (strcmp(a, "--mc") == 0)
             bad = cmd_parse_ll(v, a, 1, 1000, &o->mc);
-        else if (strcmp(a, "--kl-weight") == 0)
-            bad = cmd_parse_double(v, a, 0.0, 1e6, &o->kl_weight);
-        else if (strcmp(a, "--lr-start") == 0)
-            bad = cmd_parse_double(v, a, 1e-12, 10.0, &o->lr_start);
-        else if (strcmp(a, "--lr-end") == 0)
-            bad = cmd_parse_double(v, a, 1e-12, 10.0, &o->lr_end);
         else if (strcmp(a, "--time-limit") == 0)
             bad = cmd_parse_double(v, a, 0.1, 1e6, &o->time_limit);
+        else if (strcmp(a, "--radius") == 0)
+            bad = cmd_parse_double(v, a, 0.0, 1e6, &o->radius);
+        else if (strcmp(a, "--peer-timeout") == 0)
+            bad = cmd_parse_double(v, a, 0.1, 3600.0, &o->peer_timeout);
+        else if (strcmp(a, "--join-timeout") == 0)
+            bad = cmd_parse_double(v, a, 0.1, 3600.0, &o->join_timeout);
         else if (strcmp(a, "--map-res") == 0)
             bad = cmd_parse_double(v, a, 0.01, 10.0, &o->map_res);
         else if (strcmp(a, "--scale") == 0)
@@ -177,17 +234,53 @@ static int parse(int argc, char **argv, run_opts_t *o)
         fprintf(stderr, "host_sim run: %s is required (see --help)\n", missing);
         return -1;
     }
+    if (o->rounds % o->per_comm != 0) {
+        fprintf(stderr, "host_sim run: --rounds-per-comm %lld does not divide --rounds %lld\n", o->per_comm, o->rounds);
+        return -1;
+    }
+    if (o->fleet > 1) {
+        if (o->robot >= o->fleet) {
+            fprintf(stderr, "host_sim run: --id %lld is not a member of a fleet of %lld (0 .. %lld)\n", o->robot,
+                    o->fleet, o->fleet - 1);
+            return -1;
+        }
+        if (!o->net_given)
+            o->net = ""; /* the default LCM URL: UDP multicast on this host */
+        if (o->net == NULL || strncmp(o->net, "memq", 4) == 0) {
+            fprintf(stderr, "host_sim run: a fleet needs a network between processes: --lcm-url udpm://... "
+                            "(not 'none' or memq://)\n");
+            return -1;
+        }
+        if (o->join_timeout < o->peer_timeout)
+            o->join_timeout = o->peer_timeout;
+    }
+    if (o->val_every == 0)
+        o->val_every = o->fleet > 1 ? (o->rounds >= 50 ? o->rounds / 50 : 1) : 1;
     return 0;
 }
 
+/* Rows of metrics.csv wait until the fleet's record of their round arrived (the GP core closes
+ * it when the next round begins), so both logs are joined by round. */
+#define RUN_PENDING 2048u
+
+typedef struct run_row {
+    ai_round_info_t in;
+    double val, wall_s;
+} run_row_t;
+
 typedef struct run_ctx {
     const run_opts_t *o;
-    FILE *csv;
+    FILE *csv, *traffic;
     bnn_model_t *model;
     const ai_sample_t *val;
     size_t n_val;
     int failed;
-    double last_val;
+    double last_val, t0;
+    uint32_t rows_in, rows_out;          /* AI records taken / written */
+    run_row_t rows[RUN_PENDING];
+    uint32_t fleet_in;                    /* fleet records taken */
+    gp_fleet_round_t fleet[RUN_PENDING]; /* by round % RUN_PENDING */
+    gp_fleet_round_t total;               /* sums over the rounds */
 } run_ctx_t;
 
 static int load_ckpt(bnn_model_t *m, const char *file)
@@ -208,38 +301,107 @@ static int load_ckpt(bnn_model_t *m, const char *file)
     return rc;
 }
 
+static double wall_now(void)
+{
+    struct timespec ts;
+    clock_gettime(CLOCK_MONOTONIC, &ts);
+    return (double)ts.tv_sec + 1e-9 * (double)ts.tv_nsec;
+}
+
+static int val_round(const run_opts_t *o, uint32_t round)
+{
+    return (round + 1u) % (uint32_t)o->val_every == 0 || round + 1u == (uint32_t)o->rounds;
+}
+
+/* Writes the rows whose fleet record is there (all of them when `all`). */
+static void flush_rows(run_ctx_t *c, int all)
+{
+    while (c->rows_out < c->rows_in) {
+        const run_row_t *r = &c->rows[c->rows_out % RUN_PENDING];
+        const uint32_t k = r->in.round;
+        const gp_fleet_round_t *fr = NULL;
+        if (c->o->fleet > 1) {
+            if (c->fleet_in > k)
+                fr = &c->fleet[k % RUN_PENDING];
+            else if (!all)
+                return;
+        }
+        const ai_round_info_t *in = &r->in;
+        printf("round %4u/%lld  t %7.1f s  progress %6.2f m  pool %7u  train %.4f  val %.4f  kl %.2f  nbrs %u  "
+               "dis %.4f  sent %llu B  lost %llu  resent %llu  wait %.1f ms\n",
+               k + 1u, c->o->rounds, (double)in->stamp_us * 1e-6, (double)in->progress_m, in->pool_fill,
+               (double)in->loss_train, r->val, (double)in->kl, in->neighbours,
+               fr ? (double)fr->disagreement : NAN, fr ? (unsigned long long)fr->bytes_sent : 0ull,
+               fr ? (unsigned long long)fr->chunks_requested : 0ull, fr ? (unsigned long long)fr->chunks_resent : 0ull,
+               fr ? (double)fr->wait_us * 1e-3 : 0.0);
+        fprintf(c->csv, "%u,%.3f,%.4f,%.4f,%u,%u,%u,%.6g,%.6g,%.6g,%.6g,%u,%.6g,%.3f\n", k,
+                (double)in->stamp_us * 1e-6, (double)in->distance_m, (double)in->progress_m, in->pool_fill,
+                in->pool_capacity, in->ring_drops, (double)in->loss_train, (double)in->bce, r->val, (double)in->kl,
+                in->neighbours, fr ? (double)fr->disagreement : NAN, r->wall_s);
+        c->rows_out++;
+    }
+    fflush(stdout);
+}
+
 static void on_round(const ai_round_info_t *in, void *user)
 {
     run_ctx_t *c = user;
     double val = NAN;
+    char name[64];
+    gp_core_ckpt_name(in->round, name, sizeof name);
     if (in->ckpt_status != 0) {
         /* A file of that name may be an earlier run's: never read it as this run's. */
-        char name[64];
-        gp_core_ckpt_name(in->round, name, sizeof name);
-        fprintf(stderr, "host_sim run: %s/%s: %s\n", c->o->out, name, hal_host_file_strerror(in->ckpt_status));
+        fprintf(stderr, "host_sim run: %s/%s: %s\n", c->o->out, val_round(c->o, in->round) ? name : "final.bnn",
+                hal_host_file_strerror(in->ckpt_status));
         c->failed = 1;
-    } else if (c->n_val > 0) {
-        char file[4200], name[64];
-        gp_core_ckpt_name(in->round, name, sizeof name);
+    } else if (c->n_val > 0 && val_round(c->o, in->round)) {
+        char file[4200];
         snprintf(file, sizeof file, "%s/%s", c->o->out, name);
         float v = NAN;
         if (load_ckpt(c->model, file) != 0 || bnn_eval_bce(c->model, c->val, c->n_val, 0, 0, &v) != 0)
             c->failed = 1;
         val = v;
+        c->last_val = val;
     }
-    c->last_val = val;
-    printf("round %3u/%lld  t %7.1f s  progress %6.2f m  distance %6.2f m  pool %7u/%u  drops %u  "
-           "train %.4f  val %.4f  kl %.2f\n",
-           in->round + 1, c->o->rounds, (double)in->stamp_us * 1e-6, (double)in->progress_m,
-           (double)in->distance_m, in->pool_fill, in->pool_capacity, in->ring_drops,
-           (double)in->loss_train, val, (double)in->kl);
-    fflush(stdout);
-    fprintf(c->csv, "%u,%.3f,%.4f,%.4f,%u,%u,%u,%.6g,%.6g,%.6g,%.6g\n", in->round,
-            (double)in->stamp_us * 1e-6, (double)in->distance_m, (double)in->progress_m, in->pool_fill,
-            in->pool_capacity, in->ring_drops, (double)in->loss_train, (double)in->bce, val,
-            (double)in->kl);
-    fflush(c->csv);
+    if (c->rows_in - c->rows_out == RUN_PENDING)
+        flush_rows(c, 1); /* never expected: the fleet's log runs one round behind at most */
+    c->rows[c->rows_in % RUN_PENDING] = (run_row_t){*in, val, wall_now() - c->t0};
+    c->rows_in++;
+    flush_rows(c, 0);
 }
+
+#define ADD(f) c->total.f += r->f
+static void on_fleet_round(const gp_fleet_round_t *r, void *user)
+{
+    run_ctx_t *c = user;
+    c->fleet[r->round % RUN_PENDING] = *r;
+    c->fleet_in = r->round + 1u;
+    ADD(wait_us);
+    ADD(bytes_sent);
+    ADD(bytes_received);
+    ADD(chunks_sent);
+    ADD(chunks_received);
+    ADD(chunks_resent);
+    ADD(chunks_requested);
+    ADD(duplicates);
+    ADD(stale);
+    ADD(timeouts);
+    ADD(rejoins);
+    ADD(crc_failures);
+    ADD(invalid);
+    if (r->timeouts > 0)
+        fprintf(stderr, "host_sim run: robot %lld, round %u: %llu peer(s) timed out and left the round\n", c->o->robot,
+                r->round, (unsigned long long)r->timeouts);
+    fprintf(c->traffic, "%u,%.3f,%.3f,%llu,%llu,%llu,%llu,%llu,%llu,%llu,%llu,%llu,%llu,%llu,%llu\n", r->round,
+            (double)r->wall_us * 1e-3, (double)r->wait_us * 1e-3, (unsigned long long)r->bytes_sent,
+            (unsigned long long)r->bytes_received, (unsigned long long)r->chunks_sent,
+            (unsigned long long)r->chunks_received, (unsigned long long)r->chunks_resent,
+            (unsigned long long)r->chunks_requested, (unsigned long long)r->duplicates, (unsigned long long)r->stale,
+            (unsigned long long)r->timeouts, (unsigned long long)r->rejoins, (unsigned long long)r->crc_failures,
+            (unsigned long long)r->invalid);
+    flush_rows(c, 0);
+}
+#undef ADD
 
 static void write_profile(const run_opts_t *o, const sim_image_result_t *r, FILE *txt, FILE *csv)
 {
@@ -307,6 +469,9 @@ typedef struct job {
     bnn_model_t *model;
     sim_image_result_t *res;
     hal_host_file_t csv; /* metrics.csv, fed as rounds go, committed only by a run that succeeded */
+    hal_host_file_t traffic; /* traffic.csv (fleet), likewise */
+    rt_waypoint_t *tour;     /* the path as the firmware holds it (fleet positions) */
+    gp_fleet_cfg_t fleet;
     run_ctx_t ctx;
     char err[8192];
 } job_t;
@@ -314,6 +479,8 @@ typedef struct job {
 static void job_free(job_t *j)
 {
     hal_host_file_abort(&j->csv); /* a no-op after a commit */
+    hal_host_file_abort(&j->traffic);
+    free(j->tour);
     free(j->res);
     free(j->model);
     free(j->val);
@@ -337,13 +504,18 @@ static int prepare(job_t *j)
     }
     if (cmd_prepare_out_dir("run", o->out) != 0)
         return -1;
-    printf("run: one robot's firmware image (RT %u Hz / scans %u Hz, GP %u Hz, AI %u Hz), lockstep\n",
+    printf("run: robot %lld's firmware image (RT %u Hz / scans %u Hz, GP %u Hz, AI %u Hz), lockstep, %s\n", o->robot,
            1000000u / FW_RT_PERIOD_US, 1000000u / (FW_RT_PERIOD_US * FW_RT_SCAN_DIVIDER),
-           1000000u / FW_GP_PERIOD_US, 1000000u / FW_AI_PERIOD_US);
-    printf("seed %lld, preset %s, %lld rounds, pool %s (capacity %u), %lld steps/round, batch %lld, "
-           "kl_weight %g%s\n",
-           o->seed, BNN_PRESET_NAME, o->rounds, ai_pool_policy_name(o->pool), (unsigned)AI_POOL_CAPACITY,
-           o->steps, o->batch, o->kl_weight, o->train_between ? ", training between boundaries" : "");
+           1000000u / FW_GP_PERIOD_US, 1000000u / FW_AI_PERIOD_US, o->offline ? "offline" : "online");
+    printf("seed %lld, preset %s, %lld rounds (%lld per communication round), pool %s (capacity %u), strategy %s, "
+           "%u steps/round, batch %u, kl_weight %g%s\n",
+           o->seed, BNN_PRESET_NAME, o->rounds, o->per_comm, ai_pool_policy_name(o->pool), (unsigned)AI_POOL_CAPACITY,
+           dinno_strategy_name(o->d.strategy), o->d.primal_steps, o->d.batch, (double)o->d.kl_weight,
+           o->train_between ? ", training between boundaries" : "");
+    if (o->fleet > 1)
+        printf("fleet %lld: member %lld of %lld over LCM %s, %s states, neighbours %s%.3g m\n", o->fleet_id, o->robot,
+               o->fleet, o->net[0] ? o->net : HAL_HOST_NET_URL_DEFAULT, o->encoding == GP_FLEET_INT8 ? "int8" : "fp32",
+               o->radius > 0 ? "within " : "all (radius ", o->radius);
     fflush(stdout);
     j->res = calloc(1, sizeof *j->res);
     /* bnn_model_t holds 64-byte aligned vectors: malloc's 16 bytes are not enough (the
@@ -384,32 +556,76 @@ static int run_image(job_t *j)
         return -1;
     FILE *csv = hal_host_file_stream(&j->csv);
     fprintf(csv, "round,sim_time_s,distance_m,progress_m,pool_fill,pool_capacity,ring_drops,train_loss,bce,"
-                 "val_loss,kl\n");
-    j->ctx = (run_ctx_t){o, csv, j->model, j->val, j->n_val, 0, NAN};
+                 "val_loss,kl,neighbours,disagreement,wall_s\n");
+    FILE *traffic = NULL;
+    if (o->fleet > 1) {
+        snprintf(file, sizeof file, "%s/traffic.csv", o->out);
+        if (cmd_out_begin("run", &j->traffic, file) != 0)
+            return -1;
+        traffic = hal_host_file_stream(&j->traffic);
+        fprintf(traffic, "round,wall_ms,wait_ms,bytes_sent,bytes_received,chunks_sent,chunks_received,chunks_resent,"
+                         "chunks_requested,duplicates,stale,timeouts,rejoins,crc_failures,invalid\n");
+    }
+    run_ctx_t *c = &j->ctx;
+    memset(c, 0, sizeof *c);
+    c->o = o;
+    c->csv = csv;
+    c->traffic = traffic;
+    c->model = j->model;
+    c->val = j->val;
+    c->n_val = j->n_val;
+    c->last_val = NAN;
+    c->t0 = wall_now();
     sim_image_cfg_t ic;
     sim_image_cfg_default(&ic);
     ic.seed = (uint64_t)o->seed;
     ic.robot = (uint32_t)o->robot;
     ic.rounds = (uint32_t)o->rounds;
+    ic.rounds_per_boundary = (uint32_t)o->per_comm;
+    ic.offline = o->offline;
     ic.policy = o->pool;
-    ic.steps_per_round = (uint32_t)o->steps;
-    ic.kl_weight = (float)o->kl_weight;
-    ic.dinno.batch = (uint32_t)o->batch;
-    ic.dinno.lr_start = (float)o->lr_start;
-    ic.dinno.lr_end = (float)o->lr_end;
+    ic.dinno = o->d;
+    ic.steps_per_round = o->d.primal_steps;
+    ic.kl_weight = o->d.kl_weight;
     ic.train_between = o->train_between;
     ic.time_limit_s = o->time_limit;
     ic.storage_dir = o->out;
     ic.net_url = o->net;
     ic.sched = o->sched;
     ic.log_level = o->quiet ? HAL_LOG_WARN : HAL_LOG_INFO;
+    ic.ckpt_every = (uint32_t)o->val_every;
     ic.on_round = on_round;
-    ic.user = &j->ctx;
+    ic.on_fleet_round = on_fleet_round;
+    ic.user = c;
+    if (o->fleet > 1) {
+        j->tour = malloc(sizeof(rt_waypoint_t) * (size_t)j->path.n);
+        if (j->tour == NULL) {
+            fprintf(stderr, "host_sim run: out of memory\n");
+            return -1;
+        }
+        for (int i = 0; i < j->path.n; i++)
+            j->tour[i] = (rt_waypoint_t){(float)j->path.p[i].x, (float)j->path.p[i].y};
+        gp_fleet_cfg_t *f = &j->fleet;
+        *f = gp_fleet_default_cfg();
+        f->fleet_id = (uint32_t)o->fleet_id;
+        f->self = (uint32_t)o->robot;
+        f->n_peers = (uint32_t)o->fleet;
+        f->rounds = (uint32_t)o->rounds;
+        f->radius_m = o->radius;
+        f->encoding = o->encoding;
+        f->peer_timeout_us = (uint32_t)llround(o->peer_timeout * 1e6);
+        f->join_timeout_us = (uint32_t)llround(o->join_timeout * 1e6);
+        f->positions_from_tour = o->offline;
+        f->tour = j->tour;
+        f->n_tour = j->path.n;
+        ic.fleet = f;
+    }
     const sim_image_result_t *res = j->res;
     if (sim_image_run(&j->plan, &j->path, &ic, j->res, j->err, sizeof j->err) != 0) {
         fprintf(stderr, "host_sim run: %s\n", j->err);
         return -1;
     }
+    flush_rows(&j->ctx, 1);
     write_profile(o, res, stdout, NULL);
     if (j->ctx.failed)
         return -1;
@@ -457,8 +673,24 @@ static int report(job_t *j)
         fprintf(stderr, "host_sim run: maps: %s\n", j->err);
         return -1;
     }
-    if (cmd_out_commit("run", &j->csv) != 0)
+    if (cmd_out_commit("run", &j->csv) != 0 || (o->fleet > 1 && cmd_out_commit("run", &j->traffic) != 0))
         return -1;
+    /* The samples the robot trained on (its pool at the end), for the fleet's density plot. */
+    const ai_core_t *ai = fw_robot_ai();
+    sim_samples_writer_t wr;
+    snprintf(file, sizeof file, "%s/train.samples", o->out);
+    char src[160];
+    snprintf(src, sizeof src, "run pool robot=%lld seed=%lld %s", o->robot, o->seed, o->offline ? "offline" : "online");
+    int wrc = sim_samples_open(&wr, file, j->plan.min.x, j->plan.min.y, j->plan.max.x, j->plan.max.y,
+                               (uint64_t)o->seed, src);
+    if (wrc == 0 && (wrc = sim_samples_append(&wr, ai->pool.data, ai->pool.fill)) < 0)
+        sim_samples_abort(&wr);
+    else if (wrc == 0)
+        wrc = sim_samples_close(&wr);
+    if (wrc < 0) {
+        fprintf(stderr, "host_sim run: %s: %s\n", file, hal_host_file_strerror(wrc));
+        return -1;
+    }
     hal_host_file_t pt, pc, sum;
     snprintf(file, sizeof file, "%s/profile.txt", o->out);
     snprintf(f2, sizeof f2, "%s/profile.csv", o->out);
@@ -480,9 +712,10 @@ static int report(job_t *j)
     for (int pass = 0; pass < 2; pass++) {
         FILE *f = pass ? stdout : hal_host_file_stream(&sum);
         fprintf(f, "seed: %lld\npreset: %s (%zu parameters)\nrounds: %lld\npool: %s (capacity %u)\n"
-                   "steps_per_round: %lld\nbatch: %lld\nkl_weight: %g\ntrain_between: %d\n",
+                   "steps_per_round: %u\nbatch: %u\nkl_weight: %g\ntrain_between: %d\nmode: %s\nstrategy: %s\n",
                 o->seed, BNN_PRESET_NAME, bnn_n_params(j->model), o->rounds, ai_pool_policy_name(o->pool),
-                (unsigned)AI_POOL_CAPACITY, o->steps, o->batch, o->kl_weight, o->train_between);
+                (unsigned)AI_POOL_CAPACITY, o->d.primal_steps, o->d.batch, (double)o->d.kl_weight, o->train_between,
+                o->offline ? "offline" : "online", dinno_strategy_name(o->d.strategy));
         fprintf(f, "path: %s (%d waypoints, %.2f m)\nsimulated: %.2f s; wall: %.2f s\n", o->path, j->path.n,
                 (double)res->path_length_m, (double)res->sim_time_us * 1e-6, res->wall_s);
         fprintf(f, "distance (true pose): %.2f m; odometry: %.2f m; collisions: %llu\n", res->world.distance_m,
@@ -493,6 +726,26 @@ static int report(job_t *j)
         fprintf(f, "final train loss: %.5f; final val loss: %.5f\n", (double)res->ai_status.loss_train,
                 j->ctx.last_val);
         fprintf(f, "occupancy MSE within 1 m of the path (0.1 m grid, %zu cells): %.5f\n", cells, occ);
+        if (o->fleet > 1) {
+            const gp_fleet_round_t *t = &j->ctx.total;
+            const gp_pse_stats_t *p = &res->pse; /* the whole run, start-up included */
+            const double R = (double)o->rounds;
+            fprintf(f, "fleet: %lld robots (this is robot %lld, fleet id %lld), %s states, radius %g m\n", o->fleet,
+                    o->robot, o->fleet_id, o->encoding == GP_FLEET_INT8 ? "int8" : "fp32", o->radius);
+            fprintf(f, "traffic: %.0f B sent and %.0f B received per round; %llu chunks sent, %llu received\n",
+                    (double)p->bytes_sent / R, (double)p->bytes_received / R, (unsigned long long)p->chunks_sent,
+                    (unsigned long long)p->chunks_received);
+            fprintf(f, "losses: %llu chunks requested again, %llu re-sent; %llu duplicates, %llu stale, %llu invalid, "
+                       "%llu CRC failures; %llu peer timeouts, %llu rejoins; %llu own echoes\n",
+                    (unsigned long long)p->chunks_requested, (unsigned long long)p->chunks_resent,
+                    (unsigned long long)p->duplicates, (unsigned long long)p->stale, (unsigned long long)p->invalid,
+                    (unsigned long long)p->crc_failures, (unsigned long long)p->timeouts,
+                    (unsigned long long)p->rejoins, (unsigned long long)res->fleet.own_echoes);
+            fprintf(f, "waiting for peers: %.2f s wall in all (%.2f ms per round); network queue drops %llu\n",
+                    (double)t->wait_us * 1e-6, (double)t->wait_us * 1e-3 / R,
+                    (unsigned long long)(res->net.rx_dropped_full + res->net.rx_dropped_malformed +
+                                         res->net.rx_dropped_invalid + res->net.rx_dropped_small));
+        }
         fprintf(f, "checkpoints: %llu written, %llu failed; telemetry: %llu sent, %llu not sent\n",
                 (unsigned long long)res->gp.ckpt_written, (unsigned long long)res->gp.ckpt_failed,
                 (unsigned long long)res->gp.telemetry_sent, (unsigned long long)res->gp.telemetry_failed);

@@ -205,7 +205,7 @@ static int run_child(const char *dir, int ncpu)
     sim_image_cfg_t c;
     base_cfg(&c, 2, 4);
     c.storage_dir = dir;
-    c.write_round_ckpts = 0;
+    c.ckpt_every = 0;
     static sim_image_result_t r;
     char err[512];
     if (sim_image_run(&g_plan, &g_path, &c, &r, err, sizeof err) != 0 || !r.completed)
@@ -272,7 +272,7 @@ static void test_learns_map_along_path(void **st)
     base_cfg(&c, 4, STEPS_LEARN);
     c.dinno.batch = 512;
     c.storage_dir = dir;
-    c.write_round_ckpts = 0;
+    c.ckpt_every = 0;
     static sim_image_result_t r;
     char err[512];
     assert_int_equal(sim_image_run(&g_plan, &g_path, &c, &r, err, sizeof err), 0);

@@ -1,0 +1,370 @@
+/* The robot in a fleet: see gp_fleet.h. */
+#include "gp/gp_fleet.h"
+
+#include <errno.h>
+#include <math.h>
+#include <stdio.h>
+#include <string.h>
+
+#include "ai/bnn_quant.h"
+#include "gp/gp_wire.h"
+#include "hal/hal.h"
+#include "rt/rt_path.h"
+
+_Static_assert(__BYTE_ORDER__ == __ORDER_LITTLE_ENDIAN__, "fp32 states travel as little-endian words");
+_Static_assert(BNN_QUANT_MAX_BYTES <= GP_PSE_MAX_STATE_BYTES, "an int8 state fits the state buffers");
+_Static_assert(GP_PSE_MAX_CHUNK_BYTES + GP_WIRE_CHUNK_HEADER_BYTES <= HAL_NET_MTU_BYTES,
+               "a chunk and its header fit one datagram");
+_Static_assert(GP_WIRE_REQUEST_BYTES(GP_PSE_MAX_REQUEST) <= HAL_NET_MTU_BYTES, "a request fits one datagram");
+
+static const char *const channel_suffix[3] = {"state", "done", "request"};
+
+gp_fleet_cfg_t gp_fleet_default_cfg(void)
+{
+    gp_fleet_cfg_t c;
+    memset(&c, 0, sizeof c);
+    c.n_peers = 1;
+    c.rounds = 1;
+    c.encoding = GP_FLEET_FP32;
+    c.resend_after_us = 500000u;
+    c.peer_timeout_us = 10000000u;
+    c.join_timeout_us = 120000000u;
+    c.poll_us = 2000u;
+    return c;
+}
+
+int gp_fleet_channel_name(uint32_t fleet_id, gp_fleet_channel_t which, char *buf, size_t cap)
+{
+    if (buf == NULL || (unsigned)which > GP_FLEET_CH_REQUEST)
+        return -EINVAL;
+    int n = snprintf(buf, cap, "%s%u/%s", GP_FLEET_CHANNEL_PREFIX, fleet_id, channel_suffix[which]);
+    return n > 0 && (size_t)n < cap && hal_net_channel_valid(buf) ? 0 : -EINVAL;
+}
+
+uint32_t gp_fleet_state_bytes(gp_fleet_encoding_t enc)
+{
+    const bnn_config_t c = bnn_default_config();
+    return enc == GP_FLEET_INT8 ? (uint32_t)bnn_quant_packed_size_cfg(&c, BNN_GROUP_ALL)
+                                : (uint32_t)(BNN_N_PARAMS * sizeof(float));
+}
+
+/* ---- sending: the protocol's callback ---------------------------------------------------- */
+static int fleet_send(void *ctx, gp_pse_kind_t kind, const void *msg)
+{
+    gp_fleet_t *f = ctx;
+    int n;
+    const char *ch;
+    switch (kind) {
+    case GP_PSE_CHUNK:
+        n = gp_wire_encode_chunk(msg, f->tx, sizeof f->tx);
+        ch = f->channel[GP_FLEET_CH_STATE];
+        break;
+    case GP_PSE_DONE:
+        n = gp_wire_encode_done(msg, f->tx, sizeof f->tx);
+        ch = f->channel[GP_FLEET_CH_DONE];
+        break;
+    case GP_PSE_REQUEST:
+        n = gp_wire_encode_request(msg, f->tx, sizeof f->tx);
+        ch = f->channel[GP_FLEET_CH_REQUEST];
+        break;
+    default:
+        return -EINVAL;
+    }
+    if (n < 0)
+        return n;
+    int r = hal_net_publish(ch, f->tx, (size_t)n);
+    if (r != 0)
+        f->stats.tx_failed++;
+    return r;
+}
+
+int gp_fleet_init(gp_fleet_t *f, const gp_fleet_cfg_t *cfg)
+{
+    if (f == NULL || cfg == NULL || cfg->rounds < 1 || (unsigned)cfg->encoding > GP_FLEET_INT8 ||
+        cfg->poll_us == 0 || (cfg->positions_from_tour &&
+                              (cfg->tour == NULL || cfg->n_tour < 1 || cfg->n_tour > (int32_t)GP_FLEET_MAX_TOUR)))
+        return -EINVAL;
+    memset(&f->cfg, 0, sizeof f->cfg);
+    f->cfg = *cfg;
+    f->bnn = bnn_default_config();
+    f->state_bytes = gp_fleet_state_bytes(cfg->encoding);
+    memset(&f->stats, 0, sizeof f->stats);
+    f->final_done = 0;
+    f->have_cur = 0;
+    atomic_store(&f->n_log, 0u);
+    if (cfg->positions_from_tour) {
+        memcpy(f->tour, cfg->tour, sizeof(rt_waypoint_t) * (size_t)cfg->n_tour);
+        f->cfg.tour = f->tour;
+    } else {
+        f->cfg.tour = NULL;
+        f->cfg.n_tour = 0;
+    }
+    gp_pse_cfg_t pc = {
+        .self = cfg->self,
+        .n_peers = cfg->n_peers,
+        .state_bytes = f->state_bytes,
+        .chunk_bytes = cfg->chunk_bytes ? cfg->chunk_bytes : GP_PSE_MAX_CHUNK_BYTES,
+        .radius_m = cfg->radius_m > 0.0 ? cfg->radius_m : 0.0,
+        .resend_after_us = cfg->resend_after_us,
+        .peer_timeout_us = cfg->peer_timeout_us,
+        .join_timeout_us = cfg->join_timeout_us,
+        .send = fleet_send,
+        .send_ctx = f,
+        .encoding = (uint8_t)cfg->encoding,
+        .incarnation = cfg->incarnation,
+    };
+    int r = gp_pse_init(&f->pse, &pc);
+    if (r != 0)
+        return r;
+    memset(&f->mark, 0, sizeof f->mark);
+    for (int c = 0; c < 3; c++) {
+        if ((r = gp_fleet_channel_name(cfg->fleet_id, (gp_fleet_channel_t)c, f->channel[c], sizeof f->channel[c])) != 0 ||
+            (r = hal_net_subscribe(f->channel[c])) != 0)
+            return r;
+    }
+    return 0;
+}
+
+/* ---- receiving ---------------------------------------------------------------------------- */
+static uint64_t net_now(void)
+{
+    uint64_t t = 0;
+    return hal_net_clock_us(&t) == 0 ? t : 0;
+}
+
+/* Takes everything queued and hands it to the protocol. */
+static void drain(gp_fleet_t *f)
+{
+    hal_net_rx_info_t info;
+    for (;;) {
+        int r = hal_net_receive(&info, f->rx, sizeof f->rx);
+        if (r == -EAGAIN || r == -ENODEV || r == -EINVAL)
+            return;
+        if (r != 0) {
+            f->stats.rx_undecodable++;
+            continue;
+        }
+        f->stats.rx_messages++;
+        const uint64_t now = net_now();
+        if (strcmp(info.channel, f->channel[GP_FLEET_CH_STATE]) == 0) {
+            gp_pse_chunk_t c;
+            if (gp_wire_decode_chunk(f->rx, info.len, &c) != 0)
+                f->stats.rx_undecodable++;
+            else if (c.sender == f->cfg.self)
+                f->stats.own_echoes++;
+            else
+                (void)gp_pse_on_chunk(&f->pse, &c, now);
+        } else if (strcmp(info.channel, f->channel[GP_FLEET_CH_DONE]) == 0) {
+            gp_pse_done_t d;
+            if (gp_wire_decode_done(f->rx, info.len, &d) != 0)
+                f->stats.rx_undecodable++;
+            else if (d.sender == f->cfg.self)
+                f->stats.own_echoes++;
+            else
+                (void)gp_pse_on_done(&f->pse, &d, now);
+        } else if (strcmp(info.channel, f->channel[GP_FLEET_CH_REQUEST]) == 0) {
+            gp_pse_request_t q;
+            if (gp_wire_decode_request(f->rx, info.len, &q) != 0)
+                f->stats.rx_undecodable++;
+            else if (q.requester == f->cfg.self)
+                f->stats.own_echoes++;
+            else if (q.target == f->cfg.self) /* requests to the others are not ours to answer */
+                (void)gp_pse_on_request(&f->pse, &q, now);
+        } else {
+            f->stats.rx_undecodable++;
+        }
+    }
+}
+
+/* Receives and polls until cond holds. The protocol's timeouts end every wait; a board
+ * without hal_net_wait gets -EAGAIN (the GP core asks again next tick). */
+static int wait_for(gp_fleet_t *f, int (*cond)(const gp_pse_t *))
+{
+    const uint64_t t0 = net_now();
+    int rc = 0;
+    for (;;) {
+        drain(f);
+        gp_pse_poll(&f->pse, net_now());
+        if (cond(&f->pse))
+            break;
+        int r = hal_net_wait(f->cfg.poll_us);
+        if (r != 0 && r != -EAGAIN) {
+            rc = -EAGAIN; /* cannot block here: come back next tick */
+            break;
+        }
+    }
+    const uint64_t waited = net_now() - t0;
+    f->stats.wait_us += waited;
+    f->cur.wait_us += waited;
+    return rc;
+}
+
+/* ---- the round log ------------------------------------------------------------------------ */
+#define DELTA(field) (s->field - f->mark.field)
+
+/* Closes the record of the round in progress with the traffic since it began. */
+static void close_record(gp_fleet_t *f)
+{
+    if (!f->have_cur)
+        return;
+    const gp_pse_stats_t *s = &f->pse.stats;
+    gp_fleet_round_t *r = &f->cur;
+    r->bytes_sent = DELTA(bytes_sent);
+    r->bytes_received = DELTA(bytes_received);
+    r->chunks_sent = DELTA(chunks_sent);
+    r->chunks_received = DELTA(chunks_received);
+    r->chunks_resent = DELTA(chunks_resent);
+    r->chunks_requested = DELTA(chunks_requested);
+    r->duplicates = DELTA(duplicates);
+    r->stale = DELTA(stale);
+    r->timeouts = DELTA(timeouts);
+    r->rejoins = DELTA(rejoins);
+    r->crc_failures = DELTA(crc_failures);
+    r->invalid = DELTA(invalid);
+    r->wall_us = net_now() - f->cur_started_us;
+    const uint32_t n = atomic_load_explicit(&f->n_log, memory_order_relaxed);
+    f->log[n % GP_FLEET_LOG_ROUNDS] = *r;
+    atomic_store_explicit(&f->n_log, n + 1u, memory_order_release);
+    f->have_cur = 0;
+}
+#undef DELTA
+
+uint32_t gp_fleet_rounds_logged(gp_fleet_t *f)
+{
+    return atomic_load_explicit(&f->n_log, memory_order_acquire);
+}
+
+const gp_fleet_round_t *gp_fleet_round(gp_fleet_t *f, uint32_t i)
+{
+    const uint32_t n = gp_fleet_rounds_logged(f);
+    return i < n && n - i <= GP_FLEET_LOG_ROUNDS ? &f->log[i % GP_FLEET_LOG_ROUNDS] : NULL;
+}
+
+/* ---- the hooks ---------------------------------------------------------------------------- */
+static int encode_state(gp_fleet_t *f, const float *theta, uint32_t n_params)
+{
+    if (n_params != BNN_N_PARAMS)
+        return -EINVAL;
+    if (f->cfg.encoding == GP_FLEET_FP32) {
+        memcpy(f->mine, theta, sizeof(float) * n_params);
+        return 0;
+    }
+    size_t written = 0;
+    int r = bnn_quant_pack_theta(&f->bnn, BNN_GROUP_ALL, theta, f->mine, sizeof f->mine, &written);
+    return r != 0 ? r : (written == f->state_bytes ? 0 : -EINVAL);
+}
+
+static int decode_state(gp_fleet_t *f, const uint8_t *bytes, float *theta)
+{
+    if (f->cfg.encoding == GP_FLEET_FP32) {
+        memcpy(theta, bytes, f->state_bytes);
+        for (uint32_t i = 0; i < BNN_N_PARAMS; i++)
+            if (!isfinite(theta[i]))
+                return -EBADMSG;
+        return 0;
+    }
+    return bnn_quant_unpack_theta(&f->bnn, BNN_GROUP_ALL, bytes, f->state_bytes, theta);
+}
+
+/* ||theta - mean of the neighbours|| / ||mean||: how far this robot is from its neighbours. */
+static float disagreement(const float *theta, const dinno_slots_t *slots, const uint32_t *ids, uint32_t n)
+{
+    if (n == 0)
+        return NAN;
+    double num = 0.0, den = 0.0;
+    for (uint32_t p = 0; p < BNN_N_PARAMS; p++) {
+        double m = 0.0;
+        for (uint32_t j = 0; j < n; j++)
+            m += slots->theta[ids[j]][p];
+        m /= (double)n;
+        const double d = (double)theta[p] - m;
+        num += d * d;
+        den += m * m;
+    }
+    return den > 0.0 ? (float)sqrt(num / den) : 0.0f;
+}
+
+static int finished_cond(const gp_pse_t *p)
+{
+    return !p->in_round || gp_pse_round_finished(p);
+}
+
+static int fleet_exchange(void *ctx, const gp_exchange_req_t *req, dinno_slots_t *slots)
+{
+    gp_fleet_t *f = ctx;
+    gp_pse_t *p = &f->pse;
+    if (p->in_round && p->round >= req->round) {
+        if (p->round != req->round)
+            return -EINVAL;
+        /* Round k already begun: a previous call waited and came back (no hal_net_wait). */
+    } else {
+        if (p->in_round && !p->completed && gp_pse_complete(p, net_now()) != 0)
+            return -EINVAL;
+        if (wait_for(f, finished_cond) != 0)
+            return -EAGAIN;
+        close_record(f);
+        int r = encode_state(f, req->theta, req->n_params);
+        if (r != 0)
+            return r;
+        double x = req->x_m, y = req->y_m;
+        if (f->cfg.positions_from_tour &&
+            rt_path_point_frac(f->tour, f->cfg.n_tour, req->round, f->cfg.rounds, &x, &y) != 0)
+            return -EINVAL;
+        f->mark = p->stats;
+        memset(&f->cur, 0, sizeof f->cur);
+        f->cur.round = req->round;
+        f->cur.disagreement = NAN;
+        f->cur_started_us = net_now();
+        f->have_cur = 1;
+        if ((r = gp_pse_begin_round(p, req->round, f->mine, x, y, net_now())) != 0)
+            return r;
+    }
+    if (wait_for(f, gp_pse_states_ready) != 0)
+        return -EAGAIN;
+    uint32_t ids[GP_PSE_MAX_PEERS];
+    const uint8_t *states[GP_PSE_MAX_PEERS];
+    const uint32_t n = gp_pse_neighbours(p, ids, states);
+    memset(slots->valid, 0, sizeof slots->valid);
+    uint32_t used[GP_PSE_MAX_PEERS], k = 0;
+    for (uint32_t j = 0; j < n; j++) {
+        if (ids[j] >= DINNO_MAX_PEERS || decode_state(f, states[j], slots->theta[ids[j]]) != 0) {
+            f->stats.decode_failures++;
+            continue;
+        }
+        slots->valid[ids[j]] = 1;
+        slots->round[ids[j]] = req->round;
+        used[k++] = ids[j];
+    }
+    f->cur.neighbours = k;
+    f->cur.disagreement = disagreement(req->theta, slots, used, k);
+    return (int)k;
+}
+
+static void fleet_round_done(void *ctx, uint32_t round, int final)
+{
+    gp_fleet_t *f = ctx;
+    gp_pse_t *p = &f->pse;
+    if (!p->in_round || p->round != round || p->completed)
+        return;
+    if (gp_pse_complete(p, net_now()) != 0)
+        return;
+    if (final) {
+        /* Stay until every peer finished the last round: one of them may still need our state. */
+        (void)wait_for(f, finished_cond);
+        close_record(f);
+        f->final_done = 1;
+    }
+}
+
+static void fleet_service(void *ctx)
+{
+    gp_fleet_t *f = ctx;
+    drain(f);
+    gp_pse_poll(&f->pse, net_now());
+}
+
+const gp_peers_ops_t gp_fleet_peers_ops = {
+    .exchange = fleet_exchange,
+    .round_done = fleet_round_done,
+    .service = fleet_service,
+};

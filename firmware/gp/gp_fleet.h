@@ -1,0 +1,128 @@
+/* The robot's membership of a fleet: Algorithm 1 (gp_pse) over hal_net, with the firmware's
+ * own codec (gp_wire), plugged into the GP core as its peers hooks (gp_peers_ops_t).
+ *
+ * Channels of fleet F: GP_FLEET_CHANNEL_PREFIX "<F>/state" (state_chunk_t), ".../done"
+ * (round_complete_t) and ".../request" (chunk_request_t). Every datagram is decoded with every
+ * length checked (gp_wire) and then validated by the protocol (gp_pse); what fails is counted.
+ *
+ * Time. The network lives in real time (hal_net_clock_us), the robot in its core clock: on the
+ * host the lockstep's simulated time, which stands still while the GP core waits for its peers
+ * inside one tick (hal_net_wait). So a round costs no simulated time for the network, and the
+ * simulated timeline of every robot is the same however fast the other processes run.
+ *
+ * A round k as the GP core drives it:
+ *   exchange(k)     (AI published state(k)) wait until round k-1 finished for everyone, encode
+ *                   our state (fp32, or int8 with per-row scales: bnn_quant), send it with our
+ *                   position of round k (offline: the point at fraction k / rounds of the tour,
+ *                   as the in-process reference; online: the robot's pose), wait until every
+ *                   peer's state of k arrived or the peer left, decode the neighbours' states
+ *                   (disk radius on the carried positions, or every peer) into the slots;
+ *   round_done(k)   (AI's checkpoint of k) RoundComplete(k); after the last round, wait until
+ *                   everyone finished it (or left), so that no peer still needs our state;
+ *   service()       every tick: receive, answer resend requests, resend ours.
+ * The waits end by the protocol's timeouts: a peer silent too long leaves the round.
+ *
+ * Per-round records (traffic, waiting time, neighbours, disagreement) go into a ring the host
+ * reads between lockstep slices, like the GP core's round log.
+ *
+ * Storage: gp_fleet_t is static (the image declares it); sized from BOARD_MAX_PEERS, the preset
+ * and the board's datagram. No allocation. Little-endian boards (fp32 states travel as raw
+ * IEEE-754 little-endian words). */
+#ifndef GP_GP_FLEET_H
+#define GP_GP_FLEET_H
+
+#include <stdatomic.h>
+#include <stdint.h>
+
+#include "ai/bnn.h"
+#include "gp/gp_core.h"
+#include "gp/gp_pse.h"
+#include "hal/hal_net.h"
+#include "rt/rt_follow.h"
+
+#define GP_FLEET_CHANNEL_PREFIX "fleetsim/"
+#define GP_FLEET_LOG_ROUNDS 1024u
+#define GP_FLEET_MAX_TOUR RT_CORE_MAX_WAYPOINTS
+
+typedef enum gp_fleet_encoding { GP_FLEET_FP32 = 0, GP_FLEET_INT8 = 1 } gp_fleet_encoding_t;
+typedef enum gp_fleet_channel { GP_FLEET_CH_STATE = 0, GP_FLEET_CH_DONE = 1, GP_FLEET_CH_REQUEST = 2 } gp_fleet_channel_t;
+
+typedef struct gp_fleet_cfg {
+    uint32_t fleet_id;
+    uint32_t self, n_peers;          /* self < n_peers <= GP_PSE_MAX_PEERS */
+    uint32_t rounds;                 /* DiNNO rounds of the run (tour fractions) */
+    double radius_m;                 /* disk graph radius; <= 0: every peer */
+    gp_fleet_encoding_t encoding;
+    uint32_t incarnation;
+    uint32_t chunk_bytes;            /* 0: GP_PSE_MAX_CHUNK_BYTES */
+    uint32_t resend_after_us;        /* ask again for missing chunks (default 500 ms) */
+    uint32_t peer_timeout_us;        /* a silent peer leaves the round (default 10 s) */
+    uint32_t join_timeout_us;        /* the same before a peer was ever heard (default 120 s) */
+    uint32_t poll_us;                /* longest single hal_net_wait (default 2 ms) */
+    int positions_from_tour;         /* 1: round k at fraction k / rounds of the tour (offline);
+                                        0: the robot's pose when the round starts (online) */
+    const rt_waypoint_t *tour;       /* copied; needed with positions_from_tour */
+    int32_t n_tour;
+} gp_fleet_cfg_t;
+
+/* One round as this robot saw it (traffic counts are the round's own). */
+typedef struct gp_fleet_round {
+    uint32_t round;
+    uint32_t neighbours;
+    float disagreement;              /* ||theta - mean of neighbours|| / ||mean||; NaN without */
+    uint64_t wait_us;                /* real time the GP core waited for the peers */
+    uint64_t wall_us;                /* real time from the round's start to the next one's */
+    uint64_t bytes_sent, bytes_received;
+    uint64_t chunks_sent, chunks_received, chunks_resent, chunks_requested;
+    uint64_t duplicates, stale, timeouts, rejoins, crc_failures, invalid;
+} gp_fleet_round_t;
+
+typedef struct gp_fleet_stats {
+    uint64_t rx_messages;            /* datagrams taken from hal_net */
+    uint64_t rx_undecodable;         /* refused by gp_wire (or on an unknown channel) */
+    uint64_t own_echoes;             /* our own datagrams delivered back (LCM does) */
+    uint64_t tx_failed;              /* publishes refused by hal_net */
+    uint64_t decode_failures;        /* neighbour states that did not decode (int8 scales) */
+    uint64_t wait_us;                /* total real time spent waiting */
+} gp_fleet_stats_t;
+
+typedef struct gp_fleet {
+    gp_fleet_cfg_t cfg;
+    bnn_config_t bnn;
+    gp_pse_t pse;
+    gp_fleet_stats_t stats;
+    uint32_t state_bytes;
+    int final_done;
+    char channel[3][HAL_NET_CHANNEL_MAX];
+    gp_pse_stats_t mark;             /* pse counters when the current record began */
+    gp_fleet_round_t cur;            /* the record of the round in progress */
+    int have_cur;
+    uint64_t cur_started_us;
+    _Atomic uint32_t n_log;
+    gp_fleet_round_t log[GP_FLEET_LOG_ROUNDS];
+    rt_waypoint_t tour[GP_FLEET_MAX_TOUR];
+    _Alignas(64) uint8_t mine[GP_PSE_MAX_STATE_BYTES];
+    _Alignas(64) uint8_t tx[HAL_NET_MTU_BYTES];
+    _Alignas(64) uint8_t rx[HAL_NET_MTU_BYTES];
+} gp_fleet_t;
+
+gp_fleet_cfg_t gp_fleet_default_cfg(void);
+
+/* The channel name of `which` for fleet `fleet_id` into buf. 0 or -EINVAL. */
+FS_MUST_CHECK int gp_fleet_channel_name(uint32_t fleet_id, gp_fleet_channel_t which, char *buf, size_t cap);
+
+/* State bytes of one encoded state of the preset. */
+uint32_t gp_fleet_state_bytes(gp_fleet_encoding_t enc);
+
+/* Validates cfg, resets f and subscribes to the fleet's channels (the board must be
+ * installed). 0, -EINVAL or the HAL's error. */
+FS_MUST_CHECK int gp_fleet_init(gp_fleet_t *f, const gp_fleet_cfg_t *cfg);
+
+/* The hooks for gp_core_cfg_t.peers (ctx: the gp_fleet_t). */
+extern const gp_peers_ops_t gp_fleet_peers_ops;
+
+/* For the host between lockstep slices (all cores blocked) or after the cores stopped. */
+uint32_t gp_fleet_rounds_logged(gp_fleet_t *f);
+const gp_fleet_round_t *gp_fleet_round(gp_fleet_t *f, uint32_t i);
+
+#endif /* GP_GP_FLEET_H */
