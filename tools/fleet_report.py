@@ -1,0 +1,747 @@
+#!/usr/bin/python3
+"""Human-readable report of one multi-process fleet run: figures and summary.md in RUN_DIR.
+
+    tools/fleet_report.py RUN_DIR [--quiet]
+
+Reads (every file optional: a missing one skips its figure and is named in summary.md):
+  run.json                      every setting of the run (all keys shown, none required)
+  robot_<i>/metrics.csv         per DiNNO round: round,...,train_loss,...,val_loss,...
+  robot_<i>/traffic.csv         per round: round,...,bytes_sent,...,chunks_resent,
+                                chunks_requested,...,timeouts,...
+  robot_<i>/train.samples       the samples the robot trained on (tools/samples.py format)
+  maps/map_mean.npy, map_std.npy, map_single.npy, map_meta.json, consensus.csv,
+  maps/map.pgm + map.yaml       (ROS map_server), scene.png
+Writes into RUN_DIR (each file whole or not at all: a temporary file beside it, renamed):
+  map_mean.png, map_std.png, map_single.png   the maps in metres with the robots' tours
+  kde.png                        Gaussian KDE of the lidar hits (occ > 0.5) of all robots
+  val_loss.png                   validation loss per robot and round
+  traffic.png                    fleet bytes sent per round; chunks requested and re-sent
+  summary.md                     settings, final figures, the images
+Tour files named in run.json "paths" are read relative to the current directory, to the
+project root (RUN_DIR/../.., or this tool's ../) or to RUN_DIR; a tour not found is skipped.
+A malformed input stops the report with a one-line reason (FILE:LINE where it applies) and
+exit status 1, before any output is written. Needs Debian's python3-numpy, -scipy, -matplotlib.
+"""
+import argparse
+import csv
+import glob
+import io
+import json
+import math
+import os
+import re
+import sys
+import tempfile
+
+TOOLS_DIR = os.path.dirname(os.path.realpath(__file__))
+TMP_PREFIX = ".fleet_report."
+KDE_MAX_POINTS = 20000
+KDE_GRID = 200
+SCATTER_PER_ROBOT = 3000
+
+METRICS_NEED = ("round", "train_loss", "val_loss")
+TRAFFIC_NEED = ("round", "bytes_sent", "chunks_requested", "chunks_resent", "timeouts")
+CONSENSUS_NEED = ("model", "val_loss", "consensus_error")
+MAP_KINDS = ("mean", "std", "single")
+
+
+class ReportError(Exception):
+    """A malformed input or an output that cannot be written: one line, exit 1."""
+
+
+# ---- reading ---------------------------------------------------------------------------------
+
+def read_text(path):
+    try:
+        with open(path, encoding="utf-8-sig") as f:
+            return f.read()
+    except UnicodeDecodeError:
+        raise ReportError(f"{path}: not UTF-8 text")
+    except OSError as e:
+        raise ReportError(f"{path}: {e.strerror or e}")
+
+
+def read_json_object(path):
+    text = read_text(path)
+    try:
+        obj = json.loads(text)
+    except ValueError as e:
+        raise ReportError(f"{path}:{getattr(e, 'lineno', '?')}: not valid JSON ({getattr(e, 'msg', e)})")
+    if not isinstance(obj, dict):
+        raise ReportError(f"{path}: expected a JSON object, got {type(obj).__name__}")
+    return obj
+
+
+def read_csv(path, need, text_cols=()):
+    """Numeric CSV with a header: {column: list of float} (text_cols kept as str).
+    Columns in `need` must exist; every row must have as many fields as the header."""
+    text = read_text(path)
+    reader = csv.reader(io.StringIO(text, newline=""), strict=True)
+    try:
+        rows = [(reader.line_num, r) for r in reader]
+    except csv.Error as e:
+        raise ReportError(f"{path}:{reader.line_num}: {e}")
+    if not rows or not any(x.strip() for x in rows[0][1]):
+        raise ReportError(f"{path}:1: no header line")
+    header = [h.strip() for h in rows[0][1]]
+    if len(set(header)) != len(header):
+        raise ReportError(f"{path}:1: repeated column name")
+    for c in need:
+        if c not in header:
+            raise ReportError(f"{path}:1: no column '{c}' (has {','.join(header)})")
+    cols = {h: [] for h in header}
+    for n, row in rows[1:]:
+        if not row or (len(row) == 1 and not row[0].strip()):
+            continue
+        fields = [x.strip() for x in row]
+        if len(fields) != len(header):
+            raise ReportError(f"{path}:{n}: {len(fields)} fields, expected {len(header)}")
+        for h, v in zip(header, fields):
+            if h in text_cols:
+                cols[h].append(v)
+                continue
+            try:
+                cols[h].append(float(v))
+            except ValueError:
+                raise ReportError(f"{path}:{n}: column '{h}': '{v}' is not a number")
+    if "round" in cols:
+        for k, r in enumerate(cols["round"]):
+            if not (math.isfinite(r) and r == int(r) and r >= 0):
+                raise ReportError(f"{path}: row {k + 1}: round '{r}' is not a whole number >= 0")
+    return cols
+
+
+def load_npy(np, path):
+    try:
+        a = np.load(path, allow_pickle=False)
+    except (OSError, ValueError, EOFError) as e:
+        raise ReportError(f"{path}: not a readable .npy array ({e})")
+    if not isinstance(a, np.ndarray) or a.ndim != 2 or a.shape[0] < 1 or a.shape[1] < 1:
+        raise ReportError(f"{path}: expected a 2-D (H, W) grid, got shape {getattr(a, 'shape', '?')}")
+    if a.dtype.kind not in "fiu":
+        raise ReportError(f"{path}: expected a numeric grid, got dtype {a.dtype}")
+    return a.astype(np.float64)
+
+
+def read_tour(path):
+    """Waypoints of a tour CSV (header x_m,y_m, then one x,y per line): list of (x, y)."""
+    pts = []
+    first = True
+    for n, line in enumerate(read_text(path).splitlines(), start=1):
+        s = line.strip()
+        if not s or s.startswith("#"):
+            continue
+        f = [x.strip() for x in s.split(",")]
+        try:
+            if len(f) < 2:
+                raise ValueError
+            x, y = float(f[0]), float(f[1])
+        except ValueError:
+            if first:
+                first = False
+                continue  # the header line (x_m,y_m)
+            raise ReportError(f"{path}:{n}: not an x,y waypoint: '{s}'")
+        first = False
+        if not (math.isfinite(x) and math.isfinite(y)):
+            raise ReportError(f"{path}:{n}: waypoint not finite: '{s}'")
+        pts.append((x, y))
+    return pts
+
+
+def resolve_tour(p, run_dir):
+    if os.path.isabs(p):
+        return p if os.path.isfile(p) else None
+    for base in (os.getcwd(), os.path.join(run_dir, "..", ".."), os.path.dirname(TOOLS_DIR), run_dir):
+        q = os.path.normpath(os.path.join(base, p))
+        if os.path.isfile(q):
+            return q
+    return None
+
+
+def load_samples(path):
+    sys.path.insert(0, TOOLS_DIR)
+    try:
+        import samples
+    finally:
+        sys.path.pop(0)
+    try:
+        return samples.load(path), samples.to_metres
+    except samples.SamplesError as e:
+        raise ReportError(str(e))
+    except OSError as e:
+        raise ReportError(f"{path}: {e.strerror or e}")
+
+
+class Run:
+    """Everything read from RUN_DIR, validated; `notes` lists what is missing."""
+
+    def __init__(self, np, run_dir):
+        self.np = np
+        self.dir = run_dir
+        self.notes = []
+        self.settings = None
+        self.robots = []
+        self.metrics = {}
+        self.traffic = {}
+        self.hits = {}        # robot -> (x, y) arrays of the lidar hits in metres
+        self.sample_box = None
+        self.maps = {}
+        self.meta = None
+        self.consensus = None
+        self.tours = {}       # robot -> array (n, 2)
+        self.has_ros_map = False
+        self.scene = False
+
+    def p(self, *parts):
+        return os.path.join(self.dir, *parts)
+
+    def note(self, text):
+        self.notes.append(text)
+
+    def load(self):
+        np = self.np
+        if os.path.isfile(self.p("run.json")):
+            self.settings = read_json_object(self.p("run.json"))
+        else:
+            self.note("run.json is missing: no settings table")
+        s = self.settings or {}
+        n = s.get("robots")
+        if n is not None and (isinstance(n, bool) or not isinstance(n, int) or n < 0):
+            raise ReportError(f"{self.p('run.json')}: \"robots\" must be a whole number >= 0, got {n!r}")
+        found = set()
+        for d in glob.glob(self.p("robot_*")):
+            m = re.fullmatch(r"robot_(\d+)", os.path.basename(d))
+            if m and os.path.isdir(d):
+                found.add(int(m.group(1)))
+        self.robots = sorted(set(range(n or 0)) | found)
+        if not self.robots:
+            self.note("no robot_<i>/ folder: no per-robot figures")
+
+        for i in self.robots:
+            rd = f"robot_{i}"
+            f = self.p(rd, "metrics.csv")
+            if os.path.isfile(f):
+                self.metrics[i] = {k: np.asarray(v) for k, v in read_csv(f, METRICS_NEED).items()}
+            else:
+                self.note(f"{rd}/metrics.csv is missing")
+            f = self.p(rd, "traffic.csv")
+            if os.path.isfile(f):
+                self.traffic[i] = {k: np.asarray(v) for k, v in read_csv(f, TRAFFIC_NEED).items()}
+            else:
+                self.note(f"{rd}/traffic.csv is missing")
+            f = self.p(rd, "train.samples")
+            if os.path.isfile(f):
+                (h, a), to_metres = load_samples(f)
+                x, y = to_metres(h, a)
+                hit = a["occ"] > 0.5
+                self.hits[i] = (x[hit], y[hit])
+                b = (h["min_x"], h["min_y"], h["max_x"], h["max_y"])
+                if self.sample_box is None:
+                    self.sample_box = b
+                else:
+                    sb = self.sample_box
+                    self.sample_box = (min(sb[0], b[0]), min(sb[1], b[1]), max(sb[2], b[2]), max(sb[3], b[3]))
+            else:
+                self.note(f"{rd}/train.samples is missing")
+
+        self.load_maps()
+
+        paths = s.get("paths")
+        if paths is not None:
+            if not isinstance(paths, list) or not all(isinstance(q, str) for q in paths):
+                raise ReportError(f"{self.p('run.json')}: \"paths\" must be a list of file names")
+            for i, q in enumerate(paths):
+                f = resolve_tour(q, self.dir)
+                if f is None:
+                    continue  # a tour that is not here is skipped silently
+                t = read_tour(f)
+                if t:
+                    self.tours[i] = np.asarray(t, dtype=float)
+
+        self.has_ros_map = os.path.isfile(self.p("maps", "map.pgm")) and os.path.isfile(self.p("maps", "map.yaml"))
+        if not self.has_ros_map:
+            self.note("maps/map.pgm or maps/map.yaml is missing: no ROS map")
+        self.scene = os.path.isfile(self.p("scene.png"))
+        if not self.scene:
+            self.note("scene.png is missing: no rendering of the plan")
+
+    def load_maps(self):
+        np = self.np
+        f = self.p("maps", "map_meta.json")
+        if os.path.isfile(f):
+            self.meta = read_json_object(f)
+            box = []
+            for k in ("xmin", "ymin", "xmax", "ymax"):
+                v = self.meta.get(k)
+                if isinstance(v, bool) or not isinstance(v, (int, float)) or not math.isfinite(v):
+                    raise ReportError(f"{f}: \"{k}\" must be a finite number, got {v!r}")
+                box.append(float(v))
+            if not (box[0] < box[2] and box[1] < box[3]):
+                raise ReportError(f"{f}: empty box x {box[0]}..{box[2]}, y {box[1]}..{box[3]}")
+            for k in ("width", "height"):
+                v = self.meta.get(k)
+                if v is not None and (isinstance(v, bool) or not isinstance(v, int) or v < 1):
+                    raise ReportError(f"{f}: \"{k}\" must be a whole number >= 1, got {v!r}")
+        for kind in MAP_KINDS:
+            g = self.p("maps", f"map_{kind}.npy")
+            if not os.path.isfile(g):
+                self.note(f"maps/map_{kind}.npy is missing: no map_{kind}.png")
+                continue
+            a = load_npy(np, g)
+            if self.meta is not None:
+                w, h = self.meta.get("width"), self.meta.get("height")
+                if (h is not None and a.shape[0] != h) or (w is not None and a.shape[1] != w):
+                    raise ReportError(f"{g}: shape {a.shape} disagrees with map_meta.json "
+                                      f"(height {h}, width {w})")
+            for other, b in self.maps.items():
+                if b.shape != a.shape:
+                    raise ReportError(f"{g}: shape {a.shape} differs from map_{other}.npy {b.shape}")
+            self.maps[kind] = a
+        if self.maps and self.meta is None:
+            self.note("maps/map_meta.json is missing: map axes " +
+                      ("from the samples' plan box" if self.sample_box else "in grid cells"))
+        f = self.p("maps", "consensus.csv")
+        if os.path.isfile(f):
+            c = read_csv(f, CONSENSUS_NEED, text_cols=("model", "file"))
+            self.consensus = [dict(zip(c.keys(), vals)) for vals in zip(*c.values())]
+        else:
+            self.note("maps/consensus.csv is missing: no consensus errors")
+
+    def map_box(self):
+        """(xmin, ymin, xmax, ymax, unit) of the map grid."""
+        if self.meta is not None:
+            m = self.meta
+            return float(m["xmin"]), float(m["ymin"]), float(m["xmax"]), float(m["ymax"]), "m"
+        if self.sample_box is not None:
+            return self.sample_box + ("m",)
+        a = next(iter(self.maps.values()))
+        return 0.0, 0.0, float(a.shape[1]), float(a.shape[0]), "cells"
+
+    def plan_box(self):
+        if self.meta is not None:
+            return self.map_box()[:4]
+        return self.sample_box
+
+
+# ---- writing ---------------------------------------------------------------------------------
+
+def clear_stale_temps(run_dir):
+    """Removes the temporary files a killed report left behind (only this tool's own)."""
+    for f in glob.glob(os.path.join(run_dir, TMP_PREFIX + "*.tmp")):
+        try:
+            os.unlink(f)
+        except OSError:
+            pass
+
+
+def write_atomic(path, writer):
+    """Calls writer(file object) on a temporary file beside path, then renames it over path."""
+    d = os.path.dirname(os.path.abspath(path))
+    try:
+        fd, tmp = tempfile.mkstemp(dir=d, prefix=TMP_PREFIX + os.path.basename(path) + ".", suffix=".tmp")
+    except OSError as e:
+        raise ReportError(f"{path}: {e.strerror or e}")
+    try:
+        with os.fdopen(fd, "wb") as f:
+            writer(f)
+            f.flush()
+            os.fsync(f.fileno())
+        if os.path.isdir(path):
+            raise ReportError(f"{path}: Is a directory")
+        os.replace(tmp, path)
+    except OSError as e:
+        _unlink(tmp)
+        raise ReportError(f"{path}: {e.strerror or e}")
+    except BaseException:
+        _unlink(tmp)
+        raise
+
+
+def _unlink(p):
+    try:
+        os.unlink(p)
+    except OSError:
+        pass
+
+
+def save_fig(plt, fig, path):
+    try:
+        write_atomic(path, lambda f: fig.savefig(f, format="png", dpi=110))
+    finally:
+        plt.close(fig)
+
+
+def fmt(v, digits=4):
+    if v is None:
+        return "n/a"
+    if isinstance(v, float):
+        if not math.isfinite(v):
+            return "n/a" if math.isnan(v) else str(v)
+        if v != 0 and (abs(v) >= 1e5 or abs(v) < 1e-3):
+            return f"{v:.{digits - 1}e}"
+        return f"{v:.{digits}g}"
+    return str(v)
+
+
+def md_cell(v):
+    if isinstance(v, (list, tuple)):
+        s = ", ".join(str(x) for x in v) if all(not isinstance(x, (dict, list)) for x in v) else json.dumps(v)
+    elif isinstance(v, dict):
+        s = json.dumps(v, sort_keys=True)
+    elif isinstance(v, float):
+        s = repr(v)
+    elif v is None:
+        s = "null"
+    else:
+        s = str(v)
+    return s.replace("\\", "\\\\").replace("|", "\\|").replace("\n", " ").replace("\r", " ")
+
+
+# ---- figures ---------------------------------------------------------------------------------
+
+def draw_tours(ax, run):
+    import matplotlib.pyplot as plt
+    colours = plt.get_cmap("tab10")
+    for i, t in sorted(run.tours.items()):
+        c = colours(i % 10)
+        ax.plot(t[:, 0], t[:, 1], "-", lw=1.2, color=c, alpha=0.9, label=f"robot {i}")
+        ax.plot(t[0, 0], t[0, 1], "o", ms=4, color=c)
+    if run.tours:
+        ax.legend(loc="upper right", fontsize=7, framealpha=0.7)
+
+
+def fig_maps(plt, run, out):
+    np = run.np
+    made = []
+    if not run.maps:
+        return made
+    x0, y0, x1, y1, unit = run.map_box()
+    mc = run.meta.get("mc") if run.meta else None
+    passes = f"{mc} MC passes" if mc is not None else "MC passes: unknown"
+    aspect = (y1 - y0) / (x1 - x0)
+    for kind in MAP_KINDS:
+        a = run.maps.get(kind)
+        if a is None:
+            continue
+        if kind == "mean":
+            cmap, vmin, vmax, label = "gray_r", 0.0, 1.0, "P(occupied)"
+            title = f"occupancy: mean of {passes}"
+        elif kind == "std":
+            fin = a[np.isfinite(a)]
+            smax = run.meta.get("std_max") if run.meta else None
+            if isinstance(smax, bool) or not isinstance(smax, (int, float)) or not math.isfinite(smax) or smax <= 0:
+                smax = float(fin.max()) if fin.size and fin.max() > 0 else 1.0
+            cmap, vmin, vmax, label = "viridis", 0.0, float(smax), "MC std"
+            title = f"uncertainty: standard deviation of {passes}"
+        else:
+            cmap, vmin, vmax, label = "gray_r", 0.0, 1.0, "one stochastic pass"
+            title = f"one stochastic pass (the mean uses {passes})"
+        fig, ax = plt.subplots(figsize=(8, max(3.0, 8 * aspect) + 0.6), constrained_layout=True)
+        im = ax.imshow(a, extent=[x0, x1, y0, y1], origin="upper", cmap=cmap, vmin=vmin, vmax=vmax,
+                       interpolation="nearest")
+        fig.colorbar(im, ax=ax, label=label, shrink=0.85)
+        if unit == "m":
+            draw_tours(ax, run)
+        ax.set_xlim(x0, x1)
+        ax.set_ylim(y0, y1)
+        ax.set_xlabel(f"x ({unit})")
+        ax.set_ylabel(f"y ({unit})")
+        ax.set_title(title)
+        name = f"map_{kind}.png"
+        save_fig(plt, fig, os.path.join(out, name))
+        made.append(name)
+    return made
+
+
+def fig_kde(plt, run, out):
+    np = run.np
+    from scipy.stats import gaussian_kde
+    if not run.hits:
+        run.note("kde.png: no robot_<i>/train.samples")
+        return None
+    xs = np.concatenate([h[0] for h in run.hits.values()])
+    ys = np.concatenate([h[1] for h in run.hits.values()])
+    n = xs.size
+    if n < 3:
+        run.note(f"kde.png: only {n} lidar hits in the training samples, too few for a KDE")
+        return None
+    pts = np.vstack([xs, ys])
+    if n > KDE_MAX_POINTS:
+        idx = np.random.default_rng(0).choice(n, KDE_MAX_POINTS, replace=False)
+        pts = pts[:, np.sort(idx)]
+    box = run.plan_box() or (float(xs.min()), float(ys.min()), float(xs.max()), float(ys.max()))
+    x0, y0, x1, y1 = box
+    if not (x1 > x0 and y1 > y0):
+        run.note("kde.png: the lidar hits span an empty box")
+        return None
+    try:
+        kde = gaussian_kde(pts)
+    except (np.linalg.LinAlgError, ValueError) as e:
+        run.note(f"kde.png: no KDE of the lidar hits ({str(e).splitlines()[0]})")
+        return None
+    w, h = x1 - x0, y1 - y0
+    nx = KDE_GRID if w >= h else max(20, int(round(KDE_GRID * w / h)))
+    ny = KDE_GRID if h > w else max(20, int(round(KDE_GRID * h / w)))
+    gx, gy = np.linspace(x0, x1, nx), np.linspace(y0, y1, ny)
+    X, Y = np.meshgrid(gx, gy)
+    dens = kde(np.vstack([X.ravel(), Y.ravel()])).reshape(ny, nx)
+    fig, ax = plt.subplots(figsize=(8, max(3.0, 8 * h / w) + 0.6), constrained_layout=True)
+    im = ax.imshow(dens, extent=[x0, x1, y0, y1], origin="lower", cmap="magma", interpolation="bilinear")
+    fig.colorbar(im, ax=ax, label="density", shrink=0.85)
+    colours = plt.get_cmap("tab10")
+    rng = np.random.default_rng(0)
+    for i, (hx, hy) in sorted(run.hits.items()):
+        if hx.size == 0:
+            continue
+        sel = rng.choice(hx.size, SCATTER_PER_ROBOT, replace=False) if hx.size > SCATTER_PER_ROBOT else slice(None)
+        ax.scatter(hx[sel], hy[sel], s=0.6, alpha=0.25, color=colours(i % 10), lw=0, label=f"robot {i}")
+    if len(run.hits) > 0:
+        leg = ax.legend(loc="upper right", fontsize=7, markerscale=8, framealpha=0.7)
+        for lh in leg.legend_handles if hasattr(leg, "legend_handles") else leg.legendHandles:
+            lh.set_alpha(1)
+    ax.set_xlim(x0, x1)
+    ax.set_ylim(y0, y1)
+    ax.set_xlabel("x (m)")
+    ax.set_ylabel("y (m)")
+    used = pts.shape[1]
+    ax.set_title(f"KDE of the lidar hits used for training: {n} hits of {len(run.hits)} robots"
+                 + (f" ({used} drawn)" if used < n else ""), fontsize=10)
+    save_fig(plt, fig, os.path.join(out, "kde.png"))
+    return "kde.png"
+
+
+def fig_val_loss(plt, run, out):
+    np = run.np
+    if not run.metrics:
+        run.note("val_loss.png: no robot_<i>/metrics.csv")
+        return None
+    fig, ax = plt.subplots(figsize=(7, 4), constrained_layout=True)
+    lo, hi, lines = math.inf, -math.inf, 0
+    colours = plt.get_cmap("tab10")
+    for i, m in sorted(run.metrics.items()):
+        r, v = m["round"], m["val_loss"]
+        ok = np.isfinite(v)
+        if not ok.any():
+            continue
+        ax.plot(r[ok], v[ok], "-", lw=1.2, color=colours(i % 10), label=f"robot {i}",
+                marker="." if ok.sum() < 30 else None)
+        lo, hi, lines = min(lo, float(v[ok].min())), max(hi, float(v[ok].max())), lines + 1
+    if lines == 0:
+        plt.close(fig)
+        run.note("val_loss.png: no finite validation loss in any metrics.csv")
+        return None
+    if lo > 0 and hi / lo > 10:
+        ax.set_yscale("log")
+    ax.set_xlabel("round")
+    ax.set_ylabel("validation loss")
+    ax.set_title("validation loss per robot")
+    ax.grid(alpha=0.3)
+    ax.legend(fontsize=7, ncol=2 if lines > 6 else 1)
+    save_fig(plt, fig, os.path.join(out, "val_loss.png"))
+    return "val_loss.png"
+
+
+def per_round_sum(np, tables, col):
+    """Rounds (sorted) and the sum of `col` over the robots at each round."""
+    rounds = np.unique(np.concatenate([t["round"] for t in tables])).astype(np.int64)
+    total = np.zeros(rounds.size)
+    for t in tables:
+        v = t[col]
+        ok = np.isfinite(v)
+        idx = np.searchsorted(rounds, t["round"][ok].astype(np.int64))
+        np.add.at(total, idx, v[ok])
+    return rounds, total
+
+
+def fig_traffic(plt, run, out):
+    from matplotlib.ticker import MaxNLocator
+    np = run.np
+    tables = [t for _, t in sorted(run.traffic.items()) if t["round"].size]
+    if not tables:
+        run.note("traffic.png: no robot_<i>/traffic.csv with rows")
+        return None
+    rounds, sent = per_round_sum(np, tables, "bytes_sent")
+    _, req = per_round_sum(np, tables, "chunks_requested")
+    _, res = per_round_sum(np, tables, "chunks_resent")
+    _, tmo = per_round_sum(np, tables, "timeouts")
+    scale, unit = 1.0, "B"
+    for s, u in ((1e9, "GB"), (1e6, "MB"), (1e3, "kB")):
+        if sent.max() >= 10 * s:
+            scale, unit = s, u
+            break
+    fig, (a1, a2) = plt.subplots(2, 1, figsize=(7, 5.5), sharex=True, constrained_layout=True)
+    a1.plot(rounds, sent / scale, "-", lw=1.0, color="tab:blue")
+    a1.set_ylabel(f"bytes sent ({unit})")
+    a1.set_ylim(bottom=0, top=max(1.0, float(sent.max()) / scale) * 1.08)
+    a1.set_title(f"fleet traffic per round (sum over {len(tables)} robots)")
+    a1.grid(alpha=0.3)
+    a2.plot(rounds, req, "-", lw=1.0, color="tab:red", label="chunks requested (lost)")
+    a2.plot(rounds, res, "-", lw=1.0, color="tab:green", label="chunks re-sent")
+    if tmo.any():
+        a2.plot(rounds, tmo, ":", lw=1.0, color="0.3", label="timeouts")
+    a2.set_xlabel("round")
+    a2.set_ylabel("chunks")
+    a2.set_ylim(bottom=0)
+    a2.yaxis.set_major_locator(MaxNLocator(integer=True))
+    a2.grid(alpha=0.3)
+    a2.legend(fontsize=7)
+    save_fig(plt, fig, os.path.join(out, "traffic.png"))
+    return "traffic.png"
+
+
+# ---- summary.md ------------------------------------------------------------------------------
+
+def last_finite(np, v):
+    ok = np.flatnonzero(np.isfinite(v))
+    return (float(v[ok[-1]]), int(ok[-1])) if ok.size else (None, None)
+
+
+def summary(run, figures):
+    np = run.np
+    L = [f"# Fleet run report: {os.path.basename(os.path.abspath(run.dir))}", ""]
+    s = run.settings
+    if s is not None:
+        L += ["## Settings", "", "| setting | value |", "|---|---|"]
+        L += [f"| {md_cell(k)} | {md_cell(v)} |" for k, v in s.items()]
+        L.append("")
+
+    L += ["## Final figures", ""]
+    cons = {}
+    cons_model = None
+    for row in run.consensus or []:
+        if row["model"] == "consensus":
+            cons_model = row
+        else:
+            cons[row["model"]] = row
+    if run.robots:
+        L += ["| robot | last round | final val loss (round) | final train loss | bytes sent per round "
+              "| chunks requested | chunks re-sent | timeouts | model val loss | consensus error |",
+              "|---|---|---|---|---|---|---|---|---|---|"]
+        for i in run.robots:
+            m, t = run.metrics.get(i), run.traffic.get(i)
+            last_round = val = train = None
+            vr = None
+            if m is not None and m["round"].size:
+                last_round = int(m["round"][-1])
+                val, k = last_finite(np, m["val_loss"])
+                vr = int(m["round"][k]) if k is not None else None
+                train, _ = last_finite(np, m["train_loss"])
+            bpr = req = res = tmo = None
+            if t is not None and t["round"].size:
+                b = t["bytes_sent"][np.isfinite(t["bytes_sent"])]
+                bpr = float(b.mean()) if b.size else None
+                req, res, tmo = (int(np.nansum(t[c])) for c in ("chunks_requested", "chunks_resent", "timeouts"))
+            c = cons.get(str(i))
+            L.append(f"| {i} | {fmt(last_round)} | {fmt(val)}" + (f" ({vr})" if vr is not None else "") +
+                     f" | {fmt(train)} | {'n/a' if bpr is None else f'{bpr:,.0f}'} | {fmt(req)} | {fmt(res)} | {fmt(tmo)} | "
+                     f"{fmt(c['val_loss']) if c else 'n/a'} | {fmt(c['consensus_error']) if c else 'n/a'} |")
+        L.append("")
+    if run.traffic:
+        cols = ["bytes_sent", "bytes_received", "chunks_sent", "chunks_received", "chunks_resent",
+                "chunks_requested", "duplicates", "stale", "timeouts", "rejoins", "crc_failures", "invalid"]
+        tot = []
+        for c in cols:
+            vals = [t[c] for t in run.traffic.values() if c in t]
+            if vals:
+                tot.append((c, int(sum(float(np.nansum(v)) for v in vals))))
+        t = dict(tot)
+        sent = np.concatenate([v["bytes_sent"] for v in run.traffic.values()])
+        sent = sent[np.isfinite(sent)]
+        per_round = f"{sent.mean():,.0f}" if sent.size else "n/a"
+        L += [f"- total chunks requested {t['chunks_requested']:,}, re-sent {t['chunks_resent']:,}, "
+              f"timeouts {t['timeouts']:,}; bytes sent per round and robot {per_round} (mean)",
+              "- fleet traffic, summed over robots and rounds: " + ", ".join(f"{c} {v:,}" for c, v in tot)]
+    extra = [row for k, row in cons.items() if not (k.isdigit() and int(k) in run.robots)]
+    for row in extra:
+        L.append(f"- model {row['model']}: val loss {fmt(row['val_loss'])}, "
+                 f"consensus error {fmt(row['consensus_error'])}")
+    if cons_model is not None:
+        L.append(f"- consensus model: val loss {fmt(cons_model['val_loss'])}"
+                 + (f", consensus error {fmt(cons_model['consensus_error'])}"
+                    if math.isfinite(cons_model["consensus_error"]) else ""))
+    elif run.consensus is not None:
+        L.append("- consensus model: no `consensus` row in maps/consensus.csv")
+    if s is not None and "wall_s" in s:
+        L.append(f"- wall time: {md_cell(s['wall_s'])} s (run.json)")
+    else:
+        walls = [float(m["wall_s"][-1]) for m in run.metrics.values()
+                 if "wall_s" in m and m["wall_s"].size and math.isfinite(m["wall_s"][-1])]
+        L.append(f"- wall time: not in run.json; largest last `wall_s` of metrics.csv: {fmt(max(walls))} s"
+                 if walls else "- wall time: not recorded")
+    if run.meta is not None:
+        meta = ", ".join(f"{k} {md_cell(run.meta[k])}" for k in ("res", "width", "height", "mc", "seed", "std_max", "models")
+                         if k in run.meta)
+        L.append(f"- maps: {meta}")
+    L.append("")
+
+    L += ["## Figures", ""]
+    captions = {
+        "scene.png": "the plan (OSMesa rendering)",
+        "map_mean.png": "occupancy: MC mean, the robots' tours on top",
+        "map_std.png": "uncertainty: MC standard deviation",
+        "map_single.png": "one stochastic pass",
+        "kde.png": "density of the lidar hits the robots trained on",
+        "val_loss.png": "validation loss per robot",
+        "traffic.png": "fleet traffic per round",
+    }
+    shown = (["scene.png"] if run.scene else []) + figures
+    for name in shown:
+        L += [f"### {captions.get(name, name)}", "", f"![{name[:-4]}]({name})", ""]
+    if not shown:
+        L += ["(none: see below)", ""]
+    if run.has_ros_map:
+        L += ["## ROS map", "",
+              "`maps/map.pgm` + `maps/map.yaml`: load with ROS map_server: "
+              "`ros2 run nav2_map_server map_server --ros-args -p yaml_filename:=maps/map.yaml`", ""]
+    if run.notes:
+        L += ["## Not in this report", ""] + [f"- {n}" for n in run.notes] + [""]
+    return "\n".join(L)
+
+
+# ---- main ------------------------------------------------------------------------------------
+
+def main(argv=None):
+    ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0],
+                                 epilog=__doc__.split("\n\n", 1)[1],
+                                 formatter_class=argparse.RawDescriptionHelpFormatter)
+    ap.add_argument("run_dir", metavar="RUN_DIR", help="folder of one fleet run")
+    ap.add_argument("-q", "--quiet", action="store_true", help="print nothing but errors")
+    a = ap.parse_args(argv)
+    try:
+        if not os.path.isdir(a.run_dir):
+            raise ReportError(f"{a.run_dir}: " + ("Not a directory" if os.path.exists(a.run_dir)
+                                                  else "No such file or directory"))
+        if not os.access(a.run_dir, os.W_OK):
+            raise ReportError(f"{a.run_dir}: Permission denied (outputs go there)")
+        try:
+            import numpy as np
+            import matplotlib
+            matplotlib.use("Agg")
+            import matplotlib.pyplot as plt
+            import scipy.stats  # noqa: F401
+        except ImportError as e:
+            raise ReportError(f"needs numpy, scipy and matplotlib (Debian python3-numpy, python3-scipy, "
+                              f"python3-matplotlib; run with /usr/bin/python3): {e}")
+        clear_stale_temps(a.run_dir)
+        run = Run(np, a.run_dir)
+        run.load()  # every input validated before any output is written
+        figures = fig_maps(plt, run, a.run_dir)
+        for f in (fig_kde, fig_val_loss, fig_traffic):
+            name = f(plt, run, a.run_dir)
+            if name:
+                figures.append(name)
+        text = summary(run, figures)
+        write_atomic(os.path.join(a.run_dir, "summary.md"), lambda f: f.write(text.encode("utf-8")))
+    except ReportError as e:
+        print(f"fleet_report: {e}", file=sys.stderr)
+        return 1
+    if not a.quiet:
+        for f in figures:
+            print(f"fleet_report: wrote {os.path.join(a.run_dir, f)}")
+        print(f"fleet_report: wrote {os.path.join(a.run_dir, 'summary.md')}"
+              + (f" ({len(run.notes)} item(s) missing, listed there)" if run.notes else ""))
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())

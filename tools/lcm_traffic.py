@@ -1,0 +1,411 @@
+#!/usr/bin/python3
+"""Fleet traffic in an lcm-logger event log, per round and agent (pure Python, no lcm module).
+
+    tools/lcm_traffic.py LOGFILE [--prefix fleetsim/] [--csv FILE] [--totals-only]
+
+Reads the event log that `lcm-logger` writes (each event: u32 sync word 0xEDA1DA01, i64 event
+number, i64 utime in microseconds, i32 channel length, i32 data length, the channel name
+without NUL, the data; all big-endian) and decodes the fleet's three LCM messages
+(firmware/msg/*.lcm) by their 8-byte fingerprint:
+
+    state_chunk_t     0xdf65602b2d04bf15   on <prefix><fleet>/state
+    round_complete_t  0x174159e1f6557a31   on <prefix><fleet>/done
+    chunk_request_t   0x4bf474954af8607a   on <prefix><fleet>/request
+
+Telemetry (<prefix>telemetry/<robot>) is counted per robot; any other channel as "other".
+
+Everything is validated: a bad sync word makes the reader scan forward to the next event and
+count the bytes skipped; event lengths must be non-negative and within the file; a truncated
+last event is reported and ignored; a message whose fingerprint does not match its channel,
+whose lengths disagree with its data, or whose fields are out of range (negative sender or
+round, chunk outside 0..n_chunks-1, ...) is counted as malformed with its reason.
+
+Prints one row per (fleet, round, agent): state chunks sent, state bytes (chunk payload),
+chunks sent again (a (sender, round, chunk) seen more than once), chunk requests sent (as
+requester), chunks requested in them, RoundComplete sent; then totals per agent and overall,
+the log's time span and the event counts. --csv FILE writes the same table (rows, then the
+totals with round "total") as CSV. Exit status 1 on a missing or unreadable file, or one
+without a single valid event.
+"""
+import argparse
+import datetime
+import mmap
+import os
+import struct
+import sys
+import tempfile
+
+SYNC = 0xEDA1DA01
+SYNC_BYTES = struct.pack(">I", SYNC)
+EVENT_HEADER_SIGNED = struct.Struct(">Iqqii")
+EVENT_HEADER_SIZE = EVENT_HEADER_SIGNED.size  # 28
+CHANNEL_MAX = 1000          # what lcm's own log reader accepts (names are at most 63 bytes)
+DATA_MAX = 1 << 28          # LCM_MAX_MESSAGE_SIZE
+
+FP_STATE = 0xDF65602B2D04BF15
+FP_DONE = 0x174159E1F6557A31
+FP_REQUEST = 0x4BF474954AF8607A
+FINGERPRINTS = {FP_STATE: "state", FP_DONE: "done", FP_REQUEST: "request"}
+
+STATE_HEAD_SIGNED = struct.Struct(">Qiiiiibiddii")
+STATE_HEAD_SIZE = STATE_HEAD_SIGNED.size  # 57
+STATE_CHUNK_MAX = 61440      # firmware/msg/state_chunk.lcm: n_bytes <= 61440
+DONE = struct.Struct(">Qii")  # 16
+REQUEST_HEAD = struct.Struct(">Qiiii")  # 24
+
+COLUMNS = ["fleet", "round", "agent", "chunks_sent", "state_bytes", "chunks_resent",
+           "requests_sent", "chunks_requested", "done_sent"]
+
+
+class LogError(Exception):
+    pass
+
+
+class Stats:
+    """Everything counted while reading one log."""
+
+    def __init__(self):
+        self.events = 0              # events whose framing was valid
+        self.first_utime = None
+        self.last_utime = None
+        self.kind_events = {"state": 0, "done": 0, "request": 0}
+        self.telemetry = {}          # robot -> [events, bytes]
+        self.other = {}              # channel -> [events, bytes]
+        self.malformed = {}          # reason -> count
+        self.gaps = 0                # places where the sync word was not found
+        self.skipped_bytes = 0       # bytes skipped while looking for the next sync word
+        self.truncated_tail = 0      # bytes of an incomplete last event (ignored)
+        self.rows = {}               # (fleet, round, agent) -> counts (COLUMNS[3:])
+        self.seen_chunks = set()     # (fleet, sender, round, chunk)
+        self.fleets = set()
+
+    def bad(self, reason):
+        self.malformed[reason] = self.malformed.get(reason, 0) + 1
+
+    def row(self, fleet, rnd, agent):
+        key = (fleet, rnd, agent)
+        r = self.rows.get(key)
+        if r is None:
+            r = self.rows[key] = [0] * (len(COLUMNS) - 3)
+        return r
+
+
+def _plausible_event(buf, q, size):
+    """True if an event that starts at q has a valid header and ends at the file's end or
+    just before another sync word."""
+    if q + EVENT_HEADER_SIZE > size:
+        return False
+    sync, _, _, clen, dlen = EVENT_HEADER_SIGNED.unpack_from(buf, q)
+    if sync != SYNC or clen < 1 or clen > CHANNEL_MAX or dlen < 0 or dlen > DATA_MAX:
+        return False
+    end = q + EVENT_HEADER_SIZE + clen + dlen
+    if end > size:
+        return False
+    return end == size or (end + 4 <= size and buf[end:end + 4] == SYNC_BYTES)
+
+
+def _next_event(buf, start, size):
+    """Offset of the next plausible event at or after `start`, or -1."""
+    q = buf.find(SYNC_BYTES, start)
+    while q >= 0:
+        if _plausible_event(buf, q, size):
+            return q
+        q = buf.find(SYNC_BYTES, q + 1)
+    return -1
+
+
+def iter_events(buf, size, st):
+    """Yields (utime, channel bytes, data offset, data length) of every well-framed event."""
+    pos = 0
+    while pos < size:
+        if size - pos < 4 or buf[pos:pos + 4] != SYNC_BYTES:
+            if size - pos < 4 and SYNC_BYTES.startswith(bytes(buf[pos:size])):
+                st.truncated_tail += size - pos
+                return
+            q = _next_event(buf, pos + 1, size)
+            if q < 0:
+                # No further event: either a truncated event whose sync word was hit, or junk.
+                st.gaps += 1
+                st.skipped_bytes += size - pos
+                return
+            st.gaps += 1
+            st.skipped_bytes += q - pos
+            pos = q
+            continue
+        if size - pos < EVENT_HEADER_SIZE:
+            st.truncated_tail += size - pos
+            return
+        _, _, utime, clen, dlen = EVENT_HEADER_SIGNED.unpack_from(buf, pos)
+        end = pos + EVENT_HEADER_SIZE + clen + dlen
+        if clen < 1 or clen > CHANNEL_MAX or dlen < 0 or dlen > DATA_MAX or end > size:
+            q = _next_event(buf, pos + 1, size)
+            if q >= 0:
+                # Lengths that are out of range or run past a later valid event: corrupt.
+                st.gaps += 1
+                st.skipped_bytes += q - pos
+                pos = q
+                continue
+            if clen >= 1 and clen <= CHANNEL_MAX and dlen >= 0 and dlen <= DATA_MAX:
+                st.truncated_tail += size - pos   # a valid header whose event was cut short
+            else:
+                st.gaps += 1
+                st.skipped_bytes += size - pos
+            return
+        chan = bytes(buf[pos + EVENT_HEADER_SIZE:pos + EVENT_HEADER_SIZE + clen])
+        off = pos + EVENT_HEADER_SIZE + clen
+        pos = end
+        st.events += 1
+        if st.first_utime is None or utime < st.first_utime:
+            st.first_utime = utime
+        if st.last_utime is None or utime > st.last_utime:
+            st.last_utime = utime
+        yield utime, chan, off, dlen
+
+
+def decode(kind, fleet, buf, off, n, st):
+    """Checks and counts one fleet message of channel kind `kind`: n bytes at buf[off:]."""
+    if n < 8:
+        st.bad(f"{kind}: shorter than a fingerprint")
+        return
+    (fp,) = struct.unpack_from(">Q", buf, off)
+    got = FINGERPRINTS.get(fp)
+    if got is None:
+        st.bad(f"{kind}: unknown fingerprint 0x{fp:016x}")
+        return
+    if got != kind:
+        st.bad(f"{kind}: carries a {got} message (fingerprint does not match the channel)")
+        return
+    if kind == "state":
+        if n < STATE_HEAD_SIZE:
+            st.bad("state: shorter than its header")
+            return
+        (_, sender, rnd, chunk, n_chunks, state_bytes, encoding, _crc, x_m, y_m, _inc,
+         n_bytes) = STATE_HEAD_SIGNED.unpack_from(buf, off)
+        if n_bytes < 0 or STATE_HEAD_SIZE + n_bytes != n:
+            st.bad("state: n_bytes disagrees with the data")
+            return
+        if n_bytes > STATE_CHUNK_MAX:
+            st.bad("state: n_bytes above 61440")
+            return
+        if sender < 0 or rnd < 0:
+            st.bad("state: negative sender or round")
+            return
+        if n_chunks < 1 or chunk < 0 or chunk >= n_chunks or state_bytes < 0:
+            st.bad("state: chunk, n_chunks or state_bytes out of range")
+            return
+        st.kind_events["state"] += 1
+        r = st.row(fleet, rnd, sender)
+        r[0] += 1
+        r[1] += n_bytes
+        key = (fleet, sender, rnd, chunk)
+        if key in st.seen_chunks:
+            r[2] += 1
+        else:
+            st.seen_chunks.add(key)
+    elif kind == "done":
+        if n != DONE.size:
+            st.bad("done: length is not 16 bytes")
+            return
+        _, sender, rnd = DONE.unpack_from(buf, off)
+        if sender < 0 or rnd < 0:
+            st.bad("done: negative sender or round")
+            return
+        st.kind_events["done"] += 1
+        st.row(fleet, rnd, sender)[5] += 1
+    else:
+        if n < REQUEST_HEAD.size:
+            st.bad("request: shorter than its header")
+            return
+        _, requester, target, rnd, n_chunks = REQUEST_HEAD.unpack_from(buf, off)
+        if n_chunks < 0 or REQUEST_HEAD.size + 4 * n_chunks != n:
+            st.bad("request: n_chunks disagrees with the data")
+            return
+        if requester < 0 or target < 0 or rnd < 0:
+            st.bad("request: negative requester, target or round")
+            return
+        chunks = struct.unpack_from(f">{n_chunks}i", buf, off + REQUEST_HEAD.size)
+        if any(c < 0 for c in chunks):
+            st.bad("request: negative chunk index")
+            return
+        st.kind_events["request"] += 1
+        r = st.row(fleet, rnd, requester)
+        r[3] += 1
+        r[4] += n_chunks
+
+
+def classify(chan, prefix):
+    """('state'|'done'|'request', fleet) or ('telemetry', robot) or ('other', None)."""
+    if not chan.startswith(prefix):
+        return "other", None
+    rest = chan[len(prefix):]
+    if rest.startswith("telemetry/") and len(rest) > len("telemetry/"):
+        return "telemetry", rest[len("telemetry/"):]
+    fleet, sep, kind = rest.rpartition("/")
+    if sep and fleet and "/" not in fleet and kind in ("state", "done", "request"):
+        return kind, fleet
+    return "other", None
+
+
+def read_log(path, prefix):
+    try:
+        with open(path, "rb") as f:
+            size = os.fstat(f.fileno()).st_size
+            if size == 0:
+                raise LogError(f"{path}: empty file, no LCM event")
+            buf = mmap.mmap(f.fileno(), 0, access=mmap.ACCESS_READ)
+    except IsADirectoryError:
+        raise LogError(f"{path}: Is a directory")
+    except OSError as e:
+        raise LogError(f"{path}: {e.strerror or e}")
+    st = Stats()
+    try:
+        for _utime, chan_b, off, dlen in iter_events(buf, size, st):
+            if b"\0" in chan_b:
+                st.bad("channel name contains NUL")
+                continue
+            try:
+                chan = chan_b.decode("utf-8")
+            except UnicodeDecodeError:
+                st.bad("channel name is not UTF-8")
+                continue
+            kind, who = classify(chan, prefix)
+            if kind == "other":
+                c = st.other.setdefault(chan, [0, 0])
+                c[0] += 1
+                c[1] += dlen
+            elif kind == "telemetry":
+                c = st.telemetry.setdefault(who, [0, 0])
+                c[0] += 1
+                c[1] += dlen
+            else:
+                st.fleets.add(who)
+                decode(kind, who, buf, off, dlen, st)
+    finally:
+        buf.close()
+    if st.events == 0:
+        raise LogError(f"{path}: no valid LCM event (not an lcm-logger log?)")
+    return st
+
+
+def _sort_key(v):
+    """Fleet ids sort numerically when they are numbers."""
+    return (0, int(v), "") if v.isdigit() else (1, 0, v)
+
+
+def table(st):
+    """Rows (fleet, round, agent, counts...) sorted, then per-agent totals, then overall."""
+    keys = sorted(st.rows, key=lambda k: (_sort_key(k[0]), k[1], k[2]))
+    rows = [[k[0], k[1], k[2]] + st.rows[k] for k in keys]
+    per_agent = {}
+    for k in keys:
+        t = per_agent.setdefault((k[0], k[2]), [0] * (len(COLUMNS) - 3))
+        for i, v in enumerate(st.rows[k]):
+            t[i] += v
+    totals = [[f, "total", a] + per_agent[(f, a)]
+              for f, a in sorted(per_agent, key=lambda fa: (_sort_key(fa[0]), fa[1]))]
+    overall = [0] * (len(COLUMNS) - 3)
+    for t in per_agent.values():
+        for i, v in enumerate(t):
+            overall[i] += v
+    return rows, totals, ["all", "total", "all"] + overall
+
+
+def fmt_rows(rows):
+    widths = [max(len(str(c)) for c in col) for col in zip(COLUMNS, *rows)]
+    out = []
+    for r in [COLUMNS] + rows:
+        out.append("  ".join(str(c).rjust(w) for c, w in zip(r, widths)))
+    return out
+
+
+def fmt_time(us):
+    try:
+        t = datetime.datetime.fromtimestamp(us / 1e6, tz=datetime.timezone.utc)
+        return t.strftime("%Y-%m-%d %H:%M:%S.%f")[:-3] + " UTC"
+    except (OverflowError, OSError, ValueError):
+        return f"utime {us}"
+
+
+def write_csv(path, rows, totals, overall):
+    d = os.path.dirname(os.path.abspath(path))
+    if os.path.isdir(path):
+        raise LogError(f"{path}: Is a directory")
+    os.makedirs(d, exist_ok=True)
+    fd, tmp = tempfile.mkstemp(dir=d, prefix="." + os.path.basename(path) + ".", suffix=".tmp")
+    try:
+        with os.fdopen(fd, "w", encoding="utf-8", newline="") as f:
+            f.write(",".join(COLUMNS) + "\n")
+            for r in rows + totals + [overall]:
+                f.write(",".join(str(c) for c in r) + "\n")
+            f.flush()
+            os.fsync(f.fileno())
+        os.replace(tmp, path)
+    except BaseException:
+        try:
+            os.unlink(tmp)
+        except OSError:
+            pass
+        raise
+
+
+def main(argv=None):
+    ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0],
+                                 epilog=__doc__.split("\n\n", 1)[1],
+                                 formatter_class=argparse.RawDescriptionHelpFormatter)
+    ap.add_argument("log", metavar="LOGFILE", help="event log written by lcm-logger")
+    ap.add_argument("--prefix", default="fleetsim/", help="channel prefix (default fleetsim/)")
+    ap.add_argument("--csv", metavar="FILE", help="also write the table as CSV")
+    ap.add_argument("--totals-only", action="store_true",
+                    help="print only the totals (the CSV still holds every row)")
+    a = ap.parse_args(argv)
+    try:
+        st = read_log(a.log, a.prefix)
+        rows, totals, overall = table(st)
+        if a.csv:
+            try:
+                write_csv(a.csv, rows, totals, overall)
+            except OSError as e:
+                raise LogError(f"{a.csv}: {e.strerror or e}")
+    except LogError as e:
+        print(f"lcm_traffic: {e}", file=sys.stderr)
+        return 1
+    out = []
+    if rows and not a.totals_only:
+        out.append("traffic per round and agent:")
+        out += fmt_rows(rows)
+        out.append("")
+    if totals:
+        out.append("totals per agent:")
+        out += fmt_rows(totals + [overall])
+    else:
+        out.append(f"no fleet message on {a.prefix}<fleet>/state|done|request")
+    out.append("")
+    span = (st.last_utime - st.first_utime) / 1e6
+    out.append(f"time span: {span:.3f} s, from {fmt_time(st.first_utime)} to {fmt_time(st.last_utime)}")
+    k = st.kind_events
+    out.append(f"events: {st.events} valid: {k['state']} state chunks, {k['done']} RoundComplete, "
+               f"{k['request']} chunk requests, {sum(v[0] for v in st.telemetry.values())} telemetry, "
+               f"{sum(v[0] for v in st.other.values())} other, {sum(st.malformed.values())} malformed")
+    if st.telemetry:
+        out.append("telemetry per robot: " + ", ".join(
+            f"{r}: {v[0]} ({v[1]} B)" for r, v in sorted(st.telemetry.items(), key=lambda kv: _sort_key(kv[0]))))
+    if st.other:
+        out.append("other channels: " + ", ".join(
+            f"{c}: {v[0]} ({v[1]} B)" for c, v in sorted(st.other.items())))
+    for reason, n in sorted(st.malformed.items()):
+        out.append(f"malformed: {n} x {reason}")
+    if st.gaps:
+        out.append(f"bad sync word: {st.gaps} gap(s), {st.skipped_bytes} bytes skipped")
+    if st.truncated_tail:
+        out.append(f"truncated last event: {st.truncated_tail} bytes ignored")
+    if a.csv:
+        out.append(f"wrote {a.csv}")
+    print("\n".join(out))
+    return 0
+
+
+if __name__ == "__main__":
+    try:
+        sys.exit(main())
+    except BrokenPipeError:
+        sys.exit(1)
