@@ -46,27 +46,46 @@ static void draw_paths(uint8_t *rgb, int W, int H, const sim_plan_t *plan, doubl
     }
 }
 
-int sim_maps_write(bnn_model_t *m, const sim_plan_t *plan, double res, uint32_t K, uint64_t seed,
-                         const sim_path_t *paths, int n_paths, const char *mean_png, const char *std_png,
-                         double *std_max_out, char *err, size_t errlen)
+void sim_maps_grid_free(sim_maps_grid_t *g)
 {
-    if (!m || !plan || !isfinite(res) || res <= 0.0 || K < 1 || !mean_png || !std_png || (n_paths > 0 && !paths)) {
+    if (g == NULL)
+        return;
+    free(g->mean);
+    free(g->std);
+    memset(g, 0, sizeof *g);
+}
+
+double sim_maps_std_max(const sim_maps_grid_t *g)
+{
+    double smax = 0.0;
+    if (g == NULL || g->std == NULL || g->w < 1 || g->h < 1)
+        return smax;
+    const size_t n = (size_t)g->w * g->h;
+    for (size_t i = 0; i < n; i++)
+        smax = fmax(smax, g->std[i]);
+    return smax;
+}
+
+int sim_maps_compute(bnn_model_t *m, const sim_plan_t *plan, double res, uint32_t K, uint64_t seed,
+                     sim_maps_grid_t *g, char *err, size_t errlen)
+{
+    if (g != NULL)
+        memset(g, 0, sizeof *g);
+    if (!m || !plan || !g || !isfinite(res) || res <= 0.0 || K < 1) {
         snprintf(err, errlen, "bad map arguments");
         return -EINVAL;
     }
-    const double z = ceil(0.02 / res * 5.0);
-    const int zoom = z < 1.0 ? 1 : z > 8.0 ? 8 : (int)z;
     const int w = (int)ceil((plan->max.x - plan->min.x) / res), h = (int)ceil((plan->max.y - plan->min.y) / res);
     if (w < 1 || h < 1 || (size_t)w * h > 4000000u) {
         snprintf(err, errlen, "map of %d x %d cells is out of range", w, h);
         return -EINVAL;
     }
     const size_t n = (size_t)w * h;
-    const int W = w * zoom, H = h * zoom;
-    float *xy = malloc(n * 2 * sizeof *xy), *mean = malloc(n * sizeof *mean), *sd = malloc(n * sizeof *sd);
-    uint8_t *rgb = malloc((size_t)W * H * 3);
+    float *xy = malloc(n * 2 * sizeof *xy);
+    g->mean = malloc(n * sizeof *g->mean);
+    g->std = malloc(n * sizeof *g->std);
     int rc = -ENOMEM;
-    if (!xy || !mean || !sd || !rgb) {
+    if (!xy || !g->mean || !g->std) {
         snprintf(err, errlen, "out of memory");
         goto done;
     }
@@ -77,16 +96,47 @@ int sim_maps_write(bnn_model_t *m, const sim_plan_t *plan, double res, uint32_t 
             xy[2 * ((size_t)r * w + c)] = fminf(fmaxf(xn, -1.0f), 1.0f);
             xy[2 * ((size_t)r * w + c) + 1] = fminf(fmaxf(yn, -1.0f), 1.0f);
         }
-    rc = bnn_predict_mc(m, xy, n, K, seed, mean, sd);
-    if (rc) {
+    rc = bnn_predict_mc(m, xy, n, K, seed, g->mean, g->std);
+    if (rc)
         snprintf(err, errlen, "MC prediction failed (%d)", rc);
-        goto done;
+done:
+    free(xy);
+    if (rc) {
+        sim_maps_grid_free(g);
+    } else {
+        g->w = w;
+        g->h = h;
+        g->res = res;
+        g->x0 = plan->min.x;
+        g->y0 = plan->min.y;
     }
-    double smax = 0.0;
-    for (size_t i = 0; i < n; i++)
-        smax = fmax(smax, sd[i]);
+    return rc;
+}
+
+int sim_maps_write_png(const sim_maps_grid_t *g, const sim_plan_t *plan, const sim_path_t *paths, int n_paths,
+                       const char *mean_png, const char *std_png, double *std_max_out, char *err,
+                       size_t errlen)
+{
+    if (!g || !g->mean || !g->std || g->w < 1 || g->h < 1 || !plan || !isfinite(g->res) || g->res <= 0.0 ||
+        !mean_png || !std_png || (n_paths > 0 && !paths)) {
+        snprintf(err, errlen, "bad map arguments");
+        return -EINVAL;
+    }
+    const double res = g->res;
+    const int w = g->w, h = g->h;
+    const float *mean = g->mean, *sd = g->std;
+    const double z = ceil(0.02 / res * 5.0);
+    const int zoom = z < 1.0 ? 1 : z > 8.0 ? 8 : (int)z;
+    const int W = w * zoom, H = h * zoom;
+    uint8_t *rgb = malloc((size_t)W * H * 3);
+    if (!rgb) {
+        snprintf(err, errlen, "out of memory");
+        return -ENOMEM;
+    }
+    const double smax = sim_maps_std_max(g);
     if (std_max_out)
         *std_max_out = smax;
+    int rc = 0;
     for (int pass = 0; pass < 2; pass++) {
         for (int R = 0; R < H; R++)
             for (int C = 0; C < W; C++) {
@@ -102,12 +152,24 @@ int sim_maps_write(bnn_model_t *m, const sim_plan_t *plan, double res, uint32_t 
         draw_paths(rgb, W, H, plan, res, zoom, paths, n_paths);
         rc = sim_png_write_rgb(pass == 0 ? mean_png : std_png, W, H, rgb, err, errlen);
         if (rc)
-            goto done;
+            break;
     }
-done:
-    free(xy);
-    free(mean);
-    free(sd);
     free(rgb);
+    return rc;
+}
+
+int sim_maps_write(bnn_model_t *m, const sim_plan_t *plan, double res, uint32_t K, uint64_t seed,
+                   const sim_path_t *paths, int n_paths, const char *mean_png, const char *std_png,
+                   double *std_max_out, char *err, size_t errlen)
+{
+    if (!m || !plan || !isfinite(res) || res <= 0.0 || K < 1 || !mean_png || !std_png || (n_paths > 0 && !paths)) {
+        snprintf(err, errlen, "bad map arguments");
+        return -EINVAL;
+    }
+    sim_maps_grid_t g;
+    int rc = sim_maps_compute(m, plan, res, K, seed, &g, err, errlen);
+    if (rc == 0)
+        rc = sim_maps_write_png(&g, plan, paths, n_paths, mean_png, std_png, std_max_out, err, errlen);
+    sim_maps_grid_free(&g);
     return rc;
 }

@@ -328,7 +328,7 @@ static void flush_rows(run_ctx_t *c, int all)
         }
         const ai_round_info_t *in = &r->in;
         printf("round %4u/%lld  t %7.1f s  progress %6.2f m  pool %7u  train %.4f  val %.4f  kl %.2f  nbrs %u  "
-               "dis %.4f  sent %llu B  lost %llu  resent %llu  wait %.1f ms\n",
+               "dis %.3g  sent %llu B  lost %llu  resent %llu  wait %.1f ms\n",
                k + 1u, c->o->rounds, (double)in->stamp_us * 1e-6, (double)in->progress_m, in->pool_fill,
                (double)in->loss_train, r->val, (double)in->kl, in->neighbours,
                fr ? (double)fr->disagreement : NAN, fr ? (unsigned long long)fr->bytes_sent : 0ull,

@@ -1,0 +1,666 @@
+/* host_sim maps: the consensus map of a fleet. The final models (BNN checkpoints) are averaged
+ * into the consensus model, whose MC maps are written as NumPy arrays, a ROS map_server map
+ * (PGM + YAML) and the usual PNGs. */
+#include <errno.h>
+#include <limits.h>
+#include <math.h>
+#include <stdarg.h>
+#include <stdint.h>
+#include <stdio.h>
+#include <stdlib.h>
+#include <string.h>
+
+#include "ai/bnn_ckpt.h"
+#include "cli.h"
+#include "commands.h"
+#include "hal_host_file.h"
+#include "sim_maps.h"
+#include "sim_plan.h"
+#include "sim_samples.h"
+
+#define MAPS_MAX_CELLS 4000000u /* sim_maps_compute's limit */
+
+static void maps_usage(FILE *out)
+{
+    fprintf(out,
+            "usage: host_sim maps --plan FILE.svg --out DIR [options] MODEL.bnn [MODEL.bnn ...]\n"
+            "\n"
+            "Averages the final models of a fleet (BNN checkpoints of one network: the models/robot_<i>.bnn\n"
+            "of host_sim fleet, each robot's final.bnn of host_sim run) into the consensus model, theta =\n"
+            "the element-wise mean of the models' parameter vectors (in double, in the order given; the\n"
+            "model seed is the first model's), and maps it over the plan's bounding box.\n"
+            "\n"
+            "Writes into DIR:\n"
+            "  consensus.bnn       the consensus model (checkpoint, no optimiser state)\n"
+            "  consensus.csv       model,file,val_loss,consensus_error: one row per MODEL (index 0..N-1)\n"
+            "                      and a last row 'consensus'; consensus_error = ||theta_i - mean|| / ||mean||,\n"
+            "                      val_loss = BCE with the mean weights on --valset (nan without it)\n"
+            "  map_mean.npy        MC mean of the occupancy probability over K passes (float32, H x W)\n"
+            "  map_std.npy         MC standard deviation of those passes\n"
+            "  map_single.npy      one stochastic pass (the first of the K)\n"
+            "                      .npy arrays: row 0 is the TOP row (largest y), column 0 the smallest x:\n"
+            "                      cell (r, c) has its centre at x = xmin + (c + 0.5) res, y = ymax - (r + 0.5) res\n"
+            "  map_meta.json       res, xmin, ymin, xmax, ymax (the grid's edges: W x H cells from the plan's\n"
+            "                      lower corner, covering its bounding box), width, height, mc, seed, std_max,\n"
+            "                      models\n"
+            "  map.pgm, map.yaml   the MC mean for ROS map_server: P5, first row the top, pixel =\n"
+            "                      round(255 (1 - mean)), so occupancy = (255 - pixel) / 255 (negate 0);\n"
+            "                      origin = (xmin, ymin), trinary, thresholds 0.65 / 0.196\n"
+            "  map_mean.png, map_std.png   the pictures of host_sim fleet/run (no paths; their row 0 is the\n"
+            "                      smallest y, the drawing's top, so they are the .npy arrays upside down)\n"
+            "Inputs are checked first (plan, checkpoints, validation set): a bad one stops the run\n"
+            "before any file is replaced.\n"
+            "\n"
+            "options:\n"
+            "  --plan FILE.svg     the floor plan the models were trained on (required)\n"
+            "  --out DIR           output folder, created with its parents (required)\n"
+            "  --res M             map cell size in metres (default 0.05)\n"
+            "  --mc K              Monte-Carlo passes (default 50)\n"
+            "  --seed S            seed of the MC draws (default 1)\n"
+            "  --valset FILE       validation samples of the plan (host_sim valset) for val_loss\n"
+            "  --scale S           plan metres per pixel (default %g)\n",
+            SIM_PLAN_DEFAULT_SCALE);
+}
+
+typedef struct maps_opts {
+    const char *plan, *out, *valset;
+    double res, scale;
+    long long mc, seed;
+    char **models;
+    int n_models;
+} maps_opts_t;
+
+/* 0, 1 after --help, -1 on a usage error (printed). o->models points into argv. */
+static int parse(int argc, char **argv, maps_opts_t *o)
+{
+    memset(o, 0, sizeof *o);
+    o->res = 0.05;
+    o->scale = SIM_PLAN_DEFAULT_SCALE;
+    o->mc = 50;
+    o->seed = 1;
+    o->models = calloc((size_t)argc, sizeof *o->models);
+    if (o->models == NULL) {
+        fprintf(stderr, "host_sim maps: out of memory\n");
+        return -1;
+    }
+    for (int i = 1; i < argc; i++) {
+        const char *a = argv[i];
+        if (strcmp(a, "--help") == 0 || strcmp(a, "-h") == 0) {
+            maps_usage(stdout);
+            return 1;
+        }
+        if (a[0] != '-' || a[1] == '\0') {
+            o->models[o->n_models++] = argv[i];
+            continue;
+        }
+        if (cmd_need_value(argc, argv, i, "maps", maps_usage) != 0)
+            return -1;
+        const char *v = argv[++i];
+        int bad = 0;
+        if (strcmp(a, "--plan") == 0)
+            o->plan = v;
+        else if (strcmp(a, "--out") == 0)
+            o->out = v;
+        else if (strcmp(a, "--valset") == 0)
+            o->valset = v;
+        else if (strcmp(a, "--res") == 0)
+            bad = cmd_parse_double(v, a, 0.001, 100.0, &o->res);
+        else if (strcmp(a, "--scale") == 0)
+            bad = cmd_parse_double(v, a, 1e-6, 100.0, &o->scale);
+        else if (strcmp(a, "--mc") == 0)
+            bad = cmd_parse_ll(v, a, 1, 100000, &o->mc);
+        else if (strcmp(a, "--seed") == 0)
+            bad = cmd_parse_ll(v, a, 0, 0x7FFFFFFFFFFFFFFFLL, &o->seed);
+        else {
+            fprintf(stderr, "host_sim maps: unknown option '%s' (see --help)\n", a);
+            return -1;
+        }
+        if (bad)
+            return -1;
+    }
+    const char *missing = !o->plan ? "--plan" : !o->out ? "--out" : NULL;
+    if (missing) {
+        fprintf(stderr, "host_sim maps: %s is required (see --help)\n", missing);
+        return -1;
+    }
+    if (o->n_models == 0) {
+        fprintf(stderr, "host_sim maps: no MODEL.bnn given (see --help)\n");
+        return -1;
+    }
+    return 0;
+}
+
+/* Everything one `host_sim maps` run holds; freed in one place (job_free). */
+enum { OUT_BNN, OUT_CSV, OUT_MEAN, OUT_STD, OUT_SINGLE, OUT_META, OUT_PGM, OUT_YAML, OUT_N };
+static const char *const out_names[OUT_N] = {"consensus.bnn", "consensus.csv", "map_mean.npy", "map_std.npy",
+                                             "map_single.npy", "map_meta.json", "map.pgm", "map.yaml"};
+
+typedef struct job {
+    maps_opts_t o;
+    sim_plan_t plan;
+    ai_sample_t *val;
+    size_t n_val;
+    bnn_model_t *scratch, *cons; /* a model loaded or evaluated; the consensus model */
+    bnn_config_t cfg;            /* the network of every model */
+    uint64_t seed0;              /* the first model's seed */
+    size_t P;                    /* parameters per model */
+    float *theta;                /* n_models x P */
+    double *mean;                /* P: the mean in double */
+    double *cerr;                /* n_models consensus errors */
+    float *val_loss;             /* n_models + 1 (the consensus last) */
+    uint8_t *buf;                /* file bytes: a checkpoint read or written */
+    sim_maps_grid_t mc, single;
+    char path[OUT_N][PATH_MAX];
+    char png_mean[PATH_MAX], png_std[PATH_MAX];
+    hal_host_file_t out[OUT_N];
+    int begun[OUT_N];
+    char err[8192];
+} job_t;
+
+static void job_free(job_t *j)
+{
+    for (int k = 0; k < OUT_N; k++)
+        if (j->begun[k])
+            hal_host_file_abort(&j->out[k]); /* a no-op after a commit */
+    sim_maps_grid_free(&j->mc);
+    sim_maps_grid_free(&j->single);
+    free(j->buf);
+    free(j->val_loss);
+    free(j->cerr);
+    free(j->mean);
+    free(j->theta);
+    free(j->cons);
+    free(j->scratch);
+    free(j->val);
+    sim_plan_free(&j->plan);
+    free(j->o.models);
+}
+
+static uint32_t get32(const uint8_t *p)
+{
+    return (uint32_t)p[0] | (uint32_t)p[1] << 8 | (uint32_t)p[2] << 16 | (uint32_t)p[3] << 24;
+}
+
+static bnn_model_t *model_alloc(void)
+{
+    /* bnn_model_t holds 64-byte aligned vectors: malloc's 16 bytes are not enough. */
+    return aligned_alloc(_Alignof(bnn_model_t), (sizeof(bnn_model_t) + 63) / 64 * 64);
+}
+
+/* Reads checkpoint `file` into j->scratch, set up for the network its header names (the
+ * checkpoint is then validated whole by bnn_ckpt_load). 0 or -1 (printed, naming the file). */
+static int load_model(job_t *j, const char *file)
+{
+    FILE *f = NULL;
+    int rc = hal_host_file_open_read(file, &f);
+    if (rc < 0) {
+        fprintf(stderr, "host_sim maps: %s: %s\n", file, hal_host_file_strerror(rc));
+        return -1;
+    }
+    const size_t cap = BNN_CKPT_MAX_BYTES + 1; /* one more: a file too large shows */
+    size_t n = fread(j->buf, 1, cap, f);
+    const int rerr = ferror(f);
+    fclose(f);
+    if (rerr) {
+        fprintf(stderr, "host_sim maps: %s: read error\n", file);
+        return -1;
+    }
+    if (n == cap) {
+        fprintf(stderr, "host_sim maps: %s: larger than any checkpoint of preset '%s' (%zu bytes at most)\n", file,
+                BNN_PRESET_NAME, (size_t)BNN_CKPT_MAX_BYTES);
+        return -1;
+    }
+    /* The network the header names, when it is one this preset holds; otherwise the preset's
+       own, and bnn_ckpt_load says what is wrong. */
+    int ready = 0;
+    if (n >= BNN_CKPT_HEADER_BYTES && memcmp(j->buf, "BNNC", 4) == 0 && get32(j->buf + 4) == BNN_CKPT_VERSION) {
+        bnn_config_t c = bnn_default_config();
+        c.siren_width = get32(j->buf + 16);
+        c.hidden_width = get32(j->buf + 20);
+        c.n_bayes = get32(j->buf + 24);
+        ready = bnn_init(j->scratch, &c, 0) == 0;
+    }
+    if (!ready && bnn_init(j->scratch, NULL, 0) != 0) {
+        fprintf(stderr, "host_sim maps: cannot set up a model of preset '%s'\n", BNN_PRESET_NAME);
+        return -1;
+    }
+    const char *why = NULL;
+    if (bnn_ckpt_load(j->scratch, j->buf, n, &why) != 0) {
+        fprintf(stderr, "host_sim maps: %s: %s\n", file, why ? why : "invalid checkpoint");
+        return -1;
+    }
+    const size_t end = BNN_CKPT_HEADER_BYTES + (size_t)get32(j->buf + 52);
+    if (n != end) {
+        fprintf(stderr, "host_sim maps: %s: %zu bytes after the end of the checkpoint (%zu bytes)\n", file, n - end,
+                end);
+        return -1;
+    }
+    return 0;
+}
+
+/* Every model, checked against the first: same network. Their theta go to j->theta. */
+static int load_models(job_t *j)
+{
+    const maps_opts_t *o = &j->o;
+    for (int i = 0; i < o->n_models; i++) {
+        const char *file = o->models[i];
+        if (load_model(j, file) != 0)
+            return -1;
+        const bnn_model_t *m = j->scratch;
+        if (i == 0) {
+            j->cfg = m->cfg;
+            j->P = bnn_n_params(m);
+            j->seed0 = m->seed;
+            j->theta = malloc((size_t)o->n_models * j->P * sizeof *j->theta);
+            if (j->theta == NULL) {
+                fprintf(stderr, "host_sim maps: out of memory for %d models of %zu parameters\n", o->n_models, j->P);
+                return -1;
+            }
+        } else if (bnn_n_params(m) != j->P || m->cfg.siren_width != j->cfg.siren_width ||
+                   m->cfg.hidden_width != j->cfg.hidden_width || m->cfg.n_bayes != j->cfg.n_bayes) {
+            fprintf(stderr,
+                    "host_sim maps: %s: %zu parameters (SIREN %u, hidden %u, %u Bayesian layers), but %s has %zu "
+                    "(%u, %u, %u): models of different networks cannot be averaged\n",
+                    file, bnn_n_params(m), m->cfg.siren_width, m->cfg.hidden_width, m->cfg.n_bayes, o->models[0],
+                    j->P, j->cfg.siren_width, j->cfg.hidden_width, j->cfg.n_bayes);
+            return -1;
+        }
+        memcpy(j->theta + (size_t)i * j->P, bnn_params_const(m), j->P * sizeof *j->theta);
+    }
+    return 0;
+}
+
+/* The validation set: the plan's (same bounding box), not empty. */
+static int load_valset(job_t *j)
+{
+    const char *file = j->o.valset;
+    sim_samples_header_t h;
+    if (sim_samples_read(file, &h, &j->val, j->err, sizeof j->err) != 0) {
+        fprintf(stderr, "host_sim maps: %s\n", j->err); /* err names the file */
+        return -1;
+    }
+    const sim_plan_t *p = &j->plan;
+    if (fabs(h.min_x - p->min.x) > 1e-6 || fabs(h.min_y - p->min.y) > 1e-6 || fabs(h.max_x - p->max.x) > 1e-6 ||
+        fabs(h.max_y - p->max.y) > 1e-6) {
+        fprintf(stderr, "host_sim maps: %s: its bounding box is not the plan's (another plan?)\n", file);
+        return -1;
+    }
+    if (h.count == 0) {
+        fprintf(stderr, "host_sim maps: %s holds no samples\n", file);
+        return -1;
+    }
+    j->n_val = (size_t)h.count;
+    return 0;
+}
+
+/* DIR/NAME into out (PATH_MAX bytes). */
+static int out_path(const char *dir, const char *name, char *out)
+{
+    const size_t n = strlen(dir);
+    const int m = snprintf(out, PATH_MAX, "%s%s%s", dir, n > 0 && dir[n - 1] == '/' ? "" : "/", name);
+    if (m < 0 || m >= PATH_MAX) {
+        fprintf(stderr, "host_sim maps: %s/%s: %s\n", dir, name, strerror(ENAMETOOLONG));
+        return -1;
+    }
+    return 0;
+}
+
+/* Plan, models, validation set, output folder: everything checked before any work. */
+static int prepare(job_t *j)
+{
+    const maps_opts_t *o = &j->o;
+    if (sim_plan_load(o->plan, o->scale, &j->plan, j->err, sizeof j->err) != 0) {
+        fprintf(stderr, "host_sim maps: %s\n", j->err);
+        return -1;
+    }
+    const double w = ceil((j->plan.max.x - j->plan.min.x) / o->res), h = ceil((j->plan.max.y - j->plan.min.y) / o->res);
+    if (w * h > MAPS_MAX_CELLS) {
+        fprintf(stderr, "host_sim maps: --res %g gives %.0f x %.0f cells over the plan, more than %u: use a larger --res\n",
+                o->res, w, h, MAPS_MAX_CELLS);
+        return -1;
+    }
+    for (int k = 0; k < OUT_N; k++)
+        if (out_path(o->out, out_names[k], j->path[k]) != 0)
+            return -1;
+    if (out_path(o->out, "map_mean.png", j->png_mean) != 0 || out_path(o->out, "map_std.png", j->png_std) != 0)
+        return -1;
+    j->scratch = model_alloc();
+    j->cons = model_alloc();
+    j->buf = malloc(BNN_CKPT_MAX_BYTES + 1);
+    if (j->scratch == NULL || j->cons == NULL || j->buf == NULL) {
+        fprintf(stderr, "host_sim maps: out of memory\n");
+        return -1;
+    }
+    if (load_models(j) != 0)
+        return -1;
+    if (o->valset && load_valset(j) != 0)
+        return -1;
+    return cmd_prepare_out_dir("maps", o->out);
+}
+
+/* Consensus model, consensus errors, validation losses, maps. */
+static int compute(job_t *j)
+{
+    const maps_opts_t *o = &j->o;
+    const int N = o->n_models;
+    const size_t P = j->P;
+    j->mean = calloc(P, sizeof *j->mean);
+    j->cerr = calloc((size_t)N, sizeof *j->cerr);
+    j->val_loss = malloc(((size_t)N + 1) * sizeof *j->val_loss);
+    if (j->mean == NULL || j->cerr == NULL || j->val_loss == NULL) {
+        fprintf(stderr, "host_sim maps: out of memory\n");
+        return -1;
+    }
+    for (int i = 0; i < N; i++)
+        for (size_t p = 0; p < P; p++)
+            j->mean[p] += j->theta[(size_t)i * P + p];
+    for (size_t p = 0; p < P; p++)
+        j->mean[p] /= N;
+    if (bnn_init(j->cons, &j->cfg, j->seed0) != 0) {
+        fprintf(stderr, "host_sim maps: cannot set up the consensus model\n");
+        return -1;
+    }
+    float *ct = bnn_params(j->cons);
+    for (size_t p = 0; p < P; p++)
+        ct[p] = (float)j->mean[p];
+    /* ||theta_i - mean|| / ||mean||, as sim_fleet_consensus_error. */
+    for (int i = 0; i < N; i++) {
+        double num = 0.0, den = 0.0;
+        for (size_t p = 0; p < P; p++) {
+            const double d = j->theta[(size_t)i * P + p] - j->mean[p];
+            num += d * d;
+            den += j->mean[p] * j->mean[p];
+        }
+        j->cerr[i] = den > 0.0 ? sqrt(num / den) : 0.0;
+    }
+    for (int i = 0; i <= N; i++) {
+        j->val_loss[i] = NAN;
+        if (j->n_val == 0)
+            continue;
+        bnn_model_t *m = j->cons;
+        if (i < N) {
+            m = j->scratch; /* holds the last model's network: every model's */
+            memcpy(bnn_params(m), j->theta + (size_t)i * P, P * sizeof(float));
+        }
+        if (bnn_eval_bce(m, j->val, j->n_val, 0, 0, &j->val_loss[i]) != 0) {
+            fprintf(stderr, "host_sim maps: validation loss of %s failed\n", i < N ? o->models[i] : "the consensus");
+            return -1;
+        }
+    }
+    if (sim_maps_compute(j->cons, &j->plan, o->res, (uint32_t)o->mc, (uint64_t)o->seed, &j->mc, j->err,
+                         sizeof j->err) != 0 ||
+        sim_maps_compute(j->cons, &j->plan, o->res, 1, (uint64_t)o->seed, &j->single, j->err, sizeof j->err) != 0) {
+        fprintf(stderr, "host_sim maps: maps: %s\n", j->err);
+        return -1;
+    }
+    return 0;
+}
+
+/* Shortest text that reads back as the same double (or float, with is_float). */
+static void fmt_num(char *out, size_t cap, double v, int is_float)
+{
+    if (!isfinite(v)) {
+        snprintf(out, cap, "nan");
+        return;
+    }
+    for (int prec = 1; prec <= 17; prec++) {
+        snprintf(out, cap, "%.*g", prec, v);
+        if (is_float ? strtof(out, NULL) == (float)v : strtod(out, NULL) == v)
+            return;
+    }
+}
+
+/* A growing text buffer. */
+typedef struct text {
+    char *s;
+    size_t len, cap;
+    int failed;
+} text_t;
+
+__attribute__((format(printf, 2, 3))) static void tprintf(text_t *t, const char *fmt, ...)
+{
+    va_list ap;
+    va_start(ap, fmt);
+    int n = vsnprintf(NULL, 0, fmt, ap);
+    va_end(ap);
+    if (t->failed || n < 0) {
+        t->failed = 1;
+        return;
+    }
+    if (t->len + (size_t)n + 1 > t->cap) {
+        size_t cap = (t->len + (size_t)n + 1) * 2;
+        char *s = realloc(t->s, cap);
+        if (s == NULL) {
+            t->failed = 1;
+            return;
+        }
+        t->s = s;
+        t->cap = cap;
+    }
+    va_start(ap, fmt);
+    vsnprintf(t->s + t->len, t->cap - t->len, fmt, ap);
+    va_end(ap);
+    t->len += (size_t)n;
+}
+
+/* A CSV field: quoted when it holds a comma, a quote or a line break (RFC 4180). */
+static void csv_field(text_t *t, const char *s)
+{
+    if (strpbrk(s, ",\"\r\n") == NULL) {
+        tprintf(t, "%s", s);
+        return;
+    }
+    tprintf(t, "\"");
+    for (const char *p = s; *p; p++) {
+        if (*p == '"')
+            tprintf(t, "\"\"");
+        else
+            tprintf(t, "%c", *p);
+    }
+    tprintf(t, "\"");
+}
+
+/* Starts output k and writes its bytes (charged at once to the writer). 0 or -1 (printed). */
+static int stage(job_t *j, int k, const void *data, size_t len)
+{
+    if (cmd_out_begin("maps", &j->out[k], j->path[k]) != 0)
+        return -1;
+    j->begun[k] = 1;
+    int rc = hal_host_file_write(&j->out[k], data, len);
+    if (rc == 0 && fflush(hal_host_file_stream(&j->out[k])) != 0)
+        rc = errno ? -errno : -EIO;
+    if (rc < 0) {
+        fprintf(stderr, "host_sim maps: %s: %s\n", j->path[k], hal_host_file_strerror(rc));
+        return -1;
+    }
+    return 0;
+}
+
+static int stage_text(job_t *j, int k, text_t *t)
+{
+    if (t->failed) {
+        fprintf(stderr, "host_sim maps: %s: out of memory\n", j->path[k]);
+        return -1;
+    }
+    return stage(j, k, t->s, t->len);
+}
+
+static void put_le32(uint8_t *p, uint32_t v)
+{
+    p[0] = (uint8_t)v;
+    p[1] = (uint8_t)(v >> 8);
+    p[2] = (uint8_t)(v >> 16);
+    p[3] = (uint8_t)(v >> 24);
+}
+
+/* A float32 NumPy array (format 1.0, '<f4', C order) of the grid's cells, H x W, row 0 the
+ * top (largest y): the grid's rows reversed. */
+static int stage_npy(job_t *j, int k, const sim_maps_grid_t *g, const float *cells)
+{
+    char dict[128];
+    int dn = snprintf(dict, sizeof dict, "{'descr': '<f4', 'fortran_order': False, 'shape': (%d, %d), }", g->h,
+                      g->w);
+    /* magic (6) + version (2) + header length (2) + dict padded with spaces and a '\n' to a
+       multiple of 64 bytes */
+    size_t head = 10 + (size_t)dn + 1;
+    head = (head + 63) / 64 * 64;
+    const size_t n = (size_t)g->w * g->h, len = head + 4 * n;
+    uint8_t *b = malloc(len);
+    if (b == NULL) {
+        fprintf(stderr, "host_sim maps: %s: out of memory\n", j->path[k]);
+        return -1;
+    }
+    memcpy(b, "\x93NUMPY\x01\x00", 8);
+    b[8] = (uint8_t)((head - 10) & 0xFF);
+    b[9] = (uint8_t)((head - 10) >> 8);
+    memset(b + 10, ' ', head - 10);
+    memcpy(b + 10, dict, (size_t)dn);
+    b[head - 1] = '\n';
+    uint8_t *d = b + head;
+    for (int R = 0; R < g->h; R++)
+        for (int c = 0; c < g->w; c++) {
+            uint32_t u;
+            memcpy(&u, &cells[(size_t)(g->h - 1 - R) * g->w + c], 4);
+            put_le32(d, u);
+            d += 4;
+        }
+    const int rc = stage(j, k, b, len);
+    free(b);
+    return rc;
+}
+
+/* map.pgm: binary P5, W x H, first row the top; pixel = round(255 (1 - mean)). */
+static int stage_pgm(job_t *j)
+{
+    const sim_maps_grid_t *g = &j->mc;
+    char head[64];
+    const int hn = snprintf(head, sizeof head, "P5\n%d %d\n255\n", g->w, g->h);
+    const size_t n = (size_t)g->w * g->h;
+    uint8_t *b = malloc((size_t)hn + n);
+    if (b == NULL) {
+        fprintf(stderr, "host_sim maps: %s: out of memory\n", j->path[OUT_PGM]);
+        return -1;
+    }
+    memcpy(b, head, (size_t)hn);
+    uint8_t *d = b + hn;
+    for (int R = 0; R < g->h; R++)
+        for (int c = 0; c < g->w; c++) {
+            const double p = g->mean[(size_t)(g->h - 1 - R) * g->w + c];
+            *d++ = (uint8_t)lround(255.0 * (1.0 - fmin(fmax(p, 0.0), 1.0)));
+        }
+    const int rc = stage(j, OUT_PGM, b, (size_t)hn + n);
+    free(b);
+    return rc;
+}
+
+/* Every output but the PNGs written to its temporary file; nothing replaced yet. */
+static int stage_all(job_t *j)
+{
+    const maps_opts_t *o = &j->o;
+    const sim_maps_grid_t *g = &j->mc;
+    const int N = o->n_models;
+    size_t nb = 0;
+    if (bnn_ckpt_save(j->cons, 0, j->buf, BNN_CKPT_MAX_BYTES + 1, &nb) != 0) {
+        fprintf(stderr, "host_sim maps: %s: cannot serialise the consensus model\n", j->path[OUT_BNN]);
+        return -1;
+    }
+    if (stage(j, OUT_BNN, j->buf, nb) != 0)
+        return -1;
+    char a[64], b[64], c[64], d[64];
+    text_t t = {0};
+    tprintf(&t, "model,file,val_loss,consensus_error\n");
+    for (int i = 0; i <= N; i++) {
+        if (i < N)
+            tprintf(&t, "%d,", i);
+        else
+            tprintf(&t, "consensus,");
+        csv_field(&t, i < N ? o->models[i] : j->path[OUT_BNN]);
+        fmt_num(a, sizeof a, j->val_loss[i], 1);
+        fmt_num(b, sizeof b, i < N ? j->cerr[i] : 0.0, 0);
+        tprintf(&t, ",%s,%s\n", a, b);
+    }
+    int rc = stage_text(j, OUT_CSV, &t);
+    free(t.s);
+    if (rc != 0 || stage_npy(j, OUT_MEAN, g, g->mean) != 0 || stage_npy(j, OUT_STD, g, g->std) != 0 ||
+        stage_npy(j, OUT_SINGLE, &j->single, j->single.mean) != 0)
+        return -1;
+    const double xmax = g->x0 + g->w * g->res, ymax = g->y0 + g->h * g->res;
+    char e[64], f[64];
+    fmt_num(a, sizeof a, g->res, 0);
+    fmt_num(b, sizeof b, g->x0, 0);
+    fmt_num(c, sizeof c, g->y0, 0);
+    fmt_num(d, sizeof d, xmax, 0);
+    fmt_num(e, sizeof e, ymax, 0);
+    fmt_num(f, sizeof f, sim_maps_std_max(g), 0);
+    t = (text_t){0};
+    tprintf(&t,
+            "{\"res\": %s, \"xmin\": %s, \"ymin\": %s, \"xmax\": %s, \"ymax\": %s, \"width\": %d, \"height\": %d, "
+            "\"mc\": %lld, \"seed\": %lld, \"std_max\": %s, \"models\": %d}\n",
+            a, b, c, d, e, g->w, g->h, o->mc, o->seed, f, N);
+    rc = stage_text(j, OUT_META, &t);
+    free(t.s);
+    if (rc != 0 || stage_pgm(j) != 0)
+        return -1;
+    t = (text_t){0};
+    tprintf(&t,
+            "image: map.pgm\nmode: trinary\nresolution: %s\norigin: [%s, %s, 0.0]\nnegate: 0\n"
+            "occupied_thresh: 0.65\nfree_thresh: 0.196\n",
+            a, b, c);
+    rc = stage_text(j, OUT_YAML, &t);
+    free(t.s);
+    return rc;
+}
+
+/* The outputs: staged whole first, then the PNGs, then each staged file renamed over its
+ * target. A failure before the renames replaces nothing. */
+static int write_outputs(job_t *j)
+{
+    if (stage_all(j) != 0)
+        return -1;
+    if (sim_maps_write_png(&j->mc, &j->plan, NULL, 0, j->png_mean, j->png_std, NULL, j->err, sizeof j->err) != 0) {
+        fprintf(stderr, "host_sim maps: %s\n", j->err);
+        return -1;
+    }
+    for (int k = 0; k < OUT_N; k++)
+        if (cmd_out_commit("maps", &j->out[k]) != 0)
+            return -1;
+    return 0;
+}
+
+static void report(const job_t *j)
+{
+    const maps_opts_t *o = &j->o;
+    const sim_maps_grid_t *g = &j->mc;
+    printf("maps: %d model(s) of %zu parameters (preset %s), plan %s\n", o->n_models, j->P, BNN_PRESET_NAME,
+           o->plan);
+    printf("%-10s %10s %16s  %s\n", "model", "val_loss", "consensus_error", "file");
+    for (int i = 0; i <= o->n_models; i++) {
+        char idx[16];
+        snprintf(idx, sizeof idx, "%d", i);
+        printf("%-10s %10.5f %16.6g  %s\n", i < o->n_models ? idx : "consensus", (double)j->val_loss[i],
+               i < o->n_models ? j->cerr[i] : 0.0, i < o->n_models ? o->models[i] : j->path[OUT_BNN]);
+    }
+    printf("map: %d x %d cells of %g m over x [%g, %g], y [%g, %g]; %lld MC passes (seed %lld), max std %.4f\n",
+           g->w, g->h, g->res, g->x0, g->x0 + g->w * g->res, g->y0, g->y0 + g->h * g->res, o->mc, o->seed,
+           sim_maps_std_max(g));
+    printf("results in %s: consensus.bnn consensus.csv map_mean.npy map_std.npy map_single.npy map_meta.json "
+           "map.pgm map.yaml map_mean.png map_std.png\n",
+           o->out);
+}
+
+int cmd_maps(int argc, char **argv)
+{
+    static job_t job; /* one run per process */
+    job_t *j = &job;
+    memset(j, 0, sizeof *j);
+    const int pr = parse(argc, argv, &j->o);
+    if (pr != 0) {
+        free(j->o.models);
+        return pr > 0 ? 0 : 2;
+    }
+    const int ok = prepare(j) == 0 && compute(j) == 0 && write_outputs(j) == 0;
+    if (ok)
+        report(j);
+    job_free(j);
+    return ok ? 0 : 1;
+}
