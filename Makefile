@@ -1,7 +1,9 @@
 # fleetsim: the one entry point. `make help` lists the targets.
 #
 #   make [all]        libraries and programs of one configuration
-#   make run          install missing packages (as root), build, run the default job
+#   make run          install missing packages (as root), build, run the fleet: 7 robots as 7
+#                     host_sim processes over LCM (tools/fleet; FLEET_ARGS="..." adds options)
+#   make run-inproc   the same job with all robots in one process (the reference)
 #   make test         install missing packages (as root), build and run every cmocka test
 #   make test-asan    the tests under AddressSanitizer + UndefinedBehaviorSanitizer
 #   make test-tsan    the threaded tests under ThreadSanitizer
@@ -202,7 +204,7 @@ $(O)/tests/%: $(O)/obj/tests/%.c.o $(LIB)/libtestsupport.a $(LIBS)
 	$(call say,LD,$@)$(CXX) $(OPT) $< -Wl,--start-group $(LIB)/libtestsupport.a $(LIBS) -Wl,--end-group $(SYS_LIBS) -lcmocka $(WRAP) -o $@
 
 # ---- targets ----------------------------------------------------------------------------
-.PHONY: all layering deps run test test-asan test-tsan tests bench bench-one clean help cross check-portable check-config
+.PHONY: all layering deps run run-inproc test test-asan test-tsan tests bench bench-one clean help cross check-portable check-config
 
 all: deps layering $(LIBS) $(PROGRAMS)
 ifeq ($(BUILD),release)
@@ -246,6 +248,9 @@ bench-one: all
 	done
 
 run: all
+	@tools/fleet --bin $(BIN)/host_sim --name fleet $(FLEET_ARGS)
+
+run-inproc: all
 	@tools/run-fleet.sh $(BIN)
 
 # The math compiled for every x86-64 level and aarch64 (GCC and clang), then the whole tree

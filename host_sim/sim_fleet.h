@@ -1,7 +1,8 @@
 /* The deterministic in-process DiNNO fleet: N agents (firmware dinno_node_t each) trained in
  * synchronous rounds in one process, plus the baselines, the data they train on, and the
- * metrics. The multi-process fleet over LCM is on the roadmap (docs/architecture.md section 4); this
- * driver is its reference: same node update, same seeds.
+ * metrics. The multi-process fleet over LCM (gp_fleet, docs/architecture.md section 4) trains the
+ * same models from the same seed: this driver is its reference (same node update, same seeds,
+ * same positions).
  *
  * Modes:
  *   SIM_FLEET_DINNO    N nodes, each round every node receives the round-start states of its

@@ -1,5 +1,6 @@
 #!/usr/bin/env bash
-# The default job of `make run`: the IN-PROCESS DiNNO fleet on the default plan.
+# `make run-inproc`: the IN-PROCESS DiNNO fleet on the default plan, the reference of the
+# multi-process fleet (`make run`, tools/fleet): the same seed gives the same models.
 #
 #   tools/run-fleet.sh [BIN_DIR]        (BIN_DIR defaults to build/bin)
 #
@@ -16,8 +17,6 @@
 # and the models drift apart between meetings (seed 1, 2000 rounds: validation loss 0.123 at
 # round 300, 0.168 at the end, wall IoU 0.04); at 6 m it stays connected (10-17 of 21 edges)
 # and 1500 rounds reach validation loss 0.072 and wall IoU 0.86 in ~2.5 min on 2 cores.
-# This is the in-process fleet; the multi-process fleet (one host_sim per robot over LCM) is
-# on the roadmap.
 set -euo pipefail
 if [[ "${1:-}" == -h || "${1:-}" == --help ]]; then
     sed -n '2,/^set -euo/{/^set -euo/d;s/^# \{0,1\}//;p}' "$0"
@@ -44,8 +43,7 @@ for i in $(seq 0 $((robots - 1))); do
     [ -f "$paths/robot_$i.csv" ] || { echo "run-fleet: $paths/robot_$i.csv is missing" >&2; exit 1; }
 done
 
-echo "fleetsim: IN-PROCESS fleet (all $robots robots in one host_sim process)."
-echo "fleetsim: the multi-process LCM fleet (one host_sim per robot) is on the roadmap, not run here."
+echo "fleetsim: IN-PROCESS fleet (all $robots robots in one host_sim process; make run runs one process per robot)."
 mkdir -p "$out/samples"
 echo "fleetsim: [1/3] scanning the $robots paths of $plan (seed $seed)"
 for i in $(seq 0 $((robots - 1))); do

@@ -349,8 +349,22 @@ static void fleet_round_done(void *ctx, uint32_t round, int final)
     if (gp_pse_complete(p, net_now()) != 0)
         return;
     if (final) {
-        /* Stay until every peer finished the last round: one of them may still need our state. */
+        /* Stay until every peer finished the last round: one of them may still need our state.
+           Then linger a little, saying again that we are done and answering requests: there is
+           no later round whose State would tell a peer that missed our RoundComplete. */
         (void)wait_for(f, finished_cond);
+        const uint64_t until = net_now() + 2u * (uint64_t)f->cfg.resend_after_us;
+        const gp_pse_done_t d = {f->cfg.self, round};
+        for (uint64_t next = 0, now; (now = net_now()) < until;) {
+            if (now >= next) {
+                (void)fleet_send(f, GP_PSE_DONE, &d);
+                next = now + f->cfg.resend_after_us / 4u;
+            }
+            drain(f);
+            int r = hal_net_wait(f->cfg.poll_us);
+            if (r != 0 && r != -EAGAIN)
+                break;
+        }
         close_record(f);
         f->final_done = 1;
     }

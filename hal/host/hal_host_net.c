@@ -31,6 +31,8 @@ struct hal_host_net {
     hal_host_msg_type_t typed[HAL_HOST_NET_MAX_SUBS];
     uint64_t pump_stamp_us;
     hal_net_stats_t stats;
+    uint64_t drop_every;   /* test seam FLEETSIM_NET_DROP_EVERY: lose every N-th publish */
+    uint64_t publishes;
 };
 
 static hal_host_msg_type_t channel_type(const hal_host_net_t *n, const char *channel)
@@ -72,6 +74,17 @@ int hal_host_net_open(const char *url, uint32_t queue_depth, hal_host_net_t **ou
     }
     n->depth = queue_depth;
     n->stats.queue_depth = queue_depth;
+    /* The loss seam of the fleet tests: every N-th datagram "sent" is silently lost, as UDP
+       may lose it, so the protocol's recovery runs between real processes. */
+    const char *drop = getenv("FLEETSIM_NET_DROP_EVERY");
+    if (drop != NULL) {
+        char *end = NULL;
+        unsigned long long v = strtoull(drop, &end, 10);
+        if (end != drop && *end == '\0' && v >= 2)
+            n->drop_every = v;
+        else
+            fprintf(stderr, "hal_host_net: FLEETSIM_NET_DROP_EVERY='%s' ignored (a whole number >= 2)\n", drop);
+    }
     n->lcm = lcm_create(url[0] != '\0' ? url : HAL_HOST_NET_URL_DEFAULT);
     if (n->lcm == NULL) {
         fprintf(stderr, "hal_host_net: cannot create LCM on '%s' (for udpm:// on one host, "
@@ -106,6 +119,11 @@ int hal_host_net_publish(hal_host_net_t *n, const char *channel, const void *dat
     if (len > HAL_NET_MTU_BYTES) {
         n->stats.tx_rejected++;
         return -EMSGSIZE;
+    }
+    if (n->drop_every != 0 && ++n->publishes % n->drop_every == 0) {
+        n->stats.tx_messages++; /* lost on the way: the sender cannot tell */
+        n->stats.tx_bytes += len;
+        return 0;
     }
     /* LCM wants a non-NULL pointer even for an empty message. */
     static const uint8_t empty;

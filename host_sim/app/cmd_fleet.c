@@ -26,9 +26,10 @@ static void fleet_usage(FILE *out)
             "                      --seed S --out DIR [options]\n"
             "\n"
             "Trains N agents (one BNN each, preset '%s') on lidar samples taken along their paths\n"
-            "(DIR/robot_<i>.csv, i = 0..N-1), in synchronous DiNNO rounds, in ONE process. This is the\n"
-            "in-process fleet; the multi-process fleet over LCM is on the roadmap, so --inproc is\n"
-            "required. Baselines with the same network and step budget: 'central' (one model on the\n"
+            "(DIR/robot_<i>.csv, i = 0..N-1), in synchronous DiNNO rounds, in ONE process (--inproc, required):\n"
+            "the reference of the multi-process fleet (tools/fleet: one `host_sim run --fleet N` per robot\n"
+            "over LCM), which trains the same models bit for bit from the same seed (offline, no loss).\n"
+            "Baselines with the same network and step budget: 'central' (one model on the\n"
             "pooled data) and 'isolated' (no communication).\n"
             "\n"
             "Training data: each robot drives its path in the ODE world (the same loop as host_sim scan,\n"
@@ -37,7 +38,7 @@ static void fleet_usage(FILE *out)
             "Writes into --out: samples/robot_<i>.samples (training data, unless --samples), valset.samples,\n"
             "metrics.csv (round,agent,train_loss,val_loss,kl_loss,consensus_error,occ_mse,occ_iou,\n"
             "reg_mu,reg_rho,neighbours), map_mean.png and map_std.png (agent 0, MC mean / std, paths on\n"
-            "top) and summary.txt.\n"
+            "top), models/robot_<i>.bnn (every final model) and summary.txt.\n"
             "\n"
             "options:\n"
             "  --radius M          disk graph radius in metres (default 4.0)\n"
@@ -169,8 +170,8 @@ static int parse(int argc, char **argv, opts_t *o)
             return -1;
     }
     if (!o->inproc) {
-        fprintf(stderr, "host_sim fleet: only the in-process fleet exists (--inproc); the multi-process LCM "
-                        "fleet is on the roadmap\n");
+        fprintf(stderr, "host_sim fleet: --inproc is required (this command is the in-process fleet; the "
+                        "multi-process one is tools/fleet, one `host_sim run --fleet N` per robot)\n");
         return -1;
     }
     const char *missing = !o->plan ? "--plan" : !o->paths ? "--paths" : o->robots < 0 ? "--robots"
@@ -446,7 +447,7 @@ static int report(job_t *j)
     }
     for (int pass = 0; pass < 2; pass++) {
         FILE *f = pass ? stdout : hal_host_file_stream(&out);
-        fprintf(f, "mode: in-process fleet (one process; the multi-process LCM fleet is on the roadmap)\n");
+        fprintf(f, "mode: in-process fleet (one process)\n");
         fprintf(f, "seed: %llu\npreset: %s (%zu parameters)\nagents: %d\nmodels: %d\nrounds: %lld\n",
                 (unsigned long long)j->seed, BNN_PRESET_NAME, bnn_n_params(&sim_fleet_node(j->fleet, 0)->model),
                 j->n, M, o->rounds);
@@ -493,7 +494,7 @@ int cmd_fleet(int argc, char **argv)
     }
     int ok = load_paths(&j->o, &j->plan, j->paths) == 0 && cmd_prepare_out_dir("fleet", j->o.out) == 0;
     if (ok) {
-        printf("fleet (in-process, one host_sim process; the multi-process LCM fleet is on the roadmap)\n");
+        printf("fleet (in-process, one host_sim process)\n");
         printf("seed %llu, preset %s, %d agents, %lld rounds, strategy %s, graph %s", (unsigned long long)j->seed,
                BNN_PRESET_NAME, j->n, j->o.rounds, j->o.strategy_name, dinno_graph_name(j->o.graph));
         if (j->o.graph == DINNO_GRAPH_DISK)
