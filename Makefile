@@ -220,8 +220,10 @@ layering:
 
 tests: all $(TEST_BIN)
 
+# The Python tools' tests run with the release tests (they need no build of their own).
+TEST_PY := $(if $(filter release,$(BUILD)),$(sort $(wildcard tests/tools/test_*.py)))
 test: tests
-	@tools/run-tests.sh $(TEST_BIN)
+	@tools/run-tests.sh $(TEST_BIN) $(TEST_PY)
 
 test-asan:
 	@$(MAKE) --no-print-directory BUILD=asan test

@@ -345,6 +345,10 @@ def main():
             print(f"FAIL {t.__name__}")
             traceback.print_exc()
     print(f"{passed} passed, {failed} failed")
+    # The summary lines tools/run-tests.sh counts (cmocka's wording).
+    print(f"[  PASSED  ] {passed} test(s).")
+    if failed:
+        print(f"[  FAILED  ] {failed} test(s), listed above.")
     return 1 if failed else 0
 
 
