@@ -24,5 +24,6 @@
 #define FW_LINK_RING_CAPACITY 4096u
 #define AI_POOL_CAPACITY (1u << 15)
 #define GP_CORE_LOG_ROUNDS 64u
+#define CRC32_SLICE8 0
 
 #endif /* BOARD_HOST_ALT_BOARD_H */

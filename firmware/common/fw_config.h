@@ -59,6 +59,10 @@
 #define AI_POOL_CAPACITY (1u << 17)
 #endif
 #endif
+/* CRC-32 by slicing 8 bytes at a time (8 KB of tables, ~8x faster) or by nibbles (64 bytes). */
+#ifndef CRC32_SLICE8
+#define CRC32_SLICE8 1
+#endif
 /* Round records the GP core keeps (a ring of the latest; the host reads them as they come). */
 #ifndef GP_CORE_LOG_ROUNDS
 #define GP_CORE_LOG_ROUNDS 1024u

@@ -16,6 +16,7 @@ _Static_assert(HAL_LIDAR_MAX_BEAMS == 180u && sizeof(((hal_lidar_scan_t *)0)->ra
 _Static_assert(FW_LINK_RING_CAPACITY == 4096u && AI_POOL_CAPACITY == (1u << 15) && GP_CORE_LOG_ROUNDS == 64u,
                "host_alt: ring, pool and round log follow the board");
 _Static_assert(HAL_NET_MTU_BYTES == 8u * 1024u && DINNO_MAX_PEERS == 8u, "host_alt: MTU and peers");
+_Static_assert(CRC32_SLICE8 == 0, "host_alt: the small CRC table");
 #endif
 
 static void test_library_and_program_agree(void **st)

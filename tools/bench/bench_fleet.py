@@ -1,0 +1,109 @@
+#!/usr/bin/python3
+"""Benchmarks of the multi-process fleet (`make bench`): real host_sim processes over LCM udpm.
+
+    tools/bench/bench_fleet.py --bin build/release-host-small/bin/host_sim --preset small [--scaling]
+
+Prints `BENCH <name> <value> <unit>` lines:
+  fleet_round_ms_<preset>_<N>proc       median wall time of a DiNNO round, N processes
+                                        (7 always; 14 and 28 with --scaling, tours from `paths gen`)
+  fleet_round_compute_ms_<preset>_7     the same 7 models trained in ONE process on 2 threads
+                                        (`host_sim fleet --inproc --threads 2`): the round's training compute
+  fleet_round_overhead_ms_<preset>_7proc  the difference: what the processes, the network and the
+                                        protocol add to a round (and its share of the round, in %)
+  bytes_per_round_per_agent_<preset>_<fp32|int8>  state bytes each robot sends per round
+Offline mode, strategy kl, disk graph 6 m, seed 1; validation only at the end. A round's wall time
+comes from each robot's traffic.csv (start of round k to start of k+1), rounds 2 .. R-2 (the first
+waits for the slowest tour, the last lingers), median over robots and rounds.
+"""
+import argparse
+import csv
+import os
+import shutil
+import statistics
+import subprocess
+import sys
+import tempfile
+import time
+
+ROOT = os.path.dirname(os.path.dirname(os.path.dirname(os.path.abspath(__file__))))
+PLAN = os.path.join(ROOT, "host_sim/plans/apartment.svg")
+PATHS = os.path.join(ROOT, "host_sim/plans/apartment")
+
+
+def bench(name, value, unit):
+    print(f"BENCH {name} {value:.6g} {unit}", flush=True)
+
+
+def run(cmd, **kw):
+    r = subprocess.run(cmd, stdout=subprocess.PIPE, stderr=subprocess.STDOUT, text=True, **kw)
+    if r.returncode != 0:
+        sys.exit(f"bench_fleet: {' '.join(cmd)} failed:\n{r.stdout[-3000:]}")
+    return r.stdout
+
+
+def fleet(hs, n, rounds, paths, out, encoding="fp32"):
+    """n processes through the launcher; returns (median round ms, mean bytes sent per round)."""
+    run([os.path.join(ROOT, "tools/fleet"), "--bin", hs, "--robots", str(n), "--rounds", str(rounds),
+         "--paths", paths, "--results", out, "--name", f"n{n}-{encoding}", "--encoding", encoding,
+         "--val-every", str(rounds), "--val-poses", "1", "--no-report"])
+    walls, sent = [], []
+    for i in range(n):
+        with open(os.path.join(out, f"n{n}-{encoding}", f"robot_{i}", "traffic.csv")) as f:
+            rows = list(csv.DictReader(f))
+        walls += [float(r["wall_ms"]) for r in rows[2:-2]]
+        sent += [float(r["bytes_sent"]) for r in rows]
+    return statistics.median(walls), statistics.mean(sent)
+
+
+def inproc_round_ms(hs, rounds, out):
+    """Wall time per round of the same fleet in one process (2 threads), from two run lengths."""
+    samples = os.path.join(out, "samples")
+    os.makedirs(samples, exist_ok=True)
+    for i in range(7):
+        run([hs, "scan", "--plan", PLAN, "--path", os.path.join(PATHS, f"robot_{i}.csv"), "--robot", str(i),
+             "--seed", "1", "--out", os.path.join(samples, f"robot_{i}.samples"), "-q"])
+    run([hs, "valset", "--plan", PLAN, "--poses", "1", "--seed", "1", "--out", os.path.join(out, "val.samples")])
+    times = []
+    for r in (max(2, rounds // 10), rounds):
+        t0 = time.time()
+        run([hs, "fleet", "--inproc", "--plan", PLAN, "--paths", PATHS, "--robots", "7", "--rounds", str(r),
+             "--strategy", "kl", "--graph", "disk", "--radius", "6", "--seed", "1", "--threads", "2",
+             "--metrics-every", str(r), "--samples", samples, "--valset", os.path.join(out, "val.samples"),
+             "--out", os.path.join(out, f"inproc{r}"), "--mc", "1", "--map-res", "0.5"])
+        times.append((r, time.time() - t0))
+    (r1, t1), (r2, t2) = times
+    return (t2 - t1) / (r2 - r1) * 1e3
+
+
+def main():
+    p = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
+    p.add_argument("--bin", required=True, help="host_sim of the preset")
+    p.add_argument("--preset", required=True)
+    p.add_argument("--rounds", type=int, default=0, help="rounds per run (default: 200 small, 40 paper)")
+    p.add_argument("--scaling", action="store_true", help="also 14 and 28 processes")
+    a = p.parse_args()
+    rounds = a.rounds or (200 if a.preset == "small" else 40)
+    tmp = tempfile.mkdtemp(prefix="bench_fleet_")
+    try:
+        ms7, bytes32 = fleet(a.bin, 7, rounds, PATHS, tmp)
+        bench(f"fleet_round_ms_{a.preset}_7proc", ms7, "ms")
+        comp = inproc_round_ms(a.bin, rounds, tmp)
+        bench(f"fleet_round_compute_ms_{a.preset}_7", comp, "ms")
+        bench(f"fleet_round_overhead_ms_{a.preset}_7proc", ms7 - comp, "ms")
+        bench(f"fleet_round_overhead_share_{a.preset}_7proc", 100.0 * (ms7 - comp) / ms7, "%")
+        bench(f"bytes_per_round_per_agent_{a.preset}_fp32", bytes32, "B")
+        _, bytes8 = fleet(a.bin, 7, max(10, rounds // 4), PATHS, tmp, "int8")
+        bench(f"bytes_per_round_per_agent_{a.preset}_int8", bytes8, "B")
+        if a.scaling:
+            for n in (14, 28):
+                tours = os.path.join(tmp, f"tours{n}")
+                run([a.bin, "paths", "gen", "--plan", PLAN, "--robots", str(n), "--seed", "1", "--out", tours])
+                ms, _ = fleet(a.bin, n, max(20, rounds // (n // 7)), tours, tmp)
+                bench(f"fleet_round_ms_{a.preset}_{n}proc", ms, "ms")
+    finally:
+        shutil.rmtree(tmp, ignore_errors=True)
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())
