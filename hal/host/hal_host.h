@@ -156,7 +156,8 @@ uint64_t hal_host_world_steps(const hal_host_t *h);
 
 /* ---- pieces, usable on their own (tests, tools) --------------------------------------- */
 
-/* Network over LCM. Not thread-safe: one thread uses one hal_host_net_t. */
+/* Network over LCM. A receiver thread (from the first subscription on) moves datagrams into
+ * the bounded queue as they arrive; the calls below may come from one other thread. */
 FS_MUST_CHECK int hal_host_net_open(const char *url, uint32_t queue_depth,
                                                           hal_host_net_t **out);
 void hal_host_net_close(hal_host_net_t *n);
@@ -170,14 +171,13 @@ FS_MUST_CHECK int hal_host_net_subscribe(hal_host_net_t *n,
  * in rx_dropped_malformed. HAL_HOST_MSG_ANY makes it raw again. 0, -EINVAL or -ENOSPC. */
 FS_MUST_CHECK int hal_host_net_expect_type(hal_host_net_t *n, const char *channel,
                                                                  int type);
-/* Pumps what LCM has ready into the queue without waiting (overflow is dropped and counted;
- * at most 4 * depth + 64 deliveries per call), then pops one message.
- * stamp_us is recorded as the queue time of what the pump delivers. */
+/* Pops the oldest queued message without waiting (-EAGAIN when none). stamp_us is recorded
+ * as the queue time of what arrives next. */
 FS_MUST_CHECK int hal_host_net_receive(hal_host_net_t *n, uint64_t stamp_us,
                                                              hal_net_rx_info_t *info, void *buf,
                                                              size_t cap);
-/* Like receive's pump, but waits up to timeout_ms wall time for the first message (for
- * tools and tests outside the lockstep, never for cores). 0 or -EIO. */
+/* Waits up to timeout_ms of wall time until a message is queued (returns at once if one is).
+ * 0, or -EIO when the transport failed. */
 FS_MUST_CHECK int hal_host_net_wait(hal_host_net_t *n, uint64_t stamp_us,
                                                           int timeout_ms);
 /* Messages waiting in the queue now. */

@@ -209,8 +209,12 @@ static int gp_tick(void *arg, const fw_tick_t *t)
         hal_net_rx_info_t info;
         if (hal_net_publish("test/probe", msg, sizeof(msg)) != 0)
             a->net_errors++;
-        if (hal_net_receive(&info, msg, sizeof(msg)) != 0 || info.len != sizeof(msg))
+        (void)!hal_net_wait(2000000u); /* the receiver thread queues it a moment later */
+        int rr = hal_net_receive(&info, msg, sizeof(msg));
+        if (rr != 0 || info.len != sizeof(msg)) {
+            fprintf(stderr, "probe tick %llu: receive %d len %u\n", (unsigned long long)t->index, rr, info.len);
             a->net_errors++;
+        }
         if (t->index == 10)
             a->alloc_at_10 = alloc_count_allocations();
         a->alloc_at_end = alloc_count_allocations();
