@@ -82,6 +82,7 @@ int gp_pse_begin_round(gp_pse_t *p, uint32_t round, const uint8_t *state, double
     p->my_crc32 = crc32_ieee(state, p->cfg.state_bytes);
     p->x_m = x_m;
     p->y_m = y_m;
+    memset(p->resent_at, 0, sizeof p->resent_at);
     for (uint32_t i = 0; i < p->cfg.n_peers; i++) {
         gp_pse_peer_t *q = &p->peer[i];
         gp_pse_buf_t *b = &q->buf[round & 1u];
@@ -206,8 +207,16 @@ int gp_pse_on_request(gp_pse_t *p, const gp_pse_request_t *r, uint64_t now_us)
         p->stats.stale++;
         return -ESTALE; /* only the current round's state is kept */
     }
+    /* A resend reaches every peer (multicast): one per chunk per half resend period serves
+       all the peers that asked for it meanwhile, instead of a storm of copies. */
     for (uint32_t i = 0; i < r->n; i++) {
-        send_chunk(p, r->chunks[i]);
+        const uint32_t c = r->chunks[i];
+        if (p->resent_at[c] != 0 && now_us - p->resent_at[c] < p->cfg.resend_after_us / 2u) {
+            p->stats.resends_merged++;
+            continue;
+        }
+        p->resent_at[c] = now_us | 1u;
+        send_chunk(p, c);
         p->stats.chunks_resent++;
     }
     p->stats.requests_answered++;

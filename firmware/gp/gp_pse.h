@@ -98,6 +98,7 @@ typedef struct gp_pse_stats {
     uint64_t requests_sent, requests_answered;
     uint64_t chunks_requested;  /* chunk indices named in our requests (lost or late chunks) */
     uint64_t done_resent;       /* our RoundComplete sent again while waiting for the others */
+    uint64_t resends_merged;    /* requested chunks not sent again: one went out just before */
     uint64_t send_failures;
     uint64_t timeouts;          /* peers that left a round */
     uint64_t rejoins;           /* peers heard again after leaving a round */
@@ -133,6 +134,7 @@ typedef struct gp_pse {
     const uint8_t *mine;
     uint32_t my_crc32;
     double x_m, y_m;
+    uint64_t resent_at[GP_PSE_MAX_CHUNKS]; /* when each chunk of ours was last re-sent (0: never) */
     gp_pse_peer_t peer[GP_PSE_MAX_PEERS];
     gp_pse_stats_t stats;
 } gp_pse_t;

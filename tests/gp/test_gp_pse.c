@@ -368,9 +368,30 @@ static void test_disk_neighbours_match_dinno_graph(void **st)
     }
 }
 
+/* Two peers ask for the same chunk of peer 0 within half a resend period: peer 0 sends it
+ * once (multicast serves both); a request after that period gets it again. */
+static void test_requests_for_one_chunk_merge(void **st)
+{
+    (void)st;
+    start(0.0);
+    for (int i = 0; i < N; i++)
+        begin(i, 0, 0);
+    qn = 0; /* every chunk of round 0 lost */
+    const gp_pse_request_t r1 = {1, 0, 0, 1, {2}}, r2 = {2, 0, 0, 1, {2}};
+    assert_int_equal(gp_pse_on_request(&eng[0], &r1, 10), 0);
+    assert_int_equal(gp_pse_on_request(&eng[0], &r2, 20), 0);
+    assert_int_equal(qn, 1);
+    assert_int_equal(eng[0].stats.chunks_resent, 1);
+    assert_int_equal(eng[0].stats.resends_merged, 1);
+    assert_int_equal(gp_pse_on_request(&eng[0], &r2, 20 + RESEND), 0);
+    assert_int_equal(qn, 2);
+    assert_int_equal(eng[0].stats.chunks_resent, 2);
+}
+
 int main(void)
 {
     const struct CMUnitTest tests[] = {
+        cmocka_unit_test(test_requests_for_one_chunk_merge),
         cmocka_unit_test(test_no_loss_two_rounds),
         cmocka_unit_test(test_lost_chunk_is_asked_for_again),
         cmocka_unit_test(test_duplicated_and_reordered),
