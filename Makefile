@@ -248,6 +248,8 @@ bench-one: all
 	    case "$$(basename $$b)" in bench_bnn*) ;; *) [ "$(BENCH_ONLY)" = all ] || continue ;; esac; \
 	    echo "# $$b (preset $(PRESET))"; $$b || exit 1; \
 	done
+	@echo "# tools/bench/bench_fleet.py (preset $(PRESET): real processes over LCM udpm)"
+	@tools/bench/bench_fleet.py --bin $(BIN)/host_sim --preset $(PRESET) $(if $(filter all,$(BENCH_ONLY)),--scaling)
 
 run: all
 	@tools/fleet --bin $(BIN)/host_sim --name fleet $(FLEET_ARGS)

@@ -112,6 +112,7 @@ int gp_fleet_init(gp_fleet_t *f, const gp_fleet_cfg_t *cfg)
         .send_ctx = f,
         .encoding = (uint8_t)cfg->encoding,
         .incarnation = cfg->incarnation,
+        .burst = GP_FLEET_SEND_BURST,
     };
     int r = gp_pse_init(&f->pse, &pc);
     if (r != 0)

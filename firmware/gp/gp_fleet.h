@@ -42,6 +42,10 @@
 
 #define GP_FLEET_CHANNEL_PREFIX "fleetsim/"
 #define GP_FLEET_LOG_ROUNDS 1024u
+/* Chunks sent per turn of the wait loop (between two receives): a large state (the paper
+ * preset's 36 chunks) goes out in windows, so that 7 peers sending at once do not overrun
+ * each other's receive buffers (LCM's own is about 1 MB). */
+#define GP_FLEET_SEND_BURST 4u
 #define GP_FLEET_MAX_TOUR RT_CORE_MAX_WAYPOINTS
 
 typedef enum gp_fleet_encoding { GP_FLEET_FP32 = 0, GP_FLEET_INT8 = 1 } gp_fleet_encoding_t;

@@ -69,6 +69,15 @@ static void buf_reset(gp_pse_buf_t *b, uint32_t round, uint32_t n_chunks, uint64
     memset(b->have, 0, n_chunks);
 }
 
+/* Our next `burst` chunks (all of them without a burst). */
+static void send_window(gp_pse_t *p)
+{
+    const uint32_t end = p->cfg.burst == 0 || p->n_chunks - p->next_send < p->cfg.burst ? p->n_chunks
+                                                                                        : p->next_send + p->cfg.burst;
+    for (; p->next_send < end; p->next_send++)
+        send_chunk(p, p->next_send);
+}
+
 int gp_pse_begin_round(gp_pse_t *p, uint32_t round, const uint8_t *state, double x_m, double y_m, uint64_t now_us)
 {
     if (p == NULL || state == NULL || !isfinite(x_m) || !isfinite(y_m) || (p->in_round && round != p->round + 1u))
@@ -94,8 +103,8 @@ int gp_pse_begin_round(gp_pse_t *p, uint32_t round, const uint8_t *state, double
         /* A RoundComplete of this round or later already heard still says the peer is ahead. */
         p->later_heard |= q->has_done && q->done_round > round;
     }
-    for (uint32_t k = 0; k < p->n_chunks; k++)
-        send_chunk(p, k);
+    p->next_send = 0;
+    send_window(p);
     return 0;
 }
 
@@ -227,6 +236,7 @@ void gp_pse_poll(gp_pse_t *p, uint64_t now_us)
 {
     if (!p->in_round)
         return;
+    send_window(p);
     /* Waiting for the others' RoundComplete: ours again, in case it was lost (the last round
        has no later State to tell a peer that we finished). */
     if (p->completed && !gp_pse_round_finished(p) && now_us - p->done_sent_us >= p->cfg.resend_after_us) {

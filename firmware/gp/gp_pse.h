@@ -90,6 +90,8 @@ typedef struct gp_pse_cfg {
     void *send_ctx;
     uint8_t encoding;           /* of every state in the fleet: 0 fp32, 1 int8 */
     uint32_t incarnation;       /* ours, carried in our chunks */
+    uint32_t burst;             /* chunks sent by begin_round, then as many by each poll (a send
+                                   window that lets the receivers keep up); 0: all at once */
 } gp_pse_cfg_t;
 
 typedef struct gp_pse_stats {
@@ -132,6 +134,7 @@ typedef struct gp_pse {
     int in_round, completed, later_heard;
     uint64_t round_start_us, completed_us, done_sent_us;
     const uint8_t *mine;
+    uint32_t next_send;         /* our next chunk not sent yet this round (the send window) */
     uint32_t my_crc32;
     double x_m, y_m;
     uint64_t resent_at[GP_PSE_MAX_CHUNKS]; /* when each chunk of ours was last re-sent (0: never) */

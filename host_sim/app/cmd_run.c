@@ -77,6 +77,7 @@ static void run_usage(FILE *out)
             "  --encoding fp32|int8 fleet: states as fp32 or int8 with per-row scales (default fp32)\n"
             "  --peer-timeout S     fleet: a peer silent S seconds leaves the round (default 10)\n"
             "  --join-timeout S     fleet: the same for a peer never heard yet (default 120)\n"
+            "  --chunk-bytes B      fleet: state bytes per datagram (default and most %u)\n"
             "  --sched serial|parallel   lockstep release order (default serial: bit-reproducible)\n"
             "  --val-poses N        validation poses x 500 points (default 500; 0: no validation)\n"
             "  --val-every M        validation loss (and a round checkpoint) every M rounds and at the end\n"
@@ -86,13 +87,13 @@ static void run_usage(FILE *out)
             "  --quiet              firmware log at WARN (default INFO: a line per round)\n"
             "  --scale S            plan metres per pixel (default %g)\n",
             BNN_PRESET_NAME, d.primal_steps, (double)d.kl_weight, d.batch, BNN_MAX_BATCH, (double)d.lr_start,
-            (double)d.lr_end, (double)d.rho0, (double)d.rho_scaling, HAL_HOST_NET_URL_DEFAULT,
+            (double)d.lr_end, (double)d.rho0, (double)d.rho_scaling, HAL_HOST_NET_URL_DEFAULT, (unsigned)GP_PSE_MAX_CHUNK_BYTES,
             SIM_PLAN_DEFAULT_SCALE);
 }
 
 typedef struct run_opts {
     const char *plan, *path, *out, *net;
-    long long rounds, per_comm, seed, robot, val_poses, mc, fleet, fleet_id, val_every;
+    long long rounds, per_comm, seed, robot, val_poses, mc, fleet, fleet_id, val_every, chunk_bytes;
     double time_limit, map_res, scale, radius, peer_timeout, join_timeout;
     dinno_cfg_t d;
     ai_pool_policy_t pool;
@@ -192,6 +193,8 @@ static int parse(int argc, char **argv, run_opts_t *o)
             bad = cmd_parse_ll(v, a, 0, 1000000, &o->fleet_id);
         else if (strcmp(a, "--val-poses") == 0)
             bad = cmd_parse_ll(v, a, 0, 100000, &o->val_poses);
+        else if (strcmp(a, "--chunk-bytes") == 0)
+            bad = cmd_parse_ll(v, a, GP_PSE_MIN_CHUNK_BYTES, GP_PSE_MAX_CHUNK_BYTES, &o->chunk_bytes);
         else if (strcmp(a, "--val-every") == 0)
             bad = cmd_parse_ll(v, a, 1, AI_CORE_MAX_ROUNDS, &o->val_every);
         else if (strcmp(a, "--mc") == 0)
@@ -355,8 +358,10 @@ static void on_round(const ai_round_info_t *in, void *user)
                 hal_host_file_strerror(in->ckpt_status));
         c->failed = 1;
     } else if (c->n_val > 0 && val_round(c->o, in->round)) {
+        /* The last round's checkpoint may exist only as final.bnn (--val-every not dividing it). */
         char file[4200];
-        snprintf(file, sizeof file, "%s/%s", c->o->out, name);
+        snprintf(file, sizeof file, "%s/%s", c->o->out,
+                 in->round + 1u == (uint32_t)c->o->rounds ? "final.bnn" : name);
         float v = NAN;
         if (load_ckpt(c->model, file) != 0 || bnn_eval_bce(c->model, c->val, c->n_val, 0, 0, &v) != 0)
             c->failed = 1;
@@ -613,6 +618,7 @@ static int run_image(job_t *j)
         f->rounds = (uint32_t)o->rounds;
         f->radius_m = o->radius;
         f->encoding = o->encoding;
+        f->chunk_bytes = (uint32_t)o->chunk_bytes;
         f->peer_timeout_us = (uint32_t)llround(o->peer_timeout * 1e6);
         f->join_timeout_us = (uint32_t)llround(o->join_timeout * 1e6);
         f->positions_from_tour = o->offline;
@@ -741,10 +747,12 @@ static int report(job_t *j)
                     (unsigned long long)p->duplicates, (unsigned long long)p->stale, (unsigned long long)p->invalid,
                     (unsigned long long)p->crc_failures, (unsigned long long)p->timeouts,
                     (unsigned long long)p->rejoins, (unsigned long long)res->fleet.own_echoes);
-            fprintf(f, "waiting for peers: %.2f s wall in all (%.2f ms per round); network queue drops %llu\n",
+            fprintf(f, "waiting for peers: %.2f s wall in all (%.2f ms per round); network queue drops %llu; "
+                       "sends refused %llu\n",
                     (double)t->wait_us * 1e-6, (double)t->wait_us * 1e-3 / R,
                     (unsigned long long)(res->net.rx_dropped_full + res->net.rx_dropped_malformed +
-                                         res->net.rx_dropped_invalid + res->net.rx_dropped_small));
+                                         res->net.rx_dropped_invalid + res->net.rx_dropped_small),
+                    (unsigned long long)res->pse.send_failures);
         }
         fprintf(f, "checkpoints: %llu written, %llu failed; telemetry: %llu sent, %llu not sent\n",
                 (unsigned long long)res->gp.ckpt_written, (unsigned long long)res->gp.ckpt_failed,
