@@ -91,7 +91,7 @@ static void start(double radius)
 {
     qn = 0;
     for (int i = 0; i < N; i++) {
-        gp_pse_cfg_t c = {(uint32_t)i, N, STATE_BYTES, CHUNK, radius, RESEND, TIMEOUT, 0, net_send, &sender_id[i], 0, 0};
+        gp_pse_cfg_t c = {(uint32_t)i, N, STATE_BYTES, CHUNK, radius, RESEND, TIMEOUT, 0, net_send, &sender_id[i], 0, 0, 0};
         assert_int_equal(gp_pse_init(&eng[i], &c), 0);
         for (int r = 0; r < 2; r++)
             for (uint32_t b = 0; b < STATE_BYTES; b++)
