@@ -348,6 +348,9 @@ def write_atomic(path, writer):
             os.fsync(f.fileno())
         if os.path.isdir(path):
             raise ReportError(f"{path}: Is a directory")
+        umask = os.umask(0)
+        os.umask(umask)
+        os.chmod(tmp, 0o666 & ~umask)  # mkstemp's 0600 would make the report private
         os.replace(tmp, path)
     except OSError as e:
         _unlink(tmp)
