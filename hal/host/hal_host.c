@@ -108,11 +108,9 @@ static int op_net_stats(void *ctx, hal_net_stats_t *stats)
 static int op_net_wait(void *ctx, uint32_t timeout_us)
 {
     hal_host_t *h = ctx;
-    if (hal_host_net_queued(h->net) == 0) {
-        int r = hal_host_net_wait(h->net, hal_host_now_us(h), (int)((timeout_us + 999u) / 1000u));
-        if (r != 0)
-            return r;
-    }
+    int r = hal_host_net_wait(h->net, hal_host_now_us(h), (int)((timeout_us + 999u) / 1000u));
+    if (r != 0)
+        return r;
     return hal_host_net_queued(h->net) > 0 ? 0 : -EAGAIN;
 }
 

@@ -283,7 +283,6 @@ typedef struct run_ctx {
     run_row_t rows[RUN_PENDING];
     uint32_t fleet_in;                    /* fleet records taken */
     gp_fleet_round_t fleet[RUN_PENDING]; /* by round % RUN_PENDING */
-    gp_fleet_round_t total;               /* sums over the rounds */
 } run_ctx_t;
 
 static int load_ckpt(bnn_model_t *m, const char *file)
@@ -375,25 +374,11 @@ static void on_round(const ai_round_info_t *in, void *user)
     flush_rows(c, 0);
 }
 
-#define ADD(f) c->total.f += r->f
 static void on_fleet_round(const gp_fleet_round_t *r, void *user)
 {
     run_ctx_t *c = user;
     c->fleet[r->round % RUN_PENDING] = *r;
     c->fleet_in = r->round + 1u;
-    ADD(wait_us);
-    ADD(bytes_sent);
-    ADD(bytes_received);
-    ADD(chunks_sent);
-    ADD(chunks_received);
-    ADD(chunks_resent);
-    ADD(chunks_requested);
-    ADD(duplicates);
-    ADD(stale);
-    ADD(timeouts);
-    ADD(rejoins);
-    ADD(crc_failures);
-    ADD(invalid);
     if (r->timeouts > 0)
         fprintf(stderr, "host_sim run: robot %lld, round %u: %llu peer(s) timed out and left the round\n", c->o->robot,
                 r->round, (unsigned long long)r->timeouts);
@@ -406,7 +391,6 @@ static void on_fleet_round(const gp_fleet_round_t *r, void *user)
             (unsigned long long)r->invalid);
     flush_rows(c, 0);
 }
-#undef ADD
 
 static void write_profile(const run_opts_t *o, const sim_image_result_t *r, FILE *txt, FILE *csv)
 {
@@ -733,7 +717,6 @@ static int report(job_t *j)
                 j->ctx.last_val);
         fprintf(f, "occupancy MSE within 1 m of the path (0.1 m grid, %zu cells): %.5f\n", cells, occ);
         if (o->fleet > 1) {
-            const gp_fleet_round_t *t = &j->ctx.total;
             const gp_pse_stats_t *p = &res->pse; /* the whole run, start-up included */
             const double R = (double)o->rounds;
             fprintf(f, "fleet: %lld robots (this is robot %lld, fleet id %lld), %s states, radius %g m\n", o->fleet,
@@ -749,7 +732,7 @@ static int report(job_t *j)
                     (unsigned long long)p->rejoins, (unsigned long long)res->fleet.own_echoes);
             fprintf(f, "waiting for peers: %.2f s wall in all (%.2f ms per round); network queue drops %llu; "
                        "sends refused %llu\n",
-                    (double)t->wait_us * 1e-6, (double)t->wait_us * 1e-3 / R,
+                    (double)res->fleet.wait_us * 1e-6, (double)res->fleet.wait_us * 1e-3 / R,
                     (unsigned long long)(res->net.rx_dropped_full + res->net.rx_dropped_malformed +
                                          res->net.rx_dropped_invalid + res->net.rx_dropped_small),
                     (unsigned long long)res->pse.send_failures);
