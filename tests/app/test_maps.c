@@ -22,6 +22,8 @@
 #include <unistd.h>
 #include <cmocka.h>
 
+#include "snapshot.h"
+
 #include "ai/bnn.h"
 #include "ai/bnn_ckpt.h"
 #include "sim_maps.h"
@@ -98,23 +100,6 @@ static void path_at(char *out, const char *dir, const char *name)
     snprintf(out, PATH_MAX, "%s/%s", dir, name);
 }
 
-/* The bytes of a file (malloc'd, NUL-terminated; *n its size), NULL when it does not exist. */
-static uint8_t *slurp(const char *p, size_t *n)
-{
-    FILE *f = fopen(p, "rb");
-    if (f == NULL)
-        return NULL;
-    fseek(f, 0, SEEK_END);
-    long sz = ftell(f);
-    fseek(f, 0, SEEK_SET);
-    uint8_t *b = malloc((size_t)sz + 1);
-    assert_non_null(b);
-    assert_int_equal(fread(b, 1, (size_t)sz, f), (size_t)sz);
-    fclose(f);
-    b[sz] = 0;
-    *n = (size_t)sz;
-    return b;
-}
 
 static void spit(const char *p, const void *data, size_t n)
 {
@@ -142,7 +127,7 @@ static void save_model(const bnn_model_t *m, int with_adam, const char *path)
 static void load_model(const char *path)
 {
     size_t n = 0;
-    uint8_t *b = slurp(path, &n);
+    uint8_t *b = test_slurp(path, &n);
     assert_non_null(b);
     assert_int_equal(bnn_init(&g_load, NULL, 0), 0);
     const char *why = NULL;
@@ -202,7 +187,7 @@ static void csv_row(const char *dir, int row, const char *file, double *val, dou
     char p[PATH_MAX];
     path_at(p, dir, "consensus.csv");
     size_t n = 0;
-    char *t = (char *)slurp(p, &n);
+    char *t = (char *)test_slurp(p, &n);
     assert_non_null(t);
     assert_true(strncmp(t, "model,file,val_loss,consensus_error\n", 36) == 0);
     char *line = t + 36;
@@ -246,7 +231,7 @@ static double json_num(const char *json, const char *key)
 static float *read_npy(const char *path, int *h, int *w)
 {
     size_t n = 0;
-    uint8_t *b = slurp(path, &n);
+    uint8_t *b = test_slurp(path, &n);
     if (b == NULL)
         fail_msg("%s missing", path);
     assert_true(n >= 10 && memcmp(b, "\x93NUMPY\x01\x00", 8) == 0);
@@ -376,7 +361,7 @@ static void test_map_files_agree(void **st)
     /* map_meta.json */
     path_at(p, out, "map_meta.json");
     size_t n = 0;
-    char *json = (char *)slurp(p, &n);
+    char *json = (char *)test_slurp(p, &n);
     assert_non_null(json);
     const double res = json_num(json, "res"), xmin = json_num(json, "xmin"), ymin = json_num(json, "ymin");
     const double xmax = json_num(json, "xmax"), ymax = json_num(json, "ymax");
@@ -422,7 +407,7 @@ static void test_map_files_agree(void **st)
     assert_true(smax > 0.0 && fabs(json_num(json, "std_max") - smax) <= 1e-12);
     /* map.pgm: P5, W x H, 255, pixel = round(255 (1 - mean)), same orientation as the arrays. */
     path_at(p, out, "map.pgm");
-    uint8_t *pgm = slurp(p, &n);
+    uint8_t *pgm = test_slurp(p, &n);
     assert_non_null(pgm);
     char head[64];
     const int hn = snprintf(head, sizeof head, "P5\n%d %d\n255\n", W, H);
@@ -437,7 +422,7 @@ static void test_map_files_agree(void **st)
     assert_true(lo >= 0 && hi <= 255 && lo < hi);
     /* map.yaml */
     path_at(p, out, "map.yaml");
-    char *yaml = (char *)slurp(p, &n);
+    char *yaml = (char *)test_slurp(p, &n);
     assert_non_null(yaml);
     const char *o = strstr(yaml, "origin: [");
     double ox = NAN, oy = NAN;
@@ -467,56 +452,18 @@ static void test_map_files_agree(void **st)
     free(json);
 }
 
-/* Every file of DIR, byte for byte, before a run that must fail. */
-typedef struct {
-    int n;
-    char name[16][64];
-    uint8_t *data[16];
-    size_t len[16];
-} snap_t;
-
+/* The outputs a good run leaves in DIR: a failed run must keep every one of them. */
 static const char *const outputs[] = {"consensus.bnn", "consensus.csv", "map_mean.npy", "map_std.npy",
                                       "map_single.npy", "map_meta.json", "map.pgm",       "map.yaml",
                                       "map_mean.png",  "map_std.png"};
 
-static void snap_take(snap_t *s, const char *dir)
+/* Every file of DIR, byte for byte, before a run that must fail; the outputs all among them. */
+static void snap_outputs(snap_t *s, const char *dir)
 {
-    memset(s, 0, sizeof *s);
-    for (size_t k = 0; k < sizeof outputs / sizeof outputs[0]; k++) {
-        char p[PATH_MAX];
-        path_at(p, dir, outputs[k]);
-        snprintf(s->name[s->n], sizeof s->name[0], "%s", outputs[k]);
-        s->data[s->n] = slurp(p, &s->len[s->n]);
-        assert_non_null(s->data[s->n]);
-        s->n++;
-    }
-}
-
-static void snap_check(const snap_t *s, const char *dir)
-{
-    for (int i = 0; i < s->n; i++) {
-        char p[PATH_MAX];
-        path_at(p, dir, s->name[i]);
-        size_t n = 0;
-        uint8_t *now = slurp(p, &n);
-        if (now == NULL || n != s->len[i] || memcmp(now, s->data[i], n) != 0)
-            fail_msg("%s changed or vanished", p);
-        free(now);
-    }
-    char cmd[PATH_MAX + 64];
-    snprintf(cmd, sizeof cmd, "ls -A '%s' | grep -c 'fstmp$'", dir);
-    FILE *f = popen(cmd, "r");
-    int left = -1;
-    assert_int_equal(fscanf(f, "%d", &left), 1);
-    pclose(f);
-    if (left != 0)
-        fail_msg("%d temporary file(s) left in %s", left, dir);
-}
-
-static void snap_free(snap_t *s)
-{
-    for (int i = 0; i < s->n; i++)
-        free(s->data[i]);
+    snap_take(s, dir);
+    for (size_t k = 0; k < sizeof outputs / sizeof outputs[0]; k++)
+        if (!snap_has(s, outputs[k]))
+            fail_msg("%s/%s is missing", dir, outputs[k]);
 }
 
 static void test_bad_inputs_keep_earlier_output(void **st)
@@ -526,9 +473,9 @@ static void test_bad_inputs_keep_earlier_output(void **st)
     path_in(out, "keep");
     HS_OK("maps", "--plan", g_plan, "--out", out, "--res", "0.2", "--mc", "3", "--valset", g_val, g_a, g_b);
     snap_t s;
-    snap_take(&s, out);
+    snap_outputs(&s, out);
     size_t n = 0;
-    uint8_t *ck = slurp(g_b, &n);
+    uint8_t *ck = test_slurp(g_b, &n);
     assert_non_null(ck);
     path_in(bad, "bad.bnn");
     /* A corrupt checkpoint (one payload bit flipped), as the second model. */

@@ -23,6 +23,8 @@
 #include <unistd.h>
 #include <cmocka.h>
 
+#include "snapshot.h"
+
 #define SHORT_PATH 1024 /* our own paths; PATH_MAX-sized buffers hold them with a name added */
 static char g_bin[SHORT_PATH];   /* build/<config>/bin/host_sim */
 static char g_dir[SHORT_PATH];   /* scratch folder of this test */
@@ -77,83 +79,6 @@ static void path_in(char *out, const char *name)
 {
     assert_true(strlen(name) < 64);
     snprintf(out, PATH_MAX, "%.1023s/%.63s", g_dir, name);
-}
-
-/* The bytes of a file (malloc'd; *n its size), NULL when it does not exist. */
-static uint8_t *slurp(const char *p, size_t *n)
-{
-    FILE *f = fopen(p, "rb");
-    if (f == NULL)
-        return NULL;
-    fseek(f, 0, SEEK_END);
-    long sz = ftell(f);
-    fseek(f, 0, SEEK_SET);
-    uint8_t *b = malloc((size_t)sz + 1);
-    assert_non_null(b);
-    assert_int_equal(fread(b, 1, (size_t)sz, f), (size_t)sz);
-    fclose(f);
-    *n = (size_t)sz;
-    return b;
-}
-
-/* A snapshot of every file directly in a folder: names and bytes. */
-typedef struct {
-    int n;
-    char name[64][300];
-    uint8_t *data[64];
-    size_t len[64];
-} snap_t;
-
-static void snap_take(snap_t *s, const char *dir)
-{
-    memset(s, 0, sizeof *s);
-    char cmd[PATH_MAX + 32];
-    snprintf(cmd, sizeof cmd, "ls -A '%s'", dir);
-    FILE *p = popen(cmd, "r");
-    assert_non_null(p);
-    char line[300];
-    while (fgets(line, sizeof line, p) && s->n < 64) {
-        line[strcspn(line, "\n")] = '\0';
-        char full[PATH_MAX + 300];
-        snprintf(full, sizeof full, "%s/%s", dir, line);
-        if (strlen(line) >= sizeof s->name[0])
-            continue;
-        struct stat st;
-        if (stat(full, &st) != 0 || !S_ISREG(st.st_mode))
-            continue;
-        snprintf(s->name[s->n], sizeof s->name[0], "%s", line);
-        s->data[s->n] = slurp(full, &s->len[s->n]);
-        s->n++;
-    }
-    pclose(p);
-}
-
-/* Every file of the snapshot is still there, byte for byte, and no temporary file is left. */
-static void snap_check(const snap_t *s, const char *dir)
-{
-    for (int i = 0; i < s->n; i++) {
-        char full[PATH_MAX + 300];
-        snprintf(full, sizeof full, "%s/%s", dir, s->name[i]);
-        size_t n = 0;
-        uint8_t *now = slurp(full, &n);
-        if (now == NULL || n != s->len[i] || memcmp(now, s->data[i], n) != 0)
-            fail_msg("%s changed or vanished", full);
-        free(now);
-    }
-    char cmd[PATH_MAX + 64];
-    snprintf(cmd, sizeof cmd, "ls -A '%s' | grep -c 'fstmp$'", dir);
-    FILE *p = popen(cmd, "r");
-    int left = -1;
-    assert_int_equal(fscanf(p, "%d", &left), 1);
-    pclose(p);
-    if (left != 0)
-        fail_msg("%d temporary file(s) left in %s", left, dir);
-}
-
-static void snap_free(snap_t *s)
-{
-    for (int i = 0; i < s->n; i++)
-        free(s->data[i]);
 }
 
 static void expect_err(const char *a, const char *b)
@@ -327,7 +252,7 @@ static void test_out_that_is_not_ours(void **st)
     assert_true(HS(-1, "paths", "gen", "--plan", g_plan, "--robots", "2", "--seed", "1", "--out", p) != 0);
     expect_err(p, "Not a directory");
     size_t n = 0;
-    uint8_t *b = slurp(p, &n);
+    uint8_t *b = test_slurp(p, &n);
     assert_true(b != NULL && n == 5 && memcmp(b, "mine\n", 5) == 0);
     free(b);
     /* A device: refused, and still there afterwards (running as root must not remove it). */

@@ -30,6 +30,8 @@
 
 #include <cmocka.h>
 
+#include "snapshot.h"
+
 #define NPROC 3
 #define ROUNDS "4"
 
@@ -72,27 +74,9 @@ static int wait_status(pid_t pid)
     return WIFEXITED(st) ? WEXITSTATUS(st) : 128 + WTERMSIG(st);
 }
 
-/* The whole file (read to its end: /proc files have no size), NUL-terminated; NULL if unreadable. */
 static char *slurp(const char *path, size_t *len)
 {
-    FILE *f = fopen(path, "rb");
-    if (!f)
-        return NULL;
-    size_t cap = 4096, n = 0;
-    char *b = malloc(cap);
-    assert_non_null(b);
-    for (size_t got; (got = fread(b + n, 1, cap - n - 1, f)) > 0;) {
-        n += got;
-        if (cap - n - 1 == 0) {
-            cap *= 2;
-            b = realloc(b, cap);
-            assert_non_null(b);
-        }
-    }
-    b[n] = '\0';
-    fclose(f);
-    *len = n;
-    return b;
+    return (char *)test_slurp(path, len);
 }
 
 static void show_log(const char *path)

@@ -1,0 +1,95 @@
+/* File helpers of the tests: see snapshot.h. */
+#define _XOPEN_SOURCE 700 /* popen */
+#include "snapshot.h"
+
+#include <limits.h>
+#include <setjmp.h>
+#include <stdarg.h>
+#include <stdio.h>
+#include <stdlib.h>
+#include <string.h>
+#include <sys/stat.h>
+
+#include <cmocka.h>
+
+uint8_t *test_slurp(const char *path, size_t *n)
+{
+    FILE *f = fopen(path, "rb");
+    if (f == NULL)
+        return NULL;
+    size_t cap = 4096, len = 0;
+    uint8_t *b = malloc(cap);
+    assert_non_null(b);
+    for (size_t got; (got = fread(b + len, 1, cap - len - 1, f)) > 0;) {
+        len += got;
+        if (cap - len - 1 == 0) {
+            cap *= 2;
+            b = realloc(b, cap);
+            assert_non_null(b);
+        }
+    }
+    fclose(f);
+    b[len] = 0;
+    *n = len;
+    return b;
+}
+
+void snap_take(snap_t *s, const char *dir)
+{
+    memset(s, 0, sizeof *s);
+    char cmd[PATH_MAX + 32];
+    snprintf(cmd, sizeof cmd, "ls -A '%s'", dir);
+    FILE *p = popen(cmd, "r");
+    assert_non_null(p);
+    char line[300];
+    while (fgets(line, sizeof line, p) && s->n < SNAP_MAX_FILES) {
+        line[strcspn(line, "\n")] = '\0';
+        char full[PATH_MAX + 300];
+        snprintf(full, sizeof full, "%s/%s", dir, line);
+        if (strlen(line) >= sizeof s->name[0])
+            continue;
+        struct stat st;
+        if (stat(full, &st) != 0 || !S_ISREG(st.st_mode))
+            continue;
+        snprintf(s->name[s->n], sizeof s->name[0], "%s", line);
+        s->data[s->n] = test_slurp(full, &s->len[s->n]);
+        s->n++;
+    }
+    pclose(p);
+}
+
+int snap_has(const snap_t *s, const char *name)
+{
+    for (int i = 0; i < s->n; i++)
+        if (strcmp(s->name[i], name) == 0 && s->data[i] != NULL)
+            return 1;
+    return 0;
+}
+
+void snap_check(const snap_t *s, const char *dir)
+{
+    for (int i = 0; i < s->n; i++) {
+        char full[PATH_MAX + 300];
+        snprintf(full, sizeof full, "%s/%s", dir, s->name[i]);
+        size_t n = 0;
+        uint8_t *now = test_slurp(full, &n);
+        if (now == NULL || n != s->len[i] || memcmp(now, s->data[i], n) != 0)
+            fail_msg("%s changed or vanished", full);
+        free(now);
+    }
+    char cmd[PATH_MAX + 64];
+    snprintf(cmd, sizeof cmd, "ls -A '%s' | grep -c 'fstmp$'", dir);
+    FILE *p = popen(cmd, "r");
+    assert_non_null(p);
+    int left = -1;
+    assert_int_equal(fscanf(p, "%d", &left), 1);
+    pclose(p);
+    if (left != 0)
+        fail_msg("%d temporary file(s) left in %s", left, dir);
+}
+
+void snap_free(snap_t *s)
+{
+    for (int i = 0; i < s->n; i++)
+        free(s->data[i]);
+}

@@ -1,0 +1,32 @@
+/* File helpers for the tests that run programs and check what they left behind:
+ * read a whole file, and snapshot every regular file of a folder to check later that a failed
+ * run changed none of them and left no temporary file (the writer's "*.fstmp").
+ * Failures are cmocka assertions. Not thread-safe. */
+#ifndef TESTS_SUPPORT_SNAPSHOT_H
+#define TESTS_SUPPORT_SNAPSHOT_H
+
+#include <stddef.h>
+#include <stdint.h>
+
+/* The bytes of a file, read to its end (so /proc files work too), malloc'd and NUL-terminated;
+ * *n its size. NULL when it cannot be opened. */
+uint8_t *test_slurp(const char *path, size_t *n);
+
+#define SNAP_MAX_FILES 64
+
+/* Every regular file directly in a folder: names and bytes. */
+typedef struct snap {
+    int n;
+    char name[SNAP_MAX_FILES][300];
+    uint8_t *data[SNAP_MAX_FILES];
+    size_t len[SNAP_MAX_FILES];
+} snap_t;
+
+void snap_take(snap_t *s, const char *dir);
+/* 1 when the snapshot holds a file of that name. */
+int snap_has(const snap_t *s, const char *name);
+/* Every file of the snapshot is still there, byte for byte, and no temporary file is left. */
+void snap_check(const snap_t *s, const char *dir);
+void snap_free(snap_t *s);
+
+#endif /* TESTS_SUPPORT_SNAPSHOT_H */
