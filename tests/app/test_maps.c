@@ -22,7 +22,7 @@
 #include <unistd.h>
 #include <cmocka.h>
 
-#include "snapshot.h"
+#include "run_outputs.h"
 
 #include "ai/bnn.h"
 #include "ai/bnn_ckpt.h"
@@ -44,39 +44,7 @@ static bnn_model_t g_ma, g_mb, g_mo, g_load; /* too large for the stack */
  * seam; returns the exit status and keeps stdout and stderr. */
 static int hs(long fail_after, const char *const *args)
 {
-    char errfile[SHORT_PATH + 16], outfile[SHORT_PATH + 16];
-    snprintf(errfile, sizeof errfile, "%s/.stderr", g_dir);
-    snprintf(outfile, sizeof outfile, "%s/.stdout", g_dir);
-    pid_t pid = fork();
-    assert_true(pid >= 0);
-    if (pid == 0) {
-        int fe = open(errfile, O_WRONLY | O_CREAT | O_TRUNC, 0644);
-        int fo = open(outfile, O_WRONLY | O_CREAT | O_TRUNC, 0644);
-        if (fe < 0 || fo < 0)
-            _exit(127);
-        dup2(fe, 2);
-        dup2(fo, 1);
-        if (fail_after >= 0) {
-            char v[32];
-            snprintf(v, sizeof v, "%ld", fail_after);
-            setenv("FLEETSIM_FAIL_WRITE_AFTER", v, 1);
-        }
-        execv(g_bin, (char *const *)args);
-        _exit(127);
-    }
-    int st = 0;
-    assert_int_equal(waitpid(pid, &st, 0), pid);
-    const char *files[2] = {errfile, outfile};
-    char *bufs[2] = {g_err, g_out};
-    for (int k = 0; k < 2; k++) {
-        FILE *f = fopen(files[k], "r");
-        assert_non_null(f);
-        size_t n = fread(bufs[k], 1, sizeof g_err - 1, f);
-        bufs[k][n] = '\0';
-        fclose(f);
-        unlink(files[k]);
-    }
-    return WIFEXITED(st) ? WEXITSTATUS(st) : 128 + WTERMSIG(st);
+    return test_run(g_bin, args, fail_after, g_dir, g_err, g_out, sizeof g_err);
 }
 
 #define HS(fail, ...) hs((fail), (const char *const[]){"host_sim", __VA_ARGS__, NULL})

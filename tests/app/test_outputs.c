@@ -23,7 +23,7 @@
 #include <unistd.h>
 #include <cmocka.h>
 
-#include "snapshot.h"
+#include "run_outputs.h"
 
 #define SHORT_PATH 1024 /* our own paths; PATH_MAX-sized buffers hold them with a name added */
 static char g_bin[SHORT_PATH];   /* build/<config>/bin/host_sim */
@@ -36,34 +36,7 @@ static char g_err[1 << 16];   /* stderr of the last run */
  * seam; returns the exit status (128 + signal when killed) and keeps stderr in g_err. */
 static int hs(long fail_after, const char *const *args)
 {
-    char errfile[PATH_MAX + 16];
-    snprintf(errfile, sizeof errfile, "%s/.stderr", g_dir);
-    pid_t pid = fork();
-    assert_true(pid >= 0);
-    if (pid == 0) {
-        int fd = open(errfile, O_WRONLY | O_CREAT | O_TRUNC, 0644);
-        int null = open("/dev/null", O_WRONLY);
-        if (fd < 0 || null < 0)
-            _exit(127);
-        dup2(fd, 2);
-        dup2(null, 1);
-        if (fail_after >= 0) {
-            char v[32];
-            snprintf(v, sizeof v, "%ld", fail_after);
-            setenv("FLEETSIM_FAIL_WRITE_AFTER", v, 1);
-        }
-        execv(g_bin, (char *const *)args);
-        _exit(127);
-    }
-    int st = 0;
-    assert_int_equal(waitpid(pid, &st, 0), pid);
-    FILE *f = fopen(errfile, "r");
-    assert_non_null(f);
-    size_t n = fread(g_err, 1, sizeof g_err - 1, f);
-    g_err[n] = '\0';
-    fclose(f);
-    unlink(errfile);
-    return WIFEXITED(st) ? WEXITSTATUS(st) : 128 + WTERMSIG(st);
+    return test_run(g_bin, args, fail_after, g_dir, g_err, NULL, sizeof g_err);
 }
 
 #define HS(fail, ...) hs((fail), (const char *const[]){"host_sim", __VA_ARGS__, NULL})

@@ -30,7 +30,7 @@
 
 #include <cmocka.h>
 
-#include "snapshot.h"
+#include "run_outputs.h"
 
 #define NPROC 3
 #define ROUNDS "4"

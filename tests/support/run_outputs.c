@@ -1,6 +1,6 @@
-/* File helpers of the tests: see snapshot.h. */
+/* Helpers of the tests that run programs: see run_outputs.h. */
 #define _XOPEN_SOURCE 700 /* popen */
-#include "snapshot.h"
+#include "run_outputs.h"
 
 #include <limits.h>
 #include <setjmp.h>
@@ -8,9 +8,52 @@
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
+#include <fcntl.h>
 #include <sys/stat.h>
+#include <sys/wait.h>
+#include <unistd.h>
 
 #include <cmocka.h>
+
+int test_run(const char *bin, const char *const *args, long fail_after, const char *dir, char *err, char *out,
+             size_t cap)
+{
+    char files[2][PATH_MAX + 16];
+    snprintf(files[0], sizeof files[0], "%s/.stderr", dir);
+    snprintf(files[1], sizeof files[1], "%s/.stdout", dir);
+    fflush(NULL);
+    pid_t pid = fork();
+    assert_true(pid >= 0);
+    if (pid == 0) {
+        int fe = open(files[0], O_WRONLY | O_CREAT | O_TRUNC, 0644);
+        int fo = open(out ? files[1] : "/dev/null", O_WRONLY | O_CREAT | O_TRUNC, 0644);
+        if (fe < 0 || fo < 0)
+            _exit(127);
+        dup2(fe, 2);
+        dup2(fo, 1);
+        if (fail_after >= 0) {
+            char v[32];
+            snprintf(v, sizeof v, "%ld", fail_after);
+            setenv("FLEETSIM_FAIL_WRITE_AFTER", v, 1);
+        }
+        execv(bin, (char *const *)args);
+        _exit(127);
+    }
+    int st = 0;
+    assert_int_equal(waitpid(pid, &st, 0), pid);
+    char *bufs[2] = {err, out};
+    for (int k = 0; k < 2; k++) {
+        if (bufs[k] == NULL)
+            continue;
+        FILE *f = fopen(files[k], "r");
+        assert_non_null(f);
+        size_t n = fread(bufs[k], 1, cap - 1, f);
+        bufs[k][n] = '\0';
+        fclose(f);
+        unlink(files[k]);
+    }
+    return WIFEXITED(st) ? WEXITSTATUS(st) : 128 + WTERMSIG(st);
+}
 
 uint8_t *test_slurp(const char *path, size_t *n)
 {

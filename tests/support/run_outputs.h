@@ -1,9 +1,9 @@
-/* File helpers for the tests that run programs and check what they left behind:
- * read a whole file, and snapshot every regular file of a folder to check later that a failed
+/* Helpers for the tests that run programs and check what they left behind: run a program as
+ * a child, read a whole file, and snapshot every regular file of a folder to check later that a failed
  * run changed none of them and left no temporary file (the writer's "*.fstmp").
  * Failures are cmocka assertions. Not thread-safe. */
-#ifndef TESTS_SUPPORT_SNAPSHOT_H
-#define TESTS_SUPPORT_SNAPSHOT_H
+#ifndef TESTS_SUPPORT_RUN_OUTPUTS_H
+#define TESTS_SUPPORT_RUN_OUTPUTS_H
 
 #include <stddef.h>
 #include <stdint.h>
@@ -11,6 +11,14 @@
 /* The bytes of a file, read to its end (so /proc files work too), malloc'd and NUL-terminated;
  * *n its size. NULL when it cannot be opened. */
 uint8_t *test_slurp(const char *path, size_t *n);
+
+/* Runs `bin` with args (NULL-terminated; args[0] is ignored) as a child process, optionally
+ * with the disk-full seam FLEETSIM_FAIL_WRITE_AFTER=fail_after (fail_after >= 0). Its stderr
+ * goes into err and its stdout into out (NULL: discarded), each cut to cap - 1 bytes and
+ * NUL-terminated; the scratch files live in `dir`. Returns the exit status, 128 + the signal
+ * when it was killed. */
+int test_run(const char *bin, const char *const *args, long fail_after, const char *dir, char *err, char *out,
+             size_t cap);
 
 #define SNAP_MAX_FILES 64
 
@@ -29,4 +37,4 @@ int snap_has(const snap_t *s, const char *name);
 void snap_check(const snap_t *s, const char *dir);
 void snap_free(snap_t *s);
 
-#endif /* TESTS_SUPPORT_SNAPSHOT_H */
+#endif /* TESTS_SUPPORT_RUN_OUTPUTS_H */
