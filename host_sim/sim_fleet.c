@@ -329,7 +329,7 @@ double sim_fleet_consensus_error(const sim_fleet_t *f, int i)
 
 /* ---- per-agent metrics --------------------------------------------------------------------- */
 int sim_fleet_metrics(sim_fleet_t *f, int i, const ai_sample_t *val, size_t n_val, const sim_occ_eval_t *ev,
-                      sim_fleet_metrics_t *out)
+                      uint32_t mc_k, sim_fleet_metrics_t *out)
 {
     if (!f || i < 0 || i >= f->n_models || !out)
         return -EINVAL;
@@ -340,13 +340,20 @@ int sim_fleet_metrics(sim_fleet_t *f, int i, const ai_sample_t *val, size_t n_va
     out->reg_rho = f->rounds_done ? st->reg_rho : NAN;
     out->kl_loss = bnn_kl_loss(m);
     out->consensus_error = sim_fleet_consensus_error(f, i);
-    out->val_loss = NAN;
+    out->val_loss = out->val_sample = out->val_mc = NAN;
     if (val && n_val) {
-        float b;
+        const uint64_t key = sim_rng_mix(f->cfg.seed ^ 0x7A15E7ull ^ ((uint64_t)f->rounds_done << 20));
+        float b, bs, bm = NAN;
         int rc = bnn_eval_bce(m, val, n_val, 0, 0, &b);
+        if (!rc)
+            rc = bnn_eval_bce(m, val, n_val, 1, key, &bs);
+        if (!rc && mc_k > 0)
+            rc = bnn_eval_bce(m, val, n_val, mc_k, key, &bm);
         if (rc)
             return rc;
         out->val_loss = b;
+        out->val_sample = bs;
+        out->val_mc = bm;
     }
     out->occ_mse = out->occ_iou = NAN;
     if (ev) {

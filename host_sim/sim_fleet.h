@@ -93,15 +93,19 @@ double sim_fleet_consensus_error(const sim_fleet_t *f, int i);
 typedef struct sim_fleet_metrics {
     double train_loss;      /* prediction loss of the last round (mean over its steps) */
     double val_loss;        /* mean per-point BCE on the validation set, mean weights */
+    double val_sample;      /* the same with ONE sampled forward pass (what a BNN's model(x) does) */
+    double val_mc;          /* BCE of the predictive mean of mc_k sampled passes (NaN when mc_k = 0) */
     double kl_loss;         /* the BNN's prior kl_loss */
     double consensus_error;
     double occ_mse, occ_iou;
     double reg_mu, reg_rho; /* unweighted consensus terms of the last round */
 } sim_fleet_metrics_t;
 
-/* val may be NULL (val_loss = NaN), ev may be NULL (occ_* = NaN). */
+/* val may be NULL (val_* = NaN), ev may be NULL (occ_* = NaN). The sampled passes are keyed by
+ * (run seed, rounds done), so a row is reproducible and differs from round to round.
+ * mc_k = 0 skips the (mc_k times dearer) predictive-mean loss. */
 FS_MUST_CHECK
 int sim_fleet_metrics(sim_fleet_t *f, int i, const ai_sample_t *val, size_t n_val, const sim_occ_eval_t *ev,
-                      sim_fleet_metrics_t *out);
+                      uint32_t mc_k, sim_fleet_metrics_t *out);
 
 #endif /* SIM_FLEET_H */

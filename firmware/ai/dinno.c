@@ -10,6 +10,11 @@
  *          = (sum_j log r_j) - m log s + (s^2 / 2) (sum_j 1/r_j^2) - m/2,
  *          d/drho = sigmoid(rho) * (-m / s + s * sum_j 1/r_j^2)   (s = softplus(rho)).
  *   aux1 holds sum_j mid_j (or sum_j 1/r_j^2 on the rho group for KL), aux2 sum_j log r_j.
+ *   The other KL forms collect the same way, with c = sigmoid(rho) and Q = the per-element
+ *   sum of r_j^2 (+ (m_j - mu)^2 for FULL):
+ *     REVERSE/FULL: sum_j [log s - log r_j + q_j / (2 s^2) - 1/2], d/drho = c (m / s - Q / s^3);
+ *     FULL's sum_j (m_j - mu)^2 = sum_j m_j^2 - 2 mu sum_j m_j + m mu^2, from aux3 (sum m_j^2)
+ *     and the mu group's aux1 (sum m_j). aux1 then holds sum_j r_j^2 on the rho group.
  * - Sums are accumulated in slot order, so the result does not depend on timing.
  * - Values use double accumulators (they are diagnostics and the finite-difference reference);
  *   gradients are float, elementwise.
@@ -40,6 +45,9 @@ dinno_cfg_t dinno_default_cfg(void)
         .w_rho = 1.0f,
         .kl_weight = 1e-4f,
         .batch = BNN_MAX_BATCH < 512u ? BNN_MAX_BATCH : 512u,
+        .kl_form = DINNO_KL_OWN_MEAN,
+        .kl_reduce = DINNO_REDUCE_SUM,
+        .rho_pred_grad = 1,
     };
     return c;
 }
@@ -61,7 +69,10 @@ static int cfg_ok(const dinno_cfg_t *c, const bnn_config_t *b)
            c->primal_steps <= 100000u && finite_pos(c->lr_start) && finite_pos(c->lr_end) &&
            c->total_rounds >= 1 && (c->persistent_adam == 0 || c->persistent_adam == 1) &&
            isfinite(c->w_mu) && c->w_mu >= 0.0f && isfinite(c->w_rho) && c->w_rho >= 0.0f &&
-           isfinite(c->kl_weight) && c->kl_weight >= 0.0f && c->batch >= 1 && c->batch <= b->max_batch;
+           isfinite(c->kl_weight) && c->kl_weight >= 0.0f && c->batch >= 1 && c->batch <= b->max_batch &&
+           (c->kl_form == DINNO_KL_OWN_MEAN || c->kl_form == DINNO_KL_REVERSE || c->kl_form == DINNO_KL_FULL) &&
+           (c->kl_reduce == DINNO_REDUCE_SUM || c->kl_reduce == DINNO_REDUCE_MEAN) &&
+           (c->rho_pred_grad == 0 || c->rho_pred_grad == 1);
 }
 
 int dinno_node_init(dinno_node_t *n, const dinno_cfg_t *cfg, const bnn_config_t *bcfg,
@@ -87,6 +98,7 @@ int dinno_node_init(dinno_node_t *n, const dinno_cfg_t *cfg, const bnn_config_t 
     memcpy(n->theta0, bnn_params(&n->model), P * sizeof(float));
     memset(n->aux1, 0, P * sizeof(float));
     memset(n->aux2, 0, n->model.n_rho * sizeof(float));
+    memset(n->aux3, 0, n->model.n_rho * sizeof(float));
     dinno_slots_clear(n);
     return 0;
 }
@@ -153,8 +165,11 @@ void dinno_prepare(dinno_node_t *n)
 {
     const size_t P = bnn_n_params(&n->model), M = n->model.n_mu, R = n->model.n_rho;
     const int kl = n->cfg.strategy == DINNO_KL;
+    const dinno_kl_form_t form = n->cfg.kl_form;
+    const size_t mu0 = R ? bnn_rho_to_mu(&n->model, 0) : 0; /* rho e pairs with mean mu0 + e */
     memset(n->aux1, 0, P * sizeof(float));
     memset(n->aux2, 0, R * sizeof(float));
+    memset(n->aux3, 0, R * sizeof(float));
     double sq[2] = {0.0, 0.0};
     for (uint32_t s = 0; s < DINNO_MAX_PEERS; s++) {
         if (!n->slots.valid[s])
@@ -173,11 +188,19 @@ void dinno_prepare(dinno_node_t *n)
             n->aux1[i] += mid;
             sq[1] += (double)mid * mid;
         }
-        if (kl) {
+        if (kl && form == DINNO_KL_OWN_MEAN) {
             for (size_t e = 0; e < R; e++) {
                 const float r = bnn_softplus(0.5f * (n->theta0[M + e] + tj[M + e]));
                 n->aux1[M + e] += 1.0f / (r * r);
                 n->aux2[e] += logf(r);
+            }
+        } else if (kl) {
+            for (size_t e = 0; e < R; e++) {
+                const float r = bnn_softplus(0.5f * (n->theta0[M + e] + tj[M + e]));
+                const float mj = 0.5f * (n->theta0[mu0 + e] + tj[mu0 + e]);
+                n->aux1[M + e] += r * r;
+                n->aux2[e] += logf(r);
+                n->aux3[e] += mj * mj;
             }
         }
     }
@@ -216,8 +239,28 @@ void dinno_add_reg_grad(dinno_node_t *n, float rho_k, float *reg_mu, float *reg_
     }
     const double rmu = (double)m * tsq - 2.0 * tdot + n->mid_sq[0];
     double rr = 0.0;
-    if (n->cfg.strategy == DINNO_KL) {
-        const float kr = rho_k * wr;
+    if (n->cfg.strategy == DINNO_KL && n->cfg.kl_form != DINNO_KL_OWN_MEAN) {
+        const int full = n->cfg.kl_form == DINNO_KL_FULL;
+        const size_t mu0 = bnn_rho_to_mu(&n->model, 0);
+        const double red = n->cfg.kl_reduce == DINNO_REDUCE_MEAN ? 1.0 / (double)R : 1.0;
+        const float kr = (float)((double)rho_k * wr * red);
+        for (size_t e = 0; e < R; e++) {
+            const float r = th[M + e];
+            const double s = bnn_softplus(r), s2 = s * s;
+            double q = n->aux1[M + e];
+            if (full) {
+                const double mu = th[mu0 + e];
+                const double dm = (double)n->aux3[e] - 2.0 * mu * n->aux1[mu0 + e] + (double)m * mu * mu;
+                q += dm > 0.0 ? dm : 0.0; /* a sum of squares; cancellation must not make it negative */
+            }
+            g[M + e] += n->dual[M + e] + kr * sigmoidf_(r) * (float)((double)m / s - q / (s2 * s));
+            dd += (double)r * n->dual[M + e];
+            rr += (double)m * log(s) - (double)n->aux2[e] + 0.5 * q / s2 - 0.5 * m;
+        }
+        rr *= red;
+    } else if (n->cfg.strategy == DINNO_KL) {
+        const double red = n->cfg.kl_reduce == DINNO_REDUCE_MEAN ? 1.0 / (double)R : 1.0;
+        const float kr = n->cfg.kl_reduce == DINNO_REDUCE_MEAN ? (float)((double)rho_k * wr * red) : rho_k * wr;
         for (size_t e = 0; e < R; e++) {
             const float r = th[M + e];
             const float s = bnn_softplus(r), inv2 = n->aux1[M + e];
@@ -225,6 +268,7 @@ void dinno_add_reg_grad(dinno_node_t *n, float rho_k, float *reg_mu, float *reg_
             dd += (double)r * n->dual[M + e];
             rr += (double)n->aux2[e] - (double)m * log((double)s) + 0.5 * (double)s * s * inv2 - 0.5 * m;
         }
+        rr *= red;
     } else {
         tsq = tdot = 0.0;
         for (size_t i = M; i < P; i++) {
@@ -266,12 +310,27 @@ double dinno_reg_value(const dinno_node_t *n, float rho_k)
             else
                 l2rho += d * d;
         }
+        const size_t mu0 = bnn_rho_to_mu(&n->model, 0);
         for (size_t e = 0; e < R; e++) {
             const double r = log1p(exp(0.5 * ((double)n->theta0[M + e] + tj[M + e])));
             const double sg = log1p(exp((double)th[M + e]));
-            kl += log(r / sg) + sg * sg / (2.0 * r * r) - 0.5;
+            const double mj = 0.5 * ((double)n->theta0[mu0 + e] + tj[mu0 + e]);
+            const double dm = mj - (double)th[mu0 + e];
+            switch (n->cfg.kl_form) {
+            case DINNO_KL_OWN_MEAN:
+                kl += log(r / sg) + sg * sg / (2.0 * r * r) - 0.5;
+                break;
+            case DINNO_KL_REVERSE:
+                kl += log(sg / r) + r * r / (2.0 * sg * sg) - 0.5;
+                break;
+            case DINNO_KL_FULL:
+                kl += log(sg / r) + (r * r + dm * dm) / (2.0 * sg * sg) - 0.5;
+                break;
+            }
         }
     }
+    if (n->cfg.kl_reduce == DINNO_REDUCE_MEAN && R > 0)
+        kl /= (double)R;
     const double rhoterm = n->cfg.strategy == DINNO_KL ? kl : l2rho;
     return dd + (double)rho_k * ((double)wm * l2mu + (double)wr * rhoterm);
 }
@@ -312,6 +371,8 @@ int dinno_node_round(dinno_node_t *n, const ai_sample_t *data, size_t n_data, di
         int rc = bnn_loss_grad(&n->model, batch, nb, c->kl_weight, noise_base + step, &loss);
         if (rc)
             return rc;
+        if (!c->rho_pred_grad && c->strategy != DINNO_UNIFORM) /* Algorithm 2 read literally */
+            memset(bnn_grads(&n->model) + n->model.n_mu, 0, n->model.n_rho * sizeof(float));
         float rm = 0.0f, rr = 0.0f, dd = 0.0f;
         if (m > 0)
             dinno_add_reg_grad(n, rho_k, &rm, &rr, &dd);
@@ -368,4 +429,48 @@ int dinno_strategy_parse(const char *name, dinno_strategy_t *out)
         }
     }
     return -EINVAL;
+}
+
+const char *dinno_kl_form_name(dinno_kl_form_t f)
+{
+    switch (f) {
+    case DINNO_KL_OWN_MEAN:
+        return "own";
+    case DINNO_KL_REVERSE:
+        return "reverse";
+    case DINNO_KL_FULL:
+        return "full";
+    }
+    return "?";
+}
+
+int dinno_kl_form_parse(const char *name, dinno_kl_form_t *out)
+{
+    if (!name || !out)
+        return -EINVAL;
+    for (int f = DINNO_KL_OWN_MEAN; f <= DINNO_KL_FULL; f++) {
+        if (strcmp(name, dinno_kl_form_name((dinno_kl_form_t)f)) == 0) {
+            *out = (dinno_kl_form_t)f;
+            return 0;
+        }
+    }
+    return -EINVAL;
+}
+
+const char *dinno_kl_reduce_name(dinno_kl_reduce_t r)
+{
+    return r == DINNO_REDUCE_SUM ? "sum" : r == DINNO_REDUCE_MEAN ? "mean" : "?";
+}
+
+int dinno_kl_reduce_parse(const char *name, dinno_kl_reduce_t *out)
+{
+    if (!name || !out)
+        return -EINVAL;
+    if (strcmp(name, "sum") == 0)
+        *out = DINNO_REDUCE_SUM;
+    else if (strcmp(name, "mean") == 0)
+        *out = DINNO_REDUCE_MEAN;
+    else
+        return -EINVAL;
+    return 0;
 }

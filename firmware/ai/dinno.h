@@ -28,6 +28,23 @@
  *   it by n_rho, ~1.7e4 in the small preset, and switch the consensus on rho off.) Away from
  *   agreement it is asymmetric: exponential when sigma exceeds the midpoint's, linear below.
  *   The dual step uses rho_k for both groups (Algorithm 2 has no W on the duals).
+ *
+ *   The paper leaves three choices open; each reading is selectable (defaults first), and
+ *   docs/paper/REPORT.md measures them:
+ *   - kl_form: which KL acts on the rho group, per element e and neighbour j (s = own sigma,
+ *       r_j = softplus(mid_j,rho), m_j = mid_j,mu of the paired mean, mu = own mean):
+ *       DINNO_KL_OWN_MEAN  KL(N(mu, s) || N(mu, r_j))   = log(r_j/s) + s^2/(2 r_j^2) - 1/2
+ *       DINNO_KL_REVERSE   KL(N(mu, r_j) || N(mu, s))   = log(s/r_j) + r_j^2/(2 s^2) - 1/2
+ *       DINNO_KL_FULL      KL(N(m_j, r_j) || N(mu, s))  = log(s/r_j) + (r_j^2 + (m_j - mu)^2)/(2 s^2) - 1/2
+ *     FULL is eq. 6 between the neighbours' midpoint Gaussian and the own one: a disagreement
+ *     in the means raises the own sigma. Its gradient is taken with respect to rho only (the
+ *     term is Reg_rho, stepped by the rho optimiser; the means keep their L2 term).
+ *   - kl_reduce: SUM over elements (default, same curvature as the L2 term) or MEAN (divided
+ *     by n_rho, like torch's default reduction); always summed over neighbours.
+ *   - rho_pred_grad: 1 (default) both groups get the prediction-loss gradient; 0 reads
+ *     Algorithm 2 literally: Loss_rho = <theta_rho, p_rho> + W_rho Reg_rho has no PredLoss, so
+ *     the rho group moves only by its dual and its regulariser (SEPARATE and KL; UNIFORM is
+ *     plain DiNNO with one loss and ignores it).
  *   A node with no valid slot skips steps 2 and the REG terms: pure local training.
  *
  * Neighbour states arrive in FIXED SLOTS: node->slots.theta[s] (s < DINNO_MAX_PEERS) with
@@ -62,6 +79,17 @@ typedef enum dinno_strategy {
     DINNO_KL = 2,
 } dinno_strategy_t;
 
+typedef enum dinno_kl_form {
+    DINNO_KL_OWN_MEAN = 0, /* KL(N(mu, s) || N(mu, r)) */
+    DINNO_KL_REVERSE = 1,  /* KL(N(mu, r) || N(mu, s)) */
+    DINNO_KL_FULL = 2,     /* KL(N(mid_mu, r) || N(mu, s)) */
+} dinno_kl_form_t;
+
+typedef enum dinno_kl_reduce {
+    DINNO_REDUCE_SUM = 0,
+    DINNO_REDUCE_MEAN = 1,
+} dinno_kl_reduce_t;
+
 typedef struct dinno_cfg {
     dinno_strategy_t strategy;
     float rho0;            /* > 0, default 0.3 */
@@ -75,6 +103,9 @@ typedef struct dinno_cfg {
     float w_rho;           /* >= 0, default 1 (SEPARATE, KL) */
     float kl_weight;       /* >= 0, weight of the BNN prior KL in loss_i, default 1e-4 */
     uint32_t batch;        /* 1..bnn max_batch, default min(512, max_batch) */
+    dinno_kl_form_t kl_form;     /* KL strategy: which KL (default OWN_MEAN) */
+    dinno_kl_reduce_t kl_reduce; /* KL strategy: SUM (default) or MEAN over the rho elements */
+    int rho_pred_grad;     /* 1 (default) or 0: prediction-loss gradient on the rho group */
 } dinno_cfg_t;
 
 /* Neighbour states of one round, in fixed slots (one per possible peer). */
@@ -110,6 +141,7 @@ typedef struct dinno_node {
     _Alignas(64) float theta0[BNN_N_PARAMS]; /* theta_i at the start of the round */
     _Alignas(64) float aux1[BNN_N_PARAMS];   /* L2: sum_j mid_j; KL rho part: sum_j 1/r_j^2 */
     _Alignas(64) float aux2[BNN_N_RHO];      /* KL: sum_j log r_j */
+    _Alignas(64) float aux3[BNN_N_RHO];      /* KL_FULL: sum_j mid_j,mu^2 of the paired means */
     ai_sample_t batch[BNN_MAX_BATCH];
     float draw[BNN_MAX_BATCH];
 } dinno_node_t;
@@ -167,5 +199,10 @@ double dinno_reg_value(const dinno_node_t *n, float rho_k);
 const char *dinno_strategy_name(dinno_strategy_t s);
 /* "uniform" | "separate" | "kl" -> strategy; returns 0 or -EINVAL. */
 FS_MUST_CHECK int dinno_strategy_parse(const char *name, dinno_strategy_t *out);
+/* "own" | "reverse" | "full" <-> kl_form; "sum" | "mean" <-> kl_reduce. */
+const char *dinno_kl_form_name(dinno_kl_form_t f);
+FS_MUST_CHECK int dinno_kl_form_parse(const char *name, dinno_kl_form_t *out);
+const char *dinno_kl_reduce_name(dinno_kl_reduce_t r);
+FS_MUST_CHECK int dinno_kl_reduce_parse(const char *name, dinno_kl_reduce_t *out);
 
 #endif /* AI_DINNO_H */

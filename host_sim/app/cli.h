@@ -147,6 +147,17 @@ static inline int cmd_parse_dinno_opt(const char *opt, const char *v, dinno_cfg_
     } else if (strcmp(opt, "--lr-end") == 0) {
         *bad = cmd_parse_double(v, opt, 1e-12, 10.0, &dv);
         d->lr_end = (float)dv;
+    } else if (strcmp(opt, "--kl-form") == 0) {
+        *bad = dinno_kl_form_parse(v, &d->kl_form) != 0;
+        if (*bad)
+            fprintf(stderr, "host_sim: %s: '%s' is not own, reverse or full\n", opt, v);
+    } else if (strcmp(opt, "--kl-reduce") == 0) {
+        *bad = dinno_kl_reduce_parse(v, &d->kl_reduce) != 0;
+        if (*bad)
+            fprintf(stderr, "host_sim: %s: '%s' is not sum or mean\n", opt, v);
+    } else if (strcmp(opt, "--rho-pred-grad") == 0) {
+        *bad = cmd_parse_ll(v, opt, 0, 1, &ll);
+        d->rho_pred_grad = (int)ll;
     } else {
         return 0;
     }

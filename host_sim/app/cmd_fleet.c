@@ -37,7 +37,8 @@ static void fleet_usage(FILE *out)
             "(seed S) unless --valset.\n"
             "Writes into --out: samples/robot_<i>.samples (training data, unless --samples), valset.samples,\n"
             "metrics.csv (round,agent,train_loss,val_loss,kl_loss,consensus_error,occ_mse,occ_iou,\n"
-            "reg_mu,reg_rho,neighbours), map_mean.png and map_std.png (agent 0, MC mean / std, paths on\n"
+            "reg_mu,reg_rho,neighbours,val_mean,val_sample,val_mc; val_loss is the --val-mode one),\n"
+            "map_mean.png and map_std.png (agent 0, MC mean / std, paths on\n"
             "top), models/robot_<i>.bnn (every final model) and summary.txt.\n"
             "\n"
             "options:\n"
@@ -49,6 +50,18 @@ static void fleet_usage(FILE *out)
             "  --rho0 V            initial penalty (default %g);  --rho-scaling V (default %g)\n"
             "  --lr-start V, --lr-end V   log-decaying learning rate (default %g -> %g)\n"
             "  --persistent-adam   keep the Adam state across rounds (default: fresh each round)\n"
+            "  --kl-form F         the KL of the 'kl' strategy on the rho group (s own sigma, r the\n"
+            "                      neighbours' midpoint sigma, m their midpoint mean): own = KL(N(mu,s)||N(mu,r))\n"
+            "                      (default), reverse = KL(N(mu,r)||N(mu,s)), full = KL(N(m,r)||N(mu,s))\n"
+            "  --kl-reduce sum|mean  that KL summed over the rho elements (default) or their mean\n"
+            "  --rho-pred-grad 1|0 1 (default): both groups get the prediction-loss gradient; 0: Algorithm 2\n"
+            "                      read literally, the rho group moves only by its dual and regulariser\n"
+            "                      (separate, kl)\n"
+            "  --val-mode M        which validation loss is val_loss: mean (one pass with the mean weights,\n"
+            "                      default), sample (one sampled pass), mc (BCE of the --val-mc pass\n"
+            "                      predictive mean); val_mean and val_sample are on every row, val_mc on\n"
+            "                      the last (on every row with --val-mode mc: --val-mc times dearer)\n"
+            "  --val-mc K          passes of the predictive mean (default 50)\n"
             "  --metrics-every M   metrics and a progress line every M rounds (default R/20)\n"
             "  --samples DIR       train on DIR/robot_<i>.samples (host_sim sample files) instead of\n"
             "                      scanning the paths\n"
@@ -64,7 +77,8 @@ static void fleet_usage(FILE *out)
 
 typedef struct opts {
     const char *plan, *paths, *out, *samples, *valset;
-    long long robots, rounds, seed, metrics_every, val_poses, mc, threads;
+    long long robots, rounds, seed, metrics_every, val_poses, mc, threads, val_mc;
+    int val_mode; /* 0 mean, 1 sample, 2 mc */
     double radius, occ_res, map_res, scale;
     int inproc;
     sim_fleet_mode_t mode;
@@ -81,6 +95,7 @@ static int parse(int argc, char **argv, opts_t *o)
     o->metrics_every = 0;
     o->val_poses = 500;
     o->mc = 50;
+    o->val_mc = 50;
     o->threads = 1;
     o->radius = 4.0;
     o->occ_res = 0.1;
@@ -133,6 +148,15 @@ static int parse(int argc, char **argv, opts_t *o)
             bad = cmd_parse_ll(v, a, 1, 1000, &o->mc);
         else if (strcmp(a, "--threads") == 0)
             bad = cmd_parse_ll(v, a, 1, 16, &o->threads);
+        else if (strcmp(a, "--val-mc") == 0)
+            bad = cmd_parse_ll(v, a, 1, 1000, &o->val_mc);
+        else if (strcmp(a, "--val-mode") == 0) {
+            o->val_mode = strcmp(v, "mean") == 0 ? 0 : strcmp(v, "sample") == 0 ? 1 : strcmp(v, "mc") == 0 ? 2 : -1;
+            if (o->val_mode < 0) {
+                fprintf(stderr, "host_sim fleet: --val-mode: '%s' is not mean, sample or mc\n", v);
+                bad = 1;
+            }
+        }
         else if (cmd_parse_dinno_opt(a, v, &o->d, &bad))
             ;
         else if (strcmp(a, "--radius") == 0)
@@ -315,6 +339,14 @@ static int load_validation(job_t *j)
     return 0;
 }
 
+static const char *const val_mode_names[3] = {"mean", "sample", "mc"};
+
+/* The validation loss --val-mode names. */
+static double val_of(const opts_t *o, const sim_fleet_metrics_t *m)
+{
+    return o->val_mode == 0 ? m->val_loss : o->val_mode == 1 ? m->val_sample : m->val_mc;
+}
+
 /* The rounds, with metrics.csv fed as they go (it replaces the old one at the end). */
 static int train(job_t *j)
 {
@@ -343,7 +375,8 @@ static int train(job_t *j)
         return -1;
     FILE *csv = hal_host_file_stream(&out);
     int rc = 0;
-    fprintf(csv, "round,agent,train_loss,val_loss,kl_loss,consensus_error,occ_mse,occ_iou,reg_mu,reg_rho,neighbours\n");
+    fprintf(csv, "round,agent,train_loss,val_loss,kl_loss,consensus_error,occ_mse,occ_iou,reg_mu,reg_rho,neighbours,"
+                 "val_mean,val_sample,val_mc\n");
     const int M = sim_fleet_models(j->fleet);
     dinno_graph_report_t rep; /* of the last round's graph */
     memset(&rep, 0, sizeof rep);
@@ -361,17 +394,18 @@ static int train(job_t *j)
         if (k % (uint32_t)o->metrics_every != 0 && k != (uint32_t)o->rounds)
             continue;
         double vmean = 0, cmax = 0, iou = 0;
+        const uint32_t mc_k = o->val_mode == 2 || k == (uint32_t)o->rounds ? (uint32_t)o->val_mc : 0;
         for (int i = 0; i < M && rc == 0; i++) {
-            if ((rc = sim_fleet_metrics(j->fleet, i, j->val, j->n_val, &j->ev, &j->last[i])) != 0) {
+            if ((rc = sim_fleet_metrics(j->fleet, i, j->val, j->n_val, &j->ev, mc_k, &j->last[i])) != 0) {
                 fprintf(stderr, "host_sim fleet: metrics failed (%d)\n", rc);
                 break;
             }
             const sim_fleet_metrics_t *m = &j->last[i];
             const dinno_round_stats_t *st = sim_fleet_last_stats(j->fleet, i);
-            fprintf(csv, "%u,%d,%.6g,%.6g,%.6g,%.6g,%.6g,%.6g,%.6g,%.6g,%u\n", k, i, m->train_loss, m->val_loss,
-                    m->kl_loss, m->consensus_error, m->occ_mse, m->occ_iou, m->reg_mu, m->reg_rho,
-                    k ? st->neighbours : 0);
-            vmean += m->val_loss / M;
+            fprintf(csv, "%u,%d,%.6g,%.6g,%.6g,%.6g,%.6g,%.6g,%.6g,%.6g,%u,%.6g,%.6g,%.6g\n", k, i, m->train_loss,
+                    val_of(o, m), m->kl_loss, m->consensus_error, m->occ_mse, m->occ_iou, m->reg_mu, m->reg_rho,
+                    k ? st->neighbours : 0, m->val_loss, m->val_sample, m->val_mc);
+            vmean += val_of(o, m) / M;
             iou += m->occ_iou / M;
             cmax = fmax(cmax, m->consensus_error);
         }
@@ -434,12 +468,15 @@ static int report(job_t *j)
     hal_host_file_t out;
     if (cmd_out_begin("fleet", &out, file) != 0)
         return -1;
-    double v = 0, vmin = INFINITY, vmax = -INFINITY, mse = 0, io = 0, ce = 0, tl = 0;
+    double v = 0, vmin = INFINITY, vmax = -INFINITY, mse = 0, io = 0, ce = 0, tl = 0, vm[3] = {0, 0, 0};
     for (int i = 0; i < M; i++) {
         const sim_fleet_metrics_t *m = &j->last[i];
-        v += m->val_loss / M;
-        vmin = fmin(vmin, m->val_loss);
-        vmax = fmax(vmax, m->val_loss);
+        v += val_of(o, m) / M;
+        vmin = fmin(vmin, val_of(o, m));
+        vmax = fmax(vmax, val_of(o, m));
+        vm[0] += m->val_loss / M;
+        vm[1] += m->val_sample / M;
+        vm[2] += m->val_mc / M;
         mse += m->occ_mse / M;
         io += m->occ_iou / M;
         ce = fmax(ce, m->consensus_error);
@@ -455,15 +492,18 @@ static int report(job_t *j)
         if (o->graph == DINNO_GRAPH_DISK)
             fprintf(f, "radius_m: %g\n", o->radius);
         fprintf(f, "rho0: %g\nrho_scaling: %g\nprimal_steps: %u\nbatch: %u\nlr: %g -> %g\nkl_weight: %g\n"
-                   "w_mu: %g\nw_rho: %g\nadam: %s\n",
+                   "w_mu: %g\nw_rho: %g\nadam: %s\nkl_form: %s\nkl_reduce: %s\nrho_pred_grad: %d\nval_mode: %s\n",
                 (double)o->d.rho0, (double)o->d.rho_scaling, o->d.primal_steps, o->d.batch, (double)o->d.lr_start,
                 (double)o->d.lr_end, (double)o->d.kl_weight, (double)o->d.w_mu, (double)o->d.w_rho,
-                o->d.persistent_adam ? "persistent" : "fresh each round");
+                o->d.persistent_adam ? "persistent" : "fresh each round", dinno_kl_form_name(o->d.kl_form),
+                dinno_kl_reduce_name(o->d.kl_reduce), o->d.rho_pred_grad, val_mode_names[o->val_mode]);
         if (o->mode == SIM_FLEET_DINNO)
             fprintf(f, "rounds with an isolated agent: %llu; with a split graph: %llu\n",
                     (unsigned long long)j->isolated_rounds, (unsigned long long)j->split_rounds);
         fprintf(f, "validation points: %zu\n", j->n_val);
         fprintf(f, "final val_loss (mean over models): %.5f (min %.5f, max %.5f)\n", v, vmin, vmax);
+        fprintf(f, "final val_mean / val_sample / val_mc%lld (mean over models): %.5f / %.5f / %.5f\n", o->val_mc,
+                vm[0], vm[1], vm[2]);
         fprintf(f, "final train_loss (mean): %.5f\n", tl);
         fprintf(f, "final occ_mse (mean, %.2f m grid): %.5f\nfinal occ_iou (mean): %.4f\n", o->occ_res, mse, io);
         fprintf(f, "final consensus_error (max): %.6f\n", ce);

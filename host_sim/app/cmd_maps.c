@@ -14,6 +14,7 @@
 #include "cli.h"
 #include "commands.h"
 #include "hal_host_file.h"
+#include "sim_grid.h"
 #include "sim_maps.h"
 #include "sim_plan.h"
 #include "sim_samples.h"
@@ -38,6 +39,7 @@ static void maps_usage(FILE *out)
             "  map_mean.npy        MC mean of the occupancy probability over K passes (float32, H x W)\n"
             "  map_std.npy         MC standard deviation of those passes\n"
             "  map_single.npy      one stochastic pass (the first of the K)\n"
+            "  map_truth.npy       the ground truth at the same cells (uint8: 0 free, 1 wall, 255 outside)\n"
             "                      .npy arrays: row 0 is the TOP row (largest y), column 0 the smallest x:\n"
             "                      cell (r, c) has its centre at x = xmin + (c + 0.5) res, y = ymax - (r + 0.5) res\n"
             "  map_meta.json       res, xmin, ymin, xmax, ymax (the grid's edges: W x H cells from the plan's\n"
@@ -131,9 +133,10 @@ static int parse(int argc, char **argv, maps_opts_t *o)
 }
 
 /* Everything one `host_sim maps` run holds; freed in one place (job_free). */
-enum { OUT_BNN, OUT_CSV, OUT_MEAN, OUT_STD, OUT_SINGLE, OUT_META, OUT_PGM, OUT_YAML, OUT_N };
-static const char *const out_names[OUT_N] = {"consensus.bnn", "consensus.csv", "map_mean.npy", "map_std.npy",
-                                             "map_single.npy", "map_meta.json", "map.pgm", "map.yaml"};
+enum { OUT_BNN, OUT_CSV, OUT_MEAN, OUT_STD, OUT_SINGLE, OUT_TRUTH, OUT_META, OUT_PGM, OUT_YAML, OUT_N };
+static const char *const out_names[OUT_N] = {"consensus.bnn",  "consensus.csv", "map_mean.npy",
+                                             "map_std.npy",    "map_single.npy", "map_truth.npy",
+                                             "map_meta.json",  "map.pgm",        "map.yaml"};
 
 typedef struct job {
     maps_opts_t o;
@@ -493,18 +496,19 @@ static void put_le32(uint8_t *p, uint32_t v)
     p[3] = (uint8_t)(v >> 24);
 }
 
-/* A float32 NumPy array (format 1.0, '<f4', C order) of the grid's cells, H x W, row 0 the
- * top (largest y): the grid's rows reversed. */
-static int stage_npy(job_t *j, int k, const sim_maps_grid_t *g, const float *cells)
+/* A NumPy array (format 1.0, C order) of the grid's cells, H x W, row 0 the top (largest y):
+ * the grid's rows reversed. float32 ('<f4') from `cells`, or uint8 ('|u1') from `bytes`. */
+static int stage_npy(job_t *j, int k, const sim_maps_grid_t *g, const float *cells, const uint8_t *bytes)
 {
     char dict[128];
-    int dn = snprintf(dict, sizeof dict, "{'descr': '<f4', 'fortran_order': False, 'shape': (%d, %d), }", g->h,
-                      g->w);
+    const size_t esize = bytes ? 1 : 4;
+    int dn = snprintf(dict, sizeof dict, "{'descr': '%s', 'fortran_order': False, 'shape': (%d, %d), }",
+                      bytes ? "|u1" : "<f4", g->h, g->w);
     /* magic (6) + version (2) + header length (2) + dict padded with spaces and a '\n' to a
        multiple of 64 bytes */
     size_t head = 10 + (size_t)dn + 1;
     head = (head + 63) / 64 * 64;
-    const size_t n = (size_t)g->w * g->h, len = head + 4 * n;
+    const size_t n = (size_t)g->w * g->h, len = head + esize * n;
     uint8_t *b = malloc(len);
     if (b == NULL) {
         fprintf(stderr, "host_sim maps: %s: out of memory\n", j->path[k]);
@@ -519,13 +523,38 @@ static int stage_npy(job_t *j, int k, const sim_maps_grid_t *g, const float *cel
     uint8_t *d = b + head;
     for (int R = 0; R < g->h; R++)
         for (int c = 0; c < g->w; c++) {
+            const size_t at = (size_t)(g->h - 1 - R) * g->w + c;
+            if (bytes) {
+                *d++ = bytes[at];
+                continue;
+            }
             uint32_t u;
-            memcpy(&u, &cells[(size_t)(g->h - 1 - R) * g->w + c], 4);
+            memcpy(&u, &cells[at], 4);
             put_le32(d, u);
             d += 4;
         }
     const int rc = stage(j, k, b, len);
     free(b);
+    return rc;
+}
+
+/* map_truth.npy: the ground truth at the map's cell centres (sim_plan_classify_point), 0 free,
+ * 1 wall, 255 outside the building: what the map is scored against. */
+static int stage_truth(job_t *j)
+{
+    const sim_maps_grid_t *g = &j->mc;
+    uint8_t *t = malloc((size_t)g->w * g->h);
+    if (t == NULL) {
+        fprintf(stderr, "host_sim maps: %s: out of memory\n", j->path[OUT_TRUTH]);
+        return -1;
+    }
+    for (int r = 0; r < g->h; r++)
+        for (int c = 0; c < g->w; c++) {
+            const int cls = sim_plan_classify_point(&j->plan, g->x0 + (c + 0.5) * g->res, g->y0 + (r + 0.5) * g->res);
+            t[(size_t)r * g->w + c] = cls == SIM_CELL_WALL ? 1 : cls == SIM_CELL_FREE ? 0 : 255;
+        }
+    const int rc = stage_npy(j, OUT_TRUTH, g, NULL, t);
+    free(t);
     return rc;
 }
 
@@ -581,8 +610,8 @@ static int stage_all(job_t *j)
     }
     int rc = stage_text(j, OUT_CSV, &t);
     free(t.s);
-    if (rc != 0 || stage_npy(j, OUT_MEAN, g, g->mean) != 0 || stage_npy(j, OUT_STD, g, g->std) != 0 ||
-        stage_npy(j, OUT_SINGLE, &j->single, j->single.mean) != 0)
+    if (rc != 0 || stage_npy(j, OUT_MEAN, g, g->mean, NULL) != 0 || stage_npy(j, OUT_STD, g, g->std, NULL) != 0 ||
+        stage_npy(j, OUT_SINGLE, &j->single, j->single.mean, NULL) != 0 || stage_truth(j) != 0)
         return -1;
     const double xmax = g->x0 + g->w * g->res, ymax = g->y0 + g->h * g->res;
     char e[64], f[64];
@@ -643,7 +672,7 @@ static void report(const job_t *j)
     printf("map: %d x %d cells of %g m over x [%g, %g], y [%g, %g]; %lld MC passes (seed %lld), max std %.4f\n",
            g->w, g->h, g->res, g->x0, g->x0 + g->w * g->res, g->y0, g->y0 + g->h * g->res, o->mc, o->seed,
            sim_maps_std_max(g));
-    printf("results in %s: consensus.bnn consensus.csv map_mean.npy map_std.npy map_single.npy map_meta.json "
+    printf("results in %s: consensus.bnn consensus.csv map_mean.npy map_std.npy map_single.npy map_truth.npy map_meta.json "
            "map.pgm map.yaml map_mean.png map_std.png\n",
            o->out);
 }

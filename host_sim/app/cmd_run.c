@@ -65,6 +65,8 @@ static void run_usage(FILE *out)
             "  --batch N            minibatch size (default %u, <= %u)\n"
             "  --lr-start V, --lr-end V   log-decaying learning rate over the rounds (default %g -> %g)\n"
             "  --rho0 V, --rho-scaling V, --w-mu W, --w-rho W   ADMM penalty (default %g, %g, 1, 1)\n"
+            "  --kl-form own|reverse|full, --kl-reduce sum|mean, --rho-pred-grad 1|0   readings of the\n"
+            "                       KL strategy (default own, sum, 1; see host_sim fleet --help)\n"
             "  --train-between      one more optimiser step per AI tick between boundaries\n"
             "  --time-limit S       simulated seconds before giving up (default 1800)\n"
             "  --robot I, --id I    robot index: noise streams, seeds, telemetry, fleet member id (default 0)\n"

@@ -26,6 +26,7 @@
 
 #include "ai/bnn.h"
 #include "ai/bnn_ckpt.h"
+#include "sim_grid.h"
 #include "sim_maps.h"
 #include "sim_plan.h"
 #include "sim_samples.h"
@@ -373,6 +374,27 @@ static void test_map_files_agree(void **st)
             smax = fmax(smax, v[1][i]);
         }
     assert_true(smax > 0.0 && fabs(json_num(json, "std_max") - smax) <= 1e-12);
+    /* map_truth.npy: uint8, the plan's class at every cell centre, same orientation. */
+    path_at(p, out, "map_truth.npy");
+    uint8_t *tb = test_slurp(p, &n);
+    assert_non_null(tb);
+    const size_t thl = (size_t)tb[8] | (size_t)tb[9] << 8;
+    char thead[256];
+    assert_true(thl < sizeof thead && n == 10 + thl + (size_t)W * H);
+    memcpy(thead, tb + 10, thl);
+    thead[thl] = '\0';
+    assert_non_null(strstr(thead, "'descr': '|u1'"));
+    size_t walls = 0, free_cells = 0;
+    for (int r = 0; r < H; r++)
+        for (int c = 0; c < W; c++) {
+            const int cls = sim_plan_classify_point(&plan, xmin + (c + 0.5) * res, ymin + (H - 1 - r + 0.5) * res);
+            const int want = cls == SIM_CELL_WALL ? 1 : cls == SIM_CELL_FREE ? 0 : 255;
+            assert_int_equal(tb[10 + thl + (size_t)r * W + c], want);
+            walls += want == 1;
+            free_cells += want == 0;
+        }
+    assert_true(walls > 0 && free_cells > walls);
+    free(tb);
     /* map.pgm: P5, W x H, 255, pixel = round(255 (1 - mean)), same orientation as the arrays. */
     path_at(p, out, "map.pgm");
     uint8_t *pgm = test_slurp(p, &n);
@@ -422,8 +444,8 @@ static void test_map_files_agree(void **st)
 
 /* The outputs a good run leaves in DIR: a failed run must keep every one of them. */
 static const char *const outputs[] = {"consensus.bnn", "consensus.csv", "map_mean.npy", "map_std.npy",
-                                      "map_single.npy", "map_meta.json", "map.pgm",       "map.yaml",
-                                      "map_mean.png",  "map_std.png"};
+                                      "map_single.npy", "map_truth.npy", "map_meta.json", "map.pgm",
+                                      "map.yaml",      "map_mean.png",  "map_std.png"};
 
 /* Every file of DIR, byte for byte, before a run that must fail; the outputs all among them. */
 static void snap_outputs(snap_t *s, const char *dir)

@@ -159,13 +159,32 @@ static void test_dual_and_l2_midpoints_by_hand(void **st)
     assert_float_equal(v, want_dd + rho * (2.0 * want_mu + 0.5 * want_rho), 1e-4);
 }
 
-static void test_kl_rho_gradient_finite_differences(void **st)
+/* The KL term of one element by hand, in double: own sigma s, midpoint sigma r, the paired
+ * own mean mu and midpoint mean mj. */
+static double kl_by_hand(dinno_kl_form_t form, double s, double r, double mu, double mj)
 {
-    (void)st;
+    switch (form) {
+    case DINNO_KL_OWN_MEAN:
+        return log(r / s) + s * s / (2 * r * r) - 0.5;
+    case DINNO_KL_REVERSE:
+        return log(s / r) + r * r / (2 * s * s) - 0.5;
+    case DINNO_KL_FULL:
+        return log(s / r) + (r * r + (mj - mu) * (mj - mu)) / (2 * s * s) - 0.5;
+    }
+    return NAN;
+}
+
+/* One KL reading: its value against the closed form by hand, its gradient against finite
+ * differences of dinno_reg_value (FULL: the rho group only; its means keep the L2 gradient),
+ * and zero at agreement. */
+static void check_kl_reading(dinno_kl_form_t form, dinno_kl_reduce_t reduce)
+{
     bnn_config_t b = tiny();
     dinno_cfg_t c = cfg_of(DINNO_KL);
     c.w_mu = 1.5f;
     c.w_rho = 0.7f;
+    c.kl_form = form;
+    c.kl_reduce = reduce;
     assert_int_equal(dinno_node_init(&node, &c, &b, 1, 2, 0), 0);
     float ta[28], tb[28];
     set_known(&node, ta, tb);
@@ -180,18 +199,29 @@ static void test_kl_rho_gradient_finite_differences(void **st)
     memset(bnn_grads(&node.model), 0, 28 * sizeof(float));
     float reg_mu, reg_rho;
     dinno_add_reg_grad(&node, rho, &reg_mu, &reg_rho, NULL);
-    /* closed form value by hand for one element: KL with equal means */
-    double kl = 0;
+    double kl = 0; /* rho e (index 20 + e) pairs with the mean at 9 + e (S = 3) */
+    assert_int_equal(bnn_rho_to_mu(&node.model, 0), 9);
     for (int e = 0; e < 8; e++) {
         const double s = log1p(exp((double)th[20 + e]));
         for (int j = 0; j < 2; j++) {
-            const double r = log1p(exp(0.5 * ((double)node.theta0[20 + e] + (j ? tb : ta)[20 + e])));
-            kl += log(r / s) + s * s / (2 * r * r) - 0.5;
+            const float *tj = j ? tb : ta;
+            const double r = log1p(exp(0.5 * ((double)node.theta0[20 + e] + tj[20 + e])));
+            const double mj = 0.5 * ((double)node.theta0[9 + e] + tj[9 + e]);
+            kl += kl_by_hand(form, s, r, th[9 + e], mj);
         }
     }
+    if (reduce == DINNO_REDUCE_MEAN)
+        kl /= 8.0;
     assert_float_equal(reg_rho, kl, 1e-4 * (1 + kl));
     assert_true(kl > 0);
+    static float g_own_mu[20];
+    if (form == DINNO_KL_OWN_MEAN)
+        memcpy(g_own_mu, bnn_grads(&node.model), sizeof g_own_mu);
     for (int i = 0; i < 28; i++) {
+        if (form == DINNO_KL_FULL && i < 20) {
+            assert_float_equal(bnn_grads(&node.model)[i], g_own_mu[i], 1e-6);
+            continue;
+        }
         const float keep = th[i];
         const float h = 1e-3f;
         th[i] = keep + h;
@@ -214,6 +244,70 @@ static void test_kl_rho_gradient_finite_differences(void **st)
     assert_float_equal(reg_rho, 0.0, 1e-5);
     for (int i = 20; i < 28; i++)
         assert_float_equal(bnn_grads(&node.model)[i], 0.0, 1e-5);
+}
+
+static void test_kl_rho_gradient_finite_differences(void **st)
+{
+    (void)st;
+    for (int r = DINNO_REDUCE_SUM; r <= DINNO_REDUCE_MEAN; r++)
+        for (int f = DINNO_KL_OWN_MEAN; f <= DINNO_KL_FULL; f++)
+            check_kl_reading((dinno_kl_form_t)f, (dinno_kl_reduce_t)r);
+    dinno_kl_form_t f;
+    dinno_kl_reduce_t red;
+    assert_int_equal(dinno_kl_form_parse("full", &f), 0);
+    assert_int_equal(f, DINNO_KL_FULL);
+    assert_string_equal(dinno_kl_form_name(DINNO_KL_REVERSE), "reverse");
+    assert_int_equal(dinno_kl_form_parse("forward", &f), -EINVAL);
+    assert_int_equal(dinno_kl_reduce_parse("mean", &red), 0);
+    assert_int_equal(red, DINNO_REDUCE_MEAN);
+    assert_int_equal(dinno_kl_reduce_parse("avg", &red), -EINVAL);
+    bnn_config_t b = tiny();
+    dinno_cfg_t c = cfg_of(DINNO_KL);
+    c.kl_form = (dinno_kl_form_t)3;
+    assert_int_equal(dinno_node_init(&node, &c, &b, 1, 2, 0), -EINVAL);
+    c = cfg_of(DINNO_KL);
+    c.rho_pred_grad = 2;
+    assert_int_equal(dinno_node_init(&node, &c, &b, 1, 2, 0), -EINVAL);
+}
+
+/* Algorithm 2 read literally (rho_pred_grad = 0): with no neighbour the rho group has no
+ * gradient at all, so it never moves, while the means learn; uniform ignores the setting. */
+static void test_literal_rho_loss_moves_rho_only_by_consensus(void **st)
+{
+    (void)st;
+    bnn_config_t b = tiny();
+    for (int s = DINNO_SEPARATE; s <= DINNO_KL; s++) {
+        dinno_cfg_t c = cfg_of((dinno_strategy_t)s);
+        c.rho_pred_grad = 0;
+        assert_int_equal(dinno_node_init(&node, &c, &b, 3, 4, 0), 0);
+        float t0[28];
+        memcpy(t0, bnn_params(&node.model), sizeof t0);
+        for (int k = 0; k < 5; k++)
+            assert_int_equal(dinno_node_round(&node, data, 256, NULL), 0);
+        assert_memory_equal(bnn_params(&node.model) + 20, t0 + 20, 8 * sizeof(float));
+        assert_memory_not_equal(bnn_params(&node.model), t0, 20 * sizeof(float));
+        /* with a neighbour, the rho group follows its dual and regulariser */
+        float other_state[28];
+        for (int i = 0; i < 28; i++)
+            other_state[i] = bnn_params(&node.model)[i] + (i >= 20 ? 0.5f : 0.0f);
+        assert_int_equal(dinno_slot_put(&node, 1, 5, other_state, 28), 0);
+        memcpy(t0, bnn_params(&node.model), sizeof t0);
+        assert_int_equal(dinno_node_round(&node, data, 256, NULL), 0);
+        for (int i = 20; i < 28; i++)
+            assert_true(bnn_params(&node.model)[i] > t0[i]); /* pulled up towards the neighbour */
+    }
+    float u[28];
+    for (int literal = 0; literal < 2; literal++) {
+        dinno_cfg_t c = cfg_of(DINNO_UNIFORM);
+        c.rho_pred_grad = !literal;
+        assert_int_equal(dinno_node_init(&node, &c, &b, 5, 100, 0), 0);
+        for (int k = 0; k < 3; k++)
+            assert_int_equal(dinno_node_round(&node, data, 256, NULL), 0);
+        if (!literal)
+            memcpy(u, bnn_params(&node.model), sizeof u);
+        else
+            assert_memory_equal(u, bnn_params(&node.model), sizeof u);
+    }
 }
 
 static void run_pair(dinno_strategy_t s, float w_rho, float *out, int rounds)
@@ -330,6 +424,7 @@ int main(void)
         cmocka_unit_test(test_schedules),
         cmocka_unit_test(test_dual_and_l2_midpoints_by_hand),
         cmocka_unit_test(test_kl_rho_gradient_finite_differences),
+        cmocka_unit_test(test_literal_rho_loss_moves_rho_only_by_consensus),
         cmocka_unit_test(test_uniform_equals_separate_at_unit_weights),
         cmocka_unit_test(test_slot_round_mismatch_rejected),
         cmocka_unit_test(test_no_neighbours_trains_alone),

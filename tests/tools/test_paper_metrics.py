@@ -1,0 +1,339 @@
+#!/usr/bin/python3
+"""Tests of tools/paper_metrics.py: each metric on synthetic data with known answers, and the CLI
+on a synthetic maps folder with sample files in the exact tools/samples.py format.
+
+    python3 tests/tools/test_paper_metrics.py      prints "N passed, M failed", exit 1 on failure
+
+Needs Debian's python3 with numpy and scipy: when the python3 found first lacks numpy, the test
+runs itself again with /usr/bin/python3.
+"""
+import importlib.util
+import json
+import math
+import os
+import shutil
+import struct
+import subprocess
+import sys
+import tempfile
+import traceback
+import zlib
+
+try:
+    import numpy as np
+except ImportError:
+    if os.path.exists("/usr/bin/python3") and os.path.realpath(sys.executable) != os.path.realpath("/usr/bin/python3"):
+        os.execv("/usr/bin/python3", ["/usr/bin/python3"] + sys.argv)
+    print("test_paper_metrics: needs numpy (Debian python3-numpy)", file=sys.stderr)
+    sys.exit(1)
+
+ROOT = os.path.dirname(os.path.dirname(os.path.dirname(os.path.realpath(__file__))))
+TOOL = os.path.join(ROOT, "tools", "paper_metrics.py")
+_spec = importlib.util.spec_from_file_location("paper_metrics", TOOL)
+pm = importlib.util.module_from_spec(_spec)
+_spec.loader.exec_module(pm)
+
+TESTS = []
+
+
+def test(f):
+    TESTS.append(f)
+    return f
+
+
+def run(cmd, cwd=ROOT):
+    p = subprocess.run([sys.executable, TOOL] + cmd, cwd=cwd, capture_output=True, text=True, timeout=60)
+    return p.returncode, p.stdout, p.stderr
+
+
+def check(cond, what):
+    if not cond:
+        raise AssertionError(what)
+
+
+def close(a, b, tol=1e-9):
+    return abs(a - b) <= tol
+
+
+# ---- synthetic inputs ------------------------------------------------------------------------
+
+def write_samples(path, xy_m, occ, box):
+    """A samples file as host_sim/sim_samples.h specifies: x, y normalised to [-1, 1], both CRCs."""
+    xy_m = np.asarray(xy_m, dtype=np.float64)
+    xn = 2.0 * (xy_m[:, 0] - box[0]) / (box[2] - box[0]) - 1.0
+    yn = 2.0 * (xy_m[:, 1] - box[1]) / (box[3] - box[1]) - 1.0
+    recs = np.column_stack([xn, yn, occ]).astype("<f4").tobytes()
+    h = bytearray(208)
+    h[0:8] = b"FSSAMPLE"
+    struct.pack_into("<IIIIQ", h, 8, 1, 208, 12, 0, len(xy_m))
+    struct.pack_into("<4d", h, 32, *box)
+    struct.pack_into("<Q", h, 64, 7)
+    src = b"scan paper_metrics test"
+    h[72:72 + len(src)] = src
+    struct.pack_into("<I", h, 204, zlib.crc32(bytes(h[:204])))
+    with open(path, "wb") as f:
+        f.write(bytes(h) + recs + struct.pack("<I", zlib.crc32(recs)))
+
+
+H, W, RES = 8, 10, 0.5
+BOX = (0.0, 0.0, W * RES, H * RES)
+
+
+def synthetic_maps(d):
+    """A 10 x 8 grid of 0.5 m: walls on the top row and the left column, the right column unknown,
+    mean = truth (a perfect map), std 0.05 on columns 0..4 and 0.3 on columns 5..9. Two sample
+    files hold one point per cell centre of columns 0..4 (hits on the walls). Returns their paths."""
+    m = os.path.join(d, "maps")
+    os.makedirs(m)
+    truth = np.zeros((H, W), np.uint8)
+    truth[0, :] = 1
+    truth[:, 0] = 1
+    truth[:, W - 1] = 255
+    mean = np.where(truth == 255, 0.5, truth).astype(np.float32)
+    std = np.where(np.arange(W)[None, :] < 5, 0.05, 0.3) * np.ones((H, 1))
+    np.save(os.path.join(m, "map_mean.npy"), mean)
+    np.save(os.path.join(m, "map_std.npy"), std.astype(np.float32))
+    np.save(os.path.join(m, "map_truth.npy"), truth)
+    np.save(os.path.join(m, "map_single.npy"), mean)
+    with open(os.path.join(m, "map_meta.json"), "w") as f:
+        f.write('{"res": 0.5, "xmin": 0, "ymin": 0, "xmax": 5, "ymax": 4, "width": 10, "height": 8, '
+                '"mc": 50, "seed": 1, "std_max": 0.3, "models": 2}\n')
+    rows, cols = np.mgrid[0:H, 0:5]
+    xy = np.column_stack([(cols.ravel() + 0.5) * RES, BOX[3] - (rows.ravel() + 0.5) * RES])
+    occ = truth[rows.ravel(), cols.ravel()].astype(np.float64)
+    files = [os.path.join(d, "a.samples"), os.path.join(d, "b.samples")]
+    write_samples(files[0], xy[::2], occ[::2], BOX)
+    write_samples(files[1], xy[1::2], occ[1::2], BOX)
+    return m, files
+
+
+def parse(out):
+    return {l.split()[0]: float(l.split()[1]) for l in out.splitlines()}
+
+
+# ---- the metrics -----------------------------------------------------------------------------
+
+@test
+def roc_auc_vs_pairwise_count():
+    rng = np.random.default_rng(1)
+    for trial in range(30):
+        n = int(rng.integers(2, 40))
+        s = rng.integers(0, 5, n).astype(float) if trial % 2 else rng.random(n)  # ties in half
+        y = rng.random(n) < 0.4
+        pos, neg = s[y], s[~y]
+        if len(pos) == 0 or len(neg) == 0:
+            check(math.isnan(pm.roc_auc(s, y)), "one class: NaN")
+            continue
+        want = sum((p > q) + 0.5 * (p == q) for p in pos for q in neg) / (len(pos) * len(neg))
+        check(close(pm.roc_auc(s, y), want, 1e-12), f"trial {trial}: {pm.roc_auc(s, y)} != {want}")
+    check(pm.roc_auc([1, 2, 3, 4], [0, 0, 1, 1]) == 1.0 and pm.roc_auc([4, 3, 2, 1], [0, 0, 1, 1]) == 0.0,
+          "perfect / reversed")
+    check(pm.roc_auc([2, 2, 2], [1, 0, 1]) == 0.5, "all tied")
+    check(math.isnan(pm.roc_auc([1, 2], [1, 1])) and math.isnan(pm.roc_auc([1, 2], [0, 0])), "empty class")
+
+
+@test
+def spearman_known():
+    check(close(pm.spearman([1, 2, 3, 4], [1, 4, 9, 16]), 1.0), "monotone")
+    check(close(pm.spearman([1, 2, 3, 4], [5, 3, 2, 0]), -1.0), "reversed")
+    # d = ranks (1,2,3,4,5) vs (2,1,4,3,5): sum d^2 = 4, rho = 1 - 6*4/(5*24) = 0.8
+    check(close(pm.spearman([1, 2, 3, 4, 5], [20, 10, 40, 30, 50]), 0.8), "hand value")
+    check(math.isnan(pm.spearman([1, 1, 1], [1, 2, 3])) and math.isnan(pm.spearman([1, 2, 3], [0, 0, 0])),
+          "constant")
+
+
+@test
+def ece_calibrated_and_miscalibrated():
+    # perfectly calibrated: in each bin of 15, p = k/15 + 1/30 (the bin centre) and a matching wall fraction
+    prob, truth = [], []
+    for k in range(15):
+        p = (k + 0.5) / 15
+        n = 30
+        walls = round(p * n)  # (k + 0.5) * 2 = 2k + 1: exact
+        prob += [p] * n
+        truth += [1] * walls + [0] * (n - walls)
+    check(close(pm.ece(np.array(prob), np.array(truth, np.uint8)), 0.0, 1e-12), "calibrated")
+    # 10 cells at 0.9 with 5 walls (gap 0.4), 10 at 0.1 with no wall (gap 0.1): 0.5*0.4 + 0.5*0.1
+    prob = np.array([0.9] * 10 + [0.1] * 10 + [0.7] * 5)
+    truth = np.array([1] * 5 + [0] * 5 + [0] * 10 + [255] * 5, np.uint8)
+    check(close(pm.ece(prob, truth), 0.25, 1e-12), f"miscalibrated: {pm.ece(prob, truth)}")
+    # 2 bins, [0, .5) and [.5, 1] (p = 1.0 in the last): {0, .25} with walls {0, 1}: |.125 - .5|;
+    # {1, .5} with walls {1, 1}: |.75 - 1|
+    check(close(pm.ece(np.array([1.0, 0.5, 0.0, 0.25]), np.array([1, 1, 0, 1], np.uint8), bins=2),
+                0.5 * 0.375 + 0.5 * 0.25), "edges")
+    check(math.isnan(pm.ece(np.array([0.3]), np.array([255], np.uint8))), "no known cell")
+
+
+@test
+def map_errors_known():
+    mean = np.array([[0.9, 0.2, 0.6], [0.5, 0.0, 0.3]])
+    truth = np.array([[1, 0, 0], [1, 255, 1]], np.uint8)
+    mse, iou = pm.map_errors(mean, truth)
+    want = (0.01 + 0.04 + 0.36 + 0.25 + 0.49) / 5
+    # walls predicted (> 0.5): (0,0), (0,2); walls: (0,0), (1,0), (1,2): 1 / 4
+    check(close(mse, want) and close(iou, 0.25), f"{mse} {iou}")
+    mse, iou = pm.map_errors(np.zeros((2, 2)), np.zeros((2, 2), np.uint8))
+    check(mse == 0.0 and math.isnan(iou), "no wall anywhere: IoU NaN")
+
+
+@test
+def unobserved_mask_distances():
+    cells = np.array([[0.4, 0.0], [0.6, 0.0], [0.0, -0.3], [3.0, 3.0], [2.0, 2.35]])
+    pts = np.array([[0.0, 0.0], [2.0, 2.0]])
+    got = pm.unobserved_mask(cells, pts, 0.5)
+    check(got.tolist() == [False, True, False, True, False], f"{got}")
+    check(pm.unobserved_mask(cells, pts, 0.2).tolist() == [True, True, True, True, True], "dist 0.2")
+    check(pm.unobserved_mask(cells, np.zeros((0, 2)), 0.5).all(), "no points: all unobserved")
+
+
+@test
+def kde_density_and_subsampling():
+    from scipy.stats import gaussian_kde
+    rng = np.random.default_rng(5)
+    hits = rng.normal(size=(50, 2))
+    cells = rng.uniform(-2, 2, size=(30, 2))
+    check(np.allclose(pm.kde_density(hits, cells), gaussian_kde(hits.T)(cells.T), rtol=1e-12), "full")
+    a = pm.kde_density(hits, cells, max_points=20, seed=3)
+    idx = np.sort(np.random.default_rng(3).choice(50, 20, replace=False))
+    check(np.allclose(a, gaussian_kde(hits[idx].T)(cells.T), rtol=1e-12), "subsample")
+    check(np.array_equal(a, pm.kde_density(hits, cells, max_points=20, seed=3)), "deterministic")
+    check(not np.allclose(a, pm.kde_density(hits, cells, max_points=20, seed=4)), "seed matters")
+    try:
+        pm.kde_density(hits[:2], cells)
+        check(False, "2 hits accepted")
+    except pm.MetricsError as e:
+        check("too few" in str(e), str(e))
+
+
+@test
+def load_map_grid_convention():
+    d = tempfile.mkdtemp(prefix="pmtest.")
+    try:
+        m, files = synthetic_maps(d)
+        g = pm.load_map(m)
+        check(g["cell_xy"].shape == (H * W, 2), "cell_xy shape")
+        check(np.allclose(g["cell_xy"][0], [0.25, 3.75]), f"top-left cell {g['cell_xy'][0]}")
+        r, c = 6, 3
+        check(np.allclose(g["cell_xy"][r * W + c], [(c + 0.5) * RES, 4 - (r + 0.5) * RES]), "cell (6, 3)")
+        check(np.allclose(g["xc"], (np.arange(W) + 0.5) * RES) and np.allclose(g["yc"], 4 - (np.arange(H) + 0.5) * RES),
+              "xc, yc")
+        all_xy, hits = pm.load_points(files)
+        check(all_xy.shape == (40, 2) and hits.shape == (12, 2), f"{all_xy.shape} {hits.shape}")
+        check(np.allclose(np.sort(hits[:, 1])[-5:], 3.75, atol=1e-6), "hits on the top row in metres")
+    finally:
+        shutil.rmtree(d)
+
+
+# ---- the CLI ---------------------------------------------------------------------------------
+
+@test
+def cli_known_answers():
+    d = tempfile.mkdtemp(prefix="pmtest.")
+    try:
+        m, files = synthetic_maps(d)
+        out_json = os.path.join(d, "out", "metrics.json")
+        os.makedirs(os.path.dirname(out_json))
+        rc, out, err = run(["--maps", m, "--dist", "0.3", "--json", out_json] + files)
+        check(rc == 0 and err == "", f"exit {rc}: {err}")
+        r = parse(out)
+        # 9 known columns x 8 rows; columns 5..8 are 0.5 m or more from the nearest point
+        check(r["n_cells"] == 72 and r["n_points"] == 40 and r["n_hits"] == 12, out)
+        check(close(r["unobserved_fraction"], 32 / 72, 1e-6), out)
+        check(r["auc_std_unobserved"] == 1.0, out)
+        check(close(r["std_mean_observed"], 0.05, 1e-6) and close(r["std_mean_unobserved"], 0.3, 1e-6), out)
+        check(r["mse"] == 0.0 and r["wall_iou"] == 1.0 and r["ece"] == 0.0, out)
+        check(-1.0 <= r["spearman_std_kde"] < 0, "std falls where the hits are dense:\n" + out)
+        g = pm.load_map(m)
+        known = (g["truth"] != 255).ravel()
+        hits = pm.load_points(files)[1]
+        want = pm.spearman(g["std"].ravel()[known], pm.kde_density(hits, g["cell_xy"][known]))
+        check(close(r["spearman_std_kde"], want, 1e-5), f"spearman {r['spearman_std_kde']} != {want}")
+        j = json.load(open(out_json))
+        check(j["dist"] == 0.3 and j["n_cells"] == 72 and close(j["unobserved_fraction"], 32 / 72), f"{j}")
+        check(os.listdir(os.path.dirname(out_json)) == ["metrics.json"], "temporary file left")
+        # everything observed: the AUC and the unobserved std mean are NaN, null in the JSON
+        rc, out, err = run(["--maps", m, "--dist", "10", "--json", out_json] + files)
+        check(rc == 0 and "auc_std_unobserved nan" in out and "std_mean_unobserved nan" in out, f"{rc} {out} {err}")
+        j = json.load(open(out_json))
+        check(j["auc_std_unobserved"] is None and j["unobserved_fraction"] == 0.0, f"{j}")
+    finally:
+        shutil.rmtree(d)
+
+
+@test
+def cli_bad_inputs():
+    d = tempfile.mkdtemp(prefix="pmtest.")
+    try:
+        m, files = synthetic_maps(d)
+
+        def fails(want, args=None):
+            rc, out, err = run(args or (["--maps", m] + files))
+            check(rc == 1 and want in err and len(err.strip().splitlines()) == 1 and "Traceback" not in err,
+                  f"want exit 1 naming {want!r}: {rc} {err}")
+            return err
+
+        truth = os.path.join(m, "map_truth.npy")
+        shutil.move(truth, truth + ".bak")
+        check("missing" in fails("map_truth.npy"), "missing file")
+        shutil.move(truth + ".bak", truth)
+        std = os.path.join(m, "map_std.npy")
+        good = np.load(std)
+        np.save(std, good.T.copy())
+        check("shape (10, 8)" in fails("map_std.npy"), "wrong shape")
+        np.save(std, good.astype(np.float64))
+        check("dtype float64" in fails("map_std.npy"), "wrong dtype")
+        with open(std, "wb") as f:
+            f.write(b"not numpy")
+        fails("map_std.npy")
+        np.save(std, good)
+        t = np.load(truth)
+        t[2, 3] = 7
+        np.save(truth, t)
+        check("cell (2, 3) is 7" in fails("map_truth.npy"), "bad truth value")
+        t[2, 3] = 0
+        np.save(truth, t)
+        meta = os.path.join(m, "map_meta.json")
+        good_meta = open(meta).read()
+        with open(meta, "w") as f:
+            f.write(good_meta.replace('"res": 0.5, ', ""))
+        check('"res"' in fails("map_meta.json"), "missing key")
+        with open(meta, "w") as f:
+            f.write("{oops")
+        fails("map_meta.json")
+        with open(meta, "w") as f:
+            f.write(good_meta)
+        with open(files[0], "r+b") as f:
+            f.seek(215)
+            f.write(b"\x01\x02")
+        check("CRC" in fails("a.samples"), "corrupted samples")
+        fails("No such file", ["--maps", m, os.path.join(d, "none.samples")])
+        fails("map_meta.json", ["--maps", os.path.join(d, "nope"), files[1]])
+        rc, out, err = run(["--maps", m, "--dist", "-1", files[1]])
+        check(rc == 2 and "--dist" in err, f"negative dist: {rc} {err}")
+        rc, out, err = run(["--help"])
+        check(rc == 0 and "--maps DIR" in out and "SAMPLES" in out and "auc_std_unobserved" in out, "--help")
+    finally:
+        shutil.rmtree(d)
+
+
+def main():
+    passed = failed = 0
+    for t in TESTS:
+        try:
+            t()
+            passed += 1
+            print(f"ok   {t.__name__}")
+        except Exception:
+            failed += 1
+            print(f"FAIL {t.__name__}")
+            traceback.print_exc()
+    print(f"{passed} passed, {failed} failed")
+    # The summary lines tools/run-tests.sh counts (cmocka's wording).
+    print(f"[  PASSED  ] {passed} test(s).")
+    if failed:
+        print(f"[  FAILED  ] {failed} test(s), listed above.")
+    return 1 if failed else 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())
