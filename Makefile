@@ -8,6 +8,8 @@
 #   make test-asan    the tests under AddressSanitizer + UndefinedBehaviorSanitizer
 #   make test-tsan    the threaded tests under ThreadSanitizer
 #   make bench        benchmarks; one `BENCH <name> <value> <unit>` line per figure
+#   make experiments  the paper's experiments and the KL question (hours, resumable):
+#                     results/paper/REPORT.md; QUICK=1 the reduced form in minutes
 #   make check-portable  the math compiled for x86-64-v2/v3/v4 and aarch64, all built with clang
 #   make check-config the tree built for a board with other sizes; every file agrees on them
 #   make clean
@@ -59,7 +61,8 @@ CXX     := g++
 BUILD_ROOT ?= build
 # Anything that changes the generated code gets its own objects (no mixing on a switch): a
 # math back end, an ARCH other than the board default, another compiler.
-CONFIG := $(BUILD)-$(BOARD)-$(PRESET)$(if $(filter-out $(BOARD_LA_BACKEND),$(LA_BACKEND)),-$(LA_BACKEND))$(if $(filter-out $(firstword $(BOARD_ARCHES)),$(ARCH)),-$(ARCH))$(if $(findstring clang,$(CC)),-clang)
+config_for = $(1)-$(BOARD)-$(2)$(if $(filter-out $(BOARD_LA_BACKEND),$(LA_BACKEND)),-$(LA_BACKEND))$(if $(filter-out $(firstword $(BOARD_ARCHES)),$(ARCH)),-$(ARCH))$(if $(findstring clang,$(CC)),-clang)
+CONFIG := $(call config_for,$(BUILD),$(PRESET))
 O   := $(BUILD_ROOT)/$(CONFIG)
 BIN := $(O)/bin
 LIB := $(O)/lib
@@ -204,7 +207,7 @@ $(O)/tests/%: $(O)/obj/tests/%.c.o $(LIB)/libtestsupport.a $(LIBS)
 	$(call say,LD,$@)$(CXX) $(OPT) $< -Wl,--start-group $(LIB)/libtestsupport.a $(LIBS) -Wl,--end-group $(SYS_LIBS) -lcmocka $(WRAP) -o $@
 
 # ---- targets ----------------------------------------------------------------------------
-.PHONY: all layering deps run run-inproc test test-asan test-tsan tests bench bench-one clean help cross check-portable check-config
+.PHONY: experiments all layering deps run run-inproc test test-asan test-tsan tests bench bench-one clean help cross check-portable check-config
 
 all: deps layering $(LIBS) $(PROGRAMS)
 ifeq ($(BUILD),release)
@@ -256,6 +259,14 @@ run: all
 
 run-inproc: all
 	@tools/run-fleet.sh $(BIN)
+
+# The paper's experiments need the programs of both presets (release builds).
+experiments:
+	@$(MAKE) --no-print-directory BUILD=release PRESET=small all
+	@$(MAKE) --no-print-directory BUILD=release PRESET=paper all
+	@tools/experiments.py $(if $(QUICK),--quick) $(EXPERIMENTS_ARGS) \
+	    --bin-small $(BUILD_ROOT)/$(call config_for,release,small)/bin/host_sim \
+	    --bin-paper $(BUILD_ROOT)/$(call config_for,release,paper)/bin/host_sim
 
 # The math compiled for every x86-64 level and aarch64 (GCC and clang), then the whole tree
 # and its tests built and run with clang. Compile only for the other CPUs: this one need not

@@ -339,6 +339,11 @@ int sim_fleet_metrics(sim_fleet_t *f, int i, const ai_sample_t *val, size_t n_va
     out->reg_mu = f->rounds_done ? st->reg_mu : NAN;
     out->reg_rho = f->rounds_done ? st->reg_rho : NAN;
     out->kl_loss = bnn_kl_loss(m);
+    const float *rho = bnn_params_const(m) + m->n_mu;
+    double ssum = 0.0;
+    for (size_t e = 0; e < m->n_rho; e++)
+        ssum += bnn_softplus(rho[e]);
+    out->sigma_mean = m->n_rho ? ssum / (double)m->n_rho : NAN;
     out->consensus_error = sim_fleet_consensus_error(f, i);
     out->val_loss = out->val_sample = out->val_mc = NAN;
     if (val && n_val) {

@@ -96,6 +96,7 @@ typedef struct sim_fleet_metrics {
     double val_sample;      /* the same with ONE sampled forward pass (what a BNN's model(x) does) */
     double val_mc;          /* BCE of the predictive mean of mc_k sampled passes (NaN when mc_k = 0) */
     double kl_loss;         /* the BNN's prior kl_loss */
+    double sigma_mean;      /* mean softplus(rho) over the Bayesian weights: how far sigma moved */
     double consensus_error;
     double occ_mse, occ_iou;
     double reg_mu, reg_rho; /* unweighted consensus terms of the last round */

@@ -207,6 +207,16 @@ def _mean_or_nan(a):
     return float(a.mean()) if a.size else float("nan")
 
 
+def _spearman_kde(std, hits_xy, cells):
+    """Spearman of the std with the hits' KDE; NaN when there is no KDE (fewer than 3 hits, degenerate)."""
+    if not cells.size:
+        return float("nan")
+    try:
+        return spearman(std, kde_density(hits_xy, cells))
+    except MetricsError:
+        return float("nan")
+
+
 def compute(maps_dir, sample_files, dist=0.5):
     """Every metric of the map in maps_dir against the lidar points of sample_files (known cells only)."""
     m = load_map(maps_dir)
@@ -219,7 +229,7 @@ def compute(maps_dir, sample_files, dist=0.5):
     return {
         "auc_std_unobserved": roc_auc(std, unobs),
         "unobserved_fraction": _mean_or_nan(unobs.astype(np.float64)),
-        "spearman_std_kde": spearman(std, kde_density(hits_xy, cells)) if cells.size else float("nan"),
+        "spearman_std_kde": _spearman_kde(std, hits_xy, cells),
         "mse": mse,
         "wall_iou": iou,
         "ece": ece(m["mean"], m["truth"]),

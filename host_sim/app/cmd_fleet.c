@@ -37,7 +37,8 @@ static void fleet_usage(FILE *out)
             "(seed S) unless --valset.\n"
             "Writes into --out: samples/robot_<i>.samples (training data, unless --samples), valset.samples,\n"
             "metrics.csv (round,agent,train_loss,val_loss,kl_loss,consensus_error,occ_mse,occ_iou,\n"
-            "reg_mu,reg_rho,neighbours,val_mean,val_sample,val_mc; val_loss is the --val-mode one),\n"
+            "reg_mu,reg_rho,neighbours,val_mean,val_sample,val_mc,sigma_mean; val_loss is the --val-mode one,\n"
+            "sigma_mean the mean softplus(rho) of the Bayesian weights),\n"
             "map_mean.png and map_std.png (agent 0, MC mean / std, paths on\n"
             "top), models/robot_<i>.bnn (every final model) and summary.txt.\n"
             "\n"
@@ -376,7 +377,7 @@ static int train(job_t *j)
     FILE *csv = hal_host_file_stream(&out);
     int rc = 0;
     fprintf(csv, "round,agent,train_loss,val_loss,kl_loss,consensus_error,occ_mse,occ_iou,reg_mu,reg_rho,neighbours,"
-                 "val_mean,val_sample,val_mc\n");
+                 "val_mean,val_sample,val_mc,sigma_mean\n");
     const int M = sim_fleet_models(j->fleet);
     dinno_graph_report_t rep; /* of the last round's graph */
     memset(&rep, 0, sizeof rep);
@@ -402,9 +403,9 @@ static int train(job_t *j)
             }
             const sim_fleet_metrics_t *m = &j->last[i];
             const dinno_round_stats_t *st = sim_fleet_last_stats(j->fleet, i);
-            fprintf(csv, "%u,%d,%.6g,%.6g,%.6g,%.6g,%.6g,%.6g,%.6g,%.6g,%u,%.6g,%.6g,%.6g\n", k, i, m->train_loss,
+            fprintf(csv, "%u,%d,%.6g,%.6g,%.6g,%.6g,%.6g,%.6g,%.6g,%.6g,%u,%.6g,%.6g,%.6g,%.6g\n", k, i, m->train_loss,
                     val_of(o, m), m->kl_loss, m->consensus_error, m->occ_mse, m->occ_iou, m->reg_mu, m->reg_rho,
-                    k ? st->neighbours : 0, m->val_loss, m->val_sample, m->val_mc);
+                    k ? st->neighbours : 0, m->val_loss, m->val_sample, m->val_mc, m->sigma_mean);
             vmean += val_of(o, m) / M;
             iou += m->occ_iou / M;
             cmax = fmax(cmax, m->consensus_error);
