@@ -223,6 +223,9 @@ def drawn(run):
                                                  t["row"] in ("baseline", "network"))
 
 
+HEARTBEAT_S = 60
+
+
 class Campaign:
     def __init__(self, runs, out, jobs, archive=None):
         self.runs, self.out, self.jobs, self.archive = runs, out, jobs, archive
@@ -382,7 +385,10 @@ class Campaign:
                     if pending and not started:
                         return 1
                     continue
-                doneset, _ = concurrent.futures.wait(list(busy), return_when=concurrent.futures.FIRST_COMPLETED)
+                doneset, _ = concurrent.futures.wait(list(busy), timeout=HEARTBEAT_S,
+                                                     return_when=concurrent.futures.FIRST_COMPLETED)
+                if not doneset:
+                    self.progress(len(todo))  # a line a minute while long runs go on
                 for fut in doneset:
                     r = busy.pop(fut)
                     (finished if fut.result() else broken).add(r.name)

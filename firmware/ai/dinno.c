@@ -405,72 +405,64 @@ int dinno_node_round(dinno_node_t *n, const ai_sample_t *data, size_t n_data, di
     return 0;
 }
 
+/* Names of the enumerations, in enum order (the CLI's spelling). */
+static const char *const strategy_names[] = {"uniform", "separate", "kl"};
+static const char *const kl_form_names[] = {"own", "reverse", "full"};
+static const char *const kl_reduce_names[] = {"sum", "mean"};
+#define N_OF(a) (sizeof(a) / sizeof((a)[0]))
+
+static const char *name_of(const char *const *names, size_t n, int v)
+{
+    return v >= 0 && (size_t)v < n ? names[v] : "?";
+}
+
+/* The index of `name` in names, or -1. */
+static int index_of(const char *const *names, size_t n, const char *name)
+{
+    for (size_t i = 0; name && i < n; i++)
+        if (strcmp(name, names[i]) == 0)
+            return (int)i;
+    return -1;
+}
+
 const char *dinno_strategy_name(dinno_strategy_t s)
 {
-    switch (s) {
-    case DINNO_UNIFORM:
-        return "uniform";
-    case DINNO_SEPARATE:
-        return "separate";
-    case DINNO_KL:
-        return "kl";
-    }
-    return "?";
+    return name_of(strategy_names, N_OF(strategy_names), (int)s);
 }
 
 int dinno_strategy_parse(const char *name, dinno_strategy_t *out)
 {
-    if (!name || !out)
+    const int i = index_of(strategy_names, N_OF(strategy_names), name);
+    if (i < 0 || !out)
         return -EINVAL;
-    for (int s = DINNO_UNIFORM; s <= DINNO_KL; s++) {
-        if (strcmp(name, dinno_strategy_name((dinno_strategy_t)s)) == 0) {
-            *out = (dinno_strategy_t)s;
-            return 0;
-        }
-    }
-    return -EINVAL;
+    *out = (dinno_strategy_t)i;
+    return 0;
 }
 
 const char *dinno_kl_form_name(dinno_kl_form_t f)
 {
-    switch (f) {
-    case DINNO_KL_OWN_MEAN:
-        return "own";
-    case DINNO_KL_REVERSE:
-        return "reverse";
-    case DINNO_KL_FULL:
-        return "full";
-    }
-    return "?";
+    return name_of(kl_form_names, N_OF(kl_form_names), (int)f);
 }
 
 int dinno_kl_form_parse(const char *name, dinno_kl_form_t *out)
 {
-    if (!name || !out)
+    const int i = index_of(kl_form_names, N_OF(kl_form_names), name);
+    if (i < 0 || !out)
         return -EINVAL;
-    for (int f = DINNO_KL_OWN_MEAN; f <= DINNO_KL_FULL; f++) {
-        if (strcmp(name, dinno_kl_form_name((dinno_kl_form_t)f)) == 0) {
-            *out = (dinno_kl_form_t)f;
-            return 0;
-        }
-    }
-    return -EINVAL;
+    *out = (dinno_kl_form_t)i;
+    return 0;
 }
 
 const char *dinno_kl_reduce_name(dinno_kl_reduce_t r)
 {
-    return r == DINNO_REDUCE_SUM ? "sum" : r == DINNO_REDUCE_MEAN ? "mean" : "?";
+    return name_of(kl_reduce_names, N_OF(kl_reduce_names), (int)r);
 }
 
 int dinno_kl_reduce_parse(const char *name, dinno_kl_reduce_t *out)
 {
-    if (!name || !out)
+    const int i = index_of(kl_reduce_names, N_OF(kl_reduce_names), name);
+    if (i < 0 || !out)
         return -EINVAL;
-    if (strcmp(name, "sum") == 0)
-        *out = DINNO_REDUCE_SUM;
-    else if (strcmp(name, "mean") == 0)
-        *out = DINNO_REDUCE_MEAN;
-    else
-        return -EINVAL;
+    *out = (dinno_kl_reduce_t)i;
     return 0;
 }

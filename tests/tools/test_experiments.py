@@ -13,23 +13,13 @@ import os
 import shutil
 import sys
 import tempfile
-import traceback
+
+sys.path.insert(0, os.path.dirname(os.path.realpath(__file__)))
+from minitest import check, main, test  # noqa: E402
 
 ROOT = os.path.dirname(os.path.dirname(os.path.dirname(os.path.realpath(__file__))))
 sys.path.insert(0, os.path.join(ROOT, "tools"))
 import experiments  # noqa: E402
-
-TESTS = []
-
-
-def test(f):
-    TESTS.append(f)
-    return f
-
-
-def check(cond, what):
-    if not cond:
-        raise AssertionError(what)
 
 
 def sh(script):
@@ -125,24 +115,6 @@ def campaign_definitions():
         check(kinds == {"data", "single", "kl_table", "online"}, f"kinds {kinds}")
         seeds = {r.tags["seed"] for r in runs}
         check(len(seeds) == (1 if quick else 3), f"seeds {seeds}")
-
-
-def main():
-    passed = failed = 0
-    for t in TESTS:
-        try:
-            t()
-            passed += 1
-            print(f"ok   {t.__name__}")
-        except Exception:
-            failed += 1
-            print(f"FAIL {t.__name__}")
-            traceback.print_exc()
-    print(f"{passed} passed, {failed} failed")
-    print(f"[  PASSED  ] {passed} test(s).")
-    if failed:
-        print(f"[  FAILED  ] {failed} test(s), listed above.")
-    return 1 if failed else 0
 
 
 if __name__ == "__main__":

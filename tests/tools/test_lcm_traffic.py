@@ -14,16 +14,13 @@ import struct
 import subprocess
 import sys
 import tempfile
-import traceback
 import zlib
 
-try:
-    import numpy as np
-except ImportError:
-    if os.path.exists("/usr/bin/python3") and os.path.realpath(sys.executable) != os.path.realpath("/usr/bin/python3"):
-        os.execv("/usr/bin/python3", ["/usr/bin/python3"] + sys.argv)
-    print("test_lcm_traffic: needs numpy (Debian python3-numpy)", file=sys.stderr)
-    sys.exit(1)
+
+sys.path.insert(0, os.path.dirname(os.path.realpath(__file__)))
+from minitest import check, main, need_numpy, test  # noqa: E402
+
+np = need_numpy("test_lcm_traffic")
 
 ROOT = os.path.dirname(os.path.dirname(os.path.dirname(os.path.realpath(__file__))))
 TRAFFIC = os.path.join(ROOT, "tools", "lcm_traffic.py")
@@ -35,22 +32,10 @@ FP_STATE = 0xDF65602B2D04BF15
 FP_DONE = 0x174159E1F6557A31
 FP_REQUEST = 0x4BF474954AF8607A
 
-TESTS = []
-
-
-def test(f):
-    TESTS.append(f)
-    return f
-
 
 def run(cmd, cwd=ROOT):
     p = subprocess.run([sys.executable] + cmd, cwd=cwd, env=ENV, capture_output=True, text=True, timeout=60)
     return p.returncode, p.stdout, p.stderr
-
-
-def check(cond, what):
-    if not cond:
-        raise AssertionError(what)
 
 
 # ---- LCM log ---------------------------------------------------------------------------------
@@ -331,25 +316,6 @@ def fleet_report_malformed():
         check(rc == 0 and "RUN_DIR" in out, "--help")
     finally:
         shutil.rmtree(d)
-
-
-def main():
-    passed = failed = 0
-    for t in TESTS:
-        try:
-            t()
-            passed += 1
-            print(f"ok   {t.__name__}")
-        except Exception:
-            failed += 1
-            print(f"FAIL {t.__name__}")
-            traceback.print_exc()
-    print(f"{passed} passed, {failed} failed")
-    # The summary lines tools/run-tests.sh counts (cmocka's wording).
-    print(f"[  PASSED  ] {passed} test(s).")
-    if failed:
-        print(f"[  FAILED  ] {failed} test(s), listed above.")
-    return 1 if failed else 0
 
 
 if __name__ == "__main__":

@@ -16,16 +16,13 @@ import struct
 import subprocess
 import sys
 import tempfile
-import traceback
 import zlib
 
-try:
-    import numpy as np
-except ImportError:
-    if os.path.exists("/usr/bin/python3") and os.path.realpath(sys.executable) != os.path.realpath("/usr/bin/python3"):
-        os.execv("/usr/bin/python3", ["/usr/bin/python3"] + sys.argv)
-    print("test_paper_metrics: needs numpy (Debian python3-numpy)", file=sys.stderr)
-    sys.exit(1)
+
+sys.path.insert(0, os.path.dirname(os.path.realpath(__file__)))
+from minitest import check, main, need_numpy, test  # noqa: E402
+
+np = need_numpy("test_paper_metrics")
 
 ROOT = os.path.dirname(os.path.dirname(os.path.dirname(os.path.realpath(__file__))))
 TOOL = os.path.join(ROOT, "tools", "paper_metrics.py")
@@ -33,22 +30,10 @@ _spec = importlib.util.spec_from_file_location("paper_metrics", TOOL)
 pm = importlib.util.module_from_spec(_spec)
 _spec.loader.exec_module(pm)
 
-TESTS = []
-
-
-def test(f):
-    TESTS.append(f)
-    return f
-
 
 def run(cmd, cwd=ROOT):
     p = subprocess.run([sys.executable, TOOL] + cmd, cwd=cwd, capture_output=True, text=True, timeout=60)
     return p.returncode, p.stdout, p.stderr
-
-
-def check(cond, what):
-    if not cond:
-        raise AssertionError(what)
 
 
 def close(a, b, tol=1e-9):
@@ -314,25 +299,6 @@ def cli_bad_inputs():
         check(rc == 0 and "--maps DIR" in out and "SAMPLES" in out and "auc_std_unobserved" in out, "--help")
     finally:
         shutil.rmtree(d)
-
-
-def main():
-    passed = failed = 0
-    for t in TESTS:
-        try:
-            t()
-            passed += 1
-            print(f"ok   {t.__name__}")
-        except Exception:
-            failed += 1
-            print(f"FAIL {t.__name__}")
-            traceback.print_exc()
-    print(f"{passed} passed, {failed} failed")
-    # The summary lines tools/run-tests.sh counts (cmocka's wording).
-    print(f"[  PASSED  ] {passed} test(s).")
-    if failed:
-        print(f"[  FAILED  ] {failed} test(s), listed above.")
-    return 1 if failed else 0
 
 
 if __name__ == "__main__":
