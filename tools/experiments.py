@@ -12,7 +12,13 @@ A run works in DIR/runs/.<name>.partial/ and is renamed only when whole, so a ki
 nothing that looks finished. At the end tools/paper_report.py writes DIR/REPORT.md with the
 figures and CSVs.
 
-The runs (full; --quick: preset `small` everywhere, few rounds, one seed, small validation set):
+Finished runs are also copied, without models and samples, into the archive (docs/paper by
+default, a folder of the repository), and restored from there: a campaign resumes on a fresh
+clone, and the report can be rebuilt from the archive alone (--report-only).
+
+The runs (full: 3 seeds, 1500 rounds, 100 validation poses, 50 MC passes; --quick: one seed,
+60 rounds, 20 poses, 10 passes, the single robot and the online fleet on `small`, the `paper`
+network only in its 8-round row):
   data-s<S>          7 tours scanned in the ODE world (seed S) and a validation set
   kl-table           uniform / separate / kl, each reading of the open choices one at a time
                      (kl form, reduction, W_rho, literal Algorithm 2, kl_weight, network), seeds
@@ -452,6 +458,8 @@ def main(argv=None):
             print(f"experiments: {b}: not built (make PRESET={preset})", file=sys.stderr)
             return 2
     os.makedirs(os.path.join(out, "runs"), exist_ok=True)
+    if args.report_only and archive:
+        camp.restore()
     rc = 0 if args.report_only else camp.go()
     report = [sys.executable, os.path.join(ROOT, "tools", "paper_report.py"), out] + (["--quick"] if args.quick else [])
     r = subprocess.run(report, cwd=ROOT, env=dict(os.environ, MPLBACKEND="Agg"))

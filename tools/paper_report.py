@@ -304,13 +304,14 @@ def fig_decentralised(plt, runs, out):
     r = sorted(sel, key=lambda x: x["tags"]["seed"])[0]
     m = paper_metrics.load_map(os.path.join(r["dir"], "maps"))
     data = os.path.join(os.path.dirname(r["dir"]), f"data-s{r['tags']['seed']}", "samples")
-    files = sorted(os.path.join(data, f) for f in os.listdir(data))
-    _, hits = paper_metrics.load_points(files)
-    dens = paper_metrics.kde_density(hits, m["cell_xy"]).reshape(m["mean"].shape)
-    fig, axs = plt.subplots(1, 3, figsize=(16, 4.2), constrained_layout=True)
+    files = sorted(os.path.join(data, f) for f in os.listdir(data)) if os.path.isdir(data) else []
+    fig, axs = plt.subplots(1, 3 if files else 2, figsize=(16 if files else 11, 4.2), constrained_layout=True)
     panel(fig, axs[0], m["mean"], m["meta"], "consensus model: mean of 50 passes", "mean")
     panel(fig, axs[1], m["std"], m["meta"], "consensus model: standard deviation", "std")
-    panel(fig, axs[2], dens, m["meta"], f"Gaussian KDE of the {len(hits)} lidar hits trained on", "kde")
+    if files:  # the samples are not archived: the KDE needs the data run
+        _, hits = paper_metrics.load_points(files)
+        dens = paper_metrics.kde_density(hits, m["cell_xy"]).reshape(m["mean"].shape)
+        panel(fig, axs[2], dens, m["meta"], f"Gaussian KDE of the {len(hits)} lidar hits trained on", "kde")
     fig.suptitle(f"Decentralised result: kl strategy, preset {r['tags']['preset']}, seed {r['tags']['seed']}")
     return [save(fig, out, "decentralised.png")]
 
@@ -475,22 +476,56 @@ def report(out, quick):
     add("")
     add("## Numbers the paper does not give")
     add("")
-    add("Consensus model (element-wise mean of the final models), 50 MC passes on a 0.05 m grid, scored on the "
-        "cells inside the building. AUC: the std as a score for cells farther than 0.5 m from every training point "
-        "(n/a when the robots' points cover every cell); Spearman: std against the KDE density of the lidar hits "
-        "(negative: less uncertain where the data are dense); MSE and wall IoU (mean > 0.5) against the ground "
-        "truth; ECE: expected calibration error of the 50-pass mean, 15 bins.")
+    add("Scored on the 0.05 m grid of 50 MC passes (of the consensus model: the element-wise mean of the final "
+        "models), on the cells inside the building. **AUC**: the std as a score for the cells farther than 0.5 m "
+        "from every training point against the others (1 = the std ranks every unseen cell above every seen one, "
+        "0.5 = no better than chance; '-' when the robots' points reach every cell). **Spearman**: the std against "
+        "the Gaussian-KDE density of the lidar hits (negative = less uncertain where the data are dense). **MSE**, "
+        "**wall IoU** (mean > 0.5): against the ground truth. **ECE**: expected calibration error of the 50-pass "
+        "mean, 15 bins. Every run's figures: `runs.csv`.")
     add("")
-    add("| run | AUC std / unobserved | Spearman std ~ KDE | MSE | wall IoU | ECE | consensus val loss |")
-    add("|---|---|---|---|---|---|---|")
-    for r in runs:
-        if r["tags"].get("kind") in ("data",) or not r["pm"]:
-            continue
-        p = r["pm"]
-        add(f"| {r['name']} | {fmt(p.get('auc_std_unobserved'), 3)} | {fmt(p.get('spearman_std_kde'), 3)} | "
-            f"{fmt(p.get('mse'), 3)} | {fmt(p.get('wall_iou'), 3)} | {fmt(p.get('ece'), 3)} | "
-            f"{fmt(r.get('final', {}).get('consensus_val'), 4)} |")
-    add("")
+    metric_cols = (("auc_std_unobserved", "AUC std / unseen", 3), ("spearman_std_kde", "Spearman std ~ KDE", 3),
+                   ("mse", "MSE", 3), ("wall_iou", "wall IoU", 3), ("ece", "ECE", 3))
+    if singles:
+        add("**Per kl_weight** (one robot alone, section 6.1 set-up):")
+        add("")
+        add("| kl_weight | " + " | ".join(c[1] for c in metric_cols) + " | unseen cells | std seen / unseen | σ̄ | "
+            "final val loss: mean weights / 1 sample / MC-50 |")
+        add("|---" * (len(metric_cols) + 5) + "|")
+        for r in singles:
+            p, f = r["pm"], r["final"]
+            add(f"| {r['tags']['kl_weight']} | " + " | ".join(fmt(p.get(c[0]), c[2]) for c in metric_cols) +
+                f" | {fmt(100 * p.get('unobserved_fraction', math.nan), 3)} % | "
+                f"{fmt(p.get('std_mean_observed'), 3)} / {fmt(p.get('std_mean_unobserved'), 3)} | "
+                f"{fmt(f['sigma_mean'], 3)} | {fmt(f['val_mean'], 3)} / {fmt(f['val_sample'], 3)} / "
+                f"{fmt(f['val_mc'], 3)} |")
+        add("")
+    strat = [t for t in table if t["row"] in ("baseline", "network") or t["row"].startswith("kl_weight")]
+    if strat:
+        add("**Per strategy** (7 robots; mean ± standard deviation over seeds):")
+        add("")
+        add("| row | reading | strategy | preset | seeds | " + " | ".join(c[1] for c in metric_cols) + " |")
+        add("|---" * (len(metric_cols) + 5) + "|")
+        for t in strat:
+            cells = []
+            for c, _, d in metric_cols:
+                v = [r["pm"].get(c, math.nan) for r in t["runs"]]
+                v = [x for x in v if x is not None and math.isfinite(x)]
+                cells.append("-" if not v else fmt(v[0], d) if len(v) == 1 else
+                             f"{np.mean(v):.{d}g} ± {np.std(v, ddof=1):.1g}")
+            add(f"| {t['row']} | {t['reading']} | {t['strategy']} | {t['runs'][0]['tags']['preset']} | {t['seeds']} | "
+                + " | ".join(cells) + " |")
+        add("")
+    if online:
+        add("**Online** (7 robots over LCM):")
+        add("")
+        add("| configuration | " + " | ".join(c[1] for c in metric_cols) + " | consensus val loss |")
+        add("|---" * (len(metric_cols) + 2) + "|")
+        for r in online:
+            p = r["pm"]
+            add(f"| {r['tags']['pool'].upper()} {r['tags']['comm_rounds']} CR | " +
+                " | ".join(fmt(p.get(c[0]), c[2]) for c in metric_cols) + f" | {fmt(r['final']['consensus_val'])} |")
+        add("")
     with open(os.path.join(out, ".REPORT.md.tmp"), "w", encoding="utf-8") as f:
         f.write("\n".join(L))
     os.replace(os.path.join(out, ".REPORT.md.tmp"), os.path.join(out, "REPORT.md"))
