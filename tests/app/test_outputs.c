@@ -313,6 +313,60 @@ static void test_out_parents_and_stale_temporaries(void **st)
     }
 }
 
+/* The readings of the KL strategy and the validation modes as options: bad values refused with
+ * the reason (exit 2); good ones recorded in summary.txt, and --val-mode mc makes val_loss the
+ * MC column on every row, beside val_mean, val_sample and sigma_mean. */
+static void test_fleet_readings_and_val_modes(void **st)
+{
+    (void)st;
+    char p[PATH_MAX], q[PATH_MAX], f[PATH_MAX + 32];
+    path_in(p, "readings");
+    static const char *const bad[][3] = {{"--kl-form", "forward", "is not own, reverse or full"},
+                                         {"--kl-reduce", "avg", "is not sum or mean"},
+                                         {"--rho-pred-grad", "2", "is not an integer in [0, 1]"},
+                                         {"--val-mode", "best", "is not mean, sample or mc"}};
+    for (size_t k = 0; k < sizeof bad / sizeof bad[0]; k++) {
+        assert_int_equal(HS(-1, "fleet", "--inproc", "--plan", g_plan, "--paths", g_paths, "--robots", "1",
+                            "--rounds", "1", "--strategy", "kl", "--graph", "full", "--seed", "1", "--out", p,
+                            bad[k][0], bad[k][1]),
+                         2);
+        expect_err(bad[k][0], bad[k][2]);
+    }
+    path_in(q, "rv.samples");
+    HS_OK("valset", "--plan", g_plan, "--out", q, "--poses", "2");
+    HS_OK("fleet", "--inproc", "--plan", g_plan, "--paths", g_paths, "--robots", "2", "--rounds", "2", "--strategy",
+          "kl", "--graph", "full", "--seed", "1", "--out", p, "--valset", q, "--mc", "2", "--map-res", "0.2",
+          "--kl-form", "full", "--kl-reduce", "mean", "--rho-pred-grad", "0", "--val-mode", "mc", "--val-mc", "3",
+          "--metrics-every", "1");
+    snprintf(f, sizeof f, "%s/summary.txt", p);
+    size_t n = 0;
+    char *sum = (char *)test_slurp(f, &n);
+    assert_non_null(sum);
+    assert_non_null(strstr(sum, "kl_form: full\nkl_reduce: mean\nrho_pred_grad: 0\nval_mode: mc\n"));
+    free(sum);
+    snprintf(f, sizeof f, "%s/metrics.csv", p);
+    char *csv = (char *)test_slurp(f, &n);
+    assert_non_null(csv);
+    const char *head = "round,agent,train_loss,val_loss,kl_loss,consensus_error,occ_mse,occ_iou,reg_mu,reg_rho,"
+                       "neighbours,val_mean,val_sample,val_mc,sigma_mean\n";
+    assert_true(strncmp(csv, head, strlen(head)) == 0);
+    int rows = 0;
+    for (char *line = strtok(csv + strlen(head), "\n"); line; line = strtok(NULL, "\n"), rows++) {
+        double v[15];
+        char *c = line;
+        for (int i = 0; i < 15; i++) {
+            v[i] = strtod(c, &c);
+            assert_true(i == 14 ? *c == '\0' : *c == ',');
+            c++;
+        }
+        assert_true(v[3] == v[13]);                       /* val_loss is the MC column */
+        assert_true(v[11] > 0 && v[12] > 0 && v[13] > 0); /* every mode measured on every row */
+        assert_true(v[14] > 0.04 && v[14] < 0.06);        /* sigma near softplus(-3) after 2 rounds */
+    }
+    assert_int_equal(rows, 3 * 2); /* rounds 0, 1, 2 x 2 agents */
+    free(csv);
+}
+
 int main(void)
 {
     const struct CMUnitTest tests[] = {
@@ -321,6 +375,7 @@ int main(void)
         cmocka_unit_test(test_out_that_is_not_ours),
         cmocka_unit_test(test_inputs_and_options),
         cmocka_unit_test(test_out_parents_and_stale_temporaries),
+        cmocka_unit_test(test_fleet_readings_and_val_modes),
     };
     return cmocka_run_group_tests_name("app/outputs", tests, setup, teardown);
 }
