@@ -25,7 +25,7 @@ network only in its 8-round row):
   single             one robot alone (section 6.1) at kl_weight 1e-4, 5e-3, 5e-1 (`paper` preset)
   online             the 7-robot fleet over LCM, online (section 6.2): CDR 8/18/25, DR 18
 The seven-agent comparison (6.3) and the decentralised map are the kl-table's `paper` runs.
-Exit status: 0 all done, 1 a run failed (the others still ran), 2 bad options.
+Exit status: 0 all done, 1 a run failed (the others still ran), 2 bad options, 130 interrupted.
 """
 import argparse
 import concurrent.futures
@@ -460,7 +460,12 @@ def main(argv=None):
     os.makedirs(os.path.join(out, "runs"), exist_ok=True)
     if args.report_only and archive:
         camp.restore()
-    rc = 0 if args.report_only else camp.go()
+    try:
+        rc = 0 if args.report_only else camp.go()
+    except KeyboardInterrupt:
+        print(f"\nexperiments: interrupted; the {camp.done} runs finished now are kept and the next "
+              "`make experiments` goes on from there", file=sys.stderr)
+        return 130
     report = [sys.executable, os.path.join(ROOT, "tools", "paper_report.py"), out] + (["--quick"] if args.quick else [])
     r = subprocess.run(report, cwd=ROOT, env=dict(os.environ, MPLBACKEND="Agg"))
     if r.returncode == 0 and archive:
