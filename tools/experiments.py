@@ -66,6 +66,16 @@ class Run:
     def __init__(self, name, cmds, tags, needs=(), threads=1):
         self.name, self.cmds, self.tags, self.needs, self.threads = name, cmds, tags, list(needs), threads
 
+    def cost(self):
+        """Rough cost in units of one `small` fleet run, for the time estimate only."""
+        t = self.tags
+        if t["kind"] == "data":
+            return 0.02
+        if t["kind"] == "online":
+            return 3.0 * t.get("rounds", 180) / 180
+        scale = 1.0 if t.get("preset") == "small" else 6.0
+        return scale * (1.0 if t["kind"] == "kl_table" else 0.2) * t.get("rounds", 1500) / 1500
+
     def key(self):
         return hashlib.sha256(json.dumps([self.cmds, self.tags]).encode()).hexdigest()[:16]
 
@@ -240,6 +250,7 @@ class Campaign:
         self.running = {}
         self.start = time.monotonic()
         self.spent = []   # wall seconds of the runs this driver finished
+        self.cost_done = self.cost_todo = 0.0
 
     def folder(self, run):
         return os.path.join(self.out, "runs", run.name)
@@ -297,9 +308,9 @@ class Campaign:
             width = 30
             fill = int(width * n / todo) if todo else width
             eta = ""
-            if self.spent and n < todo:
-                per = (time.monotonic() - self.start) / n
-                eta = f", about {int(per * (todo - n) / 60) + 1} min left"
+            if self.cost_done > 0 and n < todo:  # by the cost model: a paper run is not a small one
+                per = (time.monotonic() - self.start) / self.cost_done
+                eta = f", about {int(per * (self.cost_todo - self.cost_done) / 60) + 1} min left"
             line = (f"[{'#' * fill}{'.' * (width - fill)}] {n}/{todo} runs ({self.failed} failed), "
                     f"{int(time.monotonic() - self.start)} s{eta}; running: {', '.join(sorted(self.running)) or '-'}")
             print(line, flush=True)
@@ -344,6 +355,7 @@ class Campaign:
         with self.lock:
             self.done += 1
             self.spent.append(spent)
+            self.cost_done += run.cost()
         self.progress(todo)
         return True
 
@@ -363,6 +375,7 @@ class Campaign:
             if n:
                 print(f"{n} finished runs restored from {self.archive}", flush=True)
         todo = [r for r in self.runs if not self.is_done(r)]
+        self.cost_todo = sum(r.cost() for r in todo)
         print(f"{len(self.runs)} runs, {len(self.runs) - len(todo)} already done, {len(todo)} to run "
               f"({self.jobs} at a time) in {self.out}/runs", flush=True)
         if not todo:
