@@ -128,8 +128,8 @@ READINGS = [
 ]
 KL_WEIGHTS = ("5e-3", "5e-1")
 # At those prior weights: the strategies and the KL forms again (sigma moves there).
-KLW_READINGS = [("uniform", []), ("separate", ["--w-rho", "0.1"]), ("kl", []), ("kl", ["--kl-form", "reverse"]),
-                ("kl", ["--kl-form", "full"])]
+KLW_READINGS = [("uniform", []), ("separate", ["--w-rho", "0.1"]), ("kl", []), ("kl", ["--w-rho", "0.1"]),
+                ("kl", ["--kl-form", "reverse"]), ("kl", ["--kl-form", "full"])]
 
 
 def label(extra):
