@@ -471,6 +471,10 @@ def main(argv=None):
             print(f"experiments: {b}: not built (make PRESET={preset})", file=sys.stderr)
             return 2
     os.makedirs(os.path.join(out, "runs"), exist_ok=True)
+    if not args.only:  # the whole campaign, so the report can say which runs are still missing
+        with open(os.path.join(out, ".campaign.json.tmp"), "w", encoding="utf-8") as f:
+            json.dump({"quick": s.quick, "runs": [{"name": r.name, "tags": r.tags} for r in runs]}, f, indent=1)
+        os.replace(os.path.join(out, ".campaign.json.tmp"), os.path.join(out, "campaign.json"))
     if args.report_only and archive:
         camp.restore()
     try:
@@ -483,7 +487,7 @@ def main(argv=None):
     r = subprocess.run(report, cwd=ROOT, env=dict(os.environ, MPLBACKEND="Agg"))
     if r.returncode == 0 and archive:
         for f in os.listdir(out):
-            if f.endswith((".md", ".csv", ".png")):
+            if f.endswith((".md", ".csv", ".png")) or f == "campaign.json":
                 shutil.copy2(os.path.join(out, f), os.path.join(archive, f))
     return rc or (1 if r.returncode else 0)
 

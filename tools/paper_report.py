@@ -399,6 +399,16 @@ def report(out, quick):
         kinds.setdefault(k, [0, 0.0])
         kinds[k][0] += 1
         kinds[k][1] += r["seconds"] if math.isfinite(r["seconds"]) else 0.0
+    missing = []
+    plan = os.path.join(out, "campaign.json")
+    if os.path.isfile(plan):
+        with open(plan, encoding="utf-8") as f:
+            finished = {r["name"] for r in runs}
+            missing = [r["name"] for r in json.load(f).get("runs", []) if r["name"] not in finished]
+    if missing:
+        add(f"**Not finished yet: {len(missing)} runs** (`make experiments` goes on with them; the tables and "
+            "figures below use the runs that finished): " + ", ".join(f"`{m}`" for m in missing) + ".")
+        add("")
     add("| experiment | runs finished | run time on this machine (sum of the runs' wall time) |")
     add("|---|---|---|")
     for k, (n, sec) in kinds.items():
