@@ -482,7 +482,7 @@ def report(out, quick):
     if cons:
         ce = max(r["final"]["consensus_error"] for r in cons)
         add(f"| 6.3 | all agents reach one model | largest final consensus error {fmt(ce, 3)} "
-            f"(||theta_i - mean|| / ||mean||) over {len(cons)} runs |")
+            f"(‖θ_i − mean‖ / ‖mean‖) over {len(cons)} runs |")
     add("")
     add("## Numbers the paper does not give")
     add("")
