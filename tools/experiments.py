@@ -249,7 +249,6 @@ class Campaign:
         self.done = self.failed = 0
         self.running = {}
         self.start = time.monotonic()
-        self.spent = []   # wall seconds of the runs this driver finished
         self.cost_done = self.cost_todo = 0.0
 
     def folder(self, run):
@@ -354,7 +353,6 @@ class Campaign:
         self.keep(run)
         with self.lock:
             self.done += 1
-            self.spent.append(spent)
             self.cost_done += run.cost()
         self.progress(todo)
         return True

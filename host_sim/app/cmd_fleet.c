@@ -76,6 +76,8 @@ static void fleet_usage(FILE *out)
             (double)d.rho_scaling, (double)d.lr_start, (double)d.lr_end, SIM_PLAN_DEFAULT_SCALE);
 }
 
+static const char *const val_mode_names[3] = {"mean", "sample", "mc"}; /* --val-mode, by index */
+
 typedef struct opts {
     const char *plan, *paths, *out, *samples, *valset;
     long long robots, rounds, seed, metrics_every, val_poses, mc, threads, val_mc;
@@ -152,7 +154,10 @@ static int parse(int argc, char **argv, opts_t *o)
         else if (strcmp(a, "--val-mc") == 0)
             bad = cmd_parse_ll(v, a, 1, 1000, &o->val_mc);
         else if (strcmp(a, "--val-mode") == 0) {
-            o->val_mode = strcmp(v, "mean") == 0 ? 0 : strcmp(v, "sample") == 0 ? 1 : strcmp(v, "mc") == 0 ? 2 : -1;
+            o->val_mode = -1;
+            for (int m = 0; m < 3; m++)
+                if (strcmp(v, val_mode_names[m]) == 0)
+                    o->val_mode = m;
             if (o->val_mode < 0) {
                 fprintf(stderr, "host_sim fleet: --val-mode: '%s' is not mean, sample or mc\n", v);
                 bad = 1;
@@ -339,8 +344,6 @@ static int load_validation(job_t *j)
     }
     return 0;
 }
-
-static const char *const val_mode_names[3] = {"mean", "sample", "mc"};
 
 /* The validation loss --val-mode names. */
 static double val_of(const opts_t *o, const sim_fleet_metrics_t *m)
