@@ -12,10 +12,16 @@
 #                     results/paper/REPORT.md; QUICK=1 the reduced form in minutes
 #   make check-portable  the math compiled for x86-64-v2/v3/v4 and aarch64, all built with clang
 #   make check-config the tree built for a board with other sizes; every file agrees on them
+#   make cross        the firmware for the cross boards (Cortex-M4F, Cortex-M7, Cortex-A53)
+#                     with their toolchains; fails when an image does not fit its board
+#   make run-board    each board's image under QEMU; its losses must match the host build's
+#   make profile-board  run-board, then results/board-<name>/profile.md: sections, stacks,
+#                     instructions per training step and per inference, what the robot affords
 #   make clean
 #
 # Configuration (all optional):
 #   BUILD=release|debug|asan|tsan   BOARD=<dir in boards/>   PRESET=small|paper|mcu
+#   (cross boards: BOARD=mps2-an386|mps2-an500|rpi3 with cross, run-board, profile-board)
 #   LA_BACKEND=eigen|ref            ARCH=native|portable (release code for this CPU, or a
 #   CC=gcc|clang, CXX=g++|clang++   baseline that runs on any CPU of its family)
 #   V=1 (print whole commands)
@@ -30,6 +36,19 @@ SHELL := /bin/bash
 
 BUILD  ?= release
 BOARD  ?= host
+
+# Cross boards (boards/<name>/board.mk sets BOARD_KIND := cross) build through boards/cross.mk
+# with their own toolchain: `make cross|run-board|profile-board [BOARD=<name>]`, every cross
+# board when BOARD names none. The rest of this file builds for the host.
+CROSS_BOARDS := $(sort $(patsubst boards/%/board.mk,%,$(shell grep -l '^BOARD_KIND *:= *cross' boards/*/board.mk)))
+CROSS_GOALS  := cross run-board profile-board
+ifneq ($(filter $(BOARD),$(CROSS_BOARDS)),)
+CROSS_ONLY := $(BOARD)
+override BOARD := host
+ifneq ($(filter-out $(CROSS_GOALS),$(or $(MAKECMDGOALS),all)),)
+$(error BOARD=$(CROSS_ONLY) is a cross board: its targets are $(CROSS_GOALS))
+endif
+endif
 
 ifeq ($(wildcard boards/$(BOARD)/board.mk),)
 $(error unknown BOARD '$(BOARD)': there is no boards/$(BOARD)/board.mk (boards: $(notdir $(wildcard boards/*))))
@@ -207,7 +226,7 @@ $(O)/tests/%: $(O)/obj/tests/%.c.o $(LIB)/libtestsupport.a $(LIBS)
 	$(call say,LD,$@)$(CXX) $(OPT) $< -Wl,--start-group $(LIB)/libtestsupport.a $(LIBS) -Wl,--end-group $(SYS_LIBS) -lcmocka $(WRAP) -o $@
 
 # ---- targets ----------------------------------------------------------------------------
-.PHONY: experiments all layering deps run run-inproc test test-asan test-tsan tests bench bench-one clean help cross check-portable check-config
+.PHONY: experiments all layering deps run run-inproc test test-asan test-tsan tests bench bench-one clean help check-portable check-config $(CROSS_GOALS)
 
 all: deps layering $(LIBS) $(PROGRAMS)
 ifeq ($(BUILD),release)
@@ -283,9 +302,17 @@ check-config:
 	@$(MAKE) --no-print-directory BOARD=host_alt all $(ALT_TESTS)
 	@tools/run-tests.sh $(ALT_TESTS)
 
-cross:
-	@echo "make cross: cross builds for the boards of the roadmap (Cortex-M7, Cortex-A53, RV32) do not exist yet." >&2
-	@exit 2
+# The cross boards: `cross` builds libfirmware.a and the image (tools/board/board_train.c on
+# hal/stdc) with the board's toolchain and fails when it does not fit; `run-board` runs it
+# under QEMU beside the host build of the same program and compares their losses;
+# `profile-board` writes results/board-<name>/profile.md and .json (and prints BENCH lines).
+$(CROSS_GOALS):
+	@tools/install-deps.sh --cross
+	@for b in $(or $(CROSS_ONLY),$(CROSS_BOARDS)); do \
+	    echo "# board $$b"; \
+	    $(MAKE) --no-print-directory -f boards/cross.mk XBOARD=$$b \
+	        $(patsubst cross,image,$(patsubst %-board,%,$@)) || exit 1; \
+	done
 
 clean:
 	rm -rf build

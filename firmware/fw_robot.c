@@ -67,6 +67,11 @@ const ai_core_t *fw_robot_ai(void)
     return &fw_ai;
 }
 
+ai_core_t *fw_robot_ai_work(void)
+{
+    return &fw_ai;
+}
+
 gp_core_t *fw_robot_gp(void)
 {
     return &fw_gp;

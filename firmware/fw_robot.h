@@ -33,6 +33,10 @@ FS_MUST_CHECK int fw_robot_start(const fw_robot_cfg_t *cfg);
 
 const rt_core_t *fw_robot_rt(void);
 const ai_core_t *fw_robot_ai(void);
+/* The AI core's state, writable, for a program that runs the AI core's work itself on a
+ * board without cores (tools/board/board_train.c): it trains this core's own DiNNO node on
+ * this core's own pool, so the image holds one model, not two. Not while the cores run. */
+ai_core_t *fw_robot_ai_work(void);
 gp_core_t *fw_robot_gp(void);
 const fw_image_t *fw_robot_image(void);
 

@@ -9,6 +9,8 @@
 #   tools/install-deps.sh --check     check only; list what is missing, exit 1 if anything is
 #   tools/install-deps.sh --portable  also the compilers of `make check-portable` (clang, the
 #                                     aarch64 cross g++); combines with --check
+#   tools/install-deps.sh --cross     also the boards' toolchains and emulators (make cross,
+#                                     run-board: arm-none-eabi with newlib, aarch64, QEMU)
 set -euo pipefail
 
 # package  file-that-proves-it-is-installed
@@ -33,12 +35,22 @@ portable_deps=(
     "g++-aarch64-linux-gnu  /usr/bin/aarch64-linux-gnu-g++"
 )
 
+# The cross boards' toolchains and emulators (make cross, run-board, profile-board).
+cross_deps=(
+    "gcc-arm-none-eabi        /usr/bin/arm-none-eabi-gcc"
+    "libnewlib-arm-none-eabi  /usr/lib/arm-none-eabi/lib/librdimon.a"
+    "qemu-system-arm          /usr/bin/qemu-system-arm"
+    "g++-aarch64-linux-gnu    /usr/bin/aarch64-linux-gnu-g++"
+    "qemu-user                /usr/bin/qemu-aarch64"
+)
+
 check_only=0
 for arg in "$@"; do
     case "$arg" in
         --check) check_only=1 ;;
         --portable) deps+=("${portable_deps[@]}") ;;
-        -h|--help) sed -n '2,11p' "$0" | sed 's/^# \{0,1\}//'; exit 0 ;;
+        --cross) deps+=("${cross_deps[@]}") ;;
+        -h|--help) sed -n '2,13p' "$0" | sed 's/^# \{0,1\}//'; exit 0 ;;
         *) echo "install-deps: unknown option '$arg' (see --help)" >&2; exit 2 ;;
     esac
 done

@@ -1,6 +1,7 @@
 /* The AI core loop: see ai_core.h. */
 #include "ai/ai_core.h"
 
+#include <inttypes.h>
 #include <math.h>
 #include <string.h>
 
@@ -154,7 +155,7 @@ static int run_round(ai_core_t *ai, const gp_ready_t *ready)
         ai->empty_rounds++;
         p->loss_train = p->bce = NAN;
         p->kl = (float)bnn_kl_loss(&ai->node.model);
-        hal_log(HAL_LOG_WARN, "round %u: empty pool, no update", k);
+        hal_log(HAL_LOG_WARN, "round %" PRIu32 ": empty pool, no update", k);
     }
     if (rc != 0) {
         p->loss_train = p->bce = NAN;

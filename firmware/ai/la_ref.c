@@ -6,16 +6,24 @@
  * its accumulators in a fixed-size local array that the compiler keeps in vector registers:
  * per k, 4 broadcasts of Ap and 2 vector loads of Bp feed 8 FMAs. Edges use the same kernel
  * on zero-padded packs. Packing handles the four transpose cases, so the kernel sees one
- * layout. Stack use: (MC*KC + KC*NC) floats = 24 KB. */
+ * layout. Stack use: (MC*KC + KC*NC) floats, 32 KB with the default blocks; the blocks are
+ * build settings (LA_REF_KC, LA_REF_MC, LA_REF_NC in common/fw_config.h), so a board with small
+ * stacks takes smaller ones. The blocking fixes the order of the sums: one blocking, one result
+ * bit for bit. */
 #include "ai/la.h"
 
 #include <stddef.h>
 
 #define MR 4
 #define NR 16
-#define KC 128
-#define MC 32
-#define NC 32
+#define KC LA_REF_KC
+#define MC LA_REF_MC
+#define NC LA_REF_NC
+
+_Static_assert(KC >= 1 && MC % MR == 0 && NC % NR == 0 && MC >= MR && NC >= NR,
+               "LA_REF_MC must be a multiple of 4 and LA_REF_NC of 16");
+_Static_assert((size_t)(MC + NC) * KC * sizeof(float) <= BOARD_STACK_AI_BYTES / 2,
+               "the GEMM's packed panels take more than half the AI core's stack: smaller LA_REF_* blocks");
 
 static inline void micro_kernel(int kc, const float *restrict ap, const float *restrict bp,
                                 float *restrict c, int ldc, int mr, int nr)

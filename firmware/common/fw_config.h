@@ -63,6 +63,17 @@
 #ifndef CRC32_SLICE8
 #define CRC32_SLICE8 1
 #endif
+/* Blocks of the pure-C GEMM (ai/la_ref.c): its packed panels, (MC + NC) x KC floats, live on
+ * the calling core's stack (32 KB with these); boards with small stacks take smaller blocks. */
+#ifndef LA_REF_KC
+#define LA_REF_KC 128
+#endif
+#ifndef LA_REF_MC
+#define LA_REF_MC 32
+#endif
+#ifndef LA_REF_NC
+#define LA_REF_NC 32
+#endif
 /* Round records the GP core keeps (a ring of the latest; the host reads them as they come). */
 #ifndef GP_CORE_LOG_ROUNDS
 #define GP_CORE_LOG_ROUNDS 1024u

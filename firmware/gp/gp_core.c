@@ -1,6 +1,7 @@
 /* The GP core loop: see gp_core.h. */
 #include "gp/gp_core.h"
 
+#include <inttypes.h>
 #include <math.h>
 #include <stdio.h>
 #include <string.h>
@@ -26,7 +27,7 @@ int gp_core_init(gp_core_t *gp, const gp_core_cfg_t *cfg, const fw_link_t *link)
     memset(gp, 0, sizeof *gp);
     gp->cfg = *cfg;
     gp->link = link;
-    int n = snprintf(gp->channel, sizeof gp->channel, "%s%u", GP_TELEMETRY_CHANNEL_PREFIX,
+    int n = snprintf(gp->channel, sizeof gp->channel, "%s%" PRIu32, GP_TELEMETRY_CHANNEL_PREFIX,
                      cfg->robot_id);
     if (n < 0 || (size_t)n >= sizeof gp->channel || !hal_net_channel_valid(gp->channel))
         return -EINVAL;
@@ -37,7 +38,7 @@ int gp_core_init(gp_core_t *gp, const gp_core_cfg_t *cfg, const fw_link_t *link)
 
 void gp_core_ckpt_name(uint32_t round, char *buf, size_t cap)
 {
-    snprintf(buf, cap, "round_%04u.bnn", round);
+    snprintf(buf, cap, "round_%04" PRIu32 ".bnn", round);
 }
 
 static void send_telemetry(gp_core_t *gp, uint64_t now_us)
@@ -93,7 +94,7 @@ static void coordinate(gp_core_t *gp, uint64_t now_us)
             return;
         if (n < 0) {
             gp->stats.exchange_errors++;
-            hal_log(HAL_LOG_WARN, "round %u: state exchange failed (%d), local round",
+            hal_log(HAL_LOG_WARN, "round %" PRIu32 ": state exchange failed (%d), local round",
                     gp->exchange_round, n);
             n = 0;
         }
@@ -136,8 +137,8 @@ static void handle_ckpt(gp_core_t *gp, uint64_t now_us)
     gp->log[n % GP_CORE_LOG_ROUNDS].ckpt_status = r;
     atomic_store_explicit(&gp->n_log, n + 1u, memory_order_release);
     hal_log(HAL_LOG_INFO,
-            "round %u done: progress %.2f m, pool %u/%u, drops %u, loss %.4f (bce %.4f, kl %.2f), "
-            "%u neighbours, ckpt %s",
+            "round %" PRIu32 " done: progress %.2f m, pool %" PRIu32 "/%" PRIu32 ", drops %" PRIu32
+            ", loss %.4f (bce %.4f, kl %.2f), %" PRIu32 " neighbours, ckpt %s",
             in->round, (double)in->progress_m, in->pool_fill, in->pool_capacity, in->ring_drops,
             (double)in->loss_train, (double)in->bce, (double)in->kl, in->neighbours,
             r == 0 ? "written" : "FAILED");

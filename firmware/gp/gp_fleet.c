@@ -1,6 +1,7 @@
 /* The robot in a fleet: see gp_fleet.h. */
 #include "gp/gp_fleet.h"
 
+#include <inttypes.h>
 #include <errno.h>
 #include <math.h>
 #include <stdio.h>
@@ -37,7 +38,7 @@ int gp_fleet_channel_name(uint32_t fleet_id, gp_fleet_channel_t which, char *buf
 {
     if (buf == NULL || (unsigned)which > GP_FLEET_CH_REQUEST)
         return -EINVAL;
-    int n = snprintf(buf, cap, "%s%u/%s", GP_FLEET_CHANNEL_PREFIX, fleet_id, channel_suffix[which]);
+    int n = snprintf(buf, cap, "%s%" PRIu32 "/%s", GP_FLEET_CHANNEL_PREFIX, fleet_id, channel_suffix[which]);
     return n > 0 && (size_t)n < cap && hal_net_channel_valid(buf) ? 0 : -EINVAL;
 }
 

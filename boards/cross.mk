@@ -1,0 +1,145 @@
+# Cross builds of one board (boards/<name>/board.mk with BOARD_KIND := cross). The top-level
+# Makefile runs it once per board: `make cross|run-board|profile-board [BOARD=<name>]`.
+#
+#   make -f boards/cross.mk XBOARD=<name> image     libfirmware.a for the board, and the image
+#   make -f boards/cross.mk XBOARD=<name> run       image under emulation and the host build of
+#                                                   the same program; their losses must agree
+#   make -f boards/cross.mk XBOARD=<name> profile   run, then profile.md / profile.json
+#
+# The image is tools/board/board_train.c on the stdc HAL back end (hal/stdc) for the board's
+# target, linked with the whole of libfirmware.a: every module of firmware/ is compiled with
+# the board's toolchain and flags, and every module's static state is placed in the board's
+# memories (boards/common/cortex_m.ld on bare metal), so a robot that does not fit the board
+# does not link.
+SHELL := /bin/bash
+.SUFFIXES:
+.DELETE_ON_ERROR:
+.SECONDARY:
+
+ifeq ($(XBOARD),)
+$(error XBOARD= is missing (a directory of boards/ whose board.mk sets BOARD_KIND := cross))
+endif
+include boards/$(XBOARD)/board.mk
+ifneq ($(BOARD_KIND),cross)
+$(error boards/$(XBOARD) is not a cross board (its board.mk does not set BOARD_KIND := cross))
+endif
+
+PRESET     ?= $(BOARD_PRESET)
+LA_BACKEND := $(BOARD_LA_BACKEND)
+BUILD_ROOT ?= build
+RESULTS    ?= results
+X   := $(BUILD_ROOT)/cross-$(XBOARD)-$(PRESET)
+R   := $(RESULTS)/board-$(XBOARD)
+uc   = $(shell echo '$(1)' | tr a-z A-Z)
+
+XCC  := $(BOARD_CROSS)gcc
+XCXX := $(BOARD_CROSS)g++
+DEFS := -DBNN_PRESET_$(call uc,$(PRESET))=1 -DLA_BACKEND_$(call uc,$(LA_BACKEND))=1
+WARN := -Wall -Wextra -Werror
+# -fstack-usage: one .su file per object, the worst-case frame of every function (profile).
+XFLAGS   := $(WARN) -O2 -g $(BOARD_CPU_FLAGS) -ffunction-sections -fdata-sections -fstack-usage $(DEFS) -MMD -MP
+XCFLAGS  := -std=c11 $(XFLAGS)
+XCXXFLAGS := -std=c++17 $(XFLAGS) -fno-exceptions -fno-rtti
+FW_INC   := -Ifirmware -Ihal/include -Iboards/$(XBOARD) -imacros firmware/common/fw_config.h
+IMG_INC  := $(FW_INC) -Ihal/stdc -Itools/board
+
+FW_C    := $(sort $(shell find firmware -name '*.c'))
+FW_CXX  := $(if $(filter eigen,$(LA_BACKEND)),$(sort $(shell find firmware -name '*.cpp')))
+IMG_C   := $(sort $(wildcard hal/common/*.c)) hal/stdc/hal_stdc.c hal/stdc/hal_stdc_$(BOARD_HAL_TARGET).c \
+           tools/board/board_train.c tools/board/heap_probe.c
+FW_OBJ  := $(patsubst %,$(X)/obj/%.o,$(FW_C) $(FW_CXX))
+IMG_OBJ := $(patsubst %,$(X)/obj/%.o,$(IMG_C))
+IMAGE   := $(X)/fleetsim.elf
+
+# The host build of the same program (same board.h, preset and math), the reference.
+HOST_X   := $(X)/host
+HOST_C   := $(FW_C) $(sort $(wildcard hal/common/*.c)) hal/stdc/hal_stdc.c hal/stdc/hal_stdc_posix.c \
+            tools/board/board_train.c tools/board/heap_probe.c
+HOST_OBJ := $(patsubst %,$(HOST_X)/obj/%.o,$(HOST_C) $(FW_CXX))
+HOST_BIN := $(HOST_X)/board_train
+
+# No --gc-sections: the image carries all of firmware/ (the code of the three cores, not only
+# what board_train calls), so its sections are the robot's.
+ifeq ($(BOARD_LINK),cortex_m)
+# newlib with semihosting (librdimon); our own start-up (hal_stdc_cortex_m.c), no crt0.
+LINK_FLAGS := -nostartfiles -T $(X)/board.ld -Wl,-Map=$(X)/fleetsim.map
+LINK_LIBS  := -Wl,--start-group -lc -lrdimon -lm -lgcc -Wl,--end-group
+else
+# A Linux board: one static executable (no shared libraries to install on the board).
+LINK_FLAGS := -static -Wl,-Map=$(X)/fleetsim.map
+LINK_LIBS  := -lm
+endif
+
+ifeq ($(V),1)
+say =
+else
+say = @printf '  %-4s %s\n' '$(1)' '$(2)';
+endif
+
+.PHONY: image run profile
+image: $(IMAGE)
+
+$(X)/obj/%.c.o: %.c
+	@mkdir -p $(@D)
+	$(call say,CC,$< [$(XBOARD)])$(XCC) $(XCFLAGS) $(IMG_INC) -c $< -o $@
+
+$(X)/obj/%.cpp.o: %.cpp
+	@mkdir -p $(@D)
+	$(call say,CXX,$< [$(XBOARD)])$(XCXX) $(XCXXFLAGS) $(FW_INC) -isystem /usr/include/eigen3 -c $< -o $@
+
+$(X)/lib/libfirmware.a: $(FW_OBJ)
+	@mkdir -p $(@D)
+	@rm -f $@
+	$(call say,AR,$@)$(BOARD_CROSS)ar rcs $@ $^
+
+$(X)/board.ld: boards/common/cortex_m.ld boards/$(XBOARD)/board.h
+	@mkdir -p $(@D)
+	$(call say,LDS,$@)$(XCC) -E -P -x c -imacros boards/$(XBOARD)/board.h $< -o $@
+
+# The whole archive: every module, so every module's state is placed (and checked).
+$(IMAGE): boards/cross.mk $(IMG_OBJ) $(X)/lib/libfirmware.a $(if $(filter cortex_m,$(BOARD_LINK)),$(X)/board.ld)
+	$(call say,LD,$@)$(if $(FW_CXX),$(XCXX),$(XCC)) $(BOARD_CPU_FLAGS) $(LINK_FLAGS) $(IMG_OBJ) \
+	    -Wl,--whole-archive $(X)/lib/libfirmware.a -Wl,--no-whole-archive $(LINK_LIBS) -o $@ 2> $(X)/link.log \
+	    || { cat $(X)/link.log >&2; if grep -q 'overflowed by' $(X)/link.log; then \
+	        echo "make cross: the image of $(XBOARD) does not fit the board: $$(grep -oE "section \`[^']*' will not fit in region \`[A-Z]*'|region \`[A-Z]*' overflowed by [0-9]* bytes" $(X)/link.log | sort -u | paste -sd ';' | sed 's/;/; /g')" >&2; fi; exit 1; }
+	@$(BOARD_CROSS)size $@ | sed 's/^/  /'
+
+$(HOST_X)/obj/%.c.o: %.c
+	@mkdir -p $(@D)
+	$(call say,CC,$< [host reference])gcc $(WARN) -std=c11 -O2 -g $(DEFS) -MMD -MP $(IMG_INC) -c $< -o $@
+
+$(HOST_X)/obj/%.cpp.o: %.cpp
+	@mkdir -p $(@D)
+	$(call say,CXX,$< [host reference])g++ $(WARN) -std=c++17 -O2 -g $(DEFS) -fno-exceptions -fno-rtti $(FW_INC) -isystem /usr/include/eigen3 -c $< -o $@
+
+$(HOST_BIN): $(HOST_OBJ)
+	$(call say,LD,$@)g++ $^ -lm -o $@
+
+# The run: the image on the emulated board and the host reference, same arguments; then the
+# comparison (exit 1 when the losses disagree). Bare metal takes its arguments through
+# semihosting (arg=...), a Linux image on its command line.
+comma    := ,
+empty    :=
+space    := $(empty) $(empty)
+RUN_ARGS ?=
+SAMPLES  := tools/board/train_samples.bin
+PROG_ARGS := --dir $(abspath $(dir $(SAMPLES))) $(RUN_ARGS)
+ifeq ($(BOARD_LINK),cortex_m)
+RUN_CMD := $(BOARD_QEMU) -semihosting-config enable=on,target=native,arg=board_train$(subst $(space),,$(foreach a,$(PROG_ARGS),$(comma)arg=$(a))) -kernel $(IMAGE)
+else
+RUN_CMD := $(BOARD_QEMU) $(IMAGE) $(PROG_ARGS)
+endif
+run: $(IMAGE) $(HOST_BIN)
+	@mkdir -p $(R)
+	@echo "  RUN  $(XBOARD): $(RUN_CMD)"
+	@timeout $(or $(RUN_TIMEOUT),900) $(RUN_CMD) > $(R)/run.txt \
+	    || { s=$$?; cat $(R)/run.txt; echo "make run-board: the image of $(XBOARD) failed (exit $$s)" >&2; exit 1; }
+	@$(HOST_BIN) $(PROG_ARGS) > $(R)/host.txt
+	@tools/board/board_check.py $(R)/run.txt $(R)/host.txt
+
+profile: run
+	@tools/board/board_profile.py --board $(XBOARD) --preset $(PRESET) --board-h boards/$(XBOARD)/board.h \
+	    --elf $(IMAGE) --map $(X)/fleetsim.map --obj $(X)/obj --cross $(BOARD_CROSS) \
+	    --run $(R)/run.txt --out $(R)
+
+-include $(shell find $(X)/obj $(HOST_X)/obj -name '*.d' 2>/dev/null)

@@ -1,0 +1,55 @@
+/* Board "mps2-an386": a Cortex-M4F microcontroller board, emulated by QEMU's MPS2 AN386.
+ *
+ * The part it stands for: an STM32F429-class M4F at 180 MHz with 2 MB of flash, 256 KB of
+ * on-chip SRAM and 8 MB of SDRAM on its memory controller (as on the STM32F429I-DISC1). The
+ * emulator's RAMs are larger; the linker script (boards/common/cortex_m.ld) cuts them to these
+ * sizes, so an image that would not fit the part does not link. The static state of the
+ * firmware (the DiNNO node, the pool, the links) lives in the SDRAM; the SRAM holds the main
+ * stack, the C library and the HAL.
+ * Values the linker script reads carry no `u` suffix (the script is run through cpp). */
+#ifndef BOARD_MPS2_AN386_BOARD_H
+#define BOARD_MPS2_AN386_BOARD_H
+
+#define BOARD_NAME "mps2-an386"
+
+/* Memories: what the part has, at the addresses the emulated board maps them. */
+#define BOARD_FLASH_BASE 0x00000000
+#define BOARD_FLASH_BYTES (2048 * 1024)
+#define BOARD_SRAM_BASE 0x20000000
+#define BOARD_SRAM_BYTES (256 * 1024)
+#define BOARD_XRAM_BASE 0x21000000
+#define BOARD_XRAM_BYTES (8192 * 1024)
+#define BOARD_HEAP_BYTES (16 * 1024) /* the C library's (stdio buffers); firmware uses none */
+
+/* Clocks: the SysTick clock of the emulated board (instruction counting), and the part's. */
+#define BOARD_CORE_CLOCK_HZ 25000000u
+#define BOARD_PART_CLOCK_HZ 180000000u
+
+/* Static RAM per core (the firmware's _Static_assert budgets). */
+#define BOARD_RAM_RT_BYTES (128 * 1024)
+#define BOARD_RAM_GP_BYTES (2048 * 1024)
+#define BOARD_RAM_AI_BYTES (4096 * 1024)
+
+/* Stacks per core; the image runs the AI core's work on the main stack, of the AI's size. */
+#define BOARD_STACK_RT_BYTES (4 * 1024)
+#define BOARD_STACK_GP_BYTES (8 * 1024)
+#define BOARD_STACK_AI_BYTES (16 * 1024)
+
+/* Ethernet: one UDP datagram of a 1500-byte frame. */
+#define BOARD_NET_MTU_BYTES 1472u
+
+/* The paper's fleet of 7 and one spare. */
+#define BOARD_MAX_PEERS 8u
+
+/* RT -> AI sample ring: 8 scans of 500 samples (the AI core drains it every 100 ms). */
+#define FW_LINK_RING_CAPACITY 4096u
+
+/* Blocks of the pure-C GEMM: 8 KB of packed panels on the 16 KB AI stack. */
+#define LA_REF_KC 64
+#define LA_REF_MC 16
+#define LA_REF_NC 16
+
+/* CRC-32 by nibbles: 64 bytes of table instead of 8 KB of flash. */
+#define CRC32_SLICE8 0
+
+#endif /* BOARD_MPS2_AN386_BOARD_H */

@@ -1,0 +1,249 @@
+/* The stdc HAL back end: see hal_stdc.h. */
+#include "hal_stdc.h"
+
+#include <errno.h>
+#include <stdio.h>
+#include <string.h>
+
+#include "hal_stdc_target.h"
+
+typedef struct stdc_msg {
+    char channel[HAL_NET_CHANNEL_MAX];
+    uint32_t len;
+    uint64_t stamp_us;
+    uint8_t data[HAL_NET_MTU_BYTES];
+} stdc_msg_t;
+
+typedef struct stdc_board {
+    char dir[HAL_STDC_DIR_MAX];
+    char sub[HAL_STDC_NET_CHANNELS][HAL_NET_CHANNEL_MAX];
+    uint32_t n_sub;
+    stdc_msg_t queue[HAL_STDC_NET_QUEUE];
+    uint32_t head, fill; /* oldest message, messages waiting */
+    hal_net_stats_t stats;
+} stdc_board_t;
+
+static stdc_board_t stdc;
+
+/* ---- clock ---------------------------------------------------------------------------------- */
+static int stdc_now_us(void *ctx, uint64_t *now_us)
+{
+    (void)ctx;
+    *now_us = hal_stdc_target_now_us();
+    return 0;
+}
+
+static int stdc_sleep_until_us(void *ctx, uint64_t wake_us)
+{
+    (void)ctx;
+    while (hal_stdc_target_now_us() < wake_us) {
+        /* One thread, nothing else to run: wait on the time base. */
+    }
+    return 0;
+}
+
+static const hal_clock_ops_t stdc_clock = {.now_us = stdc_now_us, .sleep_until_us = stdc_sleep_until_us};
+
+/* ---- cores ---------------------------------------------------------------------------------- */
+static int stdc_core_start(void *ctx, hal_core_id_t id, hal_core_entry_t entry, void *arg)
+{
+    (void)ctx, (void)id, (void)entry, (void)arg;
+    return -ENOTSUP;
+}
+
+static const hal_core_ops_t stdc_core = {.start = stdc_core_start};
+
+/* ---- log ------------------------------------------------------------------------------------ */
+static void stdc_vlog(void *ctx, hal_log_level_t level, const char *fmt, va_list ap)
+{
+    static const char *const names[] = {"ERROR", "WARN", "INFO", "DEBUG"};
+    (void)ctx;
+    char line[HAL_LOG_LINE_MAX];
+    vsnprintf(line, sizeof line, fmt, ap);
+    uint64_t t = hal_stdc_target_now_us();
+    fprintf(stderr, "[%6lu.%06lu] %-5s %s\n", (unsigned long)(t / 1000000u),
+            (unsigned long)(t % 1000000u), names[level], line);
+}
+
+static const hal_log_ops_t stdc_log = {.vlog = stdc_vlog};
+
+/* ---- storage -------------------------------------------------------------------------------- */
+/* <dir>/<name><suffix> into buf; -EINVAL when it does not fit. */
+static int stdc_path(const char *name, const char *suffix, char *buf, size_t cap)
+{
+    int n = snprintf(buf, cap, "%s%s%s%s", stdc.dir, stdc.dir[0] ? "/" : "", name, suffix);
+    return n > 0 && (size_t)n < cap ? 0 : -EINVAL;
+}
+
+static int stdc_write(void *ctx, const char *name, const void *data, size_t len)
+{
+    (void)ctx;
+    char tmp[HAL_STDC_DIR_MAX + HAL_STORAGE_NAME_MAX + 8], path[sizeof tmp];
+    if (stdc_path(name, ".tmp", tmp, sizeof tmp) < 0 || stdc_path(name, "", path, sizeof path) < 0)
+        return -EINVAL;
+    FILE *f = fopen(tmp, "wb");
+    if (f == NULL)
+        return -EIO;
+    size_t put = len > 0 ? fwrite(data, 1, len, f) : 0;
+    if (fclose(f) != 0 || put != len) {
+        remove(tmp);
+        return -EIO;
+    }
+    /* rename() over an existing file is implementation-defined in C: clear the way first. */
+    remove(path);
+    return rename(tmp, path) == 0 ? 0 : -EIO;
+}
+
+static int stdc_read(void *ctx, const char *name, void *buf, size_t cap, size_t *len)
+{
+    (void)ctx;
+    char path[HAL_STDC_DIR_MAX + HAL_STORAGE_NAME_MAX + 8];
+    if (stdc_path(name, "", path, sizeof path) < 0)
+        return -EINVAL;
+    FILE *f = fopen(path, "rb");
+    if (f == NULL)
+        return -ENOENT;
+    long size = fseek(f, 0, SEEK_END) == 0 ? ftell(f) : -1L;
+    if (size < 0 || fseek(f, 0, SEEK_SET) != 0) {
+        fclose(f);
+        return -EIO;
+    }
+    *len = (size_t)size;
+    if ((size_t)size > cap) {
+        fclose(f);
+        return -EMSGSIZE;
+    }
+    size_t got = size > 0 ? fread(buf, 1, (size_t)size, f) : 0;
+    fclose(f);
+    return got == (size_t)size ? 0 : -EIO;
+}
+
+static int stdc_remove(void *ctx, const char *name)
+{
+    (void)ctx;
+    char path[HAL_STDC_DIR_MAX + HAL_STORAGE_NAME_MAX + 8];
+    if (stdc_path(name, "", path, sizeof path) < 0)
+        return -EINVAL;
+    return remove(path) == 0 ? 0 : -ENOENT;
+}
+
+static const hal_storage_ops_t stdc_storage = {.write = stdc_write, .read = stdc_read, .remove = stdc_remove};
+
+/* ---- net: RAM loopback ---------------------------------------------------------------------- */
+static int stdc_subscribed(const char *channel)
+{
+    for (uint32_t i = 0; i < stdc.n_sub; i++)
+        if (strcmp(stdc.sub[i], channel) == 0)
+            return 1;
+    return 0;
+}
+
+static int stdc_publish(void *ctx, const char *channel, const void *data, size_t len)
+{
+    (void)ctx;
+    stdc.stats.tx_messages++;
+    stdc.stats.tx_bytes += len;
+    if (!stdc_subscribed(channel))
+        return 0; /* nobody listens: gone, as on a radio */
+    if (stdc.fill == HAL_STDC_NET_QUEUE) {
+        stdc.stats.rx_dropped_full++;
+        return 0;
+    }
+    stdc_msg_t *m = &stdc.queue[(stdc.head + stdc.fill) % HAL_STDC_NET_QUEUE];
+    strcpy(m->channel, channel); /* length checked by the wrapper */
+    m->len = (uint32_t)len;
+    m->stamp_us = hal_stdc_target_now_us();
+    if (len > 0)
+        memcpy(m->data, data, len);
+    stdc.fill++;
+    return 0;
+}
+
+static int stdc_subscribe(void *ctx, const char *channel)
+{
+    (void)ctx;
+    if (stdc_subscribed(channel))
+        return 0;
+    if (stdc.n_sub == HAL_STDC_NET_CHANNELS)
+        return -ENOSPC;
+    strcpy(stdc.sub[stdc.n_sub++], channel);
+    return 0;
+}
+
+static int stdc_receive(void *ctx, hal_net_rx_info_t *info, void *buf, size_t cap)
+{
+    (void)ctx;
+    if (stdc.fill == 0)
+        return -EAGAIN;
+    const stdc_msg_t *m = &stdc.queue[stdc.head];
+    stdc.head = (stdc.head + 1u) % HAL_STDC_NET_QUEUE;
+    stdc.fill--;
+    memcpy(info->channel, m->channel, sizeof info->channel);
+    info->len = m->len;
+    info->stamp_us = m->stamp_us;
+    if (m->len > cap) {
+        stdc.stats.rx_dropped_small++;
+        return -EMSGSIZE;
+    }
+    if (m->len > 0)
+        memcpy(buf, m->data, m->len);
+    stdc.stats.rx_messages++;
+    stdc.stats.rx_bytes += m->len;
+    return 0;
+}
+
+static int stdc_net_stats(void *ctx, hal_net_stats_t *s)
+{
+    (void)ctx;
+    *s = stdc.stats;
+    s->queue_fill = stdc.fill;
+    s->queue_depth = HAL_STDC_NET_QUEUE;
+    return 0;
+}
+
+static int stdc_net_clock(void *ctx, uint64_t *now_us)
+{
+    return stdc_now_us(ctx, now_us);
+}
+
+static const hal_net_ops_t stdc_net = {.publish = stdc_publish,
+                                       .subscribe = stdc_subscribe,
+                                       .receive = stdc_receive,
+                                       .stats = stdc_net_stats,
+                                       .clock_us = stdc_net_clock};
+
+/* ---- board ---------------------------------------------------------------------------------- */
+static void stdc_fault(void *ctx, const char *file, int line, const char *what)
+{
+    (void)ctx;
+    fprintf(stderr, "FAULT %s:%d: %s\n", file, line, what);
+    fflush(stderr);
+}
+
+static const hal_board_t stdc_board = {
+    .name = BOARD_NAME,
+    .ctx = &stdc,
+    .clock = &stdc_clock,
+    .core = &stdc_core,
+    .log = &stdc_log,
+    .net = &stdc_net,
+    .storage = &stdc_storage,
+    .fault = stdc_fault,
+};
+
+int hal_stdc_install(const char *storage_dir)
+{
+    const char *dir = storage_dir != NULL ? storage_dir : "";
+    if (strlen(dir) >= sizeof stdc.dir)
+        return -EINVAL;
+    memset(&stdc, 0, sizeof stdc);
+    strcpy(stdc.dir, dir);
+    return hal_board_install(&stdc_board);
+}
+
+void hal_stdc_uninstall(void)
+{
+    if (hal_board_install(NULL) != 0) {
+        /* Uninstalling cannot fail. */
+    }
+}

@@ -1,0 +1,36 @@
+/* The "stdc" HAL back end: a board built on the C standard library alone, for targets where
+ * the firmware runs as one program on one thread: a bare-metal microcontroller with
+ * semihosting (newlib's rdimon under QEMU, or a debug probe on a real board) and a Linux board
+ * running the image as a plain process.
+ *
+ *   clock    the target's time base (hal_stdc_target.h: SysTick on Cortex-M, CLOCK_MONOTONIC
+ *            on Linux); sleep_until waits on it
+ *   log      one line per message on stderr: "[   1.234567] LEVEL message"
+ *   storage  one file per blob, <dir>/<name>, written to <name>.tmp then renamed (atomic where
+ *            the file system renames atomically; semihosting passes it to the host)
+ *   net      a RAM loopback: what the image publishes on a subscribed channel comes back to
+ *            it through a queue of HAL_STDC_NET_QUEUE messages (one node, no radio)
+ *   cores    none: the program runs the work of a core from its own main(). Starting a
+ *            core gives -ENOTSUP; the three-core image needs threads or an RTOS port.
+ *
+ * Storage is static (one board per program). No allocation. */
+#ifndef HAL_STDC_H
+#define HAL_STDC_H
+
+#include <stddef.h>
+#include <stdint.h>
+
+#include "hal/hal.h"
+
+#define HAL_STDC_NET_QUEUE 4u     /* loopback messages waiting at most */
+#define HAL_STDC_NET_CHANNELS 8u  /* subscriptions */
+#define HAL_STDC_DIR_MAX 128u     /* bytes of the storage directory, NUL included */
+
+/* Installs the board. storage_dir: where blobs live ("" or NULL: the current directory).
+ * Returns 0, -EINVAL (directory name too long) or hal_board_install()'s error. */
+FS_MUST_CHECK int hal_stdc_install(const char *storage_dir);
+
+/* Removes the board (hal_board_install(NULL)). */
+void hal_stdc_uninstall(void);
+
+#endif /* HAL_STDC_H */

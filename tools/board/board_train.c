@@ -1,0 +1,316 @@
+/* board_train: the firmware image of a board without a simulator. It runs the AI core's work
+ * on the board's one thread: the robot's own AI core (fw_robot_ai_work) loads a bundled file
+ * of samples into its pool and trains its DiNNO node for a fixed number of rounds, then runs
+ * the 50-pass Monte-Carlo inference and the int8 inference. It prints the loss of every round
+ * and one `result <key> <value>` line per figure, which tools/board/board_check.py compares
+ * with the host build of the same preset and tools/board/board_profile.py turns into the
+ * board's profile.
+ *
+ * Every round has one neighbour: the node's own state at the start of the round (a copy into
+ * slot 0), so the round runs the dual update and the regulariser like a round in a fleet.
+ * Instructions come from the target (hal_stdc_target.h): exact under QEMU's -icount on the
+ * Cortex-M boards, not counted on a Linux board.
+ *
+ * The whole robot firmware is linked (the board's build keeps every module's static state),
+ * so the image's sections are those of the robot. Built for the host too (make run-board
+ * builds both), as the reference the board's losses must match. */
+#include <errno.h>
+#include <inttypes.h> /* PRIu32; newlib 3.3 (Debian) prints neither PRIu64 under
+                       * -std=c11 nor %zu (no C99 formats): %llu and %lu with casts */
+#include <math.h>
+#include <stdio.h>
+#include <stdlib.h>
+#include <string.h>
+
+#include "ai/bnn_quant.h"
+#include "fw_robot.h"
+#include "gp/gp_fleet.h"
+#include "hal_stdc.h"
+#include "hal_stdc_target.h"
+#include "heap_probe.h"
+
+/* Inference points: one forward batch of the preset at most. */
+#define TRAIN_POINTS_MAX (BNN_MAX_BATCH < 256u ? BNN_MAX_BATCH : 256u)
+
+typedef struct train_opts {
+    uint32_t rounds, steps, batch, mc, points;
+    float kl_weight;
+    uint64_t seed;
+    const char *samples, *dir;
+} train_opts_t;
+
+static float xy[2u * TRAIN_POINTS_MAX], mean_p[TRAIN_POINTS_MAX], std_p[TRAIN_POINTS_MAX];
+static float logit_fp32[TRAIN_POINTS_MAX], logit_int8[TRAIN_POINTS_MAX];
+static uint8_t packed[BNN_QUANT_MAX_BYTES];
+/* The GP core's fleet exchange (peers' states of two rounds). On the host the program that runs
+ * the network owns it (host_sim); a board's image owns it too, so its RAM counts here even
+ * though this program has no fleet to talk to. */
+static gp_fleet_t fleet_exchange;
+
+static void usage(FILE *to)
+{
+    fprintf(to,
+            "usage: board_train [options]\n"
+            "Trains the AI core of the firmware image on a bundled sample file and measures it.\n\n"
+            "  --samples NAME   sample blob in storage: raw x, y, occ float32 records (default\n"
+            "                   train_samples.bin)\n"
+            "  --dir DIR        storage directory (default: the current one)\n"
+            "  --rounds R       DiNNO rounds (default 10)\n"
+            "  --steps B        optimiser steps per round (default 5)\n"
+            "  --batch N        minibatch (default min(64, preset max %u))\n"
+            "  --kl-weight W    prior KL weight (default 5e-3)\n"
+            "  --mc K           Monte-Carlo passes of the inference (default 50)\n"
+            "  --points P       points of the inference, 1..%u (default 64)\n"
+            "  --seed S         seed of the model and of its noise (default 1)\n",
+            (unsigned)BNN_MAX_BATCH, (unsigned)TRAIN_POINTS_MAX);
+}
+
+static int parse_u32(const char *s, uint32_t lo, uint32_t hi, uint32_t *out)
+{
+    char *end;
+    unsigned long v = s != NULL ? strtoul(s, &end, 10) : 0;
+    if (s == NULL || *s == '\0' || *end != '\0' || v < lo || v > hi)
+        return -EINVAL;
+    *out = (uint32_t)v;
+    return 0;
+}
+
+static int parse_opts(int argc, char **argv, train_opts_t *o)
+{
+    *o = (train_opts_t){.rounds = 10, .steps = 5, .batch = BNN_MAX_BATCH < 64u ? BNN_MAX_BATCH : 64u,
+                        .mc = 50, .points = 64, .kl_weight = 5e-3f, .seed = 1,
+                        .samples = "train_samples.bin", .dir = ""};
+    for (int i = 1; i < argc; i++) {
+        const char *a = argv[i], *v = i + 1 < argc ? argv[i + 1] : NULL;
+        uint32_t seed;
+        int r = 0;
+        if (strcmp(a, "--help") == 0 || strcmp(a, "-h") == 0) {
+            usage(stdout);
+            exit(0);
+        } else if (strcmp(a, "--rounds") == 0) {
+            r = parse_u32(v, 1, 100000, &o->rounds);
+        } else if (strcmp(a, "--steps") == 0) {
+            r = parse_u32(v, 1, 10000, &o->steps);
+        } else if (strcmp(a, "--batch") == 0) {
+            r = parse_u32(v, 1, BNN_MAX_BATCH, &o->batch);
+        } else if (strcmp(a, "--mc") == 0) {
+            r = parse_u32(v, 1, 1000, &o->mc);
+        } else if (strcmp(a, "--points") == 0) {
+            r = parse_u32(v, 1, TRAIN_POINTS_MAX, &o->points);
+        } else if (strcmp(a, "--seed") == 0) {
+            r = parse_u32(v, 0, UINT32_MAX, &seed);
+            o->seed = seed;
+        } else if (strcmp(a, "--kl-weight") == 0) {
+            char *end;
+            o->kl_weight = v != NULL ? strtof(v, &end) : -1.0f;
+            r = v != NULL && *v != '\0' && *end == '\0' && isfinite(o->kl_weight) && o->kl_weight >= 0.0f ? 0 : -EINVAL;
+        } else if (strcmp(a, "--samples") == 0 && v != NULL) {
+            o->samples = v;
+        } else if (strcmp(a, "--dir") == 0 && v != NULL) {
+            o->dir = v;
+        } else {
+            fprintf(stderr, "board_train: unknown option '%s' (see --help)\n", a);
+            return -EINVAL;
+        }
+        if (r != 0) {
+            fprintf(stderr, "board_train: bad value for %s: '%s' (see --help)\n", a, v ? v : "");
+            return -EINVAL;
+        }
+        i++;
+    }
+    return 0;
+}
+
+/* Reads the sample blob into the pool's storage and checks every record. Returns the count. */
+static int load_samples(ai_core_t *ai, const char *name, uint32_t *n_out)
+{
+    size_t len = 0;
+    int r = hal_storage_read(name, ai->pool_data, sizeof ai->pool_data, &len);
+    if (r == -EMSGSIZE) {
+        fprintf(stderr, "board_train: %s holds %lu samples, more than the pool's %u (AI_POOL_CAPACITY)\n",
+                name, (unsigned long)(len / sizeof(ai_sample_t)), (unsigned)AI_POOL_CAPACITY);
+        return r;
+    }
+    if (r != 0) {
+        fprintf(stderr, "board_train: cannot read %s: %s\n", name, strerror(-r));
+        return r;
+    }
+    if (len == 0 || len % sizeof(ai_sample_t) != 0) {
+        fprintf(stderr, "board_train: %s: %lu bytes is not a whole number of 12-byte samples\n", name,
+                (unsigned long)len);
+        return -EINVAL;
+    }
+    uint32_t n = (uint32_t)(len / sizeof(ai_sample_t));
+    for (uint32_t i = 0; i < n; i++) {
+        const ai_sample_t *s = &ai->pool_data[i];
+        if (!(fabsf(s->x) <= 1.0f && fabsf(s->y) <= 1.0f && (s->occ == 0.0f || s->occ == 1.0f))) {
+            fprintf(stderr, "board_train: %s: sample %" PRIu32 " is out of range (x, y in [-1, 1], occ 0 or 1)\n",
+                    name, i);
+            return -EINVAL;
+        }
+    }
+    /* The records are already in the pool's storage: the pool takes them as its content. */
+    ai->pool.fill = n;
+    *n_out = n;
+    return 0;
+}
+
+/* Instructions since start, or 0 where the target does not count them. */
+static uint64_t insns(void)
+{
+    uint64_t n = 0;
+    return hal_stdc_target_instructions(&n) == 0 ? n : 0;
+}
+
+static float sigmoidf(float z)
+{
+    return 1.0f / (1.0f + expf(-z));
+}
+
+int main(int argc, char **argv)
+{
+    train_opts_t o;
+    if (parse_opts(argc, argv, &o) != 0)
+        return 2;
+    int r = hal_stdc_install(o.dir);
+    if (r != 0) {
+        fprintf(stderr, "board_train: cannot install the board (%d)\n", r);
+        return 1;
+    }
+    memset(&fleet_exchange, 0, sizeof fleet_exchange); /* no fleet: the exchange stays empty */
+    ai_core_t *ai = fw_robot_ai_work();
+    ai_core_cfg_t cfg = ai_core_default_cfg();
+    cfg.rounds = o.rounds;
+    cfg.model_seed = cfg.seed = o.seed;
+    cfg.dinno.primal_steps = o.steps;
+    cfg.dinno.batch = o.batch;
+    cfg.dinno.kl_weight = o.kl_weight;
+    fw_link_reset();
+    if ((r = ai_core_init(ai, &cfg, fw_link_get())) != 0) {
+        fprintf(stderr, "board_train: AI core configuration refused (%d)\n", r);
+        return 1;
+    }
+    uint32_t n = 0;
+    if (load_samples(ai, o.samples, &n) != 0)
+        return 1;
+    bnn_model_t *m = &ai->node.model;
+    size_t n_params = bnn_n_params(m);
+
+    printf("board_train: board %s, target %s, preset %s (%lu parameters), math %s\n", BOARD_NAME,
+           hal_stdc_target_name(), BNN_PRESET_NAME, (unsigned long)n_params,
+#if defined(LA_BACKEND_EIGEN)
+           "eigen"
+#else
+           "ref"
+#endif
+    );
+    printf("board_train: %" PRIu32 " samples, %" PRIu32 " rounds x %" PRIu32 " steps, batch %" PRIu32
+           ", kl_weight %g, seed %llu\n",
+           n, o.rounds, o.steps, o.batch, (double)o.kl_weight, (unsigned long long)o.seed);
+
+    /* After the first output: the C library's stdout buffer is part of init. */
+    uint64_t heap_init = heap_probe_in_use();
+    uint64_t train_insns = 0, round_max = 0;
+    dinno_round_stats_t st = {0};
+    for (uint32_t k = 0; k < o.rounds; k++) {
+        if ((r = dinno_slot_put(&ai->node, 0, k, bnn_params(m), n_params)) != 0)
+            break;
+        uint64_t t0 = insns();
+        r = dinno_node_round(&ai->node, ai->pool_data, n, &st);
+        uint64_t dt = insns() - t0;
+        if (r != 0)
+            break;
+        train_insns += dt;
+        round_max = dt > round_max ? dt : round_max;
+        printf("round %" PRIu32 " loss %.6f bce %.6f kl %.3f insn %llu\n", k, (double)st.pred_total,
+               (double)st.bce, (double)st.kl_prior, (unsigned long long)dt);
+    }
+    if (r != 0) {
+        fprintf(stderr, "board_train: training failed (%d)\n", r);
+        return 1;
+    }
+
+    /* Inference on the first points of the file. */
+    for (uint32_t i = 0; i < o.points; i++) {
+        const ai_sample_t *s = &ai->pool_data[(uint64_t)i * n / o.points];
+        xy[2u * i] = s->x;
+        xy[2u * i + 1u] = s->y;
+    }
+    uint64_t t0 = insns();
+    r = bnn_predict_mc(m, xy, o.points, o.mc, o.seed, mean_p, std_p);
+    uint64_t mc_insns = insns() - t0;
+    t0 = insns();
+    if (r == 0)
+        r = bnn_forward_logits(m, xy, o.points, 1, 0, logit_fp32);
+    uint64_t fp32_insns = insns() - t0;
+    size_t packed_len = 0;
+    if (r == 0)
+        r = bnn_quant_pack(m, BNN_GROUP_MU, packed, sizeof packed, &packed_len);
+    t0 = insns();
+    if (r == 0)
+        r = bnn_quant_forward_mean(&m->cfg, BNN_GROUP_MU, packed, packed_len, xy, o.points, logit_int8);
+    uint64_t int8_insns = insns() - t0;
+    if (r != 0) {
+        fprintf(stderr, "board_train: inference failed (%d)\n", r);
+        return 1;
+    }
+    double sigma = 0.0, dp_max = 0.0;
+    for (uint32_t i = 0; i < o.points; i++) {
+        sigma += std_p[i];
+        double dp = fabs((double)sigmoidf(logit_fp32[i]) - (double)sigmoidf(logit_int8[i]));
+        dp_max = dp > dp_max ? dp : dp_max;
+    }
+    float val_bce = NAN;
+    if (bnn_eval_bce(m, ai->pool_data, n, 0, 0, &val_bce) != 0)
+        return 1;
+
+    /* Static memory of the robot image (exact sizes), and the model arena split as TFLM
+     * reports its own: persistent (parameters, gradients, Adam moments) and scratch (sampled
+     * weights, noise, sigma, activations of one batch). */
+    fw_robot_memory_t mem;
+    fw_robot_memory(&mem);
+    const size_t persistent = 4u * (size_t)BNN_N_PARAMS * sizeof(float);
+    printf("result mem_rt_state %lu\n", (unsigned long)mem.rt_state);
+    printf("result mem_rt_links %lu\n", (unsigned long)mem.rt_links);
+    printf("result mem_ai_state %lu\n", (unsigned long)mem.ai_state);
+    printf("result mem_ai_node %lu\n", (unsigned long)mem.ai_node);
+    printf("result mem_ai_pool %lu\n", (unsigned long)mem.ai_pool);
+    printf("result mem_ai_links %lu\n", (unsigned long)mem.ai_links);
+    printf("result mem_gp_state %lu\n", (unsigned long)mem.gp_state);
+    printf("result mem_gp_links %lu\n", (unsigned long)mem.gp_links);
+    printf("result mem_gp_fleet %lu\n", (unsigned long)sizeof fleet_exchange);
+    printf("result arena_bytes %lu\n", (unsigned long)mem.ai_model_arena);
+    printf("result arena_persistent_bytes %lu\n", (unsigned long)persistent);
+    printf("result arena_scratch_bytes %lu\n", (unsigned long)(mem.ai_model_arena - persistent));
+
+    size_t stack_used = 0, stack_size = 0;
+    int have_stack = hal_stdc_target_stack(&stack_used, &stack_size) == 0;
+    printf("result loss_final %.6f\n", (double)st.pred_total);
+    printf("result bce_final %.6f\n", (double)st.bce);
+    printf("result bce_all_mean_weights %.6f\n", (double)val_bce);
+    printf("result sigma_mean_mc %.6f\n", sigma / o.points);
+    printf("result int8_max_abs_prob_diff %.6f\n", dp_max);
+    printf("result int8_packed_bytes %lu\n", (unsigned long)packed_len);
+    printf("result parameters %lu\n", (unsigned long)n_params);
+    printf("result parameters_mean %lu\n", (unsigned long)bnn_group_len(m, BNN_GROUP_MU));
+    printf("result net_siren %lu\n", (unsigned long)m->cfg.siren_width);
+    printf("result net_hidden %lu\n", (unsigned long)m->cfg.hidden_width);
+    printf("result net_layers %lu\n", (unsigned long)m->cfg.n_bayes);
+    printf("result steps %" PRIu32 "\n", o.rounds * o.steps);
+    printf("result batch %" PRIu32 "\n", o.batch);
+    printf("result mc_passes %" PRIu32 "\n", o.mc);
+    printf("result points %" PRIu32 "\n", o.points);
+    if (train_insns > 0) {
+        printf("result insn_train_step %llu\n", (unsigned long long)(train_insns / ((uint64_t)o.rounds * o.steps)));
+        printf("result insn_round_max %llu\n", (unsigned long long)(round_max));
+        printf("result insn_mc_inference %llu\n", (unsigned long long)(mc_insns));
+        printf("result insn_fp32_inference %llu\n", (unsigned long long)(fp32_insns));
+        printf("result insn_int8_inference %llu\n", (unsigned long long)(int8_insns));
+    }
+    if (have_stack)
+        printf("result stack_main_used %lu of %lu\n", (unsigned long)stack_used, (unsigned long)stack_size);
+    printf("result heap_in_use_after_init %llu\n", (unsigned long long)(heap_init));
+    printf("result heap_growth_after_init %lld\n", (long long)(heap_probe_in_use() - heap_init));
+    hal_stdc_uninstall();
+    return 0;
+}
