@@ -124,12 +124,20 @@ space    := $(empty) $(empty)
 RUN_ARGS ?=
 SAMPLES  := tools/board/train_samples.bin
 PROG_ARGS := --dir $(abspath $(dir $(SAMPLES))) $(RUN_ARGS)
+# A Linux board's instructions: QEMU's user mode has no -icount; the plugin counts them and
+# logs the count at the program's marks (tools/board/qemu_insn.c).
+INSN_PLUGIN := $(X)/qemu_insn.so
 ifeq ($(BOARD_LINK),cortex_m)
 RUN_CMD := $(BOARD_QEMU) -semihosting-config enable=on,target=native,arg=board_train$(subst $(space),,$(foreach a,$(PROG_ARGS),$(comma)arg=$(a))) -kernel $(IMAGE)
 else
-RUN_CMD := $(BOARD_QEMU) $(IMAGE) $(PROG_ARGS)
+RUN_CMD := $(BOARD_QEMU) -plugin $(INSN_PLUGIN) -d plugin -D $(R)/insn.log $(IMAGE) $(PROG_ARGS)
+RUN_DEPS := $(INSN_PLUGIN)
 endif
-run: $(IMAGE) $(HOST_BIN)
+
+$(INSN_PLUGIN): tools/board/qemu_insn.c
+	@mkdir -p $(@D)
+	$(call say,CC,$< [QEMU plugin])gcc -std=c11 $(WARN) -O2 -shared -fPIC $< -o $@
+run: $(IMAGE) $(HOST_BIN) $(RUN_DEPS)
 	@mkdir -p $(R)
 	@echo "  RUN  $(XBOARD): $(RUN_CMD)"
 	@timeout $(or $(RUN_TIMEOUT),900) $(RUN_CMD) > $(R)/run.txt \
@@ -140,6 +148,6 @@ run: $(IMAGE) $(HOST_BIN)
 profile: run
 	@tools/board/board_profile.py --board $(XBOARD) --preset $(PRESET) --board-h boards/$(XBOARD)/board.h \
 	    --elf $(IMAGE) --map $(X)/fleetsim.map --obj $(X)/obj --cross $(BOARD_CROSS) \
-	    --run $(R)/run.txt --out $(R)
+	    --run $(R)/run.txt $(if $(RUN_DEPS),--insn-log $(R)/insn.log) --out $(R)
 
 -include $(shell find $(X)/obj $(HOST_X)/obj -name '*.d' 2>/dev/null)

@@ -14,6 +14,12 @@ uint64_t hal_stdc_target_now_us(void);
  * cannot count them. */
 int hal_stdc_target_instructions(uint64_t *n);
 
+/* Marks a point of the program for an instruction counter outside it (on Linux boards QEMU's
+ * plugin tools/board/qemu_insn.c logs "insn_mark <id> <instructions so far>"); a no-op where the
+ * target counts instructions itself. */
+#define HAL_STDC_MARK_SYSCALL 4085 /* no such system call: the kernel answers ENOSYS, harmless */
+void hal_stdc_target_mark(uint32_t id);
+
 /* The target's name for logs and profiles ("cortex-m (QEMU -icount)", "linux"). */
 const char *hal_stdc_target_name(void);
 

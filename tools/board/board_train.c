@@ -9,7 +9,8 @@
  * Every round has one neighbour: the node's own state at the start of the round (a copy into
  * slot 0), so the round runs the dual update and the regulariser like a round in a fleet.
  * Instructions come from the target (hal_stdc_target.h): exact under QEMU's -icount on the
- * Cortex-M boards, not counted on a Linux board.
+ * Cortex-M boards, printed here; on a Linux board QEMU's plugin logs the count at marks around
+ * the same work, which the profile pairs.
  *
  * The whole robot firmware is linked (the board's build keeps every module's static state),
  * so the image's sections are those of the robot. Built for the host too (make run-board
@@ -28,6 +29,13 @@
 #include "hal_stdc.h"
 #include "hal_stdc_target.h"
 #include "heap_probe.h"
+
+/* Marks around the measured work, for a counter outside the program (hal_stdc_target_mark;
+ * tools/board/board_profile.py pairs them: begin = end - 1). */
+enum {
+    MARK_ROUND_BEGIN = 10, MARK_ROUND_END = 11, MARK_MC_BEGIN = 20, MARK_MC_END = 21,
+    MARK_FP32_BEGIN = 30, MARK_FP32_END = 31, MARK_INT8_BEGIN = 40, MARK_INT8_END = 41,
+};
 
 /* Inference points: one forward batch of the preset at most. */
 #define TRAIN_POINTS_MAX (BNN_MAX_BATCH < 256u ? BNN_MAX_BATCH : 256u)
@@ -216,7 +224,9 @@ int main(int argc, char **argv)
         if ((r = dinno_slot_put(&ai->node, 0, k, bnn_params(m), n_params)) != 0)
             break;
         uint64_t t0 = insns();
+        hal_stdc_target_mark(MARK_ROUND_BEGIN);
         r = dinno_node_round(&ai->node, ai->pool_data, n, &st);
+        hal_stdc_target_mark(MARK_ROUND_END);
         uint64_t dt = insns() - t0;
         if (r != 0)
             break;
@@ -237,18 +247,24 @@ int main(int argc, char **argv)
         xy[2u * i + 1u] = s->y;
     }
     uint64_t t0 = insns();
+    hal_stdc_target_mark(MARK_MC_BEGIN);
     r = bnn_predict_mc(m, xy, o.points, o.mc, o.seed, mean_p, std_p);
+    hal_stdc_target_mark(MARK_MC_END);
     uint64_t mc_insns = insns() - t0;
     t0 = insns();
+    hal_stdc_target_mark(MARK_FP32_BEGIN);
     if (r == 0)
         r = bnn_forward_logits(m, xy, o.points, 1, 0, logit_fp32);
+    hal_stdc_target_mark(MARK_FP32_END);
     uint64_t fp32_insns = insns() - t0;
     size_t packed_len = 0;
     if (r == 0)
         r = bnn_quant_pack(m, BNN_GROUP_MU, packed, sizeof packed, &packed_len);
     t0 = insns();
+    hal_stdc_target_mark(MARK_INT8_BEGIN);
     if (r == 0)
         r = bnn_quant_forward_mean(&m->cfg, BNN_GROUP_MU, packed, packed_len, xy, o.points, logit_int8);
+    hal_stdc_target_mark(MARK_INT8_END);
     uint64_t int8_insns = insns() - t0;
     if (r != 0) {
         fprintf(stderr, "board_train: inference failed (%d)\n", r);
