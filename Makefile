@@ -115,7 +115,7 @@ CXXFLAGS := -std=c++17 $(WARN) $(OPT) $(DEFS) -MMD -MP -fno-exceptions -fno-rtti
 # the defaults for what the board leaves out): firmware/common/fw_config.h, with -imacros.
 FW_INC   := -Ifirmware -Ihal/include -Iboards/$(BOARD) -imacros firmware/common/fw_config.h
 HOST_INC := $(FW_INC) -Ihal/host -Ihost_sim -I$(GEN) -D_POSIX_C_SOURCE=200809L
-TEST_INC := $(HOST_INC) -Itests/support -Itests
+TEST_INC := $(HOST_INC) -Ihal/stdc -Itests/support -Itests
 
 SYS_LIBS := -lode -llcm -lzmq -lOSMesa -lpng -lm -lpthread
 WRAP     := $(foreach f,malloc calloc realloc free aligned_alloc posix_memalign,-Wl,--wrap=$(f))
@@ -125,6 +125,8 @@ FW_C      := $(sort $(shell find firmware -name '*.c'))
 FW_CXX    := $(if $(filter eigen,$(LA_BACKEND)),$(sort $(shell find firmware -name '*.cpp')))
 HAL_COMMON_C := $(sort $(wildcard hal/common/*.c))
 HAL_C     := $(sort $(shell find hal/host -name '*.c'))
+# The cross boards' back end on its Linux target, for its tests (tests/hal/test_stdc.c).
+HAL_STDC_C := hal/stdc/hal_stdc.c hal/stdc/hal_stdc_posix.c
 SIM_C     := $(sort $(shell find host_sim -name '*.c' -not -path 'host_sim/app/*'))
 APP_C     := $(sort $(wildcard host_sim/app/*.c))
 MSG_LCM   := $(sort $(wildcard firmware/msg/*.lcm))
@@ -137,6 +139,7 @@ obj = $(patsubst %,$(O)/obj/%.o,$(1))
 FW_OBJ      := $(call obj,$(FW_C) $(FW_CXX))
 HAL_COMMON_OBJ := $(call obj,$(HAL_COMMON_C))
 HAL_OBJ     := $(call obj,$(HAL_C))
+HAL_STDC_OBJ := $(call obj,$(HAL_STDC_C))
 SIM_OBJ     := $(call obj,$(SIM_C))
 APP_OBJ     := $(call obj,$(APP_C))
 SUPPORT_OBJ := $(call obj,$(SUPPORT_C))
@@ -205,9 +208,10 @@ $(LIB)/libmsg.a: $(GEN)/.stamp
 $(LIB)/libfirmware.a: $(FW_OBJ)
 $(LIB)/libhal.a: $(HAL_COMMON_OBJ)
 $(LIB)/libhal_host.a: $(HAL_OBJ)
+$(LIB)/libhal_stdc.a: $(HAL_STDC_OBJ)
 $(LIB)/libsim.a: $(SIM_OBJ)
 $(LIB)/libtestsupport.a: $(SUPPORT_OBJ)
-$(LIB)/libfirmware.a $(LIB)/libhal.a $(LIB)/libhal_host.a $(LIB)/libsim.a $(LIB)/libtestsupport.a:
+$(LIB)/libfirmware.a $(LIB)/libhal.a $(LIB)/libhal_host.a $(LIB)/libhal_stdc.a $(LIB)/libsim.a $(LIB)/libtestsupport.a:
 	@mkdir -p $(@D)
 	@rm -f $@
 	$(call say,AR,$@)$(AR) rcs $@ $^
@@ -221,9 +225,9 @@ $(BIN)/bench_%: $(O)/obj/tools/bench/bench_%.c.o $(LIBS)
 	$(call say,LD,$@)$(CXX) $(OPT) $< $(LINK_LIBS) -o $@
 
 # One program per tests/<module>/test_<name>.c, linked with the allocation counter.
-$(O)/tests/%: $(O)/obj/tests/%.c.o $(LIB)/libtestsupport.a $(LIBS)
+$(O)/tests/%: $(O)/obj/tests/%.c.o $(LIB)/libtestsupport.a $(LIB)/libhal_stdc.a $(LIBS)
 	@mkdir -p $(@D)
-	$(call say,LD,$@)$(CXX) $(OPT) $< -Wl,--start-group $(LIB)/libtestsupport.a $(LIBS) -Wl,--end-group $(SYS_LIBS) -lcmocka $(WRAP) -o $@
+	$(call say,LD,$@)$(CXX) $(OPT) $< -Wl,--start-group $(LIB)/libtestsupport.a $(LIB)/libhal_stdc.a $(LIBS) -Wl,--end-group $(SYS_LIBS) -lcmocka $(WRAP) -o $@
 
 # ---- targets ----------------------------------------------------------------------------
 .PHONY: experiments all layering deps run run-inproc test test-asan test-tsan tests bench bench-one clean help check-portable check-config $(CROSS_GOALS)

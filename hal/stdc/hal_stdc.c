@@ -89,9 +89,16 @@ static int stdc_write(void *ctx, const char *name, const void *data, size_t len)
         remove(tmp);
         return -EIO;
     }
-    /* rename() over an existing file is implementation-defined in C: clear the way first. */
+    /* POSIX rename() replaces the old blob atomically (semihosting passes it to the host's);
+     * C leaves renaming onto an existing file to the implementation, so where it refuses,
+     * clear the way and rename again (not atomic there). */
+    if (rename(tmp, path) == 0)
+        return 0;
     remove(path);
-    return rename(tmp, path) == 0 ? 0 : -EIO;
+    if (rename(tmp, path) == 0)
+        return 0;
+    remove(tmp);
+    return -EIO;
 }
 
 static int stdc_read(void *ctx, const char *name, void *buf, size_t cap, size_t *len)

@@ -130,5 +130,25 @@ def profile_reads_board_and_map():
     check(mods["firmware/fw_robot.c"]["bss"] == 0x1000, "state in .ram_ext is bss")
 
 
+@test
+def profile_pairs_plugin_marks():
+    log = "insn_mark 10 100\ninsn_mark 11 1100\ninsn_mark 10 1200\ninsn_mark 11 2200\n" \
+          "insn_mark 20 3000\ninsn_mark 21 9000\ninsn_total 9500\n"
+    with tempfile.TemporaryDirectory() as t:
+        path = os.path.join(t, "insn.log")
+        with open(path, "w") as f:
+            f.write(log)
+        res = {"steps": 4.0}
+        board_profile.insn_from_marks(path, res)
+        check(res["insn_train_step"] == 500 and res["insn_mc_inference"] == 6000, f"pairs {res}")
+        with open(path, "w") as f:
+            f.write("insn_total 5\n")
+        try:
+            board_profile.insn_from_marks(path, {"steps": 1.0})
+            check(False, "a log without marks is an error")
+        except ValueError:
+            pass
+
+
 if __name__ == "__main__":
     sys.exit(main())
