@@ -51,7 +51,7 @@ endif
 endif
 
 ifeq ($(wildcard boards/$(BOARD)/board.mk),)
-$(error unknown BOARD '$(BOARD)': there is no boards/$(BOARD)/board.mk (boards: $(notdir $(wildcard boards/*))))
+$(error unknown BOARD '$(BOARD)': there is no boards/$(BOARD)/board.mk (boards: $(patsubst boards/%/board.mk,%,$(wildcard boards/*/board.mk))))
 endif
 include boards/$(BOARD)/board.mk
 $(foreach v,BOARD_PRESET BOARD_LA_BACKEND BOARD_ARCHES,$(if $($(v)),,$(error boards/$(BOARD)/board.mk must set $(v))))
