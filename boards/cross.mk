@@ -36,8 +36,9 @@ XCC  := $(BOARD_CROSS)gcc
 XCXX := $(BOARD_CROSS)g++
 DEFS := -DBNN_PRESET_$(call uc,$(PRESET))=1 -DLA_BACKEND_$(call uc,$(LA_BACKEND))=1
 WARN := -Wall -Wextra -Werror
-# -fstack-usage: one .su file per object, the worst-case frame of every function (profile).
-XFLAGS   := $(WARN) -O2 -g $(BOARD_CPU_FLAGS) -ffunction-sections -fdata-sections -fstack-usage $(DEFS) -MMD -MP
+# -fstack-usage: one .su file per object, the frame of every function; -fcallgraph-info=su one
+# .ci file with the calls and frames, from which the profile sums the deepest chain per core.
+XFLAGS   := $(WARN) -O2 -g $(BOARD_CPU_FLAGS) -ffunction-sections -fdata-sections -fstack-usage -fcallgraph-info=su $(DEFS) -MMD -MP
 XCFLAGS  := -std=c11 $(XFLAGS)
 XCXXFLAGS := -std=c++17 $(XFLAGS) -fno-exceptions -fno-rtti
 FW_INC   := -Ifirmware -Ihal/include -Iboards/$(XBOARD) -imacros firmware/common/fw_config.h
@@ -79,11 +80,14 @@ endif
 .PHONY: image run profile
 image: $(IMAGE)
 
-$(X)/obj/%.c.o: %.c
+# The flags live here and in the board's board.mk: a change there rebuilds.
+FLAG_FILES := boards/cross.mk boards/$(XBOARD)/board.mk
+
+$(X)/obj/%.c.o: %.c $(FLAG_FILES)
 	@mkdir -p $(@D)
 	$(call say,CC,$< [$(XBOARD)])$(XCC) $(XCFLAGS) $(IMG_INC) -c $< -o $@
 
-$(X)/obj/%.cpp.o: %.cpp
+$(X)/obj/%.cpp.o: %.cpp $(FLAG_FILES)
 	@mkdir -p $(@D)
 	$(call say,CXX,$< [$(XBOARD)])$(XCXX) $(XCXXFLAGS) $(FW_INC) -isystem /usr/include/eigen3 -c $< -o $@
 

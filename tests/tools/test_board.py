@@ -150,5 +150,32 @@ def profile_pairs_plugin_marks():
             pass
 
 
+CI = """graph: { title: "x.c"
+node: { title: "x.c:leaf" label: "leaf\\nx.c:1:1\\n100 bytes (static)" }
+node: { title: "mid" label: "mid\\nx.c:2:1\\n20 bytes (static)" }
+node: { title: "top" label: "top\\nx.c:3:1\\n8 bytes (static)" }
+node: { title: "small" label: "small\\nx.c:4:1\\n50 bytes (static)" }
+node: { title: "__indirect_call" label: "Indirect Call Placeholder" shape : ellipse }
+edge: { sourcename: "top" targetname: "mid" }
+edge: { sourcename: "top" targetname: "small" }
+edge: { sourcename: "mid" targetname: "x.c:leaf" }
+edge: { sourcename: "mid" targetname: "memcpy" }
+edge: { sourcename: "small" targetname: "__indirect_call" }
+}
+"""
+
+
+@test
+def profile_finds_the_deepest_chain():
+    with tempfile.TemporaryDirectory() as t:
+        with open(os.path.join(t, "x.c.ci"), "w") as f:
+            f.write(CI)
+        frames, calls = board_profile.call_graph(t)
+    check(frames == {"x.c:leaf": 100, "mid": 20, "top": 8, "small": 50}, f"frames {frames}")
+    total, chain, flags = board_profile.worst_stack("top", frames, calls)
+    check(total == 128 and chain == ["top", "mid", "leaf"], f"deepest {total} {chain}")
+    check(flags["indirect"] and "memcpy" in flags["unknown"] and not flags["recursion"], f"flags {flags}")
+
+
 if __name__ == "__main__":
     sys.exit(main())

@@ -198,6 +198,57 @@ def stack_frames(objdir):
     return sorted(frames, reverse=True)
 
 
+# The loops of the three cores (common/fw_core.h: the runner calls tick() through a pointer).
+CORE_ROOTS = (("RT", "rt_core_tick"), ("GP", "gp_core_tick"), ("AI", "ai_core_tick"))
+
+
+def call_graph(objdir):
+    """Frames and direct calls from GCC's -fcallgraph-info=su files (OBJDIR/**/*.ci):
+    ({function: bytes}, {function: {callees}}). Static functions are named file:function."""
+    frames, calls = {}, {}
+    node = re.compile(r'node: \{ title: "([^"]+)" label: "[^"]*?\\n[^"]*?\\n(\d+) bytes')
+    edge = re.compile(r'edge: \{ sourcename: "([^"]+)" targetname: "([^"]+)"')
+    for root, _, files in os.walk(objdir):
+        for fn in files:
+            if fn.endswith(".ci"):
+                with open(os.path.join(root, fn), encoding="utf-8", errors="replace") as f:
+                    for line in f:
+                        m = node.match(line)
+                        if m:
+                            frames[m.group(1)] = int(m.group(2))
+                        m = edge.match(line)
+                        if m:
+                            calls.setdefault(m.group(1), set()).add(m.group(2))
+    return frames, calls
+
+
+def worst_stack(root, frames, calls):
+    """Deepest chain of direct calls from root: (bytes, chain, indirect calls met, calls into
+    code without a frame figure (the C library), recursion met)."""
+    memo, flags = {}, {"indirect": False, "unknown": set(), "recursion": False}
+
+    def walk(f, stack):
+        if f in memo:
+            return memo[f]
+        if f in stack:
+            flags["recursion"] = True
+            return 0, []
+        if f == "__indirect_call":
+            flags["indirect"] = True
+            return 0, []
+        if f not in frames:
+            flags["unknown"].add(f.split(":")[-1])
+            return 0, []
+        best = (0, [])
+        for c in sorted(calls.get(f, ())):
+            best = max(best, walk(c, stack | {f}), key=lambda t: t[0])
+        memo[f] = (frames[f] + best[0], [f.split(":")[-1]] + best[1])
+        return memo[f]
+
+    total, chain = walk(root, frozenset())
+    return total, chain, flags
+
+
 def kb(n):
     return f"{n / 1024:,.1f} KB" if n < 1024 * 1024 else f"{n / 1048576:,.2f} MB"
 
@@ -305,6 +356,22 @@ def main(argv=None):
         md.append(f"| {size:,} | {fn} | {k} |")
     prof["stack_frames"] = [{"bytes": s, "function": f, "kind": k} for s, f, k in frames[:25]]
     md.append("")
+    cg_frames, cg_calls = call_graph(a.obj)
+    if cg_frames:
+        md += ["Deepest chain of direct calls from each core's loop (`-fcallgraph-info=su`), against the core's "
+               "stack; calls through pointers (the HAL's operations) and into the C library add what their "
+               "callees use, which static analysis cannot see:", "",
+               "| core | stack | deepest direct chain | through |", "|---|---:|---:|---|"]
+        prof["stack_worst_case"] = {}
+        for core, root in CORE_ROOTS:
+            total, chain, fl = worst_stack(root, cg_frames, cg_calls)
+            size = d.get(f"BOARD_STACK_{core}_BYTES", 0)
+            via = " > ".join(chain[:6]) + (" > ..." if len(chain) > 6 else "")
+            extra = [x for x, on in (("indirect calls", fl["indirect"]), ("recursion", fl["recursion"])) if on]
+            md.append(f"| {core} | {size:,} | {total:,} B{' + ' + ', '.join(extra) if extra else ''} | {via} |")
+            prof["stack_worst_case"][core] = {"stack": size, "direct_chain_bytes": total, "chain": chain,
+                                              "indirect": fl["indirect"], "recursion": fl["recursion"]}
+        md.append("")
 
     # ---- instructions and time ---------------------------------------------------------------
     md += ["## Instructions and time", ""]
