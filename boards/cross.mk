@@ -46,16 +46,17 @@ IMG_INC  := $(FW_INC) -Ihal/stdc -Itools/board
 
 FW_C    := $(sort $(shell find firmware -name '*.c'))
 FW_CXX  := $(if $(filter eigen,$(LA_BACKEND)),$(sort $(shell find firmware -name '*.cpp')))
-IMG_C   := $(sort $(wildcard hal/common/*.c)) hal/stdc/hal_stdc.c hal/stdc/hal_stdc_$(BOARD_HAL_TARGET).c \
-           tools/board/board_train.c tools/board/heap_probe.c
+# The program and its HAL, the same for the image and the host reference but for the target file.
+PROG_HAL_C := $(sort $(wildcard hal/common/*.c)) hal/stdc/hal_stdc.c
+PROG_C     := tools/board/board_train.c tools/board/heap_probe.c
+IMG_C   := $(PROG_HAL_C) hal/stdc/hal_stdc_$(BOARD_HAL_TARGET).c $(PROG_C)
 FW_OBJ  := $(patsubst %,$(X)/obj/%.o,$(FW_C) $(FW_CXX))
 IMG_OBJ := $(patsubst %,$(X)/obj/%.o,$(IMG_C))
 IMAGE   := $(X)/fleetsim.elf
 
 # The host build of the same program (same board.h, preset and math), the reference.
 HOST_X   := $(X)/host
-HOST_C   := $(FW_C) $(sort $(wildcard hal/common/*.c)) hal/stdc/hal_stdc.c hal/stdc/hal_stdc_posix.c \
-            tools/board/board_train.c tools/board/heap_probe.c
+HOST_C   := $(FW_C) $(PROG_HAL_C) hal/stdc/hal_stdc_posix.c $(PROG_C)
 HOST_OBJ := $(patsubst %,$(HOST_X)/obj/%.o,$(HOST_C) $(FW_CXX))
 HOST_BIN := $(HOST_X)/board_train
 
@@ -108,11 +109,11 @@ $(IMAGE): boards/cross.mk $(IMG_OBJ) $(X)/lib/libfirmware.a $(if $(filter cortex
 	        echo "make cross: the image of $(XBOARD) does not fit the board: $$(grep -oE "section \`[^']*' will not fit in region \`[A-Z]*'|region \`[A-Z]*' overflowed by [0-9]* bytes" $(X)/link.log | sort -u | paste -sd ';' | sed 's/;/; /g')" >&2; fi; exit 1; }
 	@$(BOARD_CROSS)size $@ | sed 's/^/  /'
 
-$(HOST_X)/obj/%.c.o: %.c
+$(HOST_X)/obj/%.c.o: %.c $(FLAG_FILES)
 	@mkdir -p $(@D)
 	$(call say,CC,$< [host reference])gcc $(WARN) -std=c11 -O2 -g $(DEFS) -MMD -MP $(IMG_INC) -c $< -o $@
 
-$(HOST_X)/obj/%.cpp.o: %.cpp
+$(HOST_X)/obj/%.cpp.o: %.cpp $(FLAG_FILES)
 	@mkdir -p $(@D)
 	$(call say,CXX,$< [host reference])g++ $(WARN) -std=c++17 -O2 -g $(DEFS) -fno-exceptions -fno-rtti $(FW_INC) -isystem /usr/include/eigen3 -c $< -o $@
 
