@@ -133,6 +133,7 @@ MSG_LCM   := $(sort $(wildcard firmware/msg/*.lcm))
 SUPPORT_C := $(sort $(wildcard tests/support/*.c))
 TEST_C    := $(sort $(shell find tests -name 'test_*.c' -not -path 'tests/support/*'))
 BENCH_C   := $(sort $(wildcard tools/bench/bench_*.c))
+BENCH_SUPPORT_C := tools/bench/fma_probe.c
 
 obj = $(patsubst %,$(O)/obj/%.o,$(1))
 
@@ -145,6 +146,7 @@ APP_OBJ     := $(call obj,$(APP_C))
 SUPPORT_OBJ := $(call obj,$(SUPPORT_C))
 TEST_BIN    := $(patsubst %.c,$(O)/%,$(TEST_C))
 BENCH_BIN   := $(patsubst tools/bench/%.c,$(BIN)/%,$(BENCH_C))
+BENCH_SUPPORT_OBJ := $(call obj,$(BENCH_SUPPORT_C))
 PROGRAMS    := $(if $(APP_C),$(BIN)/host_sim) $(BENCH_BIN)
 
 LIBS := $(LIB)/libsim.a $(LIB)/libhal_host.a $(LIB)/libfirmware.a $(LIB)/libhal.a $(LIB)/libmsg.a
@@ -220,9 +222,12 @@ $(BIN)/host_sim: $(APP_OBJ) $(LIBS)
 	@mkdir -p $(@D)
 	$(call say,LD,$@)$(CXX) $(OPT) $(APP_OBJ) $(LINK_LIBS) -o $@
 
-$(BIN)/bench_%: $(O)/obj/tools/bench/bench_%.c.o $(LIBS)
+# bench_bnn times the GEMMs inside the training step: its la_sgemm calls pass through a timer
+# (--wrap), the firmware itself unchanged.
+BENCH_LDFLAGS_bnn := -Wl,--wrap=la_sgemm
+$(BIN)/bench_%: $(O)/obj/tools/bench/bench_%.c.o $(BENCH_SUPPORT_OBJ) $(LIBS)
 	@mkdir -p $(@D)
-	$(call say,LD,$@)$(CXX) $(OPT) $< $(LINK_LIBS) -o $@
+	$(call say,LD,$@)$(CXX) $(OPT) $< $(BENCH_SUPPORT_OBJ) $(LINK_LIBS) $(BENCH_LDFLAGS_$*) -o $@
 
 # One program per tests/<module>/test_<name>.c, linked with the allocation counter.
 $(O)/tests/%: $(O)/obj/tests/%.c.o $(LIB)/libtestsupport.a $(LIB)/libhal_stdc.a $(LIBS)

@@ -1,8 +1,9 @@
 #!/usr/bin/env bash
 # Runs every cmocka test program given on the command line (or found under DIR with -d DIR),
 # prints each program's own output (its cmocka summary included), and ends with one line
-#     N passed, N failed
-# counting test cases. A program that crashes or exits non-zero without a cmocka summary
+#     N passed, N skipped, N failed
+# counting test cases (a skipped case is one that cannot run here, e.g. a kernel for an
+# instruction set this CPU lacks; it says why, and it is never counted as passed). A program that crashes or exits non-zero without a cmocka summary
 # counts as one failed case. Exits 1 when anything failed, 0 otherwise.
 set -uo pipefail
 
@@ -23,7 +24,7 @@ fi
 # (also in the programs the tests start). Harmless for other builds.
 export LSAN_OPTIONS="suppressions=$(cd "$(dirname "$0")/.." && pwd)/tests/lsan.supp${LSAN_OPTIONS:+:$LSAN_OPTIONS}"
 
-passed=0 failed=0 broken=()
+passed=0 skipped=0 failed=0 broken=()
 for p in "${progs[@]}"; do
     echo "=== $p"
     out=$(mktemp)
@@ -32,9 +33,11 @@ for p in "${progs[@]}"; do
     rc=${PIPESTATUS[0]}
     np=$(sed -n 's/^\[  PASSED  \] \([0-9]\+\) test.*/\1/p' "$out" | awk '{s+=$1} END {print s+0}')
     nf=$(sed -n 's/^\[  FAILED  \] \([0-9]\+\) test.*/\1/p' "$out" | awk '{s+=$1} END {print s+0}')
+    ns=$(sed -n 's/^\[  SKIPPED \] \([0-9]\+\) test.*/\1/p' "$out" | awk '{s+=$1} END {print s+0}')
     rm -f "$out"
     passed=$((passed + np))
     failed=$((failed + nf))
+    skipped=$((skipped + ns))
     if [ "$rc" -ne 0 ] && [ "$nf" -eq 0 ]; then
         failed=$((failed + 1))
         broken+=("$p (exit $rc)")
@@ -46,5 +49,5 @@ if [ ${#broken[@]} -gt 0 ]; then
     echo "failing programs:"
     printf '  %s\n' "${broken[@]}"
 fi
-echo "$passed passed, $failed failed"
+echo "$passed passed, $skipped skipped, $failed failed"
 [ "$failed" -eq 0 ]

@@ -13,6 +13,19 @@
 #include <stdint.h>
 #include <string.h>
 
+/* AI_WIDE: put before a function whose loops are the trainer's element-wise passes (sampling,
+ * softplus, the KL and reparameterisation gradients, Adam, the Gaussians). A build whose
+ * baseline lacks AVX2 (ARCH=portable: x86-64-v2) then carries the function three times, for
+ * x86-64-v4 (AVX-512), v3 (AVX2+FMA) and the baseline, and the loader picks the one the CPU
+ * runs (GNU ifunc; GCC and clang). Native builds and other CPUs compile it once, as is. The
+ * clones vectorise differently, so results are bit-identical per binary and CPU. */
+#if defined(__x86_64__) && defined(__linux__) && !defined(__AVX2__) &&                           \
+    (defined(__GNUC__) || defined(__clang__))
+#define AI_WIDE __attribute__((target_clones("arch=x86-64-v4", "arch=x86-64-v3", "default")))
+#else
+#define AI_WIDE
+#endif
+
 static inline float ai_fm_bits2f(uint32_t u)
 {
     float f;

@@ -78,7 +78,7 @@ static inline float u01(uint32_t u)
     return (float)(u >> 8) * (1.0f / 16777216.0f) + (1.0f / 33554432.0f);
 }
 
-static void fill(uint64_t key, uint64_t stream, uint64_t first, float *out, size_t n, int normal)
+AI_WIDE static void fill(uint64_t key, uint64_t stream, uint64_t first, float *out, size_t n, int normal)
 {
     uint32_t l0[TILE_BLOCKS], l1[TILE_BLOCKS], l2[TILE_BLOCKS], l3[TILE_BLOCKS];
     float z[4 * TILE_BLOCKS];

@@ -275,7 +275,9 @@ double bnn_kl_loss(const bnn_model_t *m)
  * [j0, j0 + tile) separately gives exactly the numbers of one fill of the whole block) and
  * each tile is consumed while it is still in L1. */
 #define SAMPLE_TILE 2048u
-static void sample_weights(bnn_model_t *m, const layout_t *y, uint64_t noise_key)
+/* partial sums of the output layer's dot products (one 512-bit vector, or two 256-bit ones) */
+#define OUT_LANES 16u
+AI_WIDE static void sample_weights(bnn_model_t *m, const layout_t *y, uint64_t noise_key)
 {
     float *restrict eps = m->arena + y->eps;
     float *restrict sig = m->arena + y->sigma;
@@ -299,7 +301,7 @@ static void sample_weights(bnn_model_t *m, const layout_t *y, uint64_t noise_key
 
 /* Forward of n points whose inputs are in the arena's xy buffer; wb = Bayesian block of the
  * weights to use (sampled or mu). Leaves cos0, h0, h_l and logits in the arena. */
-static void forward(bnn_model_t *m, const layout_t *y, const float *wb, size_t n)
+AI_WIDE static void forward(bnn_model_t *m, const layout_t *y, const float *wb, size_t n)
 {
     float *a = m->arena;
     const size_t S = y->S, H = y->H;
@@ -319,6 +321,9 @@ static void forward(bnn_model_t *m, const layout_t *y, const float *wb, size_t n
         }
     }
     const float *prev = h0;
+    float *restrict logit = a + y->logit;
+    const float *restrict wout = a + y->wout;
+    const float bo = a[y->bout];
     for (size_t l = 0; l < y->L; l++) {
         const size_t in = y->lay_in[l];
         const float *Wl = wb + y->lay_off[l];
@@ -326,21 +331,42 @@ static void forward(bnn_model_t *m, const layout_t *y, const float *wb, size_t n
         float *restrict hl = a + y->h + l * BNN_MAX_BATCH * H;
         la_sgemm(LA_NO_TRANS, LA_TRANS, (int)n, (int)H, (int)in, 1.0f, prev, (int)in, Wl, (int)in,
                  0.0f, hl, (int)H);
-        for (size_t i = 0; i < n; i++) {
-            float *r = hl + i * H;
-            for (size_t j = 0; j < H; j++) {
-                float v = r[j] + bl[j];
-                r[j] = v > 0.0f ? v : 0.0f;
+        if (l + 1 < y->L) {
+            for (size_t i = 0; i < n; i++) {
+                float *r = hl + i * H;
+                for (size_t j = 0; j < H; j++) {
+                    float v = r[j] + bl[j];
+                    r[j] = v > 0.0f ? v : 0.0f;
+                }
+            }
+        } else {
+            /* the last layer's bias + ReLU pass also computes the output layer, logit =
+             * h_L . w_out + b_out, in OUT_LANES partial sums (so it vectorises) */
+            for (size_t i = 0; i < n; i++) {
+                float *r = hl + i * H;
+                float acc[OUT_LANES] = {0};
+                size_t j = 0;
+                for (; j + OUT_LANES <= H; j += OUT_LANES)
+                    for (size_t q = 0; q < OUT_LANES; q++) {
+                        float v = r[j + q] + bl[j + q];
+                        v = v > 0.0f ? v : 0.0f;
+                        r[j + q] = v;
+                        acc[q] += v * wout[j + q];
+                    }
+                float dot = 0.0f;
+                for (; j < H; j++) {
+                    float v = r[j] + bl[j];
+                    v = v > 0.0f ? v : 0.0f;
+                    r[j] = v;
+                    dot += v * wout[j];
+                }
+                for (size_t q = 0; q < OUT_LANES; q++)
+                    dot += acc[q];
+                logit[i] = dot + bo;
             }
         }
         prev = hl;
     }
-    float *logit = a + y->logit;
-    la_sgemm(LA_NO_TRANS, LA_NO_TRANS, (int)n, 1, (int)H, 1.0f, prev, (int)H, a + y->wout, 1, 0.0f,
-             logit, 1);
-    const float bo = a[y->bout];
-    for (size_t i = 0; i < n; i++)
-        logit[i] += bo;
 }
 
 static double bce_logit(double l, double t)
@@ -359,7 +385,7 @@ static int samples_ok(const ai_sample_t *s, size_t n)
 
 /* Backward of the last forward (sampled weights), data term only: fills every gradient of
  * the mu group (the Bayesian entries hold dL/dw) from dlogit. */
-static void backward(bnn_model_t *m, const layout_t *y, size_t n)
+AI_WIDE static void backward(bnn_model_t *m, const layout_t *y, size_t n)
 {
     float *a = m->arena;
     float *g = a + y->grads;
@@ -368,8 +394,6 @@ static void backward(bnn_model_t *m, const layout_t *y, size_t n)
     const float *restrict wout = a + y->wout;
     const float *hL = a + y->h + (y->L - 1) * BNN_MAX_BATCH * H;
 
-    la_sgemm(LA_TRANS, LA_NO_TRANS, 1, (int)H, (int)n, 1.0f, dl, 1, hL, (int)H, 0.0f, g + y->wout,
-             (int)H);
     double sb = 0.0;
     for (size_t i = 0; i < n; i++)
         sb += dl[i];
@@ -379,9 +403,11 @@ static void backward(bnn_model_t *m, const layout_t *y, size_t n)
      * columns into that layer's bias gradient, so the delta is read once less. */
     float *cur = a + y->g1, *oth = a + y->g2;
     {
+        /* also the output layer's weight gradient, dL/dw_out = sum_i dl_i h_L,i */
         float *restrict gb = g + y->bay + y->lay_off[y->L - 1] + H * y->lay_in[y->L - 1];
+        float *restrict gwo = g + y->wout;
         for (size_t k = 0; k < H; k++)
-            gb[k] = 0.0f;
+            gb[k] = gwo[k] = 0.0f;
         for (size_t i = 0; i < n; i++) {
             const float *restrict hr = hL + i * H;
             float *restrict cr = cur + i * H;
@@ -390,6 +416,7 @@ static void backward(bnn_model_t *m, const layout_t *y, size_t n)
                 const float v = ai_fm_sel(hr[k] > 0.0f, d * wout[k], 0.0f);
                 cr[k] = v;
                 gb[k] += v;
+                gwo[k] += d * hr[k];
             }
         }
     }
@@ -418,30 +445,39 @@ static void backward(bnn_model_t *m, const layout_t *y, size_t n)
                 }
             }
         } else {
+            /* SIREN: dz = dh0 * w0 cos(z) is the bias gradient's summand, and dW0 [S x 2] =
+             * dz^T xy is summed in the same pass, per input coordinate (gx, gy, so the loop
+             * stays unit-stride) */
             const float w0 = m->cfg.w0;
+            const float *restrict xy = a + y->xy;
+            float gx[BNN_SIREN_MAX], gy[BNN_SIREN_MAX];
+            for (size_t k = 0; k < in; k++)
+                gx[k] = gy[k] = 0.0f;
             for (size_t i = 0; i < n; i++) {
                 const float *restrict cr0 = a + y->cos0 + i * in;
-                float *restrict orow = oth + i * in;
+                const float *restrict orow = oth + i * in;
+                const float px = xy[2 * i], py = xy[2 * i + 1];
                 for (size_t k = 0; k < in; k++) {
                     const float v = orow[k] * (w0 * cr0[k]);
-                    orow[k] = v;
                     gbp[k] += v;
+                    gx[k] += v * px;
+                    gy[k] += v * py;
                 }
+            }
+            for (size_t k = 0; k < in; k++) {
+                g[2 * k] = gx[k];
+                g[2 * k + 1] = gy[k];
             }
         }
         float *t = cur;
         cur = oth;
         oth = t;
     }
-    /* SIREN: cur = d total / d (W0 x + b0); dW0 [S x 2] = dz^T xy (one thin GEMM); db0 was
-     * summed above. */
-    la_sgemm(LA_TRANS, LA_NO_TRANS, (int)S, (int)BNN_IN, (int)n, 1.0f, cur, (int)S, a + y->xy,
-             (int)BNN_IN, 0.0f, g, (int)BNN_IN);
 }
 
 /* Reparameterisation and KL over one Bayesian tensor [j0, j0+cnt): turns dL/dw (in the mu
  * gradient) into mu and rho gradients with the KL term. Returns the tensor's KL sum. */
-static double bayes_tensor_grad(bnn_model_t *m, const layout_t *y, size_t j0, size_t cnt,
+AI_WIDE static double bayes_tensor_grad(bnn_model_t *m, const layout_t *y, size_t j0, size_t cnt,
                                 float kl_weight)
 {
     float *a = m->arena;
@@ -527,6 +563,21 @@ int bnn_loss_grad(bnn_model_t *m, const ai_sample_t *batch, size_t n, float kl_w
     return 0;
 }
 
+AI_WIDE static void adam_update(float *restrict th, const float *restrict gr, float *restrict am,
+                                float *restrict av, size_t len, float b1, float b2, float ep,
+                                float step, float isb2)
+{
+    const float c1 = 1.0f - b1, c2 = 1.0f - b2;
+    for (size_t i = 0; i < len; i++) {
+        const float gi = gr[i];
+        const float mi = b1 * am[i] + c1 * gi;
+        const float vi = b2 * av[i] + c2 * gi * gi;
+        am[i] = mi;
+        av[i] = vi;
+        th[i] -= step * mi / (ai_fm_sqrtf(vi) * isb2 + ep);
+    }
+}
+
 int bnn_adam_step(bnn_model_t *m, bnn_group_t g, float lr)
 {
     if (!m || (g != BNN_GROUP_MU && g != BNN_GROUP_RHO) || !isfinite(lr) || lr < 0.0f)
@@ -543,15 +594,7 @@ int bnn_adam_step(bnn_model_t *m, bnn_group_t g, float lr)
     const double bc2 = 1.0 - pow((double)b2, (double)st->t);
     const float step = (float)((double)lr / bc1);
     const float isb2 = (float)(1.0 / sqrt(bc2));
-    const float c1 = 1.0f - b1, c2 = 1.0f - b2;
-    for (size_t i = 0; i < len; i++) {
-        const float gi = gr[i];
-        const float mi = b1 * am[i] + c1 * gi;
-        const float vi = b2 * av[i] + c2 * gi * gi;
-        am[i] = mi;
-        av[i] = vi;
-        th[i] -= step * mi / (ai_fm_sqrtf(vi) * isb2 + ep);
-    }
+    adam_update(th, gr, am, av, len, b1, b2, ep, step, isb2);
     return 0;
 }
 

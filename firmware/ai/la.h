@@ -6,15 +6,17 @@
  *   ldb >= N, or N x K with ldb >= K). C has row stride ldc >= N. beta == 0 never reads C
  *   (NaN in C does not propagate). M, N, K >= 0; K == 0 gives C = beta * C.
  *
- * Back ends: la_ref_* (pure C11, cache-blocked, always built) and la_eigen_* (la_eigen.cpp,
- * extern "C", built only when LA_BACKEND=eigen: when compiled with AVX2+FMA but not AVX-512,
- * products with M >= 12, N >= 16, K >= 16 use a packed 6x16 AVX2/FMA kernel, everything else
- * Eigen 3.4 with the widest vectors the target has).
+ * Back ends: la_ref_* (pure C11, cache-blocked, always built) and, with LA_BACKEND=eigen, the
+ * packed kernels of la_packed.h (AVX-512 12x32, AVX2+FMA 6x16, NEON 12x8: the one the running
+ * CPU executes fastest, chosen at run time, takes the products with M >= 2 tile rows, N >= one
+ * tile of columns, K >= 16) and la_eigen_* (la_eigen.cpp, extern "C": Eigen 3.4 for the thin
+ * products, and for all of them where no packed kernel runs).
  * la_* dispatches to the board's back end (LA_BACKEND_EIGEN or LA_BACKEND_REF). No function
  * allocates: the Eigen shim keeps its packing/blocking buffers on the stack (at most
- * LA_EIGEN_STACK_BYTES per call; the AVX2 kernel uses 352 KB), the reference path uses a
- * fixed 16 KB stack tile. Results are deterministic for a given back end and build (the
- * summation order depends only on the shape). Thread-safe (no shared state).
+ * LA_EIGEN_STACK_BYTES per call), a packed kernel its panels (LA_PACKED_STACK_BYTES), the
+ * reference path a fixed stack tile (LA_REF_* blocks). Results are deterministic for a given
+ * back end, build and CPU (the summation order depends only on the shape, and the packed
+ * kernels agree bit for bit). Thread-safe (no shared state but the kernel chosen once).
  */
 #ifndef AI_LA_H
 #define AI_LA_H
@@ -42,9 +44,9 @@ void la_eigen_sgemm(la_trans_t ta, la_trans_t tb, int M, int N, int K, float alp
 /* Name of the back end la_* dispatches to ("eigen" or "ref"). */
 const char *la_backend_name(void);
 
-/* Name of the kernel the large products of la_sgemm take in this build, so that figures can
- * be compared across machines: "avx2-fma-6x16+eigen" (the packed AVX2 kernel, Eigen for thin
- * shapes), "eigen-avx512", "eigen-avx2", "eigen-avx", "eigen-sse", "eigen-neon",
+/* Name of the kernel the large products of la_sgemm take in this build on this CPU, so that
+ * figures can be compared across machines: "avx512-12x32+eigen", "avx2-fma-6x16+eigen",
+ * "neon-12x8+eigen" (a packed kernel, Eigen for thin shapes), "eigen-avx512", "eigen-avx2", "eigen-avx", "eigen-sse", "eigen-neon",
  * "eigen-scalar", or "ref-c" (pure C). Follows la_force_ref. */
 const char *la_kernel_name(void);
 const char *la_eigen_kernel_name(void);

@@ -4,17 +4,32 @@
  *                                         sampling, forward, BCE+KL, backward, Adam on both groups
  *   bnn_train_gflops_<preset>_b<B>       GEMM FLOPs of that step / its time
  *   bnn_train_step_ms_ref_<preset>_b<B>  the same step with the pure-C reference GEMM
- *   sgemm_gflops_256x256x1024            single-thread la_eigen_sgemm rate (the AVX2 kernel when
- *                                         built with AVX2+FMA), [1024x256] x [256x256]^T
+ *   sgemm_gflops_256x256x1024            single-thread la_sgemm rate (the packed kernel the CPU
+ *                                         runs, see gemm_kernel), [1024x256] x [256x256]^T
  *   sgemm_ref_gflops_256x256x1024        the same product with la_ref_sgemm
  *   bnn_mc50_points_per_s_<preset>       MC inference with K = 50
  *   bnn_arena_bytes_<preset>             static storage of one model
  *   bnn_phase_ms_<phase>_<preset>        where the step's time goes (best-of times; the
  *                                         backward and sampling figures are differences)
+ *   bnn_step_share_<part>_<preset>       the step's time split: gemm (timed around every
+ *                                         la_sgemm call inside the steps), sampling (Gaussians,
+ *                                         softplus, w = mu + sigma eps), adam (both groups),
+ *                                         other (the element-wise passes of forward and
+ *                                         backward, loss, KL and reparameterisation gradients),
+ *                                         non_gemm (all but gemm); of the median step
  *   gemm_kernel <name>                   the kernel the large products take (la_kernel_name)
- *   sgemm_shape_gflops_<op>_<M>x<N>x<K>  (--shapes) each GEMM shape of the step alone, through
- *                                         la_sgemm: fwd = X W^T (N,T), dx = dY W (N,N),
- *                                         dw = dY^T X (T,N); median and best
+ *   fma_peak_gflops_<isa>                the core's FMA peak for that kernel's instruction set
+ *                                         (tools/bench/fma_probe.c)
+ *   bnn_train_gemm_limit_ms_<preset>_b<B>  the step's GEMM FLOPs at that peak: the bound a
+ *                                         GEMM-bound step cannot beat
+ *   bnn_train_step_of_limit_<preset>_b<B>  that bound / the step's median time
+ *   bnn_mc50_of_limit_<preset>           MC-50's points/s / the points/s of its GEMMs at peak
+ *   bnn_mean_points_per_s_<preset>       one forward pass with the mean weights, fp32
+ *   bnn_int8_points_per_s_<preset>       the same with the int8 state (bnn_quant_forward_mean)
+ *   sgemm_shape_gflops_<kernel>_<op>_<M>x<N>x<K>  (--shapes) each GEMM shape of the step alone,
+ *                                         on every kernel this CPU runs and on Eigen alone:
+ *                                         fwd = X W^T (N,T), dx = dY W (N,N), dw = dY^T X (T,N);
+ *                                         median and best
  * Times are medians of repeated runs (CLOCK_MONOTONIC). Run it under `taskset -c 1`. */
 #include <errno.h>
 #include <stdio.h>
@@ -24,13 +39,17 @@
 
 #include "ai/ai_rng.h"
 #include "ai/bnn.h"
+#include "ai/bnn_quant.h"
 #include "ai/la.h"
+#include "ai/la_packed.h"
+#include "fma_probe.h"
 
 static bnn_model_t model;
 static ai_sample_t batch[BNN_MAX_BATCH];
 static float xy[2 * 4096], mean[4096], sd[4096], logits[BNN_MAX_BATCH];
 static float ga[1024 * 256], gb[256 * 256], gc[1024 * 256];
 static float eps_buf[BNN_N_RHO];
+static uint8_t qstate[BNN_QUANT_MAX_BYTES];
 
 static double now_s(void)
 {
@@ -71,17 +90,11 @@ static void usage(FILE *f)
             MAX_REPS);
 }
 
-/* The step's three big GEMM shapes (layer 2 of the preset: in = out = H), each alone. */
-static int bench_shapes(int reps)
+/* The step's three big GEMM shapes (layer 2 of the preset: in = out = H), each alone, on the
+ * kernel la_sgemm takes now; tag names it in the BENCH lines. */
+static void bench_shapes_on(int reps, const char *tag)
 {
     const int n = (int)BNN_MAX_BATCH, H = (int)BNN_HIDDEN_MAX, I = (int)BNN_HIDDEN_MAX;
-    if ((size_t)n * (size_t)I > sizeof ga / sizeof ga[0] || (size_t)H * (size_t)I > sizeof gb / sizeof gb[0]) {
-        fprintf(stderr, "bench_bnn: --shapes buffers too small for this preset\n");
-        return 1;
-    }
-    ai_rng_uniform_fill(1, 1, 0, ga, (size_t)n * (size_t)I);
-    ai_rng_uniform_fill(1, 2, 0, gb, (size_t)H * (size_t)I);
-    ai_rng_uniform_fill(1, 3, 0, gc, (size_t)n * (size_t)H);
     static float out[1024 * 256];
     const double gf = 2.0 * n * H * I;
     for (int op = 0; op < 3; op++) {
@@ -103,12 +116,58 @@ static int bench_shapes(int reps)
         }
         const char *nm = op == 0 ? "fwd" : op == 1 ? "dx" : "dw";
         const int M = op == 2 ? H : n, N = op == 0 ? H : I, K = op == 0 ? I : op == 1 ? H : n;
-        printf("BENCH sgemm_shape_gflops_%s_%dx%dx%d %.2f GFLOP/s\n", nm, M, N, K,
+        printf("BENCH sgemm_shape_gflops_%s_%s_%dx%dx%d %.2f GFLOP/s\n", tag, nm, M, N, K,
                gf / median(reps) * 1e-9);
-        printf("BENCH sgemm_shape_gflops_best_%s_%dx%dx%d %.2f GFLOP/s\n", nm, M, N, K,
+        printf("BENCH sgemm_shape_gflops_best_%s_%s_%dx%dx%d %.2f GFLOP/s\n", tag, nm, M, N, K,
                gf / samples_[0] * 1e-9);
     }
+}
+
+static int bench_shapes(int reps)
+{
+    const int n = (int)BNN_MAX_BATCH, H = (int)BNN_HIDDEN_MAX, I = (int)BNN_HIDDEN_MAX;
+    if ((size_t)n * (size_t)I > sizeof ga / sizeof ga[0] || (size_t)H * (size_t)I > sizeof gb / sizeof gb[0]) {
+        fprintf(stderr, "bench_bnn: --shapes buffers too small for this preset\n");
+        return 1;
+    }
+    ai_rng_uniform_fill(1, 1, 0, ga, (size_t)n * (size_t)I);
+    ai_rng_uniform_fill(1, 2, 0, gb, (size_t)H * (size_t)I);
+    ai_rng_uniform_fill(1, 3, 0, gc, (size_t)n * (size_t)H);
+    for (int id = 0; id < LA_PACKED_N; id++) {
+        if (!la_packed_cpu_has(id)) {
+            printf("# %s: %s\n", la_packed_kernels[id].name,
+                   la_packed_kernels[id].fn ? "this CPU lacks the instruction set"
+                                            : "not compiled for this target");
+            continue;
+        }
+        (void)la_packed_force(id);
+        bench_shapes_on(reps, la_packed_kernels[id].name);
+    }
+#if defined(LA_BACKEND_EIGEN)
+    (void)la_packed_force(-1);
+    bench_shapes_on(reps, la_eigen_kernel_name());
+#endif
+    (void)la_packed_force(-2);
     return 0;
+}
+
+/* Every la_sgemm call of the program passes through here (linked with --wrap=la_sgemm), so
+ * the GEMM time inside a training step is measured in the step itself. */
+void __real_la_sgemm(la_trans_t ta, la_trans_t tb, int M, int N, int K, float alpha,
+                     const float *A, int lda, const float *B, int ldb, float beta, float *C,
+                     int ldc);
+void __wrap_la_sgemm(la_trans_t ta, la_trans_t tb, int M, int N, int K, float alpha,
+                     const float *A, int lda, const float *B, int ldb, float beta, float *C,
+                     int ldc);
+static double gemm_seconds; /* accumulated by the wrapper */
+
+void __wrap_la_sgemm(la_trans_t ta, la_trans_t tb, int M, int N, int K, float alpha,
+                     const float *A, int lda, const float *B, int ldb, float beta, float *C,
+                     int ldc)
+{
+    const double t0 = now_s();
+    __real_la_sgemm(ta, tb, M, N, K, alpha, A, lda, B, ldb, beta, C, ldc);
+    gemm_seconds += now_s() - t0;
 }
 
 int main(int argc, char **argv)
@@ -137,6 +196,10 @@ int main(int argc, char **argv)
         }
     }
     printf("BENCH gemm_kernel %s -\n", la_kernel_name());
+    const la_packed_kernel_t *kern = la_packed_active();
+    const double peak = kern && strcmp(la_backend_name(), "eigen") == 0 ? fma_probe_gflops(kern->isa) : 0.0;
+    if (peak > 0.0)
+        printf("BENCH fma_peak_gflops_%s %.1f GFLOP/s\n", kern->isa, peak);
     if (shapes_only)
         return bench_shapes(reps);
     const char *P = BNN_PRESET_NAME;
@@ -159,24 +222,37 @@ int main(int argc, char **argv)
     }
     flops += 2.0 * 2.0 * B * c.hidden_width;
 
+    double step_med = 0.0, gemm_share = 0.0;
     for (int backend = 0; backend < (steps_only ? 1 : 2); backend++) {
         la_force_ref(backend == 1);
         int n = backend == 1 ? (reps / 5 > 3 ? reps / 5 : 3) : reps;
         for (int w = 0; w < 3; w++)
             if ((rc = bnn_train_step(&model, batch, B, 1e-4f, (uint64_t)w, 1e-4f, NULL)))
                 die("bnn_train_step", rc);
+        double gemm_in_steps = 0.0, all_steps = 0.0;
         for (int r = 0; r < n; r++) {
+            gemm_seconds = 0.0;
             double t0 = now_s();
             rc = bnn_train_step(&model, batch, B, 1e-4f, 100 + (uint64_t)r, 1e-4f, NULL);
             samples_[r] = now_s() - t0;
+            all_steps += samples_[r];
+            gemm_in_steps += gemm_seconds;
             if (rc)
                 die("bnn_train_step", rc);
         }
         double t = median(n);
+        if (backend == 0)
+            gemm_share = gemm_in_steps / all_steps;
         if (backend == 0) {
             printf("BENCH bnn_train_step_ms_%s_b%u %.3f ms\n", P, B, 1e3 * t);
             printf("BENCH bnn_train_step_ms_best_%s_b%u %.3f ms\n", P, B, 1e3 * samples_[0]);
             printf("BENCH bnn_train_gflops_%s_b%u %.2f GFLOP/s\n", P, B, flops / t * 1e-9);
+            step_med = t;
+            if (peak > 0.0) {
+                const double lim = flops / (peak * 1e9);
+                printf("BENCH bnn_train_gemm_limit_ms_%s_b%u %.3f ms\n", P, B, 1e3 * lim);
+                printf("BENCH bnn_train_step_of_limit_%s_b%u %.1f %%\n", P, B, 100.0 * lim / t);
+            }
         } else {
             printf("BENCH bnn_train_step_ms_ref_%s_b%u %.3f ms\n", P, B, 1e3 * t);
         }
@@ -222,6 +298,18 @@ int main(int argc, char **argv)
         printf("BENCH bnn_phase_ms_loss_grad_%s %.3f ms\n", P, 1e3 * ph[3]);
         printf("BENCH bnn_phase_ms_backward_kl_%s %.3f ms\n", P, 1e3 * (ph[3] - ph[2]));
         printf("BENCH bnn_phase_ms_adam_both_%s %.3f ms\n", P, 1e3 * ph[4]);
+        {
+            /* gemm: its share of all timed steps; sampling, adam: best-of phase times over the
+             * median step; other: the rest */
+            const double sh_g = gemm_share, sh_s = (ph[2] - ph[1]) / step_med;
+            const double sh_a = ph[4] / step_med;
+            printf("BENCH bnn_step_share_gemm_%s %.1f %%\n", P, 100.0 * sh_g);
+            printf("BENCH bnn_step_share_sampling_%s %.1f %%\n", P, 100.0 * sh_s);
+            printf("BENCH bnn_step_share_adam_%s %.1f %%\n", P, 100.0 * sh_a);
+            printf("BENCH bnn_step_share_other_%s %.1f %%\n", P,
+                   100.0 * (1.0 - sh_g - sh_s - sh_a));
+            printf("BENCH bnn_step_share_non_gemm_%s %.1f %%\n", P, 100.0 * (1.0 - sh_g));
+        }
     }
 
     /* raw GEMM rate at the step's shape */
@@ -234,13 +322,8 @@ int main(int argc, char **argv)
             for (int r = 0; r < n; r++) {
                 double t0 = now_s();
                 if (backend == 0)
-#if defined(LA_BACKEND_EIGEN)
-                    la_eigen_sgemm(LA_NO_TRANS, LA_TRANS, 1024, 256, 256, 1.0f, ga, 256, gb, 256,
-                                   0.0f, gc, 256);
-#else
-                    la_ref_sgemm(LA_NO_TRANS, LA_TRANS, 1024, 256, 256, 1.0f, ga, 256, gb, 256,
-                                 0.0f, gc, 256);
-#endif
+                    la_sgemm(LA_NO_TRANS, LA_TRANS, 1024, 256, 256, 1.0f, ga, 256, gb, 256, 0.0f,
+                             gc, 256);
                 else
                     la_ref_sgemm(LA_NO_TRANS, LA_TRANS, 1024, 256, 256, 1.0f, ga, 256, gb, 256,
                                  0.0f, gc, 256);
@@ -267,7 +350,37 @@ int main(int argc, char **argv)
             if (rc)
                 die("bnn_predict_mc", rc);
         }
-        printf("BENCH bnn_mc50_points_per_s_%s %.0f points/s\n", P, (double)n / median(nrep));
+        const double pps = (double)n / median(nrep);
+        printf("BENCH bnn_mc50_points_per_s_%s %.0f points/s\n", P, pps);
+        if (peak > 0.0) { /* the GEMM FLOPs of one point's K forward passes */
+            double fp = 2.0 * c.hidden_width;
+            for (unsigned l = 0; l < c.n_bayes; l++)
+                fp += 2.0 * (l == 0 ? c.siren_width : c.hidden_width) * c.hidden_width;
+            fp *= BNN_MC_DEFAULT_K;
+            printf("BENCH bnn_mc50_of_limit_%s %.1f %%\n", P, 100.0 * pps / (peak * 1e9 / fp));
+        }
+    }
+
+    /* one mean-weight pass, fp32 and int8 */
+    {
+        const size_t n = B;
+        size_t len = 0;
+        if ((rc = bnn_quant_pack(&model, BNN_GROUP_ALL, qstate, sizeof qstate, &len)))
+            die("bnn_quant_pack", rc);
+        for (int q = 0; q < 2; q++) {
+            const int nrep = 10;
+            for (int r = -1; r < nrep; r++) {
+                double t0 = now_s();
+                rc = q ? bnn_quant_forward_mean(&model.cfg, BNN_GROUP_ALL, qstate, len, xy, n, mean)
+                       : bnn_forward_logits(&model, xy, n, 1, 0, mean);
+                if (r >= 0)
+                    samples_[r] = now_s() - t0;
+                if (rc)
+                    die(q ? "bnn_quant_forward_mean" : "bnn_forward_logits", rc);
+            }
+            printf("BENCH bnn_%s_points_per_s_%s %.0f points/s\n", q ? "int8" : "mean", P,
+                   (double)n / median(nrep));
+        }
     }
     printf("BENCH bnn_arena_bytes_%s %zu bytes\n", P, bnn_get_buffer_size());
     printf("BENCH bnn_params_%s %zu params\n", P, bnn_n_params(&model));

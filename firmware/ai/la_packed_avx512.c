@@ -1,0 +1,31 @@
+/* The packed GEMM for AVX-512F: a 12 x 32 tile in 24 of the 32 zmm registers (the shape BLIS and
+ * OpenBLAS use on AVX-512 cores). Compiled on every x86-64 build whatever its baseline; called
+ * only when the CPU has AVX-512F (la_packed.c). Blocking measured in firmware/ai/README.md. */
+#include "ai/la_packed.h"
+
+#if defined(__x86_64__) && (defined(__GNUC__) || defined(__clang__))
+#include <immintrin.h>
+
+#include "ai/la_packed_isa.h"
+
+LA_ISA_BEGIN("avx512f,avx2,fma")
+typedef __m512 lap_vec;
+#define LAP_VL 16
+#define LAP_MR 12
+#define LAP_KC 256
+#define LAP_MC 96
+#define LAP_NC 256
+#define LAP_FN la_packed_sgemm_avx512
+static inline lap_vec lap_zero(void) { return _mm512_setzero_ps(); }
+static inline lap_vec lap_load(const float *p) { return _mm512_load_ps(p); }
+static inline lap_vec lap_loadu(const float *p) { return _mm512_loadu_ps(p); }
+static inline void lap_store(float *p, lap_vec v) { _mm512_store_ps(p, v); }
+static inline void lap_storeu(float *p, lap_vec v) { _mm512_storeu_ps(p, v); }
+static inline lap_vec lap_bcast(const float *p) { return _mm512_set1_ps(*p); }
+static inline lap_vec lap_set1(float x) { return _mm512_set1_ps(x); }
+static inline lap_vec lap_fma(lap_vec a, lap_vec b, lap_vec c) { return _mm512_fmadd_ps(a, b, c); }
+static inline lap_vec lap_mul(lap_vec a, lap_vec b) { return _mm512_mul_ps(a, b); }
+static inline lap_vec lap_add(lap_vec a, lap_vec b) { return _mm512_add_ps(a, b); }
+#include "ai/la_packed_impl.h"
+LA_ISA_END
+#endif

@@ -1,0 +1,170 @@
+/* The packed GEMM driver, instantiated once per instruction set: a file defines the vector
+ * type and operations below, then includes this header (la_packed_avx512.c, _avx2.c, _neon.c).
+ * Not a public header.
+ *
+ * Goto/BLIS structure: the k dimension in blocks of KC; op(B) packed per block into NR-column
+ * micro-panels (KC x NR, each one L1-resident while the MR-row micro-panels of op(A) stream past
+ * it); op(A) packed per MC rows; an MR x NR register tile per micro-kernel call (two vectors
+ * wide). beta is applied in the first k block, so C is never zeroed first and beta == 0 never
+ * reads C. Each output element gets one FMA per k, k ascending within a block and blocks in
+ * order: the result depends on the shape only, not on the vector width.
+ *
+ * The including file defines:
+ *   LAP_FN        the function's name
+ *   LAP_VL        floats per vector; LAP_MR rows of the tile; NR = 2 * LAP_VL
+ *   LAP_KC, LAP_MC, LAP_NC   the blocking (MC % MR == 0, NC % NR == 0)
+ *   lap_vec       the vector type, and static inline functions
+ *   lap_zero(), lap_load(p) (aligned), lap_loadu(p), lap_store(p, v) (aligned), lap_storeu(p, v),
+ *   lap_bcast(p) (all lanes = *p), lap_set1(x), lap_fma(a, b, c) (a * b + c), lap_mul, lap_add.
+ */
+#include <stddef.h>
+
+#include "ai/la.h"
+#include "ai/la_packed.h"
+
+#define LAP_NR (2 * LAP_VL)
+_Static_assert(LAP_MC % LAP_MR == 0 && LAP_NC % LAP_NR == 0, "blocks hold whole micro-panels");
+_Static_assert((LAP_KC * LAP_NC + LAP_MC * LAP_KC) * sizeof(float) + 64 * LAP_MR * LAP_NR <=
+                   LA_PACKED_STACK_BYTES,
+               "the packed panels exceed LA_PACKED_STACK_BYTES");
+
+static inline float lap_op_a(la_trans_t ta, const float *A, int lda, int i, int k)
+{
+    return ta == LA_NO_TRANS ? A[(size_t)i * lda + k] : A[(size_t)k * lda + i];
+}
+
+/* Ap[strip][k][r]: rows i0.., k from p0, zero padded to MR rows. */
+static void lap_pack_a(la_trans_t ta, const float *A, int lda, int i0, int mc, int p0, int kc,
+                       float *restrict Ap)
+{
+    for (int s = 0; s < mc; s += LAP_MR) {
+        const int mr = mc - s < LAP_MR ? mc - s : LAP_MR;
+        float *restrict dst = Ap + (size_t)s * kc;
+        if (ta == LA_TRANS && mr == LAP_MR) {
+            for (int k = 0; k < kc; k++) {
+                const float *src = A + (size_t)(p0 + k) * lda + i0 + s;
+                for (int r = 0; r < LAP_MR; r++)
+                    dst[k * LAP_MR + r] = src[r];
+            }
+        } else if (mr == LAP_MR) {
+            const float *src = A + (size_t)(i0 + s) * lda + p0;
+            for (int k = 0; k < kc; k++)
+                for (int r = 0; r < LAP_MR; r++)
+                    dst[k * LAP_MR + r] = src[(size_t)r * lda + k];
+        } else {
+            for (int r = 0; r < LAP_MR; r++)
+                for (int k = 0; k < kc; k++)
+                    dst[k * LAP_MR + r] = r < mr ? lap_op_a(ta, A, lda, i0 + s + r, p0 + k) : 0.0f;
+        }
+    }
+}
+
+/* Bp[strip][k][j]: columns j0.., k from p0, zero padded to NR columns. */
+static void lap_pack_b(la_trans_t tb, const float *B, int ldb, int j0, int nc, int p0, int kc,
+                       float *restrict Bp)
+{
+    for (int s = 0; s < nc; s += LAP_NR) {
+        const int nr = nc - s < LAP_NR ? nc - s : LAP_NR;
+        float *restrict dst = Bp + (size_t)s * kc;
+        if (tb == LA_NO_TRANS && nr == LAP_NR) {
+            for (int k = 0; k < kc; k++) {
+                const float *src = B + (size_t)(p0 + k) * ldb + j0 + s;
+                lap_store(dst + k * LAP_NR, lap_loadu(src));
+                lap_store(dst + k * LAP_NR + LAP_VL, lap_loadu(src + LAP_VL));
+            }
+        } else if (tb == LA_NO_TRANS) {
+            for (int k = 0; k < kc; k++)
+                for (int j = 0; j < LAP_NR; j++)
+                    dst[k * LAP_NR + j] = j < nr ? B[(size_t)(p0 + k) * ldb + j0 + s + j] : 0.0f;
+        } else {
+            for (int j = 0; j < LAP_NR; j++) {
+                if (j < nr) {
+                    const float *src = B + (size_t)(j0 + s + j) * ldb + p0;
+                    for (int k = 0; k < kc; k++)
+                        dst[k * LAP_NR + j] = src[k];
+                } else {
+                    for (int k = 0; k < kc; k++)
+                        dst[k * LAP_NR + j] = 0.0f;
+                }
+            }
+        }
+    }
+}
+
+/* C[mr x nr] = alpha * Ap Bp (+ beta C) on the first k block, += alpha * Ap Bp after it. */
+static void lap_micro(int kc, const float *restrict Ap, const float *restrict Bp, float *C, int ldc,
+                      int mr, int nr, float alpha, float beta, int first)
+{
+    lap_vec c[LAP_MR][2];
+    for (int r = 0; r < LAP_MR; r++)
+        c[r][0] = c[r][1] = lap_zero();
+    for (int k = 0; k < kc; k++) {
+        const lap_vec b0 = lap_load(Bp + k * LAP_NR), b1 = lap_load(Bp + k * LAP_NR + LAP_VL);
+        for (int r = 0; r < LAP_MR; r++) {
+            const lap_vec a = lap_bcast(Ap + k * LAP_MR + r);
+            c[r][0] = lap_fma(a, b0, c[r][0]);
+            c[r][1] = lap_fma(a, b1, c[r][1]);
+        }
+    }
+    const lap_vec va = lap_set1(alpha), vb = lap_set1(beta);
+    if (mr == LAP_MR && nr == LAP_NR) {
+        for (int r = 0; r < LAP_MR; r++) {
+            float *cr = C + (size_t)r * ldc;
+            for (int h = 0; h < 2; h++) {
+                lap_vec v = lap_mul(va, c[r][h]);
+                if (!first)
+                    v = lap_add(lap_loadu(cr + LAP_VL * h), v);
+                else if (beta != 0.0f)
+                    v = lap_fma(vb, lap_loadu(cr + LAP_VL * h), v);
+                lap_storeu(cr + LAP_VL * h, v);
+            }
+        }
+        return;
+    }
+    /* edge tile: through a stack copy of the accumulators */
+    _Alignas(64) float t[LAP_MR * LAP_NR];
+    for (int r = 0; r < LAP_MR; r++) {
+        lap_store(&t[r * LAP_NR], c[r][0]);
+        lap_store(&t[r * LAP_NR + LAP_VL], c[r][1]);
+    }
+    for (int r = 0; r < mr; r++)
+        for (int j = 0; j < nr; j++) {
+            float *cv = C + (size_t)r * ldc + j;
+            const float v = alpha * t[r * LAP_NR + j];
+            *cv = !first ? *cv + v : (beta != 0.0f ? v + beta * *cv : v);
+        }
+}
+
+void LAP_FN(la_trans_t ta, la_trans_t tb, int M, int N, int K, float alpha, const float *A,
+            int lda, const float *B, int ldb, float beta, float *C, int ldc)
+{
+    if (M <= 0 || N <= 0)
+        return;
+    if (K <= 0 || alpha == 0.0f) {
+        for (int i = 0; i < M; i++)
+            for (int j = 0; j < N; j++) {
+                float *cv = C + (size_t)i * ldc + j;
+                *cv = beta == 0.0f ? 0.0f : beta * *cv;
+            }
+        return;
+    }
+    _Alignas(64) float Bp[LAP_KC * LAP_NC];
+    _Alignas(64) float Ap[LAP_MC * LAP_KC];
+    for (int j0 = 0; j0 < N; j0 += LAP_NC) {
+        const int nc = N - j0 < LAP_NC ? N - j0 : LAP_NC;
+        for (int p0 = 0; p0 < K; p0 += LAP_KC) {
+            const int kc = K - p0 < LAP_KC ? K - p0 : LAP_KC;
+            lap_pack_b(tb, B, ldb, j0, nc, p0, kc, Bp);
+            for (int i0 = 0; i0 < M; i0 += LAP_MC) {
+                const int mc = M - i0 < LAP_MC ? M - i0 : LAP_MC;
+                lap_pack_a(ta, A, lda, i0, mc, p0, kc, Ap);
+                for (int js = 0; js < nc; js += LAP_NR)
+                    for (int is = 0; is < mc; is += LAP_MR)
+                        lap_micro(kc, Ap + (size_t)is * kc, Bp + (size_t)js * kc,
+                                  C + (size_t)(i0 + is) * ldc + j0 + js, ldc,
+                                  mc - is < LAP_MR ? mc - is : LAP_MR,
+                                  nc - js < LAP_NR ? nc - js : LAP_NR, alpha, beta, p0 == 0);
+            }
+        }
+    }
+}
