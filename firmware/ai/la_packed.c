@@ -9,10 +9,11 @@
 #include <stdatomic.h>
 #include <stddef.h>
 
-#if defined(__x86_64__) && (defined(__GNUC__) || defined(__clang__))
+/* -DLA_PACKED_NONE (for measurements): no packed kernel, Eigen does every product. */
+#if defined(__x86_64__) && (defined(__GNUC__) || defined(__clang__)) && !defined(LA_PACKED_NONE)
 #define LA_PACKED_X86 1
 #endif
-#if defined(__aarch64__) && defined(__ARM_NEON)
+#if defined(__aarch64__) && defined(__ARM_NEON) && !defined(LA_PACKED_NONE)
 #define LA_PACKED_ARM 1
 #endif
 
