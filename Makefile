@@ -224,7 +224,7 @@ $(BIN)/host_sim: $(APP_OBJ) $(LIBS)
 
 # bench_bnn times the GEMMs inside the training step: its la_sgemm calls pass through a timer
 # (--wrap), the firmware itself unchanged.
-BENCH_LDFLAGS_bnn := -Wl,--wrap=la_sgemm
+BENCH_LDFLAGS_bnn := -Wl,--wrap=la_sgemm,--wrap=la_sgemm_ep
 $(BIN)/bench_%: $(O)/obj/tools/bench/bench_%.c.o $(BENCH_SUPPORT_OBJ) $(LIBS)
 	@mkdir -p $(@D)
 	$(call say,LD,$@)$(CXX) $(OPT) $< $(BENCH_SUPPORT_OBJ) $(LINK_LIBS) $(BENCH_LDFLAGS_$*) -o $@

@@ -5,6 +5,16 @@
 #   make -f boards/cross.mk XBOARD=<name> run       image under emulation and the host build of
 #                                                   the same program; their losses must agree
 #   make -f boards/cross.mk XBOARD=<name> profile   run, then profile.md / profile.json
+#   make -f boards/cross.mk XBOARD=<name> test      a Linux board only: tests/ai/test_la_packed.c
+#                                                   built for the board, run under its QEMU
+#                                                   (`run` and `profile` run it first)
+#
+#   LA_EXTRA_DEFS=-D...   more -D flags for every object of the image, its host reference and
+#                         the cross test, for measurements: LA_EXTRA_DEFS=-DLA_PACKED_NONE builds
+#                         without the packed GEMM kernels (Eigen does every product). Builds go
+#                         to build/cross-<board>-<preset>-<defs> and results to
+#                         results/board-<board>-<defs> (e.g. ...-rpi3-small-LA_PACKED_NONE), so
+#                         objects of other flags never mix and the board's profile stays.
 #
 # The image is tools/board/board_train.c on the stdc HAL back end (hal/stdc) for the board's
 # target, linked with the whole of libfirmware.a: every module of firmware/ is compiled with
@@ -24,17 +34,27 @@ ifneq ($(BOARD_KIND),cross)
 $(error boards/$(XBOARD) is not a cross board (its board.mk does not set BOARD_KIND := cross))
 endif
 
+comma    := ,
+empty    :=
+space    := $(empty) $(empty)
+
 PRESET     ?= $(BOARD_PRESET)
 LA_BACKEND := $(BOARD_LA_BACKEND)
 BUILD_ROOT ?= build
 RESULTS    ?= results
-X   := $(BUILD_ROOT)/cross-$(XBOARD)-$(PRESET)
-R   := $(RESULTS)/board-$(XBOARD)
+LA_EXTRA_DEFS ?=
+ifneq ($(filter-out -D%,$(LA_EXTRA_DEFS)),)
+$(error LA_EXTRA_DEFS takes -D flags only (got '$(LA_EXTRA_DEFS)'))
+endif
+# The directories' suffix: the macros without -D, '=' as '_' (-DA -DB=2: A-B_2).
+XTAG := $(subst $(space),-,$(strip $(subst =,_,$(patsubst -D%,%,$(LA_EXTRA_DEFS)))))
+X   := $(BUILD_ROOT)/cross-$(XBOARD)-$(PRESET)$(if $(XTAG),-$(XTAG))
+R   := $(RESULTS)/board-$(XBOARD)$(if $(XTAG),-$(XTAG))
 uc   = $(shell echo '$(1)' | tr a-z A-Z)
 
 XCC  := $(BOARD_CROSS)gcc
 XCXX := $(BOARD_CROSS)g++
-DEFS := -DBNN_PRESET_$(call uc,$(PRESET))=1 -DLA_BACKEND_$(call uc,$(LA_BACKEND))=1
+DEFS := -DBNN_PRESET_$(call uc,$(PRESET))=1 -DLA_BACKEND_$(call uc,$(LA_BACKEND))=1 $(LA_EXTRA_DEFS)
 WARN := -Wall -Wextra -Werror
 # -fstack-usage: one .su file per object, the frame of every function; -fcallgraph-info=su one
 # .ci file with the calls and frames, from which the profile sums the deepest chain per core.
@@ -78,7 +98,7 @@ else
 say = @printf '  %-4s %s\n' '$(1)' '$(2)';
 endif
 
-.PHONY: image run profile
+.PHONY: image run profile test
 image: $(IMAGE)
 
 # The flags live here and in the board's board.mk: a change there rebuilds.
@@ -123,9 +143,6 @@ $(HOST_BIN): $(HOST_OBJ)
 # The run: the image on the emulated board and the host reference, same arguments; then the
 # comparison (exit 1 when the losses disagree). Bare metal takes its arguments through
 # semihosting (arg=...), a Linux image on its command line.
-comma    := ,
-empty    :=
-space    := $(empty) $(empty)
 RUN_ARGS ?=
 SAMPLES  := tools/board/train_samples.bin
 PROG_ARGS := --dir $(abspath $(dir $(SAMPLES))) $(RUN_ARGS)
@@ -142,7 +159,45 @@ endif
 $(INSN_PLUGIN): tools/board/qemu_insn.c
 	@mkdir -p $(@D)
 	$(call say,CC,$< [QEMU plugin])gcc -std=c11 $(WARN) -O2 -shared -fPIC $< -o $@
-run: $(IMAGE) $(HOST_BIN) $(RUN_DEPS)
+# The suite's cross pass, on a Linux board (BOARD_LINK := linux: rpi3): the packed-GEMM test
+# (tests/ai/test_la_packed.c, cmocka) built with the board's toolchain and flags against the
+# board's libfirmware.a and the allocation counter (tests/support/alloc_count.c, malloc & co.
+# wrapped as in the host suite), then run under the board's QEMU: the kernels the target carries
+# (NEON on aarch64) must pass, the others are skipped with the reason. Its cmocka output is
+# printed and kept in $(R)/test_la_packed.txt; a failure fails the target. cmocka comes from
+# Debian's multiarch package (libcmocka-dev:arm64, tools/install-deps.sh --cross): static when
+# the package has libcmocka.a, otherwise (bookworm) shared, and QEMU finds the board's dynamic
+# loader and C library with -L /usr/<triple>.
+ifeq ($(BOARD_LINK),linux)
+XTRIPLE    := $(patsubst %-,%,$(BOARD_CROSS))
+XTEST_C    := tests/ai/test_la_packed.c tests/support/alloc_count.c
+XTEST_OBJ  := $(patsubst %,$(X)/test/obj/%.o,$(XTEST_C))
+XTEST      := $(X)/test/test_la_packed
+XTEST_WRAP := $(foreach f,malloc calloc realloc free aligned_alloc posix_memalign,-Wl,--wrap=$(f))
+XCMOCKA_A  := $(wildcard /usr/lib/$(XTRIPLE)/libcmocka.a)
+XTEST_LIBS := $(if $(XCMOCKA_A),-static $(XCMOCKA_A),-lcmocka)
+XTEST_CMD  := $(BOARD_QEMU) $(if $(XCMOCKA_A),,-L /usr/$(XTRIPLE)) $(XTEST)
+TEST_DEPS  := test
+
+$(X)/test/obj/%.c.o: %.c $(FLAG_FILES)
+	@mkdir -p $(@D)
+	$(call say,CC,$< [$(XBOARD) test])$(XCC) $(XCFLAGS) $(FW_INC) -Itests/support -Itests -c $< -o $@
+
+$(XTEST): $(XTEST_OBJ) $(X)/lib/libfirmware.a
+	@test -e /usr/lib/$(XTRIPLE)/libcmocka.so -o -n "$(XCMOCKA_A)" || { echo "make: no cmocka for $(XTRIPLE) (libcmocka-dev:$(subst aarch64,arm64,$(firstword $(subst -, ,$(XTRIPLE))))): run tools/install-deps.sh --cross as root" >&2; exit 1; }
+	$(call say,LD,$@)$(XCXX) $(BOARD_CPU_FLAGS) $(XTEST_OBJ) $(X)/lib/libfirmware.a $(XTEST_LIBS) $(XTEST_WRAP) -lm -o $@
+
+test: $(XTEST)
+	@mkdir -p $(R)
+	@echo "  TEST $(XBOARD): $(XTEST_CMD)"
+	@set -o pipefail; timeout $(or $(TEST_TIMEOUT),900) $(XTEST_CMD) 2>&1 | tee $(R)/test_la_packed.txt | sed 's/^/  /' \
+	    || { s=$$?; echo "make: tests/ai/test_la_packed.c failed on $(XBOARD) (exit $$s)" >&2; exit 1; }
+else
+test:
+	@echo "  TEST $(XBOARD): no cross test (a Linux board's only: BOARD_LINK := linux)"
+endif
+
+run: $(TEST_DEPS) $(IMAGE) $(HOST_BIN) $(RUN_DEPS)
 	@mkdir -p $(R)
 	@echo "  RUN  $(XBOARD): $(RUN_CMD)"
 	@timeout $(or $(RUN_TIMEOUT),900) $(RUN_CMD) > $(R)/run.txt \
@@ -155,4 +210,4 @@ profile: run
 	    --elf $(IMAGE) --map $(X)/fleetsim.map --obj $(X)/obj --cross $(BOARD_CROSS) \
 	    --run $(R)/run.txt $(if $(RUN_DEPS),--insn-log $(R)/insn.log) --out $(R)
 
--include $(shell find $(X)/obj $(HOST_X)/obj -name '*.d' 2>/dev/null)
+-include $(shell find $(X)/obj $(X)/test/obj $(HOST_X)/obj -name '*.d' 2>/dev/null)

@@ -10,7 +10,10 @@
 #   tools/install-deps.sh --portable  also the compilers of `make check-portable` (clang, the
 #                                     aarch64 cross g++); combines with --check
 #   tools/install-deps.sh --cross     also the boards' toolchains and emulators (make cross,
-#                                     run-board: arm-none-eabi with newlib, aarch64, QEMU)
+#                                     run-board: arm-none-eabi with newlib, aarch64, QEMU) and
+#                                     cmocka for arm64 (the rpi3 board's cross test), which
+#                                     needs Debian's arm64 multiarch: `dpkg --add-architecture
+#                                     arm64` is run first when a missing package is :arm64
 set -euo pipefail
 
 # package  file-that-proves-it-is-installed
@@ -42,6 +45,7 @@ cross_deps=(
     "qemu-system-arm          /usr/bin/qemu-system-arm"
     "g++-aarch64-linux-gnu    /usr/bin/aarch64-linux-gnu-g++"
     "qemu-user                /usr/bin/qemu-aarch64"
+    "libcmocka-dev:arm64      /usr/lib/aarch64-linux-gnu/libcmocka.so"
 )
 
 check_only=0
@@ -50,7 +54,7 @@ for arg in "$@"; do
         --check) check_only=1 ;;
         --portable) deps+=("${portable_deps[@]}") ;;
         --cross) deps+=("${cross_deps[@]}") ;;
-        -h|--help) sed -n '2,13p' "$0" | sed 's/^# \{0,1\}//'; exit 0 ;;
+        -h|--help) sed -n '2,16p' "$0" | sed 's/^# \{0,1\}//'; exit 0 ;;
         *) echo "install-deps: unknown option '$arg' (see --help)" >&2; exit 2 ;;
     esac
 done
@@ -67,12 +71,28 @@ if [ "$check_only" -eq 1 ]; then
     exit 1
 fi
 
-cmd="apt-get update && DEBIAN_FRONTEND=noninteractive apt-get install -y --no-install-recommends ${missing[*]}"
+# Packages of another architecture (pkg:arch) need it added to dpkg first (multiarch).
+foreign=()
+known=" $(dpkg --print-foreign-architectures | tr '\n' ' ') "
+for pkg in "${missing[@]}"; do
+    case "$pkg" in
+        *:*) a=${pkg##*:}
+             [[ "$known" == *" $a "* ]] || { foreign+=("$a"); known+="$a "; } ;;
+    esac
+done
+add_arch=""
+for a in "${foreign[@]}"; do add_arch+="dpkg --add-architecture $a && "; done
+
+cmd="${add_arch}apt-get update && DEBIAN_FRONTEND=noninteractive apt-get install -y --no-install-recommends ${missing[*]}"
 if [ "$(id -u)" -ne 0 ]; then
     echo "install-deps: missing Debian packages: ${missing[*]}" >&2
     echo "install-deps: run as root:  $cmd" >&2
     exit 1
 fi
 echo "install-deps: installing ${missing[*]}"
+for a in "${foreign[@]}"; do
+    echo "install-deps: dpkg --add-architecture $a"
+    dpkg --add-architecture "$a"
+done
 apt-get update -q
 DEBIAN_FRONTEND=noninteractive apt-get install -y -q --no-install-recommends "${missing[@]}"

@@ -329,17 +329,13 @@ AI_WIDE static void forward(bnn_model_t *m, const layout_t *y, const float *wb, 
         const float *Wl = wb + y->lay_off[l];
         const float *restrict bl = Wl + H * in;
         float *restrict hl = a + y->h + l * BNN_MAX_BATCH * H;
-        la_sgemm(LA_NO_TRANS, LA_TRANS, (int)n, (int)H, (int)in, 1.0f, prev, (int)in, Wl, (int)in,
-                 0.0f, hl, (int)H);
-        if (l + 1 < y->L) {
-            for (size_t i = 0; i < n; i++) {
-                float *r = hl + i * H;
-                for (size_t j = 0; j < H; j++) {
-                    float v = r[j] + bl[j];
-                    r[j] = v > 0.0f ? v : 0.0f;
-                }
-            }
+        if (l + 1 < y->L) { /* h_l = relu(h_{l-1} W^T + b), bias and ReLU on the tiles */
+            const la_epilogue_t ep = {.bias = bl, .relu = 1};
+            la_sgemm_ep(LA_NO_TRANS, LA_TRANS, (int)n, (int)H, (int)in, 1.0f, prev, (int)in, Wl,
+                        (int)in, 0.0f, hl, (int)H, &ep);
         } else {
+            la_sgemm(LA_NO_TRANS, LA_TRANS, (int)n, (int)H, (int)in, 1.0f, prev, (int)in, Wl,
+                     (int)in, 0.0f, hl, (int)H);
             /* the last layer's bias + ReLU pass also computes the output layer, logit =
              * h_L . w_out + b_out, in OUT_LANES partial sums (so it vectorises) */
             for (size_t i = 0; i < n; i++) {
@@ -427,24 +423,20 @@ AI_WIDE static void backward(bnn_model_t *m, const layout_t *y, size_t n)
         float *gW = g + y->bay + y->lay_off[l];
         la_sgemm(LA_TRANS, LA_NO_TRANS, (int)H, (int)in, (int)n, 1.0f, cur, (int)H, prev, (int)in,
                  0.0f, gW, (int)in);
-        la_sgemm(LA_NO_TRANS, LA_NO_TRANS, (int)n, (int)in, (int)H, 1.0f, cur, (int)H, Wl, (int)in,
-                 0.0f, oth, (int)in);
         /* bias gradient of the layer below: layer l-1's b, or the SIREN b0 */
         float *restrict gbp = l > 0 ? g + y->bay + y->lay_off[l - 1] + H * y->lay_in[l - 1]
                                     : g + 2 * S;
         for (size_t k = 0; k < in; k++)
             gbp[k] = 0.0f;
         if (l > 0) {
-            for (size_t i = 0; i < n; i++) {
-                const float *restrict pr = prev + i * in;
-                float *restrict orow = oth + i * in;
-                for (size_t k = 0; k < in; k++) {
-                    const float v = ai_fm_sel(pr[k] > 0.0f, orow[k], 0.0f);
-                    orow[k] = v;
-                    gbp[k] += v;
-                }
-            }
+            /* the delta of layer l-1: (da W) gated by its ReLU (h_{l-1} > 0), its columns
+             * summed into the bias gradient, on the tiles */
+            const la_epilogue_t ep = {.gate = prev, .ldg = (int)in, .colsum = gbp};
+            la_sgemm_ep(LA_NO_TRANS, LA_NO_TRANS, (int)n, (int)in, (int)H, 1.0f, cur, (int)H, Wl,
+                        (int)in, 0.0f, oth, (int)in, &ep);
         } else {
+            la_sgemm(LA_NO_TRANS, LA_NO_TRANS, (int)n, (int)in, (int)H, 1.0f, cur, (int)H, Wl,
+                     (int)in, 0.0f, oth, (int)in);
             /* SIREN: dz = dh0 * w0 cos(z) is the bias gradient's summand, and dW0 [S x 2] =
              * dz^T xy is summed in the same pass, per input coordinate (gx, gy, so the loop
              * stays unit-stride) */

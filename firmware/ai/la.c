@@ -9,6 +9,7 @@
 #endif
 
 #include <stdatomic.h>
+#include <stddef.h>
 
 #include "ai/la_packed.h"
 
@@ -27,20 +28,55 @@ static int packed_worth(const la_packed_kernel_t *k, int M, int N, int K)
 }
 #endif
 
-void la_sgemm(la_trans_t ta, la_trans_t tb, int M, int N, int K, float alpha, const float *A,
-              int lda, const float *B, int ldb, float beta, float *C, int ldc)
+/* The epilogue as a plain pass over C, after a back end without one. */
+static void epilogue(int M, int N, float *C, int ldc, const la_epilogue_t *ep)
 {
+    for (int i = 0; i < M; i++) {
+        float *restrict c = C + (size_t)i * ldc;
+        const float *restrict g = ep->gate ? ep->gate + (size_t)i * ep->ldg : NULL;
+        for (int j = 0; j < N; j++) {
+            float v = c[j];
+            if (ep->bias)
+                v += ep->bias[j];
+            if (ep->relu)
+                v = v > 0.0f ? v : 0.0f;
+            if (g)
+                v = g[j] > 0.0f ? v : 0.0f;
+            if (ep->colsum)
+                ep->colsum[j] += v;
+            c[j] = v;
+        }
+    }
+}
+
+void la_sgemm_ep(la_trans_t ta, la_trans_t tb, int M, int N, int K, float alpha, const float *A,
+                 int lda, const float *B, int ldb, float beta, float *C, int ldc,
+                 const la_epilogue_t *ep)
+{
+    if (M <= 0 || N <= 0)
+        return;
 #if defined(LA_BACKEND_EIGEN)
     if (!atomic_load_explicit(&g_force_ref, memory_order_relaxed)) {
         const la_packed_kernel_t *k = la_packed_active();
-        if (packed_worth(k, M, N, K))
-            k->fn(ta, tb, M, N, K, alpha, A, lda, B, ldb, beta, C, ldc);
-        else
-            la_eigen_sgemm(ta, tb, M, N, K, alpha, A, lda, B, ldb, beta, C, ldc);
-        return;
+        if (packed_worth(k, M, N, K)) {
+            k->fn(ta, tb, M, N, K, alpha, A, lda, B, ldb, beta, C, ldc, ep);
+            return;
+        }
+        la_eigen_sgemm(ta, tb, M, N, K, alpha, A, lda, B, ldb, beta, C, ldc);
+    } else {
+        la_ref_sgemm(ta, tb, M, N, K, alpha, A, lda, B, ldb, beta, C, ldc);
     }
-#endif
+#else
     la_ref_sgemm(ta, tb, M, N, K, alpha, A, lda, B, ldb, beta, C, ldc);
+#endif
+    if (ep)
+        epilogue(M, N, C, ldc, ep);
+}
+
+void la_sgemm(la_trans_t ta, la_trans_t tb, int M, int N, int K, float alpha, const float *A,
+              int lda, const float *B, int ldb, float beta, float *C, int ldc)
+{
+    la_sgemm_ep(ta, tb, M, N, K, alpha, A, lda, B, ldb, beta, C, ldc, NULL);
 }
 
 const char *la_backend_name(void)

@@ -33,6 +33,26 @@ typedef enum la_trans { LA_NO_TRANS = 0, LA_TRANS = 1 } la_trans_t;
 void la_sgemm(la_trans_t ta, la_trans_t tb, int M, int N, int K, float alpha, const float *A,
               int lda, const float *B, int ldb, float beta, float *C, int ldc);
 
+/* What la_sgemm_ep does to each finished element of C, in this order, so that the pass a
+ * layer needs after its product happens while the tile is still in registers:
+ *   bias:   c += bias[j]                     (NULL: none)
+ *   relu:   c = c > 0 ? c : 0                (NaN gives 0)
+ *   gate:   c = gate[i * ldg + j] > 0 ? c : 0 (NULL: none; ReLU's derivative in a backward pass)
+ *   colsum: colsum[j] += c, rows in ascending order (NULL: none; colsum is not cleared)
+ * Every back end gives the same bits for these as a plain loop over C after the product. */
+typedef struct la_epilogue {
+    const float *bias;
+    int relu;
+    const float *gate;
+    int ldg;
+    float *colsum;
+} la_epilogue_t;
+
+/* la_sgemm, then the epilogue (ep may be NULL). */
+void la_sgemm_ep(la_trans_t ta, la_trans_t tb, int M, int N, int K, float alpha, const float *A,
+                 int lda, const float *B, int ldb, float beta, float *C, int ldc,
+                 const la_epilogue_t *ep);
+
 void la_ref_sgemm(la_trans_t ta, la_trans_t tb, int M, int N, int K, float alpha,
                   const float *A, int lda, const float *B, int ldb, float beta, float *C,
                   int ldc);

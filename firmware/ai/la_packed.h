@@ -3,8 +3,8 @@
  * the CPU has. Internal to firmware/ai; callers use la_sgemm (la.h), which sends the large
  * products here and the thin ones to Eigen.
  *
- * Every kernel computes the whole la_sgemm contract (any shape, transposes, strides, alpha,
- * beta; beta == 0 never reads C) with one FMA per k per output element in the same order, so
+ * Every kernel computes the whole la_sgemm_ep contract (any shape, transposes, strides, alpha,
+ * beta, the epilogue; beta == 0 never reads C) with one FMA per k per output element in the same order, so
  * the kernels of one build give bit-identical products whatever their vector width. Buffers
  * are on the stack (LA_PACKED_STACK_BYTES at most); nothing allocates. */
 #ifndef AI_LA_PACKED_H
@@ -14,7 +14,7 @@
 
 typedef void (*la_packed_fn)(la_trans_t ta, la_trans_t tb, int M, int N, int K, float alpha,
                              const float *A, int lda, const float *B, int ldb, float beta,
-                             float *C, int ldc);
+                             float *C, int ldc, const la_epilogue_t *ep);
 
 typedef struct la_packed_kernel {
     const char *name;  /* "avx512-12x32", "avx2-fma-6x16", "neon-12x8" */
@@ -44,12 +44,12 @@ int la_packed_force(int id);
 
 void la_packed_sgemm_avx512(la_trans_t ta, la_trans_t tb, int M, int N, int K, float alpha,
                             const float *A, int lda, const float *B, int ldb, float beta, float *C,
-                            int ldc);
+                            int ldc, const la_epilogue_t *ep);
 void la_packed_sgemm_avx2(la_trans_t ta, la_trans_t tb, int M, int N, int K, float alpha,
                           const float *A, int lda, const float *B, int ldb, float beta, float *C,
-                          int ldc);
+                          int ldc, const la_epilogue_t *ep);
 void la_packed_sgemm_neon(la_trans_t ta, la_trans_t tb, int M, int N, int K, float alpha,
                           const float *A, int lda, const float *B, int ldb, float beta, float *C,
-                          int ldc);
+                          int ldc, const la_epilogue_t *ep);
 
 #endif /* AI_LA_PACKED_H */

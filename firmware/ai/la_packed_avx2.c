@@ -26,6 +26,12 @@ static inline lap_vec lap_set1(float x) { return _mm256_set1_ps(x); }
 static inline lap_vec lap_fma(lap_vec a, lap_vec b, lap_vec c) { return _mm256_fmadd_ps(a, b, c); }
 static inline lap_vec lap_mul(lap_vec a, lap_vec b) { return _mm256_mul_ps(a, b); }
 static inline lap_vec lap_add(lap_vec a, lap_vec b) { return _mm256_add_ps(a, b); }
+/* max returns its second operand when one is NaN: NaN gives 0, as in the plain loop */
+static inline lap_vec lap_relu(lap_vec v) { return _mm256_max_ps(v, _mm256_setzero_ps()); }
+static inline lap_vec lap_gate(lap_vec g, lap_vec v)
+{
+    return _mm256_and_ps(_mm256_cmp_ps(g, _mm256_setzero_ps(), _CMP_GT_OQ), v);
+}
 #include "ai/la_packed_impl.h"
 LA_ISA_END
 #endif

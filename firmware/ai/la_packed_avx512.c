@@ -26,6 +26,12 @@ static inline lap_vec lap_set1(float x) { return _mm512_set1_ps(x); }
 static inline lap_vec lap_fma(lap_vec a, lap_vec b, lap_vec c) { return _mm512_fmadd_ps(a, b, c); }
 static inline lap_vec lap_mul(lap_vec a, lap_vec b) { return _mm512_mul_ps(a, b); }
 static inline lap_vec lap_add(lap_vec a, lap_vec b) { return _mm512_add_ps(a, b); }
+/* max returns its second operand when one is NaN: NaN gives 0, as in the plain loop */
+static inline lap_vec lap_relu(lap_vec v) { return _mm512_max_ps(v, _mm512_setzero_ps()); }
+static inline lap_vec lap_gate(lap_vec g, lap_vec v)
+{
+    return _mm512_maskz_mov_ps(_mm512_cmp_ps_mask(g, _mm512_setzero_ps(), _CMP_GT_OQ), v);
+}
 #include "ai/la_packed_impl.h"
 LA_ISA_END
 #endif

@@ -15,7 +15,13 @@
  *   LAP_KC, LAP_MC, LAP_NC   the blocking (MC % MR == 0, NC % NR == 0)
  *   lap_vec       the vector type, and static inline functions
  *   lap_zero(), lap_load(p) (aligned), lap_loadu(p), lap_store(p, v) (aligned), lap_storeu(p, v),
- *   lap_bcast(p) (all lanes = *p), lap_set1(x), lap_fma(a, b, c) (a * b + c), lap_mul, lap_add.
+ *   lap_bcast(p) (all lanes = *p), lap_set1(x), lap_fma(a, b, c) (a * b + c), lap_mul, lap_add,
+ *   lap_relu(v) (v > 0 ? v : 0, NaN gives 0), lap_gate(g, v) (g > 0 ? v : 0 per lane).
+ *
+ * The epilogue (la.h) is applied on the last k block, to the tile in registers: bias, ReLU,
+ * gate, then the tile's rows are added to colsum one after the other, in ascending row order
+ * (the js loop is outside the is loop and the MC blocks ascend, so each column's sum runs over
+ * the rows in order: the same bits as a plain loop after the product).
  */
 #include <stddef.h>
 
@@ -91,9 +97,28 @@ static void lap_pack_b(la_trans_t tb, const float *B, int ldb, int j0, int nc, i
     }
 }
 
-/* C[mr x nr] = alpha * Ap Bp (+ beta C) on the first k block, += alpha * Ap Bp after it. */
+/* Epilogue pointers of one tile: already offset to the tile's first row and column. */
+typedef struct lap_ep {
+    const float *bias, *gate;
+    float *colsum;
+    int relu, ldg;
+} lap_ep_t;
+
+static inline float lap_ep_scalar(const lap_ep_t *e, int r, int j, float v)
+{
+    if (e->bias)
+        v += e->bias[j];
+    if (e->relu)
+        v = v > 0.0f ? v : 0.0f;
+    if (e->gate)
+        v = e->gate[(size_t)r * e->ldg + j] > 0.0f ? v : 0.0f;
+    return v;
+}
+
+/* C[mr x nr] = alpha * Ap Bp (+ beta C) on the first k block, += alpha * Ap Bp after it; the
+ * epilogue e (or NULL) on the last block. */
 static void lap_micro(int kc, const float *restrict Ap, const float *restrict Bp, float *C, int ldc,
-                      int mr, int nr, float alpha, float beta, int first)
+                      int mr, int nr, float alpha, float beta, int first, const lap_ep_t *e)
 {
     lap_vec c[LAP_MR][2];
     for (int r = 0; r < LAP_MR; r++)
@@ -108,6 +133,10 @@ static void lap_micro(int kc, const float *restrict Ap, const float *restrict Bp
     }
     const lap_vec va = lap_set1(alpha), vb = lap_set1(beta);
     if (mr == LAP_MR && nr == LAP_NR) {
+        lap_vec cs[2] = {lap_zero(), lap_zero()};
+        if (e && e->colsum)
+            for (int h = 0; h < 2; h++)
+                cs[h] = lap_loadu(e->colsum + LAP_VL * h);
         for (int r = 0; r < LAP_MR; r++) {
             float *cr = C + (size_t)r * ldc;
             for (int h = 0; h < 2; h++) {
@@ -116,9 +145,22 @@ static void lap_micro(int kc, const float *restrict Ap, const float *restrict Bp
                     v = lap_add(lap_loadu(cr + LAP_VL * h), v);
                 else if (beta != 0.0f)
                     v = lap_fma(vb, lap_loadu(cr + LAP_VL * h), v);
+                if (e) {
+                    if (e->bias)
+                        v = lap_add(v, lap_loadu(e->bias + LAP_VL * h));
+                    if (e->relu)
+                        v = lap_relu(v);
+                    if (e->gate)
+                        v = lap_gate(lap_loadu(e->gate + (size_t)r * e->ldg + LAP_VL * h), v);
+                    if (e->colsum)
+                        cs[h] = lap_add(cs[h], v);
+                }
                 lap_storeu(cr + LAP_VL * h, v);
             }
         }
+        if (e && e->colsum)
+            for (int h = 0; h < 2; h++)
+                lap_storeu(e->colsum + LAP_VL * h, cs[h]);
         return;
     }
     /* edge tile: through a stack copy of the accumulators */
@@ -131,20 +173,35 @@ static void lap_micro(int kc, const float *restrict Ap, const float *restrict Bp
         for (int j = 0; j < nr; j++) {
             float *cv = C + (size_t)r * ldc + j;
             const float v = alpha * t[r * LAP_NR + j];
-            *cv = !first ? *cv + v : (beta != 0.0f ? v + beta * *cv : v);
+            float o = !first ? *cv + v : (beta != 0.0f ? v + beta * *cv : v);
+            if (e) {
+                o = lap_ep_scalar(e, r, j, o);
+                if (e->colsum)
+                    e->colsum[j] += o;
+            }
+            *cv = o;
         }
 }
 
 void LAP_FN(la_trans_t ta, la_trans_t tb, int M, int N, int K, float alpha, const float *A,
-            int lda, const float *B, int ldb, float beta, float *C, int ldc)
+            int lda, const float *B, int ldb, float beta, float *C, int ldc,
+            const la_epilogue_t *ep)
 {
     if (M <= 0 || N <= 0)
         return;
     if (K <= 0 || alpha == 0.0f) {
+        const lap_ep_t e = {ep ? ep->bias : NULL, ep ? ep->gate : NULL, ep ? ep->colsum : NULL,
+                            ep ? ep->relu : 0, ep ? ep->ldg : 0};
         for (int i = 0; i < M; i++)
             for (int j = 0; j < N; j++) {
                 float *cv = C + (size_t)i * ldc + j;
-                *cv = beta == 0.0f ? 0.0f : beta * *cv;
+                float v = beta == 0.0f ? 0.0f : beta * *cv;
+                if (ep) {
+                    v = lap_ep_scalar(&e, i, j, v);
+                    if (e.colsum)
+                        e.colsum[j] += v;
+                }
+                *cv = v;
             }
         return;
     }
@@ -154,16 +211,24 @@ void LAP_FN(la_trans_t ta, la_trans_t tb, int M, int N, int K, float alpha, cons
         const int nc = N - j0 < LAP_NC ? N - j0 : LAP_NC;
         for (int p0 = 0; p0 < K; p0 += LAP_KC) {
             const int kc = K - p0 < LAP_KC ? K - p0 : LAP_KC;
+            const int last = p0 + kc >= K;
             lap_pack_b(tb, B, ldb, j0, nc, p0, kc, Bp);
             for (int i0 = 0; i0 < M; i0 += LAP_MC) {
                 const int mc = M - i0 < LAP_MC ? M - i0 : LAP_MC;
                 lap_pack_a(ta, A, lda, i0, mc, p0, kc, Ap);
                 for (int js = 0; js < nc; js += LAP_NR)
-                    for (int is = 0; is < mc; is += LAP_MR)
+                    for (int is = 0; is < mc; is += LAP_MR) {
+                        const int j = j0 + js, i = i0 + is;
+                        lap_ep_t e;
+                        if (ep && last)
+                            e = (lap_ep_t){ep->bias ? ep->bias + j : NULL,
+                                           ep->gate ? ep->gate + (size_t)i * ep->ldg + j : NULL,
+                                           ep->colsum ? ep->colsum + j : NULL, ep->relu, ep->ldg};
                         lap_micro(kc, Ap + (size_t)is * kc, Bp + (size_t)js * kc,
-                                  C + (size_t)(i0 + is) * ldc + j0 + js, ldc,
-                                  mc - is < LAP_MR ? mc - is : LAP_MR,
-                                  nc - js < LAP_NR ? nc - js : LAP_NR, alpha, beta, p0 == 0);
+                                  C + (size_t)i * ldc + j, ldc, mc - is < LAP_MR ? mc - is : LAP_MR,
+                                  nc - js < LAP_NR ? nc - js : LAP_NR, alpha, beta, p0 == 0,
+                                  ep && last ? &e : NULL);
+                    }
             }
         }
     }

@@ -23,5 +23,13 @@ static inline lap_vec lap_set1(float x) { return vdupq_n_f32(x); }
 static inline lap_vec lap_fma(lap_vec a, lap_vec b, lap_vec c) { return vfmaq_f32(c, a, b); }
 static inline lap_vec lap_mul(lap_vec a, lap_vec b) { return vmulq_f32(a, b); }
 static inline lap_vec lap_add(lap_vec a, lap_vec b) { return vaddq_f32(a, b); }
+static inline lap_vec lap_relu(lap_vec v) /* a select, not fmax: NaN must give 0 */
+{
+    return vbslq_f32(vcgtq_f32(v, vdupq_n_f32(0.0f)), v, vdupq_n_f32(0.0f));
+}
+static inline lap_vec lap_gate(lap_vec g, lap_vec v)
+{
+    return vreinterpretq_f32_u32(vandq_u32(vcgtq_f32(g, vdupq_n_f32(0.0f)), vreinterpretq_u32_f32(v)));
+}
 #include "ai/la_packed_impl.h"
 #endif

@@ -6,6 +6,8 @@
  * (M, N, K not multiples of the tile or the blocks, one row, one column, K = 1), in all four
  * transpose cases with padded strides; beta = 0 must not read C (it is poisoned with NaN).
  * The kernels of one build must agree bit for bit (same summation order), and none allocates.
+ * The epilogues (bias, ReLU, gate, column sums) must give the bits of a plain pass over the
+ * product, la_sgemm_ep the same on whatever back end it takes.
  * A kernel this build or this CPU cannot run is reported as skipped, with the reason. */
 #include <errno.h>
 #include <setjmp.h>
@@ -50,7 +52,7 @@ static double one_case(la_packed_fn fn, int ta, int tb, int M, int N, int K, flo
         for (int i = 0; i < M * ldc; i++)
             Ck[i] = NAN;
     alloc_count_reset();
-    fn(ta, tb, M, N, K, alpha, A, lda, B, ldb, beta, Ck, ldc);
+    fn(ta, tb, M, N, K, alpha, A, lda, B, ldb, beta, Ck, ldc, NULL);
     assert_int_equal(alloc_count_allocations(), 0);
     const double u = ldexp(1.0, -24);
     double worst = 0.0;
@@ -74,6 +76,55 @@ static double one_case(la_packed_fn fn, int ta, int tb, int M, int N, int K, flo
             worst = err / bound > worst ? err / bound : worst;
         }
     return worst;
+}
+
+/* The epilogue as the plain loop la.h defines, on a finished product. */
+static void epilogue_ref(int M, int N, float *C, int ldc, const la_epilogue_t *ep)
+{
+    for (int i = 0; i < M; i++)
+        for (int j = 0; j < N; j++) {
+            float v = C[i * ldc + j];
+            if (ep->bias)
+                v += ep->bias[j];
+            if (ep->relu)
+                v = v > 0.0f ? v : 0.0f;
+            if (ep->gate)
+                v = ep->gate[i * ep->ldg + j] > 0.0f ? v : 0.0f;
+            if (ep->colsum)
+                ep->colsum[j] += v;
+            C[i * ldc + j] = v;
+        }
+}
+
+static float bias_[MAXE / 100], gate_[MAXE], cs_ref[MAXE / 100], cs_k[MAXE / 100];
+static float Cplain[MAXE];
+
+/* fn with epilogue `kind` (0: bias + ReLU, 1: gate + column sums, 2: all four) against fn
+ * without it followed by the plain loop: bit for bit. */
+static void epilogue_case(la_packed_fn fn, int kind, int ta, int tb, int M, int N, int K,
+                          uint64_t s)
+{
+    const int lda = ta ? M : K, ldb = tb ? K : N, ldc = N + 1, ldg = N + 2;
+    assert_true((size_t)M * (size_t)ldg <= MAXE && (size_t)N <= MAXE / 100);
+    fill(A, (size_t)(ta ? K : M) * (size_t)lda, 5 * s);
+    fill(B, (size_t)(tb ? N : K) * (size_t)ldb, 5 * s + 1);
+    fill(bias_, (size_t)N, 5 * s + 2);
+    fill(gate_, (size_t)M * (size_t)ldg, 5 * s + 3);
+    fill(cs_ref, (size_t)N, 5 * s + 4);
+    memcpy(cs_k, cs_ref, sizeof(float) * (size_t)N);
+    la_epilogue_t ep = {kind != 1 ? bias_ : NULL, kind != 1, kind != 0 ? gate_ : NULL, ldg,
+                        NULL};
+    fn(ta, tb, M, N, K, 1.0f, A, lda, B, ldb, 0.0f, Cplain, ldc, NULL);
+    ep.colsum = kind != 0 ? cs_ref : NULL;
+    epilogue_ref(M, N, Cplain, ldc, &ep);
+    ep.colsum = kind != 0 ? cs_k : NULL;
+    alloc_count_reset();
+    fn(ta, tb, M, N, K, 1.0f, A, lda, B, ldb, 0.0f, Ck, ldc, &ep);
+    assert_int_equal(alloc_count_allocations(), 0);
+    for (int i = 0; i < M; i++)
+        assert_memory_equal(Ck + (size_t)i * ldc, Cplain + (size_t)i * ldc, sizeof(float) * (size_t)N);
+    if (kind != 0)
+        assert_memory_equal(cs_k, cs_ref, sizeof(float) * (size_t)N);
 }
 
 /* The case list: every kernel runs exactly these. */
@@ -127,6 +178,9 @@ static void run_kernel(int id)
             const uint64_t s = (uint64_t)(c * 4 + t);
             const double w = one_case(k->fn, t >> 1, t & 1, g.M, g.N, g.K, g.alpha, g.beta, s);
             worst = w > worst ? w : worst;
+            if (t == 0 || t == 3)
+                epilogue_case(k->fn, c % 3, t >> 1, t & 1, cases[c].M, cases[c].N, cases[c].K,
+                              (uint64_t)(c * 4 + t));
         }
     /* bit identity with the first kernel that ran, on a ragged case of several blocks */
     const gcase_t g = {290, 280, 296, 0.75f, 0.5f};
@@ -138,7 +192,8 @@ static void run_kernel(int id)
         identical = !memcmp(Cfirst, Ck, sizeof(float) * (size_t)g.M * (size_t)(g.N + 3));
         assert_true(identical);
     }
-    print_message("%s: %d cases x 4 transposes within the bound (worst %.2f of it)%s\n", k->name,
+    print_message("%s: %d cases x 4 transposes within the bound (worst %.2f of it), epilogues "
+                  "bit-exact%s\n", k->name,
                   n_cases, worst,
                   first_kernel == id ? "" : ", bit-identical to the first kernel");
 }
@@ -146,6 +201,28 @@ static void run_kernel(int id)
 static void test_avx512(void **state) { (void)state; run_kernel(LA_PACKED_AVX512); }
 static void test_avx2(void **state) { (void)state; run_kernel(LA_PACKED_AVX2); }
 static void test_neon(void **state) { (void)state; run_kernel(LA_PACKED_NEON); }
+
+static void sgemm_ep_dispatch(la_trans_t ta, la_trans_t tb, int M, int N, int K, float alpha,
+                              const float *A_, int lda, const float *B_, int ldb, float beta,
+                              float *C, int ldc, const la_epilogue_t *ep)
+{
+    la_sgemm_ep(ta, tb, M, N, K, alpha, A_, lda, B_, ldb, beta, C, ldc, ep);
+}
+
+/* la_sgemm_ep's epilogue on the back end without a packed kernel (a pass after Eigen or the
+ * reference), thin and wide shapes: the same contract. */
+static void test_epilogue_fallback(void **state)
+{
+    (void)state;
+    make_cases();
+    for (int pass = 0; pass < 2; pass++) {
+        assert_int_equal(la_packed_force(pass == 0 ? -1 : -2), 0);
+        for (int c = 0; c < 24; c++)
+            epilogue_case(sgemm_ep_dispatch, c % 3, c & 1, (c >> 1) & 1, cases[c].M, cases[c].N,
+                          cases[c].K, (uint64_t)(500 + c));
+    }
+    print_message("la_sgemm_ep: epilogues bit-exact on %s and %s\n", "the fallback", la_kernel_name());
+}
 
 /* la_sgemm takes the fastest kernel the CPU runs, and la_packed_force refuses what it lacks. */
 static void test_choice(void **state)
@@ -176,6 +253,7 @@ int main(void)
         cmocka_unit_test(test_avx2),
         cmocka_unit_test(test_neon),
         cmocka_unit_test(test_choice),
+        cmocka_unit_test(test_epilogue_fallback),
     };
     return cmocka_run_group_tests_name("ai/la_packed", tests, NULL, NULL);
 }

@@ -151,8 +151,16 @@ static int bench_shapes(int reps)
     return 0;
 }
 
-/* Every la_sgemm call of the program passes through here (linked with --wrap=la_sgemm), so
- * the GEMM time inside a training step is measured in the step itself. */
+/* Every la_sgemm and la_sgemm_ep call of the program passes through here (linked with
+ * --wrap), so the GEMM time inside a training step is measured in the step itself. A fused
+ * epilogue (bias, ReLU, gate, column sums on the tiles) counts as GEMM time: it is what the
+ * products cost now. */
+void __real_la_sgemm_ep(la_trans_t ta, la_trans_t tb, int M, int N, int K, float alpha,
+                        const float *A, int lda, const float *B, int ldb, float beta, float *C,
+                        int ldc, const la_epilogue_t *ep);
+void __wrap_la_sgemm_ep(la_trans_t ta, la_trans_t tb, int M, int N, int K, float alpha,
+                        const float *A, int lda, const float *B, int ldb, float beta, float *C,
+                        int ldc, const la_epilogue_t *ep);
 void __real_la_sgemm(la_trans_t ta, la_trans_t tb, int M, int N, int K, float alpha,
                      const float *A, int lda, const float *B, int ldb, float beta, float *C,
                      int ldc);
@@ -167,6 +175,15 @@ void __wrap_la_sgemm(la_trans_t ta, la_trans_t tb, int M, int N, int K, float al
 {
     const double t0 = now_s();
     __real_la_sgemm(ta, tb, M, N, K, alpha, A, lda, B, ldb, beta, C, ldc);
+    gemm_seconds += now_s() - t0;
+}
+
+void __wrap_la_sgemm_ep(la_trans_t ta, la_trans_t tb, int M, int N, int K, float alpha,
+                        const float *A, int lda, const float *B, int ldb, float beta, float *C,
+                        int ldc, const la_epilogue_t *ep)
+{
+    const double t0 = now_s();
+    __real_la_sgemm_ep(ta, tb, M, N, K, alpha, A, lda, B, ldb, beta, C, ldc, ep);
     gemm_seconds += now_s() - t0;
 }
 
