@@ -273,11 +273,13 @@ double bnn_kl_loss(const bnn_model_t *m)
 /* sigma = softplus(rho), w = mu + sigma * eps over the Bayesian block, in ONE pass: the
  * Gaussians are drawn a tile at a time (Philox is counter-based, so drawing numbers
  * [j0, j0 + tile) separately gives exactly the numbers of one fill of the whole block) and
- * each tile is consumed while it is still in L1. */
+ * each tile is consumed while it is still in L1. sigma_ready: the sigma buffer already holds
+ * softplus(rho) of the current rho (the 2nd..Kth pass of an MC inference), only w is drawn. */
 #define SAMPLE_TILE 2048u
 /* partial sums of the output layer's dot products (one 512-bit vector, or two 256-bit ones) */
 #define OUT_LANES 16u
-AI_WIDE static void sample_weights(bnn_model_t *m, const layout_t *y, uint64_t noise_key)
+AI_WIDE static void sample_weights(bnn_model_t *m, const layout_t *y, uint64_t noise_key,
+                                   int sigma_ready)
 {
     float *restrict eps = m->arena + y->eps;
     float *restrict sig = m->arena + y->sigma;
@@ -289,6 +291,11 @@ AI_WIDE static void sample_weights(bnn_model_t *m, const layout_t *y, uint64_t n
     for (size_t j0 = 0; j0 < R; j0 += SAMPLE_TILE) {
         const size_t j1 = R - j0 < SAMPLE_TILE ? R : j0 + SAMPLE_TILE;
         ai_rng_normal_fill(key, noise_key, j0, eps + j0, j1 - j0);
+        if (sigma_ready) {
+            for (size_t j = j0; j < j1; j++)
+                w[j] = mu[j] + sig[j] * eps[j];
+            continue;
+        }
         for (size_t j = j0; j < j1; j++) {
             float r = rho[j];
             float e = ai_fm_expf(-fabsf(r));
@@ -488,9 +495,10 @@ AI_WIDE static double bayes_tensor_grad(bnn_model_t *m, const layout_t *y, size_
             const size_t k = j + q;
             const float r = rho[k], s = sig[k], u = mu[k];
             const float e = ai_fm_expf(-fabsf(r));
-            const float sg = ai_fm_sel(r >= 0.0f, 1.0f, e) / (1.0f + e);
+            const float iv = 1.0f / ((1.0f + e) * s); /* one division for 1/s and sigmoid */
+            const float sg = ai_fm_sel(r >= 0.0f, 1.0f, e) * (iv * s);
             const float gw = gmu[k];
-            grho[k] = (gw * eps[k] + c * (s * ip2 - 1.0f / s)) * sg;
+            grho[k] = (gw * eps[k] + c * (s * ip2 - iv * (1.0f + e))) * sg;
             gmu[k] = gw + c * u * ip2;
             acc[q] += logp - ai_fm_logf(s) + 0.5f * (s * s + u * u) * ip2 - 0.5f;
         }
@@ -499,9 +507,10 @@ AI_WIDE static double bayes_tensor_grad(bnn_model_t *m, const layout_t *y, size_
     for (; j < cnt; j++) {
         const float r = rho[j], s = sig[j], u = mu[j];
         const float e = ai_fm_expf(-fabsf(r));
-        const float sg = ai_fm_sel(r >= 0.0f, 1.0f, e) / (1.0f + e);
+        const float iv = 1.0f / ((1.0f + e) * s);
+        const float sg = ai_fm_sel(r >= 0.0f, 1.0f, e) * (iv * s);
         const float gw = gmu[j];
-        grho[j] = (gw * eps[j] + c * (s * ip2 - 1.0f / s)) * sg;
+        grho[j] = (gw * eps[j] + c * (s * ip2 - iv * (1.0f + e))) * sg;
         gmu[j] = gw + c * u * ip2;
         kl += logp - ai_fm_logf(s) + 0.5f * (s * s + u * u) * ip2 - 0.5f;
     }
@@ -525,7 +534,7 @@ int bnn_loss_grad(bnn_model_t *m, const ai_sample_t *batch, size_t n, float kl_w
         xy[2 * i] = batch[i].x;
         xy[2 * i + 1] = batch[i].y;
     }
-    sample_weights(m, &y, noise_key);
+    sample_weights(m, &y, noise_key, 0);
     forward(m, &y, a + y.wsamp, n);
     const float *logit = a + y.logit;
     float *dl = a + y.dlogit;
@@ -635,7 +644,7 @@ int bnn_forward_logits(bnn_model_t *m, const float *xy, size_t n, int use_mean, 
     make_layout(&m->cfg, &y);
     memcpy(m->arena + y.xy, xy, 2 * n * sizeof(float));
     if (!use_mean)
-        sample_weights(m, &y, noise_key);
+        sample_weights(m, &y, noise_key, 0);
     forward(m, &y, use_mean ? m->arena + y.bay : m->arena + y.wsamp, n);
     memcpy(logits, m->arena + y.logit, n * sizeof(float));
     return 0;
@@ -656,7 +665,7 @@ int bnn_predict_mc(bnn_model_t *m, const float *xy, size_t n, uint32_t K,
             std[i] = 0.0f; /* holds Welford's M2 until the end */
     const size_t B = m->cfg.max_batch;
     for (uint32_t k = 0; k < K; k++) {
-        sample_weights(m, &y, mc_key(seed, k));
+        sample_weights(m, &y, mc_key(seed, k), k > 0);
         const float inv = 1.0f / (float)(k + 1);
         for (size_t c0 = 0; c0 < n; c0 += B) {
             const size_t nc = n - c0 < B ? n - c0 : B;
@@ -708,7 +717,7 @@ int bnn_eval_bce(bnn_model_t *m, const ai_sample_t *samples, size_t n, uint32_t 
         for (size_t i = 0; i < nc; i++)
             pm[i] = 0.0f;
         for (uint32_t k = 0; k < K; k++) {
-            sample_weights(m, &y, mc_key(seed, k));
+            sample_weights(m, &y, mc_key(seed, k), k > 0 || c0 > 0);
             forward(m, &y, a + y.wsamp, nc);
             for (size_t i = 0; i < nc; i++)
                 pm[i] += (float)(1.0 / (1.0 + exp(-(double)a[y.logit + i])));
