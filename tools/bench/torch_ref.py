@@ -4,8 +4,8 @@
 Optional, never run in CI: it needs torch, which is not a project dependency (install it in a
 venv outside the repository: `python3 -m venv /tmp/torchvenv && /tmp/torchvenv/bin/pip install
 torch`; the PyPI wheel pulls its CUDA packages, ~3 GB, only to import; the CPU path alone is
-timed). tests/tools/test_torch_ref.py checks only its command line and the parsing of
-bench_bnn's output, without torch.
+timed). tests/tools/test_torch_ref.py checks its command line, the parsing of bench_bnn's
+output and the lines it prints, with stand-ins for torch and bench_bnn; it times nothing.
 
 What it times, in PyTorch on the CPU (`torch.set_num_threads(--threads)`, interop 1):
 
