@@ -7,7 +7,7 @@
  *   (NaN in C does not propagate). M, N, K >= 0; K == 0 gives C = beta * C.
  *
  * Back ends: la_ref_* (pure C11, cache-blocked, always built) and, with LA_BACKEND=eigen, the
- * packed kernels of la_packed.h (AVX-512 12x32, AVX2+FMA 6x16, NEON 12x8: the one the running
+ * packed kernels of la_packed.h (AVX-512 12x32, AVX2+FMA 6x16, NEON 8x8: the one the running
  * CPU executes fastest, chosen at run time, takes the products with M >= 2 tile rows, N >= one
  * tile of columns, K >= 16) and la_eigen_* (la_eigen.cpp, extern "C": Eigen 3.4 for the thin
  * products, and for all of them where no packed kernel runs).
@@ -66,7 +66,7 @@ const char *la_backend_name(void);
 
 /* Name of the kernel the large products of la_sgemm take in this build on this CPU, so that
  * figures can be compared across machines: "avx512-12x32+eigen", "avx2-fma-6x16+eigen",
- * "neon-12x8+eigen" (a packed kernel, Eigen for thin shapes), "eigen-avx512", "eigen-avx2", "eigen-avx", "eigen-sse", "eigen-neon",
+ * "neon-8x8+eigen" (a packed kernel, Eigen for thin shapes), "eigen-avx512", "eigen-avx2", "eigen-avx", "eigen-sse", "eigen-neon",
  * "eigen-scalar", or "ref-c" (pure C). Follows la_force_ref. */
 const char *la_kernel_name(void);
 const char *la_eigen_kernel_name(void);

@@ -26,9 +26,9 @@ const la_packed_kernel_t la_packed_kernels[LA_PACKED_N] = {
     [LA_PACKED_AVX2] = {"avx2-fma-6x16", "avx2-fma-6x16+eigen", NULL, 6, 16, "avx2+fma"},
 #endif
 #if defined(LA_PACKED_ARM)
-    [LA_PACKED_NEON] = {"neon-12x8", "neon-12x8+eigen", la_packed_sgemm_neon, 12, 8, "neon"},
+    [LA_PACKED_NEON] = {"neon-8x8", "neon-8x8+eigen", la_packed_sgemm_neon, 8, 8, "neon"},
 #else
-    [LA_PACKED_NEON] = {"neon-12x8", "neon-12x8+eigen", NULL, 12, 8, "neon"},
+    [LA_PACKED_NEON] = {"neon-8x8", "neon-8x8+eigen", NULL, 8, 8, "neon"},
 #endif
 };
 

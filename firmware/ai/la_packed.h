@@ -17,7 +17,7 @@ typedef void (*la_packed_fn)(la_trans_t ta, la_trans_t tb, int M, int N, int K, 
                              float *C, int ldc, const la_epilogue_t *ep);
 
 typedef struct la_packed_kernel {
-    const char *name;  /* "avx512-12x32", "avx2-fma-6x16", "neon-12x8" */
+    const char *name;  /* "avx512-12x32", "avx2-fma-6x16", "neon-8x8" */
     const char *with_eigen; /* the same + "+eigen": what la_kernel_name() reports */
     la_packed_fn fn;   /* NULL when this build has no code for the instruction set */
     int mr, nr;        /* register tile; la_sgemm packs a product when M >= 2 mr, N >= nr */

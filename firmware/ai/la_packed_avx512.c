@@ -12,8 +12,15 @@ LA_ISA_BEGIN("avx512f,avx2,fma")
 typedef __m512 lap_vec;
 #define LAP_VL 16
 #define LAP_MR 12
-#define LAP_KC 256
-#define LAP_MC 96
+/* blocking: -D overrides for measurements only */
+#ifndef LA_AVX512_KC
+#define LA_AVX512_KC 256
+#endif
+#ifndef LA_AVX512_MC
+#define LA_AVX512_MC 96
+#endif
+#define LAP_KC LA_AVX512_KC
+#define LAP_MC LA_AVX512_MC
 #define LAP_NC 256
 #define LAP_FN la_packed_sgemm_avx512
 static inline lap_vec lap_zero(void) { return _mm512_setzero_ps(); }

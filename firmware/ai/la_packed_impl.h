@@ -97,6 +97,9 @@ static void lap_pack_b(la_trans_t tb, const float *B, int ldb, int j0, int nc, i
     }
 }
 
+/* The row loops below are unrolled explicitly: GCC does not do it at -O2 (the cross builds),
+ * and then keeps the accumulators in memory. */
+
 /* Epilogue pointers of one tile: already offset to the tile's first row and column. */
 typedef struct lap_ep {
     const float *bias, *gate;
@@ -121,10 +124,12 @@ static void lap_micro(int kc, const float *restrict Ap, const float *restrict Bp
                       int mr, int nr, float alpha, float beta, int first, const lap_ep_t *e)
 {
     lap_vec c[LAP_MR][2];
+#pragma GCC unroll 16
     for (int r = 0; r < LAP_MR; r++)
         c[r][0] = c[r][1] = lap_zero();
     for (int k = 0; k < kc; k++) {
         const lap_vec b0 = lap_load(Bp + k * LAP_NR), b1 = lap_load(Bp + k * LAP_NR + LAP_VL);
+#pragma GCC unroll 16
         for (int r = 0; r < LAP_MR; r++) {
             const lap_vec a = lap_bcast(Ap + k * LAP_MR + r);
             c[r][0] = lap_fma(a, b0, c[r][0]);
@@ -137,8 +142,10 @@ static void lap_micro(int kc, const float *restrict Ap, const float *restrict Bp
         if (e && e->colsum)
             for (int h = 0; h < 2; h++)
                 cs[h] = lap_loadu(e->colsum + LAP_VL * h);
+#pragma GCC unroll 16
         for (int r = 0; r < LAP_MR; r++) {
             float *cr = C + (size_t)r * ldc;
+#pragma GCC unroll 2
             for (int h = 0; h < 2; h++) {
                 lap_vec v = lap_mul(va, c[r][h]);
                 if (!first)
@@ -165,6 +172,7 @@ static void lap_micro(int kc, const float *restrict Ap, const float *restrict Bp
     }
     /* edge tile: through a stack copy of the accumulators */
     _Alignas(64) float t[LAP_MR * LAP_NR];
+#pragma GCC unroll 16
     for (int r = 0; r < LAP_MR; r++) {
         lap_store(&t[r * LAP_NR], c[r][0]);
         lap_store(&t[r * LAP_NR + LAP_VL], c[r][1]);

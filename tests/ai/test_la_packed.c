@@ -137,7 +137,7 @@ static void make_cases(void)
 {
     if (n_cases)
         return;
-    /* edges of every tile (12x32, 6x16, 12x8) and block (KC = 256, MC = 96, NC = 256) */
+    /* edges of every tile (12x32, 6x16, 8x8) and block (KC = 256, MC = 96, NC = 256) */
     static const gcase_t fixed[] = {
         {1, 1, 1, 1.0f, 0.0f},      {1, 300, 257, 1.0f, 0.0f}, {300, 1, 257, 1.0f, 1.0f},
         {24, 32, 16, 1.0f, 0.0f},   {25, 33, 17, -0.5f, 0.25f}, {11, 31, 300, 1.0f, 1.0f},
