@@ -7,7 +7,8 @@
 #   make test         install missing packages (as root), build and run every cmocka test
 #   make test-asan    the tests under AddressSanitizer + UndefinedBehaviorSanitizer
 #   make test-tsan    the threaded tests under ThreadSanitizer
-#   make bench        benchmarks; one `BENCH <name> <value> <unit>` line per figure
+#   make bench        benchmarks; one `BENCH <name> <value> <unit>` line per figure (with
+#                     TORCH_PYTHON=<python with torch>, PyTorch's step and MC-50 beside ours)
 #   make experiments  the paper's experiments and the KL question (hours, resumable):
 #                     results/paper/REPORT.md; QUICK=1 the reduced form in minutes
 #   make check-portable  the math compiled for x86-64-v2/v3/v4 and aarch64, all built with clang
@@ -163,7 +164,10 @@ endif
 # The firmware lets the compiler fuse a * b + c into one FMA where the CPU has it (ISO C mode
 # turns that off by default): the element-wise passes of the trainer are polynomial chains,
 # and an FMA is one rounding instead of two. Results stay deterministic per build and CPU.
+# The packed GEMM kernels spell out every FMA (their kernels must agree bit for bit whatever the
+# vector width), so the compiler may fuse nothing there.
 FW_FP := -ffp-contract=fast
+$(O)/obj/firmware/ai/la_packed_%.c.o: FW_FP := -ffp-contract=off
 $(O)/obj/firmware/%.c.o: firmware/%.c
 	@mkdir -p $(@D)
 	$(call say,CC,$<)$(CC) $(CFLAGS) $(FW_FP) $(FW_INC) -c $< -o $@
@@ -278,11 +282,17 @@ bench:
 	done
 
 BENCH_ONLY ?= all
+# The PyTorch comparison runs when this Python imports torch (not a dependency of the project).
+TORCH_PYTHON ?= python3
 bench-one: all
 	@for b in $(BENCH_BIN); do \
 	    case "$$(basename $$b)" in bench_bnn*) ;; *) [ "$(BENCH_ONLY)" = all ] || continue ;; esac; \
 	    echo "# $$b (preset $(PRESET))"; $$b || exit 1; \
 	done
+	@if $(TORCH_PYTHON) -c 'import torch' 2>/dev/null; then \
+	    echo "# tools/bench/torch_ref.py (preset $(PRESET): PyTorch's step and MC-50 beside ours, same run)"; \
+	    $(TORCH_PYTHON) tools/bench/torch_ref.py --preset $(PRESET) --bench-bnn $(BIN)/bench_bnn --rounds 2 || exit 1; \
+	else echo "# tools/bench/torch_ref.py skipped: $(TORCH_PYTHON) has no torch (TORCH_PYTHON=<python with torch>)"; fi
 	@echo "# tools/bench/bench_fleet.py (preset $(PRESET): real processes over LCM udpm)"
 	@tools/bench/bench_fleet.py --bin $(BIN)/host_sim --preset $(PRESET) $(if $(filter all,$(BENCH_ONLY)),--scaling)
 

@@ -1,6 +1,8 @@
 /* Per-row symmetric int8 quantisation and an int8 x int8 -> int32 inference path. */
 #include "ai/bnn_quant.h"
 
+#include "ai/q8_gemm.h"
+
 #include <errno.h>
 #include <math.h>
 #include <string.h>
@@ -149,6 +151,15 @@ int bnn_quant_unpack_theta(const bnn_config_t *cfg, bnn_group_t g, const uint8_t
     return 0;
 }
 
+/* ---- int8 inference ----------------------------------------------------------------------
+ * Chunks of up to BNN_QUANT_CHUNK points go through each layer together: the SIREN layer per
+ * point (fp32, then the point's activations are quantised into column p of A), then per layer
+ * one int8 GEMM C = A x W^T (ai/q8_gemm.h: the kernel chosen at run time, or the pure-C
+ * reference), then the scaling, bias and ReLU per element and the next layer's per-point
+ * quantisation back into A. Every float operation is the one the per-point path did, on the
+ * same operands and in the same order (the int32 sums are exact whatever the kernel), so the
+ * logits are bit-identical to it and across kernels. */
+
 /* Where each tensor of the packed stream starts (scales pointer) for the inference path. */
 typedef struct qtensor {
     const uint8_t *scales;
@@ -156,23 +167,141 @@ typedef struct qtensor {
     size_t rows, cols;
 } qtensor_t;
 
-/* y[j] = bias[j] + scale_a * scale_w[j] * sum_k qa[k] qw[j,k], the int8 layer. */
-static void int8_layer(const qtensor_t *W, const qtensor_t *b, const float *a, size_t in, float *y)
+#define QW_ BNN_QUANT_WMAX_          /* widest layer */
+#define QQ_ ((QW_ + 3u) / 4u)        /* its quads of inputs */
+#define QCH_ BNN_QUANT_CHUNK_PADDED  /* points per chunk, padded to the kernels' granularity */
+#if defined(Q8_X86)
+#define QWSUM_ ((BNN_LAYERS_MAX + 1u) * QW_) /* the VNNI kernels' row sums, every layer */
+#else
+#define QWSUM_ 1u                            /* no kernel of this build reads them */
+#endif
+_Static_assert(QCH_ == Q8_PAD_POINTS(BNN_QUANT_CHUNK), "bnn_quant.h and q8_gemm.h disagree");
+_Static_assert(BNN_QUANT_CHUNK >= 1u, "BNN_QUANT_CHUNK must be >= 1");
+/* the arrays of bnn_quant_forward_mean (A, C, wsum, a, sa, sa_next), relu_requant (amax, inv,
+ * bq, bt) and quantise_point (m, q), and 1 KB for the rest */
+_Static_assert(QQ_ * 4u * QCH_ + 4u * (QW_ * QCH_ + 4u * QCH_ + QWSUM_ + 3u * QW_) + QQ_ * 4u +
+                       64u + 1024u <=
+                   BNN_QUANT_STACK_BYTES,
+               "BNN_QUANT_STACK_BYTES understates the stack of bnn_quant_forward_mean");
+
+/* (int8_t)roundf(v), without the libm call so that the loops vectorise. i = trunc(v) (the
+ * conversion) and d = v - i is exact (Sterbenz), so rounding half away from zero is
+ * i + (d >= 0.5) - (d <= -0.5): the same value as roundf for every float |v| < 2^31 (checked
+ * once over all 2.65e9 of them; tests/ai/test_q8.c checks every float of 0.25 <= |v| < 128;
+ * the quantiser's arguments are within +-127.0001). Non-finite v: undefined, as roundf's
+ * conversion to int8_t was. */
+static inline int8_t round_q8(float v)
 {
-    int8_t qa[BNN_SIREN_MAX > BNN_HIDDEN_MAX ? BNN_SIREN_MAX : BNN_HIDDEN_MAX];
-    float amax = 0.0f;
-    for (size_t k = 0; k < in; k++)
+    const int32_t i = (int32_t)v;
+    const float d = v - (float)i;
+    return (int8_t)(i + (d >= 0.5f) - (d <= -0.5f));
+}
+
+/* Quantise one point's activations a[0..in) into column p of A (symmetric, per point: scale
+ * max |a| / 127); returns the scale. The maximum is taken over 16 running maxima so that it
+ * vectorises: the same value, as max is exact and `x > m ? x : m` skips a NaN in any order. */
+static float quantise_point(const float *a, size_t in, int8_t *A, size_t p)
+{
+    float m[16] = {0.0f}, amax = 0.0f;
+    size_t k = 0;
+    for (; k + 16 <= in; k += 16)
+        for (size_t l = 0; l < 16; l++)
+            m[l] = fabsf(a[k + l]) > m[l] ? fabsf(a[k + l]) : m[l];
+    for (; k < in; k++)
         amax = fabsf(a[k]) > amax ? fabsf(a[k]) : amax;
+    for (size_t l = 0; l < 16; l++)
+        amax = m[l] > amax ? m[l] : amax;
     const float sa = amax / 127.0f, inv = sa > 0.0f ? 1.0f / sa : 0.0f;
-    for (size_t k = 0; k < in; k++)
-        qa[k] = (int8_t)roundf(a[k] * inv);
+    int8_t q[QQ_ * 4u];
+    for (k = 0; k < in; k++)
+        q[k] = round_q8(a[k] * inv);
+    for (k = 0; k + 4 <= in; k += 4) /* quad by quad into the column */
+        memcpy(A + k * QCH_ + 4 * p, q + k, 4);
+    if (k < in) /* the last, partial quad */
+        memcpy(A + k * QCH_ + 4 * p, q + k, in - k);
+    return sa;
+}
+
+/* y = scale_a * scale_w * acc + scale_b * bq, the output of a layer before the ReLU, contracted
+ * exactly as the per-point path was. The firmware is built with -ffp-contract=fast (Makefile,
+ * FW_FP), so where the CPU has FMA the compilers fused one of the two products into the sum of
+ * that one statement: GCC the first, fma(sa * sw, acc, sb * bq), clang the bias,
+ * fma(sb, bq, (sa * sw) * acc); without FMA (x86-64-v2, contraction off) neither. In the chunk
+ * loops the compilers would be free to choose otherwise (the bias product is loop-invariant
+ * there, and vectorised or unrolled across rows GCC has fused it), so the choice is made here:
+ * t = (sa * sw) * acc is written out by the caller, the bias term bt = sb * bq comes from an
+ * array (GCC: only t can be fused into t + bt, as before), or clang's fma is written out. */
+#if defined(__clang__) && (defined(__FMA__) || defined(__ARM_FEATURE_FMA))
+#define Q8_FUSE_BIAS 1
+#else
+#define Q8_FUSE_BIAS 0
+#endif
+static inline float affine(float t, float sb, float bq, float bt)
+{
+#if Q8_FUSE_BIAS
+    (void)bt;
+    return fmaf(sb, bq, t);
+#else
+    (void)sb;
+    (void)bq;
+    return t + bt;
+#endif
+}
+
+/* The hidden layer's outputs y(p, j) = sa[p] * scale_w[j] * C[j, p] + b_j, ReLU, quantised per
+ * point into A as the next layer's input: sa_next[p] = max_j relu(y) / 127. The floats are not
+ * kept: the second pass computes them again, the same operations on the same operands. */
+static void relu_requant(const qtensor_t *W, const qtensor_t *b, const int32_t *C, size_t out,
+                         size_t np, const float *sa, float *sa_next, int8_t *A)
+{
+    float amax[QCH_], inv[QCH_], bq[QW_], bt[QW_];
     const float sb = getf(b->scales);
-    for (size_t j = 0; j < W->rows; j++) {
-        const int8_t *w = W->q + j * in;
-        int32_t acc = 0;
-        for (size_t k = 0; k < in; k++)
-            acc += (int32_t)w[k] * (int32_t)qa[k];
-        y[j] = sa * getf(W->scales + 4 * j) * (float)acc + sb * (float)b->q[j];
+    for (size_t j = 0; j < out; j++) {
+        bq[j] = (float)b->q[j];
+        bt[j] = sb * bq[j];
+    }
+    for (size_t p = 0; p < np; p++)
+        amax[p] = 0.0f;
+    for (size_t j = 0; j < out; j++) {
+        const float sw = getf(W->scales + 4 * j), bqj = bq[j], btj = bt[j];
+        const int32_t *c = C + j * QCH_;
+        for (size_t p = 0; p < np; p++) {
+            float y = affine(sa[p] * sw * (float)c[p], sb, bqj, btj);
+            y = y > 0.0f ? y : 0.0f;
+            amax[p] = fabsf(y) > amax[p] ? fabsf(y) : amax[p];
+        }
+    }
+    for (size_t p = 0; p < np; p++) {
+        sa_next[p] = amax[p] / 127.0f;
+        inv[p] = sa_next[p] > 0.0f ? 1.0f / sa_next[p] : 0.0f;
+    }
+    for (size_t j0 = 0; j0 < out; j0 += 4) {
+        int8_t *dst = A + j0 * QCH_;
+        if (j0 + 4 <= out) {
+            float sw[4];
+            const int32_t *c[4];
+            for (size_t r = 0; r < 4; r++) {
+                sw[r] = getf(W->scales + 4 * (j0 + r));
+                c[r] = C + (j0 + r) * QCH_;
+            }
+            for (size_t p = 0; p < np; p++) {
+                for (size_t r = 0; r < 4; r++) {
+                    float y = affine(sa[p] * sw[r] * (float)c[r][p], sb, bq[j0 + r], bt[j0 + r]);
+                    y = y > 0.0f ? y : 0.0f;
+                    dst[4 * p + r] = round_q8(y * inv[p]);
+                }
+            }
+        } else {
+            for (size_t j = j0; j < out; j++) {
+                const float sw = getf(W->scales + 4 * j), bqj = bq[j], btj = bt[j];
+                const int32_t *c = C + j * QCH_;
+                for (size_t p = 0; p < np; p++) {
+                    float y = affine(sa[p] * sw * (float)c[p], sb, bqj, btj);
+                    y = y > 0.0f ? y : 0.0f;
+                    dst[4 * p + (j - j0)] = round_q8(y * inv[p]);
+                }
+            }
+        }
     }
 }
 
@@ -214,29 +343,55 @@ int bnn_quant_forward_mean(const bnn_config_t *cfg, bnn_group_t g, const uint8_t
         }
         p += 4 * R + R * C;
     }
-    float a[BNN_SIREN_MAX > BNN_HIDDEN_MAX ? BNN_SIREN_MAX : BNN_HIDDEN_MAX];
-    float b[BNN_SIREN_MAX > BNN_HIDDEN_MAX ? BNN_SIREN_MAX : BNN_HIDDEN_MAX];
+    const q8_kernel_t *K = q8_active();
+    int32_t wsum[QWSUM_];
+    if (K->needs_wsum && QWSUM_ > 1u)
+        for (size_t l = 0; l <= L; l++)
+            q8_row_sums(Q[2 + 2 * l].q, l < L ? H : 1, l == 0 ? S : H, wsum + l * QW_);
+    int8_t A[QQ_ * 4u * QCH_]; /* the chunk's activations, A(p, k) = A[k/4 * 4 QCH_ + 4p + k%4] */
+    int32_t C[QW_ * QCH_];     /* a layer's int32 sums, C[j * QCH_ + p] */
+    float a[QW_], sa[QCH_], sa_next[QCH_];
+    const float w0 = cfg->w0;
+    /* Every byte a kernel may read is initialised (padding points, the last quad's tail). */
+    memset(A, 0, sizeof A);
     const float sb0 = getf(Q[1].scales);
-    for (size_t i = 0; i < n; i++) {
-        const float x = xy[2 * i], y = xy[2 * i + 1];
-        if (!isfinite(x) || !isfinite(y))
+    /* the output layer's bias: sb * bq, apart (see affine) */
+    const float sbo = getf(Q[3 + 2 * L].scales), bqo = (float)Q[3 + 2 * L].q[0], bto = sbo * bqo;
+    for (size_t i0 = 0; i0 < n;) {
+        const size_t want = n - i0 < BNN_QUANT_CHUNK ? n - i0 : BNN_QUANT_CHUNK;
+        size_t np = 0; /* the chunk stops before a non-finite point */
+        while (np < want && isfinite(xy[2 * (i0 + np)]) && isfinite(xy[2 * (i0 + np) + 1]))
+            np++;
+        if (np == 0)
             return -EINVAL;
-        for (size_t j = 0; j < S; j++) {
-            const float s = getf(Q[0].scales + 4 * j);
-            const float z = s * (float)Q[0].q[2 * j] * x + s * (float)Q[0].q[2 * j + 1] * y +
-                            sb0 * (float)Q[1].q[j];
-            a[j] = sinf(cfg->w0 * z);
+        for (size_t i = 0; i < np; i++) {
+            const float x = xy[2 * (i0 + i)], y = xy[2 * (i0 + i) + 1];
+            /* the statement of the per-point path, in a loop of its own so that it vectorises
+             * (the same operations: the compilers contract it the same way, as tested) */
+            for (size_t j = 0; j < S; j++) {
+                const float s = getf(Q[0].scales + 4 * j);
+                a[j] = s * (float)Q[0].q[2 * j] * x + s * (float)Q[0].q[2 * j + 1] * y +
+                       sb0 * (float)Q[1].q[j];
+            }
+            for (size_t j = 0; j < S; j++)
+                a[j] = sinf(w0 * a[j]);
+            sa[i] = quantise_point(a, S, A, i);
         }
         size_t in = S;
         for (size_t l = 0; l < L; l++) {
-            int8_layer(&Q[2 + 2 * l], &Q[3 + 2 * l], a, in, b);
-            for (size_t j = 0; j < H; j++)
-                a[j] = b[j] > 0.0f ? b[j] : 0.0f;
+            K->fn(np, H, in, A, QCH_, Q[2 + 2 * l].q, K->needs_wsum ? wsum + l * QW_ : NULL, C,
+                  QCH_);
+            relu_requant(&Q[2 + 2 * l], &Q[3 + 2 * l], C, H, np, sa, sa_next, A);
+            memcpy(sa, sa_next, np * sizeof sa[0]);
             in = H;
         }
-        float out;
-        int8_layer(&Q[2 + 2 * L], &Q[3 + 2 * L], a, H, &out);
-        logits[i] = out;
+        K->fn(np, 1, H, A, QCH_, Q[2 + 2 * L].q, K->needs_wsum ? wsum + L * QW_ : NULL, C, QCH_);
+        const float sw = getf(Q[2 + 2 * L].scales);
+        for (size_t i = 0; i < np; i++)
+            logits[i0 + i] = affine(sa[i] * sw * (float)C[i], sbo, bqo, bto);
+        i0 += np;
+        if (np < want)
+            return -EINVAL; /* xy[i0] is not finite; the logits before it are written */
     }
     return 0;
 }

@@ -7,7 +7,10 @@
  * it); op(A) packed per MC rows; an MR x NR register tile per micro-kernel call (two vectors
  * wide). beta is applied in the first k block, so C is never zeroed first and beta == 0 never
  * reads C. Each output element gets one FMA per k, k ascending within a block and blocks in
- * order: the result depends on the shape only, not on the vector width.
+ * order, and the same explicit FMAs when a block is scaled into C (full tiles in vectors, edge
+ * tiles in scalars: fmaf, which the kernel's instruction set makes one instruction), so the
+ * result depends on the shape only, not on the vector width, nor on what the compiler
+ * contracts.
  *
  * The including file defines:
  *   LAP_FN        the function's name
@@ -23,6 +26,7 @@
  * (the js loop is outside the is loop and the MC blocks ascend, so each column's sum runs over
  * the rows in order: the same bits as a plain loop after the product).
  */
+#include <math.h>
 #include <stddef.h>
 
 #include "ai/la.h"
@@ -147,11 +151,13 @@ static void lap_micro(int kc, const float *restrict Ap, const float *restrict Bp
             float *cr = C + (size_t)r * ldc;
 #pragma GCC unroll 2
             for (int h = 0; h < 2; h++) {
-                lap_vec v = lap_mul(va, c[r][h]);
+                lap_vec v;
                 if (!first)
-                    v = lap_add(lap_loadu(cr + LAP_VL * h), v);
+                    v = lap_fma(va, c[r][h], lap_loadu(cr + LAP_VL * h));
                 else if (beta != 0.0f)
-                    v = lap_fma(vb, lap_loadu(cr + LAP_VL * h), v);
+                    v = lap_fma(vb, lap_loadu(cr + LAP_VL * h), lap_mul(va, c[r][h]));
+                else
+                    v = lap_mul(va, c[r][h]);
                 if (e) {
                     if (e->bias)
                         v = lap_add(v, lap_loadu(e->bias + LAP_VL * h));
@@ -180,8 +186,14 @@ static void lap_micro(int kc, const float *restrict Ap, const float *restrict Bp
     for (int r = 0; r < mr; r++)
         for (int j = 0; j < nr; j++) {
             float *cv = C + (size_t)r * ldc + j;
-            const float v = alpha * t[r * LAP_NR + j];
-            float o = !first ? *cv + v : (beta != 0.0f ? v + beta * *cv : v);
+            const float acc = t[r * LAP_NR + j];
+            float o;
+            if (!first)
+                o = fmaf(alpha, acc, *cv);
+            else if (beta != 0.0f)
+                o = fmaf(beta, *cv, alpha * acc);
+            else
+                o = alpha * acc;
             if (e) {
                 o = lap_ep_scalar(e, r, j, o);
                 if (e->colsum)

@@ -25,7 +25,9 @@
  *   bnn_train_step_of_limit_<preset>_b<B>  that bound / the step's median time
  *   bnn_mc50_of_limit_<preset>           MC-50's points/s / the points/s of its GEMMs at peak
  *   bnn_mean_points_per_s_<preset>       one forward pass with the mean weights, fp32
- *   bnn_int8_points_per_s_<preset>       the same with the int8 state (bnn_quant_forward_mean)
+ *   bnn_int8_points_per_s_<preset>       the same with the int8 state (bnn_quant_forward_mean), on
+ *                                         the int8 kernel the CPU takes (int8_kernel <name>);
+ *                                         bnn_int8_ref_points_per_s_<preset> on the pure-C one
  *   sgemm_shape_gflops_<kernel>_<op>_<M>x<N>x<K>  (--shapes) each GEMM shape of the step alone,
  *                                         on every kernel this CPU runs and on Eigen alone:
  *                                         fwd = X W^T (N,T), dx = dY W (N,N), dw = dY^T X (T,N);
@@ -42,6 +44,7 @@
 #include "ai/bnn_quant.h"
 #include "ai/la.h"
 #include "ai/la_packed.h"
+#include "ai/q8_gemm.h"
 #include "fma_probe.h"
 
 static bnn_model_t model;
@@ -384,8 +387,12 @@ int main(int argc, char **argv)
         size_t len = 0;
         if ((rc = bnn_quant_pack(&model, BNN_GROUP_ALL, qstate, sizeof qstate, &len)))
             die("bnn_quant_pack", rc);
-        for (int q = 0; q < 2; q++) {
+        printf("BENCH int8_kernel %s -\n", q8_kernel_name());
+        /* q = 0: fp32; 1: int8 on the kernel the CPU takes; 2: int8 on the pure-C reference */
+        for (int q = 0; q < 3; q++) {
             const int nrep = 10;
+            if (q == 2 && (q8_active() == &q8_kernels[Q8_REF] || q8_force(Q8_REF)))
+                break;
             for (int r = -1; r < nrep; r++) {
                 double t0 = now_s();
                 rc = q ? bnn_quant_forward_mean(&model.cfg, BNN_GROUP_ALL, qstate, len, xy, n, mean)
@@ -395,9 +402,10 @@ int main(int argc, char **argv)
                 if (rc)
                     die(q ? "bnn_quant_forward_mean" : "bnn_forward_logits", rc);
             }
-            printf("BENCH bnn_%s_points_per_s_%s %.0f points/s\n", q ? "int8" : "mean", P,
-                   (double)n / median(nrep));
+            printf("BENCH bnn_%s_points_per_s_%s %.0f points/s\n",
+                   q == 0 ? "mean" : q == 1 ? "int8" : "int8_ref", P, (double)n / median(nrep));
         }
+        (void)q8_force(Q8_AUTO);
     }
     printf("BENCH bnn_arena_bytes_%s %zu bytes\n", P, bnn_get_buffer_size());
     printf("BENCH bnn_params_%s %zu params\n", P, bnn_n_params(&model));
