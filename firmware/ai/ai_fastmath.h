@@ -19,8 +19,17 @@
  * x86-64-v4 (AVX-512), v3 (AVX2+FMA) and the baseline, and the loader picks the one the CPU
  * runs (GNU ifunc; GCC and clang). Native builds and other CPUs compile it once, as is. The
  * clones vectorise differently, so results are bit-identical per binary and CPU. */
+#if defined(__has_feature)
+#if __has_feature(thread_sanitizer)
+#define AI_TSAN_ 1
+#endif
+#endif
+#if defined(__SANITIZE_THREAD__)
+#define AI_TSAN_ 1
+#endif
+/* Not under ThreadSanitizer: the loader runs ifunc resolvers before the TSan runtime is up. */
 #if defined(__x86_64__) && defined(__linux__) && !defined(__AVX2__) &&                           \
-    (defined(__GNUC__) || defined(__clang__))
+    (defined(__GNUC__) || defined(__clang__)) && !defined(AI_TSAN_)
 #define AI_WIDE __attribute__((target_clones("arch=x86-64-v4", "arch=x86-64-v3", "default")))
 #else
 #define AI_WIDE
