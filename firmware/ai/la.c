@@ -33,19 +33,8 @@ static void epilogue(int M, int N, float *C, int ldc, const la_epilogue_t *ep)
 {
     for (int i = 0; i < M; i++) {
         float *restrict c = C + (size_t)i * ldc;
-        const float *restrict g = ep->gate ? ep->gate + (size_t)i * ep->ldg : NULL;
-        for (int j = 0; j < N; j++) {
-            float v = c[j];
-            if (ep->bias)
-                v += ep->bias[j];
-            if (ep->relu)
-                v = v > 0.0f ? v : 0.0f;
-            if (g)
-                v = g[j] > 0.0f ? v : 0.0f;
-            if (ep->colsum)
-                ep->colsum[j] += v;
-            c[j] = v;
-        }
+        for (int j = 0; j < N; j++)
+            c[j] = la_epilogue_elem(ep, (size_t)i, j, c[j]);
     }
 }
 

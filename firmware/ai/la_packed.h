@@ -10,6 +10,8 @@
 #ifndef AI_LA_PACKED_H
 #define AI_LA_PACKED_H
 
+#include <stddef.h>
+
 #include "ai/la.h"
 
 typedef void (*la_packed_fn)(la_trans_t ta, la_trans_t tb, int M, int N, int K, float alpha,
@@ -38,6 +40,22 @@ const la_packed_kernel_t *la_packed_active(void);
  * the automatic choice). Returns 0, or -ENOTSUP when the build or the CPU lacks it. Not to be
  * called while another thread is inside la_*. */
 int la_packed_force(int id);
+
+/* The epilogue (la.h) on one finished element v of row i, column j: bias, ReLU, gate, then the
+ * column sum. One definition for the kernels' edge tiles and the plain pass after Eigen or the
+ * reference (la.c), so they agree bit for bit. */
+static inline float la_epilogue_elem(const la_epilogue_t *ep, size_t i, int j, float v)
+{
+    if (ep->bias)
+        v += ep->bias[j];
+    if (ep->relu)
+        v = v > 0.0f ? v : 0.0f;
+    if (ep->gate)
+        v = ep->gate[i * (size_t)ep->ldg + (size_t)j] > 0.0f ? v : 0.0f;
+    if (ep->colsum)
+        ep->colsum[j] += v;
+    return v;
+}
 
 /* Largest stack use of one call (packed panels). */
 #define LA_PACKED_STACK_BYTES (400u * 1024u)

@@ -104,28 +104,12 @@ static void lap_pack_b(la_trans_t tb, const float *B, int ldb, int j0, int nc, i
 /* The row loops below are unrolled explicitly: GCC does not do it at -O2 (the cross builds),
  * and then keeps the accumulators in memory. */
 
-/* Epilogue pointers of one tile: already offset to the tile's first row and column. */
-typedef struct lap_ep {
-    const float *bias, *gate;
-    float *colsum;
-    int relu, ldg;
-} lap_ep_t;
-
-static inline float lap_ep_scalar(const lap_ep_t *e, int r, int j, float v)
-{
-    if (e->bias)
-        v += e->bias[j];
-    if (e->relu)
-        v = v > 0.0f ? v : 0.0f;
-    if (e->gate)
-        v = e->gate[(size_t)r * e->ldg + j] > 0.0f ? v : 0.0f;
-    return v;
-}
-
 /* C[mr x nr] = alpha * Ap Bp (+ beta C) on the first k block, += alpha * Ap Bp after it; the
- * epilogue e (or NULL) on the last block. */
+ * epilogue e (or NULL) on the last block, its pointers already offset to the tile's first row
+ * and column. */
 static void lap_micro(int kc, const float *restrict Ap, const float *restrict Bp, float *C, int ldc,
-                      int mr, int nr, float alpha, float beta, int first, const lap_ep_t *e)
+                      int mr, int nr, float alpha, float beta, int first,
+                      const la_epilogue_t *e)
 {
     lap_vec c[LAP_MR][2];
 #pragma GCC unroll 16
@@ -194,12 +178,7 @@ static void lap_micro(int kc, const float *restrict Ap, const float *restrict Bp
                 o = fmaf(beta, *cv, alpha * acc);
             else
                 o = alpha * acc;
-            if (e) {
-                o = lap_ep_scalar(e, r, j, o);
-                if (e->colsum)
-                    e->colsum[j] += o;
-            }
-            *cv = o;
+            *cv = e ? la_epilogue_elem(e, (size_t)r, j, o) : o;
         }
 }
 
@@ -210,18 +189,11 @@ void LAP_FN(la_trans_t ta, la_trans_t tb, int M, int N, int K, float alpha, cons
     if (M <= 0 || N <= 0)
         return;
     if (K <= 0 || alpha == 0.0f) {
-        const lap_ep_t e = {ep ? ep->bias : NULL, ep ? ep->gate : NULL, ep ? ep->colsum : NULL,
-                            ep ? ep->relu : 0, ep ? ep->ldg : 0};
         for (int i = 0; i < M; i++)
             for (int j = 0; j < N; j++) {
                 float *cv = C + (size_t)i * ldc + j;
-                float v = beta == 0.0f ? 0.0f : beta * *cv;
-                if (ep) {
-                    v = lap_ep_scalar(&e, i, j, v);
-                    if (e.colsum)
-                        e.colsum[j] += v;
-                }
-                *cv = v;
+                const float v = beta == 0.0f ? 0.0f : beta * *cv;
+                *cv = ep ? la_epilogue_elem(ep, (size_t)i, j, v) : v;
             }
         return;
     }
@@ -239,11 +211,11 @@ void LAP_FN(la_trans_t ta, la_trans_t tb, int M, int N, int K, float alpha, cons
                 for (int js = 0; js < nc; js += LAP_NR)
                     for (int is = 0; is < mc; is += LAP_MR) {
                         const int j = j0 + js, i = i0 + is;
-                        lap_ep_t e;
+                        la_epilogue_t e;
                         if (ep && last)
-                            e = (lap_ep_t){ep->bias ? ep->bias + j : NULL,
-                                           ep->gate ? ep->gate + (size_t)i * ep->ldg + j : NULL,
-                                           ep->colsum ? ep->colsum + j : NULL, ep->relu, ep->ldg};
+                            e = (la_epilogue_t){ep->bias ? ep->bias + j : NULL, ep->relu,
+                                                ep->gate ? ep->gate + (size_t)i * ep->ldg + j : NULL,
+                                                ep->ldg, ep->colsum ? ep->colsum + j : NULL};
                         lap_micro(kc, Ap + (size_t)is * kc, Bp + (size_t)js * kc,
                                   C + (size_t)i * ldc + j, ldc, mc - is < LAP_MR ? mc - is : LAP_MR,
                                   nc - js < LAP_NR ? nc - js : LAP_NR, alpha, beta, p0 == 0,
