@@ -3,8 +3,8 @@
 # prints each program's own output (its cmocka summary included), and ends with one line
 #     N passed, N skipped, N failed
 # counting test cases (a skipped case is one that cannot run here, e.g. a kernel for an
-# instruction set this CPU lacks; it says why, and it is never counted as passed). A program that crashes or exits non-zero without a cmocka summary
-# counts as one failed case. Exits 1 when anything failed, 0 otherwise.
+# instruction set this CPU lacks; it says why, and it is never counted as passed). A program
+# that crashes or exits non-zero without a cmocka summary counts as one failed case. Exits 1 when anything failed, 0 otherwise.
 set -uo pipefail
 
 usage() { echo "usage: $0 [-d DIR | TEST_PROGRAM...]" >&2; exit 2; }
@@ -24,6 +24,9 @@ fi
 # (also in the programs the tests start). Harmless for other builds.
 export LSAN_OPTIONS="suppressions=$(cd "$(dirname "$0")/.." && pwd)/tests/lsan.supp${LSAN_OPTIONS:+:$LSAN_OPTIONS}"
 
+# Cases of one cmocka verdict in a program's output: the sum over its "[  <WORD> ] N test(s)" lines.
+count() { sed -n "s/^\[  $1 *\] \([0-9]\+\) test.*/\1/p" "$2" | awk '{s+=$1} END {print s+0}'; }
+
 passed=0 skipped=0 failed=0 broken=()
 for p in "${progs[@]}"; do
     echo "=== $p"
@@ -31,9 +34,7 @@ for p in "${progs[@]}"; do
     # cmocka prints its summary on stderr; keep both streams, in order.
     "$p" 2>&1 | tee "$out"
     rc=${PIPESTATUS[0]}
-    np=$(sed -n 's/^\[  PASSED  \] \([0-9]\+\) test.*/\1/p' "$out" | awk '{s+=$1} END {print s+0}')
-    nf=$(sed -n 's/^\[  FAILED  \] \([0-9]\+\) test.*/\1/p' "$out" | awk '{s+=$1} END {print s+0}')
-    ns=$(sed -n 's/^\[  SKIPPED \] \([0-9]\+\) test.*/\1/p' "$out" | awk '{s+=$1} END {print s+0}')
+    np=$(count PASSED "$out") nf=$(count FAILED "$out") ns=$(count SKIPPED "$out")
     rm -f "$out"
     passed=$((passed + np))
     failed=$((failed + nf))
