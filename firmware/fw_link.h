@@ -114,6 +114,8 @@ typedef struct ai_state_msg {
 typedef struct gp_ready {
     uint32_t round;          /* k: the slots hold neighbour states of round k */
     uint32_t neighbours;     /* valid slots */
+    uint32_t next_round;     /* the round to run after k: k + 1, or further when the robot fell
+                                behind its fleet and skips ahead (<= k + 1 or >= C: k + 1) */
 } gp_ready_t;
 
 typedef struct fw_link {

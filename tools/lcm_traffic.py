@@ -9,8 +9,8 @@ without NUL, the data; all big-endian) and decodes the fleet's three LCM message
 (firmware/msg/*.lcm) by their 8-byte fingerprint:
 
     state_chunk_t     0xdf65602b2d04bf15   on <prefix><fleet>/state
-    round_complete_t  0x174159e1f6557a31   on <prefix><fleet>/done
-    chunk_request_t   0x4bf474954af8607a   on <prefix><fleet>/request
+    round_complete_t  0x9ec25daeb3a35535   on <prefix><fleet>/done
+    chunk_request_t   0x2765123cb5b82f65   on <prefix><fleet>/request
 
 Telemetry (<prefix>telemetry/<robot>) is counted per robot; any other channel as "other".
 
@@ -43,15 +43,15 @@ CHANNEL_MAX = 1000          # what lcm's own log reader accepts (names are at mo
 DATA_MAX = 1 << 28          # LCM_MAX_MESSAGE_SIZE
 
 FP_STATE = 0xDF65602B2D04BF15
-FP_DONE = 0x174159E1F6557A31
-FP_REQUEST = 0x4BF474954AF8607A
+FP_DONE = 0x9EC25DAEB3A35535
+FP_REQUEST = 0x2765123CB5B82F65
 FINGERPRINTS = {FP_STATE: "state", FP_DONE: "done", FP_REQUEST: "request"}
 
 STATE_HEAD_SIGNED = struct.Struct(">Qiiiiibiddii")
 STATE_HEAD_SIZE = STATE_HEAD_SIGNED.size  # 57
 STATE_CHUNK_MAX = 61440      # firmware/msg/state_chunk.lcm: n_bytes <= 61440
-DONE = struct.Struct(">Qii")  # 16
-REQUEST_HEAD = struct.Struct(">Qiiii")  # 24
+DONE = struct.Struct(">Qiii")  # 20: sender, round, incarnation
+REQUEST_HEAD = struct.Struct(">Qiiiii")  # 28: requester, target, round, incarnation, n_chunks
 
 COLUMNS = ["fleet", "round", "agent", "chunks_sent", "state_bytes", "chunks_resent",
            "requests_sent", "chunks_requested", "done_sent"]
@@ -204,9 +204,9 @@ def decode(kind, fleet, buf, off, n, st):
             st.seen_chunks.add(key)
     elif kind == "done":
         if n != DONE.size:
-            st.bad("done: length is not 16 bytes")
+            st.bad(f"done: length is not {DONE.size} bytes")
             return
-        _, sender, rnd = DONE.unpack_from(buf, off)
+        _, sender, rnd, _inc = DONE.unpack_from(buf, off)
         if sender < 0 or rnd < 0:
             st.bad("done: negative sender or round")
             return
@@ -216,7 +216,7 @@ def decode(kind, fleet, buf, off, n, st):
         if n < REQUEST_HEAD.size:
             st.bad("request: shorter than its header")
             return
-        _, requester, target, rnd, n_chunks = REQUEST_HEAD.unpack_from(buf, off)
+        _, requester, target, rnd, _inc, n_chunks = REQUEST_HEAD.unpack_from(buf, off)
         if n_chunks < 0 or REQUEST_HEAD.size + 4 * n_chunks != n:
             st.bad("request: n_chunks disagrees with the data")
             return

@@ -173,7 +173,9 @@ static int run_round(ai_core_t *ai, const gp_ready_t *ready)
     ai->status.loss_train = p->loss_train;
     if (!ai->cfg.offline && (k + 1u) % ai->cfg.rounds_per_boundary == 0)
         ai_pool_boundary(&ai->pool);
-    ai->next_round++;
+    /* The GP core may say the fleet is further on (this robot was paused, restarted or cut
+       off): the rounds between are skipped, not run alone, so the robot catches up. */
+    ai->next_round = ready->next_round > k + 1u && ready->next_round < ai->cfg.rounds ? ready->next_round : k + 1u;
     ai->status.round = ai->next_round;
     ai->phase = ai->next_round >= ai->cfg.rounds ? AI_PHASE_DONE : AI_PHASE_COLLECT;
     return rc;

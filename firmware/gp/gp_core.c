@@ -101,7 +101,14 @@ static void coordinate(gp_core_t *gp, uint64_t now_us)
     }
     if (n == 0)
         memset(slots->valid, 0, sizeof slots->valid);
-    gp_ready_t ready = {gp->exchange_round, (uint32_t)n};
+    uint32_t next = gp->exchange_round + 1u;
+    if (gp->cfg.peers != NULL && gp->cfg.peers->next_round != NULL) {
+        next = gp->cfg.peers->next_round(gp->cfg.peers_ctx, gp->exchange_round);
+        if (next > gp->exchange_round + 1u)
+            hal_log(HAL_LOG_WARN, "round %" PRIu32 ": behind the fleet, skipping to round %" PRIu32,
+                    gp->exchange_round, next);
+    }
+    gp_ready_t ready = {gp->exchange_round, (uint32_t)n, next};
     gp->neighbours = (uint32_t)n;
     if (mbox_put(gp->link->gp_ready, &ready) != 0)
         return;

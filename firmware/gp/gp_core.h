@@ -55,6 +55,9 @@ typedef struct gp_peers_ops {
     void (*round_done)(void *ctx, uint32_t round, int final);
     /* Every tick: receive, answer the peers, resend. */
     void (*service)(void *ctx);
+    /* After the exchange of `round`: the round the AI core runs next, round + 1 unless the
+     * robot fell behind its fleet and skips ahead (a paused or restarted robot). NULL: + 1. */
+    uint32_t (*next_round)(void *ctx, uint32_t round);
 } gp_peers_ops_t;
 
 typedef struct gp_core_cfg {

@@ -170,7 +170,7 @@ static void drain(gp_fleet_t *f)
                 f->stats.rx_undecodable++;
             else if (q.requester == f->cfg.self)
                 f->stats.own_echoes++;
-            else if (q.target == f->cfg.self) /* requests to the others are not ours to answer */
+            else /* a request to another peer still tells where its sender is */
                 (void)gp_pse_on_request(&f->pse, &q, now);
         } else {
             f->stats.rx_undecodable++;
@@ -223,6 +223,11 @@ static void close_record(gp_fleet_t *f)
     r->rejoins = DELTA(rejoins);
     r->crc_failures = DELTA(crc_failures);
     r->invalid = DELTA(invalid);
+    r->chunks_recovered = DELTA(chunks_recovered);
+    r->states_missed = DELTA(states_missed);
+    r->beacons_sent = DELTA(beacons_sent);
+    r->restarts = DELTA(restarts);
+    r->old_incarnation = DELTA(old_incarnation);
     r->wall_us = net_now() - f->cur_started_us;
     const uint32_t n = atomic_load_explicit(&f->n_log, memory_order_relaxed);
     f->log[n % GP_FLEET_LOG_ROUNDS] = *r;
@@ -352,17 +357,14 @@ static void fleet_round_done(void *ctx, uint32_t round, int final)
         return;
     if (final) {
         /* Stay until every peer finished the last round: one of them may still need our state.
-           Then linger a little, saying again that we are done and answering requests: there is
-           no later round whose State would tell a peer that missed our RoundComplete. */
+           Then linger a little as a leaver (gp_pse_leave: "I am past the last round", which
+           ends the wait of a peer that missed our RoundComplete), answering requests. */
         (void)wait_for(f, finished_cond);
         const uint64_t until = net_now() + 2u * (uint64_t)f->cfg.resend_after_us;
-        const gp_pse_done_t d = {f->cfg.self, round};
-        for (uint64_t next = 0, now; (now = net_now()) < until;) {
-            if (now >= next) {
-                (void)fleet_send(f, GP_PSE_DONE, &d);
-                next = now + f->cfg.resend_after_us / 4u;
-            }
+        gp_pse_leave(p, net_now());
+        for (uint64_t now; (now = net_now()) < until;) {
             drain(f);
+            gp_pse_poll(p, now);
             int r = hal_net_wait(f->cfg.poll_us);
             if (r != 0 && r != -EAGAIN)
                 break;
@@ -370,6 +372,21 @@ static void fleet_round_done(void *ctx, uint32_t round, int final)
         close_record(f);
         f->final_done = 1;
     }
+}
+
+static uint32_t fleet_next_round(void *ctx, uint32_t round)
+{
+    gp_fleet_t *f = ctx;
+    const uint32_t next = gp_pse_next_round(&f->pse, net_now());
+    const uint32_t last = f->cfg.rounds - 1u;
+    /* Behind the fleet (paused, restarted, cut off): skip to where the live peers are, never
+       past our last round. Never happens when nothing failed (a peer is then one round ahead
+       at most), so the models of a lossless run stay the reference's. */
+    if (next <= round + 1u || round >= last)
+        return round + 1u;
+    if (next > last)
+        return last;
+    return next;
 }
 
 static void fleet_service(void *ctx)
@@ -383,4 +400,5 @@ const gp_peers_ops_t gp_fleet_peers_ops = {
     .exchange = fleet_exchange,
     .round_done = fleet_round_done,
     .service = fleet_service,
+    .next_round = fleet_next_round,
 };

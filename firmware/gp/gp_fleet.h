@@ -79,6 +79,9 @@ typedef struct gp_fleet_round {
     uint64_t bytes_sent, bytes_received;
     uint64_t chunks_sent, chunks_received, chunks_resent, chunks_requested;
     uint64_t duplicates, stale, timeouts, rejoins, crc_failures, invalid;
+    uint64_t chunks_recovered;       /* chunks that came only after we asked again */
+    uint64_t states_missed;          /* peers' states the round went on without */
+    uint64_t beacons_sent, restarts, old_incarnation;
 } gp_fleet_round_t;
 
 typedef struct gp_fleet_stats {

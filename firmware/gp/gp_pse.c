@@ -19,21 +19,29 @@ static uint32_t chunk_len(const gp_pse_t *p, uint32_t chunk)
     return left < p->cfg.chunk_bytes ? left : p->cfg.chunk_bytes;
 }
 
-static void send_msg(gp_pse_t *p, gp_pse_kind_t kind, const void *msg)
+static void send_msg(gp_pse_t *p, gp_pse_kind_t kind, const void *msg, uint64_t now_us)
 {
     if (p->cfg.send(p->cfg.send_ctx, kind, msg) != 0)
         p->stats.send_failures++;
+    p->sent_us = now_us;
 }
 
-static void send_chunk(gp_pse_t *p, uint32_t chunk)
+static void send_chunk(gp_pse_t *p, uint32_t chunk, uint64_t now_us)
 {
     const uint32_t n = chunk_len(p, chunk);
     const gp_pse_chunk_t c = {p->cfg.self, p->round, chunk, p->n_chunks, p->cfg.state_bytes, p->my_crc32,
                               p->x_m, p->y_m, n, p->mine + (size_t)chunk * p->cfg.chunk_bytes,
                               p->cfg.encoding, p->cfg.incarnation};
-    send_msg(p, GP_PSE_CHUNK, &c);
+    send_msg(p, GP_PSE_CHUNK, &c, now_us);
     p->stats.chunks_sent++;
     p->stats.bytes_sent += n;
+}
+
+static void send_done(gp_pse_t *p, uint64_t now_us)
+{
+    const gp_pse_done_t d = {p->cfg.self, p->round, p->cfg.incarnation};
+    send_msg(p, GP_PSE_DONE, &d, now_us);
+    p->done_sent_us = now_us;
 }
 
 int gp_pse_init(gp_pse_t *p, const gp_pse_cfg_t *c)
@@ -49,12 +57,13 @@ int gp_pse_init(gp_pse_t *p, const gp_pse_cfg_t *c)
     p->cfg = *c;
     p->n_chunks = (c->state_bytes + c->chunk_bytes - 1u) / c->chunk_bytes;
     p->round = 0;
-    p->in_round = p->completed = p->later_heard = 0;
+    p->in_round = p->completed = p->later_heard = p->ready_noted = p->leaving = 0;
+    p->sent_us = 0;
     p->mine = NULL;
     for (uint32_t i = 0; i < GP_PSE_MAX_PEERS; i++) {
         gp_pse_peer_t *q = &p->peer[i];
         q->buf[0].used = q->buf[1].used = 0;
-        q->heard = q->has_done = q->absent = 0;
+        q->heard = q->has_inc = q->has_round = q->has_done = q->absent = 0;
     }
     return 0;
 }
@@ -70,22 +79,30 @@ static void buf_reset(gp_pse_buf_t *b, uint32_t round, uint32_t n_chunks, uint64
 }
 
 /* Our next `burst` chunks (all of them without a burst). */
-static void send_window(gp_pse_t *p)
+static void send_window(gp_pse_t *p, uint64_t now_us)
 {
     const uint32_t end = p->cfg.burst == 0 || p->n_chunks - p->next_send < p->cfg.burst ? p->n_chunks
                                                                                         : p->next_send + p->cfg.burst;
     for (; p->next_send < end; p->next_send++)
-        send_chunk(p, p->next_send);
+        send_chunk(p, p->next_send, now_us);
+}
+
+static int heard_within(const gp_pse_t *p, const gp_pse_peer_t *q, uint64_t now_us)
+{
+    return q->heard && now_us - q->heard_us < p->cfg.peer_timeout_us;
 }
 
 int gp_pse_begin_round(gp_pse_t *p, uint32_t round, const uint8_t *state, double x_m, double y_m, uint64_t now_us)
 {
-    if (p == NULL || state == NULL || !isfinite(x_m) || !isfinite(y_m) || (p->in_round && round != p->round + 1u))
+    if (p == NULL || state == NULL || !isfinite(x_m) || !isfinite(y_m) || (p->in_round && round <= p->round))
         return -EINVAL;
+    if (p->in_round && round > p->round + 1u)
+        p->stats.rounds_skipped += round - p->round - 1u;
     p->round = round;
     p->in_round = 1;
     p->completed = 0;
     p->later_heard = 0;
+    p->ready_noted = 0;
     p->round_start_us = now_us;
     p->mine = state;
     p->my_crc32 = crc32_ieee(state, p->cfg.state_bytes);
@@ -93,34 +110,68 @@ int gp_pse_begin_round(gp_pse_t *p, uint32_t round, const uint8_t *state, double
     p->y_m = y_m;
     memset(p->resent_at, 0, sizeof p->resent_at);
     for (uint32_t i = 0; i < p->cfg.n_peers; i++) {
+        if (i == p->cfg.self)
+            continue;
         gp_pse_peer_t *q = &p->peer[i];
         gp_pse_buf_t *b = &q->buf[round & 1u];
         if (!b->used || b->round != round) /* an older round's buffer: free for this one */
             buf_reset(b, round, p->n_chunks, now_us);
         b->progress_us = now_us;
-        /* A peer that left stays out of the next rounds until it is heard again (heard()),
-           so a crashed peer costs one timeout, not one per round. */
-        /* A RoundComplete of this round or later already heard still says the peer is ahead. */
-        p->later_heard |= q->has_done && q->done_round > round;
+        /* A peer that left comes back only here, at a round boundary, and only when it was
+           heard lately in the round before this one or later: it is on its way to this round.
+           So a crashed peer costs one timeout, not one per round, and a peer that keeps
+           failing cannot make the others wait again within a round. */
+        if (q->absent && heard_within(p, q, now_us) && q->has_round && q->at_round + 1u >= round) {
+            q->absent = 0;
+            p->stats.rejoins++;
+        }
+        /* A peer already in a later round (its chunks or RoundComplete came first) says this
+           round is over for the fleet: we take what we have. */
+        if (q->has_round && q->at_round > round)
+            p->later_heard = 1;
     }
     p->next_send = 0;
-    send_window(p);
+    send_window(p, now_us);
     return 0;
 }
 
-/* A valid message from `sender`: it is in the round again if it had left it. */
-static void heard(gp_pse_t *p, uint32_t sender, uint64_t now_us)
+/* Forgets what we held of a peer that restarted: its buffers may hold chunks of a state its new
+   incarnation will never finish, and its rounds start again where it resumed. */
+static void peer_restarted(gp_pse_t *p, gp_pse_peer_t *q)
 {
-    gp_pse_peer_t *q = &p->peer[sender];
-    q->heard = 1;
-    q->heard_us = now_us;
-    if (q->absent) {
-        q->absent = 0;
-        p->stats.rejoins++;
-    }
+    q->buf[0].used = q->buf[1].used = 0;
+    q->has_round = q->has_done = 0;
+    p->stats.restarts++;
 }
 
-/* Round window of a message of `round`: 0 inside (k or k + 1), else the reason. */
+/* What a valid message of `round` from `sender` tells (see the liveness rule in gp_pse.h).
+   `done`: a RoundComplete. -ESTALE for an earlier incarnation (dropped), else 0. */
+static int note_sender(gp_pse_t *p, uint32_t sender, uint32_t incarnation, uint32_t round, int done, uint64_t now_us)
+{
+    gp_pse_peer_t *q = &p->peer[sender];
+    if (q->has_inc && incarnation < q->incarnation) {
+        p->stats.old_incarnation++;
+        return -ESTALE;
+    }
+    if (q->has_inc && incarnation > q->incarnation)
+        peer_restarted(p, q);
+    q->incarnation = incarnation;
+    q->has_inc = 1;
+    if (!q->has_round || round > q->at_round) {
+        q->at_round = round;
+        q->has_round = 1;
+    }
+    const uint32_t k = p->round;
+    if (!p->in_round || round >= k || (done && round + 1u == k)) {
+        q->heard = 1;
+        q->heard_us = now_us;
+    }
+    if (p->in_round && round > k)
+        p->later_heard = 1;
+    return 0;
+}
+
+/* Round window of a stored message of `round`: 0 inside (k or k + 1), else the reason. */
 static int window(gp_pse_t *p, uint32_t round)
 {
     const uint32_t k = p->in_round ? p->round : 0u;
@@ -130,11 +181,8 @@ static int window(gp_pse_t *p, uint32_t round)
     }
     if (round > k + 1u) {
         p->stats.future++;
-        p->later_heard = p->in_round;
         return -EAGAIN;
     }
-    if (round > k && p->in_round)
-        p->later_heard = 1;
     return 0;
 }
 
@@ -147,25 +195,28 @@ int gp_pse_on_chunk(gp_pse_t *p, const gp_pse_chunk_t *c, uint64_t now_us)
         p->stats.invalid++;
         return -EBADMSG;
     }
-    int rc = window(p, c->round);
-    heard(p, c->sender, now_us);
+    int rc = note_sender(p, c->sender, c->incarnation, c->round, 0, now_us);
+    if (rc == 0)
+        rc = window(p, c->round);
     if (rc != 0)
         return rc;
     p->stats.chunks_received++;
     gp_pse_buf_t *b = &p->peer[c->sender].buf[c->round & 1u];
     if (!b->used || b->round != c->round)
         buf_reset(b, c->round, p->n_chunks, now_us);
-    if (b->complete || b->have[c->chunk]) {
+    if (b->complete || (b->have[c->chunk] & GP_PSE_HAVE)) {
         p->stats.duplicates++;
         return -EALREADY;
     }
     if (b->got > 0 && (b->crc32 != c->crc32 || b->x_m != c->x_m || b->y_m != c->y_m)) {
-        /* Chunks of one state disagree: a peer that restarted its round, or corruption. */
+        /* Chunks of one state disagree: corruption (a restart changes the incarnation). */
         p->stats.invalid++;
         return -EBADMSG;
     }
     memcpy(b->bytes + (size_t)c->chunk * p->cfg.chunk_bytes, c->data, c->n_bytes);
-    b->have[c->chunk] = 1;
+    if (b->have[c->chunk] & GP_PSE_ASKED)
+        p->stats.chunks_recovered++;
+    b->have[c->chunk] = GP_PSE_HAVE;
     b->got++;
     b->crc32 = c->crc32;
     b->x_m = c->x_m;
@@ -189,19 +240,23 @@ int gp_pse_on_done(gp_pse_t *p, const gp_pse_done_t *d, uint64_t now_us)
         p->stats.invalid++;
         return -EBADMSG;
     }
+    if (note_sender(p, d->sender, d->incarnation, d->round, 1, now_us) != 0)
+        return -ESTALE;
     gp_pse_peer_t *q = &p->peer[d->sender];
-    int rc = window(p, d->round);
-    heard(p, d->sender, now_us);
     if (!q->has_done || d->round > q->done_round) {
         q->done_round = d->round;
         q->has_done = 1;
     }
-    return rc == -EAGAIN ? 0 : rc; /* a round further ahead still tells where the peer is */
+    if (p->in_round && d->round < p->round) {
+        p->stats.stale++;
+        return -ESTALE;
+    }
+    return 0; /* a round further ahead still tells where the peer is */
 }
 
 int gp_pse_on_request(gp_pse_t *p, const gp_pse_request_t *r, uint64_t now_us)
 {
-    if (r == NULL || r->requester >= p->cfg.n_peers || r->requester == p->cfg.self || r->target != p->cfg.self ||
+    if (r == NULL || r->requester >= p->cfg.n_peers || r->requester == p->cfg.self || r->target >= p->cfg.n_peers ||
         r->n > GP_PSE_MAX_REQUEST) {
         p->stats.invalid++;
         return -EBADMSG;
@@ -211,7 +266,10 @@ int gp_pse_on_request(gp_pse_t *p, const gp_pse_request_t *r, uint64_t now_us)
             p->stats.invalid++;
             return -EBADMSG;
         }
-    heard(p, r->requester, now_us);
+    if (note_sender(p, r->requester, r->incarnation, r->round, 0, now_us) != 0)
+        return -ESTALE;
+    if (r->n == 0 || r->target != p->cfg.self)
+        return 0; /* a beacon, or a request to another peer: it told us where its sender is */
     if (!p->in_round || r->round != p->round) {
         p->stats.stale++;
         return -ESTALE; /* only the current round's state is kept */
@@ -225,24 +283,72 @@ int gp_pse_on_request(gp_pse_t *p, const gp_pse_request_t *r, uint64_t now_us)
             continue;
         }
         p->resent_at[c] = now_us | 1u;
-        send_chunk(p, c);
+        send_chunk(p, c, now_us);
         p->stats.chunks_resent++;
     }
     p->stats.requests_answered++;
     return 0;
 }
 
+/* What we still wait for from peer q in round k: its state, then (once we completed) its
+   RoundComplete; nothing once a later round was heard. */
+static int waiting_for(const gp_pse_t *p, const gp_pse_peer_t *q)
+{
+    if (p->later_heard)
+        return 0;
+    const gp_pse_buf_t *b = &q->buf[p->round & 1u];
+    const int have_state = b->used && b->round == p->round && b->complete;
+    return !have_state || (p->completed && !(q->has_done && q->done_round >= p->round));
+}
+
+/* Asks peer i for the chunks of its round-k state we still miss. */
+static void ask_again(gp_pse_t *p, uint32_t i, gp_pse_buf_t *b, uint64_t now_us)
+{
+    gp_pse_request_t r = {p->cfg.self, i, p->round, 0, {0}, p->cfg.incarnation};
+    for (uint32_t k = 0; k < p->n_chunks && r.n < GP_PSE_MAX_REQUEST; k++)
+        if (!(b->have[k] & GP_PSE_HAVE)) {
+            b->have[k] = GP_PSE_ASKED;
+            r.chunks[r.n++] = k;
+        }
+    send_msg(p, GP_PSE_REQUEST, &r, now_us);
+    p->stats.requests_sent++;
+    p->stats.chunks_requested += r.n;
+    b->progress_us = now_us;
+}
+
+static void send_beacon(gp_pse_t *p, uint32_t round, uint64_t now_us)
+{
+    const gp_pse_request_t beacon = {p->cfg.self, p->cfg.self, round, 0, {0}, p->cfg.incarnation};
+    send_msg(p, GP_PSE_REQUEST, &beacon, now_us);
+    p->stats.beacons_sent++;
+}
+
+void gp_pse_leave(gp_pse_t *p, uint64_t now_us)
+{
+    if (p == NULL || !p->in_round || p->leaving)
+        return;
+    p->leaving = 1;
+    send_beacon(p, p->round + 1u, now_us);
+}
+
 void gp_pse_poll(gp_pse_t *p, uint64_t now_us)
 {
     if (!p->in_round)
         return;
-    send_window(p);
-    /* Waiting for the others' RoundComplete: ours again, in case it was lost (the last round
-       has no later State to tell a peer that we finished). */
-    if (p->completed && !gp_pse_round_finished(p) && now_us - p->done_sent_us >= p->cfg.resend_after_us) {
-        const gp_pse_done_t d = {p->cfg.self, p->round};
-        send_msg(p, GP_PSE_DONE, &d);
-        p->done_sent_us = now_us;
+    send_window(p, now_us);
+    if (p->leaving) {
+        /* After the last round: "I am past it" often, so a peer that missed our RoundComplete
+           ends its wait at once (a later round heard); requests for our state are still
+           answered (on_request). */
+        if (now_us - p->sent_us >= p->cfg.resend_after_us / 4u)
+            send_beacon(p, p->round + 1u, now_us);
+        return;
+    }
+    /* Completed: our RoundComplete again every resend period until the next round begins. It
+       replaces one that was lost (the last round has no later State to tell a peer that we
+       finished) and keeps the peers already in the next round knowing we are on our way. */
+    if (p->completed && now_us - p->done_sent_us >= p->cfg.resend_after_us) {
+        send_done(p, now_us);
         p->stats.done_resent++;
     }
     for (uint32_t i = 0; i < p->cfg.n_peers; i++) {
@@ -250,38 +356,48 @@ void gp_pse_poll(gp_pse_t *p, uint64_t now_us)
             continue;
         gp_pse_peer_t *q = &p->peer[i];
         gp_pse_buf_t *b = &q->buf[p->round & 1u];
-        /* What we wait for from this peer: its state until it is complete, then (once we
-           completed) its RoundComplete. The clock runs from the later of that wait's start
-           and the last time we heard it. */
-        const int waiting = !b->complete || (p->completed && !(q->has_done && q->done_round >= p->round));
+        if (q->absent || !waiting_for(p, q))
+            continue;
+        /* The clock runs from the later of that wait's start and the peer's last progress. */
         uint64_t last = p->completed && b->complete ? p->completed_us : p->round_start_us;
         if (q->heard && q->heard_us > last)
             last = q->heard_us;
         const uint64_t timeout = q->heard || p->cfg.join_timeout_us == 0 ? p->cfg.peer_timeout_us
                                                                           : p->cfg.join_timeout_us;
-        if (!q->absent && waiting && now_us - last >= timeout) {
+        if (now_us - last >= timeout) {
             /* Silent too long: the round goes on without it (a state it already delivered is
                still used; only what is missing is no longer waited for). */
             q->absent = 1;
             p->stats.timeouts++;
-        }
-        if (q->absent || b->complete || now_us - b->progress_us < p->cfg.resend_after_us)
             continue;
-        gp_pse_request_t r = {p->cfg.self, i, p->round, 0, {0}};
-        for (uint32_t k = 0; k < p->n_chunks && r.n < GP_PSE_MAX_REQUEST; k++)
-            if (!b->have[k])
-                r.chunks[r.n++] = k;
-        send_msg(p, GP_PSE_REQUEST, &r);
-        p->stats.requests_sent++;
-        p->stats.chunks_requested += r.n;
-        b->progress_us = now_us;
+        }
+        /* Ask again for missing chunks, once the peer is known to be in this round (asking a
+           peer that has not begun it yet only adds traffic: its state comes by itself). */
+        if (!b->complete && q->has_round && q->at_round >= p->round && now_us - b->progress_us >= p->cfg.resend_after_us)
+            ask_again(p, i, b, now_us);
     }
+    if (!p->ready_noted && gp_pse_states_ready(p)) {
+        p->ready_noted = 1;
+        for (uint32_t i = 0; i < p->cfg.n_peers; i++) {
+            const gp_pse_buf_t *b = &p->peer[i].buf[p->round & 1u];
+            if (i != p->cfg.self && !(b->used && b->round == p->round && b->complete))
+                p->stats.states_missed++;
+        }
+        if (p->later_heard && p->stats.states_missed > 0)
+            p->stats.rounds_cut++;
+    }
+    /* Nothing sent for a resend period (computing, or waiting with nothing to ask): say which
+       round we are in, so that the peers ahead keep us and the peers behind catch up. */
+    if (now_us - p->sent_us >= p->cfg.resend_after_us)
+        send_beacon(p, p->round, now_us);
 }
 
 int gp_pse_states_ready(const gp_pse_t *p)
 {
     if (!p->in_round)
         return 0;
+    if (p->later_heard)
+        return 1;
     for (uint32_t i = 0; i < p->cfg.n_peers; i++) {
         const gp_pse_peer_t *q = &p->peer[i];
         const gp_pse_buf_t *b = &q->buf[p->round & 1u];
@@ -314,11 +430,9 @@ int gp_pse_complete(gp_pse_t *p, uint64_t now_us)
 {
     if (p == NULL || !p->in_round)
         return -EINVAL;
-    const gp_pse_done_t d = {p->cfg.self, p->round};
-    send_msg(p, GP_PSE_DONE, &d);
+    send_done(p, now_us);
     p->completed = 1;
     p->completed_us = now_us;
-    p->done_sent_us = now_us;
     return 0;
 }
 
@@ -334,4 +448,15 @@ int gp_pse_round_finished(const gp_pse_t *p)
             return 0;
     }
     return 1;
+}
+
+uint32_t gp_pse_next_round(const gp_pse_t *p, uint64_t now_us)
+{
+    uint32_t next = p->in_round ? p->round + 1u : 0u;
+    for (uint32_t i = 0; i < p->cfg.n_peers; i++) {
+        const gp_pse_peer_t *q = &p->peer[i];
+        if (i != p->cfg.self && q->has_round && q->at_round > next && heard_within(p, q, now_us))
+            next = q->at_round;
+    }
+    return next;
 }

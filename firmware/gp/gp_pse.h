@@ -1,29 +1,49 @@
-/* Peers state exchange: Algorithm 1 of the source paper made loss-proof, as a state machine
- * with no I/O of its own (docs/architecture.md section 4). The GP core feeds it the messages it
- * received and the time, and it emits the messages to send through a callback; a codec and a
- * transport (hal_net over LCM on the host) sit outside it, so it is tested against any order,
- * loss and duplication of messages one call at a time.
+/* Peers state exchange: Algorithm 1 of the source paper made loss-proof and live, as a state
+ * machine with no I/O of its own (docs/architecture.md section 4). The GP core feeds it the
+ * messages it received and the time, and it emits the messages to send through a callback; a
+ * codec and a transport (hal_net over LCM on the host) sit outside it, so it is tested against
+ * any order, loss, duplication, delay, partition, pause and restart one call at a time
+ * (tests/gp/test_gp_pse.c, and the seeded simulation tests/gp/test_pse_sim.c).
  *
  * Round k, at peer `self` of a fleet of n_peers:
  *   gp_pse_begin_round(k, state, x, y)  our encoded state (state_bytes, kept unchanged by the
  *                 caller until the round finished) goes out as n_chunks chunks of chunk_bytes
  *                 (the last shorter), each with the round, the state's CRC-32 and our position;
  *   gp_pse_on_chunk/on_done/on_request  every field is validated first (sender inside the
- *                 fleet and not us, round window k .. k+1, sizes equal to the fleet's, chunk
- *                 bounds, finite position); a peer's chunks reassemble per round (two buffers
- *                 per peer: a peer may already send k+1) and a state counts only when its CRC
- *                 matches; duplicates, stale rounds and rounds beyond k+1 are ignored and counted;
- *   gp_pse_poll(now)  asks again for missing chunks after resend_after_us without progress,
- *                 and sends our RoundComplete again while waiting for the others';
- *                 a peer that sent nothing for peer_timeout_us (join_timeout_us if never heard)
- *                 leaves the round's neighbour set (counted) and stays out of the following
- *                 rounds until it is heard again;
- *   gp_pse_states_ready()  every peer delivered its state of round k or left the round;
+ *                 fleet and not us, sizes equal to the fleet's, chunk bounds, finite position);
+ *                 then the sender's incarnation: an older one is dropped, a newer one means the
+ *                 peer restarted (what we held of it is forgotten); a peer's chunks reassemble per
+ *                 round (two buffers per peer: a peer may already send k+1) and a state counts
+ *                 only when its CRC matches; duplicates, stale rounds and rounds beyond k+1 are
+ *                 ignored and counted;
+ *   gp_pse_poll(now)  sends the rest of our state (send window), asks again for missing chunks
+ *                 after resend_after_us without progress, repeats our RoundComplete, says "I am
+ *                 in round k" (a beacon: a request naming no chunk) when it sent nothing for
+ *                 resend_after_us, and times out silent peers;
+ *   gp_pse_states_ready()  every peer delivered its state of round k, left the round, or a
+ *                 later round was heard;
  *   gp_pse_neighbours()  the peers whose round-k position is within radius_m of ours (the same
  *                 test as dinno_graph_disk), or all of them with radius_m <= 0: it depends on
  *                 the positions only, never on arrival times;
- *   gp_pse_complete(now)  after the node update: RoundComplete(k) goes out;
- *   gp_pse_round_finished()  every peer in the round completed k, or a later round was heard.
+ *   gp_pse_complete(now)  after the node update: RoundComplete(k) goes out (and again every
+ *                 resend_after_us until the next round begins);
+ *   gp_pse_round_finished()  every peer in the round completed k, or a later round was heard;
+ *   gp_pse_next_round(now)  the round to begin next: k + 1, or the round a live peer is in
+ *                 when that is further (a robot that fell behind skips to the fleet);
+ *   gp_pse_leave(now)  the last round finished: from now on poll says "I am past round k" (a
+ *                 beacon of round k + 1) every resend_after_us / 4, which ends the wait of a peer
+ *                 that missed our RoundComplete, and still answers requests for our state.
+ *
+ * Liveness (the rule docs/architecture.md states): a peer is kept in round k only by progress,
+ * i.e. a message of round k or later, or its RoundComplete of k - 1 (it is on its way to k);
+ * a peer that shows none for peer_timeout_us (join_timeout_us before it was ever heard) while
+ * we wait for it leaves the round, and stays out until a round boundary where it is heard in
+ * the round before or later. Every live peer sends at least one message per resend_after_us,
+ * so only a crashed, paused or cut-off peer times out. A message of a later round ends our
+ * waiting at once: the sender finished round k, so every peer still in it had completed it or
+ * was given up (with loss alone this never happens before our own state set was complete, so
+ * the models stay those of the lossless run). A robot therefore finishes every round at most
+ * one peer_timeout_us after the last progress of the peers it waits for.
  *
  * Memory: everything is inside gp_pse_t (static in the image), sized from BOARD_MAX_PEERS and
  * the preset's state size; no allocation. One thread (the GP core). */
@@ -65,12 +85,15 @@ typedef struct gp_pse_chunk {
 /* RoundComplete (fleetsim.round_complete_t). */
 typedef struct gp_pse_done {
     uint32_t sender, round;
+    uint32_t incarnation;    /* the sender's */
 } gp_pse_done_t;
 
-/* "Send again these chunks of your state of `round`" (fleetsim.chunk_request_t). */
+/* "Send again these chunks of your state of `round`" (fleetsim.chunk_request_t). With n = 0 it
+ * is a beacon, "the requester is in round `round`", for every peer (target is the requester). */
 typedef struct gp_pse_request {
     uint32_t requester, target, round, n;
     uint32_t chunks[GP_PSE_MAX_REQUEST];
+    uint32_t incarnation;    /* the requester's */
 } gp_pse_request_t;
 
 /* Sends one message (msg points to the struct of `kind`). 0, or a negative code (counted:
@@ -103,8 +126,15 @@ typedef struct gp_pse_stats {
     uint64_t resends_merged;    /* requested chunks not sent again: one went out just before */
     uint64_t send_failures;
     uint64_t timeouts;          /* peers that left a round */
-    uint64_t rejoins;           /* peers heard again after leaving a round */
+    uint64_t rejoins;           /* peers taken back at a round boundary after leaving */
     uint64_t bytes_sent, bytes_received; /* state bytes */
+    uint64_t beacons_sent;      /* "I am in round k": nothing else was sent for a while */
+    uint64_t old_incarnation;   /* messages of a peer's earlier incarnation, dropped */
+    uint64_t restarts;          /* peers heard with a newer incarnation (restarted) */
+    uint64_t chunks_recovered;  /* chunks that arrived only after we asked for them */
+    uint64_t states_missed;     /* peers' states of a round we went on without (never complete) */
+    uint64_t rounds_cut;        /* rounds whose waiting a later round ended */
+    uint64_t rounds_skipped;    /* rounds jumped over to catch up with the fleet */
 } gp_pse_stats_t;
 
 typedef struct gp_pse_buf {
@@ -114,14 +144,21 @@ typedef struct gp_pse_buf {
     uint32_t crc32;
     double x_m, y_m;
     uint64_t progress_us;       /* last chunk or request: when to ask again */
-    uint8_t have[GP_PSE_MAX_CHUNKS];
+    uint8_t have[GP_PSE_MAX_CHUNKS]; /* GP_PSE_HAVE, GP_PSE_ASKED (missing, asked for) or 0 */
     _Alignas(64) uint8_t bytes[GP_PSE_MAX_STATE_BYTES];
 } gp_pse_buf_t;
 
+#define GP_PSE_HAVE 1u
+#define GP_PSE_ASKED 2u
+
 typedef struct gp_pse_peer {
     gp_pse_buf_t buf[2];        /* by round parity: k and k + 1 */
-    uint64_t heard_us;          /* last valid message from it */
+    uint64_t heard_us;          /* last progress from it (see the liveness rule above) */
     int heard;                  /* heard at all */
+    uint32_t incarnation;       /* newest seen (with has_inc) */
+    int has_inc;
+    uint32_t at_round;          /* the highest round it is known to be in (with has_round) */
+    int has_round;
     uint32_t done_round;        /* highest RoundComplete */
     int has_done;
     int absent;                 /* left the current round (silent past the timeout) */
@@ -131,8 +168,8 @@ typedef struct gp_pse {
     gp_pse_cfg_t cfg;
     uint32_t n_chunks;          /* of every state */
     uint32_t round;             /* k */
-    int in_round, completed, later_heard;
-    uint64_t round_start_us, completed_us, done_sent_us;
+    int in_round, completed, later_heard, ready_noted, leaving;
+    uint64_t round_start_us, completed_us, done_sent_us, sent_us;
     const uint8_t *mine;
     uint32_t next_send;         /* our next chunk not sent yet this round (the send window) */
     uint32_t my_crc32;
@@ -150,8 +187,9 @@ FS_MUST_CHECK int gp_pse_begin_round(gp_pse_t *pse, uint32_t round, const uint8_
                                      uint64_t now_us);
 
 /* A received message: 0 when it was used, or a negative code saying why it was not (-EALREADY
- * duplicate, -ESTALE an old round, -EAGAIN a round beyond k + 1, -EBADMSG a field out of
- * range or inconsistent, -EILSEQ a CRC mismatch); every case is counted. */
+ * duplicate, -ESTALE an old round or an earlier incarnation, -EAGAIN a round beyond k + 1,
+ * -EBADMSG a field out of range or inconsistent, -EILSEQ a CRC mismatch); every case is
+ * counted. A request to another peer is taken for what it tells of its sender (0). */
 int gp_pse_on_chunk(gp_pse_t *pse, const gp_pse_chunk_t *c, uint64_t now_us);
 int gp_pse_on_done(gp_pse_t *pse, const gp_pse_done_t *d, uint64_t now_us);
 int gp_pse_on_request(gp_pse_t *pse, const gp_pse_request_t *r, uint64_t now_us);
@@ -172,5 +210,12 @@ FS_MUST_CHECK int gp_pse_complete(gp_pse_t *pse, uint64_t now_us);
 /* 1 when round k is over for us: every peer still in the round completed it, or a later round
  * was heard. */
 int gp_pse_round_finished(const gp_pse_t *pse);
+
+/* The round to begin after k: k + 1, or the highest round a peer heard within peer_timeout_us
+ * is in, when that is further (the caller caps it at its last round). */
+uint32_t gp_pse_next_round(const gp_pse_t *pse, uint64_t now_us);
+
+/* The last round finished for us: we linger as a leaver (see above). */
+void gp_pse_leave(gp_pse_t *pse, uint64_t now_us);
 
 #endif /* GP_GP_PSE_H */

@@ -100,7 +100,7 @@ int gp_wire_encode_done(const gp_pse_done_t *d, uint8_t *buf, size_t cap)
 {
     if (cap < GP_WIRE_DONE_BYTES)
         return -EMSGSIZE;
-    put32(put32(put64(buf, GP_WIRE_FP_ROUND_COMPLETE), d->sender), d->round);
+    put32(put32(put32(put64(buf, GP_WIRE_FP_ROUND_COMPLETE), d->sender), d->round), d->incarnation);
     return (int)GP_WIRE_DONE_BYTES;
 }
 
@@ -108,7 +108,7 @@ int gp_wire_decode_done(const uint8_t *buf, size_t len, gp_pse_done_t *out)
 {
     if (buf == NULL || out == NULL || len != GP_WIRE_DONE_BYTES || get64(buf) != GP_WIRE_FP_ROUND_COMPLETE)
         return -EBADMSG;
-    const gp_pse_done_t d = {get32(buf + 8), get32(buf + 12)};
+    const gp_pse_done_t d = {get32(buf + 8), get32(buf + 12), get32(buf + 16)};
     if (!NONNEG(d.sender) || !NONNEG(d.round))
         return -EBADMSG;
     *out = d;
@@ -123,6 +123,7 @@ int gp_wire_encode_request(const gp_pse_request_t *r, uint8_t *buf, size_t cap)
     p = put32(p, r->requester);
     p = put32(p, r->target);
     p = put32(p, r->round);
+    p = put32(p, r->incarnation);
     p = put32(p, r->n);
     for (uint32_t i = 0; i < r->n; i++)
         p = put32(p, r->chunks[i]);
@@ -133,18 +134,19 @@ int gp_wire_decode_request(const uint8_t *buf, size_t len, gp_pse_request_t *out
 {
     if (buf == NULL || out == NULL || len < GP_WIRE_REQUEST_BYTES(0) || get64(buf) != GP_WIRE_FP_CHUNK_REQUEST)
         return -EBADMSG;
-    const uint32_t n = get32(buf + 20);
+    const uint32_t n = get32(buf + 24);
     if (n > GP_PSE_MAX_REQUEST || len != GP_WIRE_REQUEST_BYTES(n))
         return -EBADMSG;
     gp_pse_request_t r;
     r.requester = get32(buf + 8);
     r.target = get32(buf + 12);
     r.round = get32(buf + 16);
+    r.incarnation = get32(buf + 20);
     r.n = n;
     if (!NONNEG(r.requester) || !NONNEG(r.target) || !NONNEG(r.round))
         return -EBADMSG;
     for (uint32_t i = 0; i < n; i++) {
-        r.chunks[i] = get32(buf + 24 + 4 * i);
+        r.chunks[i] = get32(buf + 28 + 4 * i);
         if (!NONNEG(r.chunks[i]))
             return -EBADMSG;
     }

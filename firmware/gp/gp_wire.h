@@ -19,13 +19,13 @@
 #include "gp/gp_pse.h"
 
 #define GP_WIRE_FP_STATE_CHUNK 0xdf65602b2d04bf15ull
-#define GP_WIRE_FP_ROUND_COMPLETE 0x174159e1f6557a31ull
-#define GP_WIRE_FP_CHUNK_REQUEST 0x4bf474954af8607aull
+#define GP_WIRE_FP_ROUND_COMPLETE 0x9ec25daeb3a35535ull
+#define GP_WIRE_FP_CHUNK_REQUEST 0x2765123cb5b82f65ull
 
 /* Bytes of each message on the wire. */
 #define GP_WIRE_CHUNK_HEADER_BYTES (8u + 8u * 4u + 1u + 2u * 8u)
-#define GP_WIRE_DONE_BYTES (8u + 2u * 4u)
-#define GP_WIRE_REQUEST_BYTES(n) (8u + 4u * 4u + 4u * (uint32_t)(n))
+#define GP_WIRE_DONE_BYTES (8u + 3u * 4u)
+#define GP_WIRE_REQUEST_BYTES(n) (8u + 5u * 4u + 4u * (uint32_t)(n))
 
 /* Writes the message into buf: its length, or -EMSGSIZE when cap is too small. */
 int gp_wire_encode_chunk(const gp_pse_chunk_t *c, uint8_t *buf, size_t cap);

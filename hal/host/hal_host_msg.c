@@ -37,14 +37,16 @@ static const field_t STATE_CHUNK[] = {
 static const field_t ROUND_COMPLETE[] = {
     {F_I32, 0, 0}, /* sender */
     {F_I32, 0, 0}, /* round */
+    {F_I32, 0, 0}, /* incarnation */
     {F_END, 0, 0},
 };
 static const field_t CHUNK_REQUEST[] = {
     {F_I32, 0, 0}, /* requester */
     {F_I32, 0, 0}, /* target */
     {F_I32, 0, 0}, /* round */
+    {F_I32, 0, 0}, /* incarnation */
     {F_I32, 0, 0}, /* n_chunks */
-    {F_I32_ARRAY, 3, MAX_I32S}, /* chunks[n_chunks] */
+    {F_I32_ARRAY, 4, MAX_I32S}, /* chunks[n_chunks] */
     {F_END, 0, 0},
 };
 

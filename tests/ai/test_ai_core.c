@@ -89,7 +89,7 @@ static void test_round_cycle(void **st)
     assert_int_equal(ai.phase, AI_PHASE_WAIT_SLOTS);
     assert_int_equal(mbox_get(link_->ai_ckpt, &ckpt, NULL), 0);
     /* ready(0) with no neighbours: a local round, then checkpoint 0, and DR clears the pool. */
-    gp_ready_t r = {0, 0};
+    gp_ready_t r = {0, 0, 0};
     assert_int_equal(mbox_put(link_->gp_ready, &r), 0);
     tick(4);
     assert_int_equal(alloc_count_allocations(), 0);
@@ -127,7 +127,7 @@ static void test_cdr_keeps_the_pool(void **st)
     start(AI_POOL_CDR);
     rt_publishes(800, 6.0f);
     tick(0);
-    gp_ready_t r = {0, 0};
+    gp_ready_t r = {0, 0, 0};
     assert_int_equal(mbox_put(link_->gp_ready, &r), 0);
     tick(1);
     assert_int_equal(mbox_get(link_->ai_ckpt, &ckpt, NULL), 1);

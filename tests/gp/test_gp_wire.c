@@ -38,15 +38,15 @@ static void test_same_as_lcm_gen(void **st)
     assert_int_equal(back.incarnation, 9);
     assert_memory_equal(back.data, data, 3000);
 
-    const gp_pse_done_t d = {4, 77};
-    fleetsim_round_complete_t ld = {4, 77};
+    const gp_pse_done_t d = {4, 77, 5};
+    fleetsim_round_complete_t ld = {4, 77, 5};
     const int nd = gp_wire_encode_done(&d, mine, sizeof mine);
     assert_int_equal(fleetsim_round_complete_t_encode(theirs, 0, (int)sizeof theirs, &ld), nd);
     assert_memory_equal(mine, theirs, (size_t)nd);
 
-    gp_pse_request_t r = {1, 2, 8, 3, {0, 4, 6}};
+    gp_pse_request_t r = {1, 2, 8, 3, {0, 4, 6}, 5};
     int32_t ch[3] = {0, 4, 6};
-    fleetsim_chunk_request_t lr = {1, 2, 8, 3, ch};
+    fleetsim_chunk_request_t lr = {1, 2, 8, 5, 3, ch};
     const int nr = gp_wire_encode_request(&r, mine, sizeof mine);
     assert_int_equal(fleetsim_chunk_request_t_encode(theirs, 0, (int)sizeof theirs, &lr), nr);
     assert_memory_equal(mine, theirs, (size_t)nr);
@@ -54,6 +54,12 @@ static void test_same_as_lcm_gen(void **st)
     assert_int_equal(gp_wire_decode_request(theirs, (size_t)nr, &rb), 0);
     assert_int_equal(rb.n, 3);
     assert_int_equal(rb.chunks[2], 6);
+    assert_int_equal(rb.incarnation, 5);
+    gp_pse_done_t db;
+    assert_int_equal(gp_wire_decode_done(theirs, 0, &db), -EBADMSG);
+    assert_int_equal(fleetsim_round_complete_t_encode(theirs, 0, (int)sizeof theirs, &ld), nd);
+    assert_int_equal(gp_wire_decode_done(theirs, (size_t)nd, &db), 0);
+    assert_int_equal(db.incarnation, 5);
 }
 
 static void put32(uint8_t *p, uint32_t v)
@@ -89,12 +95,12 @@ static void test_crafted_refused(void **st)
     assert_int_equal(gp_wire_decode_chunk(mine, (size_t)n, &out), -EBADMSG);
     mine[0] ^= 1;
     assert_memory_equal(&out, &before, sizeof out); /* untouched by every refusal */
-    gp_pse_request_t r = {1, 2, 8, 1, {3}};
+    gp_pse_request_t r = {1, 2, 8, 1, {3}, 0};
     const int nr = gp_wire_encode_request(&r, mine, sizeof mine);
-    put32(mine + 20, 0x7FFFFFFFu); /* n_chunks = INT_MAX */
+    put32(mine + 24, 0x7FFFFFFFu); /* n_chunks = INT_MAX */
     gp_pse_request_t rb;
     assert_int_equal(gp_wire_decode_request(mine, (size_t)nr, &rb), -EBADMSG);
-    gp_pse_done_t d = {1, 1};
+    gp_pse_done_t d = {1, 1, 0};
     const int nd = gp_wire_encode_done(&d, mine, sizeof mine);
     gp_pse_done_t db;
     assert_int_equal(gp_wire_decode_done(mine, (size_t)nd + 1, &db), -EBADMSG); /* trailing byte */

@@ -29,8 +29,8 @@ ENV = dict(os.environ, MPLBACKEND="Agg")
 
 SYNC = struct.pack(">I", 0xEDA1DA01)
 FP_STATE = 0xDF65602B2D04BF15
-FP_DONE = 0x174159E1F6557A31
-FP_REQUEST = 0x4BF474954AF8607A
+FP_DONE = 0x9EC25DAEB3A35535
+FP_REQUEST = 0x2765123CB5B82F65
 
 
 def run(cmd, cwd=ROOT):
@@ -55,11 +55,11 @@ def state_chunk(sender, rnd, chunk, n_chunks, payload, state_bytes=1000, encodin
 
 
 def done(sender, rnd):
-    return struct.pack(">Qii", FP_DONE, sender, rnd)
+    return struct.pack(">Qiii", FP_DONE, sender, rnd, 1)
 
 
 def request(requester, target, rnd, chunks):
-    return struct.pack(">Qiiii", FP_REQUEST, requester, target, rnd, len(chunks)) + \
+    return struct.pack(">Qiiiii", FP_REQUEST, requester, target, rnd, 1, len(chunks)) + \
         struct.pack(f">{len(chunks)}i", *chunks)
 
 

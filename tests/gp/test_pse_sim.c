@@ -1,0 +1,579 @@
+/* Deterministic simulation of the fleet protocol (after FoundationDB's simulation testing).
+ *
+ * Because gp_pse is an I/O-free state machine, N real engines run here in one process on one
+ * virtual clock, over a simulated multicast network that drops, duplicates, delays (and so
+ * reorders), corrupts and partitions datagrams, with robots that pause (their datagrams wait,
+ * as in a kernel socket buffer), crash, and restart from their last completed round with a
+ * newer incarnation. Each robot is driven like gp_fleet drives it: begin the round, wait for
+ * the states, "train" (a deterministic mix of its model and its neighbours' states, taking
+ * virtual time), complete, wait for the round to finish, then gp_pse_next_round (capped at
+ * the last round), and after the last round linger, repeating RoundComplete.
+ *
+ * One seed draws a whole schedule (fleet size, rounds, radius, faults) and drives it; every
+ * schedule asserts
+ *   liveness: every robot not left crashed finishes its last round, and no robot stays in one
+ *             round longer than the bound of the liveness rule (join timeout + two peer
+ *             timeouts + its own pause + slack);
+ *   safety:   every neighbour state a robot trains on is the sender's state of that very
+ *             round, whole (an oracle header and hash inside each state);
+ *   and with loss alone (drops, duplicates, delays, corruption; no pause, crash or
+ *   partition): no timeout fired and every final model equals the lossless schedule's.
+ * A failing schedule prints its seed; FLEETSIM_PSE_SIM_SEED=S replays exactly that one, and
+ * FLEETSIM_PSE_SIM_SCHEDULES=N runs N schedules (default 400; `make test-faults` runs more). */
+#include <math.h>
+#include <setjmp.h>
+#include <stdarg.h>
+#include <stddef.h>
+#include <stdint.h>
+#include <stdio.h>
+#include <stdlib.h>
+#include <string.h>
+#include <cmocka.h>
+
+#include "gp/gp_pse.h"
+
+#define MAXN 7
+#define MAXR 24
+#define STATE_BYTES 2600u /* 3 chunks of 1024 */
+#define CHUNK 1024u
+#define N_CHUNKS 3u
+#define HDR 12u           /* oracle header: sender, round, hash of the rest */
+#define TICK_US 1000u
+#define RESEND_US 5000u  /* peer_timeout / resend_after = 50, as the defaults (10 s / 200 ms) */
+#define TIMEOUT_US 250000u
+#define JOIN_US 500000u
+#define LINGER_US (2u * RESEND_US)
+#define QCAP 8192
+
+/* ---- seeded randomness --------------------------------------------------------------- */
+static uint64_t rng_s;
+static uint64_t rnd(void)
+{
+    uint64_t z = (rng_s += 0x9E3779B97F4A7C15ull);
+    z = (z ^ (z >> 30)) * 0xBF58476D1CE4E5B9ull;
+    z = (z ^ (z >> 27)) * 0x94D049BB133111EBull;
+    return z ^ (z >> 31);
+}
+static double rnd01(void) { return (double)(rnd() >> 11) * (1.0 / 9007199254740992.0); }
+static uint64_t rnd_below(uint64_t n) { return n ? rnd() % n : 0; }
+
+/* ---- one schedule ------------------------------------------------------------------------ */
+typedef struct schedule {
+    uint64_t seed;
+    int n, rounds;
+    double radius;
+    double drop, dup, corrupt, late;
+    uint64_t delay_us;
+    int partition;              /* robots < split vs the others, during [p_from, p_until) */
+    int split;
+    uint64_t p_from, p_until;
+    int pause_robot;            /* -1: none */
+    uint64_t pause_from, pause_len;
+    int crash_robot;            /* -1: none */
+    uint64_t crash_at, restart_after; /* restart_after 0: stays down */
+} schedule_t;
+
+static int loss_only(const schedule_t *s)
+{
+    return !s->partition && s->pause_robot < 0 && s->crash_robot < 0;
+}
+
+typedef enum { R_DRIVE, R_STATES, R_COMPUTE, R_FINISH, R_LINGER, R_EXITED, R_DOWN } rphase_t;
+
+typedef struct robot {
+    gp_pse_t pse;
+    int id;
+    rphase_t phase;
+    uint32_t round;
+    uint32_t incarnation;
+    uint64_t wake_us;           /* R_DRIVE / R_COMPUTE / R_LINGER: when that ends */
+    uint64_t round_begin_us;
+    uint64_t paused_in_round;   /* virtual time paused during the current round */
+    uint8_t model[STATE_BYTES];
+    uint8_t mine[STATE_BYTES];  /* the state sent this round (stable until the round ends) */
+    uint8_t ckpt[STATE_BYTES];  /* model after the last completed round (for a restart) */
+    int32_t ckpt_round;         /* -1: none */
+    uint64_t max_round_us;
+    int used_states;
+} robot_t;
+
+static robot_t rob[MAXN];
+static int rob_ctx[MAXN];
+
+/* A datagram in flight to one receiver. */
+typedef struct dgram {
+    uint64_t at;
+    uint32_t seq;
+    int from, to;
+    gp_pse_kind_t kind;
+    gp_pse_chunk_t chunk;
+    gp_pse_done_t done;
+    gp_pse_request_t req;
+    uint8_t data[CHUNK];
+} dgram_t;
+
+static dgram_t q[QCAP];
+static int qn;
+static uint32_t seq;
+static uint64_t now_us;
+static const schedule_t *cur;
+
+typedef struct totals {
+    uint64_t schedules, loss_only, sent, dropped, duplicated, corrupted, late, partitioned, overflow;
+    uint64_t pauses, crashes, restarts, timeouts, rejoins, skipped, cut, missed, crc, old_inc, used;
+} totals_t;
+static totals_t tot;
+
+static uint32_t hash32(const uint8_t *p, size_t n)
+{
+    uint32_t h = 2166136261u;
+    for (size_t i = 0; i < n; i++)
+        h = (h ^ p[i]) * 16777619u;
+    return h;
+}
+
+static void put32(uint8_t *p, uint32_t v) { memcpy(p, &v, 4); }
+static uint32_t get32(const uint8_t *p)
+{
+    uint32_t v;
+    memcpy(&v, p, 4);
+    return v;
+}
+
+static int partitioned(int a, int b)
+{
+    return cur->partition && now_us >= cur->p_from && now_us < cur->p_until && (a < cur->split) != (b < cur->split);
+}
+
+static void enqueue(const dgram_t *d)
+{
+    if (qn == QCAP) {
+        tot.overflow++; /* a full network loses datagrams too */
+        return;
+    }
+    q[qn++] = *d;
+}
+
+/* The robots' send callback: one copy per other robot, each with its own fate. */
+static int net_send(void *ctx, gp_pse_kind_t kind, const void *m)
+{
+    const int from = *(const int *)ctx;
+    tot.sent++;
+    for (int to = 0; to < cur->n; to++) {
+        if (to == from)
+            continue;
+        if (partitioned(from, to)) {
+            tot.partitioned++;
+            continue;
+        }
+        if (rnd01() < cur->drop) {
+            tot.dropped++;
+            continue;
+        }
+        dgram_t d;
+        memset(&d, 0, offsetof(dgram_t, data));
+        d.from = from;
+        d.to = to;
+        d.kind = kind;
+        if (kind == GP_PSE_CHUNK) {
+            d.chunk = *(const gp_pse_chunk_t *)m;
+            memcpy(d.data, d.chunk.data, d.chunk.n_bytes);
+            if (rnd01() < cur->corrupt) {
+                d.data[rnd_below(d.chunk.n_bytes)] ^= (uint8_t)(1u + rnd_below(255));
+                tot.corrupted++;
+            }
+        } else if (kind == GP_PSE_DONE) {
+            d.done = *(const gp_pse_done_t *)m;
+        } else {
+            d.req = *(const gp_pse_request_t *)m;
+        }
+        const int copies = rnd01() < cur->dup ? 2 : 1;
+        tot.duplicated += (uint64_t)(copies - 1);
+        for (int c = 0; c < copies; c++) {
+            d.at = now_us + TICK_US + rnd_below(cur->delay_us + 1u);
+            if (rnd01() < cur->late) { /* held up somewhere: it arrives rounds later */
+                d.at += rnd_below(2u * TIMEOUT_US);
+                tot.late++;
+            }
+            d.seq = seq++;
+            enqueue(&d);
+        }
+    }
+    return 0;
+}
+
+static int is_paused(int i)
+{
+    return cur->pause_robot == i && now_us >= cur->pause_from && now_us < cur->pause_from + cur->pause_len;
+}
+
+static void deliver(robot_t *r, dgram_t *d)
+{
+    if (d->kind == GP_PSE_CHUNK) {
+        d->chunk.data = d->data;
+        (void)gp_pse_on_chunk(&r->pse, &d->chunk, now_us);
+    } else if (d->kind == GP_PSE_DONE) {
+        (void)gp_pse_on_done(&r->pse, &d->done, now_us);
+    } else {
+        (void)gp_pse_on_request(&r->pse, &d->req, now_us);
+    }
+}
+
+/* Everything due by now, in (time, sequence) order, to robots that listen. */
+static void deliver_due(void)
+{
+    for (;;) {
+        int best = -1;
+        for (int i = 0; i < qn; i++)
+            if (q[i].at <= now_us && (best < 0 || q[i].at < q[best].at || (q[i].at == q[best].at && q[i].seq < q[best].seq)))
+                if (!is_paused(q[i].to))
+                    best = i;
+        if (best < 0)
+            return;
+        dgram_t d = q[best];
+        q[best] = q[--qn];
+        robot_t *r = &rob[d.to];
+        if (r->phase != R_DOWN && r->phase != R_EXITED)
+            deliver(r, &d);
+    }
+}
+
+/* ---- the robots ------------------------------------------------------------------------- */
+static void position(int id, uint32_t round, double *x, double *y)
+{
+    /* Robots on circles that cross: the disk graph changes from round to round. */
+    const double a = 0.4 * (double)round + 1.3 * (double)id;
+    *x = 5.0 + 4.0 * cos(a) + 0.5 * (double)id;
+    *y = 5.0 + 4.0 * sin(a * 0.7);
+}
+
+static void init_model(robot_t *r)
+{
+    for (uint32_t b = 0; b < STATE_BYTES; b++)
+        r->model[b] = (uint8_t)(b * 131u + (uint32_t)r->id * 29u + 7u);
+}
+
+static void start_engine(robot_t *r)
+{
+    gp_pse_cfg_t c = {(uint32_t)r->id, (uint32_t)cur->n, STATE_BYTES, CHUNK, cur->radius, RESEND_US, TIMEOUT_US,
+                      JOIN_US, net_send, &rob_ctx[r->id], 0, r->incarnation, 1};
+    assert_int_equal(gp_pse_init(&r->pse, &c), 0);
+}
+
+static void begin(robot_t *r)
+{
+    memcpy(r->mine, r->model, STATE_BYTES);
+    put32(r->mine, (uint32_t)r->id);
+    put32(r->mine + 4, r->round);
+    put32(r->mine + 8, hash32(r->mine + HDR, STATE_BYTES - HDR));
+    double x, y;
+    position(r->id, r->round, &x, &y);
+    assert_int_equal(gp_pse_begin_round(&r->pse, r->round, r->mine, x, y, now_us), 0);
+    r->phase = R_STATES;
+    r->round_begin_us = now_us;
+    r->paused_in_round = 0;
+}
+
+/* The "node update": the model mixed with the neighbours' states in id order, after the
+   oracle checked that each is the sender's state of this round, whole. */
+static void train(robot_t *r)
+{
+    uint32_t ids[GP_PSE_MAX_PEERS];
+    const uint8_t *st[GP_PSE_MAX_PEERS];
+    const uint32_t n = gp_pse_neighbours(&r->pse, ids, st);
+    for (uint32_t j = 0; j < n; j++) {
+        if (get32(st[j]) != ids[j] || get32(st[j] + 4) != r->round ||
+            get32(st[j] + 8) != hash32(st[j] + HDR, STATE_BYTES - HDR))
+            fail_msg("schedule %llu: robot %d trained on a state that is not robot %u's of round %u",
+                     (unsigned long long)cur->seed, r->id, ids[j], r->round);
+        for (uint32_t b = HDR; b < STATE_BYTES; b++)
+            r->model[b] = (uint8_t)(r->model[b] * 31u + st[j][b] * (ids[j] + 3u) + (uint8_t)r->round);
+        tot.used++;
+    }
+    for (uint32_t b = HDR; b < STATE_BYTES; b++)
+        r->model[b] = (uint8_t)(r->model[b] + (uint8_t)(b ^ r->round));
+}
+
+static int trace;
+#define TRACE(r, what)                                                                         \
+    do {                                                                                       \
+        if (trace)                                                                             \
+            fprintf(stderr, "%8.3f robot %d round %u: %s (timeouts %llu, later %d)\n", (double)now_us * 1e-6, (r)->id, \
+                    (r)->round, what, (unsigned long long)(r)->pse.stats.timeouts, (r)->pse.later_heard); \
+    } while (0)
+
+static uint64_t compute_us(void) { return 2000u + rnd_below(12000u); }
+
+static void step(robot_t *r)
+{
+    switch (r->phase) {
+    case R_DRIVE:
+        if (now_us >= r->wake_us) {
+            begin(r);
+            TRACE(r, "begin");
+        }
+        break;
+    case R_STATES:
+        gp_pse_poll(&r->pse, now_us);
+        if (gp_pse_states_ready(&r->pse)) {
+            train(r);
+            TRACE(r, "states ready");
+            r->phase = R_COMPUTE;
+            r->wake_us = now_us + compute_us();
+        }
+        break;
+    case R_COMPUTE:
+        gp_pse_poll(&r->pse, now_us); /* the GP core serves the network while the AI trains */
+        if (now_us >= r->wake_us) {
+            assert_int_equal(gp_pse_complete(&r->pse, now_us), 0);
+            memcpy(r->ckpt, r->model, STATE_BYTES);
+            r->ckpt_round = (int32_t)r->round;
+            r->phase = R_FINISH;
+            TRACE(r, "complete");
+        }
+        break;
+    case R_FINISH:
+        gp_pse_poll(&r->pse, now_us);
+        if (gp_pse_round_finished(&r->pse)) {
+            const uint64_t took = now_us - r->round_begin_us - r->paused_in_round;
+            if (took > r->max_round_us)
+                r->max_round_us = took;
+            const uint32_t last = (uint32_t)cur->rounds - 1u;
+            if (r->round == last) {
+                gp_pse_leave(&r->pse, now_us);
+                r->phase = R_LINGER;
+                r->wake_us = now_us + LINGER_US;
+                break;
+            }
+            uint32_t next = gp_pse_next_round(&r->pse, now_us);
+            r->round = next > last ? last : next;
+            begin(r);
+            TRACE(r, "begin");
+        }
+        break;
+    case R_LINGER:
+        gp_pse_poll(&r->pse, now_us);
+        if (now_us >= r->wake_us)
+            r->phase = R_EXITED;
+        break;
+    default:
+        break;
+    }
+}
+
+static void add_stats(const gp_pse_stats_t *s)
+{
+    tot.timeouts += s->timeouts;
+    tot.rejoins += s->rejoins;
+    tot.skipped += s->rounds_skipped;
+    tot.cut += s->rounds_cut;
+    tot.missed += s->states_missed;
+    tot.crc += s->crc_failures;
+    tot.old_inc += s->old_incarnation;
+}
+
+/* Runs one schedule; the final models land in out (per robot) when it is given. */
+static void run(const schedule_t *s, uint8_t out[MAXN][STATE_BYTES], uint64_t *timeouts, uint64_t *cut)
+{
+    cur = s;
+    qn = 0;
+    seq = 0;
+    now_us = 0;
+    rng_s = s->seed ^ 0x5EEDF00Dull;
+    for (int i = 0; i < s->n; i++) {
+        robot_t *r = &rob[i];
+        rob_ctx[i] = i;
+        r->id = i;
+        r->incarnation = 1;
+        r->round = 0;
+        r->ckpt_round = -1;
+        r->max_round_us = 0;
+        init_model(r);
+        start_engine(r);
+        r->phase = R_DRIVE;
+        r->wake_us = rnd_below(50000u); /* the tours take different times */
+    }
+    /* Liveness bound per round (the rule in gp_pse.h), with slack for compute and latency. */
+    const uint64_t bound = JOIN_US + 2u * TIMEOUT_US + 30000u + 4u * s->delay_us + 20u * RESEND_US;
+    const uint64_t deadline = (uint64_t)s->rounds * bound + s->pause_len + s->restart_after + 5000000u;
+    int crashed = 0, restarted = 0;
+    for (; now_us < deadline; now_us += TICK_US) {
+        if (s->crash_robot >= 0 && !crashed && now_us >= s->crash_at && rob[s->crash_robot].phase != R_EXITED) {
+            robot_t *r = &rob[s->crash_robot];
+            add_stats(&r->pse.stats);
+            r->phase = R_DOWN;
+            crashed = 1;
+            tot.crashes++;
+        }
+        if (crashed && !restarted && s->restart_after > 0 && now_us >= s->crash_at + s->restart_after) {
+            robot_t *r = &rob[s->crash_robot];
+            r->incarnation++;
+            start_engine(r);
+            if (r->ckpt_round >= 0) {
+                memcpy(r->model, r->ckpt, STATE_BYTES);
+                r->round = (uint32_t)r->ckpt_round + 1u;
+            } else {
+                init_model(r);
+                r->round = 0;
+            }
+            restarted = 1;
+            tot.restarts++;
+            if (r->round >= (uint32_t)s->rounds) { /* it had finished: nothing to resume */
+                r->phase = R_EXITED;
+            } else {
+                r->phase = R_DRIVE;
+                r->wake_us = now_us + 30000u;
+            }
+        }
+        deliver_due();
+        int active = 0;
+        for (int i = 0; i < s->n; i++) {
+            robot_t *r = &rob[i];
+            if (r->phase == R_EXITED || r->phase == R_DOWN)
+                continue;
+            active = 1;
+            if (is_paused(i)) {
+                if (r->phase == R_STATES || r->phase == R_COMPUTE || r->phase == R_FINISH)
+                    r->paused_in_round += TICK_US;
+                continue;
+            }
+            step(r);
+        }
+        if (!active)
+            break;
+    }
+    if (s->pause_robot >= 0)
+        tot.pauses++;
+    for (int i = 0; i < s->n; i++) {
+        robot_t *r = &rob[i];
+        const int left_down = r->phase == R_DOWN;
+        if (!left_down && r->phase != R_EXITED)
+            fail_msg("schedule %llu: robot %d still in round %u (phase %d) at the deadline %.1f s: no progress "
+                     "(replay: FLEETSIM_PSE_SIM_SEED=%llu)",
+                     (unsigned long long)s->seed, i, r->round, (int)r->phase, (double)deadline * 1e-6,
+                     (unsigned long long)s->seed);
+        if (r->max_round_us > bound)
+            fail_msg("schedule %llu: robot %d spent %.3f s in one round, past the liveness bound %.3f s "
+                     "(replay: FLEETSIM_PSE_SIM_SEED=%llu)",
+                     (unsigned long long)s->seed, i, (double)r->max_round_us * 1e-6, (double)bound * 1e-6,
+                     (unsigned long long)s->seed);
+        if (!left_down)
+            add_stats(&r->pse.stats);
+        if (out)
+            memcpy(out[i], r->model, STATE_BYTES);
+        if (timeouts)
+            *timeouts += r->pse.stats.timeouts;
+        if (cut)
+            *cut += r->pse.stats.rounds_cut;
+    }
+}
+
+static void draw(uint64_t seed, schedule_t *s)
+{
+    rng_s = seed;
+    memset(s, 0, sizeof *s);
+    s->seed = seed;
+    s->n = 2 + (int)rnd_below(MAXN - 1);
+    s->rounds = 3 + (int)rnd_below(MAXR - 3);
+    s->radius = rnd_below(3) == 0 ? 0.0 : 6.0;
+    static const double drops[] = {0.0, 0.05, 0.2, 0.4};
+    s->drop = drops[rnd_below(4)];
+    s->dup = rnd_below(3) == 0 ? 0.1 : 0.0;
+    s->corrupt = rnd_below(4) == 0 ? 0.02 : 0.0;
+    s->late = rnd_below(4) == 0 ? 0.01 : 0.0;
+    s->delay_us = rnd_below(3) == 0 ? 15000u : 2000u; /* above a tick: reordered */
+    s->pause_robot = s->crash_robot = -1;
+    const uint64_t kind = rnd_below(8);
+    const uint64_t t = 20000u + rnd_below((uint64_t)s->rounds * 25000u);
+    if (kind == 5) {
+        s->partition = 1;
+        s->split = 1 + (int)rnd_below((uint64_t)s->n - 1);
+        s->p_from = t;
+        s->p_until = t + TIMEOUT_US + rnd_below(3u * TIMEOUT_US);
+    } else if (kind == 6) {
+        s->pause_robot = (int)rnd_below((uint64_t)s->n);
+        s->pause_from = t;
+        s->pause_len = TIMEOUT_US / 2 + rnd_below(3u * TIMEOUT_US);
+    } else if (kind == 7) {
+        s->crash_robot = (int)rnd_below((uint64_t)s->n);
+        s->crash_at = t;
+        s->restart_after = rnd_below(3) == 0 ? 0 : 50000u + rnd_below(3u * TIMEOUT_US);
+    }
+}
+
+static uint64_t env_u64(const char *name, uint64_t dflt)
+{
+    const char *v = getenv(name);
+    if (v == NULL || *v == '\0')
+        return dflt;
+    char *end = NULL;
+    unsigned long long x = strtoull(v, &end, 10);
+    if (end == v || *end != '\0')
+        fail_msg("%s='%s' is not a whole number", name, v);
+    return x;
+}
+
+static uint8_t ref_model[MAXN][STATE_BYTES], got_model[MAXN][STATE_BYTES];
+
+static void check_schedule(uint64_t seed)
+{
+    schedule_t s;
+    draw(seed, &s);
+    tot.schedules++;
+    uint64_t timeouts = 0, cut = 0;
+    run(&s, got_model, &timeouts, &cut);
+    if (!loss_only(&s))
+        return;
+    tot.loss_only++;
+    if (timeouts != 0 || cut != 0)
+        fail_msg("schedule %llu (loss only, drop %.2f): %llu timeouts, %llu cut rounds; expected none "
+                 "(replay: FLEETSIM_PSE_SIM_SEED=%llu)",
+                 (unsigned long long)seed, s.drop, (unsigned long long)timeouts, (unsigned long long)cut,
+                 (unsigned long long)seed);
+    schedule_t clean = s;
+    clean.drop = clean.dup = clean.corrupt = clean.late = 0.0;
+    clean.delay_us = 0;
+    run(&clean, ref_model, NULL, NULL);
+    for (int i = 0; i < s.n; i++)
+        if (memcmp(ref_model[i], got_model[i], STATE_BYTES) != 0)
+            fail_msg("schedule %llu (loss only): robot %d's final model differs from the lossless run's "
+                     "(replay: FLEETSIM_PSE_SIM_SEED=%llu)",
+                     (unsigned long long)seed, i, (unsigned long long)seed);
+}
+
+static void test_seeded_schedules(void **st)
+{
+    (void)st;
+    memset(&tot, 0, sizeof tot);
+    trace = getenv("FLEETSIM_PSE_SIM_TRACE") != NULL;
+    const uint64_t one = env_u64("FLEETSIM_PSE_SIM_SEED", 0);
+    const uint64_t n = one ? 1u : env_u64("FLEETSIM_PSE_SIM_SCHEDULES", 400u);
+    const uint64_t base = env_u64("FLEETSIM_PSE_SIM_BASE", 1u);
+    for (uint64_t i = 0; i < n; i++)
+        check_schedule(one ? one : base + i);
+    print_message("pse_sim: %llu schedules (%llu loss only, %llu with pauses, %llu crashes, %llu restarts), seeds "
+                  "%llu..%llu\n",
+                  (unsigned long long)tot.schedules, (unsigned long long)tot.loss_only, (unsigned long long)tot.pauses,
+                  (unsigned long long)tot.crashes, (unsigned long long)tot.restarts,
+                  (unsigned long long)(one ? one : base), (unsigned long long)(one ? one : base + n - 1u));
+    print_message("pse_sim: injected: %llu sends, %llu copies dropped, %llu duplicated, %llu corrupted, %llu late, "
+                  "%llu cut by partitions, %llu lost to a full network\n",
+                  (unsigned long long)tot.sent, (unsigned long long)tot.dropped, (unsigned long long)tot.duplicated,
+                  (unsigned long long)tot.corrupted, (unsigned long long)tot.late, (unsigned long long)tot.partitioned,
+                  (unsigned long long)tot.overflow);
+    print_message("pse_sim: survived: every schedule live and safe; %llu neighbour states trained on; %llu timeouts, "
+                  "%llu rejoins, %llu rounds skipped to catch up, %llu rounds cut by a later round\n",
+                  (unsigned long long)tot.used, (unsigned long long)tot.timeouts, (unsigned long long)tot.rejoins,
+                  (unsigned long long)tot.skipped, (unsigned long long)tot.cut);
+    print_message("pse_sim: rejected: %llu CRC failures, %llu messages of an earlier incarnation, %llu states "
+                  "missed\n",
+                  (unsigned long long)tot.crc, (unsigned long long)tot.old_inc, (unsigned long long)tot.missed);
+}
+
+int main(void)
+{
+    const struct CMUnitTest tests[] = {
+        cmocka_unit_test(test_seeded_schedules),
+    };
+    return cmocka_run_group_tests(tests, NULL, NULL);
+}
