@@ -27,7 +27,7 @@ gp_fleet_cfg_t gp_fleet_default_cfg(void)
     c.n_peers = 1;
     c.rounds = 1;
     c.encoding = GP_FLEET_FP32;
-    c.resend_after_us = 200000u;
+    c.resend_after_us = 50000u;
     c.peer_timeout_us = 10000000u;
     c.join_timeout_us = 120000000u;
     c.poll_us = 2000u;

@@ -59,7 +59,7 @@ typedef struct gp_fleet_cfg {
     gp_fleet_encoding_t encoding;
     uint32_t incarnation;
     uint32_t chunk_bytes;            /* 0: GP_PSE_MAX_CHUNK_BYTES */
-    uint32_t resend_after_us;        /* ask again for missing chunks (default 200 ms) */
+    uint32_t resend_after_us;        /* ask again for missing chunks (default 50 ms) */
     uint32_t peer_timeout_us;        /* a silent peer leaves the round (default 10 s) */
     uint32_t join_timeout_us;        /* the same before a peer was ever heard (default 120 s) */
     uint32_t poll_us;                /* longest single hal_net_wait (default 2 ms) */

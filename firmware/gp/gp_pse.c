@@ -171,6 +171,25 @@ static int note_sender(gp_pse_t *p, uint32_t sender, uint32_t incarnation, uint3
     return 0;
 }
 
+/* The next poll asks for what b misses (unless it asked within a quarter resend period). */
+static void ask_soon(const gp_pse_t *p, gp_pse_buf_t *b, uint64_t now_us)
+{
+    const uint64_t quarter = p->cfg.resend_after_us / 4u;
+    if (now_us - b->progress_us >= quarter && now_us >= p->cfg.resend_after_us)
+        b->progress_us = now_us - p->cfg.resend_after_us;
+}
+
+/* The sender of a RoundComplete or a beacon of our round has sent its whole state already:
+   what we miss of it is lost, ask at once. */
+static void sender_state_sent(gp_pse_t *p, uint32_t sender, uint32_t round, uint64_t now_us)
+{
+    if (!p->in_round || round != p->round)
+        return;
+    gp_pse_buf_t *b = &p->peer[sender].buf[round & 1u];
+    if (b->used && b->round == round && !b->complete)
+        ask_soon(p, b, now_us);
+}
+
 /* Round window of a stored message of `round`: 0 inside (k or k + 1), else the reason. */
 static int window(gp_pse_t *p, uint32_t round)
 {
@@ -223,6 +242,13 @@ int gp_pse_on_chunk(gp_pse_t *p, const gp_pse_chunk_t *c, uint64_t now_us)
     b->y_m = c->y_m;
     b->progress_us = now_us;
     p->stats.bytes_received += c->n_bytes;
+    /* Chunks go out in order: a gap below this one is most likely a loss, so the next poll
+       asks for it at once instead of a resend period later (a fast retransmit). */
+    for (uint32_t i = 0; i < c->chunk; i++)
+        if (!(b->have[i] & GP_PSE_HAVE)) {
+            ask_soon(p, b, now_us);
+            break;
+        }
     if (b->got == p->n_chunks) {
         if (crc32_ieee(b->bytes, p->cfg.state_bytes) != b->crc32) {
             p->stats.crc_failures++;
@@ -242,6 +268,7 @@ int gp_pse_on_done(gp_pse_t *p, const gp_pse_done_t *d, uint64_t now_us)
     }
     if (note_sender(p, d->sender, d->incarnation, d->round, 1, now_us) != 0)
         return -ESTALE;
+    sender_state_sent(p, d->sender, d->round, now_us);
     gp_pse_peer_t *q = &p->peer[d->sender];
     if (!q->has_done || d->round > q->done_round) {
         q->done_round = d->round;
@@ -268,6 +295,8 @@ int gp_pse_on_request(gp_pse_t *p, const gp_pse_request_t *r, uint64_t now_us)
         }
     if (note_sender(p, r->requester, r->incarnation, r->round, 0, now_us) != 0)
         return -ESTALE;
+    if (r->n == 0)
+        sender_state_sent(p, r->requester, r->round, now_us);
     if (r->n == 0 || r->target != p->cfg.self)
         return 0; /* a beacon, or a request to another peer: it told us where its sender is */
     if (!p->in_round || r->round != p->round) {
@@ -344,10 +373,12 @@ void gp_pse_poll(gp_pse_t *p, uint64_t now_us)
             send_beacon(p, p->round + 1u, now_us);
         return;
     }
-    /* Completed: our RoundComplete again every resend period until the next round begins. It
-       replaces one that was lost (the last round has no later State to tell a peer that we
-       finished) and keeps the peers already in the next round knowing we are on our way. */
-    if (p->completed && now_us - p->done_sent_us >= p->cfg.resend_after_us) {
+    /* Completed: our RoundComplete again until the next round begins, every quarter resend
+       period while the round is not finished for us (a lost one is what the peers still wait
+       for: it is 20 bytes), then every resend period, so that the peers already in the next
+       round know we are on our way. */
+    const uint64_t done_every = gp_pse_round_finished(p) ? p->cfg.resend_after_us : p->cfg.resend_after_us / 4u;
+    if (p->completed && now_us - p->done_sent_us >= done_every) {
         send_done(p, now_us);
         p->stats.done_resent++;
     }
