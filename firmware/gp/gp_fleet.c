@@ -225,6 +225,8 @@ static void close_record(gp_fleet_t *f)
     r->invalid = DELTA(invalid);
     r->chunks_recovered = DELTA(chunks_recovered);
     r->states_missed = DELTA(states_missed);
+    r->chunks_lost = DELTA(chunks_lost);
+    r->rounds_skipped = DELTA(rounds_skipped);
     r->beacons_sent = DELTA(beacons_sent);
     r->restarts = DELTA(restarts);
     r->old_incarnation = DELTA(old_incarnation);

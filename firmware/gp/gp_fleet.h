@@ -81,7 +81,8 @@ typedef struct gp_fleet_round {
     uint64_t duplicates, stale, timeouts, rejoins, crc_failures, invalid;
     uint64_t chunks_recovered;       /* chunks that came only after we asked again */
     uint64_t states_missed;          /* peers' states the round went on without */
-    uint64_t beacons_sent, restarts, old_incarnation;
+    uint64_t chunks_lost;            /* their chunks never received */
+    uint64_t beacons_sent, restarts, old_incarnation, rounds_skipped;
 } gp_fleet_round_t;
 
 typedef struct gp_fleet_stats {

@@ -411,8 +411,10 @@ void gp_pse_poll(gp_pse_t *p, uint64_t now_us)
         p->ready_noted = 1;
         for (uint32_t i = 0; i < p->cfg.n_peers; i++) {
             const gp_pse_buf_t *b = &p->peer[i].buf[p->round & 1u];
-            if (i != p->cfg.self && !(b->used && b->round == p->round && b->complete))
+            if (i != p->cfg.self && !(b->used && b->round == p->round && b->complete)) {
                 p->stats.states_missed++;
+                p->stats.chunks_lost += p->n_chunks - (b->used && b->round == p->round ? b->got : 0u);
+            }
         }
         if (p->later_heard && p->stats.states_missed > 0)
             p->stats.rounds_cut++;

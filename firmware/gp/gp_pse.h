@@ -133,6 +133,7 @@ typedef struct gp_pse_stats {
     uint64_t restarts;          /* peers heard with a newer incarnation (restarted) */
     uint64_t chunks_recovered;  /* chunks that arrived only after we asked for them */
     uint64_t states_missed;     /* peers' states of a round we went on without (never complete) */
+    uint64_t chunks_lost;       /* their chunks never received */
     uint64_t rounds_cut;        /* rounds whose waiting a later round ended */
     uint64_t rounds_skipped;    /* rounds jumped over to catch up with the fleet */
 } gp_pse_stats_t;
