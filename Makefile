@@ -7,6 +7,9 @@
 #   make test         install missing packages (as root), build and run every cmocka test
 #   make test-asan    the tests under AddressSanitizer + UndefinedBehaviorSanitizer
 #   make test-tsan    the threaded tests under ThreadSanitizer
+#   make test-faults  the fleet as real processes under packet loss (tests/faults/: the fault
+#                     injector, and the kernel's drops in a network namespace as root), and
+#                     SCHEDULES=N (default 4000) schedules of the protocol's simulated network
 #   make bench        benchmarks; one `BENCH <name> <value> <unit>` line per figure (with
 #                     TORCH_PYTHON=<python with torch>, PyTorch's step and MC-50 beside ours)
 #   make experiments  the paper's experiments and the KL question (hours, resumable):
@@ -132,7 +135,10 @@ SIM_C     := $(sort $(shell find host_sim -name '*.c' -not -path 'host_sim/app/*
 APP_C     := $(sort $(wildcard host_sim/app/*.c))
 MSG_LCM   := $(sort $(wildcard firmware/msg/*.lcm))
 SUPPORT_C := $(sort $(wildcard tests/support/*.c))
-TEST_C    := $(sort $(shell find tests -name 'test_*.c' -not -path 'tests/support/*'))
+# tests/faults/ (fleets under loss, slower, root for the kernel case) runs on its own:
+# `make test-faults`, never in `make test`.
+TEST_C    := $(sort $(shell find tests -name 'test_*.c' -not -path 'tests/support/*' -not -path 'tests/faults/*'))
+FAULTS_TEST_C := $(sort $(wildcard tests/faults/test_*.c))
 BENCH_C   := $(sort $(wildcard tools/bench/bench_*.c))
 BENCH_SUPPORT_C := tools/bench/fma_probe.c
 
@@ -146,6 +152,7 @@ SIM_OBJ     := $(call obj,$(SIM_C))
 APP_OBJ     := $(call obj,$(APP_C))
 SUPPORT_OBJ := $(call obj,$(SUPPORT_C))
 TEST_BIN    := $(patsubst %.c,$(O)/%,$(TEST_C))
+FAULTS_TEST_BIN := $(patsubst %.c,$(O)/%,$(FAULTS_TEST_C))
 BENCH_BIN   := $(patsubst tools/bench/%.c,$(BIN)/%,$(BENCH_C))
 BENCH_SUPPORT_OBJ := $(call obj,$(BENCH_SUPPORT_C))
 PROGRAMS    := $(if $(APP_C),$(BIN)/host_sim) $(BENCH_BIN)
@@ -243,7 +250,7 @@ $(O)/tests/%: $(O)/obj/tests/%.c.o $(LIB)/libtestsupport.a $(LIB)/libhal_stdc.a 
 	$(call say,LD,$@)$(CXX) $(OPT) $< -Wl,--start-group $(LIB)/libtestsupport.a $(LIB)/libhal_stdc.a $(LIBS) -Wl,--end-group $(SYS_LIBS) -lcmocka $(WRAP) -o $@
 
 # ---- targets ----------------------------------------------------------------------------
-.PHONY: experiments all layering deps run run-inproc test test-asan test-tsan tests bench bench-one clean help check-portable check-config $(CROSS_GOALS)
+.PHONY: experiments all layering deps run run-inproc test test-asan test-tsan test-faults tests bench bench-one clean help check-portable check-config $(CROSS_GOALS)
 
 all: deps layering $(LIBS) $(PROGRAMS)
 ifeq ($(BUILD),release)
@@ -257,12 +264,20 @@ deps:
 layering:
 	@tools/check-layering.sh
 
-tests: all $(TEST_BIN)
+# The fault tests are built with the others (so they keep compiling) but run only by test-faults.
+tests: all $(TEST_BIN) $(FAULTS_TEST_BIN)
 
 # The Python tools' tests run with the release tests (they need no build of their own).
 TEST_PY := $(if $(filter release,$(BUILD)),$(sort $(wildcard tests/tools/test_*.py)))
 test: tests
 	@tools/run-tests.sh $(TEST_BIN) $(TEST_PY)
+
+# With them, SCHEDULES schedules of the protocol's simulated network (tests/gp/test_pse_sim;
+# `make test` runs 400).
+SCHEDULES ?= 4000
+PSE_SIM_BIN := $(filter %/tests/gp/test_pse_sim,$(TEST_BIN))
+test-faults: all $(FAULTS_TEST_BIN) $(PSE_SIM_BIN)
+	@FLEETSIM_PSE_SIM_SCHEDULES=$(SCHEDULES) tools/run-tests.sh $(FAULTS_TEST_BIN) $(PSE_SIM_BIN)
 
 test-asan:
 	@$(MAKE) --no-print-directory BUILD=asan test

@@ -10,6 +10,7 @@
 
 #include "ai/ai_rng.h"
 #include "hal_host_msg.h"
+#include "hal_host_stop.h"
 #include "sim_fleet.h"
 
 void sim_image_cfg_default(sim_image_cfg_t *cfg)
@@ -80,9 +81,9 @@ int sim_image_run(const sim_plan_t *plan, const sim_path_t *path, const sim_imag
         (cfg->rounds_per_boundary > 1 && cfg->rounds % cfg->rounds_per_boundary != 0) ||
         (cfg->fleet != NULL && cfg->net_url == NULL) ||
         !(cfg->time_limit_s > 0) || !isfinite(cfg->time_limit_s) || !(cfg->kl_weight >= 0) ||
-        !isfinite(cfg->kl_weight)) {
+        !isfinite(cfg->kl_weight) || cfg->start_round >= cfg->rounds || cfg->resume_ckpt_bytes > UINT32_MAX) {
         snprintf(err, errlen, "image: need 1 <= rounds <= %u, steps per round >= 1, a positive time "
-                              "limit and a finite kl weight >= 0", AI_CORE_MAX_ROUNDS);
+                              "limit, a finite kl weight >= 0 and a start round below rounds", AI_CORE_MAX_ROUNDS);
         return -EINVAL;
     }
     int rc;
@@ -103,6 +104,8 @@ int sim_image_run(const sim_plan_t *plan, const sim_path_t *path, const sim_imag
     hal_host_config_t hc = hal_host_config_default();
     hc.sched = cfg->sched;
     hc.net_url = cfg->net_url;
+    hc.net_faults = cfg->net_faults;
+    hc.net_faults_seed = cfg->seed;
     hc.storage_dir = cfg->storage_dir;
     hc.log_level = cfg->log_level;
     if (cfg->fleet != NULL) {
@@ -129,6 +132,9 @@ int sim_image_run(const sim_plan_t *plan, const sim_path_t *path, const sim_imag
     sim_fleet_seeds(cfg->seed, (int)cfg->robot, &fc.ai.model_seed, &fc.ai.seed);
     fc.ai.node_id = cfg->robot;
     fc.ai.train_between = cfg->train_between;
+    fc.ai.start_round = cfg->start_round;
+    fc.ai.resume_ckpt = cfg->resume_ckpt;
+    fc.ai.resume_ckpt_bytes = (uint32_t)cfg->resume_ckpt_bytes;
     fc.gp.robot_id = cfg->robot;
     fc.gp.ckpt_every = cfg->ckpt_every;
     if (cfg->fleet != NULL) {
@@ -150,7 +156,7 @@ int sim_image_run(const sim_plan_t *plan, const sim_path_t *path, const sim_imag
     for (uint64_t t = 0; t < limit;) {
         t = t + slice < limit ? t + slice : limit;
         rc = hal_host_run_until(h, t);
-        if (rc < 0) {
+        if (rc < 0 && rc != -EINTR) {
             snprintf(err, errlen, "image: simulation failed at t = %.2f s (%d)", (double)t * 1e-6, rc);
             goto out;
         }
@@ -159,13 +165,19 @@ int sim_image_run(const sim_plan_t *plan, const sim_path_t *path, const sim_imag
              fleet_seen++)
             if (cfg->on_fleet_round)
                 cfg->on_fleet_round(r, cfg->user);
-        for (const ai_round_info_t *r; (r = gp_core_round(gp, seen)) != NULL; seen++)
+        for (const ai_round_info_t *r; (r = gp_core_round(gp, seen)) != NULL; seen++) {
+            if (r->ckpt_status != 0 && res->ckpt_error == 0) {
+                res->ckpt_error = r->ckpt_status;
+                res->ckpt_error_round = r->round;
+            }
             if (cfg->on_round)
                 cfg->on_round(r, cfg->user);
-        if (gp_core_done(gp)) {
-            res->completed = 1;
-            break;
         }
+        if (gp_core_done(gp))
+            res->completed = 1;
+        res->stop_signal = hal_host_stop_signal();
+        if (res->completed || res->stop_signal != 0 || res->ckpt_error != 0)
+            break;
     }
     res->sim_time_us = hal_host_now_us(h);
     hal_host_stop(h);

@@ -9,6 +9,16 @@
  * record (the GP core's log) to the callback, which may read the checkpoint the GP core wrote
  * and print. Then it stops the cores and fills *res with every figure (profiling included).
  * Static firmware state: one run at a time per process.
+ * It also stops early, in good order, at the end of a slice:
+ *   - when a round record comes back with a checkpoint that could not be written
+ *     (res->ckpt_error, ->ckpt_error_round: the first one): a robot whose storage fails
+ *     stops at once instead of training on to the last round;
+ *   - when a stop was requested (SIGINT/SIGTERM, hal_host_stop.h; res->stop_signal): the
+ *     lockstep ends before its next instant, and a GP core waiting for its peers ends its
+ *     wait (hal_net_wait returns -ECANCELED).
+ * Resuming: cfg->start_round and cfg->resume_ckpt go to the AI core (ai_core.h: the run
+ * continues at round start_round with theta from the checkpoint; duals and Adam moments
+ * restart at zero); the GP core's round log then begins at start_round.
  *
  * Seeds (all from cfg->seed): lidar and GPS noise = seed; model weights, minibatches, BNN
  * noise and reservoir as agent `robot` of the in-process fleet (sim_fleet_seeds), so a fleet
@@ -46,9 +56,14 @@ typedef struct sim_image_cfg {
     double time_limit_s;         /* simulated seconds, > 0 */
     const char *storage_dir;     /* checkpoints go here (created); NULL: no storage */
     const char *net_url;         /* NULL: no network; "memq://" in-process */
+    const char *net_faults;      /* NULL: none; else faults injected on receive (hal_host_netfault.h),
+                                    seeded from seed and robot unless the spec has seed= */
     hal_host_sched_t sched;
     hal_log_level_t log_level;
     uint32_t ckpt_every;         /* round checkpoints every N rounds (1: all; 0: final only) */
+    uint32_t start_round;        /* first round to run (0: a fresh run; < rounds) */
+    const uint8_t *resume_ckpt;  /* NULL, or the checkpoint (bnn_ckpt) the model starts from */
+    size_t resume_ckpt_bytes;
     const gp_fleet_cfg_t *fleet; /* NULL: no peers; else a fleet member over net_url */
     sim_image_round_fn on_round;  /* may be NULL */
     sim_image_fleet_round_fn on_fleet_round; /* may be NULL: each round's traffic record */
@@ -57,6 +72,10 @@ typedef struct sim_image_cfg {
 
 typedef struct sim_image_result {
     int completed;                /* 1 when all C rounds were done before the time limit */
+    int stop_signal;              /* the signal that stopped the run early (hal_host_stop.h), or 0 */
+    int32_t ckpt_error;           /* first checkpoint write that failed (negative errno), or 0:
+                                     the run stopped at the end of that slice */
+    uint32_t ckpt_error_round;    /* its round */
     uint64_t sim_time_us;
     double wall_s;
     uint32_t rounds_done;

@@ -4,7 +4,9 @@
     tools/fleet_report.py RUN_DIR [--quiet]
 
 Reads (every file optional: a missing one skips its figure and is named in summary.md):
-  run.json                      every setting of the run (all keys shown, none required)
+  run.json                      every setting of the run (all keys shown, none required); "deaths"
+                                and "failed": the robots that died, at which round, how, whether
+                                tools/fleet restarted them (shown first, in their own section)
   robot_<i>/metrics.csv         per DiNNO round: round,...,train_loss,...,val_loss,...
   robot_<i>/traffic.csv         per round: round,...,bytes_sent,...,chunks_resent,
                                 chunks_requested,...,timeouts,...
@@ -599,13 +601,46 @@ def last_finite(np, v):
     return (float(v[ok[-1]]), int(ok[-1])) if ok.size else (None, None)
 
 
+DEATH_KEYS = ("deaths", "failed")
+
+
+def death_line(d):
+    """One robot's death as tools/fleet recorded it in run.json."""
+    if not isinstance(d, dict):
+        return f"- {md_cell(d)}"
+    why = md_cell(d.get("how", "?"))
+    if d.get("error"):
+        why += f": `{md_cell(d['error'])}`"
+    after = (f"restarted with --resume (restart {md_cell(d.get('restart'))})" if d.get("restarted")
+             else "not restarted")
+    return f"- robot {md_cell(d.get('robot', '?'))} died at round {md_cell(d.get('round', '?'))} ({why}); {after}"
+
+
+def deaths_section(s):
+    """The robots that died during the run (run.json "deaths"; "failed": the one that stopped
+    the fleet), first thing in the report: the figures below are partial then."""
+    deaths, failed = s.get("deaths") or [], s.get("failed")
+    if not deaths and not failed:
+        return []
+    L = []
+    if isinstance(failed, dict):
+        L += [f"**The fleet failed: robot {md_cell(failed.get('robot', '?'))} died at round "
+              f"{md_cell(failed.get('round', '?'))} ({md_cell(failed.get('how', '?'))}); the other robots were "
+              "stopped, so no robot has a final model and there are no maps.**", ""]
+    if not isinstance(deaths, list):
+        deaths = [deaths]
+    L += ["## Robots that died", ""] + [death_line(d) for d in deaths] + [""]
+    return L
+
+
 def summary(run, figures):
     np = run.np
     L = [f"# Fleet run report: {os.path.basename(os.path.abspath(run.dir))}", ""]
     s = run.settings
     if s is not None:
+        L += deaths_section(s)
         L += ["## Settings", "", "| setting | value |", "|---|---|"]
-        L += [f"| {md_cell(k)} | {md_cell(v)} |" for k, v in s.items()]
+        L += [f"| {md_cell(k)} | {md_cell(v)} |" for k, v in s.items() if k not in DEATH_KEYS]
         L.append("")
 
     L += ["## Final figures", ""]

@@ -31,6 +31,9 @@ deps=(
     "python3-numpy        /usr/lib/python3/dist-packages/numpy/__init__.py"
     "python3-scipy        /usr/lib/python3/dist-packages/scipy/__init__.py"
     "python3-matplotlib   /usr/lib/python3/dist-packages/matplotlib/__init__.py"
+    # the fleet under the kernel's packet loss (tests/faults, make test-faults)
+    "iproute2             /sbin/ip"
+    "iptables             /usr/sbin/iptables"
 )
 # Other compilers, for the portability checks only (users of `make run` do not need them).
 portable_deps=(

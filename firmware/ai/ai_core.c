@@ -25,11 +25,28 @@ ai_core_cfg_t ai_core_default_cfg(void)
     return c;
 }
 
+/* A resumed run: theta from the checkpoint (the duals stay at the zero dinno_node_init gave
+ * them, the Adam state is reset by the load), and the node's round counter at start_round,
+ * because it keys the learning rate, rho_k, the minibatches and the noise of every round. */
+static int resume_node(ai_core_t *ai, const ai_core_cfg_t *cfg)
+{
+    if (cfg->resume_ckpt != NULL) {
+        int r = bnn_ckpt_load(&ai->node.model, cfg->resume_ckpt, cfg->resume_ckpt_bytes, NULL);
+        if (r != 0)
+            return r;
+        memcpy(ai->node.theta0, bnn_params_const(&ai->node.model),
+               sizeof(float) * bnn_n_params(&ai->node.model));
+    }
+    ai->node.round = cfg->start_round;
+    return 0;
+}
+
 int ai_core_init(ai_core_t *ai, const ai_core_cfg_t *cfg, const fw_link_t *link)
 {
     if (ai == NULL || cfg == NULL || link == NULL || cfg->rounds < 1 ||
         cfg->rounds > AI_CORE_MAX_ROUNDS || cfg->train_between < 0 || cfg->train_between > 1 ||
-        cfg->offline < 0 || cfg->offline > 1 ||
+        cfg->offline < 0 || cfg->offline > 1 || cfg->start_round >= cfg->rounds ||
+        (cfg->resume_ckpt == NULL && cfg->resume_ckpt_bytes != 0) ||
         (cfg->rounds_per_boundary > 0 && cfg->rounds % cfg->rounds_per_boundary != 0))
         return -EINVAL;
     /* The big members are left as they are: dinno_node_init and the pool set what they use. */
@@ -37,9 +54,11 @@ int ai_core_init(ai_core_t *ai, const ai_core_cfg_t *cfg, const fw_link_t *link)
     if (ai->cfg.rounds_per_boundary == 0)
         ai->cfg.rounds_per_boundary = 1;
     ai->cfg.dinno.total_rounds = cfg->rounds;
+    ai->cfg.resume_ckpt = NULL; /* read below, never kept: the caller's buffer may go away */
+    ai->cfg.resume_ckpt_bytes = 0;
     ai->link = link;
     ai->phase = AI_PHASE_COLLECT;
-    ai->next_round = 0;
+    ai->next_round = cfg->start_round;
     memset(&ai->rt, 0, sizeof ai->rt);
     memset(&ai->status, 0, sizeof ai->status);
     memset(&ai->pending, 0, sizeof ai->pending);
@@ -47,12 +66,15 @@ int ai_core_init(ai_core_t *ai, const ai_core_cfg_t *cfg, const fw_link_t *link)
     ai->empty_rounds = 0;
     int r = dinno_node_init(&ai->node, &ai->cfg.dinno, NULL, cfg->model_seed, cfg->seed,
                             cfg->node_id);
+    if (r == 0)
+        r = resume_node(ai, cfg);
     if (r != 0)
         return r;
     r = ai_pool_init(&ai->pool, ai->pool_data, AI_POOL_CAPACITY, cfg->policy,
                      ai_rng_mix64(cfg->seed ^ 0x504F4F4C53454544ull));
     if (r != 0)
         return r;
+    ai->status.round = cfg->start_round;
     ai->status.rounds_total = cfg->rounds;
     ai->status.pool_capacity = AI_POOL_CAPACITY;
     ai->status.loss_train = NAN;
@@ -176,6 +198,7 @@ static int run_round(ai_core_t *ai, const gp_ready_t *ready)
     /* The GP core may say the fleet is further on (this robot was paused, restarted or cut
        off): the rounds between are skipped, not run alone, so the robot catches up. */
     ai->next_round = ready->next_round > k + 1u && ready->next_round < ai->cfg.rounds ? ready->next_round : k + 1u;
+    ai->node.round = ai->next_round; /* the node's schedule (lr, rho_k, noise) follows the skip */
     ai->status.round = ai->next_round;
     ai->phase = ai->next_round >= ai->cfg.rounds ? AI_PHASE_DONE : AI_PHASE_COLLECT;
     return rc;

@@ -15,6 +15,19 @@
  * the pool policy applies after the last of them.
  * Offline mode (paper section 6.3): no boundary before the tour is finished; then all rounds
  * run on the samples of the whole tour, and the pool is never cleared.
+ * Resuming (start_round, resume_ckpt): the core starts at round start_round instead of 0:
+ * next_round, status.round and the DiNNO node's round counter, which keys the learning rate,
+ * the ADMM penalty rho_k, the minibatch draws and the BNN noise, so round k trains as it would
+ * have in the run that wrote the checkpoint. theta comes from resume_ckpt (bnn_ckpt format,
+ * validated in full by bnn_ckpt_load; read during ai_core_init only, not kept). A checkpoint
+ * holds theta and nothing else of the node: the DiNNO duals restart at zero, and so do the
+ * Adam moments (the image writes its checkpoints without them; with the default fresh Adam
+ * state per round that loses nothing, with persistent_adam the moments rebuild). A robot that
+ * had neighbours therefore continues close to, not exactly on, its old trajectory; a lone
+ * robot resumed offline trains bit for bit as the run that wrote the checkpoint. Offline, the
+ * robot still drives its whole tour first (the same samples: the world is deterministic), then
+ * publishes state(start_round). Online the pool would be empty: the host refuses to resume
+ * there (the pose and the pool are not in a checkpoint).
  * Option train_between: on every tick between boundaries with a non-empty pool, one more
  * optimiser step (bnn_train_step, lr of the coming round) on a minibatch drawn from the pool.
  *
@@ -45,6 +58,9 @@ typedef struct ai_core_cfg {
     uint64_t seed;            /* minibatches, BNN noise, reservoir */
     uint32_t node_id;
     int train_between;        /* 0/1 */
+    uint32_t start_round;     /* first round to run, 0 .. rounds - 1 (0: a fresh run) */
+    const uint8_t *resume_ckpt; /* NULL (theta from model_seed), or the checkpoint to start from */
+    uint32_t resume_ckpt_bytes;
 } ai_core_cfg_t;
 
 typedef enum ai_core_phase {
@@ -74,8 +90,9 @@ typedef struct ai_core {
 /* The default configuration: C = 8, CDR, dinno_default_cfg() (B = 5), seeds 1. */
 ai_core_cfg_t ai_core_default_cfg(void);
 
-/* Validates cfg and initialises the core (model from model_seed). Before the cores start.
- * 0 or -EINVAL. */
+/* Validates cfg and initialises the core (model from model_seed, then theta from resume_ckpt
+ * when given; start_round). Before the cores start. 0, -EINVAL, or bnn_ckpt_load's code for a
+ * checkpoint it refuses (another preset, torn, corrupt). */
 FS_MUST_CHECK int ai_core_init(ai_core_t *ai, const ai_core_cfg_t *cfg,
                                                      const fw_link_t *link);
 

@@ -3,6 +3,7 @@
  * threads hal_host_cores.c, the log hal_host_log.c (shared state in hal_host_priv.h). */
 #include "hal_host.h"
 #include "hal_host_priv.h"
+#include "hal_host_stop.h"
 
 #include <errno.h>
 #include <pthread.h>
@@ -104,14 +105,28 @@ static int op_net_stats(void *ctx, hal_net_stats_t *stats)
     return 0;
 }
 
-/* The peers are other processes: the network waits in wall-clock time. */
+/* Longest single wait on the network between two looks at a stop request. */
+#define NET_WAIT_SLICE_US 50000u
+
+/* The peers are other processes: the network waits in wall-clock time, in slices, so that a
+ * stop request (hal_host_stop.h) ends the wait at once with -ECANCELED and the core waiting
+ * for its peers inside a tick gets back to the lockstep, where the program can stop. */
 static int op_net_wait(void *ctx, uint32_t timeout_us)
 {
     hal_host_t *h = ctx;
-    int r = hal_host_net_wait(h->net, hal_host_now_us(h), (int)((timeout_us + 999u) / 1000u));
-    if (r != 0)
-        return r;
-    return hal_host_net_queued(h->net) > 0 ? 0 : -EAGAIN;
+    uint32_t left = timeout_us;
+    do {
+        if (hal_host_stop_signal() != 0)
+            return -ECANCELED;
+        const uint32_t us = left < NET_WAIT_SLICE_US ? left : NET_WAIT_SLICE_US;
+        int r = hal_host_net_wait(h->net, hal_host_now_us(h), (int)((us + 999u) / 1000u));
+        if (r != 0)
+            return r;
+        if (hal_host_net_queued(h->net) > 0)
+            return 0;
+        left -= us;
+    } while (left > 0);
+    return -EAGAIN;
 }
 
 static int op_net_clock(void *ctx, uint64_t *now_us)
@@ -183,6 +198,14 @@ int hal_host_create(const hal_host_config_t *cfg, hal_host_t **out)
         return config_error("world without advance_to_us");
     if (!(cfg->wheel_radius_m >= 0.0f) || !(cfg->wheel_separation_m >= 0.0f))
         return config_error("wheel geometry negative or NaN");
+    hal_host_netfault_cfg_t faults;
+    char why[200];
+    if (hal_host_netfault_parse(cfg->net_faults, &faults, why, sizeof why) != 0) {
+        fprintf(stderr, "hal_host: invalid configuration: net_faults: %s\n", why);
+        return -EINVAL;
+    }
+    if (hal_host_netfault_active(&faults) && cfg->net_url == NULL)
+        return config_error("net_faults without a network (net_url is NULL)");
 
     hal_host_t *h = calloc(1, sizeof(*h));
     if (h == NULL)
@@ -206,6 +229,11 @@ int hal_host_create(const hal_host_config_t *cfg, hal_host_t **out)
                               cfg->net_queue_depth ? cfg->net_queue_depth
                                                    : HAL_HOST_NET_QUEUE_DEFAULT,
                               &h->net);
+    if (r == 0 && h->net != NULL)
+        r = hal_host_net_set_faults(
+            h->net, &faults,
+            hal_host_netfault_seed(faults.has_seed ? faults.seed : cfg->net_faults_seed, cfg->robot_id),
+            cfg->robot_id);
     if (r == 0 && cfg->storage_dir != NULL)
         r = hal_host_storage_open(cfg->storage_dir, &h->storage);
     if (r != 0) {

@@ -36,6 +36,7 @@
 #include <stdint.h>
 
 #include "hal/hal.h"
+#include "hal_host_netfault.h"
 
 #ifdef __cplusplus
 extern "C" {
@@ -82,6 +83,11 @@ typedef struct hal_host_config {
      * (memq:// in tests). */
     const char *net_url;
     uint32_t net_queue_depth;   /* 0: HAL_HOST_NET_QUEUE_DEFAULT; at most 4096 */
+    /* Faults injected into what this board receives (hal_host_netfault.h spec; NULL or "":
+     * none; needs net_url). Its random stream: the spec's seed= or else net_faults_seed (the
+     * run seed), mixed with robot_id. */
+    const char *net_faults;
+    uint64_t net_faults_seed;
     /* Storage: NULL for none, else a directory (created if missing, one level). */
     const char *storage_dir;
     hal_log_level_t log_level;  /* messages above this level are dropped */
@@ -112,7 +118,10 @@ hal_host_net_t *hal_host_get_net(hal_host_t *h);
 /* Runs the lockstep scheduler until simulated time t_end_us: every wake-up at a time
  * <= t_end_us is processed, then the world is advanced to t_end_us and the clock reads
  * t_end_us. May be called repeatedly with growing t_end_us. Returns 0, -EINVAL
- * (t_end_us < now), -ECANCELED (already stopped) or the world's error. */
+ * (t_end_us < now), -ECANCELED (already stopped), -EINTR (a stop was requested,
+ * hal_host_stop.h: it returns as soon as every core is blocked, the clock short of t_end_us;
+ * stop the board then) or the world's error. While a stop is requested the network's wait
+ * (hal_net_wait) returns -ECANCELED at once, so a core waiting for peers blocks soon. */
 FS_MUST_CHECK int hal_host_run_until(hal_host_t *h, uint64_t t_end_us);
 
 /* Stops the cores: each blocked core's hal_sleep_until_us() returns -ECANCELED (serial mode:
@@ -183,6 +192,11 @@ FS_MUST_CHECK int hal_host_net_wait(hal_host_net_t *n, uint64_t stamp_us,
 /* Messages waiting in the queue now. */
 uint32_t hal_host_net_queued(const hal_host_net_t *n);
 void hal_host_net_get_stats(const hal_host_net_t *n, hal_net_stats_t *stats);
+/* Injects the faults of cfg into what n receives from now on (hal_host_netfault.h), with the
+ * random stream `seed` (hal_host_netfault_seed) at robot `self`. Before the first subscribe.
+ * 0, -EINVAL, -EBUSY (subscribed already, or faults set before), -ENOMEM. */
+FS_MUST_CHECK int hal_host_net_set_faults(hal_host_net_t *n, const hal_host_netfault_cfg_t *cfg,
+                                          uint64_t seed, uint32_t self);
 
 /* Storage in a directory. Thread-safe as far as the file system is (one writer per name). */
 typedef struct hal_host_storage hal_host_storage_t;

@@ -42,6 +42,67 @@ static size_t room(size_t len)
     return before + (long long)len <= limit ? len : (size_t)(limit - before);
 }
 
+/* ---- the open temporaries, for a signal handler ------------------------------------------
+ * An entry is free (0), being filled (1) or holds a path (2). The handler reads an entry
+ * without a lock: it copies the path, then checks that the entry still holds a path and that
+ * its generation did not move meanwhile, so it never unlinks a path torn between two writers.
+ * Lock-free atomics are async-signal-safe (C11 7.14.1.1). */
+_Static_assert(ATOMIC_INT_LOCK_FREE == 2, "the signal handler needs lock-free atomics");
+
+typedef struct open_tmp {
+    atomic_int state;
+    atomic_uint gen;
+    char path[PATH_MAX];
+} open_tmp_t;
+
+static open_tmp_t g_open[HAL_HOST_FILE_MAX_OPEN];
+
+/* Notes w->tmp before the file exists, so that no temporary file ever exists unnoted. */
+static void tmp_note(hal_host_file_t *w)
+{
+    w->noted = 0;
+    for (int i = 0; i < HAL_HOST_FILE_MAX_OPEN; i++) {
+        int free_ = 0;
+        if (atomic_compare_exchange_strong(&g_open[i].state, &free_, 1)) {
+            memcpy(g_open[i].path, w->tmp, sizeof g_open[i].path);
+            atomic_store(&g_open[i].state, 2);
+            w->noted = i + 1;
+            return;
+        }
+    }
+}
+
+/* The temporary file is gone (renamed or removed) or never came to be. */
+static void tmp_forget(hal_host_file_t *w)
+{
+    if (w->noted > 0) {
+        open_tmp_t *e = &g_open[w->noted - 1];
+        atomic_fetch_add(&e->gen, 1u);
+        atomic_store(&e->state, 0);
+    }
+    w->noted = 0;
+    w->tmp[0] = '\0';
+}
+
+int hal_host_file_remove_open_temporaries(void)
+{
+    int removed = 0;
+    for (int i = 0; i < HAL_HOST_FILE_MAX_OPEN; i++) {
+        open_tmp_t *e = &g_open[i];
+        const unsigned gen = atomic_load(&e->gen);
+        if (atomic_load(&e->state) != 2)
+            continue;
+        char p[PATH_MAX];
+        for (size_t k = 0; k < sizeof p; k++) /* memcpy is not on every system's list of safe calls */
+            if ((p[k] = e->path[k]) == '\0')
+                break;
+        p[sizeof p - 1] = '\0';
+        if (atomic_load(&e->state) == 2 && atomic_load(&e->gen) == gen && unlink(p) == 0)
+            removed++;
+    }
+    return removed;
+}
+
 /* ---- paths ------------------------------------------------------------------------------- */
 static int split(const char *path, char *dir, size_t dcap, const char **base)
 {
@@ -87,13 +148,16 @@ int hal_host_file_begin(hal_host_file_t *w, const char *path)
         return rc;
     int m = snprintf(w->tmp, sizeof w->tmp, "%s/.%s.%ld%s", dir, base, (long)getpid(),
                      HAL_HOST_FILE_TMP_SUFFIX);
-    if (m < 0 || (size_t)m >= sizeof w->tmp)
+    if (m < 0 || (size_t)m >= sizeof w->tmp) {
+        w->tmp[0] = '\0';
         return -ENAMETOOLONG;
+    }
+    tmp_note(w);
     int fd = open(w->tmp, O_WRONLY | O_CREAT | O_EXCL | O_CLOEXEC, 0644);
     if (fd < 0 && errno == ENOENT) {
         /* Every output creates its parents (like mkdir -p). */
         if ((rc = hal_host_file_mkdirs(dir)) < 0) {
-            w->tmp[0] = '\0';
+            tmp_forget(w);
             return rc;
         }
         fd = open(w->tmp, O_WRONLY | O_CREAT | O_EXCL | O_CLOEXEC, 0644);
@@ -105,7 +169,7 @@ int hal_host_file_begin(hal_host_file_t *w, const char *path)
     }
     if (fd < 0) {
         rc = -errno;
-        w->tmp[0] = '\0';
+        tmp_forget(w);
         return rc;
     }
     w->f = fdopen(fd, "wb");
@@ -113,7 +177,7 @@ int hal_host_file_begin(hal_host_file_t *w, const char *path)
         rc = -errno;
         close(fd);
         unlink(w->tmp);
-        w->tmp[0] = '\0';
+        tmp_forget(w);
         return rc;
     }
     return 0;
@@ -166,10 +230,10 @@ int hal_host_file_commit(hal_host_file_t *w)
         rc = -errno;
     if (rc != 0) {
         unlink(w->tmp);
-        w->tmp[0] = '\0';
+        tmp_forget(w);
         return rc;
     }
-    w->tmp[0] = '\0';
+    tmp_forget(w);
     char dir[PATH_MAX];
     const char *base;
     if (split(w->path, dir, sizeof dir, &base) == 0) {
@@ -192,7 +256,7 @@ void hal_host_file_abort(hal_host_file_t *w)
     }
     if (w->tmp[0] != '\0') {
         unlink(w->tmp);
-        w->tmp[0] = '\0';
+        tmp_forget(w);
     }
 }
 

@@ -16,6 +16,12 @@
  * -ENAMETOOLONG, ...); hal_host_file_strerror() words them (-EEXIST: "exists and is not a
  * regular file"). Callers print "PATH: reason" and exit non-zero.
  *
+ * Every temporary file a writer holds open is also noted in a fixed table of this process
+ * (HAL_HOST_FILE_MAX_OPEN entries; a writer beyond them is simply not noted), so that a
+ * program stopped by a signal can remove them at once (hal_host_file_remove_open_temporaries,
+ * async-signal-safe; hal_host_stop.h). What is not removed then is cleared by the next run in
+ * that folder (hal_host_file_clean_stale).
+ *
  * Test seam: FLEETSIM_FAIL_WRITE_AFTER=N in the environment (read once per process) makes
  * the writers fail with ENOSPC once N bytes in total have been written through them, so
  * tests can exercise a full disk without a small file system.
@@ -29,10 +35,12 @@
 #include <stdio.h>
 
 #define HAL_HOST_FILE_TMP_SUFFIX ".fstmp"
+#define HAL_HOST_FILE_MAX_OPEN 32
 
 typedef struct hal_host_file {
     FILE *f;
     int err;             /* first error seen (negative errno), 0 if none */
+    int noted;           /* 1 + its entry in the table of open temporaries, 0: not noted */
     long long counted;   /* bytes charged to the test seam so far */
     char path[PATH_MAX]; /* the target */
     char tmp[PATH_MAX];  /* the temporary file beside it */
@@ -62,6 +70,11 @@ FS_MUST_CHECK int hal_host_file_write_all(const char *path, const void *data, si
  * (`.*.fstmp` whose PID is not a live process).
  * Returns the number removed, or a negative errno when dir cannot be read. */
 int hal_host_file_clean_stale(const char *dir);
+
+/* Unlinks the temporary file of every writer of this process that is open now (their
+ * commits then fail). Async-signal-safe (atomic loads, unlink): for a signal handler that is
+ * about to _exit. Returns how many files it removed. */
+int hal_host_file_remove_open_temporaries(void);
 
 /* Opens an input file for reading: 0 and *out, or a negative errno: -ENOENT, -EACCES,
  * -EISDIR for a directory, ... */

@@ -6,9 +6,16 @@
  * moves every datagram into the queue at once, as a board's network interface receives while
  * its cores compute. Without it LCM's own buffer (about 1 MB in LCM 1.3) fills whenever the
  * process is busy, and a fleet of 14 robots lost chunks every round. The queue is the one
- * place both threads touch, under one mutex; what does not fit is dropped and counted. */
+ * place both threads touch, under one mutex; what does not fit is dropped and counted.
+ *
+ * Fault injection (hal_host_net_set_faults, hal_host_netfault.h) acts where a datagram enters
+ * the queue, after the checks: receive side, so one robot's loss does not hide the datagram
+ * from the others (a lossy radio, not a broken sender). Delayed and reordered datagrams wait
+ * in a holding area allocated with the faults; the receiver thread, wait and receive move
+ * what is due into the queue as time passes. */
 #include "hal_host.h"
 #include "hal_host_msg.h"
+#include "hal_host_netfault.h"
 
 #include <errno.h>
 #include <lcm/lcm.h>
@@ -20,6 +27,9 @@
 #include <string.h>
 
 #define NET_QUEUE_MAX 4096u
+/* Most datagrams held back at once (MTU-sized slots): a deeper holding area would only move
+ * the overflow into the queue; when it is full the one due first is released early. */
+#define NET_HOLD_MAX 512u
 
 typedef struct net_slot {
     hal_net_rx_info_t info;
@@ -42,6 +52,13 @@ struct hal_host_net {
     hal_net_stats_t stats;
     uint64_t drop_every;   /* test seam FLEETSIM_NET_DROP_EVERY: lose every N-th publish */
     uint64_t publishes;
+    uint64_t t0_us;        /* CLOCK_MONOTONIC at open: the partition's time origin */
+    int faults_on;         /* the rest only when set (under mu) */
+    hal_host_netfault_cfg_t fault;
+    uint64_t fault_seed;
+    uint32_t fault_self;
+    uint64_t fault_seq;    /* datagrams decided on so far */
+    hal_host_netfault_hold_t hold; /* cap 0 without delay or reorder */
     pthread_mutex_t mu;    /* the queue, its stats, the typed table, pump_stamp_us */
     pthread_cond_t cv;     /* signalled when a message is queued (CLOCK_MONOTONIC) */
     pthread_t rx_thread;
@@ -50,12 +67,121 @@ struct hal_host_net {
     atomic_int rx_failed;  /* lcm_handle failed: the transport is gone */
 };
 
+static uint64_t mono_us(void)
+{
+    struct timespec ts;
+    clock_gettime(CLOCK_MONOTONIC, &ts);
+    return (uint64_t)ts.tv_sec * 1000000u + (uint64_t)ts.tv_nsec / 1000u;
+}
+
+/* mu held: one datagram into the queue, or counted as a queue-full drop. */
+static void enqueue(hal_host_net_t *n, const char *channel, const void *data, uint32_t len)
+{
+    if (n->fill == n->depth) {
+        n->stats.rx_dropped_full++;
+        return;
+    }
+    net_slot_t *s = &n->slots[(n->head + n->fill) % n->depth];
+    memset(&s->info, 0, sizeof(s->info));
+    memcpy(s->info.channel, channel, strlen(channel) + 1u);
+    s->info.len = len;
+    s->info.stamp_us = n->pump_stamp_us;
+    if (len > 0)
+        memcpy(s->data, data, len);
+    n->fill++;
+    pthread_cond_broadcast(&n->cv);
+}
+
+/* mu held: a datagram the injector let through reaches the queue; what waits for later ones
+ * to pass it (reorder) counts it. */
+static void deliver(hal_host_net_t *n, const char *channel, const void *data, uint32_t len)
+{
+    enqueue(n, channel, data, len);
+    hal_host_netfault_hold_passed(&n->hold);
+}
+
+/* mu held: a held datagram leaves the holding area for the queue. */
+static void release_held(hal_host_net_t *n, hal_host_netfault_held_t *e)
+{
+    enqueue(n, e->info.channel, e->data, e->info.len);
+    hal_host_netfault_hold_release(&n->hold, e); /* before _passed: it does not pass itself */
+    hal_host_netfault_hold_passed(&n->hold);
+}
+
+/* mu held: everything due by now into the queue, the one due first first. */
+static void release_due(hal_host_net_t *n, uint64_t now_us)
+{
+    for (hal_host_netfault_held_t *e; (e = hal_host_netfault_hold_next(&n->hold, now_us)) != NULL;)
+        release_held(n, e);
+}
+
+/* mu held: a checked datagram meets the injector. The sender of a typed (fleet) channel is
+ * its first field, after the 8-byte fingerprint; untyped channels have none (-1). */
+static void inject(hal_host_net_t *n, hal_host_msg_type_t type, const char *channel, const uint8_t *data,
+                   uint32_t len)
+{
+    const uint64_t now = mono_us();
+    release_due(n, now);
+    int32_t sender = -1;
+    if (type != HAL_HOST_MSG_ANY && len >= 12u)
+        sender = (int32_t)((uint32_t)data[8] << 24 | (uint32_t)data[9] << 16 | (uint32_t)data[10] << 8 |
+                           (uint32_t)data[11]);
+    hal_host_netfault_decision_t d;
+    hal_host_netfault_decide(&n->fault, n->fault_seed, n->fault_seq++, sender, n->fault_self, now - n->t0_us, &d);
+    if (d.partitioned) {
+        n->stats.fault_partitioned++;
+        return;
+    }
+    if (d.dropped) {
+        n->stats.fault_dropped++;
+        return;
+    }
+    n->stats.fault_duplicated += d.copies > 1u;
+    n->stats.fault_reordered += d.reordered != 0;
+    for (uint32_t c = 0; c < d.copies; c++) {
+        const uint32_t passes = c == 0 ? d.passes : 0u;
+        if ((d.delay_us[c] == 0 && passes == 0) || n->hold.cap == 0) {
+            deliver(n, channel, data, len);
+            continue;
+        }
+        n->stats.fault_delayed += d.delay_us[c] > 0;
+        const uint64_t due = now + d.delay_us[c];
+        int rc = hal_host_netfault_hold_put(&n->hold, channel, data, len, due, passes,
+                                            due + HAL_HOST_NETFAULT_REORDER_HOLD_US);
+        if (rc == -ENOSPC) {
+            /* Full: the one due first goes now, so nothing is lost to the holding area. */
+            release_held(n, hal_host_netfault_hold_oldest(&n->hold));
+            rc = hal_host_netfault_hold_put(&n->hold, channel, data, len, due, passes,
+                                            due + HAL_HOST_NETFAULT_REORDER_HOLD_US);
+        }
+        if (rc != 0) /* not expected (checked datagram, room made): deliver rather than lose */
+            deliver(n, channel, data, len);
+    }
+    release_due(n, now); /* a reordered one may have been passed just now */
+}
+
+/* How long the receiver may block in LCM: until the next held datagram is due, at most 50 ms. */
+static int rx_timeout_ms(hal_host_net_t *n)
+{
+    int ms = 50;
+    pthread_mutex_lock(&n->mu);
+    if (n->hold.fill > 0) {
+        const uint64_t now = mono_us();
+        release_due(n, now);
+        const uint64_t wake = hal_host_netfault_hold_wake_us(&n->hold);
+        if (wake != UINT64_MAX)
+            ms = wake <= now ? 1 : wake - now >= 50000u ? 50 : (int)((wake - now + 999u) / 1000u);
+    }
+    pthread_mutex_unlock(&n->mu);
+    return ms;
+}
+
 /* The receiver: LCM's handler all along (net_on_message queues under the mutex). */
 static void *rx_main(void *arg)
 {
     hal_host_net_t *n = arg;
     while (!atomic_load(&n->rx_stop)) {
-        if (lcm_handle_timeout(n->lcm, 50) < 0) {
+        if (lcm_handle_timeout(n->lcm, rx_timeout_ms(n)) < 0) {
             atomic_store(&n->rx_failed, 1);
             pthread_mutex_lock(&n->mu);
             pthread_cond_broadcast(&n->cv);
@@ -110,6 +236,7 @@ int hal_host_net_open(const char *url, uint32_t queue_depth, hal_host_net_t **ou
     }
     n->depth = queue_depth;
     n->stats.queue_depth = queue_depth;
+    n->t0_us = mono_us();
     pthread_condattr_t ca;
     pthread_condattr_init(&ca);
     pthread_condattr_setclock(&ca, CLOCK_MONOTONIC);
@@ -155,8 +282,32 @@ void hal_host_net_close(hal_host_net_t *n)
     lcm_destroy(n->lcm);
     pthread_cond_destroy(&n->cv);
     pthread_mutex_destroy(&n->mu);
+    hal_host_netfault_hold_free(&n->hold); /* what is still held is lost with the process */
     free(n->slots);
     free(n);
+}
+
+int hal_host_net_set_faults(hal_host_net_t *n, const hal_host_netfault_cfg_t *cfg, uint64_t seed, uint32_t self)
+{
+    if (n == NULL || cfg == NULL)
+        return -EINVAL;
+    /* Before the receiver thread exists, so the holding area is in place before any datagram. */
+    if (n->rx_started || n->faults_on)
+        return -EBUSY;
+    if (!hal_host_netfault_active(cfg))
+        return 0;
+    if (cfg->delay_ms > 0 || cfg->reorder > 0.0) {
+        int rc = hal_host_netfault_hold_init(&n->hold, n->depth < NET_HOLD_MAX ? n->depth : NET_HOLD_MAX);
+        if (rc != 0)
+            return rc;
+    }
+    pthread_mutex_lock(&n->mu);
+    n->fault = *cfg;
+    n->fault_seed = seed;
+    n->fault_self = self;
+    n->faults_on = 1;
+    pthread_mutex_unlock(&n->mu);
+    return 0;
 }
 
 /* Counts a publish outcome (the receiver thread reads nothing of it, but the stats are one
@@ -206,20 +357,10 @@ static void net_on_message(const lcm_recv_buf_t *rbuf, const char *channel, void
         pthread_mutex_unlock(&n->mu);
         return;
     }
-    if (n->fill == n->depth) {
-        n->stats.rx_dropped_full++;
-        pthread_mutex_unlock(&n->mu);
-        return;
-    }
-    net_slot_t *s = &n->slots[(n->head + n->fill) % n->depth];
-    memset(&s->info, 0, sizeof(s->info));
-    memcpy(s->info.channel, channel, strlen(channel) + 1u);
-    s->info.len = rbuf->data_size;
-    s->info.stamp_us = n->pump_stamp_us;
-    if (rbuf->data_size > 0)
-        memcpy(s->data, rbuf->data, rbuf->data_size);
-    n->fill++;
-    pthread_cond_broadcast(&n->cv);
+    if (n->faults_on)
+        inject(n, channel_type(n, channel), channel, rbuf->data, rbuf->data_size);
+    else
+        enqueue(n, channel, rbuf->data, rbuf->data_size);
     pthread_mutex_unlock(&n->mu);
 }
 
@@ -255,17 +396,21 @@ int hal_host_net_subscribe(hal_host_net_t *n, const char *channel)
     return 0;
 }
 
-/* Waits (the mutex held) until a message is queued or timeout_ms passed. */
+/* Waits (the mutex held) until a message is queued or timeout_ms passed. Held datagrams that
+ * fall due meanwhile are released here too: the wait wakes for them, never past its end. */
 static void wait_queued(hal_host_net_t *n, int timeout_ms)
 {
-    struct timespec dl;
-    clock_gettime(CLOCK_MONOTONIC, &dl);
-    const uint64_t ns = (uint64_t)dl.tv_nsec + (uint64_t)timeout_ms * 1000000u;
-    dl.tv_sec += (time_t)(ns / 1000000000u);
-    dl.tv_nsec = (long)(ns % 1000000000u);
-    while (n->fill == 0 && !atomic_load(&n->rx_failed))
-        if (pthread_cond_timedwait(&n->cv, &n->mu, &dl) == ETIMEDOUT)
-            break;
+    const uint64_t end = mono_us() + (uint64_t)timeout_ms * 1000u;
+    for (;;) {
+        uint64_t now = mono_us();
+        release_due(n, now);
+        if (n->fill != 0 || atomic_load(&n->rx_failed) || now >= end)
+            return;
+        const uint64_t wake = hal_host_netfault_hold_wake_us(&n->hold);
+        const uint64_t until = wake > now && wake < end ? wake : end;
+        const struct timespec dl = {(time_t)(until / 1000000u), (long)(until % 1000000u) * 1000L};
+        (void)pthread_cond_timedwait(&n->cv, &n->mu, &dl); /* the loop checks the end */
+    }
 }
 
 int hal_host_net_wait(hal_host_net_t *n, uint64_t stamp_us, int timeout_ms)
@@ -287,6 +432,8 @@ int hal_host_net_receive(hal_host_net_t *n, uint64_t stamp_us, hal_net_rx_info_t
         return -EINVAL;
     pthread_mutex_lock(&n->mu);
     n->pump_stamp_us = stamp_us;
+    if (n->hold.fill > 0)
+        release_due(n, mono_us());
     if (n->fill == 0) {
         pthread_mutex_unlock(&n->mu);
         return atomic_load(&n->rx_failed) ? -EIO : -EAGAIN;

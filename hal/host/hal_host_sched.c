@@ -2,6 +2,7 @@
  * core is blocked, to the earliest wake-up; the world steps to it; then the core(s) due are
  * released. See hal_host_priv.h for the states. */
 #include "hal_host_priv.h"
+#include "hal_host_stop.h"
 
 #include <errno.h>
 #include <pthread.h>
@@ -169,6 +170,12 @@ int hal_host_run_until(hal_host_t *h, uint64_t t_end_us)
     int r = 0;
     for (;;) {
         wait_all_blocked(h);
+        /* A stop was asked for (SIGINT/SIGTERM, hal_host_stop.h): every core is blocked now,
+           the one place where the image can end in good order, so end here. */
+        if (hal_host_stop_signal() != 0) {
+            r = -EINTR;
+            break;
+        }
         /* The earliest wake-up; ties go to the lowest core id. */
         int next = -1;
         for (int i = 0; i < HAL_CORE_COUNT; i++) {

@@ -10,8 +10,10 @@
 
 #include "ai/bnn_ckpt.h"
 #include "hal_host_file.h"
+#include "hal_host_stop.h"
 #include "cli.h"
 #include "commands.h"
+#include "run_resume.h"
 #include "sim_fleet.h"
 #include "sim_maps.h"
 #include "sim_image.h"
@@ -42,11 +44,15 @@ static void run_usage(FILE *out)
             "offline: the point at fraction k/rounds of each tour, as `host_sim fleet --inproc`), or all.\n"
             "With the same seed and no loss the fleet's models equal `host_sim fleet --inproc`'s bit for bit.\n"
             "Simulated time stands still while the robot waits for its peers.\n"
+            "SIGINT or SIGTERM stops the run at the next lockstep instant (also while it waits for its peers):\n"
+            "it removes its temporary files, keeps every finished file, and exits 130 or 143. A checkpoint that\n"
+            "cannot be written stops the run at once (exit 1). DIR/incarnation counts the starts with this DIR.\n"
             "\n"
             "Writes into DIR: metrics.csv (round,sim_time_s,distance_m,progress_m,pool_fill,pool_capacity,\n"
             "ring_drops,train_loss,bce,val_loss,kl,neighbours,disagreement,wall_s), traffic.csv (fleet: per\n"
             "round wall_ms,wait_ms,bytes_sent,bytes_received,chunks_sent,chunks_received,chunks_resent,\n"
-            "chunks_requested,duplicates,stale,timeouts,rejoins,crc_failures,invalid), round_NNNN.bnn (every\n"
+            "chunks_requested,duplicates,stale,timeouts,rejoins,crc_failures,invalid,chunks_recovered,chunks_lost,\n"
+            "states_missed,rounds_skipped,beacons_sent,peer_restarts,old_incarnation), round_NNNN.bnn (every\n"
             "--val-every rounds), final.bnn, train.samples (the pool trained on), valset.samples,\n"
             "map_mean.png and map_std.png (MC mean / std of the final model, path on top), profile.txt and\n"
             "profile.csv (per core: ticks, lateness, wall time per tick, stack high-water; static memory),\n"
@@ -55,6 +61,9 @@ static void run_usage(FILE *out)
             "options:\n"
             "  --online             rounds at distance boundaries (default)\n"
             "  --offline            the whole tour first, then every round\n"
+            "  --resume             offline: continue from the last complete round_NNNN.bnn in DIR (invalid ones\n"
+            "                       skipped), keeping the stopped run's rows of metrics.csv and traffic.csv;\n"
+            "                       the tour is driven again (same samples), duals and Adam moments restart at 0\n"
             "  --rounds N           DiNNO rounds in all (default 8)\n"
             "  --rounds-per-comm R  online: DiNNO rounds per communication round (default 1; divides N)\n"
             "  --pool cdr|dr        online: cumulative data retention (default) or data refresh per round\n"
@@ -80,6 +89,11 @@ static void run_usage(FILE *out)
             "  --peer-timeout S     fleet: a peer silent S seconds leaves the round (default 10)\n"
             "  --join-timeout S     fleet: the same for a peer never heard yet (default 120)\n"
             "  --chunk-bytes B      fleet: state bytes per datagram (default and most %u)\n"
+            "  --net-faults SPEC    inject faults into what this robot receives, comma-separated: drop=P,\n"
+            "                       dup=P, reorder=P (probabilities), delay_ms=D (uniform 0..D), seed=S\n"
+            "                       (default: the run seed; each robot mixes in its id), partition=A/B\n"
+            "                       (robot ids '.'-separated, e.g. 0.1/2.3) with from=T1, until=T2 (seconds\n"
+            "                       since the network opened); counted in summary.txt\n"
             "  --sched serial|parallel   lockstep release order (default serial: bit-reproducible)\n"
             "  --val-poses N        validation poses x 500 points (default 500; 0: no validation)\n"
             "  --val-every M        validation loss (and a round checkpoint) every M rounds and at the end\n"
@@ -101,7 +115,8 @@ typedef struct run_opts {
     ai_pool_policy_t pool;
     hal_host_sched_t sched;
     gp_fleet_encoding_t encoding;
-    int offline, train_between, no_maps, quiet, net_given;
+    int offline, train_between, no_maps, quiet, net_given, resume;
+    const char *net_faults; /* --net-faults SPEC, checked at parse time; NULL: none */
 } run_opts_t;
 
 static int parse(int argc, char **argv, run_opts_t *o)
@@ -134,6 +149,7 @@ static int parse(int argc, char **argv, run_opts_t *o)
                     : strcmp(a, "--no-maps") == 0     ? &o->no_maps
                     : strcmp(a, "--quiet") == 0       ? &o->quiet
                     : strcmp(a, "--offline") == 0     ? &o->offline
+                    : strcmp(a, "--resume") == 0      ? &o->resume
                                                       : NULL;
         if (flag) {
             *flag = 1;
@@ -160,6 +176,14 @@ static int parse(int argc, char **argv, run_opts_t *o)
         else if (strcmp(a, "--net") == 0 || strcmp(a, "--lcm-url") == 0) {
             o->net = strcmp(v, "none") == 0 ? NULL : v;
             o->net_given = 1;
+        } else if (strcmp(a, "--net-faults") == 0) {
+            hal_host_netfault_cfg_t fc;
+            char why[200];
+            if (hal_host_netfault_parse(v, &fc, why, sizeof why) != 0) {
+                fprintf(stderr, "host_sim run: --net-faults: %s\n", why);
+                bad = 1;
+            }
+            o->net_faults = v;
         } else if (strcmp(a, "--transport") == 0) {
             if (strcmp(v, "lcm") != 0) {
                 fprintf(stderr, "host_sim run: --transport: '%s' is not lcm (the only transport)\n", v);
@@ -239,6 +263,11 @@ static int parse(int argc, char **argv, run_opts_t *o)
         fprintf(stderr, "host_sim run: %s is required (see --help)\n", missing);
         return -1;
     }
+    if (o->resume && !o->offline) {
+        fprintf(stderr, "host_sim run: --resume needs --offline: an online robot's pose and sample pool are not "
+                        "in a checkpoint, so it cannot continue where it stopped (start it again without --resume)\n");
+        return -1;
+    }
     if (o->rounds % o->per_comm != 0) {
         fprintf(stderr, "host_sim run: --rounds-per-comm %lld does not divide --rounds %lld\n", o->per_comm, o->rounds);
         return -1;
@@ -258,6 +287,10 @@ static int parse(int argc, char **argv, run_opts_t *o)
         }
         if (o->join_timeout < o->peer_timeout)
             o->join_timeout = o->peer_timeout;
+    }
+    if (o->net_faults != NULL && o->net_faults[0] != '\0' && o->net == NULL) {
+        fprintf(stderr, "host_sim run: --net-faults needs a network (not --net none)\n");
+        return -1;
     }
     if (o->val_every == 0)
         o->val_every = o->fleet > 1 ? (o->rounds >= 50 ? o->rounds / 50 : 1) : 1;
@@ -279,7 +312,7 @@ typedef struct run_ctx {
     bnn_model_t *model;
     const ai_sample_t *val;
     size_t n_val;
-    int failed;
+    int failed, ckpt_failed;
     double last_val, t0;
     uint32_t rows_in, rows_out;          /* AI records taken / written */
     run_row_t rows[RUN_PENDING];
@@ -332,11 +365,12 @@ static void flush_rows(run_ctx_t *c, int all)
         }
         const ai_round_info_t *in = &r->in;
         printf("round %4u/%lld  t %7.1f s  progress %6.2f m  pool %7u  train %.4f  val %.4f  kl %.2f  nbrs %u  "
-               "dis %.3g  sent %llu B  lost %llu  resent %llu  wait %.1f ms\n",
+               "dis %.3g  sent %llu B  lost %llu  recovered %llu  resent %llu  wait %.1f ms\n",
                k + 1u, c->o->rounds, (double)in->stamp_us * 1e-6, (double)in->progress_m, in->pool_fill,
                (double)in->loss_train, r->val, (double)in->kl, in->neighbours,
                fr ? (double)fr->disagreement : NAN, fr ? (unsigned long long)fr->bytes_sent : 0ull,
-               fr ? (unsigned long long)fr->chunks_requested : 0ull, fr ? (unsigned long long)fr->chunks_resent : 0ull,
+               fr ? (unsigned long long)fr->chunks_lost : 0ull, fr ? (unsigned long long)fr->chunks_recovered : 0ull,
+               fr ? (unsigned long long)fr->chunks_resent : 0ull,
                fr ? (double)fr->wait_us * 1e-3 : 0.0);
         fprintf(c->csv, "%u,%.3f,%.4f,%.4f,%u,%u,%u,%.6g,%.6g,%.6g,%.6g,%u,%.6g,%.3f\n", k,
                 (double)in->stamp_us * 1e-6, (double)in->distance_m, (double)in->progress_m, in->pool_fill,
@@ -344,6 +378,8 @@ static void flush_rows(run_ctx_t *c, int all)
                 in->neighbours, fr ? (double)fr->disagreement : NAN, r->wall_s);
         c->rows_out++;
     }
+    /* Into the temporary file at once: a killed run leaves its rows there for --resume. */
+    fflush(c->csv);
     fflush(stdout);
 }
 
@@ -354,9 +390,13 @@ static void on_round(const ai_round_info_t *in, void *user)
     char name[64];
     gp_core_ckpt_name(in->round, name, sizeof name);
     if (in->ckpt_status != 0) {
-        /* A file of that name may be an earlier run's: never read it as this run's. */
-        fprintf(stderr, "host_sim run: %s/%s: %s\n", c->o->out, val_round(c->o, in->round) ? name : "final.bnn",
-                hal_host_file_strerror(in->ckpt_status));
+        /* A file of that name may be an earlier run's: never read it as this run's. The run
+           stops at the end of this slice (sim_image_run), so only the first failure is news. */
+        if (!c->ckpt_failed)
+            fprintf(stderr, "host_sim run: %s/%s: %s; stopping at round %u\n", c->o->out,
+                    val_round(c->o, in->round) ? name : "final.bnn", hal_host_file_strerror(in->ckpt_status),
+                    in->round);
+        c->ckpt_failed = 1;
         c->failed = 1;
     } else if (c->n_val > 0 && val_round(c->o, in->round)) {
         /* The last round's checkpoint may exist only as final.bnn (--val-every not dividing it). */
@@ -384,13 +424,18 @@ static void on_fleet_round(const gp_fleet_round_t *r, void *user)
     if (r->timeouts > 0)
         fprintf(stderr, "host_sim run: robot %lld, round %u: %llu peer(s) timed out and left the round\n", c->o->robot,
                 r->round, (unsigned long long)r->timeouts);
-    fprintf(c->traffic, "%u,%.3f,%.3f,%llu,%llu,%llu,%llu,%llu,%llu,%llu,%llu,%llu,%llu,%llu,%llu\n", r->round,
+    fprintf(c->traffic, "%u,%.3f,%.3f,%llu,%llu,%llu,%llu,%llu,%llu,%llu,%llu,%llu,%llu,%llu,%llu,%llu,%llu,%llu,%llu,%llu,%llu,%llu\n",
+            r->round,
             (double)r->wall_us * 1e-3, (double)r->wait_us * 1e-3, (unsigned long long)r->bytes_sent,
             (unsigned long long)r->bytes_received, (unsigned long long)r->chunks_sent,
             (unsigned long long)r->chunks_received, (unsigned long long)r->chunks_resent,
             (unsigned long long)r->chunks_requested, (unsigned long long)r->duplicates, (unsigned long long)r->stale,
             (unsigned long long)r->timeouts, (unsigned long long)r->rejoins, (unsigned long long)r->crc_failures,
-            (unsigned long long)r->invalid);
+            (unsigned long long)r->invalid, (unsigned long long)r->chunks_recovered, (unsigned long long)r->chunks_lost,
+            (unsigned long long)r->states_missed, (unsigned long long)r->rounds_skipped,
+            (unsigned long long)r->beacons_sent, (unsigned long long)r->restarts,
+            (unsigned long long)r->old_incarnation);
+    fflush(c->traffic);
     flush_rows(c, 0);
 }
 
@@ -463,6 +508,8 @@ typedef struct job {
     hal_host_file_t traffic; /* traffic.csv (fleet), likewise */
     rt_waypoint_t *tour;     /* the path as the firmware holds it (fleet positions) */
     gp_fleet_cfg_t fleet;
+    run_resume_t resume;     /* --resume: the checkpoint and the rows carried over */
+    uint32_t incarnation;    /* starts of a robot with this --out (DIR/incarnation) */
     run_ctx_t ctx;
     char err[8192];
 } job_t;
@@ -471,12 +518,38 @@ static void job_free(job_t *j)
 {
     hal_host_file_abort(&j->csv); /* a no-op after a commit */
     hal_host_file_abort(&j->traffic);
+    run_resume_free(&j->resume);
     free(j->tour);
     free(j->res);
     free(j->model);
     free(j->val);
     sim_path_free(&j->path);
     sim_plan_free(&j->plan);
+}
+
+/* The header lines of metrics.csv and traffic.csv: --resume carries a stopped run's rows over
+ * only when its temporary file has the same header (the rows' format is the header's). */
+static const char run_metrics_header[] =
+    "round,sim_time_s,distance_m,progress_m,pool_fill,pool_capacity,ring_drops,train_loss,bce,val_loss,kl,"
+    "neighbours,disagreement,wall_s\n";
+static const char run_traffic_header[] =
+    "round,wall_ms,wait_ms,bytes_sent,bytes_received,chunks_sent,chunks_received,chunks_resent,chunks_requested,"
+    "duplicates,stale,timeouts,rejoins,crc_failures,invalid,chunks_recovered,chunks_lost,states_missed,"
+    "rounds_skipped,beacons_sent,peer_restarts,old_incarnation\n";
+
+/* --resume: the checkpoint to continue from and the rows to carry over (run_resume.h). */
+static int prepare_resume(job_t *j)
+{
+    const run_opts_t *o = &j->o;
+    const char *const headers[RUN_CARRY_FILES] = {run_metrics_header, o->fleet > 1 ? run_traffic_header : NULL};
+    if (run_resume_find(o->out, (uint32_t)o->rounds, headers, &j->resume) != 0)
+        return -1;
+    if (j->resume.start_round >= (uint32_t)o->rounds) {
+        fprintf(stderr, "host_sim run: %s/%s is the last round's checkpoint: every round is done, nothing to "
+                        "resume (run without --resume to start over)\n", o->out, j->resume.ckpt_name);
+        return -1;
+    }
+    return 0;
 }
 
 /* Plan, tour, output folder, model scratch and the validation set. */
@@ -493,7 +566,10 @@ static int prepare(job_t *j)
                 RT_CORE_MAX_WAYPOINTS);
         return -1;
     }
-    if (cmd_prepare_out_dir("run", o->out) != 0)
+    /* Before the folder is cleared of the temporaries a killed run left: its rows are there. */
+    if (o->resume && prepare_resume(j) != 0)
+        return -1;
+    if (cmd_prepare_out_dir("run", o->out) != 0 || run_incarnation_next(o->out, o->resume, &j->incarnation) != 0)
         return -1;
     printf("run: robot %lld's firmware image (RT %u Hz / scans %u Hz, GP %u Hz, AI %u Hz), lockstep, %s\n", o->robot,
            1000000u / FW_RT_PERIOD_US, 1000000u / (FW_RT_PERIOD_US * FW_RT_SCAN_DIVIDER),
@@ -507,6 +583,13 @@ static int prepare(job_t *j)
         printf("fleet %lld: member %lld of %lld over LCM %s, %s states, neighbours %s%.3g m\n", o->fleet_id, o->robot,
                o->fleet, o->net[0] ? o->net : HAL_HOST_NET_URL_DEFAULT, o->encoding == GP_FLEET_INT8 ? "int8" : "fp32",
                o->radius > 0 ? "within " : "all (radius ", o->radius);
+    printf("incarnation %u (%s/incarnation)\n", j->incarnation, o->out);
+    if (o->resume && j->resume.start_round > 0)
+        printf("resuming robot %lld from %s (round %u); continuing at round %u of %lld\n", o->robot,
+               j->resume.ckpt_name, j->resume.ckpt_round, j->resume.start_round, o->rounds);
+    else if (o->resume)
+        printf("resuming robot %lld: no complete round checkpoint in %s; starting from round 0\n", o->robot, o->out);
+    run_resume_describe(&j->resume, stdout);
     fflush(stdout);
     j->res = calloc(1, sizeof *j->res);
     /* bnn_model_t holds 64-byte aligned vectors: malloc's 16 bytes are not enough (the
@@ -536,8 +619,37 @@ static int prepare(job_t *j)
     return 0;
 }
 
+/* The rows of the rounds before a resumed one, as the stopped run wrote them. */
+static void carry_rows(const run_carry_t *k, FILE *f)
+{
+    if (k->rows != NULL)
+        fwrite(k->rows, 1, k->len, f);
+    fflush(f);
+}
+
+/* A run that ended early in good order: stopped by a signal (the exit status 128 + it, after
+ * the one-line message) or by a checkpoint that could not be written (1; on_round said which).
+ * 0 when it was neither. */
+static int stopped_early(const job_t *j)
+{
+    const sim_image_result_t *res = j->res;
+    if (res->stop_signal != 0) {
+        fprintf(stderr, "host_sim run: stopped by %s at round %u\n", hal_host_stop_signal_name(res->stop_signal),
+                res->rounds_done);
+        return hal_host_stop_exit_code(res->stop_signal);
+    }
+    if (res->ckpt_error != 0) {
+        if (!j->ctx.ckpt_failed) /* on_round says it; this covers a run without the callback's message */
+            fprintf(stderr, "host_sim run: %s: round %u's checkpoint: %s; stopping at round %u\n", j->o.out,
+                    res->ckpt_error_round, hal_host_file_strerror(res->ckpt_error), res->ckpt_error_round);
+        return 1;
+    }
+    return 0;
+}
+
 /* The firmware image in lockstep with the world, metrics per round; then every check a
- * result must pass before anything of it replaces an earlier run's files. */
+ * result must pass before anything of it replaces an earlier run's files. 0, -1 (failed,
+ * said why) or the exit status of a run stopped by a signal. */
 static int run_image(job_t *j)
 {
     const run_opts_t *o = &j->o;
@@ -546,16 +658,16 @@ static int run_image(job_t *j)
     if (cmd_out_begin("run", &j->csv, file) != 0)
         return -1;
     FILE *csv = hal_host_file_stream(&j->csv);
-    fprintf(csv, "round,sim_time_s,distance_m,progress_m,pool_fill,pool_capacity,ring_drops,train_loss,bce,"
-                 "val_loss,kl,neighbours,disagreement,wall_s\n");
+    fputs(run_metrics_header, csv);
+    carry_rows(&j->resume.carry[RUN_CARRY_METRICS], csv);
     FILE *traffic = NULL;
     if (o->fleet > 1) {
         snprintf(file, sizeof file, "%s/traffic.csv", o->out);
         if (cmd_out_begin("run", &j->traffic, file) != 0)
             return -1;
         traffic = hal_host_file_stream(&j->traffic);
-        fprintf(traffic, "round,wall_ms,wait_ms,bytes_sent,bytes_received,chunks_sent,chunks_received,chunks_resent,"
-                         "chunks_requested,duplicates,stale,timeouts,rejoins,crc_failures,invalid\n");
+        fputs(run_traffic_header, traffic);
+        carry_rows(&j->resume.carry[RUN_CARRY_TRAFFIC], traffic);
     }
     run_ctx_t *c = &j->ctx;
     memset(c, 0, sizeof *c);
@@ -582,9 +694,13 @@ static int run_image(job_t *j)
     ic.time_limit_s = o->time_limit;
     ic.storage_dir = o->out;
     ic.net_url = o->net;
+    ic.net_faults = o->net_faults;
     ic.sched = o->sched;
     ic.log_level = o->quiet ? HAL_LOG_WARN : HAL_LOG_INFO;
     ic.ckpt_every = (uint32_t)o->val_every;
+    ic.start_round = j->resume.start_round;
+    ic.resume_ckpt = j->resume.ckpt;
+    ic.resume_ckpt_bytes = j->resume.ckpt_bytes;
     ic.on_round = on_round;
     ic.on_fleet_round = on_fleet_round;
     ic.user = c;
@@ -604,6 +720,7 @@ static int run_image(job_t *j)
         f->rounds = (uint32_t)o->rounds;
         f->radius_m = o->radius;
         f->encoding = o->encoding;
+        f->incarnation = j->incarnation;
         f->chunk_bytes = (uint32_t)o->chunk_bytes;
         f->peer_timeout_us = (uint32_t)llround(o->peer_timeout * 1e6);
         f->join_timeout_us = (uint32_t)llround(o->join_timeout * 1e6);
@@ -618,6 +735,9 @@ static int run_image(job_t *j)
         return -1;
     }
     flush_rows(&j->ctx, 1);
+    const int early = stopped_early(j);
+    if (early != 0)
+        return early == 1 ? -1 : early;
     write_profile(o, res, stdout, NULL);
     if (j->ctx.failed)
         return -1;
@@ -710,6 +830,12 @@ static int report(job_t *j)
                 o->offline ? "offline" : "online", dinno_strategy_name(o->d.strategy));
         fprintf(f, "path: %s (%d waypoints, %.2f m)\nsimulated: %.2f s; wall: %.2f s\n", o->path, j->path.n,
                 (double)res->path_length_m, (double)res->sim_time_us * 1e-6, res->wall_s);
+        fprintf(f, "incarnation: %u\n", j->incarnation);
+        if (j->resume.start_round > 0) {
+            fprintf(f, "resumed: from %s (round %u), rounds %u .. %lld run by this start\n", j->resume.ckpt_name,
+                    j->resume.ckpt_round, j->resume.start_round, o->rounds - 1);
+            run_resume_describe(&j->resume, f);
+        }
         fprintf(f, "distance (true pose): %.2f m; odometry: %.2f m; collisions: %llu\n", res->world.distance_m,
                 (double)res->rt_status.distance_m, (unsigned long long)res->world.collisions);
         fprintf(f, "scans: %u; samples: %u; ring drops: %u; pool offered: %llu\n", res->rt_status.scans,
@@ -720,7 +846,7 @@ static int report(job_t *j)
         fprintf(f, "occupancy MSE within 1 m of the path (0.1 m grid, %zu cells): %.5f\n", cells, occ);
         if (o->fleet > 1) {
             const gp_pse_stats_t *p = &res->pse; /* the whole run, start-up included */
-            const double R = (double)o->rounds;
+            const double R = (double)(o->rounds - (long long)j->resume.start_round); /* run by this start */
             fprintf(f, "fleet: %lld robots (this is robot %lld, fleet id %lld), %s states, radius %g m\n", o->fleet,
                     o->robot, o->fleet_id, o->encoding == GP_FLEET_INT8 ? "int8" : "fp32", o->radius);
             fprintf(f, "traffic: %.0f B sent and %.0f B received per round; %llu chunks sent, %llu received\n",
@@ -732,12 +858,29 @@ static int report(job_t *j)
                     (unsigned long long)p->duplicates, (unsigned long long)p->stale, (unsigned long long)p->invalid,
                     (unsigned long long)p->crc_failures, (unsigned long long)p->timeouts,
                     (unsigned long long)p->rejoins, (unsigned long long)res->fleet.own_echoes);
-            fprintf(f, "waiting for peers: %.2f s wall in all (%.2f ms per round); network queue drops %llu; "
+            fprintf(f, "faults survived: %llu chunks lost (never received), %llu recovered by a request; %llu peer "
+                       "states gone without, %llu rounds cut short by a later round, %llu rounds skipped to catch "
+                       "up; %llu peer restarts seen, %llu messages of an earlier incarnation dropped\n",
+                    (unsigned long long)p->chunks_lost, (unsigned long long)p->chunks_recovered,
+                    (unsigned long long)p->states_missed, (unsigned long long)p->rounds_cut,
+                    (unsigned long long)p->rounds_skipped, (unsigned long long)p->restarts,
+                    (unsigned long long)p->old_incarnation);
+            /* Queue drops (a full queue, a buffer too small) are load; malformed datagrams are
+               someone else's bytes: counted apart so that each figure means one thing. */
+            fprintf(f, "waiting for peers: %.2f s wall in all (%.2f ms per round); network queue drops %llu "
+                       "(queue full %llu, buffer too small %llu); malformed datagrams dropped %llu; "
                        "sends refused %llu\n",
                     (double)res->fleet.wait_us * 1e-6, (double)res->fleet.wait_us * 1e-3 / R,
-                    (unsigned long long)(res->net.rx_dropped_full + res->net.rx_dropped_malformed +
-                                         res->net.rx_dropped_invalid + res->net.rx_dropped_small),
+                    (unsigned long long)(res->net.rx_dropped_full + res->net.rx_dropped_small),
+                    (unsigned long long)res->net.rx_dropped_full, (unsigned long long)res->net.rx_dropped_small,
+                    (unsigned long long)(res->net.rx_dropped_malformed + res->net.rx_dropped_invalid),
                     (unsigned long long)res->pse.send_failures);
+            if (o->net_faults != NULL && o->net_faults[0] != '\0')
+                fprintf(f, "network faults injected (%s): %llu dropped, %llu partitioned, %llu duplicated, "
+                           "%llu reordered, %llu delayed\n",
+                        o->net_faults, (unsigned long long)res->net.fault_dropped,
+                        (unsigned long long)res->net.fault_partitioned, (unsigned long long)res->net.fault_duplicated,
+                        (unsigned long long)res->net.fault_reordered, (unsigned long long)res->net.fault_delayed);
         }
         fprintf(f, "checkpoints: %llu written, %llu failed; telemetry: %llu sent, %llu not sent\n",
                 (unsigned long long)res->gp.ckpt_written, (unsigned long long)res->gp.ckpt_failed,
@@ -762,7 +905,25 @@ int cmd_run(int argc, char **argv)
         return 0;
     if (pr < 0)
         return 2;
-    const int ok = prepare(j) == 0 && run_image(j) == 0 && report(j) == 0;
+    /* SIGINT/SIGTERM: the image stops at its next lockstep instant and this function ends it in
+       good order; once the image is over, a signal stops the report at once (hal_host_stop.h). */
+    hal_host_stop_set_mode(HAL_HOST_STOP_ASK);
+    int rc = prepare(j);
+    if (rc == 0)
+        rc = run_image(j);
+    if (rc == 0) {
+        char at[48];
+        snprintf(at, sizeof at, " at round %lld", j->o.rounds);
+        hal_host_stop_set_message("host_sim run", at);
+        hal_host_stop_set_mode(HAL_HOST_STOP_NOW);
+        const int sig = hal_host_stop_signal(); /* asked for after the image's last slice */
+        if (sig != 0) {
+            fprintf(stderr, "host_sim run: stopped by %s%s\n", hal_host_stop_signal_name(sig), at);
+            rc = hal_host_stop_exit_code(sig);
+        } else {
+            rc = report(j);
+        }
+    }
     job_free(j);
-    return ok ? 0 : 1;
+    return rc == 0 ? 0 : rc > 0 ? rc : 1;
 }

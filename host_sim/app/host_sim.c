@@ -3,6 +3,7 @@
 #include <string.h>
 
 #include "commands.h"
+#include "hal_host_stop.h"
 
 int cmd_plan(int argc, char **argv);  /* cmd_plan.c */
 int cmd_paths(int argc, char **argv); /* cmd_paths.c */
@@ -44,9 +45,18 @@ int main(int argc, char **argv)
         usage(stdout);
         return 0;
     }
-    for (const host_sim_cmd_t *c = commands; c->name != NULL; c++)
-        if (strcmp(argv[1], c->name) == 0)
-            return c->run(argc - 1, argv + 1);
+    for (const host_sim_cmd_t *c = commands; c->name != NULL; c++) {
+        if (strcmp(argv[1], c->name) != 0)
+            continue;
+        /* SIGINT / SIGTERM: every command removes its temporary files and exits 130 / 143
+           (hal_host_stop.h); `run` switches to stopping at its next lockstep instant. */
+        char prefix[64];
+        snprintf(prefix, sizeof prefix, "host_sim %s", c->name);
+        if (hal_host_stop_install(prefix) != 0)
+            fprintf(stderr, "host_sim: warning: SIGINT/SIGTERM handlers not installed: a stopped run may "
+                            "leave temporary files (the next run in that folder removes them)\n");
+        return c->run(argc - 1, argv + 1);
+    }
     fprintf(stderr, "host_sim: unknown command '%s'\n\n", argv[1]);
     usage(stderr);
     return 2;

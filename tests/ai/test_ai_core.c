@@ -135,11 +135,52 @@ static void test_cdr_keeps_the_pool(void **st)
     assert_int_equal(ai.pool.fill, 800); /* CDR keeps what it learnt from */
 }
 
+/* A robot behind its fleet: ready(0) says the fleet is at round 5, so the AI core runs round 5
+ * next (state, node schedule and checkpoint of round 5), not rounds 1 .. 4; a skip past the
+ * last round is ignored. */
+static void test_skip_ahead(void **st)
+{
+    (void)st;
+    fake_board_init(&fb);
+    fake_board_install(&fb);
+    fw_link_reset();
+    link_ = fw_link_get();
+    ai_core_cfg_t c = ai_core_default_cfg();
+    c.rounds = 8;
+    c.offline = 1;
+    c.dinno.primal_steps = 2;
+    c.dinno.batch = 64;
+    assert_int_equal(ai_core_init(&ai, &c, link_), 0);
+    memset(&rt, 0, sizeof rt);
+    rt.path_length_m = 10.0f;
+    rt.finished = 1;
+    rt_publishes(500, 10.0f);
+    tick(0);
+    gp_ready_t r = {0, 0, 5};
+    assert_int_equal(mbox_put(link_->gp_ready, &r), 0);
+    tick(1);
+    assert_int_equal(mbox_get(link_->ai_ckpt, &ckpt, NULL), 1);
+    assert_int_equal(ckpt.info.round, 0);
+    assert_int_equal(ai.next_round, 5);
+    assert_int_equal(ai.node.round, 5);
+    tick(2);
+    assert_int_equal(mbox_fetch(link_->ai_state), 1);
+    assert_int_equal(((const ai_state_msg_t *)mbox_read_buffer(link_->ai_state, NULL))->round, 5);
+    r = (gp_ready_t){5, 0, 99};
+    assert_int_equal(mbox_put(link_->gp_ready, &r), 0);
+    tick(3);
+    assert_int_equal(mbox_get(link_->ai_ckpt, &ckpt, NULL), 1);
+    assert_int_equal(ckpt.info.round, 5);
+    assert_true(isfinite(ckpt.info.loss_train));
+    assert_int_equal(ai.next_round, 6);
+}
+
 int main(void)
 {
     const struct CMUnitTest tests[] = {
         cmocka_unit_test_teardown(test_round_cycle, teardown),
         cmocka_unit_test_teardown(test_cdr_keeps_the_pool, teardown),
+        cmocka_unit_test_teardown(test_skip_ahead, teardown),
     };
     return cmocka_run_group_tests_name("ai/core", tests, NULL, NULL);
 }

@@ -51,6 +51,12 @@ typedef struct hal_net_stats {
     uint64_t rx_dropped_small;  /* dropped because the caller's buffer was too small */
     uint64_t rx_dropped_malformed; /* dropped by the bounds check of a typed channel: wrong
                                       type, lengths out of range or past the datagram's end */
+    /* Faults a board injected on purpose (the host's --net-faults; 0 elsewhere). */
+    uint64_t fault_dropped;     /* lost at random */
+    uint64_t fault_duplicated;  /* delivered twice */
+    uint64_t fault_reordered;   /* held back until later ones passed it */
+    uint64_t fault_delayed;     /* copies held back for a delay */
+    uint64_t fault_partitioned; /* lost because sender and receiver were partitioned */
     uint32_t queue_fill;        /* messages waiting now */
     uint32_t queue_depth;       /* capacity of the queue */
 } hal_net_stats_t;
