@@ -250,7 +250,7 @@ $(O)/tests/%: $(O)/obj/tests/%.c.o $(LIB)/libtestsupport.a $(LIB)/libhal_stdc.a 
 	$(call say,LD,$@)$(CXX) $(OPT) $< -Wl,--start-group $(LIB)/libtestsupport.a $(LIB)/libhal_stdc.a $(LIBS) -Wl,--end-group $(SYS_LIBS) -lcmocka $(WRAP) -o $@
 
 # ---- targets ----------------------------------------------------------------------------
-.PHONY: experiments all layering deps run run-inproc test test-asan test-tsan test-faults tests bench bench-one clean help check-portable check-config $(CROSS_GOALS)
+.PHONY: experiments all layering deps run run-inproc test test-asan test-tsan test-faults tests bench bench-one bench-pse-sim clean help check-portable check-config $(CROSS_GOALS)
 
 all: deps layering $(LIBS) $(PROGRAMS)
 ifeq ($(BUILD),release)
@@ -310,6 +310,16 @@ bench-one: all
 	else echo "# tools/bench/torch_ref.py skipped: $(TORCH_PYTHON) has no torch (TORCH_PYTHON=<python with torch>)"; fi
 	@echo "# tools/bench/bench_fleet.py (preset $(PRESET): real processes over LCM udpm)"
 	@tools/bench/bench_fleet.py --bin $(BIN)/host_sim --preset $(PRESET) $(if $(filter all,$(BENCH_ONLY)),--scaling)
+	@if [ "$(BENCH_ONLY)" = all ]; then \
+	    echo "# tools/bench/bench_faults.py (3 and 7 processes under 0-40 % kernel drops; needs root)"; \
+	    tools/bench/bench_faults.py --bin $(BIN)/host_sim || exit 1; \
+	    echo "# protocol simulation: schedules per minute"; \
+	    $(MAKE) --no-print-directory bench-pse-sim; fi
+
+# How many seeded schedules of the protocol simulation one core explores per minute.
+bench-pse-sim: $(PSE_SIM_BIN)
+	@t0=$$(date +%s.%N); FLEETSIM_PSE_SIM_SCHEDULES=2000 $(PSE_SIM_BIN) >/dev/null 2>&1 || exit 1; \
+	    t1=$$(date +%s.%N); awk -v a=$$t0 -v b=$$t1 'BEGIN { printf "BENCH pse_sim_schedules_per_min %.0f schedules\n", 2000 * 60 / (b - a) }'
 
 run: all
 	@tools/fleet --bin $(BIN)/host_sim --name fleet $(FLEET_ARGS)
