@@ -15,6 +15,19 @@
 
 #include <cmocka.h>
 
+void test_build_program(const char *name, char *out, size_t cap)
+{
+    char self[PATH_MAX];
+    const ssize_t n = readlink("/proc/self/exe", self, sizeof self - 1);
+    assert_true(n > 0);
+    self[n] = '\0';
+    char *cut = strstr(self, "/tests/");
+    assert_non_null(cut);
+    *cut = '\0';
+    const int w = snprintf(out, cap, "%s/bin/%s", self, name);
+    assert_true(w > 0 && (size_t)w < cap);
+}
+
 int test_run(const char *bin, const char *const *args, long fail_after, const char *dir, char *err, char *out,
              size_t cap)
 {

@@ -20,6 +20,10 @@ uint8_t *test_slurp(const char *path, size_t *n);
 int test_run(const char *bin, const char *const *args, long fail_after, const char *dir, char *err, char *out,
              size_t cap);
 
+/* The path of a program of this test's own build: a test at build/<config>/tests/<module>/X
+ * finds build/<config>/bin/<name>. Fails the test when the layout is not that. */
+void test_build_program(const char *name, char *out, size_t cap);
+
 #define SNAP_MAX_FILES 64
 
 /* Every regular file directly in a folder: names and bytes. */
