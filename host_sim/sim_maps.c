@@ -66,6 +66,83 @@ double sim_maps_std_max(const sim_maps_grid_t *g)
     return smax;
 }
 
+uint8_t sim_maps_pgm_pixel(float p)
+{
+    if (!(p >= 0.0f)) /* negative or NaN: free, as the PNGs draw it */
+        p = 0.0f;
+    return (uint8_t)lround(255.0 * (1.0 - fmin((double)p, 1.0)));
+}
+
+/* F1 = 2 TP / (2 TP + FP + FN); 0 when there is no true positive. */
+static double f1_score(uint64_t tp, uint64_t fp, uint64_t fn)
+{
+    return tp == 0 ? 0.0 : 2.0 * (double)tp / (2.0 * (double)tp + (double)fp + (double)fn);
+}
+
+int sim_maps_choose_thresholds(const float *p, const ai_sample_t *pts, size_t n, sim_maps_thresh_t *t)
+{
+    if (t == NULL)
+        return -EINVAL;
+    memset(t, 0, sizeof *t);
+    if (p == NULL || pts == NULL || n == 0)
+        return -EINVAL;
+    /* Points per level, hits and free apart. */
+    uint64_t hit[256] = {0}, fre[256] = {0}, n_hit = 0;
+    for (size_t i = 0; i < n; i++) {
+        const int level = 255 - sim_maps_pgm_pixel(p[i]);
+        if (pts[i].occ >= 0.5f) {
+            hit[level]++;
+            n_hit++;
+        } else {
+            fre[level]++;
+        }
+    }
+    const uint64_t n_free = (uint64_t)n - n_hit;
+    if (n_hit == 0 || n_free == 0)
+        return -EINVAL;
+    /* Occupied: level > a. Walk a down from 254, the points above the cut accumulating. */
+    uint64_t tp = 0, fp = 0;
+    int best_a = 254;
+    double best = -1.0;
+    double f1_occ[255];
+    for (int a = 254; a >= 0; a--) {
+        tp += hit[a + 1];
+        fp += fre[a + 1];
+        f1_occ[a] = f1_score(tp, fp, n_hit - tp);
+    }
+    for (int a = 0; a <= 254; a++)
+        if (f1_occ[a] > best) {
+            best = f1_occ[a];
+            best_a = a;
+        }
+    t->occ_level = best_a;
+    t->occ_f1 = best;
+    /* Free: level <= c with c < a (free < occupied). a = 0 leaves no level below it: then
+       a = 1 (a model that calls nearly every point occupied). Walk c up, the points at or
+       below the cut accumulating. */
+    if (t->occ_level == 0) {
+        t->occ_level = 1;
+        t->occ_f1 = f1_occ[1];
+    }
+    uint64_t ftp = 0, ffp = 0;
+    best = -1.0;
+    for (int c = 0; c < t->occ_level; c++) {
+        ftp += fre[c];
+        ffp += hit[c];
+        const double f = f1_score(ftp, ffp, n_free - ftp);
+        if (f > best) {
+            best = f;
+            t->free_level = c;
+        }
+    }
+    t->free_f1 = best;
+    t->occupied = (t->occ_level + 0.5) / 255.0;
+    t->free_thresh = (t->free_level + 0.5) / 255.0;
+    t->n = n;
+    t->n_hit = (size_t)n_hit;
+    return 0;
+}
+
 int sim_maps_compute(bnn_model_t *m, const sim_plan_t *plan, double res, uint32_t K, uint64_t seed,
                      sim_maps_grid_t *g, char *err, size_t errlen)
 {

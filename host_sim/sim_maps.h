@@ -49,6 +49,38 @@ int sim_maps_write_png(const sim_maps_grid_t *g, const sim_plan_t *plan, const s
 /* Largest std of the grid (0 for an empty grid). */
 double sim_maps_std_max(const sim_maps_grid_t *g);
 
+/* ---- the ROS map (map.pgm + map.yaml of host_sim maps) ----------------------------------
+ * nav2's map_server (map_io.cpp, mode trinary, negate 0) reads a pixel v as occupancy
+ * (255 - v) / 255 and calls the cell occupied when occupancy > occupied_thresh, free when
+ * occupancy < free_thresh, unknown otherwise. The map's pixel of a probability p is
+ * round(255 (1 - p)), so a cell's occupancy is one of the 256 LEVELS L / 255, L = 255 - v. */
+
+/* The pixel of an occupancy probability: round(255 (1 - p)), p clamped to [0, 1] (NaN: 255,
+ * free, as the PNGs draw it). */
+uint8_t sim_maps_pgm_pixel(float p);
+
+/* The two thresholds of the trinary map, each half-way between two levels so that no
+ * rounding can move a cell across: occupied = (occ_level + 0.5) / 255 (occupied: level >
+ * occ_level), free = (free_level + 0.5) / 255 (free: level <= free_level), with
+ * 0 <= free_level < occ_level <= 254, so free < occupied as nav2's map_saver demands. */
+typedef struct sim_maps_thresh {
+    int occ_level, free_level;
+    double occupied, free_thresh;
+    /* On the labelled points they were chosen on: */
+    size_t n, n_hit; /* points, of which lidar hits (label >= 0.5) */
+    double occ_f1;   /* F1 of the hits, predicted occupied = level > occ_level */
+    double free_f1;  /* F1 of the free points, predicted free = level <= free_level */
+} sim_maps_thresh_t;
+
+/* The thresholds for map values p[i] (the same quantity as the map's cells, e.g. the MC mean
+ * of the same passes) at n labelled points pts[i] (pts[i].occ: 1 a lidar hit, 0 free):
+ * occ_level maximises the F1 score of the hits (the smallest such level), free_level the F1
+ * score of the free points among the levels below occ_level (the smallest such level).
+ * Returns 0, or -EINVAL when n == 0, a pointer is NULL, or the points are all hits or all
+ * free (no F1 to maximise); *t is then zeroed. */
+FS_MUST_CHECK
+int sim_maps_choose_thresholds(const float *p, const ai_sample_t *pts, size_t n, sim_maps_thresh_t *t);
+
 /* Frees the cells; *g is empty afterwards. Safe on an empty grid and twice. */
 void sim_maps_grid_free(sim_maps_grid_t *g);
 

@@ -12,7 +12,8 @@ Reads (every file optional: a missing one skips its figure and is named in summa
                                 chunks_requested,...,timeouts,...
   robot_<i>/train.samples       the samples the robot trained on (tools/samples.py format)
   maps/map_mean.npy, map_std.npy, map_single.npy, map_meta.json, consensus.csv,
-  maps/map.pgm + map.yaml       (ROS map_server), scene.png
+  maps/map.pgm + map.yaml       (ROS map_server: its thresholds, and from map_meta.json how the map
+                                scores as nav2 reads it), scene.png
 Writes into RUN_DIR (each file whole or not at all: a temporary file beside it, renamed):
   map_mean.png, map_std.png, map_single.png   the maps in metres with the robots' tours
   kde.png                        Gaussian KDE of the lidar hits (occ > 0.5) of all robots
@@ -731,9 +732,46 @@ def summary(run, figures):
         L += ["## ROS map", "",
               "`maps/map.pgm` + `maps/map.yaml`: load with ROS map_server: "
               "`ros2 run nav2_map_server map_server --ros-args -p yaml_filename:=maps/map.yaml`", ""]
+        L += ros_map_lines(run)
     if run.notes:
         L += ["## Not in this report", ""] + [f"- {n}" for n in run.notes] + [""]
     return "\n".join(L)
+
+
+def yaml_scalars(path):
+    """The `key: value` lines of a flat YAML file (comments skipped), as strings; {} when unreadable."""
+    out = {}
+    try:
+        with open(path, encoding="utf-8", errors="replace") as f:
+            for line in f:
+                m = re.match(r"^([A-Za-z_]+):\s*(.*?)\s*$", line)
+                if m:
+                    out[m.group(1)] = m.group(2)
+    except OSError:
+        pass
+    return out
+
+
+def ros_map_lines(run):
+    """The thresholds of maps/map.yaml and, from map_meta.json (host_sim maps writes them), the map as
+    nav2 reads it against the ground truth."""
+    y = yaml_scalars(run.p("maps", "map.yaml"))
+    meta = run.meta or {}
+    L = []
+    if "occupied_thresh" in y and "free_thresh" in y:
+        how = {"valset": "chosen on the validation set for this model (best F1 of the lidar hits; of the free "
+                         "points below it)",
+               "default": "ROS map_server's defaults: no validation set was given"}.get(meta.get("thresholds"), "")
+        L.append(f"- thresholds (mode {y.get('mode', 'trinary')}): occupied_thresh {y['occupied_thresh']}, "
+                 f"free_thresh {y['free_thresh']}" + (f", {how}" if how else ""))
+    keys = ("nav2_occupied", "nav2_free", "nav2_unknown", "nav2_wall_iou", "nav2_free_truly_free")
+    if all(isinstance(meta.get(k), (int, float)) and not isinstance(meta.get(k), bool) for k in keys):
+        L.append(f"- as nav2 reads it: {meta['nav2_occupied']} occupied, {meta['nav2_free']} free, "
+                 f"{meta['nav2_unknown']} unknown cells; against the plan's ground truth: wall IoU "
+                 f"{meta['nav2_wall_iou']:.3f}, {100 * meta['nav2_free_truly_free']:.1f} % of the free cells truly free")
+        if meta["nav2_occupied"] == 0:
+            L.append("- **no cell is occupied: the map has no walls for a navigation stack**")
+    return L + ([""] if L else [])
 
 
 # ---- main ------------------------------------------------------------------------------------

@@ -47,7 +47,16 @@ static void maps_usage(FILE *out)
             "                      models\n"
             "  map.pgm, map.yaml   the MC mean for ROS map_server: P5, first row the top, pixel =\n"
             "                      round(255 (1 - mean)), so occupancy = (255 - pixel) / 255 (negate 0);\n"
-            "                      origin = (xmin, ymin), trinary, thresholds 0.65 / 0.196\n"
+            "                      origin = (xmin, ymin), mode trinary (occupied: occupancy > occupied_thresh,\n"
+            "                      free: < free_thresh, else unknown). With --valset the thresholds are\n"
+            "                      chosen on it for this model: the MC mean (same passes) at its points;\n"
+            "                      occupied_thresh = the cut with the best F1 of the lidar hits, free_thresh\n"
+            "                      the cut below it with the best F1 of the free points (each half-way\n"
+            "                      between two pixel levels). Without: ROS map_server's defaults 0.65 / 0.196,\n"
+            "                      which a model's smooth occupancy rarely reaches (no walls: stdout says so).\n"
+            "                      The reason is a comment in map.yaml; stdout and map_meta.json give the\n"
+            "                      thresholds and how the map scores as nav2 reads it against map_truth.npy\n"
+            "                      (wall IoU, share of the free cells truly free)\n"
             "  map_mean.png, map_std.png   the pictures of host_sim fleet/run (no paths; their row 0 is the\n"
             "                      smallest y, the drawing's top, so they are the .npy arrays upside down)\n"
             "Inputs are checked first (plan, checkpoints, validation set): a bad one stops the run\n"
@@ -59,7 +68,8 @@ static void maps_usage(FILE *out)
             "  --res M             map cell size in metres (default 0.05)\n"
             "  --mc K              Monte-Carlo passes (default 50)\n"
             "  --seed S            seed of the MC draws (default 1)\n"
-            "  --valset FILE       validation samples of the plan (host_sim valset) for val_loss\n"
+            "  --valset FILE       validation samples of the plan (host_sim valset): val_loss and the\n"
+            "                      thresholds of map.yaml\n"
             "  --scale S           plan metres per pixel (default %g)\n",
             SIM_PLAN_DEFAULT_SCALE);
 }
@@ -153,6 +163,18 @@ typedef struct job {
     float *val_loss;             /* n_models + 1 (the consensus last) */
     uint8_t *buf;                /* file bytes: a checkpoint read or written */
     sim_maps_grid_t mc, single;
+    uint8_t *truth;              /* the grid's cells (row 0 the smallest y): 0 free, 1 wall, 255 outside */
+    float *val_p;                /* n_val MC means at the validation points (the map's values) */
+    /* map.yaml's thresholds: the text written and the values nav2 reads back from it */
+    int th_chosen;               /* 1: chosen on the validation set; 0: the defaults */
+    sim_maps_thresh_t th;        /* when chosen */
+    char th_occ[32], th_free[32];
+    double occ_thresh, free_thresh;
+    char th_note[256];           /* why the defaults, when they are */
+    /* the map as nav2 reads it, against the ground truth */
+    size_t nav_occ, nav_free, nav_unknown;
+    size_t nav_walls, nav_occ_wall, nav_occ_known, nav_free_known, nav_free_free;
+    double wall_iou, free_precision, level_max;
     char path[OUT_N][PATH_MAX];
     char png_mean[PATH_MAX], png_std[PATH_MAX];
     hal_host_file_t out[OUT_N];
@@ -167,6 +189,8 @@ static void job_free(job_t *j)
             hal_host_file_abort(&j->out[k]); /* a no-op after a commit */
     sim_maps_grid_free(&j->mc);
     sim_maps_grid_free(&j->single);
+    free(j->val_p);
+    free(j->truth);
     free(j->buf);
     free(j->val_loss);
     free(j->cerr);
@@ -341,6 +365,101 @@ static int prepare(job_t *j)
     return cmd_prepare_out_dir("maps", o->out);
 }
 
+/* The ground truth at the map's cell centres (sim_plan_classify_point): 0 free, 1 wall, 255
+ * outside the building; what the map is scored against (map_truth.npy). */
+static int compute_truth(job_t *j)
+{
+    const sim_maps_grid_t *g = &j->mc;
+    j->truth = malloc((size_t)g->w * g->h);
+    if (j->truth == NULL) {
+        fprintf(stderr, "host_sim maps: out of memory\n");
+        return -1;
+    }
+    for (int r = 0; r < g->h; r++)
+        for (int c = 0; c < g->w; c++) {
+            const int cls = sim_plan_classify_point(&j->plan, g->x0 + (c + 0.5) * g->res, g->y0 + (r + 0.5) * g->res);
+            j->truth[(size_t)r * g->w + c] = cls == SIM_CELL_WALL ? 1 : cls == SIM_CELL_FREE ? 0 : 255;
+        }
+    return 0;
+}
+
+/* ROS map_server's customary thresholds, used without a validation set. */
+#define ROS_OCCUPIED_DEFAULT "0.65"
+#define ROS_FREE_DEFAULT "0.196"
+
+/* map.yaml's thresholds: chosen on the validation set (the map's own values, the MC mean of
+ * the same passes, at its points), else the defaults. The values are the text written, read
+ * back, so everything scored below is what nav2 reads. */
+static int choose_thresholds(job_t *j)
+{
+    const maps_opts_t *o = &j->o;
+    snprintf(j->th_occ, sizeof j->th_occ, ROS_OCCUPIED_DEFAULT);
+    snprintf(j->th_free, sizeof j->th_free, ROS_FREE_DEFAULT);
+    snprintf(j->th_note, sizeof j->th_note, "no validation set given");
+    if (j->n_val > 0) {
+        float *xy = malloc(j->n_val * 2 * sizeof *xy);
+        j->val_p = malloc(j->n_val * sizeof *j->val_p);
+        if (xy == NULL || j->val_p == NULL) {
+            free(xy);
+            fprintf(stderr, "host_sim maps: out of memory for %zu validation points\n", j->n_val);
+            return -1;
+        }
+        for (size_t i = 0; i < j->n_val; i++) {
+            xy[2 * i] = j->val[i].x;
+            xy[2 * i + 1] = j->val[i].y;
+        }
+        const int rc = bnn_predict_mc(j->cons, xy, j->n_val, (uint32_t)o->mc, (uint64_t)o->seed, j->val_p, NULL);
+        free(xy);
+        if (rc != 0) {
+            fprintf(stderr, "host_sim maps: MC prediction at the validation points failed (%d)\n", rc);
+            return -1;
+        }
+        if (sim_maps_choose_thresholds(j->val_p, j->val, j->n_val, &j->th) == 0) {
+            j->th_chosen = 1;
+            /* Half-way between two levels (1/510 from each): 4 decimals keep it there. */
+            snprintf(j->th_occ, sizeof j->th_occ, "%.4f", j->th.occupied);
+            snprintf(j->th_free, sizeof j->th_free, "%.4f", j->th.free_thresh);
+        } else {
+            snprintf(j->th_note, sizeof j->th_note, "the validation set's points are all %s",
+                     j->val[0].occ >= 0.5f ? "lidar hits" : "free");
+        }
+    }
+    j->occ_thresh = strtod(j->th_occ, NULL);
+    j->free_thresh = strtod(j->th_free, NULL);
+    return 0;
+}
+
+/* The map as nav2's map_io reads map.pgm with these thresholds (trinary, negate 0), against
+ * the ground truth: wall IoU over the building's cells (occupied vs wall), and the share of
+ * the building's free cells truly free. */
+static int score_nav2(job_t *j)
+{
+    const sim_maps_grid_t *g = &j->mc;
+    const size_t n = (size_t)g->w * g->h;
+    for (size_t i = 0; i < n; i++) {
+        const int px = sim_maps_pgm_pixel(g->mean[i]);
+        const double occ = (255 - px) / 255.0; /* map_io: 1 - shade */
+        j->level_max = fmax(j->level_max, occ);
+        const int t = j->truth[i];
+        j->nav_walls += t == 1;
+        if (j->occ_thresh < occ) {
+            j->nav_occ++;
+            j->nav_occ_known += t != 255;
+            j->nav_occ_wall += t == 1;
+        } else if (occ < j->free_thresh) {
+            j->nav_free++;
+            j->nav_free_known += t != 255;
+            j->nav_free_free += t == 0;
+        } else {
+            j->nav_unknown++;
+        }
+    }
+    const size_t uni = j->nav_occ_known + j->nav_walls - j->nav_occ_wall;
+    j->wall_iou = uni > 0 ? (double)j->nav_occ_wall / (double)uni : 0.0;
+    j->free_precision = j->nav_free_known > 0 ? (double)j->nav_free_free / (double)j->nav_free_known : NAN;
+    return 0;
+}
+
 /* Consensus model, consensus errors, validation losses, maps. */
 static int compute(job_t *j)
 {
@@ -396,7 +515,7 @@ static int compute(job_t *j)
         fprintf(stderr, "host_sim maps: maps: %s\n", j->err);
         return -1;
     }
-    return 0;
+    return compute_truth(j) == 0 && choose_thresholds(j) == 0 ? score_nav2(j) : -1;
 }
 
 /* Shortest text that reads back as the same double (or float, with is_float). */
@@ -538,24 +657,10 @@ static int stage_npy(job_t *j, int k, const sim_maps_grid_t *g, const float *cel
     return rc;
 }
 
-/* map_truth.npy: the ground truth at the map's cell centres (sim_plan_classify_point), 0 free,
- * 1 wall, 255 outside the building: what the map is scored against. */
+/* map_truth.npy: the ground truth at the map's cell centres (compute_truth). */
 static int stage_truth(job_t *j)
 {
-    const sim_maps_grid_t *g = &j->mc;
-    uint8_t *t = malloc((size_t)g->w * g->h);
-    if (t == NULL) {
-        fprintf(stderr, "host_sim maps: %s: out of memory\n", j->path[OUT_TRUTH]);
-        return -1;
-    }
-    for (int r = 0; r < g->h; r++)
-        for (int c = 0; c < g->w; c++) {
-            const int cls = sim_plan_classify_point(&j->plan, g->x0 + (c + 0.5) * g->res, g->y0 + (r + 0.5) * g->res);
-            t[(size_t)r * g->w + c] = cls == SIM_CELL_WALL ? 1 : cls == SIM_CELL_FREE ? 0 : 255;
-        }
-    const int rc = stage_npy(j, OUT_TRUTH, g, NULL, t);
-    free(t);
-    return rc;
+    return stage_npy(j, OUT_TRUTH, &j->mc, NULL, j->truth);
 }
 
 /* map.pgm: binary P5, W x H, first row the top; pixel = round(255 (1 - mean)). */
@@ -573,13 +678,26 @@ static int stage_pgm(job_t *j)
     memcpy(b, head, (size_t)hn);
     uint8_t *d = b + hn;
     for (int R = 0; R < g->h; R++)
-        for (int c = 0; c < g->w; c++) {
-            const double p = g->mean[(size_t)(g->h - 1 - R) * g->w + c];
-            *d++ = (uint8_t)lround(255.0 * (1.0 - fmin(fmax(p, 0.0), 1.0)));
-        }
+        for (int c = 0; c < g->w; c++)
+            *d++ = sim_maps_pgm_pixel(g->mean[(size_t)(g->h - 1 - R) * g->w + c]);
     const int rc = stage(j, OUT_PGM, b, (size_t)hn + n);
     free(b);
     return rc;
+}
+
+/* A share as "98.5 %" ("none" when there is no share: no free cell). */
+typedef struct pct {
+    char s[32];
+} pct_t;
+
+static pct_t fp_pct(double v)
+{
+    pct_t p;
+    if (isfinite(v))
+        snprintf(p.s, sizeof p.s, "%.1f %%", 100.0 * v);
+    else
+        snprintf(p.s, sizeof p.s, "none");
+    return p;
 }
 
 /* Every output but the PNGs written to its temporary file; nothing replaced yet. */
@@ -621,20 +739,40 @@ static int stage_all(job_t *j)
     fmt_num(d, sizeof d, xmax, 0);
     fmt_num(e, sizeof e, ymax, 0);
     fmt_num(f, sizeof f, sim_maps_std_max(g), 0);
+    char iou[64], fp[64];
+    fmt_num(iou, sizeof iou, j->wall_iou, 0);
+    fmt_num(fp, sizeof fp, j->free_precision, 0);
     t = (text_t){0};
     tprintf(&t,
             "{\"res\": %s, \"xmin\": %s, \"ymin\": %s, \"xmax\": %s, \"ymax\": %s, \"width\": %d, \"height\": %d, "
-            "\"mc\": %lld, \"seed\": %lld, \"std_max\": %s, \"models\": %d}\n",
-            a, b, c, d, e, g->w, g->h, o->mc, o->seed, f, N);
+            "\"mc\": %lld, \"seed\": %lld, \"std_max\": %s, \"models\": %d, \"occupied_thresh\": %s, "
+            "\"free_thresh\": %s, \"thresholds\": \"%s\", \"nav2_occupied\": %zu, \"nav2_free\": %zu, "
+            "\"nav2_unknown\": %zu, \"nav2_wall_iou\": %s, \"nav2_free_truly_free\": %s}\n",
+            a, b, c, d, e, g->w, g->h, o->mc, o->seed, f, N, j->th_occ, j->th_free,
+            j->th_chosen ? "valset" : "default", j->nav_occ, j->nav_free, j->nav_unknown, iou,
+            isfinite(j->free_precision) ? fp : "null");
     rc = stage_text(j, OUT_META, &t);
     free(t.s);
     if (rc != 0 || stage_pgm(j) != 0)
         return -1;
     t = (text_t){0};
+    tprintf(&t, "image: map.pgm\nmode: trinary\nresolution: %s\norigin: [%s, %s, 0.0]\nnegate: 0\n", a, b, c);
+    if (j->th_chosen)
+        tprintf(&t,
+                "# occupied_thresh and free_thresh chosen on the validation set (%zu points, %zu lidar hits) for\n"
+                "# this map's values there (MC mean of %lld passes, seed %lld): occupied_thresh has the best F1 of\n"
+                "# the hits, %.3f; free_thresh the best F1 of the free points below it, %.3f.\n",
+                j->th.n, j->th.n_hit, o->mc, o->seed, j->th.occ_f1, j->th.free_f1);
+    else
+        tprintf(&t,
+                "# occupied_thresh and free_thresh: ROS map_server's defaults (%s; with one,\n"
+                "# host_sim maps --valset chooses them for the model). This map's largest occupancy is %.3f.\n",
+                j->th_note, j->level_max);
     tprintf(&t,
-            "image: map.pgm\nmode: trinary\nresolution: %s\norigin: [%s, %s, 0.0]\nnegate: 0\n"
-            "occupied_thresh: 0.65\nfree_thresh: 0.196\n",
-            a, b, c);
+            "# As nav2 reads it: %zu occupied, %zu free, %zu unknown cells; against the plan's ground truth\n"
+            "# (map_truth.npy) wall IoU %.3f, %s of the free cells truly free.\n",
+            j->nav_occ, j->nav_free, j->nav_unknown, j->wall_iou, fp_pct(j->free_precision).s);
+    tprintf(&t, "occupied_thresh: %s\nfree_thresh: %s\n", j->th_occ, j->th_free);
     rc = stage_text(j, OUT_YAML, &t);
     free(t.s);
     return rc;
@@ -672,6 +810,20 @@ static void report(const job_t *j)
     printf("map: %d x %d cells of %g m over x [%g, %g], y [%g, %g]; %lld MC passes (seed %lld), max std %.4f\n",
            g->w, g->h, g->res, g->x0, g->x0 + g->w * g->res, g->y0, g->y0 + g->h * g->res, o->mc, o->seed,
            sim_maps_std_max(g));
+    if (j->th_chosen)
+        printf("map.yaml: occupied_thresh %s (validation set: best F1 of the %zu lidar hits, %.3f), free_thresh %s "
+               "(best F1 of the free points below it, %.3f)\n",
+               j->th_occ, j->th.n_hit, j->th.occ_f1, j->th_free, j->th.free_f1);
+    else
+        printf("map.yaml: occupied_thresh %s, free_thresh %s: ROS map_server's defaults (%s); the map's largest "
+               "occupancy is %.3f%s\n",
+               j->th_occ, j->th_free, j->th_note, j->level_max,
+               j->nav_occ == 0 ? ": NO cell is occupied, the map has no walls (--valset chooses thresholds that fit "
+                                 "the model)"
+                               : "");
+    printf("map.yaml as nav2 reads it: %zu occupied, %zu free, %zu unknown cells; against the ground truth: wall IoU "
+           "%.3f, %s of the free cells truly free\n",
+           j->nav_occ, j->nav_free, j->nav_unknown, j->wall_iou, fp_pct(j->free_precision).s);
     printf("results in %s: consensus.bnn consensus.csv map_mean.npy map_std.npy map_single.npy map_truth.npy map_meta.json "
            "map.pgm map.yaml map_mean.png map_std.png\n",
            o->out);
