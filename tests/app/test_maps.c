@@ -108,15 +108,7 @@ static void load_model(const char *path)
 static int setup(void **st)
 {
     (void)st;
-    char self[SHORT_PATH - 16];
-    ssize_t n = readlink("/proc/self/exe", self, sizeof self - 1);
-    assert_true(n > 0);
-    self[n] = '\0';
-    /* build/<config>/tests/app/test_maps -> build/<config>/bin/host_sim */
-    char *cut = strstr(self, "/tests/app/");
-    assert_non_null(cut);
-    *cut = '\0';
-    snprintf(g_bin, sizeof g_bin, "%s/bin/host_sim", self);
+    test_build_program("host_sim", g_bin, sizeof g_bin);
     snprintf(g_dir, sizeof g_dir, "/tmp/fleetsim-maps-XXXXXX");
     assert_non_null(mkdtemp(g_dir));
     assert_non_null(realpath("host_sim/plans/apartment.svg", g_plan));
