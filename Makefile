@@ -15,6 +15,10 @@
 #   make experiments  the paper's experiments and the KL question (hours, resumable):
 #                     results/paper/REPORT.md; QUICK=1 the reduced form in minutes
 #   make check-portable  the math compiled for x86-64-v2/v3/v4 and aarch64, all built with clang
+#   make fuzz         the libFuzzer targets of tests/fuzz/ (datagrams into the fleet protocol,
+#                     floor plans, tours, samples, checkpoints) built with clang, ASan and UBSan,
+#                     FUZZ_SECONDS=N (default 60) each, after their regression inputs; fails on
+#                     any crash, sanitizer report, leak or hang
 #   make check-config the tree built for a board with other sizes; every file agrees on them
 #   make cross        the firmware for the cross boards (Cortex-M4F, Cortex-M7, Cortex-A53)
 #                     with their toolchains; fails when an image does not fit its board
@@ -24,7 +28,7 @@
 #   make clean
 #
 # Configuration (all optional):
-#   BUILD=release|debug|asan|tsan   BOARD=<dir in boards/>   PRESET=small|paper|mcu
+#   BUILD=release|debug|asan|tsan|fuzz   BOARD=<dir in boards/>   PRESET=small|paper|mcu
 #   (cross boards: BOARD=mps2-an386|mps2-an500|rpi3 with cross, run-board, profile-board)
 #   LA_BACKEND=eigen|ref            ARCH=native|portable (release code for this CPU, or a
 #   CC=gcc|clang, CXX=g++|clang++   baseline that runs on any CPU of its family)
@@ -103,8 +107,14 @@ else ifeq ($(BUILD),asan)
 OPT := -O1 -g -fno-omit-frame-pointer -fsanitize=address,undefined -fno-sanitize-recover=all
 else ifeq ($(BUILD),tsan)
 OPT := -O1 -g -fsanitize=thread
+else ifeq ($(BUILD),fuzz)
+# libFuzzer's coverage on every object, ASan and UBSan (`make fuzz`); clang only.
+ifeq ($(findstring clang,$(CC)),)
+$(error BUILD=fuzz needs clang: CC=clang CXX=clang++ (make fuzz sets them))
+endif
+OPT := -O1 -g -fno-omit-frame-pointer -fsanitize=fuzzer-no-link,address,undefined -fno-sanitize-recover=all
 else
-$(error unknown BUILD '$(BUILD)' (release, debug, asan or tsan))
+$(error unknown BUILD '$(BUILD)' (release, debug, asan, tsan or fuzz))
 endif
 
 WARN     := -Wall -Wextra -Werror
@@ -137,7 +147,7 @@ MSG_LCM   := $(sort $(wildcard firmware/msg/*.lcm))
 SUPPORT_C := $(sort $(wildcard tests/support/*.c))
 # tests/faults/ (fleets under loss, slower, root for the kernel case) runs on its own:
 # `make test-faults`, never in `make test`.
-TEST_C    := $(sort $(shell find tests -name 'test_*.c' -not -path 'tests/support/*' -not -path 'tests/faults/*'))
+TEST_C    := $(sort $(shell find tests -name 'test_*.c' -not -path 'tests/support/*' -not -path 'tests/faults/*' -not -path 'tests/fuzz/*'))
 FAULTS_TEST_C := $(sort $(wildcard tests/faults/test_*.c))
 BENCH_C   := $(sort $(wildcard tools/bench/bench_*.c))
 BENCH_SUPPORT_C := tools/bench/fma_probe.c
@@ -250,7 +260,7 @@ $(O)/tests/%: $(O)/obj/tests/%.c.o $(LIB)/libtestsupport.a $(LIB)/libhal_stdc.a 
 	$(call say,LD,$@)$(CXX) $(OPT) $< -Wl,--start-group $(LIB)/libtestsupport.a $(LIB)/libhal_stdc.a $(LIBS) -Wl,--end-group $(SYS_LIBS) -lcmocka $(WRAP) -o $@
 
 # ---- targets ----------------------------------------------------------------------------
-.PHONY: experiments all layering deps run run-inproc test test-asan test-tsan test-faults tests bench bench-one bench-pse-sim clean help check-portable check-config $(CROSS_GOALS)
+.PHONY: experiments all layering deps run run-inproc test test-asan test-tsan test-faults tests bench bench-one bench-pse-sim clean help check-portable check-config fuzz fuzz-build fuzz-seeds $(CROSS_GOALS)
 
 all: deps layering $(LIBS) $(PROGRAMS)
 ifeq ($(BUILD),release)
@@ -342,6 +352,44 @@ check-portable: deps
 	@tools/install-deps.sh --portable
 	@tools/check-portable.sh "$(DEFS) $(FW_INC)"
 	@$(MAKE) --no-print-directory CC=clang CXX=clang++ test
+
+# Fuzzing (tests/fuzz/README.md): one libFuzzer program per tests/fuzz/fuzz_<name>.c, in the
+# build folder of BUILD=fuzz with clang (build/fuzz-<BOARD>-<PRESET>-clang/), so the other
+# builds are untouched. tools/run-fuzz.sh runs each on a scratch copy of its corpus
+# (tests/fuzz/corpus/<name>/ plus the binary seeds tests/fuzz/gen_seeds writes with the
+# project's own encoders) for FUZZ_SECONDS, after its regression inputs
+# (tests/fuzz/regressions/<name>/). `make fuzz-seeds` rewrites the checked-in binary seeds.
+FUZZ_SECONDS ?= 60
+FUZZ_C    := $(sort $(wildcard tests/fuzz/fuzz_*.c))
+FUZZ_BIN  := $(patsubst %.c,$(O)/%,$(FUZZ_C))
+FUZZ_GEN  := $(O)/tests/fuzz/gen_seeds
+FUZZ_MAKE := $(MAKE) --no-print-directory BUILD=fuzz CC=clang CXX=clang++
+FUZZ_O     = $(BUILD_ROOT)/$(call config_for,fuzz,$(PRESET))$(if $(findstring clang,$(CC)),,-clang)
+
+$(O)/tests/fuzz/fuzz_%: $(O)/obj/tests/fuzz/fuzz_%.c.o $(LIBS)
+	@mkdir -p $(@D)
+	$(call say,LD,$@)$(CXX) $(OPT) -fsanitize=fuzzer $< $(LINK_LIBS) -o $@
+
+$(FUZZ_GEN): $(O)/obj/tests/fuzz/gen_seeds.c.o $(LIBS)
+	@mkdir -p $(@D)
+	$(call say,LD,$@)$(CXX) $(OPT) $< $(LINK_LIBS) -o $@
+
+fuzz: deps
+	@tools/install-deps.sh --fuzz
+	@$(FUZZ_MAKE) fuzz-build
+	@tools/run-fuzz.sh --seconds $(FUZZ_SECONDS) --bin $(FUZZ_O)/tests/fuzz
+
+ifeq ($(BUILD),fuzz)
+fuzz-build: $(FUZZ_BIN) $(FUZZ_GEN)
+else
+fuzz-build:
+	@echo "fuzz-build is a step of make fuzz (BUILD=fuzz CC=clang CXX=clang++)" >&2; exit 1
+endif
+
+fuzz-seeds: deps
+	@tools/install-deps.sh --fuzz
+	@$(FUZZ_MAKE) fuzz-build
+	@$(FUZZ_O)/tests/fuzz/gen_seeds tests/fuzz/corpus
 
 # One build configuration per image: the tree built for boards/host_alt (every size changed)
 # and tests/common/test_config.c run there, so a file that ignores the board shows up.

@@ -930,7 +930,8 @@ static int build_solids(sim_plan_t *p, const door_links_t *dl, const unsigned ch
         }
         if (rc != 0)
             break;
-        qsort(cuts, (size_t)nc, sizeof *cuts, cmp_interval);
+        if (nc > 1) /* cuts is still NULL when no door overlaps the wall: qsort wants an array */
+            qsort(cuts, (size_t)nc, sizeof *cuts, cmp_interval);
         /* Clip every piece first: if one is too big for a polygon, keep the wall whole. */
         int first_piece = p->n_solids, overflow = 0;
         double t = ax->tmin;

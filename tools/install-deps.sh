@@ -14,6 +14,9 @@
 #                                     cmocka for arm64 (the rpi3 board's cross test), which
 #                                     needs Debian's arm64 multiarch: `dpkg --add-architecture
 #                                     arm64` is run first when a missing package is :arm64
+#   tools/install-deps.sh --fuzz      also clang and its runtime libraries (libFuzzer, ASan,
+#                                     UBSan: Debian ships them apart from the compiler), for
+#                                     `make fuzz`
 set -euo pipefail
 
 # package  file-that-proves-it-is-installed
@@ -41,6 +44,13 @@ portable_deps=(
     "g++-aarch64-linux-gnu  /usr/bin/aarch64-linux-gnu-g++"
 )
 
+# The fuzz targets of `make fuzz`: clang with -fsanitize=fuzzer,address,undefined. Debian 12's
+# clang (14) does not pull its runtime libraries in without the recommended packages.
+fuzz_deps=(
+    "clang               /usr/bin/clang"
+    "libclang-rt-14-dev  /usr/lib/llvm-14/lib/clang/14.0.6/lib/linux/libclang_rt.fuzzer-$(uname -m).a"
+)
+
 # The cross boards' toolchains and emulators (make cross, run-board, profile-board).
 cross_deps=(
     "gcc-arm-none-eabi        /usr/bin/arm-none-eabi-gcc"
@@ -57,7 +67,8 @@ for arg in "$@"; do
         --check) check_only=1 ;;
         --portable) deps+=("${portable_deps[@]}") ;;
         --cross) deps+=("${cross_deps[@]}") ;;
-        -h|--help) sed -n '2,16p' "$0" | sed 's/^# \{0,1\}//'; exit 0 ;;
+        --fuzz) deps+=("${fuzz_deps[@]}") ;;
+        -h|--help) sed -n '2,19p' "$0" | sed 's/^# \{0,1\}//'; exit 0 ;;
         *) echo "install-deps: unknown option '$arg' (see --help)" >&2; exit 2 ;;
     esac
 done
