@@ -9,7 +9,16 @@
 #     wall-clock time, signals, process exit, environment, threads): on a board those go
 #     through the HAL (storage, log, clock, core operations).
 # Exits 1 and lists every violation.
+#
+#   tools/check-layering.sh        (`make layering`; --help: this text)
 set -uo pipefail
+case "${1-}" in
+    -h|--help)
+        sed -n '2,/^set /{/^set /d;s/^# \{0,1\}//;p}' "$0"
+        exit 0 ;;
+    "") ;;
+    *) echo "check-layering: takes no arguments, not '$1' (see --help)" >&2; exit 2 ;;
+esac
 cd "$(dirname "$0")/.."
 
 dirs=(firmware hal/common)

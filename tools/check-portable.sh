@@ -8,9 +8,28 @@
 #   tools/check-portable.sh "<preprocessor flags of the build>"
 # Exits 1 on the first file that does not compile, naming the compiler and -march.
 set -euo pipefail
+
+usage() {
+    cat <<'EOF'
+usage: tools/check-portable.sh "<preprocessor flags of the build>"
+
+Compiles the AI core's math (firmware/ai/*.c, *.cpp) with -Wall -Wextra -Werror, compile only,
+for x86-64-v2, -v3 and -v4 with GCC and clang and for aarch64 (armv8-a) with the cross g++
+(on an aarch64 host: armv8-a with GCC and clang). The one argument is the build's -D/-I flags,
+quoted as one word; `make check-portable` passes them and then builds and tests the whole tree
+with clang. Exit 0 when every file compiles, 1 on the first that does not (naming the compiler
+and -march), 2 on bad usage.
+EOF
+}
+case "${1-}" in
+    -h|--help) usage; exit 0 ;;
+    "") usage >&2; exit 2 ;;
+    --*) echo "check-portable: unknown option '$1' (see --help)" >&2; exit 2 ;;
+esac
+[[ $# -eq 1 ]] || { usage >&2; exit 2; }
 cd "$(dirname "$0")/.."
 
-flags=${1:?usage: tools/check-portable.sh \"<-D/-I flags of the build>\"}
+flags=$1
 read -r -a pp <<<"$flags"
 srcs=(firmware/ai/*.c firmware/ai/*.cpp)
 warn=(-Wall -Wextra -Werror)

@@ -339,6 +339,9 @@ def write_csv(path, rows, totals, overall):
                 f.write(",".join(str(c) for c in r) + "\n")
             f.flush()
             os.fsync(f.fileno())
+        umask = os.umask(0)
+        os.umask(umask)
+        os.chmod(tmp, 0o666 & ~umask)  # mkstemp's 0600: the CSV as readable as every other output
         os.replace(tmp, path)
     except BaseException:
         try:

@@ -22,8 +22,8 @@ static void fleet_usage(FILE *out)
     const dinno_cfg_t d = dinno_default_cfg();
     fprintf(out,
             "usage: host_sim fleet --inproc --plan FILE.svg --paths DIR --robots N --rounds R\n"
-            "                      --strategy kl|separate|uniform|central|isolated --graph disk|full|ring\n"
-            "                      --seed S --out DIR [options]\n"
+            "                      --graph disk|full|ring --seed S --out DIR\n"
+            "                      [--strategy kl|separate|uniform|central|isolated] [options]\n"
             "\n"
             "Trains N agents (one BNN each, preset '%s') on lidar samples taken along their paths\n"
             "(DIR/robot_<i>.csv, i = 0..N-1), in synchronous DiNNO rounds, in ONE process (--inproc, required):\n"
@@ -43,6 +43,8 @@ static void fleet_usage(FILE *out)
             "top), models/robot_<i>.bnn (every final model) and summary.txt.\n"
             "\n"
             "options:\n"
+            "  --strategy S        kl (default, as tools/fleet), separate, uniform (DiNNO regularisers),\n"
+            "                      central or isolated (the baselines)\n"
             "  --radius M          disk graph radius in metres (default 4.0)\n"
             "  --batch B           minibatch size (default %u, <= %u)\n"
             "  --primal-steps B    optimiser steps per round (default %u)\n"
@@ -87,7 +89,7 @@ typedef struct opts {
     sim_fleet_mode_t mode;
     dinno_cfg_t d;
     dinno_graph_kind_t graph;
-    int have_strategy, have_graph;
+    int have_graph;
     char strategy_name[16];
 } opts_t;
 
@@ -105,6 +107,9 @@ static int parse(int argc, char **argv, opts_t *o)
     o->map_res = 0.05;
     o->scale = SIM_PLAN_DEFAULT_SCALE;
     o->d = dinno_default_cfg();
+    o->d.strategy = DINNO_KL; /* --strategy's default, as tools/fleet's */
+    o->mode = SIM_FLEET_DINNO;
+    snprintf(o->strategy_name, sizeof o->strategy_name, "kl");
     for (int i = 1; i < argc; i++) {
         const char *a = argv[i];
         if (strcmp(a, "--help") == 0 || strcmp(a, "-h") == 0) {
@@ -174,7 +179,6 @@ static int parse(int argc, char **argv, opts_t *o)
         else if (strcmp(a, "--scale") == 0)
             bad = cmd_parse_double(v, a, 1e-6, 100.0, &o->scale);
         else if (strcmp(a, "--strategy") == 0) {
-            o->have_strategy = 1;
             snprintf(o->strategy_name, sizeof o->strategy_name, "%s", v);
             if (strcmp(v, "central") == 0)
                 o->mode = SIM_FLEET_CENTRAL;
@@ -205,8 +209,8 @@ static int parse(int argc, char **argv, opts_t *o)
         return -1;
     }
     const char *missing = !o->plan ? "--plan" : !o->paths ? "--paths" : o->robots < 0 ? "--robots"
-                        : o->rounds < 0 ? "--rounds" : !o->have_strategy ? "--strategy"
-                        : !o->have_graph ? "--graph" : o->seed < 0 ? "--seed" : !o->out ? "--out" : NULL;
+                        : o->rounds < 0 ? "--rounds" : !o->have_graph ? "--graph" : o->seed < 0 ? "--seed"
+                        : !o->out ? "--out" : NULL;
     if (missing) {
         fprintf(stderr, "host_sim fleet: %s is required (see --help)\n", missing);
         return -1;

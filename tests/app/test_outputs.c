@@ -306,7 +306,7 @@ static void test_out_parents_and_stale_temporaries(void **st)
 }
 
 /* The readings of the KL strategy and the validation modes as options: bad values refused with
- * the reason (exit 2); good ones recorded in summary.txt, and --val-mode mc makes val_loss the
+ * the reason (exit 2); good ones recorded in summary.txt (--strategy left out: kl by default), and --val-mode mc makes val_loss the
  * MC column on every row, beside val_mean, val_sample and sigma_mean. */
 static void test_fleet_readings_and_val_modes(void **st)
 {
@@ -326,8 +326,9 @@ static void test_fleet_readings_and_val_modes(void **st)
     }
     path_in(q, "rv.samples");
     HS_OK("valset", "--plan", g_plan, "--out", q, "--poses", "2");
-    HS_OK("fleet", "--inproc", "--plan", g_plan, "--paths", g_paths, "--robots", "2", "--rounds", "2", "--strategy",
-          "kl", "--graph", "full", "--seed", "1", "--out", p, "--valset", q, "--mc", "2", "--map-res", "0.2",
+    /* No --strategy: kl by default, as tools/fleet's. */
+    HS_OK("fleet", "--inproc", "--plan", g_plan, "--paths", g_paths, "--robots", "2", "--rounds", "2",
+          "--graph", "full", "--seed", "1", "--out", p, "--valset", q, "--mc", "2", "--map-res", "0.2",
           "--kl-form", "full", "--kl-reduce", "mean", "--rho-pred-grad", "0", "--val-mode", "mc", "--val-mc", "3",
           "--metrics-every", "1");
     snprintf(f, sizeof f, "%s/summary.txt", p);
@@ -335,6 +336,7 @@ static void test_fleet_readings_and_val_modes(void **st)
     char *sum = (char *)test_slurp(f, &n);
     assert_non_null(sum);
     assert_non_null(strstr(sum, "kl_form: full\nkl_reduce: mean\nrho_pred_grad: 0\nval_mode: mc\n"));
+    assert_non_null(strstr(sum, "strategy: kl\n"));
     free(sum);
     snprintf(f, sizeof f, "%s/metrics.csv", p);
     char *csv = (char *)test_slurp(f, &n);

@@ -102,7 +102,7 @@ enum { NAV_FREE = 0, NAV_OCCUPIED = 100, NAV_UNKNOWN = -1 };
 
 typedef struct nav_map {
     /* loadMapYaml */
-    char image[PATH_MAX];
+    char image[2 * PATH_MAX + 2]; /* a folder and a name, each up to PATH_MAX */
     double resolution, origin[3], occupied_thresh, free_thresh;
     int negate, trinary;
     /* loadMapFromFile: data[width * (height - y - 1) + x] for image row y, so data row 0 is

@@ -9,6 +9,11 @@ that prints host_sim's round lines, and dies by SIGKILL at a chosen round unless
     run.json ("failed", "deaths") and summary.md (tools/fleet_report.py) say the same;
   - a robot that dies again after its last restart fails the fleet;
   - --restart-failed with --mode online is refused (exit 2): an online robot cannot resume.
+  - a run owns its folder: a second launch with the same --name moves the earlier run aside to
+    NAME.prev-<date-time> and says so, the new run's robots start once there (a restarted one
+    resumes inside the new folder); --extra --resume keeps the folder;
+  - bad set-ups refused at once with exit 2 and one line, no traceback: --plan of another plan
+    without --paths, --results that cannot be written, more robots than tours in --paths.
 Every launcher runs under a timeout: a hang is a failure.
 
     python3 tests/tools/test_fleet.py      prints "N passed, M failed", exit 1 on failure
@@ -137,6 +142,117 @@ def online_restarts_refused():
     try:
         rc, out, _ = launch(tmp, ["--restart-failed", "1", "--mode", "online"], {}, "online")
         check(rc == 2 and "--restart-failed needs --mode offline" in out, f"exit {rc}:\n{out}")
+    finally:
+        shutil.rmtree(tmp, ignore_errors=True)
+
+
+def starts(run_dir, i):
+    with open(os.path.join(run_dir, f"robot_{i}", "starts.txt")) as f:
+        return f.read().splitlines()
+
+
+@test
+def rerun_moves_earlier_run_aside():
+    tmp = tempfile.mkdtemp()
+    try:
+        rc, out, run_dir = launch(tmp, ["--no-report"], {}, "fleet")
+        check(rc == 0, f"first launch exit {rc}:\n{out}")
+        with open(os.path.join(run_dir, "robot_0", "old-only.txt"), "w") as f:
+            f.write("from the first run\n")
+        os.symlink("fleet", os.path.join(tmp, "latest"))  # as a finished run with its report leaves it
+        # The second run (other rounds) with a robot that dies and is restarted with --resume.
+        rc, out, run_dir = launch(tmp, ["--no-report", "--rounds", "6", "--restart-failed", "1"],
+                                  {"FAKE_DIE": "1:3"}, "fleet")
+        check(rc == 0, f"second launch exit {rc}:\n{out}")
+        prev = [d for d in os.listdir(tmp) if d.startswith("fleet.prev-")]
+        check(len(prev) == 1, f"one earlier run moved aside: {os.listdir(tmp)}")
+        want = f"fleet: {run_dir} holds an earlier run; moved to {os.path.join(tmp, prev[0])}"
+        check(want in out.splitlines(), f"no line '{want}' in:\n{out}")
+        check(len(prev[0]) == len("fleet.prev-20261124-170102") and prev[0][11:19].isdigit() and
+              prev[0][19] == "-" and prev[0][20:].isdigit(), f"the name {prev[0]}")
+        old = os.path.join(tmp, prev[0])
+        check(os.readlink(os.path.join(tmp, "latest")) == prev[0], "latest follows the earlier finished run")
+        check(os.path.isfile(os.path.join(old, "robot_0", "old-only.txt")) and
+              not os.path.exists(os.path.join(run_dir, "robot_0", "old-only.txt")), "the old files moved, all")
+        check(run_json(old)["rounds"] == 10 and run_json(run_dir)["rounds"] == 6, "each run.json its own run")
+        for i in range(3):
+            check(len(starts(old, i)) == 1, f"earlier run: robot {i} started once")
+        check(len(starts(run_dir, 0)) == 1 and len(starts(run_dir, 2)) == 1, "new run: robots started once")
+        s1 = starts(run_dir, 1)
+        check(len(s1) == 2 and s1[1] == s1[0] + " --resume" and f"--out {run_dir}/robot_1" in s1[1],
+              f"the restarted robot resumed in the new run's folder: {s1}")
+        # --extra --resume: the robots resume in the run's folder, which is kept.
+        rc, out, run_dir = launch(tmp, ["--no-report", "--rounds", "6", "--extra=--resume"], {}, "fleet")
+        check(rc == 0 and "holds an earlier run; kept" in out, f"resume launch exit {rc}:\n{out}")
+        check(len([d for d in os.listdir(tmp) if d.startswith("fleet.prev-")]) == 1, "nothing moved")
+        check(len(starts(run_dir, 0)) == 2, "robot 0 resumed in the same folder")
+    finally:
+        shutil.rmtree(tmp, ignore_errors=True)
+
+
+def refused(tmp, extra, name="bad"):
+    rc, out, run_dir = launch(tmp, extra, {}, name)
+    check(rc == 2, f"exit {rc}, not 2:\n{out}")
+    check("Traceback" not in out and len(out.strip().splitlines()) == 1 and out.startswith("fleet: "),
+          f"not one line:\n{out}")
+    check(not os.path.exists(run_dir), "no run folder made")
+    return out
+
+
+@test
+def plan_without_paths_refused():
+    tmp = tempfile.mkdtemp()
+    try:
+        other = os.path.join(tmp, "other.svg")
+        shutil.copy(os.path.join(ROOT, "host_sim/plans/apartment.svg"), other)
+        out = refused(tmp, ["--plan", other])
+        check(f"--plan {other} needs its own tours: give --paths DIR" in out and "host_sim paths gen --plan" in out,
+              out)
+        # the default plan, named: its default tours are taken
+        rc, out, _ = launch(tmp, ["--no-report", "--plan", os.path.join(ROOT, "host_sim/plans/apartment.svg")],
+                            {}, "default-plan")
+        check(rc == 0, f"default plan: exit {rc}:\n{out}")
+    finally:
+        shutil.rmtree(tmp, ignore_errors=True)
+
+
+@test
+def unwritable_results_refused():
+    tmp = tempfile.mkdtemp()
+    try:
+        afile = os.path.join(tmp, "a-file")
+        open(afile, "w").close()
+        out = refused(tmp, ["--results", os.path.join(afile, "x")])
+        check(f"--results {afile}/x" in out and "Not a directory" in out, out)
+        ro = os.path.join(tmp, "read-only")
+        os.mkdir(ro, 0o555)
+        os.chmod(ro, 0o555)
+        if not os.access(ro, os.W_OK):
+            out = refused(tmp, ["--results", ro])
+        elif shutil.which("setpriv"):  # root writes anyway: the launcher runs as nobody instead
+            os.chmod(tmp, 0o755)
+            res = subprocess.run(["setpriv", "--reuid=65534", "--regid=65534", "--clear-groups", "/usr/bin/python3",
+                                  FLEET, "--bin", "/bin/true", "--force", "--results", ro],
+                                 stdout=subprocess.PIPE, stderr=subprocess.STDOUT, text=True, timeout=TIMEOUT)
+            out = res.stdout
+            check(res.returncode == 2 and len(out.strip().splitlines()) == 1,
+                  f"as nobody: exit {res.returncode}:\n{out}")
+        else:
+            out = f"--results {ro} Permission denied (root without setpriv: not tested)"
+        check(f"--results {ro}" in out and "Permission denied" in out, out)
+    finally:
+        for d, _, _ in os.walk(tmp):
+            os.chmod(d, 0o755)
+        shutil.rmtree(tmp, ignore_errors=True)
+
+
+@test
+def more_robots_than_tours_refused():
+    tmp = tempfile.mkdtemp()
+    try:
+        out = refused(tmp, ["--robots", "9"])
+        check("has 7 tours (robot_0.csv .. robot_6.csv) for --robots 9" in out and
+              "--robots 9 --seed 1 --out NEWDIR" in out and "more robots than the plan has rooms" in out, out)
     finally:
         shutil.rmtree(tmp, ignore_errors=True)
 

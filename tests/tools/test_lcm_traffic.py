@@ -105,6 +105,10 @@ def lcm_traffic_counts():
         rc, out, err = run([TRAFFIC, log, "--csv", csv])
         check(rc == 0, f"exit {rc}: {err}")
         header, rows = read_csv(csv)
+        umask = os.umask(0)
+        os.umask(umask)
+        mode = os.stat(csv).st_mode & 0o777
+        check(mode == 0o666 & ~umask, f"the CSV is {oct(mode)}, not {oct(0o666 & ~umask)} like every other output")
         check(header == ["fleet", "round", "agent", "chunks_sent", "state_bytes", "chunks_resent",
                          "requests_sent", "chunks_requested", "done_sent"], f"header {header}")
         got = {(r[0], r[1], r[2]): [int(x) for x in r[3:]] for r in rows}
