@@ -8,7 +8,8 @@
 #   make test-asan    the tests under AddressSanitizer + UndefinedBehaviorSanitizer
 #   make test-tsan    the threaded tests under ThreadSanitizer
 #   make test-faults  the fleet as real processes under packet loss (tests/faults/: the fault
-#                     injector, and the kernel's drops in a network namespace as root), and
+#                     injector, and the kernel's drops in a network namespace as root), a
+#                     robot killed and resumed, a robot paused, a partition and its heal, and
 #                     SCHEDULES=N (default 4000) schedules of the protocol's simulated network
 #   make bench        benchmarks; one `BENCH <name> <value> <unit>` line per figure (with
 #                     TORCH_PYTHON=<python with torch>, PyTorch's step and MC-50 beside ours)

@@ -359,12 +359,14 @@ static void fleet_round_done(void *ctx, uint32_t round, int final)
         return;
     if (final) {
         /* Stay until every peer finished the last round: one of them may still need our state.
-           Then linger a little as a leaver (gp_pse_leave: "I am past the last round", which
-           ends the wait of a peer that missed our RoundComplete), answering requests. */
+           Then linger as a leaver (gp_pse_leave: "I am past the last round", which ends the
+           wait of a peer that missed our RoundComplete), answering requests, until every peer
+           was heard leaving too and two resend periods passed, or a peer timeout at most. */
         (void)wait_for(f, finished_cond);
-        const uint64_t until = net_now() + 2u * (uint64_t)f->cfg.resend_after_us;
-        gp_pse_leave(p, net_now());
-        for (uint64_t now; (now = net_now()) < until;) {
+        const uint64_t t0 = net_now(), grace = t0 + 2u * (uint64_t)f->cfg.resend_after_us,
+                       cap = t0 + (uint64_t)f->cfg.peer_timeout_us;
+        gp_pse_leave(p, t0);
+        for (uint64_t now; (now = net_now()) < cap && (now < grace || !gp_pse_all_left(p));) {
             drain(f);
             gp_pse_poll(p, now);
             int r = hal_net_wait(f->cfg.poll_us);

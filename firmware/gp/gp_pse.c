@@ -389,8 +389,11 @@ void gp_pse_poll(gp_pse_t *p, uint64_t now_us)
         gp_pse_buf_t *b = &q->buf[p->round & 1u];
         if (q->absent || !waiting_for(p, q))
             continue;
-        /* The clock runs from the later of that wait's start and the peer's last progress. */
-        uint64_t last = p->completed && b->complete ? p->completed_us : p->round_start_us;
+        /* The clock runs from the peer's last progress (a live peer speaks every resend
+           period), or from the round's start when that is later. Not from the start of the
+           wait for its RoundComplete: a peer cut off after its state would be timed out a
+           second time in the same round. */
+        uint64_t last = p->round_start_us;
         if (q->heard && q->heard_us > last)
             last = q->heard_us;
         const uint64_t timeout = q->heard || p->cfg.join_timeout_us == 0 ? p->cfg.peer_timeout_us
@@ -478,6 +481,18 @@ int gp_pse_round_finished(const gp_pse_t *p)
     for (uint32_t i = 0; i < p->cfg.n_peers; i++) {
         const gp_pse_peer_t *q = &p->peer[i];
         if (i != p->cfg.self && !q->absent && !(q->has_done && q->done_round >= p->round))
+            return 0;
+    }
+    return 1;
+}
+
+int gp_pse_all_left(const gp_pse_t *p)
+{
+    if (!p->leaving)
+        return 0;
+    for (uint32_t i = 0; i < p->cfg.n_peers; i++) {
+        const gp_pse_peer_t *q = &p->peer[i];
+        if (i != p->cfg.self && !q->absent && !(q->has_round && q->at_round > p->round))
             return 0;
     }
     return 1;

@@ -219,4 +219,9 @@ uint32_t gp_pse_next_round(const gp_pse_t *pse, uint64_t now_us);
 /* The last round finished for us: we linger as a leaver (see above). */
 void gp_pse_leave(gp_pse_t *pse, uint64_t now_us);
 
+/* 1 when we are leaving and every peer still in the round was heard past it too (leaving): a
+ * peer still waiting for us then no longer needs our beacons. The caller lingers until then
+ * (and a little more, for the peers to hear our last beacons), or until a peer timeout. */
+int gp_pse_all_left(const gp_pse_t *pse);
+
 #endif /* GP_GP_PSE_H */

@@ -9,7 +9,11 @@
  *   - tools/fleet: a robot killed with SIGKILL makes the launcher stop the fleet, name the
  *     robot and the signal, and exit 1; Ctrl-C (SIGINT) stops it with status 130; neither
  *     leaves a host_sim process of that fleet behind.
- * Each test uses its own fleet id (from the pid), so parallel runs on one host do not mix. */
+ * Each test uses its own fleet id (from the pid), so parallel runs on one host do not mix.
+ * Bounded: every process has a deadline (FLEET_DEADLINE_S for a fleet, REF_DEADLINE_S for the
+ * reference, LAUNCHER_DEADLINE_S for tools/fleet to stop); when it passes the process is
+ * killed and the test FAILS, naming what it waited for (a hang is a failure, not a blocked
+ * `make test`). Every child is killed on every path (tests/support/fleet_procs.[ch]). */
 #define _XOPEN_SOURCE 700
 #include <dirent.h>
 #include <errno.h>
@@ -30,120 +34,50 @@
 
 #include <cmocka.h>
 
+#include "fleet_procs.h"
 #include "run_outputs.h"
 
 #define NPROC 3
 #define ROUNDS "4"
-
-#define SHORT_PATH 1024 /* our own paths; PATH_MAX-sized buffers hold them with a name added */
-static char g_bin[PATH_MAX];      /* build/<config>/bin/host_sim */
-static char g_root[SHORT_PATH];   /* the project */
-static char g_dir[SHORT_PATH];    /* scratch folder */
-static char g_plan[PATH_MAX], g_paths[PATH_MAX];
-static unsigned g_fleet_id;
-
-static void sleep_ms(long ms)
-{
-    struct timespec ts = {ms / 1000, (ms % 1000) * 1000000L};
-    nanosleep(&ts, NULL);
-}
-
-/* Starts argv with stdout and stderr into `log` (NULL: /dev/null) and env NAME=VALUE pairs. */
-static pid_t spawn(const char *const *argv, const char *log, const char *env_name, const char *env_value)
-{
-    pid_t pid = fork();
-    assert_true(pid >= 0);
-    if (pid == 0) {
-        int fd = open(log ? log : "/dev/null", O_WRONLY | O_CREAT | O_TRUNC, 0644);
-        if (fd < 0)
-            _exit(127);
-        dup2(fd, 1);
-        dup2(fd, 2);
-        if (env_name)
-            setenv(env_name, env_value, 1);
-        execv(argv[0], (char *const *)argv);
-        _exit(127);
-    }
-    return pid;
-}
-
-static int wait_status(pid_t pid)
-{
-    int st = 0;
-    assert_int_equal(waitpid(pid, &st, 0), pid);
-    return WIFEXITED(st) ? WEXITSTATUS(st) : 128 + WTERMSIG(st);
-}
+/* Generous (a passing fleet takes a few seconds, several times that under AddressSanitizer):
+   they only turn a hang into a failure. */
+#define FLEET_DEADLINE_S 300
+#define REF_DEADLINE_S 300
+#define LAUNCHER_DEADLINE_S 60 /* tools/fleet stops its robots within seconds */
 
 static char *slurp(const char *path, size_t *len)
 {
     return (char *)test_slurp(path, len);
 }
 
-static void show_log(const char *path)
-{
-    size_t n = 0;
-    char *b = slurp(path, &n);
-    if (b) {
-        print_error("---- %s ----\n%s\n", path, n > 4000 ? b + n - 4000 : b);
-        free(b);
-    }
-}
-
 /* The fleet: NPROC `host_sim run --fleet` processes into DIR/<tag>/robot_<i>. */
 static void run_fleet(const char *tag, const char *encoding, const char *drop_every)
 {
-    pid_t pid[NPROC];
-    char out[NPROC][PATH_MAX + 64], log[NPROC][PATH_MAX + 64], path[NPROC][PATH_MAX + 32], id[NPROC][16];
-    char fid[16];
-    snprintf(fid, sizeof fid, "%u", g_fleet_id++);
-    for (int i = 0; i < NPROC; i++) {
-        snprintf(out[i], sizeof out[i], "%s/%s/robot_%d", g_dir, tag, i);
-        snprintf(log[i], sizeof log[i], "%s/%s/log_%d.txt", g_dir, tag, i);
-        snprintf(path[i], sizeof path[i], "%s/robot_%d.csv", g_paths, i);
-        snprintf(id[i], sizeof id[i], "%d", i);
-    }
-    char dir[PATH_MAX + 32];
-    snprintf(dir, sizeof dir, "%s/%s", g_dir, tag);
-    assert_int_equal(mkdir(dir, 0755), 0);
-    for (int i = 0; i < NPROC; i++) {
-        const char *argv[] = {g_bin, "run", "--plan", g_plan, "--path", path[i], "--out", out[i], "--offline",
-                              "--rounds", ROUNDS, "--seed", "3", "--fleet", "3", "--id", id[i], "--fleet-id", fid,
-                              "--transport", "lcm", "--radius", "6", "--encoding", encoding, "--val-poses", "5",
-                              "--no-maps", "--quiet", "--peer-timeout", "20", NULL};
-        pid[i] = spawn(argv, log[i], drop_every ? "FLEETSIM_NET_DROP_EVERY" : NULL, drop_every);
-    }
-    int bad = 0;
-    for (int i = 0; i < NPROC; i++)
-        if (wait_status(pid[i]) != 0) {
-            show_log(log[i]);
-            bad = 1;
-        }
-    assert_false(bad);
+    static fp_fleet_t f;
+    const char *args[] = {"--rounds", ROUNDS, "--radius", "6", "--encoding", encoding, "--peer-timeout", "20", NULL};
+    fp_fleet_init(&f, tag, NPROC, NULL, args);
+    fp_fleet_start(&f, drop_every ? "FLEETSIM_NET_DROP_EVERY" : NULL, drop_every);
+    fp_fleet_wait_ok(&f, FLEET_DEADLINE_S);
 }
 
 /* The reference: the in-process fleet with the same settings, into DIR/inproc. */
 static void run_inproc(void)
 {
     char out[PATH_MAX + 16], log[PATH_MAX + 16];
-    snprintf(out, sizeof out, "%s/inproc", g_dir);
-    snprintf(log, sizeof log, "%s/inproc.txt", g_dir);
-    const char *argv[] = {g_bin, "fleet", "--inproc", "--plan", g_plan, "--paths", g_paths, "--robots", "3",
-                          "--rounds", ROUNDS, "--strategy", "kl", "--graph", "disk", "--radius", "6", "--seed", "3",
-                          "--out", out, "--val-poses", "5", "--mc", "1", "--map-res", "0.5", NULL};
-    if (wait_status(spawn(argv, log, NULL, NULL)) != 0) {
-        show_log(log);
-        fail_msg("host_sim fleet --inproc failed");
+    snprintf(out, sizeof out, "%s/inproc", fp_env.dir);
+    snprintf(log, sizeof log, "%s/inproc.txt", fp_env.dir);
+    const char *argv[] = {fp_env.bin, "fleet", "--inproc", "--plan", fp_env.plan, "--paths", fp_env.paths,
+                          "--robots", "3", "--rounds", ROUNDS, "--strategy", "kl", "--graph", "disk", "--radius", "6",
+                          "--seed", "3", "--out", out, "--val-poses", "5", "--mc", "1", "--map-res", "0.5", NULL};
+    const pid_t pid = fp_spawn(argv, log, NULL, NULL);
+    const int rc = fp_wait(pid, fp_now() + REF_DEADLINE_S);
+    fp_kill(pid); /* when late; a no-op for a reaped one */
+    if (rc != 0) {
+        fp_show_log(log);
+        if (rc < 0)
+            fail_msg("host_sim fleet --inproc still running after %d s: killed", REF_DEADLINE_S);
+        fail_msg("host_sim fleet --inproc failed (status %d)", rc);
     }
-}
-
-static int same_file(const char *a, const char *b)
-{
-    size_t na = 0, nb = 0;
-    char *x = slurp(a, &na), *y = slurp(b, &nb);
-    int same = x && y && na == nb && memcmp(x, y, na) == 0;
-    free(x);
-    free(y);
-    return same;
 }
 
 /* Sums a column of DIR/<tag>/robot_<i>/traffic.csv over rounds and robots. */
@@ -152,7 +86,7 @@ static unsigned long long traffic_sum(const char *tag, const char *column)
     unsigned long long total = 0;
     for (int i = 0; i < NPROC; i++) {
         char p[PATH_MAX + 64];
-        snprintf(p, sizeof p, "%s/%s/robot_%d/traffic.csv", g_dir, tag, i);
+        snprintf(p, sizeof p, "%s/%s/robot_%d/traffic.csv", fp_env.dir, tag, i);
         size_t n = 0;
         char *b = slurp(p, &n);
         assert_non_null(b);
@@ -186,9 +120,9 @@ static void test_three_processes_equal_inproc(void **st)
     run_inproc();
     for (int i = 0; i < NPROC; i++) {
         char a[PATH_MAX + 64], b[PATH_MAX + 64];
-        snprintf(a, sizeof a, "%s/fp32/robot_%d/final.bnn", g_dir, i);
-        snprintf(b, sizeof b, "%s/inproc/models/robot_%d.bnn", g_dir, i);
-        if (!same_file(a, b))
+        snprintf(a, sizeof a, "%s/fp32/robot_%d/final.bnn", fp_env.dir, i);
+        snprintf(b, sizeof b, "%s/inproc/models/robot_%d.bnn", fp_env.dir, i);
+        if (!fp_same_file(a, b))
             fail_msg("robot %d: %s differs from the in-process reference %s", i, a, b);
     }
     assert_int_equal(traffic_sum("fp32", "timeouts"), 0);
@@ -201,9 +135,9 @@ static void test_lost_datagrams_are_recovered(void **st)
     run_fleet("lossy", "fp32", "7");
     for (int i = 0; i < NPROC; i++) {
         char a[PATH_MAX + 64], b[PATH_MAX + 64];
-        snprintf(a, sizeof a, "%s/lossy/robot_%d/final.bnn", g_dir, i);
-        snprintf(b, sizeof b, "%s/inproc/models/robot_%d.bnn", g_dir, i);
-        if (!same_file(a, b))
+        snprintf(a, sizeof a, "%s/lossy/robot_%d/final.bnn", fp_env.dir, i);
+        snprintf(b, sizeof b, "%s/inproc/models/robot_%d.bnn", fp_env.dir, i);
+        if (!fp_same_file(a, b))
             fail_msg("robot %d: with loss, %s differs from the reference %s", i, a, b);
     }
     assert_true(traffic_sum("lossy", "chunks_requested") > 0);
@@ -255,25 +189,27 @@ static int fleet_pids(const char *fid, pid_t *out, int cap)
 static int launcher_stopped(int stop, char *log, size_t cap)
 {
     char tool[PATH_MAX + 16], res[PATH_MAX + 16], fid[16];
-    snprintf(tool, sizeof tool, "%s/tools/fleet", g_root);
-    snprintf(res, sizeof res, "%s/results", g_dir);
-    snprintf(log, cap, "%s/launcher_%d.txt", g_dir, stop);
-    snprintf(fid, sizeof fid, "%u", g_fleet_id++);
-    const char *argv[] = {"/usr/bin/python3", tool, "--bin", g_bin, "--robots", "3", "--rounds", "100000",
+    snprintf(tool, sizeof tool, "%s/tools/fleet", fp_env.root);
+    snprintf(res, sizeof res, "%s/results", fp_env.dir);
+    snprintf(log, cap, "%s/launcher_%d.txt", fp_env.dir, stop);
+    snprintf(fid, sizeof fid, "%u", fp_env.fleet_id++);
+    const char *argv[] = {"/usr/bin/python3", tool, "--bin", fp_env.bin, "--robots", "3", "--rounds", "100000",
                           "--fleet-id", fid, "--results", res, "--name", stop == 1 ? "killed" : "interrupted",
                           "--no-report", "--val-poses", "1", "--force", NULL};
-    pid_t launcher = spawn(argv, log, NULL, NULL);
+    const pid_t launcher = fp_spawn(argv, log, NULL, NULL);
     pid_t robots[8];
     int n = 0;
     for (int t = 0; t < 600 && (n = fleet_pids(fid, robots, 8)) < NPROC; t++)
-        sleep_ms(100);
+        fp_sleep_ms(100);
     if (n != NPROC) {
-        show_log(log);
+        fp_show_log(log);
         kill(launcher, SIGTERM);
-        wait_status(launcher);
-        fail_msg("the launcher did not start %d robots", NPROC);
+        if (fp_wait(launcher, fp_now() + LAUNCHER_DEADLINE_S) < 0)
+            print_error("the launcher still running %d s after SIGTERM: killed\n", LAUNCHER_DEADLINE_S);
+        fp_kill(launcher);
+        fail_msg("the launcher did not start %d robots within 60 s (%d running)", NPROC, n);
     }
-    sleep_ms(1500); /* the tours and a few rounds */
+    fp_sleep_ms(1500); /* the tours and a few rounds */
     if (stop == 1) {
         pid_t victim = 0;
         for (int i = 0; i < n; i++) {
@@ -291,10 +227,20 @@ static int launcher_stopped(int stop, char *log, size_t cap)
     } else {
         assert_int_equal(kill(launcher, SIGINT), 0);
     }
-    const int rc = wait_status(launcher);
-    sleep_ms(200);
+    const int rc = fp_wait(launcher, fp_now() + LAUNCHER_DEADLINE_S);
+    if (rc < 0) {
+        fp_kill(launcher);
+        fp_show_log(log);
+        fail_msg("tools/fleet still running %d s after %s: killed (it must stop the fleet)", LAUNCHER_DEADLINE_S,
+                 stop == 1 ? "robot 1 was killed" : "SIGINT");
+    }
+    fp_sleep_ms(200);
     pid_t left[8];
-    assert_int_equal(fleet_pids(fid, left, 8), 0);
+    const int nleft = fleet_pids(fid, left, 8);
+    for (int i = 0; i < nleft; i++)
+        kill(left[i], SIGKILL); /* not ours to reap: the launcher's, reparented to init */
+    if (nleft != 0)
+        fail_msg("%d host_sim process(es) of fleet %s left behind by tools/fleet (killed now)", nleft, fid);
     return rc;
 }
 
@@ -323,48 +269,34 @@ static void test_ctrl_c_stops_the_fleet(void **st)
     free(out);
 }
 
+/* After each test, also a failed one: nothing of it keeps running into the next. */
+static int teardown_case(void **st)
+{
+    (void)st;
+    fp_kill_all();
+    return 0;
+}
+
 static int setup(void **st)
 {
     (void)st;
-    char self[SHORT_PATH];
-    ssize_t n = readlink("/proc/self/exe", self, sizeof self - 1);
-    if (n <= 0)
-        return -1;
-    self[n] = '\0';
-    /* build/<config>/tests/fleet/test_fleet_procs -> build/<config>/bin/host_sim */
-    char *cut = strstr(self, "/tests/fleet/");
-    if (!cut)
-        return -1;
-    *cut = '\0';
-    snprintf(g_bin, sizeof g_bin, "%s/bin/host_sim", self);
-    if (!getcwd(g_root, sizeof g_root))
-        return -1;
-    snprintf(g_plan, sizeof g_plan, "%s/host_sim/plans/apartment.svg", g_root);
-    snprintf(g_paths, sizeof g_paths, "%s/host_sim/plans/apartment", g_root);
-    const char *tmp = getenv("TMPDIR");
-    snprintf(g_dir, sizeof g_dir, "%s/fleetsim_procs_XXXXXX", tmp ? tmp : "/tmp");
-    if (!mkdtemp(g_dir))
-        return -1;
-    g_fleet_id = 100000u + (unsigned)getpid() % 10000u * 10u;
-    return access(g_bin, X_OK);
+    return fp_setup("fleetsim_procs", 100000u, NULL);
 }
 
 static int teardown(void **st)
 {
     (void)st;
-    char cmd[PATH_MAX + 16];
-    snprintf(cmd, sizeof cmd, "rm -rf '%s'", g_dir);
-    return system(cmd) == 0 ? 0 : -1;
+    return fp_teardown();
 }
 
 int main(void)
 {
     const struct CMUnitTest tests[] = {
-        cmocka_unit_test(test_three_processes_equal_inproc),
-        cmocka_unit_test(test_lost_datagrams_are_recovered),
-        cmocka_unit_test(test_int8_states),
-        cmocka_unit_test(test_killed_robot_stops_the_fleet),
-        cmocka_unit_test(test_ctrl_c_stops_the_fleet),
+        cmocka_unit_test_teardown(test_three_processes_equal_inproc, teardown_case),
+        cmocka_unit_test_teardown(test_lost_datagrams_are_recovered, teardown_case),
+        cmocka_unit_test_teardown(test_int8_states, teardown_case),
+        cmocka_unit_test_teardown(test_killed_robot_stops_the_fleet, teardown_case),
+        cmocka_unit_test_teardown(test_ctrl_c_stops_the_fleet, teardown_case),
     };
     return cmocka_run_group_tests(tests, setup, teardown);
 }
