@@ -17,18 +17,6 @@
 #include "ai/bnn_ckpt.h"
 #include "fuzz/fuzz_config.h"
 
-int LLVMFuzzerInitialize(int *argc, char ***argv);
-int LLVMFuzzerTestOneInput(const uint8_t *data, size_t size);
-
-/* A broken promise: named on stderr, then abort() (libFuzzer keeps the input). */
-#define CHECK(cond)                                                                            \
-    do {                                                                                       \
-        if (!(cond)) {                                                                         \
-            fprintf(stderr, "%s:%d: CHECK failed: %s\n", __FILE__, __LINE__, #cond);          \
-            abort();                                                                           \
-        }                                                                                      \
-    } while (0)
-
 static bnn_model_t g_model;
 /* What a load may change: theta, gradients and the Adam moments (4 x n_params floats, the
    arena's start), the seed and the Adam states; as bnn_init left them. */

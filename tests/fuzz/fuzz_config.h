@@ -6,6 +6,21 @@
 
 #include <stddef.h>
 #include <stdint.h>
+#include <stdio.h>
+#include <stdlib.h>
+
+/* libFuzzer's entry points (LLVMFuzzerInitialize is optional: defined where a target needs it). */
+int LLVMFuzzerInitialize(int *argc, char ***argv);
+int LLVMFuzzerTestOneInput(const uint8_t *data, size_t size);
+
+/* A broken promise: named on stderr, then abort() (libFuzzer keeps the input). */
+#define CHECK(cond)                                                                            \
+    do {                                                                                       \
+        if (!(cond)) {                                                                         \
+            fprintf(stderr, "%s:%d: CHECK failed: %s\n", __FILE__, __LINE__, #cond);          \
+            abort();                                                                           \
+        }                                                                                      \
+    } while (0)
 
 /* ---- fuzz_wire: one gp_pse engine, peer SELF of a fleet of PEERS ---------------------------
  * A state of STATE_BYTES in chunks of CHUNK_BYTES (3 chunks, the last shorter), so that the

@@ -5,6 +5,8 @@
  * sim_paths.h: a refused tour says "NAME:LINE: reason" and leaves the path empty; an accepted
  * one has 2 .. SIM_PATH_MAX_POINTS waypoints, each finite, free in the plan and with its line,
  * no two in a row equal, and no segment through a wall. The plan is only read. */
+#include "fuzz/fuzz_config.h"
+
 #include <errno.h>
 #include <math.h>
 #include <stdint.h>
@@ -15,18 +17,6 @@
 #include "sim_grid.h"
 #include "sim_paths.h"
 #include "sim_plan.h"
-
-int LLVMFuzzerInitialize(int *argc, char ***argv);
-int LLVMFuzzerTestOneInput(const uint8_t *data, size_t size);
-
-/* A broken promise: named on stderr, then abort() (libFuzzer keeps the input). */
-#define CHECK(cond)                                                                            \
-    do {                                                                                       \
-        if (!(cond)) {                                                                         \
-            fprintf(stderr, "%s:%d: CHECK failed: %s\n", __FILE__, __LINE__, #cond);          \
-            abort();                                                                           \
-        }                                                                                      \
-    } while (0)
 
 #define NAME "fuzz.csv"
 

@@ -7,6 +7,8 @@
  *     pieces of walls), rectangles flagged as such, room types terminated, and as many
  *     warnings as isolated openings.
  * No state survives an input. */
+#include "fuzz/fuzz_config.h"
+
 #include <errno.h>
 #include <math.h>
 #include <stdint.h>
@@ -17,15 +19,6 @@
 #include "sim_plan.h"
 
 int LLVMFuzzerTestOneInput(const uint8_t *data, size_t size);
-
-/* A broken promise: named on stderr, then abort() (libFuzzer keeps the input). */
-#define CHECK(cond)                                                                            \
-    do {                                                                                       \
-        if (!(cond)) {                                                                         \
-            fprintf(stderr, "%s:%d: CHECK failed: %s\n", __FILE__, __LINE__, #cond);          \
-            abort();                                                                           \
-        }                                                                                      \
-    } while (0)
 
 #define NAME "fuzz.svg"
 

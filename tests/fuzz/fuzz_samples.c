@@ -5,6 +5,8 @@
  * non-empty, every record finite with x, y in [-1, 1] and occ in [0, 1], and its source text
  * terminated. No state survives an input. */
 #define _GNU_SOURCE /* memfd_create */
+#include "fuzz/fuzz_config.h"
+
 #include <errno.h>
 #include <math.h>
 #include <stdint.h>
@@ -17,15 +19,6 @@
 #include "sim_samples.h"
 
 int LLVMFuzzerTestOneInput(const uint8_t *data, size_t size);
-
-/* A broken promise: named on stderr, then abort() (libFuzzer keeps the input). */
-#define CHECK(cond)                                                                            \
-    do {                                                                                       \
-        if (!(cond)) {                                                                         \
-            fprintf(stderr, "%s:%d: CHECK failed: %s\n", __FILE__, __LINE__, #cond);          \
-            abort();                                                                           \
-        }                                                                                      \
-    } while (0)
 
 int LLVMFuzzerTestOneInput(const uint8_t *data, size_t size)
 {

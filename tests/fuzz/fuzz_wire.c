@@ -30,15 +30,6 @@
 
 int LLVMFuzzerTestOneInput(const uint8_t *data, size_t size);
 
-/* A broken promise: named on stderr, then abort() (libFuzzer keeps the input). */
-#define CHECK(cond)                                                                            \
-    do {                                                                                       \
-        if (!(cond)) {                                                                         \
-            fprintf(stderr, "%s:%d: CHECK failed: %s\n", __FILE__, __LINE__, #cond);          \
-            abort();                                                                           \
-        }                                                                                      \
-    } while (0)
-
 static const hal_host_msg_type_t channel_type[3] = {HAL_HOST_MSG_STATE_CHUNK, HAL_HOST_MSG_ROUND_COMPLETE,
                                                     HAL_HOST_MSG_CHUNK_REQUEST};
 
