@@ -4,33 +4,28 @@ over LCM udpm, in a network namespace of their own whose kernel drops multicast 
 (iptables statistic match: this kernel has no netem).
 
     tools/bench/bench_faults.py [--bin build/release-host-small/bin/host_sim] [--robots 3,7]
-                                [--drops 0,0.05,0.2,0.4] [--rounds 300] [--crash] [--csv FILE]
+                                [--drops 0,0.05,0.2,0.4] [--rounds 300] [--csv FILE]
 
 For every fleet size and drop rate: the fleet's wall time (start of round 0 to the end of the last
 round, from the robots' traffic.csv), the state bytes sent per round and robot, the chunks asked for
 again, and whether the final models equal the lossless run's bit for bit (they must: loss delays,
-it never changes what is trained on). With --crash: robot 1 of the lossless 3-robot fleet is
-killed with SIGKILL at about a third of the run and restarted with --resume; the cost is the
-survivors' rounds and seconds lost (their longest round) and the time until the restarted robot
-is back among the neighbours.
+it never changes what is trained on). The cost of a crash and restart is measured by
+tests/faults/test_crash_procs.c and docs/faults.md, not here.
 
 Prints `BENCH <name> <value> <unit>` lines:
   fleet_faults_wall_s_<N>proc_drop<P>          wall time of the run
   fleet_faults_slowdown_<N>proc_drop<P>        against the lossless run of the same size
   fleet_faults_bytes_per_round_<N>proc_drop<P> state bytes sent per round and robot
   fleet_faults_identical_<N>proc_drop<P>       1 when every final model equals the lossless run's
-  fleet_crash_*                                with --crash
 Needs root (network namespaces, iptables); without it says so and exits 0 having measured nothing.
 """
 import argparse
 import csv
 import os
 import shutil
-import signal
 import subprocess
 import sys
 import tempfile
-import time
 
 ROOT = os.path.dirname(os.path.dirname(os.path.dirname(os.path.abspath(__file__))))
 
@@ -90,10 +85,8 @@ def traffic(folder, n):
 def run_fleet(a, n, drop, results):
     name = f"n{n}_drop{drop}"
     with Namespace(drop) as ns:
-        t0 = time.monotonic()
         r = subprocess.run(ns.prefix() + fleet_cmd(a, n, results, name), stdout=subprocess.PIPE,
                            stderr=subprocess.STDOUT, text=True, timeout=a.timeout)
-        wall = time.monotonic() - t0
     if r.returncode != 0:
         raise RuntimeError(f"fleet of {n} at drop {drop} failed (exit {r.returncode}):\n{r.stdout[-2000:]}")
     folder = os.path.join(results, name)
@@ -101,7 +94,7 @@ def run_fleet(a, n, drop, results):
     rounds_wall = max(sum(float(x["wall_ms"]) for x in robot) for robot in rows) / 1000.0
     sent = sum(int(x["bytes_sent"]) for robot in rows for x in robot) / (n * a.rounds)
     asked = sum(int(x["chunks_requested"]) for robot in rows for x in robot)
-    return {"folder": folder, "wall": rounds_wall, "process_wall": wall, "bytes": sent, "asked": asked}
+    return {"folder": folder, "wall": rounds_wall, "bytes": sent, "asked": asked}
 
 
 def same_models(f1, f2, n):
@@ -113,45 +106,6 @@ def same_models(f1, f2, n):
     return True
 
 
-def crash_cost(a, results):
-    """Robot 1 of 3 killed at a third of the run, restarted with --resume by tools/fleet."""
-    n, name = 3, "crash"
-    with Namespace(0) as ns:
-        cmd = ns.prefix() + fleet_cmd(a, n, results, name, ["--restart-failed", "1", "--peer-timeout", str(a.timeout_s)])
-        p = subprocess.Popen(cmd, stdout=subprocess.PIPE, stderr=subprocess.STDOUT, text=True)
-        folder = os.path.join(results, name, "robot_1", "traffic.csv")
-        killed_at = None
-        deadline = time.monotonic() + a.timeout
-        while time.monotonic() < deadline and killed_at is None:
-            time.sleep(0.2)
-            try:
-                with open(os.path.join(results, name, "robot_1", "metrics.csv")) as f:
-                    pass
-            except OSError:
-                pass
-            pids = sh("pgrep", "-f", f"--out {os.path.join(results, name, 'robot_1')} ", check=False).stdout.split()
-            done = [ln for ln in _progress_rounds(results, name)]
-            if pids and done and max(done) >= a.rounds // 3:
-                os.kill(int(pids[0]), signal.SIGKILL)
-                killed_at = time.monotonic()
-        out, _ = p.communicate(timeout=max(1, deadline - time.monotonic()))
-    if p.returncode != 0:
-        raise RuntimeError(f"crash run failed (exit {p.returncode}):\n{out[-2000:]}")
-    rows = traffic(os.path.join(results, name), n)
-    worst = max(float(x["wall_ms"]) for i in (0, 2) for x in rows[i]) / 1000.0
-    return {"survivor_longest_round_s": worst, "out": out}
-
-
-def _progress_rounds(results, name):
-    """Rounds robot 0 has logged so far (its metrics rows are only committed at the end, so
-    the round checkpoints it wrote tell the progress)."""
-    d = os.path.join(results, name, "robot_0")
-    try:
-        return [int(f[6:10]) for f in os.listdir(d) if f.startswith("round_") and f.endswith(".bnn")]
-    except OSError:
-        return []
-
-
 def main():
     ap = argparse.ArgumentParser(description=__doc__.split("\n")[0])
     ap.add_argument("--bin", default=os.path.join(ROOT, "build/release-host-small/bin/host_sim"))
@@ -159,8 +113,6 @@ def main():
     ap.add_argument("--drops", default="0,0.05,0.2,0.4")
     ap.add_argument("--rounds", type=int, default=300)
     ap.add_argument("--timeout", type=float, default=900, help="seconds one fleet may take before it counts as hung")
-    ap.add_argument("--timeout-s", type=float, default=10, help="peer timeout of the --crash run")
-    ap.add_argument("--crash", action="store_true")
     ap.add_argument("--csv", help="also write the table here")
     a = ap.parse_args()
     if os.geteuid() != 0 or not shutil.which("iptables") or not shutil.which("ip"):
@@ -186,10 +138,6 @@ def main():
                 bench(f"fleet_faults_identical_{tag}", 1 if ident else 0, "bool")
                 table.append([n, drop, round(r["wall"], 2), round(r["wall"] / ref["wall"], 2), int(r["bytes"]),
                               r["asked"], int(ident)])
-        if a.crash:
-            c = crash_cost(a, results)
-            bench("fleet_crash_survivor_longest_round_s", c["survivor_longest_round_s"], "s")
-            print(c["out"][-1500:])
     finally:
         shutil.rmtree(results, ignore_errors=True)
     if a.csv:
