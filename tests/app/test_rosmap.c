@@ -91,9 +91,7 @@ static int setup(void **st)
 static int teardown(void **st)
 {
     (void)st;
-    char cmd[SHORT_PATH + 16];
-    snprintf(cmd, sizeof cmd, "rm -rf '%s'", g_dir);
-    return system(cmd) == 0 ? 0 : -1;
+    return test_remove_tree(g_dir);
 }
 
 /* ---- a reader of map.yaml + map.pgm after nav2's map_io ---------------------------------- */

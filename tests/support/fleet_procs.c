@@ -236,9 +236,7 @@ int fp_teardown(void)
     fp_kill_all();
     if (fp_env.dir[0] == '\0')
         return 0;
-    char cmd[FP_SHORT_PATH + 16];
-    snprintf(cmd, sizeof cmd, "rm -rf '%s'", fp_env.dir);
-    return system(cmd) == 0 ? 0 : -1;
+    return test_remove_tree(fp_env.dir);
 }
 
 void fp_robot_add_arg(fp_robot_t *r, const char *arg)

@@ -28,6 +28,13 @@ void test_build_program(const char *name, char *out, size_t cap)
     assert_true(w > 0 && (size_t)w < cap);
 }
 
+int test_remove_tree(const char *dir)
+{
+    char cmd[PATH_MAX + 16];
+    const int w = snprintf(cmd, sizeof cmd, "rm -rf '%s'", dir);
+    return w > 0 && (size_t)w < sizeof cmd && system(cmd) == 0 ? 0 : -1;
+}
+
 int test_run(const char *bin, const char *const *args, long fail_after, const char *dir, char *err, char *out,
              size_t cap)
 {

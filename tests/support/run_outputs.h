@@ -24,6 +24,9 @@ int test_run(const char *bin, const char *const *args, long fail_after, const ch
  * finds build/<config>/bin/<name>. Fails the test when the layout is not that. */
 void test_build_program(const char *name, char *out, size_t cap);
 
+/* Removes a scratch folder and all below it (rm -rf). 0, or -1 when that failed. */
+int test_remove_tree(const char *dir);
+
 #define SNAP_MAX_FILES 64
 
 /* Every regular file directly in a folder: names and bytes. */
