@@ -132,7 +132,7 @@ FW_INC   := -Ifirmware -Ihal/include -Iboards/$(BOARD) -imacros firmware/common/
 HOST_INC := $(FW_INC) -Ihal/host -Ihost_sim -I$(GEN) -D_POSIX_C_SOURCE=200809L
 TEST_INC := $(HOST_INC) -Ihal/stdc -Itests/support -Itests
 
-SYS_LIBS := -lode -llcm -lzmq -lOSMesa -lpng -lm -lpthread
+SYS_LIBS := -lode -llcm -lzmq -lsodium -lOSMesa -lpng -lm -lpthread
 WRAP     := $(foreach f,malloc calloc realloc free aligned_alloc posix_memalign,-Wl,--wrap=$(f))
 
 # ---- sources ----------------------------------------------------------------------------

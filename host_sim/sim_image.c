@@ -106,6 +106,7 @@ int sim_image_run(const sim_plan_t *plan, const sim_path_t *path, const sim_imag
     hc.net_url = cfg->net_url;
     hc.net_faults = cfg->net_faults;
     hc.net_faults_seed = cfg->seed;
+    hc.net_auth = cfg->net_auth;
     hc.storage_dir = cfg->storage_dir;
     hc.log_level = cfg->log_level;
     if (cfg->fleet != NULL) {

@@ -223,14 +223,21 @@ int gp_pse_on_chunk(gp_pse_t *p, const gp_pse_chunk_t *c, uint64_t now_us)
     gp_pse_buf_t *b = &p->peer[c->sender].buf[c->round & 1u];
     if (!b->used || b->round != c->round)
         buf_reset(b, c->round, p->n_chunks, now_us);
-    if (b->complete || (b->have[c->chunk] & GP_PSE_HAVE)) {
+    if (b->complete) {
         p->stats.duplicates++;
         return -EALREADY;
     }
     if (b->got > 0 && (b->crc32 != c->crc32 || b->x_m != c->x_m || b->y_m != c->y_m)) {
-        /* Chunks of one state disagree: corruption (a restart changes the incarnation). */
+        /* Chunks of one state disagree (corruption, or bytes forged in an unkeyed fleet; a
+           restart changes the incarnation). Which side is right is unknown until a state is
+           whole and its CRC checks, so the first chunk must not decide: the newcomer starts the
+           state over and what it displaced is asked for again. One forged chunk costs a
+           request, never the round. */
         p->stats.invalid++;
-        return -EBADMSG;
+        buf_reset(b, c->round, p->n_chunks, now_us);
+    } else if (b->have[c->chunk] & GP_PSE_HAVE) {
+        p->stats.duplicates++;
+        return -EALREADY;
     }
     memcpy(b->bytes + (size_t)c->chunk * p->cfg.chunk_bytes, c->data, c->n_bytes);
     if (b->have[c->chunk] & GP_PSE_ASKED)

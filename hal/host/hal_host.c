@@ -206,6 +206,8 @@ int hal_host_create(const hal_host_config_t *cfg, hal_host_t **out)
     }
     if (hal_host_netfault_active(&faults) && cfg->net_url == NULL)
         return config_error("net_faults without a network (net_url is NULL)");
+    if (cfg->net_auth != NULL && cfg->net_url == NULL)
+        return config_error("net_auth without a network (net_url is NULL)");
 
     hal_host_t *h = calloc(1, sizeof(*h));
     if (h == NULL)
@@ -234,6 +236,8 @@ int hal_host_create(const hal_host_config_t *cfg, hal_host_t **out)
             h->net, &faults,
             hal_host_netfault_seed(faults.has_seed ? faults.seed : cfg->net_faults_seed, cfg->robot_id),
             cfg->robot_id);
+    if (r == 0 && h->net != NULL && cfg->net_auth != NULL)
+        r = hal_host_net_set_auth(h->net, cfg->net_auth);
     if (r == 0 && cfg->storage_dir != NULL)
         r = hal_host_storage_open(cfg->storage_dir, &h->storage);
     if (r != 0) {

@@ -36,6 +36,7 @@
 #include <stdint.h>
 
 #include "hal/hal.h"
+#include "hal_host_auth.h"
 #include "hal_host_netfault.h"
 
 #ifdef __cplusplus
@@ -88,6 +89,8 @@ typedef struct hal_host_config {
      * run seed), mixed with robot_id. */
     const char *net_faults;
     uint64_t net_faults_seed;
+    /* A keyed fleet (hal_host_auth.h): the key and run id, copied; NULL: unkeyed. */
+    const hal_host_auth_t *net_auth;
     /* Storage: NULL for none, else a directory (created if missing, one level). */
     const char *storage_dir;
     hal_log_level_t log_level;  /* messages above this level are dropped */
@@ -197,6 +200,12 @@ void hal_host_net_get_stats(const hal_host_net_t *n, hal_net_stats_t *stats);
  * 0, -EINVAL, -EBUSY (subscribed already, or faults set before), -ENOMEM. */
 FS_MUST_CHECK int hal_host_net_set_faults(hal_host_net_t *n, const hal_host_netfault_cfg_t *cfg,
                                           uint64_t seed, uint32_t self);
+/* Makes n a member of a keyed fleet (hal_host_auth.h): every datagram it publishes carries
+ * the trailer, and one it receives without a valid tag of this key and run is dropped before
+ * the bounds check (rx_dropped_unauth, rx_dropped_replay). Before the first subscribe; a
+ * member's MTU stays HAL_NET_MTU_BYTES (the trailer rides on top). 0, -EINVAL, -EBUSY,
+ * -EIO (libsodium), -ENOMEM. */
+FS_MUST_CHECK int hal_host_net_set_auth(hal_host_net_t *n, const hal_host_auth_t *auth);
 
 /* Storage in a directory. Thread-safe as far as the file system is (one writer per name). */
 typedef struct hal_host_storage hal_host_storage_t;

@@ -14,6 +14,7 @@
  * in a holding area allocated with the faults; the receiver thread, wait and receive move
  * what is due into the queue as time passes. */
 #include "hal_host.h"
+#include "hal_host_auth.h"
 #include "hal_host_msg.h"
 #include "hal_host_netfault.h"
 
@@ -59,6 +60,10 @@ struct hal_host_net {
     uint32_t fault_self;
     uint64_t fault_seq;    /* datagrams decided on so far */
     hal_host_netfault_hold_t hold; /* cap 0 without delay or reorder */
+    int keyed;             /* hal_host_net_set_auth: every datagram sealed and checked */
+    hal_host_auth_t auth;
+    uint8_t *tx_wire;      /* keyed: message + trailer, HAL_NET_MTU_BYTES + trailer (under tx_mu) */
+    pthread_mutex_t tx_mu;
     pthread_mutex_t mu;    /* the queue, its stats, the typed table, pump_stamp_us */
     pthread_cond_t cv;     /* signalled when a message is queued (CLOCK_MONOTONIC) */
     pthread_t rx_thread;
@@ -241,6 +246,7 @@ int hal_host_net_open(const char *url, uint32_t queue_depth, hal_host_net_t **ou
     pthread_condattr_init(&ca);
     pthread_condattr_setclock(&ca, CLOCK_MONOTONIC);
     pthread_mutex_init(&n->mu, NULL);
+    pthread_mutex_init(&n->tx_mu, NULL);
     pthread_cond_init(&n->cv, &ca);
     pthread_condattr_destroy(&ca);
     /* The loss seam of the fleet tests: every N-th datagram "sent" is silently lost, as UDP
@@ -260,6 +266,7 @@ int hal_host_net_open(const char *url, uint32_t queue_depth, hal_host_net_t **ou
                         "loopback needs multicast: see tests/hal/test_net.c)\n",
                 url[0] != '\0' ? url : HAL_HOST_NET_URL_DEFAULT);
         pthread_cond_destroy(&n->cv);
+        pthread_mutex_destroy(&n->tx_mu);
         pthread_mutex_destroy(&n->mu);
         free(n->slots);
         free(n);
@@ -281,8 +288,11 @@ void hal_host_net_close(hal_host_net_t *n)
         (void)lcm_unsubscribe(n->lcm, n->sub[i]);
     lcm_destroy(n->lcm);
     pthread_cond_destroy(&n->cv);
+    pthread_mutex_destroy(&n->tx_mu);
     pthread_mutex_destroy(&n->mu);
     hal_host_netfault_hold_free(&n->hold); /* what is still held is lost with the process */
+    hal_host_auth_wipe(&n->auth);
+    free(n->tx_wire);
     free(n->slots);
     free(n);
 }
@@ -306,6 +316,24 @@ int hal_host_net_set_faults(hal_host_net_t *n, const hal_host_netfault_cfg_t *cf
     n->fault_seed = seed;
     n->fault_self = self;
     n->faults_on = 1;
+    pthread_mutex_unlock(&n->mu);
+    return 0;
+}
+
+int hal_host_net_set_auth(hal_host_net_t *n, const hal_host_auth_t *auth)
+{
+    if (n == NULL || auth == NULL)
+        return -EINVAL;
+    if (n->rx_started || n->keyed) /* before the first datagram can arrive, once */
+        return -EBUSY;
+    if (hal_host_auth_init() != 0)
+        return -EIO;
+    n->tx_wire = malloc(HAL_NET_MTU_BYTES + HAL_HOST_AUTH_TRAILER_BYTES);
+    if (n->tx_wire == NULL)
+        return -ENOMEM;
+    pthread_mutex_lock(&n->mu);
+    n->auth = *auth;
+    n->keyed = 1;
     pthread_mutex_unlock(&n->mu);
     return 0;
 }
@@ -335,32 +363,57 @@ int hal_host_net_publish(hal_host_net_t *n, const char *channel, const void *dat
         return tx_count(n, -EMSGSIZE, len);
     if (n->drop_every != 0 && ++n->publishes % n->drop_every == 0)
         return tx_count(n, 0, len); /* lost on the way: the sender cannot tell */
+    if (n->keyed) {
+        /* The message and its trailer in one datagram (the wire buffer is the one copy). */
+        pthread_mutex_lock(&n->tx_mu);
+        if (len > 0)
+            memcpy(n->tx_wire, data, len);
+        hal_host_auth_seal(&n->auth, channel, data, len, n->tx_wire + len);
+        const size_t wire = len + HAL_HOST_AUTH_TRAILER_BYTES;
+        const int rc = lcm_publish(n->lcm, channel, n->tx_wire, (unsigned)wire) != 0 ? -EIO : 0;
+        pthread_mutex_unlock(&n->tx_mu);
+        return tx_count(n, rc, wire);
+    }
     /* LCM wants a non-NULL pointer even for an empty message. */
     static const uint8_t empty;
     return tx_count(n, lcm_publish(n->lcm, channel, len > 0 ? data : &empty, (unsigned)len) != 0 ? -EIO : 0, len);
 }
 
-/* LCM handler: everything from the wire is checked before it is queued. */
+/* LCM handler: everything from the wire is checked before it is queued: first who sent it
+ * (a keyed fleet's tag), then its shape (the bounds check of a typed channel). */
 static void net_on_message(const lcm_recv_buf_t *rbuf, const char *channel, void *user)
 {
     hal_host_net_t *n = user;
     pthread_mutex_lock(&n->mu);
-    if (rbuf == NULL || !hal_net_channel_valid(channel) || rbuf->data_size > HAL_NET_MTU_BYTES ||
+    const size_t trailer = n->keyed ? HAL_HOST_AUTH_TRAILER_BYTES : 0u;
+    if (rbuf == NULL || !hal_net_channel_valid(channel) || rbuf->data_size > HAL_NET_MTU_BYTES + trailer ||
         (rbuf->data == NULL && rbuf->data_size > 0)) {
         n->stats.rx_dropped_invalid++;
         pthread_mutex_unlock(&n->mu);
         return;
     }
+    size_t len = rbuf->data_size;
+    if (n->keyed) {
+        const hal_host_auth_verdict_t v = hal_host_auth_open(&n->auth, channel, rbuf->data, len, &len);
+        if (v != HAL_HOST_AUTH_OK) {
+            if (v == HAL_HOST_AUTH_OTHER_RUN)
+                n->stats.rx_dropped_replay++;
+            else
+                n->stats.rx_dropped_unauth++;
+            pthread_mutex_unlock(&n->mu);
+            return;
+        }
+    }
     /* Typed channels: the bytes are checked here, before anything can decode them. */
-    if (hal_host_msg_check(channel_type(n, channel), rbuf->data, rbuf->data_size) != HAL_HOST_MSG_OK) {
+    if (hal_host_msg_check(channel_type(n, channel), rbuf->data, len) != HAL_HOST_MSG_OK) {
         n->stats.rx_dropped_malformed++;
         pthread_mutex_unlock(&n->mu);
         return;
     }
     if (n->faults_on)
-        inject(n, channel_type(n, channel), channel, rbuf->data, rbuf->data_size);
+        inject(n, channel_type(n, channel), channel, rbuf->data, (uint32_t)len);
     else
-        enqueue(n, channel, rbuf->data, rbuf->data_size);
+        enqueue(n, channel, rbuf->data, (uint32_t)len);
     pthread_mutex_unlock(&n->mu);
 }
 

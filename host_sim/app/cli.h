@@ -5,6 +5,7 @@
 
 #include <errno.h>
 #include <math.h>
+#include <stdint.h>
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
@@ -75,6 +76,21 @@ static inline int cmd_parse_ll(const char *s, const char *opt, long long lo, lon
         return -1;
     }
     *out = v;
+    return 0;
+}
+
+/* 1 to 16 hexadecimal digits (no sign, no 0x) into a 64-bit value. */
+static inline int cmd_parse_hex64(const char *s, const char *opt, uint64_t *out)
+{
+    size_t n = strlen(s);
+    int ok = n >= 1 && n <= 16;
+    for (size_t i = 0; ok && i < n; i++)
+        ok = (s[i] >= '0' && s[i] <= '9') || (s[i] >= 'a' && s[i] <= 'f') || (s[i] >= 'A' && s[i] <= 'F');
+    if (!ok) {
+        fprintf(stderr, "host_sim: %s: '%s' is not 1 to 16 hexadecimal digits\n", opt, s);
+        return -1;
+    }
+    *out = (uint64_t)strtoull(s, NULL, 16);
     return 0;
 }
 

@@ -89,6 +89,10 @@ static void run_usage(FILE *out)
             "  --peer-timeout S     fleet: a peer silent S seconds leaves the round (default 10)\n"
             "  --join-timeout S     fleet: the same for a peer never heard yet (default 120)\n"
             "  --chunk-bytes B      fleet: state bytes per datagram (default and most %u)\n"
+            "  --key-file F         fleet: a keyed fleet (F from `host_sim key new`, mode 0600): every datagram\n"
+            "                       carries an HMAC-SHA-512-256 tag of the key; others are dropped and counted\n"
+            "  --run-id X           keyed fleet: this launch's id, 1-16 hex digits, the same for every member\n"
+            "                       (tools/fleet draws one per run): recordings of other runs are refused\n"
             "  --net-faults SPEC    inject faults into what this robot receives, comma-separated: drop=P,\n"
             "                       dup=P, reorder=P (probabilities), delay_ms=D (uniform 0..D), seed=S\n"
             "                       (default: the run seed; each robot mixes in its id), partition=A/B\n"
@@ -117,6 +121,9 @@ typedef struct run_opts {
     gp_fleet_encoding_t encoding;
     int offline, train_between, no_maps, quiet, net_given, resume;
     const char *net_faults; /* --net-faults SPEC, checked at parse time; NULL: none */
+    const char *key_file;   /* --key-file: a keyed fleet; NULL: unkeyed */
+    uint64_t run_id;
+    int run_id_given;
 } run_opts_t;
 
 static int parse(int argc, char **argv, run_opts_t *o)
@@ -184,6 +191,11 @@ static int parse(int argc, char **argv, run_opts_t *o)
                 bad = 1;
             }
             o->net_faults = v;
+        } else if (strcmp(a, "--key-file") == 0) {
+            o->key_file = v;
+        } else if (strcmp(a, "--run-id") == 0) {
+            bad = cmd_parse_hex64(v, a, &o->run_id);
+            o->run_id_given = 1;
         } else if (strcmp(a, "--transport") == 0) {
             if (strcmp(v, "lcm") != 0) {
                 fprintf(stderr, "host_sim run: --transport: '%s' is not lcm (the only transport)\n", v);
@@ -287,6 +299,17 @@ static int parse(int argc, char **argv, run_opts_t *o)
         }
         if (o->join_timeout < o->peer_timeout)
             o->join_timeout = o->peer_timeout;
+    }
+    if (o->key_file != NULL && o->fleet < 2) {
+        fprintf(stderr, "host_sim run: --key-file is for a fleet (--fleet N, N >= 2): a robot alone sends nothing\n");
+        return -1;
+    }
+    if ((o->key_file != NULL) != o->run_id_given) {
+        fprintf(stderr, "host_sim run: %s\n", o->key_file != NULL
+                ? "--key-file needs --run-id X, the same for every member of this launch (tools/fleet draws one): "
+                  "without it a recording of an earlier run with the same key would be accepted"
+                : "--run-id is for a keyed fleet: give --key-file too");
+        return -1;
     }
     if (o->net_faults != NULL && o->net_faults[0] != '\0' && o->net == NULL) {
         fprintf(stderr, "host_sim run: --net-faults needs a network (not --net none)\n");
@@ -510,6 +533,7 @@ typedef struct job {
     gp_fleet_cfg_t fleet;
     run_resume_t resume;     /* --resume: the checkpoint and the rows carried over */
     uint32_t incarnation;    /* starts of a robot with this --out (DIR/incarnation) */
+    hal_host_auth_t auth;    /* --key-file: the fleet key and --run-id */
     run_ctx_t ctx;
     char err[8192];
 } job_t;
@@ -519,6 +543,7 @@ static void job_free(job_t *j)
     hal_host_file_abort(&j->csv); /* a no-op after a commit */
     hal_host_file_abort(&j->traffic);
     run_resume_free(&j->resume);
+    hal_host_auth_wipe(&j->auth);
     free(j->tour);
     free(j->res);
     free(j->model);
@@ -556,6 +581,13 @@ static int prepare_resume(job_t *j)
 static int prepare(job_t *j)
 {
     const run_opts_t *o = &j->o;
+    if (o->key_file != NULL) { /* first: a bad key stops the robot before anything is written */
+        if (hal_host_auth_key_load(o->key_file, j->auth.key, j->err, sizeof j->err) != 0) {
+            fprintf(stderr, "host_sim run: --key-file %s\n", j->err);
+            return -1;
+        }
+        j->auth.run_id = o->run_id;
+    }
     if (sim_plan_load(o->plan, o->scale, &j->plan, j->err, sizeof j->err) != 0 ||
         sim_path_read_csv(o->path, &j->plan, &j->path, j->err, sizeof j->err) != 0) {
         fprintf(stderr, "host_sim run: %s\n", j->err);
@@ -583,6 +615,9 @@ static int prepare(job_t *j)
         printf("fleet %lld: member %lld of %lld over LCM %s, %s states, neighbours %s%.3g m\n", o->fleet_id, o->robot,
                o->fleet, o->net[0] ? o->net : HAL_HOST_NET_URL_DEFAULT, o->encoding == GP_FLEET_INT8 ? "int8" : "fp32",
                o->radius > 0 ? "within " : "all (radius ", o->radius);
+    if (o->key_file != NULL)
+        printf("keyed fleet: every datagram authenticated (HMAC-SHA-512-256, key %s, run id %016llx)\n", o->key_file,
+               (unsigned long long)o->run_id);
     printf("incarnation %u (%s/incarnation)\n", j->incarnation, o->out);
     if (o->resume && j->resume.start_round > 0)
         printf("resuming robot %lld from %s (round %u); continuing at round %u of %lld\n", o->robot,
@@ -695,6 +730,7 @@ static int run_image(job_t *j)
     ic.storage_dir = o->out;
     ic.net_url = o->net;
     ic.net_faults = o->net_faults;
+    ic.net_auth = o->key_file != NULL ? &j->auth : NULL;
     ic.sched = o->sched;
     ic.log_level = o->quiet ? HAL_LOG_WARN : HAL_LOG_INFO;
     ic.ckpt_every = (uint32_t)o->val_every;
@@ -875,6 +911,11 @@ static int report(job_t *j)
                     (unsigned long long)res->net.rx_dropped_full, (unsigned long long)res->net.rx_dropped_small,
                     (unsigned long long)(res->net.rx_dropped_malformed + res->net.rx_dropped_invalid),
                     (unsigned long long)res->pse.send_failures);
+            if (o->key_file != NULL)
+                fprintf(f, "keyed fleet (run id %016llx): %llu datagrams without a valid tag dropped (forged or "
+                           "not a member), %llu of another run dropped (replayed)\n",
+                        (unsigned long long)o->run_id, (unsigned long long)res->net.rx_dropped_unauth,
+                        (unsigned long long)res->net.rx_dropped_replay);
             if (o->net_faults != NULL && o->net_faults[0] != '\0')
                 fprintf(f, "network faults injected (%s): %llu dropped, %llu partitioned, %llu duplicated, "
                            "%llu reordered, %llu delayed\n",

@@ -13,6 +13,7 @@ int cmd_render(int argc, char **argv); /* cmd_render.c */
 int cmd_fleet(int argc, char **argv); /* cmd_fleet.c */
 int cmd_run(int argc, char **argv);   /* cmd_run.c */
 int cmd_maps(int argc, char **argv);  /* cmd_maps.c */
+int cmd_key(int argc, char **argv);   /* cmd_key.c */
 
 /* One row per sub-command, in the order `--help` lists them. */
 static const host_sim_cmd_t commands[] = {
@@ -23,6 +24,7 @@ static const host_sim_cmd_t commands[] = {
     {"render", cmd_render, "offscreen 3D image (PNG) of the plan, robots, paths and a lidar sweep"},
     {"fleet", cmd_fleet, "DiNNO fleet in one process (--inproc): train N BNNs, baselines, metrics, maps"},
     {"run", cmd_run, "one robot's firmware image (RT/AI/GP cores) in lockstep with the world, online learning"},
+    {"key", cmd_key, "the fleet key of a keyed fleet: write a new one, check one"},
     {"maps", cmd_maps, "consensus of a fleet's final models: consensus.bnn, maps as .npy, ROS map (PGM+YAML), PNGs"},
     {NULL, NULL, NULL},
 };

@@ -51,6 +51,9 @@ typedef struct hal_net_stats {
     uint64_t rx_dropped_small;  /* dropped because the caller's buffer was too small */
     uint64_t rx_dropped_malformed; /* dropped by the bounds check of a typed channel: wrong
                                       type, lengths out of range or past the datagram's end */
+    /* A keyed fleet (the host's --key-file): refused before the bounds check. */
+    uint64_t rx_dropped_unauth; /* no valid tag: forged, damaged, another key (not a member) */
+    uint64_t rx_dropped_replay; /* a member's tag of another run: a recording played back */
     /* Faults a board injected on purpose (the host's --net-faults; 0 elsewhere). */
     uint64_t fault_dropped;     /* lost at random */
     uint64_t fault_duplicated;  /* delivered twice */

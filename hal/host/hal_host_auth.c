@@ -1,0 +1,176 @@
+/* Fleet membership: the datagram MAC and the key file (hal_host_auth.h). */
+#include "hal_host_auth.h"
+
+#include <errno.h>
+#include <fcntl.h>
+#include <sodium.h>
+#include <stdarg.h>
+#include <stdio.h>
+#include <string.h>
+#include <sys/stat.h>
+#include <unistd.h>
+
+_Static_assert(crypto_auth_hmacsha512256_BYTES == HAL_HOST_AUTH_TAG_BYTES, "tag size");
+_Static_assert(crypto_auth_hmacsha512256_KEYBYTES == HAL_HOST_AUTH_KEY_BYTES, "key size");
+
+#define KEY_HEX (2u * HAL_HOST_AUTH_KEY_BYTES)
+
+static int fail(char *why, size_t cap, const char *fmt, ...)
+{
+    if (why != NULL && cap > 0) {
+        va_list ap;
+        va_start(ap, fmt);
+        vsnprintf(why, cap, fmt, ap);
+        va_end(ap);
+    }
+    return -1;
+}
+
+int hal_host_auth_init(void)
+{
+    return sodium_init() < 0 ? -EIO : 0; /* 1: done before, fine */
+}
+
+int hal_host_auth_key_load(const char *path, uint8_t key[HAL_HOST_AUTH_KEY_BYTES], char *why, size_t why_cap)
+{
+    if (path == NULL || key == NULL)
+        return fail(why, why_cap, "no key file given");
+    if (hal_host_auth_init() != 0)
+        return fail(why, why_cap, "libsodium cannot start");
+    const int fd = open(path, O_RDONLY | O_CLOEXEC | O_NOCTTY);
+    if (fd < 0)
+        return fail(why, why_cap, "%s: cannot open the key file: %s", path, strerror(errno));
+    struct stat st;
+    if (fstat(fd, &st) != 0 || !S_ISREG(st.st_mode)) {
+        close(fd);
+        return fail(why, why_cap, "%s: not a regular file", path);
+    }
+    if ((st.st_mode & 077) != 0) {
+        close(fd);
+        return fail(why, why_cap, "%s: the fleet key is readable by others (mode %04o): chmod 600 %s", path,
+                    (unsigned)(st.st_mode & 07777), path);
+    }
+    char text[KEY_HEX + 3u]; /* the digits, a newline, one byte more to see what is too long */
+    ssize_t n = read(fd, text, sizeof text);
+    close(fd);
+    if (n < 0)
+        return fail(why, why_cap, "%s: cannot read the key file: %s", path, strerror(errno));
+    size_t len = (size_t)n;
+    if (len > 0 && text[len - 1] == '\n')
+        len--;
+    size_t used = 0;
+    const int bad = len != KEY_HEX ||
+                    sodium_hex2bin(key, HAL_HOST_AUTH_KEY_BYTES, text, len, NULL, &used, NULL) != 0 ||
+                    used != HAL_HOST_AUTH_KEY_BYTES;
+    sodium_memzero(text, sizeof text);
+    if (bad) {
+        sodium_memzero(key, HAL_HOST_AUTH_KEY_BYTES);
+        return fail(why, why_cap, "%s: not a fleet key (%u hexadecimal digits and a newline; "
+                                  "`host_sim key new FILE` writes one)", path, KEY_HEX);
+    }
+    return 0;
+}
+
+int hal_host_auth_key_new(const char *path, char *why, size_t why_cap)
+{
+    if (path == NULL || path[0] == '\0')
+        return fail(why, why_cap, "no key file given");
+    if (hal_host_auth_init() != 0)
+        return fail(why, why_cap, "libsodium cannot start");
+    uint8_t key[HAL_HOST_AUTH_KEY_BYTES];
+    char text[KEY_HEX + 2u];
+    crypto_auth_hmacsha512256_keygen(key);
+    sodium_bin2hex(text, sizeof text, key, sizeof key);
+    sodium_memzero(key, sizeof key);
+    text[KEY_HEX] = '\n';
+    const int fd = open(path, O_WRONLY | O_CREAT | O_EXCL | O_CLOEXEC | O_NOFOLLOW, 0600);
+    if (fd < 0) {
+        sodium_memzero(text, sizeof text);
+        return fail(why, why_cap, "%s: cannot create the key file: %s%s", path, strerror(errno),
+                    errno == EEXIST ? " (a key is never overwritten: remove it first)" : "");
+    }
+    const ssize_t w = write(fd, text, KEY_HEX + 1u);
+    sodium_memzero(text, sizeof text);
+    const int ok = w == (ssize_t)(KEY_HEX + 1u) && fsync(fd) == 0;
+    const int err = errno;
+    if (close(fd) != 0 || !ok) {
+        unlink(path);
+        return fail(why, why_cap, "%s: cannot write the key file: %s", path, strerror(ok ? errno : err));
+    }
+    return 0;
+}
+
+static void put_be64(uint8_t *p, uint64_t v)
+{
+    for (int i = 7; i >= 0; i--, v >>= 8)
+        p[i] = (uint8_t)v;
+}
+
+static uint64_t get_be64(const uint8_t *p)
+{
+    uint64_t v = 0;
+    for (int i = 0; i < 8; i++)
+        v = v << 8 | p[i];
+    return v;
+}
+
+/* tag = HMAC(key, channel | 0 | message | run id bytes) */
+static void tag_of(const uint8_t *key, const char *channel, const void *msg, size_t len, const uint8_t *run_id,
+                   uint8_t *tag)
+{
+    crypto_auth_hmacsha512256_state st;
+    crypto_auth_hmacsha512256_init(&st, key, HAL_HOST_AUTH_KEY_BYTES);
+    crypto_auth_hmacsha512256_update(&st, (const unsigned char *)channel, strlen(channel) + 1u);
+    if (len > 0)
+        crypto_auth_hmacsha512256_update(&st, msg, len);
+    crypto_auth_hmacsha512256_update(&st, run_id, HAL_HOST_AUTH_RUN_ID_BYTES);
+    crypto_auth_hmacsha512256_final(&st, tag);
+    sodium_memzero(&st, sizeof st);
+}
+
+void hal_host_auth_seal(const hal_host_auth_t *a, const char *channel, const void *msg, size_t len,
+                        uint8_t *trailer)
+{
+    put_be64(trailer, a->run_id);
+    tag_of(a->key, channel, msg, len, trailer, trailer + HAL_HOST_AUTH_RUN_ID_BYTES);
+}
+
+hal_host_auth_verdict_t hal_host_auth_open(const hal_host_auth_t *a, const char *channel, const void *wire,
+                                           size_t wire_len, size_t *msg_len)
+{
+    if (wire == NULL || wire_len < HAL_HOST_AUTH_TRAILER_BYTES)
+        return HAL_HOST_AUTH_SHORT;
+    const size_t len = wire_len - HAL_HOST_AUTH_TRAILER_BYTES;
+    const uint8_t *trailer = (const uint8_t *)wire + len;
+    uint8_t tag[HAL_HOST_AUTH_TAG_BYTES];
+    tag_of(a->key, channel, wire, len, trailer, tag);
+    if (crypto_verify_32(tag, trailer + HAL_HOST_AUTH_RUN_ID_BYTES) != 0)
+        return HAL_HOST_AUTH_BAD_TAG;
+    /* Only a valid tag makes the run id worth reading: forged bytes say nothing. */
+    if (get_be64(trailer) != a->run_id)
+        return HAL_HOST_AUTH_OTHER_RUN;
+    if (msg_len != NULL)
+        *msg_len = len;
+    return HAL_HOST_AUTH_OK;
+}
+
+void hal_host_auth_wipe(hal_host_auth_t *a)
+{
+    if (a != NULL)
+        sodium_memzero(a, sizeof *a);
+}
+
+const char *hal_host_auth_verdict_name(hal_host_auth_verdict_t v)
+{
+    switch (v) {
+    case HAL_HOST_AUTH_OK:
+        return "ok";
+    case HAL_HOST_AUTH_SHORT:
+        return "no trailer";
+    case HAL_HOST_AUTH_BAD_TAG:
+        return "bad tag";
+    case HAL_HOST_AUTH_OTHER_RUN:
+        return "another run";
+    }
+    return "?";
+}
