@@ -75,6 +75,7 @@ typedef struct ai_status {
     uint64_t between_steps;  /* optimiser steps taken between boundaries */
     float loss_train;        /* prediction loss of the last round (NaN before the first) */
     uint32_t done;           /* 1 after the last round */
+    uint64_t states_excluded; /* neighbour states the screen left out so far (dinno.h) */
 } ai_status_t;
 
 #define AI_CKPT_FLAG_FINAL 1u
@@ -82,6 +83,7 @@ typedef struct ai_status {
 typedef struct ai_round_info {
     uint32_t round;          /* k */
     uint32_t neighbours;     /* valid slots used */
+    uint32_t excluded;       /* neighbour states the screen left out (dinno.h) */
     uint64_t stamp_us;       /* simulated time of the boundary */
     float progress_m;        /* path progress at the boundary */
     float distance_m;        /* odometry distance at the boundary */

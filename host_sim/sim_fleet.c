@@ -34,6 +34,9 @@ struct sim_fleet {
     dinno_round_stats_t *stats;
     dinno_graph_t graph;
     uint32_t rounds_done;
+    float *bad_theta;        /* the bad agent's state as its neighbours get it (cfg.bad) */
+    uint64_t excluded;       /* sim_fleet_screen_totals */
+    double honest_dist_max;
 };
 
 void sim_fleet_cfg_default(sim_fleet_cfg_t *cfg)
@@ -68,6 +71,7 @@ static void free_fleet(sim_fleet_t *f)
     free(f->tours);
     free(f->tour_n);
     free(f->stats);
+    free(f->bad_theta);
     free(f);
 }
 
@@ -106,6 +110,12 @@ int sim_fleet_create(const sim_fleet_cfg_t *cfg, const bnn_config_t *bcfg, const
         snprintf(err, errlen, "the disk graph needs the agents' paths and a radius > 0");
         return -EINVAL;
     }
+    if (cfg->bad != SIM_FLEET_BAD_NONE &&
+        (cfg->mode != SIM_FLEET_DINNO || cfg->bad < SIM_FLEET_BAD_SCALE || cfg->bad > SIM_FLEET_BAD_SILENT ||
+         cfg->bad_agent < 0 || cfg->bad_agent >= cfg->n_agents || !isfinite(cfg->bad_scale))) {
+        snprintf(err, errlen, "a bad member needs a DiNNO fleet and an agent 0..%d", cfg->n_agents - 1);
+        return -EINVAL;
+    }
     for (int i = 0; i < cfg->n_agents; i++) {
         if (!data[i] || n_data[i] == 0) {
             snprintf(err, errlen, "agent %d has no samples", i);
@@ -127,6 +137,8 @@ int sim_fleet_create(const sim_fleet_cfg_t *cfg, const bnn_config_t *bcfg, const
     f->n_data = calloc((size_t)f->n_models, sizeof *f->n_data);
     f->stats = calloc((size_t)f->n_models, sizeof *f->stats);
     if (!f->nodes || !f->data || !f->n_data || !f->stats)
+        goto oom;
+    if (cfg->bad != SIM_FLEET_BAD_NONE && cfg->bad != SIM_FLEET_BAD_SILENT && (f->bad_theta = malloc(BNN_N_PARAMS * sizeof(float))) == NULL)
         goto oom;
     if (paths) {
         f->tours = calloc((size_t)cfg->n_agents, sizeof *f->tours);
@@ -213,6 +225,47 @@ static int build_graph(sim_fleet_t *f, uint32_t k)
     return -EINVAL;
 }
 
+int sim_fleet_bad_parse(const char *text, sim_fleet_bad_t *kind, double *scale)
+{
+    if (text == NULL || kind == NULL || scale == NULL)
+        return -EINVAL;
+    char *end = NULL;
+    if (strcmp(text, "flip") == 0)
+        *kind = SIM_FLEET_BAD_FLIP;
+    else if (strcmp(text, "random") == 0)
+        *kind = SIM_FLEET_BAD_RANDOM;
+    else if (strcmp(text, "silent") == 0)
+        *kind = SIM_FLEET_BAD_SILENT;
+    else if (strncmp(text, "scale=", 6) == 0 && (*scale = strtod(text + 6, &end), end != text + 6) && *end == '\0' &&
+             isfinite(*scale))
+        *kind = SIM_FLEET_BAD_SCALE;
+    else
+        return -EINVAL;
+    return 0;
+}
+
+/* What the bad agent sends this round, from its honest theta. */
+static void make_bad_state(sim_fleet_t *f, uint32_t k, const float *theta, size_t P)
+{
+    double ss = 0.0;
+    for (size_t e = 0; e < P; e++)
+        ss += (double)theta[e] * (double)theta[e];
+    const double rms = sqrt(ss / (double)P);
+    for (size_t e = 0; e < P; e++) {
+        switch (f->cfg.bad) {
+        case SIM_FLEET_BAD_SCALE:
+            f->bad_theta[e] = (float)(theta[e] * f->cfg.bad_scale);
+            break;
+        case SIM_FLEET_BAD_FLIP:
+            f->bad_theta[e] = -theta[e];
+            break;
+        default:
+            f->bad_theta[e] = (float)(rms * sim_rng_normal(f->cfg.seed, 0xBAD0u, k, e, 0));
+            break;
+        }
+    }
+}
+
 typedef struct worker {
     sim_fleet_t *f;
     int first, stride;
@@ -241,12 +294,18 @@ int sim_fleet_round(sim_fleet_t *f, dinno_graph_report_t *rep)
         if (rc)
             return rc;
         const size_t P = bnn_n_params(&f->nodes[0]->model);
+        if (f->bad_theta != NULL)
+            make_bad_state(f, k, bnn_params_const(&f->nodes[f->cfg.bad_agent]->model), P);
         for (int i = 0; i < f->n_models; i++) {
             dinno_slots_clear(f->nodes[i]);
             for (int j = 0; j < f->n_models; j++) {
-                if (!dinno_graph_has_edge(&f->graph, (uint32_t)i, (uint32_t)j))
+                if (!dinno_graph_has_edge(&f->graph, (uint32_t)i, (uint32_t)j) ||
+                    (f->cfg.bad == SIM_FLEET_BAD_SILENT && j == f->cfg.bad_agent))
                     continue;
-                rc = dinno_slot_put(f->nodes[i], (uint32_t)j, k, bnn_params_const(&f->nodes[j]->model), P);
+                const float *theta_j = f->bad_theta != NULL && j == f->cfg.bad_agent
+                                           ? f->bad_theta
+                                           : bnn_params_const(&f->nodes[j]->model);
+                rc = dinno_slot_put(f->nodes[i], (uint32_t)j, k, theta_j, P);
                 if (rc)
                     return rc;
             }
@@ -279,8 +338,27 @@ int sim_fleet_round(sim_fleet_t *f, dinno_graph_report_t *rep)
     for (int t = 0; t < nt; t++)
         if (w[t].rc)
             return w[t].rc;
+    for (int i = 0; i < f->n_models; i++) {
+        f->excluded += f->stats[i].excluded;
+        /* A bad agent's own neighbours are honest, but an honest agent next to it sees it:
+           with a bad agent, only rounds of honest agents without it in reach say what honest
+           distances are. */
+        const int near_bad = f->cfg.bad != SIM_FLEET_BAD_NONE &&
+                             (i == f->cfg.bad_agent ||
+                              dinno_graph_has_edge(&f->graph, (uint32_t)i, (uint32_t)f->cfg.bad_agent));
+        if (!near_bad && f->stats[i].nb_dist_max > f->honest_dist_max)
+            f->honest_dist_max = f->stats[i].nb_dist_max;
+    }
     f->rounds_done = k + 1;
     return 0;
+}
+
+void sim_fleet_screen_totals(const sim_fleet_t *f, uint64_t *excluded, double *honest_dist_max)
+{
+    if (excluded)
+        *excluded = f ? f->excluded : 0;
+    if (honest_dist_max)
+        *honest_dist_max = f ? f->honest_dist_max : 0.0;
 }
 
 uint32_t sim_fleet_rounds_done(const sim_fleet_t *f)

@@ -43,6 +43,16 @@ typedef enum sim_fleet_mode {
     SIM_FLEET_ISOLATED = 2,
 } sim_fleet_mode_t;
 
+/* A member that goes bad (docs/faults.md): it trains honestly but every state it sends is
+ * replaced, every round, before its neighbours see it. */
+typedef enum sim_fleet_bad {
+    SIM_FLEET_BAD_NONE = 0,
+    SIM_FLEET_BAD_SCALE,  /* theta x bad_scale */
+    SIM_FLEET_BAD_FLIP,   /* -theta */
+    SIM_FLEET_BAD_RANDOM, /* i.i.d. normal elements of theta's own rms, new every round */
+    SIM_FLEET_BAD_SILENT, /* sends nothing (the baseline: what the others can do without it) */
+} sim_fleet_bad_t;
+
 typedef struct sim_fleet_cfg {
     int n_agents;               /* 1 .. SIM_FLEET_MAX_AGENTS */
     uint32_t rounds;            /* >= 1 (also dinno.total_rounds for the lr decay) */
@@ -53,7 +63,13 @@ typedef struct sim_fleet_cfg {
     uint64_t seed;              /* run seed */
     int threads;                /* worker threads for the node updates, 1 .. 16 (results do
                                    not depend on it) */
+    sim_fleet_bad_t bad;        /* DINNO mode: agent bad_agent sends bad states (NONE: all honest) */
+    int bad_agent;
+    double bad_scale;           /* SIM_FLEET_BAD_SCALE's factor */
 } sim_fleet_cfg_t;
+
+/* "scale=S" | "flip" | "random" | "silent" -> kind (and scale); 0 or -EINVAL. */
+int sim_fleet_bad_parse(const char *text, sim_fleet_bad_t *kind, double *scale);
 
 void sim_fleet_cfg_default(sim_fleet_cfg_t *cfg);
 /* The seeds of agent i of a run: initial weights (the same for every agent) and the node's own
@@ -79,6 +95,10 @@ uint32_t sim_fleet_rounds_done(const sim_fleet_t *f);
 int sim_fleet_models(const sim_fleet_t *f); /* 1 for CENTRAL, n_agents otherwise */
 dinno_node_t *sim_fleet_node(sim_fleet_t *f, int i);
 const dinno_round_stats_t *sim_fleet_last_stats(const sim_fleet_t *f, int i);
+/* The screen over the rounds so far (dinno.h): neighbour states left out, by every model, and
+ * the largest relative neighbour distance any model saw (of the honest agents' neighbours
+ * only when a bad agent is set: what the radius must stay clear of). */
+void sim_fleet_screen_totals(const sim_fleet_t *f, uint64_t *excluded, double *honest_dist_max);
 /* The graph of the last round (DINNO mode). */
 const dinno_graph_t *sim_fleet_graph(const sim_fleet_t *f);
 /* Position of agent i at round k (arc-length fraction k / rounds of its path); -EINVAL

@@ -27,6 +27,7 @@ deps=(
     "liblcm-dev           /usr/include/lcm/lcm.h"
     "liblcm-bin           /usr/bin/lcm-gen"
     "libzmq3-dev          /usr/include/zmq.h"
+    "libsodium-dev        /usr/include/sodium.h"
     "libeigen3-dev        /usr/include/eigen3/Eigen/Core"
     "libosmesa6-dev       /usr/include/GL/osmesa.h"
     "libcmocka-dev        /usr/include/cmocka.h"

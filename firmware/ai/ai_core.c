@@ -162,7 +162,17 @@ static int run_round(ai_core_t *ai, const gp_ready_t *ready)
     if (ai->pool.fill > 0) {
         dinno_round_stats_t st;
         int r = dinno_node_round(&ai->node, ai->pool.data, ai->pool.fill, &st);
+        if (r == 0 && st.excluded > 0) {
+            /* The screen left states out (dinno.h): say whose, each time; a bad member is news. */
+            for (uint32_t s = 0; s < DINNO_MAX_PEERS; s++)
+                if (slots->valid[s] && slots->round[s] == k && !ai->node.slots.valid[s])
+                    hal_log(HAL_LOG_WARN, "round %" PRIu32 ": robot %" PRIu32 "'s state left out (not finite, or "
+                            "beyond %g x ||own state||; largest distance %g)", k, s,
+                            (double)ai->cfg.dinno.screen_radius, (double)st.nb_dist_max);
+            ai->status.states_excluded += st.excluded;
+        }
         if (r == 0) {
+            p->excluded = st.excluded;
             p->neighbours = st.neighbours;
             p->steps = ai->cfg.dinno.primal_steps;
             p->loss_train = st.pred_total;

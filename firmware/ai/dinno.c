@@ -48,6 +48,7 @@ dinno_cfg_t dinno_default_cfg(void)
         .kl_form = DINNO_KL_OWN_MEAN,
         .kl_reduce = DINNO_REDUCE_SUM,
         .rho_pred_grad = 1,
+        .screen_radius = DINNO_SCREEN_RADIUS_DEFAULT,
     };
     return c;
 }
@@ -72,7 +73,8 @@ static int cfg_ok(const dinno_cfg_t *c, const bnn_config_t *b)
            isfinite(c->kl_weight) && c->kl_weight >= 0.0f && c->batch >= 1 && c->batch <= b->max_batch &&
            (c->kl_form == DINNO_KL_OWN_MEAN || c->kl_form == DINNO_KL_REVERSE || c->kl_form == DINNO_KL_FULL) &&
            (c->kl_reduce == DINNO_REDUCE_SUM || c->kl_reduce == DINNO_REDUCE_MEAN) &&
-           (c->rho_pred_grad == 0 || c->rho_pred_grad == 1);
+           (c->rho_pred_grad == 0 || c->rho_pred_grad == 1) && isfinite(c->screen_radius) &&
+           c->screen_radius >= 0.0f;
 }
 
 int dinno_node_init(dinno_node_t *n, const dinno_cfg_t *cfg, const bnn_config_t *bcfg,
@@ -335,6 +337,38 @@ double dinno_reg_value(const dinno_node_t *n, float rho_k)
     return dd + (double)rho_k * ((double)wm * l2mu + (double)wr * rhoterm);
 }
 
+uint32_t dinno_screen_slots(dinno_node_t *n, float *dist_max)
+{
+    const size_t P = bnn_n_params(&n->model);
+    const float *th = bnn_params_const(&n->model);
+    double own = 0.0;
+    for (size_t e = 0; e < P; e++)
+        own += (double)th[e] * (double)th[e];
+    const double scale = sqrt(own) > 1.0 ? sqrt(own) : 1.0;
+    const double radius = (double)n->cfg.screen_radius * scale;
+    uint32_t out = 0;
+    double worst = 0.0;
+    for (uint32_t s = 0; s < DINNO_MAX_PEERS; s++) {
+        if (!n->slots.valid[s])
+            continue;
+        const float *nb = n->slots.theta[s];
+        double d2 = 0.0;
+        for (size_t e = 0; e < P; e++) {
+            const double d = (double)nb[e] - (double)th[e];
+            d2 += d * d; /* a NaN or inf element makes the sum non-finite */
+        }
+        const double dist = isfinite(d2) ? sqrt(d2) / scale : INFINITY;
+        worst = dist > worst ? dist : worst;
+        if (!isfinite(d2) || (n->cfg.screen_radius > 0.0f && sqrt(d2) > radius)) {
+            n->slots.valid[s] = 0;
+            out++;
+        }
+    }
+    if (dist_max != NULL)
+        *dist_max = (float)worst;
+    return out;
+}
+
 int dinno_node_round(dinno_node_t *n, const ai_sample_t *data, size_t n_data, dinno_round_stats_t *stats)
 {
     if (!n || !data || n_data == 0)
@@ -345,6 +379,8 @@ int dinno_node_round(dinno_node_t *n, const ai_sample_t *data, size_t n_data, di
             return -EINVAL;
     const dinno_cfg_t *c = &n->cfg;
     const float rho_k = dinno_rho_at(c, k), lr = dinno_lr_at(c, k);
+    float dist_max = 0.0f;
+    const uint32_t excluded = dinno_screen_slots(n, &dist_max);
     const uint32_t m = dinno_dual_update(n, rho_k);
     if (m > 0)
         dinno_prepare(n);
@@ -401,6 +437,8 @@ int dinno_node_round(dinno_node_t *n, const ai_sample_t *data, size_t n_data, di
         stats->reg_mu = (float)(acc[3] / B);
         stats->reg_rho = (float)(acc[4] / B);
         stats->dual_dot = (float)(acc[5] / B);
+        stats->excluded = excluded;
+        stats->nb_dist_max = dist_max;
     }
     return 0;
 }

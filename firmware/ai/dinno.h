@@ -47,6 +47,20 @@
  *     plain DiNNO with one loss and ignores it).
  *   A node with no valid slot skips steps 2 and the REG terms: pure local training.
  *
+ * The screen (a member that goes bad: a stolen key, a bug, a sensor fault). Before step 2 a
+ * neighbour's state is left out of the round (its slot marked invalid, counted in
+ * stats->excluded) when it is not finite, or when
+ *     ||theta_j - theta_i|| > screen_radius * max(||theta_i||, 1)          (L2, whole vector)
+ * A neighbour left out is what a lost state is to the protocol: the node trains on with the
+ * others. The radius is relative because the state's norm is set by the preset (the rho
+ * group's softplus parameters dominate it), and its default 0.5 sits far from both sides:
+ * honest neighbours of the paper's fleets stay within a few percent of ||theta_i|| at every
+ * round (docs/faults.md, "a member that goes bad"), while a state scaled x1e3 is ~1e3 away,
+ * a sign-flipped one 2 and a random one of theta's own scale ~1.4. Up to the radius a bad
+ * member still pulls (as ClippedGossip's clipped neighbours do): what the screen bounds is
+ * how far one round can drag a node, not whether it is dragged. When it never triggers, the
+ * round is bit-identical to one without it.
+ *
  * Neighbour states arrive in FIXED SLOTS: node->slots.theta[s] (s < DINNO_MAX_PEERS) with
  * node->slots.valid[s] != 0; the writer (GP core, or the in-process fleet driver) fills them
  * before dinno_node_round(), which reads them and nothing else. Slots must hold the states
@@ -72,6 +86,7 @@
 
 
 #define DINNO_MAX_PEERS BOARD_MAX_PEERS
+#define DINNO_SCREEN_RADIUS_DEFAULT 0.5f
 
 typedef enum dinno_strategy {
     DINNO_UNIFORM = 0,
@@ -106,6 +121,7 @@ typedef struct dinno_cfg {
     dinno_kl_form_t kl_form;     /* KL strategy: which KL (default OWN_MEAN) */
     dinno_kl_reduce_t kl_reduce; /* KL strategy: SUM (default) or MEAN over the rho elements */
     int rho_pred_grad;     /* 1 (default) or 0: prediction-loss gradient on the rho group */
+    float screen_radius;   /* >= 0, default DINNO_SCREEN_RADIUS_DEFAULT; 0: no distance screen */
 } dinno_cfg_t;
 
 /* Neighbour states of one round, in fixed slots (one per possible peer). */
@@ -126,6 +142,9 @@ typedef struct dinno_round_stats {
     float reg_mu;          /* sum_j ||theta_mu - mid_j,mu||^2 (unweighted; UNIFORM: mu part) */
     float reg_rho;         /* rho-group term (unweighted): squared L2 or the summed KL */
     float dual_dot;        /* <theta, p_i> */
+    uint32_t excluded;     /* neighbour states the screen left out (not finite, too far) */
+    float nb_dist_max;     /* largest ||theta_j - theta_i|| / max(||theta_i||, 1) seen this round
+                              (screened or not; 0 without neighbours; +inf for a non-finite one) */
 } dinno_round_stats_t;
 
 typedef struct dinno_node {
@@ -182,6 +201,10 @@ FS_MUST_CHECK int dinno_node_round(dinno_node_t *n, const ai_sample_t *data, siz
                                dinno_round_stats_t *stats);
 
 /* Building blocks, exposed for tests ------------------------------------------------------- */
+/* The screen alone (see above): marks the slots to leave out invalid. Returns how many it
+ * left out; *dist_max as nb_dist_max. dinno_node_round runs it first. */
+uint32_t dinno_screen_slots(dinno_node_t *n, float *dist_max);
+
 /* Dual update only: p += rho_k * sum_{valid s} (theta - slot_s); also snapshots theta0.
  * Returns the number of neighbours used. */
 uint32_t dinno_dual_update(dinno_node_t *n, float rho_k);

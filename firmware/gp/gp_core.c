@@ -58,7 +58,8 @@ static void send_telemetry(gp_core_t *gp, uint64_t now_us)
     t.ring_drops = gp->rt.ring_drops;
     hal_net_stats_t ns;
     if (hal_net_get_stats(&ns) == 0) {
-        uint64_t d = ns.rx_dropped_full + ns.rx_dropped_invalid + ns.rx_dropped_small + ns.rx_dropped_malformed;
+        uint64_t d = ns.rx_dropped_full + ns.rx_dropped_invalid + ns.rx_dropped_small + ns.rx_dropped_malformed +
+                     ns.rx_dropped_unauth + ns.rx_dropped_replay;
         t.net_drops = d > 0xFFFFFFFFu ? 0xFFFFFFFFu : (uint32_t)d;
     }
     t.neighbours = gp->neighbours > 255u ? 255u : gp->neighbours;

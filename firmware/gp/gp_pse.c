@@ -405,7 +405,10 @@ void gp_pse_poll(gp_pse_t *p, uint64_t now_us)
             last = q->heard_us;
         const uint64_t timeout = q->heard || p->cfg.join_timeout_us == 0 ? p->cfg.peer_timeout_us
                                                                           : p->cfg.join_timeout_us;
-        if (now_us - last >= timeout) {
+        /* Progress keeps a peer in the round, but not forever: whatever seems to come from it
+           (a link that delivers a chunk a minute, or bytes forged in its name in an unkeyed
+           fleet) cannot hold the round past GP_PSE_ROUND_CAP timeouts from its start. */
+        if (now_us - last >= timeout || now_us - p->round_start_us >= GP_PSE_ROUND_CAP * timeout) {
             /* Silent too long: the round goes on without it (a state it already delivered is
                still used; only what is missing is no longer waited for). */
             q->absent = 1;

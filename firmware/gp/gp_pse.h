@@ -100,6 +100,10 @@ typedef struct gp_pse_request {
  * a lost message is what the protocol is built for). */
 typedef int (*gp_pse_send_fn)(void *ctx, gp_pse_kind_t kind, const void *msg);
 
+/* A round waits for a peer at most this many of its timeouts (peer or join) from the round's
+ * start, progress or not: the bound on a round that no peer can lift. */
+#define GP_PSE_ROUND_CAP 4u
+
 typedef struct gp_pse_cfg {
     uint32_t self, n_peers;     /* self < n_peers <= GP_PSE_MAX_PEERS */
     uint32_t state_bytes;       /* 1 .. GP_PSE_MAX_STATE_BYTES, the same for the whole fleet */

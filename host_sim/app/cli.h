@@ -174,6 +174,9 @@ static inline int cmd_parse_dinno_opt(const char *opt, const char *v, dinno_cfg_
     } else if (strcmp(opt, "--rho-pred-grad") == 0) {
         *bad = cmd_parse_ll(v, opt, 0, 1, &ll);
         d->rho_pred_grad = (int)ll;
+    } else if (strcmp(opt, "--screen-radius") == 0) {
+        *bad = cmd_parse_double(v, opt, 0.0, 1e6, &dv);
+        d->screen_radius = (float)dv;
     } else {
         return 0;
     }

@@ -73,6 +73,11 @@ static void fleet_usage(FILE *out)
             "  --occ-res M         grid of the occupancy metrics (default 0.1)\n"
             "  --map-res M         grid of the final maps (default 0.05);  --mc K passes (default 50)\n"
             "  --threads T         worker threads for node updates (default 1; results identical)\n"
+            "  --screen-radius R   leave out a neighbour state further than R x ||own state|| (and any\n"
+            "                      non-finite one) before the node update (default 0.5; 0: no distance screen)\n"
+            "  --bad-member I:K    agent I trains honestly but sends bad states every round: K = scale=S\n"
+            "                      (theta x S), flip (-theta), random (normal, theta's rms), or silent (sends\n"
+            "                      nothing: the baseline); summary.txt gives the honest members' figures\n"
             "  --scale S           plan metres per pixel (default %g)\n",
             BNN_PRESET_NAME, d.batch, BNN_MAX_BATCH, d.primal_steps, (double)d.kl_weight, (double)d.rho0,
             (double)d.rho_scaling, (double)d.lr_start, (double)d.lr_end, SIM_PLAN_DEFAULT_SCALE);
@@ -91,6 +96,9 @@ typedef struct opts {
     dinno_graph_kind_t graph;
     int have_graph;
     char strategy_name[16];
+    sim_fleet_bad_t bad;    /* --bad-member I:KIND */
+    long long bad_agent;
+    double bad_scale;
 } opts_t;
 
 static int parse(int argc, char **argv, opts_t *o)
@@ -170,7 +178,17 @@ static int parse(int argc, char **argv, opts_t *o)
         }
         else if (cmd_parse_dinno_opt(a, v, &o->d, &bad))
             ;
-        else if (strcmp(a, "--radius") == 0)
+        else if (strcmp(a, "--bad-member") == 0) {
+            char *colon = strchr(v, ':');
+            bad = colon == NULL || sim_fleet_bad_parse(colon + 1, &o->bad, &o->bad_scale) != 0;
+            if (!bad) {
+                *colon = '\0';
+                bad = cmd_parse_ll(v, a, 0, SIM_FLEET_MAX_AGENTS - 1, &o->bad_agent) != 0;
+                *colon = ':';
+            } else {
+                fprintf(stderr, "host_sim fleet: --bad-member: '%s' is not I:scale=S, I:flip, I:random or I:silent\n", v);
+            }
+        } else if (strcmp(a, "--radius") == 0)
             bad = cmd_parse_double(v, a, 1e-6, 1e6, &o->radius);
         else if (strcmp(a, "--occ-res") == 0)
             bad = cmd_parse_double(v, a, 0.01, 10.0, &o->occ_res);
@@ -369,6 +387,9 @@ static int train(job_t *j)
     fc.radius = o->radius;
     fc.seed = j->seed;
     fc.threads = (int)o->threads;
+    fc.bad = o->bad;
+    fc.bad_agent = (int)o->bad_agent;
+    fc.bad_scale = o->bad_scale;
     const ai_sample_t *cdata[SIM_FLEET_MAX_AGENTS];
     for (int i = 0; i < j->n; i++)
         cdata[i] = j->data[i];
@@ -490,6 +511,16 @@ static int report(job_t *j)
         ce = fmax(ce, m->consensus_error);
         tl += m->train_loss / M;
     }
+    /* The honest members alone (a bad member trains honestly; what it sends is what is bad). */
+    double hv = 0, hce = 0;
+    for (int i = 0; i < M; i++)
+        if (o->bad == SIM_FLEET_BAD_NONE || i != o->bad_agent) {
+            hv += val_of(o, &j->last[i]) / (o->bad == SIM_FLEET_BAD_NONE ? M : M - 1);
+            hce = fmax(hce, j->last[i].consensus_error);
+        }
+    uint64_t excluded = 0;
+    double dist_max = 0;
+    sim_fleet_screen_totals(j->fleet, &excluded, &dist_max);
     for (int pass = 0; pass < 2; pass++) {
         FILE *f = pass ? stdout : hal_host_file_stream(&out);
         fprintf(f, "mode: in-process fleet (one process)\n");
@@ -515,6 +546,18 @@ static int report(job_t *j)
         fprintf(f, "final train_loss (mean): %.5f\n", tl);
         fprintf(f, "final occ_mse (mean, %.2f m grid): %.5f\nfinal occ_iou (mean): %.4f\n", o->occ_res, mse, io);
         fprintf(f, "final consensus_error (max): %.6f\n", ce);
+        if (o->mode == SIM_FLEET_DINNO)
+            fprintf(f, "screen: radius %g x ||theta||: %llu neighbour states left out; largest honest neighbour "
+                       "distance %.4f x ||theta||\n",
+                    (double)o->d.screen_radius, (unsigned long long)excluded, dist_max);
+        if (o->bad != SIM_FLEET_BAD_NONE)
+            fprintf(f, "bad member: agent %lld sends %s states; honest members: final val_loss (mean) %.5f, "
+                       "consensus_error (max) %.6f\n",
+                    o->bad_agent, o->bad == SIM_FLEET_BAD_FLIP     ? "sign-flipped"
+                    : o->bad == SIM_FLEET_BAD_RANDOM ? "random"
+                    : o->bad == SIM_FLEET_BAD_SILENT ? "no"
+                                                     : "scaled",
+                    hv, hce);
         fprintf(f, "maps: agent 0, %lld MC passes, %.3f m grid, max std %.4f: %s %s\n", o->mc, o->map_res, smax,
                 mean_png, std_png);
     }

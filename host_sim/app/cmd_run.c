@@ -76,6 +76,8 @@ static void run_usage(FILE *out)
             "  --rho0 V, --rho-scaling V, --w-mu W, --w-rho W   ADMM penalty (default %g, %g, 1, 1)\n"
             "  --kl-form own|reverse|full, --kl-reduce sum|mean, --rho-pred-grad 1|0   readings of the\n"
             "                       KL strategy (default own, sum, 1; see host_sim fleet --help)\n"
+            "  --screen-radius R    fleet: leave out a neighbour state further than R x ||own state|| (and any\n"
+            "                       non-finite one), counted and logged (default 0.5; 0: no distance screen)\n"
             "  --train-between      one more optimiser step per AI tick between boundaries\n"
             "  --time-limit S       simulated seconds before giving up (default 1800)\n"
             "  --robot I, --id I    robot index: noise streams, seeds, telemetry, fleet member id (default 0)\n"
@@ -911,6 +913,8 @@ static int report(job_t *j)
                     (unsigned long long)res->net.rx_dropped_full, (unsigned long long)res->net.rx_dropped_small,
                     (unsigned long long)(res->net.rx_dropped_malformed + res->net.rx_dropped_invalid),
                     (unsigned long long)res->pse.send_failures);
+            fprintf(f, "screen: %llu neighbour states left out (not finite, or beyond %g x ||own state||)\n",
+                    (unsigned long long)res->ai_status.states_excluded, (double)o->d.screen_radius);
             if (o->key_file != NULL)
                 fprintf(f, "keyed fleet (run id %016llx): %llu datagrams without a valid tag dropped (forged or "
                            "not a member), %llu of another run dropped (replayed)\n",

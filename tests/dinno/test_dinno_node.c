@@ -388,6 +388,65 @@ static void test_no_neighbours_trains_alone(void **st)
     assert_true(sa.pred_total < first.pred_total); /* it learned */
 }
 
+/* The screen: a non-finite state, a scaled one, a sign-flipped one are left out and counted;
+ * one within the radius is used; and a round whose neighbour is left out equals, bit for bit,
+ * a round that never had it. */
+static void test_screen_leaves_out_bad_states(void **st)
+{
+    (void)st;
+    bnn_config_t b = tiny();
+    dinno_cfg_t c = cfg_of(DINNO_KL);
+    assert_int_equal(dinno_node_init(&node, &c, &b, 1, 2, 0), 0);
+    assert_int_equal(dinno_node_init(&other, &c, &b, 1, 2, 0), 0);
+    float own[28], t[28];
+    memcpy(own, bnn_params(&node.model), sizeof own);
+    double norm = 0.0;
+    for (int e = 0; e < 28; e++)
+        norm += (double)own[e] * own[e];
+    norm = sqrt(norm);
+    assert_true(norm > 1.0);
+    /* slot 1: close (a tenth of the radius); 2: NaN; 3: x1000; 4: -theta; 5: +inf */
+    for (int e = 0; e < 28; e++)
+        t[e] = own[e] + (float)(0.05 * norm / sqrt(28.0));
+    assert_int_equal(dinno_slot_put(&node, 1, 0, t, 28), 0);
+    assert_int_equal(dinno_slot_put(&other, 1, 0, t, 28), 0); /* `other` never sees the bad ones */
+    memcpy(t, own, sizeof t);
+    t[7] = NAN;
+    assert_int_equal(dinno_slot_put(&node, 2, 0, t, 28), 0);
+    for (int e = 0; e < 28; e++)
+        t[e] = own[e] * 1000.0f;
+    assert_int_equal(dinno_slot_put(&node, 3, 0, t, 28), 0);
+    for (int e = 0; e < 28; e++)
+        t[e] = -own[e];
+    assert_int_equal(dinno_slot_put(&node, 4, 0, t, 28), 0);
+    memcpy(t, own, sizeof t);
+    t[0] = INFINITY;
+    assert_int_equal(dinno_slot_put(&node, 5, 0, t, 28), 0);
+    dinno_round_stats_t sa, sb;
+    assert_int_equal(dinno_node_round(&node, data, 256, &sa), 0);
+    assert_int_equal(dinno_node_round(&other, data, 256, &sb), 0);
+    assert_int_equal(sa.excluded, 4);
+    assert_int_equal(sa.neighbours, 1);
+    assert_true(isinf(sa.nb_dist_max));
+    assert_int_equal(sb.excluded, 0);
+    assert_true(fabs(sb.nb_dist_max - 0.05) < 1e-3);
+    assert_memory_equal(bnn_params(&node.model), bnn_params(&other.model), sizeof own);
+    assert_memory_equal(node.dual, other.dual, sizeof own);
+    /* Radius 0: no distance screen, only non-finite states are left out. */
+    c.screen_radius = 0.0f;
+    assert_int_equal(dinno_node_init(&node, &c, &b, 1, 2, 0), 0);
+    for (int e = 0; e < 28; e++)
+        t[e] = -own[e];
+    assert_int_equal(dinno_slot_put(&node, 4, 0, t, 28), 0);
+    t[3] = NAN;
+    assert_int_equal(dinno_slot_put(&node, 2, 0, t, 28), 0);
+    float dmax = 0.0f;
+    assert_int_equal(dinno_screen_slots(&node, &dmax), 1);
+    assert_true(node.slots.valid[4] && !node.slots.valid[2]);
+    c.screen_radius = -1.0f;
+    assert_int_equal(dinno_node_init(&node, &c, &b, 1, 2, 0), -EINVAL);
+}
+
 static void test_round_allocates_nothing(void **st)
 {
     (void)st;
@@ -428,6 +487,7 @@ int main(void)
         cmocka_unit_test(test_uniform_equals_separate_at_unit_weights),
         cmocka_unit_test(test_slot_round_mismatch_rejected),
         cmocka_unit_test(test_no_neighbours_trains_alone),
+        cmocka_unit_test(test_screen_leaves_out_bad_states),
         cmocka_unit_test(test_round_allocates_nothing),
     };
     return cmocka_run_group_tests_name("dinno/node", tests, NULL, NULL);

@@ -44,7 +44,6 @@
 #define REF_DEADLINE_S 120 /* the in-process reference: about 3 s */
 #define DROP_P "0.2"
 
-static int g_have_ref;
 static char g_ip[PATH_MAX]; /* the `ip` program */
 static char g_ns[64];       /* the namespace we made ("" when none) */
 
@@ -70,27 +69,6 @@ static void delete_ns(void)
     g_ns[0] = '\0';
 }
 
-/* The lossless reference: the in-process fleet with the same settings, into DIR/inproc. */
-static void need_reference(void)
-{
-    if (g_have_ref)
-        return;
-    char out[PATH_MAX + 16], log[PATH_MAX + 16];
-    snprintf(out, sizeof out, "%s/inproc", fp_env.dir);
-    snprintf(log, sizeof log, "%s/inproc.txt", fp_env.dir);
-    const char *argv[] = {fp_env.bin, "fleet", "--inproc", "--plan", fp_env.plan, "--paths", fp_env.paths,
-                          "--robots", "3", "--rounds", ROUNDS, "--strategy", "kl", "--graph", "disk", "--radius", "6",
-                          "--seed", "3", "--out", out, "--val-poses", "5", "--mc", "1", "--map-res", "0.5", NULL};
-    pid_t pid = fp_spawn(argv, log, NULL, NULL);
-    int rc = fp_wait(pid, fp_now() + REF_DEADLINE_S);
-    fp_kill(pid); /* when late; a no-op for a reaped one */
-    if (rc != 0) {
-        fp_show_log(log);
-        fail_msg("host_sim fleet --inproc (the reference) %s", rc < 0 ? "did not finish in time" : "failed");
-    }
-    g_have_ref = 1;
-}
-
 /* The fleet: NPROC `host_sim run --fleet` into DIR/<tag>/robot_<i>, inside namespace `ns`
  * (NULL: this one), with --net-faults `faults` (NULL: none). Fails the test when a robot
  * fails or the fleet is not done within FLEET_DEADLINE_S. Returns its wall time. */
@@ -103,17 +81,6 @@ static double run_fleet(const char *tag, const char *ns, const char *faults)
     fp_fleet_init(&f, tag, NPROC, ns ? prefix : NULL, args);
     fp_fleet_start(&f, NULL, NULL);
     return fp_fleet_wait_ok(&f, FLEET_DEADLINE_S);
-}
-
-static void expect_reference_models(const char *tag)
-{
-    for (int i = 0; i < NPROC; i++) {
-        char a[PATH_MAX + 64], b[PATH_MAX + 64];
-        snprintf(a, sizeof a, "%s/%s/robot_%d/final.bnn", fp_env.dir, tag, i);
-        snprintf(b, sizeof b, "%s/inproc/models/robot_%d.bnn", fp_env.dir, i);
-        if (!fp_same_file(a, b))
-            fail_msg("robot %d (%s): %s differs from the lossless reference %s", i, tag, a, b);
-    }
 }
 
 /* A counter of DIR/<tag>/robot_<i>/summary.txt: the number before (after, when `after`)
@@ -132,9 +99,9 @@ static unsigned long long summary_sum(const char *tag, const char *line, const c
 static void test_injected_drops(void **st)
 {
     (void)st;
-    need_reference();
+    fp_inproc_reference(NPROC, ROUNDS, REF_DEADLINE_S);
     const double wall = run_fleet("injected", NULL, "drop=" DROP_P ",seed=26");
-    expect_reference_models("injected");
+    fp_expect_reference_models("injected", NPROC);
     const unsigned long long dropped = summary_sum("injected", "network faults injected", " dropped", 0);
     printf("# injector drop=%s: 3 robots, %s rounds in %.1f s, %llu datagrams dropped on receipt; models equal "
            "the lossless reference\n",
@@ -168,7 +135,7 @@ static void test_kernel_drops(void **st)
     if (fp_run_cmd(add, out, sizeof out) != 0)
         SKIP_BECAUSE("cannot create network namespace %s: %s", ns, out);
     snprintf(g_ns, sizeof g_ns, "%s", ns); /* from here on the teardown deletes it */
-    need_reference();
+    fp_inproc_reference(NPROC, ROUNDS, REF_DEADLINE_S);
     /* Loopback up with multicast and a route for it: what LCM's udpm:// needs (test_net.c). */
     const char *lo_up[] = {g_ip, "-n", ns, "link", "set", "lo", "up", "multicast", "on", NULL};
     const char *route[] = {g_ip, "-n", ns, "route", "add", "224.0.0.0/4", "dev", "lo", NULL};
@@ -182,7 +149,7 @@ static void test_kernel_drops(void **st)
     if (fp_run_cmd(drop, out, sizeof out) != 0)
         SKIP_BECAUSE("iptables cannot add a random-drop rule here (no xt_statistic?): %s", out);
     const double wall = run_fleet("kernel", ns, NULL);
-    expect_reference_models("kernel");
+    fp_expect_reference_models("kernel", NPROC);
     /* The rule did drop: its packet counter. */
     const char *list[] = {g_ip, "netns", "exec", ns, ipt, "-L", "OUTPUT", "-v", "-n", "-x", NULL};
     assert_int_equal(fp_run_cmd(list, out, sizeof out), 0);

@@ -60,26 +60,6 @@ static void run_fleet(const char *tag, const char *encoding, const char *drop_ev
     fp_fleet_wait_ok(&f, FLEET_DEADLINE_S);
 }
 
-/* The reference: the in-process fleet with the same settings, into DIR/inproc. */
-static void run_inproc(void)
-{
-    char out[PATH_MAX + 16], log[PATH_MAX + 16];
-    snprintf(out, sizeof out, "%s/inproc", fp_env.dir);
-    snprintf(log, sizeof log, "%s/inproc.txt", fp_env.dir);
-    const char *argv[] = {fp_env.bin, "fleet", "--inproc", "--plan", fp_env.plan, "--paths", fp_env.paths,
-                          "--robots", "3", "--rounds", ROUNDS, "--strategy", "kl", "--graph", "disk", "--radius", "6",
-                          "--seed", "3", "--out", out, "--val-poses", "5", "--mc", "1", "--map-res", "0.5", NULL};
-    const pid_t pid = fp_spawn(argv, log, NULL, NULL);
-    const int rc = fp_wait(pid, fp_now() + REF_DEADLINE_S);
-    fp_kill(pid); /* when late; a no-op for a reaped one */
-    if (rc != 0) {
-        fp_show_log(log);
-        if (rc < 0)
-            fail_msg("host_sim fleet --inproc still running after %d s: killed", REF_DEADLINE_S);
-        fail_msg("host_sim fleet --inproc failed (status %d)", rc);
-    }
-}
-
 /* Sums a column of DIR/<tag>/robot_<i>/traffic.csv over rounds and robots. */
 static unsigned long long traffic_sum(const char *tag, const char *column)
 {
@@ -117,14 +97,8 @@ static void test_three_processes_equal_inproc(void **st)
 {
     (void)st;
     run_fleet("fp32", "fp32", NULL);
-    run_inproc();
-    for (int i = 0; i < NPROC; i++) {
-        char a[PATH_MAX + 64], b[PATH_MAX + 64];
-        snprintf(a, sizeof a, "%s/fp32/robot_%d/final.bnn", fp_env.dir, i);
-        snprintf(b, sizeof b, "%s/inproc/models/robot_%d.bnn", fp_env.dir, i);
-        if (!fp_same_file(a, b))
-            fail_msg("robot %d: %s differs from the in-process reference %s", i, a, b);
-    }
+    fp_inproc_reference(NPROC, ROUNDS, REF_DEADLINE_S);
+    fp_expect_reference_models("fp32", NPROC);
     assert_int_equal(traffic_sum("fp32", "timeouts"), 0);
     assert_int_equal(traffic_sum("fp32", "crc_failures"), 0);
 }
@@ -133,13 +107,8 @@ static void test_lost_datagrams_are_recovered(void **st)
 {
     (void)st;
     run_fleet("lossy", "fp32", "7");
-    for (int i = 0; i < NPROC; i++) {
-        char a[PATH_MAX + 64], b[PATH_MAX + 64];
-        snprintf(a, sizeof a, "%s/lossy/robot_%d/final.bnn", fp_env.dir, i);
-        snprintf(b, sizeof b, "%s/inproc/models/robot_%d.bnn", fp_env.dir, i);
-        if (!fp_same_file(a, b))
-            fail_msg("robot %d: with loss, %s differs from the reference %s", i, a, b);
-    }
+    fp_inproc_reference(NPROC, ROUNDS, REF_DEADLINE_S);
+    fp_expect_reference_models("lossy", NPROC);
     assert_true(traffic_sum("lossy", "chunks_requested") > 0);
     assert_true(traffic_sum("lossy", "chunks_resent") > 0);
     assert_int_equal(traffic_sum("lossy", "timeouts"), 0);

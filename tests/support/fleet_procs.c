@@ -198,6 +198,42 @@ int fp_same_file(const char *a, const char *b)
     return same;
 }
 
+static int g_have_ref;
+
+void fp_inproc_reference(int n, const char *rounds, int deadline_s)
+{
+    if (g_have_ref)
+        return;
+    char out[PATH_MAX + 16], log[PATH_MAX + 16], robots[16];
+    snprintf(out, sizeof out, "%s/inproc", fp_env.dir);
+    snprintf(log, sizeof log, "%s/inproc.txt", fp_env.dir);
+    snprintf(robots, sizeof robots, "%d", n);
+    const char *argv[] = {fp_env.bin, "fleet", "--inproc", "--plan", fp_env.plan, "--paths", fp_env.paths,
+                          "--robots", robots, "--rounds", rounds, "--strategy", "kl", "--graph", "disk", "--radius", "6",
+                          "--seed", "3", "--out", out, "--val-poses", "5", "--mc", "1", "--map-res", "0.5", NULL};
+    const pid_t pid = fp_spawn(argv, log, NULL, NULL);
+    const int rc = fp_wait(pid, fp_now() + deadline_s);
+    fp_kill(pid); /* when late; a no-op for a reaped one */
+    if (rc != 0) {
+        fp_show_log(log);
+        if (rc < 0)
+            fail_msg("host_sim fleet --inproc (the reference) still running after %d s: killed", deadline_s);
+        fail_msg("host_sim fleet --inproc (the reference) failed (status %d)", rc);
+    }
+    g_have_ref = 1;
+}
+
+void fp_expect_reference_models(const char *tag, int n)
+{
+    for (int i = 0; i < n; i++) {
+        char a[PATH_MAX + 64], b[PATH_MAX + 64];
+        snprintf(a, sizeof a, "%s/%s/robot_%d/final.bnn", fp_env.dir, tag, i);
+        snprintf(b, sizeof b, "%s/inproc/models/robot_%d.bnn", fp_env.dir, i);
+        if (!fp_same_file(a, b))
+            fail_msg("robot %d (%s): %s differs from the in-process reference %s", i, tag, a, b);
+    }
+}
+
 int fp_setup(const char *scratch, unsigned fleet_base, void (*cleanup)(void))
 {
     char self[FP_SHORT_PATH];

@@ -105,6 +105,15 @@ double fp_fleet_wait_ok(fp_fleet_t *f, double deadline_s);
  * the robot and the file it waited for, when the deadline passes or the robot exits first. */
 void fp_wait_for_file(const fp_robot_t *r, const char *prefix, const char *suffix, double deadline);
 
+/* The in-process reference of a test fleet: `host_sim fleet --inproc` with the settings
+ * fp_fleet_init gives the robots (3 robots, seed 3, disk graph of 6 m, strategy kl) and
+ * `rounds`, into fp_env.dir/inproc (made once per program: later calls return at once).
+ * Fails the test when it fails or is not done within deadline_s. */
+void fp_inproc_reference(int n, const char *rounds, int deadline_s);
+/* Every robot's DIR/<tag>/robot_<i>/final.bnn equals the reference's model bit for bit;
+ * fails the test naming the first robot that differs. */
+void fp_expect_reference_models(const char *tag, int n);
+
 /* A number of a summary.txt: on the first line that contains `line`, the number just before
  * `what` (just after, when `after`). Fails the test when the file, the line or `what` is not
  * there. */
