@@ -1,5 +1,7 @@
 /* Fuzz target: the datagram path of the fleet, as gp_fleet runs it on the host. Each datagram
- * passes hal/host's bounds check (hal_host_msg_check) for the type of the channel it came on,
+ * meets a keyed fleet's MAC check (hal_host_auth_open: made-up bytes never pass; the same bytes
+ * sealed by a member pass, and fail again with any one byte changed), then hal/host's bounds
+ * check (hal_host_msg_check) for the type of the channel it came on,
  * then gp_wire's decoder of that channel, and what decodes goes into a gp_pse engine (peer 0 of
  * a fleet of 3, rounds driven like the GP core does): chunk reassembly across datagrams, resend
  * requests, RoundCompletes, beacons, incarnations, skips and timeouts. The input is a sequence
@@ -26,6 +28,7 @@
 #include "gp/gp_pse.h"
 #include "gp/gp_wire.h"
 #include "hal/hal_net.h"
+#include "hal_host_auth.h"
 #include "hal_host_msg.h"
 
 int LLVMFuzzerTestOneInput(const uint8_t *data, size_t size);
@@ -142,8 +145,40 @@ static void tick(harness_t *h, uint64_t now)
 /* One datagram on channel `what`: every layer sees it as on the host, the engine only what the
  * host would hand it. The decoders also see what the bounds check refused (a board without
  * hal/host calls them on raw datagrams). */
+static const char *const channel_name[3] = {"fleetsim/0/state", "fleetsim/0/done", "fleetsim/0/request"};
+
+/* The MAC check on the datagram as it came, and on it sealed by a member. */
+static void mac_check(unsigned what, const uint8_t *d, size_t len)
+{
+    static uint8_t sealed[HAL_NET_MTU_BYTES + HAL_HOST_AUTH_TRAILER_BYTES];
+    static const hal_host_auth_t member = {{1, 2, 3, 4, 5, 6, 7, 8}, 42};
+    size_t n = 0;
+    const hal_host_auth_verdict_t v = hal_host_auth_open(&member, channel_name[what], d, len, &n);
+    CHECK(v != HAL_HOST_AUTH_OK);
+    CHECK(hal_host_auth_verdict_name(v) != NULL);
+    if (len > HAL_NET_MTU_BYTES)
+        return;
+    memcpy(sealed, d, len);
+    hal_host_auth_seal(&member, channel_name[what], sealed, len, sealed + len);
+    const size_t wire = len + HAL_HOST_AUTH_TRAILER_BYTES;
+    CHECK(hal_host_auth_open(&member, channel_name[what], sealed, wire, &n) == HAL_HOST_AUTH_OK && n == len);
+    const size_t at = (len > 0 ? d[0] : 0u) * 131u % wire; /* one byte the input chooses */
+    sealed[at] ^= 0x5a;
+    CHECK(hal_host_auth_open(&member, channel_name[what], sealed, wire, &n) != HAL_HOST_AUTH_OK);
+    sealed[at] ^= 0x5a;
+    CHECK(hal_host_auth_open(&member, channel_name[(what + 1u) % 3u], sealed, wire, &n) == HAL_HOST_AUTH_BAD_TAG);
+}
+
+int LLVMFuzzerInitialize(int *argc, char ***argv)
+{
+    (void)argc;
+    (void)argv;
+    return hal_host_auth_init();
+}
+
 static void datagram(harness_t *h, unsigned what, const uint8_t *d, size_t len, uint64_t now)
 {
+    mac_check(what, d, len);
     hal_host_msg_reject_t ok[3];
     int accepted = 0;
     for (unsigned t = 0; t < 3; t++) {

@@ -4,8 +4,11 @@
     tools/bench/bench_fleet.py --bin build/release-host-small/bin/host_sim --preset small [--scaling]
 
 Prints `BENCH <name> <value> <unit>` lines:
-  fleet_round_ms_<preset>_<N>proc       median wall time of a DiNNO round, N processes
-                                        (7 always; 14 and 28 with --scaling: the 7 tours reused)
+  fleet_round_ms_<preset>_<N>proc       median wall time of a DiNNO round, N processes, a keyed
+                                        fleet as tools/fleet runs it (7 always; 14 and 28 with
+                                        --scaling: the 7 tours reused)
+  fleet_round_ms_<preset>_7proc_unkeyed the same 7 processes without the key (--no-key), run right
+                                        after: what the datagram MAC costs a round
   fleet_round_compute_ms_<preset>_7     the same 7 models trained in ONE process on 2 threads
                                         (`host_sim fleet --inproc --threads 2`): the round's training compute
   fleet_round_overhead_ms_<preset>_7proc  the difference: what the processes, the network and the
@@ -41,14 +44,15 @@ def run(cmd, **kw):
     return r.stdout
 
 
-def fleet(hs, n, rounds, paths, out, encoding="fp32"):
+def fleet(hs, n, rounds, paths, out, encoding="fp32", keyed=True):
     """n processes through the launcher; returns (median round ms, mean bytes sent per round)."""
+    name = f"n{n}-{encoding}" + ("" if keyed else "-unkeyed")
     run([os.path.join(ROOT, "tools/fleet"), "--bin", hs, "--robots", str(n), "--rounds", str(rounds),
-         "--paths", paths, "--results", out, "--name", f"n{n}-{encoding}", "--encoding", encoding,
-         "--val-every", str(rounds), "--val-poses", "1", "--no-report"])
+         "--paths", paths, "--results", out, "--name", name, "--encoding", encoding,
+         "--val-every", str(rounds), "--val-poses", "1", "--no-report"] + ([] if keyed else ["--no-key"]))
     walls, sent = [], []
     for i in range(n):
-        with open(os.path.join(out, f"n{n}-{encoding}", f"robot_{i}", "traffic.csv")) as f:
+        with open(os.path.join(out, name, f"robot_{i}", "traffic.csv")) as f:
             rows = list(csv.DictReader(f))
         walls += [float(r["wall_ms"]) for r in rows[2:-2]]
         sent += [float(r["bytes_sent"]) for r in rows]
@@ -87,6 +91,9 @@ def main():
     try:
         ms7, bytes32 = fleet(a.bin, 7, rounds, PATHS, tmp)
         bench(f"fleet_round_ms_{a.preset}_7proc", ms7, "ms")
+        ms7u, _ = fleet(a.bin, 7, rounds, PATHS, tmp, keyed=False)
+        bench(f"fleet_round_ms_{a.preset}_7proc_unkeyed", ms7u, "ms")
+        bench(f"fleet_round_keyed_cost_{a.preset}_7proc", 100.0 * (ms7 - ms7u) / ms7u, "%")
         comp = inproc_round_ms(a.bin, rounds, tmp)
         bench(f"fleet_round_compute_ms_{a.preset}_7", comp, "ms")
         bench(f"fleet_round_overhead_ms_{a.preset}_7proc", ms7 - comp, "ms")
