@@ -25,16 +25,25 @@ static bbox_t poly_bbox(const sim_poly_t *p)
     return b;
 }
 
+/* Free space (rooms, doors) is closed: a point within this of a room's or a door's edge is in
+ * it. Two rooms share an edge (an opening without a door, or a T-junction of three rooms)
+ * and each computes it from its own vertices: a point on it could fall, by rounding, between
+ * the two and in neither, and a line of such cells closes a doorway. 1 um is far above the
+ * rounding of any coordinate within the plan limits (10 km) and far below any drawing detail.
+ * Solids stay half-open (sim_poly_contains): a wall grows by nothing. */
+#define FREE_EDGE_TOL_M 1e-6
+
 int sim_plan_classify_point(const sim_plan_t *plan, double x, double y)
 {
     for (int i = 0; i < plan->n_solids; i++)
         if (sim_poly_contains(&plan->solids[i].outline, x, y))
             return SIM_CELL_WALL;
     for (int i = 0; i < plan->n_rooms; i++)
-        if (sim_poly_contains(&plan->rooms[i].outline, x, y))
+        if (sim_poly_covers(&plan->rooms[i].outline, x, y, FREE_EDGE_TOL_M))
             return SIM_CELL_FREE;
     for (int i = 0; i < plan->n_openings; i++)
-        if (plan->openings[i].kind == SIM_OPENING_DOOR && sim_poly_contains(&plan->openings[i].outline, x, y))
+        if (plan->openings[i].kind == SIM_OPENING_DOOR &&
+            sim_poly_covers(&plan->openings[i].outline, x, y, FREE_EDGE_TOL_M))
             return SIM_CELL_FREE;
     return SIM_CELL_OUTSIDE;
 }
@@ -92,9 +101,10 @@ void sim_grid_cell_centre(const sim_grid_t *grid, int col, int row, double *x, d
         *y = grid->origin.y + (row + 0.5) * grid->res;
 }
 
-/* Sets every cell whose centre is inside `poly` to `value` (only cells whose current value is
- * in `from_mask`, a bit set over SIM_CELL_* values). Walks the polygon's bounding box only. */
-static void fill_poly(sim_grid_t *g, const sim_poly_t *poly, int value, unsigned from_mask)
+/* Sets every cell whose centre is inside `poly` (closed: or within FREE_EDGE_TOL_M of its
+ * boundary) to `value` (only cells whose current value is in `from_mask`, a bit set over
+ * SIM_CELL_* values). Walks the polygon's bounding box only. */
+static void fill_poly(sim_grid_t *g, const sim_poly_t *poly, int value, unsigned from_mask, int closed)
 {
     bbox_t b = poly_bbox(poly);
     int c0 = (int)floor((b.x0 - g->origin.x) / g->res) - 1, c1 = (int)ceil((b.x1 - g->origin.x) / g->res) + 1;
@@ -110,7 +120,7 @@ static void fill_poly(sim_grid_t *g, const sim_poly_t *poly, int value, unsigned
                 continue;
             double x, y;
             sim_grid_cell_centre(g, c, r, &x, &y);
-            if (sim_poly_contains(poly, x, y))
+            if (closed ? sim_poly_covers(poly, x, y, FREE_EDGE_TOL_M) : sim_poly_contains(poly, x, y))
                 *cell = (uint8_t)value;
         }
 }
@@ -134,12 +144,12 @@ int sim_grid_from_plan(const sim_plan_t *plan, double res_m, sim_grid_t *grid)
     /* Same precedence as sim_plan_classify_point: solid over room/door over outside. */
     const unsigned OUT = 1u << SIM_CELL_OUTSIDE, FREE = 1u << SIM_CELL_FREE;
     for (int i = 0; i < plan->n_rooms; i++)
-        fill_poly(grid, &plan->rooms[i].outline, SIM_CELL_FREE, OUT);
+        fill_poly(grid, &plan->rooms[i].outline, SIM_CELL_FREE, OUT, 1);
     for (int i = 0; i < plan->n_openings; i++)
         if (plan->openings[i].kind == SIM_OPENING_DOOR)
-            fill_poly(grid, &plan->openings[i].outline, SIM_CELL_FREE, OUT);
+            fill_poly(grid, &plan->openings[i].outline, SIM_CELL_FREE, OUT, 1);
     for (int i = 0; i < plan->n_solids; i++)
-        fill_poly(grid, &plan->solids[i].outline, SIM_CELL_WALL, OUT | FREE);
+        fill_poly(grid, &plan->solids[i].outline, SIM_CELL_WALL, OUT | FREE, 0);
     return 0;
 }
 

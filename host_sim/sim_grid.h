@@ -1,16 +1,21 @@
 /* Ground-truth occupancy grid: a floor plan rasterised at a fixed resolution.
  *
  * Cell rule (cell centres, not coverage): a cell is
- *   SIM_CELL_WALL    when its centre lies inside a solid (wall minus door openings),
- *   SIM_CELL_FREE    otherwise, when its centre lies inside a room polygon or a door opening,
+ *   SIM_CELL_WALL    when its centre lies inside a solid (wall minus door openings, or a
+ *                    railing), a point on a solid's edge decided by sim_poly_contains's
+ *                    half-open rule,
+ *   SIM_CELL_FREE    otherwise, when its centre lies inside or on the edge (within 1 um) of
+ *                    a room polygon or a door opening, so a centre on an edge two rooms
+ *                    share is free whatever the rounding,
  *   SIM_CELL_OUTSIDE otherwise (outside the building or in an unlabelled gap).
  * Centre sampling means a solid thinner than one cell may fall between centres; use a
  * resolution at most half the thinnest wall (0.05 m for 10 cm walls) for a closed raster.
  *
  * Layout: row-major, cells[row * w + col]; column c spans x in [origin.x + c*res,
  * origin.x + (c+1)*res), row r spans y likewise (rows grow with y, which points DOWN the SVG
- * drawing, so row 0 is the top of an image written as is). The grid covers the plan's wall
- * bounding box: origin = plan->min, w = ceil(width / res), h = ceil(height / res).
+ * drawing, so row 0 is the top of an image written as is). The grid covers the plan's
+ * bounding box (walls and railings): origin = plan->min, w = ceil(width / res),
+ * h = ceil(height / res).
  * Not thread-safe per grid. Allocates (host side). */
 #ifndef SIM_GRID_H
 #define SIM_GRID_H

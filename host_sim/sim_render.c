@@ -244,7 +244,8 @@ int sim_render_rgb(const sim_render_scene_t *scene, const sim_render_cfg_t *cfg,
     glColor3f(0.82f, 0.84f, 0.90f);
     for (int i = 0; i < plan->n_solids; i++)
         if (plan->solids[i].outline.n >= 3 && plan->solids[i].outline.n <= SIM_POLY_MAX_POINTS)
-            draw_prism(&plan->solids[i].outline, 0.0, wall_h);
+            draw_prism(&plan->solids[i].outline, 0.0,
+                       plan->solids[i].height > 0.0 ? fmin(plan->solids[i].height, wall_h) : wall_h);
 
     /* Robots. */
     for (int i = 0; i < scene->n_robots; i++)

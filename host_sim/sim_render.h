@@ -1,10 +1,11 @@
 /* Offscreen 3D picture of a host_sim scene, rendered with OSMesa (no display needed) and
  * legacy OpenGL 1.x immediate mode, saved as PNG.
  *
- * Scene: the floor (room outlines tinted), walls = plan solids extruded to wall_height with
- * one directional light, robots as chassis boxes with wheels and a heading mark, paths as
- * coloured polylines just above the floor, and at most one lidar sweep drawn as rays from
- * the sensor to their hits (red) or to max range (faint) for beams without a hit.
+ * Scene: the floor (room outlines tinted), walls = plan solids extruded to wall_height (a
+ * railing to its own height, when lower) with one directional light, robots as chassis
+ * boxes with wheels and a heading mark, paths as coloured polylines just above the floor,
+ * and at most one lidar sweep drawn as rays from the sensor to their hits (red) or to max
+ * range (faint) for beams without a hit.
  * Camera: perspective (fov_deg), looking at the plan centre from azimuth_deg (0 = from +x,
  * -90 = from the south) and elevation_deg above the floor, at the distance that fits the
  * plan's bounding box in the view.

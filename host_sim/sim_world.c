@@ -144,7 +144,7 @@ sim_robot_params_t sim_robot_default_params(void)
 static int pos(double v) { return isfinite(v) && v > 0.0; }
 
 /* ---- walls ------------------------------------------------------------------------------- */
-static int add_box_wall(sim_world_t *w, const sim_poly_t *o)
+static int add_box_wall(sim_world_t *w, const sim_poly_t *o, double height)
 {
     /* Rectangle: centre = mean of the corners, sides from two consecutive edges. */
     double cx = 0, cy = 0;
@@ -157,8 +157,8 @@ static int add_box_wall(sim_world_t *w, const sim_poly_t *o)
     double la = hypot(ax, ay), lb = hypot(bx, by);
     if (!(la > 1e-9 && lb > 1e-9))
         return -EINVAL;
-    dGeomID g = dCreateBox(w->walls, la, lb, w->cfg.wall_height);
-    dGeomSetPosition(g, cx, cy, 0.5 * w->cfg.wall_height);
+    dGeomID g = dCreateBox(w->walls, la, lb, height);
+    dGeomSetPosition(g, cx, cy, 0.5 * height);
     dMatrix3 R;
     dRFromAxisAndAngle(R, 0, 0, 1, atan2(ay, ax));
     dGeomSetRotation(g, R);
@@ -167,7 +167,7 @@ static int add_box_wall(sim_world_t *w, const sim_poly_t *o)
     return 0;
 }
 
-static int add_mesh_wall(sim_world_t *w, const sim_poly_t *o)
+static int add_mesh_wall(sim_world_t *w, const sim_poly_t *o, double height)
 {
     int n = o->n;
     int tris[SIM_POLY_MAX_POINTS][3];
@@ -190,7 +190,7 @@ static int add_mesh_wall(sim_world_t *w, const sim_poly_t *o)
         b[0] = t[0] = q->x;
         b[1] = t[1] = q->y;
         b[2] = 0.0;
-        t[2] = w->cfg.wall_height;
+        t[2] = height;
     }
     int k = 0;
     for (int i = 0; i < nt; i++) {
@@ -308,8 +308,11 @@ int sim_world_create(const sim_plan_t *plan, const sim_world_cfg_t *cfg, sim_wor
                      SIM_POLY_MAX_POINTS);
             return -EINVAL;
         }
-        rc = (s->is_rect && s->outline.n == 4) ? add_box_wall(w, &s->outline)
-                                                : add_mesh_wall(w, &s->outline);
+        /* A solid of its own height (a railing) is no higher than the walls, so a world of
+         * low walls (a cut-away) stays one level. */
+        double h = s->height > 0.0 ? fmin(s->height, c.wall_height) : c.wall_height;
+        rc = (s->is_rect && s->outline.n == 4) ? add_box_wall(w, &s->outline, h)
+                                                : add_mesh_wall(w, &s->outline, h);
         if (rc < 0) {
             sim_world_destroy(w);
             snprintf(err, errlen, "solid %d: %s", i,

@@ -6,7 +6,8 @@
  * floor, theta = heading of its +x (forward) axis, CCW from world +x.
  *
  * Geometry (see sim_world.c for the why):
- *   - every plan->solids[i] becomes a static geom from z = 0 to wall_height: a dBox when the
+ *   - every plan->solids[i] becomes a static geom from z = 0 to wall_height (to its own
+ *     height when it has one, e.g. a railing's 1 m, capped at wall_height): a dBox when the
  *     solid is a rectangle, otherwise an extruded-polygon trimesh (ear-clipped caps + side
  *     quads); all walls live in one quadtree space sized to the plan (sim_world_walls());
  *   - a robot: chassis box (base_length x base_width x base_height) whose centre is

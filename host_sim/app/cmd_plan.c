@@ -18,8 +18,9 @@ static void plan_usage(FILE *out)
             "\n"
             "  host_sim plan check FILE [--scale S]\n"
             "      parse a floor plan (CubiCasa5K model.svg structure), print its size in metres,\n"
-            "      walls, rooms with their types, openings and solids; exit 1 with FILE:LINE: reason;\n"
-            "      an opening over no wall is a FILE:LINE: warning on stderr (the plan still loads)\n"
+            "      walls, rooms with their types, openings and solids; exit 1 with FILE:LINE:COL: reason\n"
+            "      (FILE: reason when the file cannot be read); an opening over no wall is a\n"
+            "      FILE:LINE:COL: warning on stderr (the plan still loads)\n"
             "  host_sim plan gen --seed N --out FILE [--rooms R]\n"
             "      write a procedural floor plan (R rooms besides the corridor, %d..%d, default 6)\n"
             "  host_sim plan grid FILE --res M --out FILE.png|FILE.pgm [--scale S]\n"
@@ -79,8 +80,9 @@ static int plan_check(int argc, char **argv)
     printf("rooms: %d\n", plan.n_rooms);
     for (int i = 0; i < plan.n_rooms; i++) {
         const sim_room_t *r = &plan.rooms[i];
-        printf("  room %d: %-12s area %6.2f m^2 (line %d)\n", i, r->type,
-               fabs(sim_poly_signed_area(&r->outline)), r->line);
+        printf("  room %d: %-12s area %6.2f m^2 (at %d:%d%s%s%s)\n", i, r->type,
+               fabs(sim_poly_signed_area(&r->outline)), r->line, r->col, r->id[0] ? ", id \"" : "", r->id,
+               r->id[0] ? "\"" : "");
     }
     printf("openings: %d (doors %d, windows %d)\n", plan.n_openings, doors, windows);
     printf("solids: %d (rectangles %d)\n", plan.n_solids, rects);

@@ -253,6 +253,9 @@ static void test_inputs_and_options(void **st)
     assert_true(HS(-1, "fleet", "--inproc", "--plan", g_plan, "--paths", g_paths, "--robots", "1", "--rounds", "1",
                    "--strategy", "kl", "--graph", "full", "--seed", "1", "--out", p, "--valset", g_dir) != 0);
     expect_err(g_dir, "Is a directory");
+    /* A plan that is not there: its path and the reason, no line (there is no text). */
+    assert_int_equal(HS(-1, "plan", "check", "/nonexistent.svg"), 1);
+    expect_err("/nonexistent.svg: cannot open: No such file or directory\n", NULL);
     /* An unknown option given last is unknown, not "needs a value". */
     assert_int_equal(HS(-1, "scan", "--plan", g_plan, "--bogus"), 2);
     expect_err("unknown option '--bogus'", NULL);

@@ -1,5 +1,6 @@
 /* Floor-plan parser: good inputs (point syntaxes, nesting, room types, scale), every class of
- * bad input with its line number, door cutting geometry, openings nested in their wall or
+ * bad input with its line and column (and the element's id, on a one-line CubiCasa-style
+ * plan), file faults, door cutting geometry, openings nested in their wall or
  * sibling to it (same geometry, warnings for openings over no wall), normalisation, and the
  * default plan. */
 #include <setjmp.h>
@@ -11,6 +12,7 @@
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
+#include <unistd.h>
 #include <cmocka.h>
 
 #include "alloc_count.h"
@@ -49,15 +51,23 @@ static void test_good_plan(void **state)
     assert_int_equal(p.n_walls, 2);
     assert_int_equal(p.walls[0].outline.n, 4);
     assert_int_equal(p.walls[0].line, 5);
+    assert_int_equal(p.walls[0].col, 3);
+    assert_string_equal(p.walls[0].id, "Wall");
     assert_int_equal(p.walls[1].line, 11);
+    assert_int_equal(p.walls[1].col, 17);
+    assert_string_equal(p.walls[1].id, "");
     assert_int_equal(p.n_openings, 2);
     assert_int_equal(p.openings[0].kind, SIM_OPENING_DOOR);
     assert_int_equal(p.openings[0].wall, 0);
     assert_int_equal(p.openings[0].line, 6);
+    assert_int_equal(p.openings[0].col, 35);
+    assert_string_equal(p.openings[0].id, "Door");
     assert_int_equal(p.openings[0].isolated, 0);
     assert_int_equal(sim_plan_warnings(&p, "good.svg", NULL), 0);
     assert_int_equal(p.openings[1].kind, SIM_OPENING_WINDOW);
     assert_int_equal(p.openings[1].line, 8);
+    assert_int_equal(p.openings[1].col, 5);
+    assert_string_equal(p.openings[1].id, "Window");
     assert_true(fabs(p.openings[0].outline.p[1].x - 3.0) < 1e-12);
     assert_true(fabs(p.openings[1].outline.p[2].y - 0.2) < 1e-12);
     assert_int_equal(p.n_rooms, 2);
@@ -106,16 +116,16 @@ static void test_point_forms(void **state)
     sim_plan_free(&p);
 }
 
-/* Expect failure with "name:LINE: ..." containing `what`. */
-static void expect_error(const char *text, int line, const char *what)
+/* Expect failure with "name:LINE:COL: ..." containing `what`. */
+static void expect_error(const char *text, int line, int col, const char *what)
 {
     sim_plan_t p;
     char err[256], prefix[64];
     memset(&p, 0x5a, sizeof p);
     int rc = sim_plan_parse(text, "bad.svg", 0.0, &p, err, sizeof err);
     if (rc >= 0)
-        fail_msg("accepted, expected error at line %d (%s)", line, what);
-    snprintf(prefix, sizeof prefix, "bad.svg:%d: ", line);
+        fail_msg("accepted, expected error at %d:%d (%s)", line, col, what);
+    snprintf(prefix, sizeof prefix, "bad.svg:%d:%d: ", line, col);
     if (strncmp(err, prefix, strlen(prefix)) != 0 || strstr(err, what) == NULL)
         fail_msg("message '%s', expected prefix '%s' and '%s'", err, prefix, what);
     /* The plan is left empty. */
@@ -131,40 +141,40 @@ static void expect_error(const char *text, int line, const char *what)
 static void test_bad_inputs(void **state)
 {
     (void)state;
-    expect_error("", 1, "no <svg> root");
-    expect_error("<?xml version=\"1.0\"?>\n<!-- only -->\n\n", 4, "no <svg> root");
-    expect_error("<?xml version=\"1.0\"?>\n<html>\n</html>\n", 2, "not an SVG file");
-    expect_error(HEAD "<g class=\"Wall\"><polygon points=\"0,0 1x0,0 100,10 0,10\"/></g>\n</svg>\n", 3,
+    expect_error("", 1, 1, "no <svg> root");
+    expect_error("<?xml version=\"1.0\"?>\n<!-- only -->\n\n", 4, 1, "no <svg> root");
+    expect_error("<?xml version=\"1.0\"?>\n<html>\n</html>\n", 2, 1, "not an SVG file");
+    expect_error(HEAD "<g class=\"Wall\"><polygon points=\"0,0 1x0,0 100,10 0,10\"/></g>\n</svg>\n", 3, 38,
                  "bad number '1x0'");
-    expect_error(HEAD "<g class=\"Wall\"><polygon points=\"0,0 100,0\n100,10 0,nan\"/></g>\n</svg>\n", 4,
+    expect_error(HEAD "<g class=\"Wall\"><polygon points=\"0,0 100,0\n100,10 0,nan\"/></g>\n</svg>\n", 4, 10,
                  "bad number 'nan'");
-    expect_error(HEAD "<g class=\"Wall\">\n<polygon points=\"0,0 100,0 100,10 0\"/></g>\n</svg>\n", 4,
+    expect_error(HEAD "<g class=\"Wall\">\n<polygon points=\"0,0 100,0 100,10 0\"/></g>\n</svg>\n", 4, 18,
                  "odd number of coordinates");
-    expect_error(HEAD "<g class=\"Wall\"><polygon points=\"0,0 100,0\"/></g>\n</svg>\n", 3, "degenerate");
-    expect_error(HEAD "<g class=\"Wall\"><polygon points=\"0,0 100,0 100,0 0,0\"/></g>\n</svg>\n", 3,
+    expect_error(HEAD "<g class=\"Wall\"><polygon points=\"0,0 100,0\"/></g>\n</svg>\n", 3, 34, "degenerate");
+    expect_error(HEAD "<g class=\"Wall\"><polygon points=\"0,0 100,0 100,0 0,0\"/></g>\n</svg>\n", 3, 34,
                  "degenerate");
-    expect_error(HEAD "<g class=\"Wall\"><polygon points=\"0,0 100,0 200,0 50,0\"/></g>\n</svg>\n", 3,
+    expect_error(HEAD "<g class=\"Wall\"><polygon points=\"0,0 100,0 200,0 50,0\"/></g>\n</svg>\n", 3, 34,
                  "zero area");
-    expect_error(HEAD "\n<g class=\"Wall\"><polygon points=\"0,0 100,0 100,10 0,10\"/>\n</svg>\n", 4,
+    expect_error(HEAD "\n<g class=\"Wall\"><polygon points=\"0,0 100,0 100,10 0,10\"/>\n</svg>\n", 4, 1,
                  "<g> is never closed");
-    expect_error(HEAD WALL_OK "<g>\n<g class=\"Space Bath\">\n", 5, "<g> is never closed");
-    expect_error(HEAD "<g class=\"Wall\"><polygon points=\"0,0 100,0 100,10 0,10\n\n/></g>\n</svg>\n", 3,
+    expect_error(HEAD WALL_OK "<g>\n<g class=\"Space Bath\">\n", 5, 1, "<g> is never closed");
+    expect_error(HEAD "<g class=\"Wall\"><polygon points=\"0,0 100,0 100,10 0,10\n\n/></g>\n</svg>\n", 3, 33,
                  "unclosed quote");
-    expect_error(HEAD WALL_OK "<polygon points='1 2 3 4 5 6'", 4, "unclosed tag <polygon>");
-    expect_error(HEAD "<!-- never\nends\n", 3, "unclosed comment");
-    expect_error(HEAD "<g class=\"Space Bath\"><polygon points=\"0,0 100,0 100,10 0,10\"/></g>\n</svg>\n", 2,
+    expect_error(HEAD WALL_OK "<polygon points='1 2 3 4 5 6'", 4, 1, "unclosed tag <polygon>");
+    expect_error(HEAD "<!-- never\nends\n", 3, 1, "unclosed comment");
+    expect_error(HEAD "<g class=\"Space Bath\"><polygon points=\"0,0 100,0 100,10 0,10\"/></g>\n</svg>\n", 2, 1,
                  "no walls");
-    expect_error(HEAD "<g class=\"Wall\">\n</g>\n</svg>\n", 3, "Wall group has no polygon");
-    expect_error(HEAD "<g class=\"Wall\"><polygon points=\"0,0 1e9,0 1e9,10 0,10\"/></g>\n</svg>\n", 3,
+    expect_error(HEAD "<g class=\"Wall\">\n</g>\n</svg>\n", 3, 1, "Wall group has no polygon");
+    expect_error(HEAD "<g class=\"Wall\"><polygon points=\"0,0 1e9,0 1e9,10 0,10\"/></g>\n</svg>\n", 3, 34,
                  "absurd");
-    expect_error(HEAD "<g class=\"Wall\"><polygon points=\"0,0 300000,0 300000,10 0,10\"/></g>\n</svg>\n", 3,
+    expect_error(HEAD "<g class=\"Wall\"><polygon points=\"0,0 300000,0 300000,10 0,10\"/></g>\n</svg>\n", 3, 17,
                  "absurd plan size");
-    expect_error(HEAD "<g class=\"Wall\"><polygon points=\"0,0 1,0 1,1 0,1\"/></g>\n</svg>\n", 3,
+    expect_error(HEAD "<g class=\"Wall\"><polygon points=\"0,0 1,0 1,1 0,1\"/></g>\n</svg>\n", 3, 17,
                  "absurd plan size");
-    expect_error(HEAD WALL_OK "<g class=Wall></g></svg>\n", 4, "not quoted");
-    expect_error(HEAD WALL_OK "</svg>\n<g/>\n", 5, "after the end");
-    expect_error(HEAD WALL_OK "</g>\n", 4, "matches no open element");
-    expect_error(HEAD WALL_OK "<g>\n<g>\n</x>\n", 6, "matches no open element");
+    expect_error(HEAD WALL_OK "<g class=Wall></g></svg>\n", 4, 10, "not quoted");
+    expect_error(HEAD WALL_OK "</svg>\n<g/>\n", 5, 1, "after the end");
+    expect_error(HEAD WALL_OK "</g>\n", 4, 1, "matches no open element");
+    expect_error(HEAD WALL_OK "<g>\n<g>\n</x>\n", 6, 1, "matches no open element");
     /* Too many points: 65 distinct points. */
     char big[4096];
     int k = snprintf(big, sizeof big, HEAD "<g class=\"Wall\">\n<polygon points=\"");
@@ -173,7 +183,127 @@ static void test_bad_inputs(void **state)
         k += snprintf(big + k, sizeof big - (size_t)k, "%.3f,%.3f ", 500 + 400 * cos(a), 500 + 400 * sin(a));
     }
     snprintf(big + k, sizeof big - (size_t)k, "\"/></g></svg>\n");
-    expect_error(big, 4, "too many points");
+    expect_error(big, 4, 18, "too many points");
+}
+
+/* Column of `what` (its first occurrence) in its line of `text`, 1-based. */
+static int col_of(const char *text, const char *what)
+{
+    const char *p = strstr(text, what);
+    assert_non_null(p);
+    const char *line = p;
+    while (line > text && line[-1] != '\n')
+        line--;
+    return (int)(p - line) + 1;
+}
+
+static void expect_message(const char *text, const char *want)
+{
+    sim_plan_t p;
+    char err[512];
+    assert_true(sim_plan_parse(text, "plan.svg", 0.0, &p, err, sizeof err) < 0);
+    if (strcmp(err, want) != 0)
+        fail_msg("message '%s', expected '%s'", err, want);
+}
+
+/* CubiCasa5K writes a whole plan on one line: errors name the column, and the element's id
+ * when it has one (the polygon's own, not its group's); warnings likewise. */
+#define ONE_LINE_HEAD "<?xml version=\"1.0\"?>\n<svg xmlns=\"http://www.w3.org/2000/svg\">" \
+                      "<g id=\"Wall_1\" class=\"Wall External\"><polygon points=\"0,0 1000,0 1000,20 0,20\"/></g>"
+static void test_error_places_on_one_line(void **state)
+{
+    (void)state;
+    char want[512];
+    const char *t =
+        ONE_LINE_HEAD "<g class=\"Wall\"><polygon id=\"Wall_12\" points=\"0,20 20,20 20,50O 0,500\"/></g></svg>";
+    snprintf(want, sizeof want, "plan.svg:2:%d: polygon id=\"Wall_12\": bad number '50O' in points", col_of(t, "50O"));
+    expect_message(t, want);
+    t = ONE_LINE_HEAD "<g class=\"Wall\"><polygon id=\"Wall_13\" points=\"0,20 20,20 20,500\n\n 0\"/></g></svg>";
+    snprintf(want, sizeof want, "plan.svg:2:%d: polygon id=\"Wall_13\": odd number of coordinates (7) in points",
+             col_of(t, "0,20 20,20 20,500"));
+    expect_message(t, want);
+    /* No id: no element named. */
+    t = ONE_LINE_HEAD "<g class=\"Wall\"><polygon points=\"0,20 20,20 20,x 0,500\"/></g></svg>";
+    snprintf(want, sizeof want, "plan.svg:2:%d: bad number 'x' in points", col_of(t, "x 0,500"));
+    expect_message(t, want);
+    t = ONE_LINE_HEAD "<g id=\"Door_3\" class=\"Door\"></g></svg>";
+    snprintf(want, sizeof want, "plan.svg:2:%d: g id=\"Door_3\": Door group has no polygon",
+             col_of(t, "<g id=\"Door_3\""));
+    expect_message(t, want);
+    t = ONE_LINE_HEAD "<svg:g id='F1' transform='scale(0)'></svg:g></svg>";
+    snprintf(want, sizeof want, "plan.svg:2:%d: svg:g id=\"F1\": degenerate transform (zero determinant)",
+             col_of(t, "scale(0)"));
+    expect_message(t, want);
+    t = ONE_LINE_HEAD "<g id=\"G7\"></svg>";
+    snprintf(want, sizeof want, "plan.svg:2:%d: g id=\"G7\": <g> is never closed (found </svg> at 2:%d)",
+             col_of(t, "<g id=\"G7\""), col_of(t, "</svg>"));
+    expect_message(t, want);
+    /* An id is quoted up to SIM_PLAN_ID_MAX - 1 bytes, in messages and records alike. */
+    char big[1024], id[101];
+    memset(id, 'a', 100);
+    id[100] = '\0';
+    snprintf(big, sizeof big, ONE_LINE_HEAD "<g class=\"Wall\"><polygon id=\"%s\" points=\"0,20 20,20\"/></g></svg>",
+             id);
+    snprintf(want, sizeof want,
+             "plan.svg:2:%d: polygon id=\"%.*s\": degenerate polygon: 2 distinct points, at least 3 needed",
+             col_of(big, "0,20 20,20"), SIM_PLAN_ID_MAX - 1, id);
+    expect_message(big, want);
+
+    /* Records: the group's id, else the polygon's; the polygon's place. Warnings name both. */
+    snprintf(big, sizeof big,
+             ONE_LINE_HEAD "<g class=\"Wall\"><polygon id=\"%s\" points=\"0,20 20,20 20,500 0,500\"/></g>"
+                           "<g id=\"D9\" class=\"Door\"><polygon points=\"200,100 290,100 290,120 200,120\"/></g>"
+                           "<g class=\"Window\"><polygon points=\"600,150 700,150 700,160 600,160\"/></g></svg>",
+             id);
+    sim_plan_t p;
+    char err[256];
+    assert_int_equal(sim_plan_parse(big, "plan.svg", 0.0, &p, err, sizeof err), 0);
+    assert_string_equal(p.walls[0].id, "Wall_1");
+    assert_int_equal(p.walls[0].line, 2);
+    assert_int_equal(p.walls[0].col, col_of(big, "<polygon points=\"0,0 1000,0"));
+    assert_int_equal((int)strlen(p.walls[1].id), SIM_PLAN_ID_MAX - 1);
+    assert_true(strncmp(p.walls[1].id, id, SIM_PLAN_ID_MAX - 1) == 0);
+    char *buf = NULL;
+    size_t len = 0;
+    FILE *out = open_memstream(&buf, &len);
+    assert_non_null(out);
+    assert_int_equal(sim_plan_warnings(&p, "plan.svg", out), 2);
+    fclose(out);
+    snprintf(want, sizeof want,
+             "plan.svg:2:%d: warning: Door id=\"D9\" overlaps no wall, it cuts nothing\n"
+             "plan.svg:2:%d: warning: Window overlaps no wall, it cuts nothing\n",
+             col_of(big, "<polygon points=\"200,100"), col_of(big, "<polygon points=\"600,150"));
+    assert_string_equal(buf, want);
+    free(buf);
+    sim_plan_free(&p);
+}
+
+/* Faults of the file itself are "FILE: reason"; a NUL byte is a place in it. */
+static void test_load_errors(void **state)
+{
+    (void)state;
+    sim_plan_t p;
+    char err[256], dir[] = "/tmp/fleetsim-plan-XXXXXX", path[64];
+    assert_true(sim_plan_load("/nonexistent.svg", 0.0, &p, err, sizeof err) == -ENOENT);
+    assert_string_equal(err, "/nonexistent.svg: cannot open: No such file or directory");
+    assert_null(p.walls);
+    assert_non_null(mkdtemp(dir));
+    assert_true(sim_plan_load(dir, 0.0, &p, err, sizeof err) == -EISDIR);
+    snprintf(path, sizeof path, "%s: cannot open: Is a directory", dir);
+    assert_string_equal(err, path);
+    snprintf(path, sizeof path, "%s/nul.svg", dir);
+    FILE *f = fopen(path, "wb");
+    assert_non_null(f);
+    assert_int_equal(fwrite("<svg>\n<g>\0</g>", 1, 15, f), 15);
+    fclose(f);
+    assert_int_equal(sim_plan_load(path, 0.0, &p, err, sizeof err), -EINVAL);
+    assert_non_null(strstr(err, ":2:4: NUL byte in the file"));
+    assert_true(strncmp(err, path, strlen(path)) == 0);
+    assert_null(p.walls);
+    assert_int_equal(unlink(path), 0);
+    assert_int_equal(rmdir(dir), 0);
+    assert_true(sim_plan_parse(GOOD, "x.svg", 1e6, &p, err, sizeof err) < 0);
+    assert_string_equal(err, "x.svg: absurd scale 1e+06 metres per pixel");
 }
 
 /* Exactly SIM_POLY_MAX_POINTS points is fine. */
@@ -329,11 +459,11 @@ static void test_transforms(void **state)
     sim_plan_free(&p);
 
     expect_error(HEAD "<g class=\"Wall\"\n transform=\"translate(1,x)\"><polygon points=\"0,0 100,0 100,10 0,10\"/></g></svg>",
-                 4, "bad number 'x' in transform");
-    expect_error(HEAD "<g transform=\"warp(3)\">" WALL_OK "</g></svg>", 3, "bad transform 'warp'");
-    expect_error(HEAD "<g transform=\"scale(1 2 3)\">" WALL_OK "</g></svg>", 3, "wrong argument count");
-    expect_error(HEAD "<g transform=\"translate(1,2\">" WALL_OK "</g></svg>", 3, "unclosed '('");
-    expect_error(HEAD "<g transform=\"scale(0)\">" WALL_OK "</g></svg>", 3, "degenerate transform");
+                 4, 25, "bad number 'x' in transform");
+    expect_error(HEAD "<g transform=\"warp(3)\">" WALL_OK "</g></svg>", 3, 15, "bad transform 'warp'");
+    expect_error(HEAD "<g transform=\"scale(1 2 3)\">" WALL_OK "</g></svg>", 3, 15, "wrong argument count");
+    expect_error(HEAD "<g transform=\"translate(1,2\">" WALL_OK "</g></svg>", 3, 15, "unclosed '('");
+    expect_error(HEAD "<g transform=\"scale(0)\">" WALL_OK "</g></svg>", 3, 15, "degenerate transform");
 }
 
 /* ---- openings wherever they sit in the tree ---------------------------------------------- */
@@ -548,9 +678,9 @@ static void test_opening_over_no_wall_warns(void **state)
     assert_non_null(out);
     assert_int_equal(sim_plan_warnings(&p, "lone.svg", out), 3);
     fclose(out);
-    assert_string_equal(buf, "lone.svg:7: warning: Window overlaps no wall, it cuts nothing\n"
-                             "lone.svg:10: warning: Door overlaps no wall, it cuts nothing\n"
-                             "lone.svg:14: warning: Window overlaps no wall, it cuts nothing\n");
+    assert_string_equal(buf, "lone.svg:7:21: warning: Window overlaps no wall, it cuts nothing\n"
+                             "lone.svg:10:3: warning: Door overlaps no wall, it cuts nothing\n"
+                             "lone.svg:14:21: warning: Window overlaps no wall, it cuts nothing\n");
     free(buf);
     sim_plan_free(&p);
 }
@@ -689,7 +819,7 @@ static void test_load_default_plan(void **state)
     sim_plan_free(&p);
 
     assert_true(sim_plan_load("no/such/file.svg", 0.0, &p, err, sizeof err) < 0);
-    assert_non_null(strstr(err, "no/such/file.svg:0: No such file or directory"));
+    assert_string_equal(err, "no/such/file.svg: cannot open: No such file or directory");
 }
 
 int main(void)
@@ -699,6 +829,8 @@ int main(void)
         cmocka_unit_test(test_scale),
         cmocka_unit_test(test_point_forms),
         cmocka_unit_test(test_bad_inputs),
+        cmocka_unit_test(test_error_places_on_one_line),
+        cmocka_unit_test(test_load_errors),
         cmocka_unit_test(test_max_points),
         cmocka_unit_test(test_trapezoid_and_nonconvex_walls),
         cmocka_unit_test(test_door_cutting),
