@@ -37,6 +37,12 @@ TIMEOUT = 120
 FAKE = r'''
 import os, signal, sys, time
 args = sys.argv[1:]
+if args[:1] == ["key"]:  # host_sim key new|check FILE
+    if args[1] == "new":
+        fd = os.open(args[2], os.O_WRONLY | os.O_CREAT | os.O_EXCL, 0o600)
+        os.write(fd, b"0" * 64 + b"\n")
+        os.close(fd)
+    sys.exit(0 if os.path.exists(args[2]) else 1)
 opt = lambda name: args[args.index(name) + 1]
 out, me, rounds = opt("--out"), int(opt("--id")), int(opt("--rounds"))
 resume = "--resume" in args
@@ -89,6 +95,11 @@ def restart_then_finish():
             starts = f.read().splitlines()
         check(len(starts) == 2 and not starts[0].endswith("--resume") and starts[1] == starts[0] + " --resume",
               f"robot 1 was started as {starts}")
+        # A keyed fleet by default: the run's own key (0600), and the restart keeps key and run id.
+        key = os.path.join(run_dir, "fleet.key")
+        check(f"--key-file {key} --run-id " in starts[0] and os.stat(key).st_mode & 0o777 == 0o600,
+              f"robot 1 was not started keyed with {key} (0600): {starts[0]}")
+        check(run_json(run_dir).get("keyed") is True, "run.json says the fleet was keyed")
         for i in (0, 2):
             with open(os.path.join(run_dir, f"robot_{i}", "starts.txt")) as f:
                 check(len(f.read().splitlines()) == 1, f"robot {i} was started once")
