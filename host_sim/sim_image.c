@@ -26,6 +26,8 @@ void sim_image_cfg_default(sim_image_cfg_t *cfg)
     cfg->sched = HAL_HOST_SCHED_SERIAL;
     cfg->log_level = HAL_LOG_INFO;
     cfg->ckpt_every = 1;
+    cfg->ckpt_keep = GP_CORE_CKPT_KEEP_DEFAULT;
+    cfg->ckpt_keep_every = GP_CORE_CKPT_KEEP_EVERY_DEFAULT;
 }
 
 static double wall_now(void)
@@ -138,6 +140,8 @@ int sim_image_run(const sim_plan_t *plan, const sim_path_t *path, const sim_imag
     fc.ai.resume_ckpt_bytes = (uint32_t)cfg->resume_ckpt_bytes;
     fc.gp.robot_id = cfg->robot;
     fc.gp.ckpt_every = cfg->ckpt_every;
+    fc.gp.ckpt_keep = cfg->ckpt_keep;
+    fc.gp.ckpt_keep_every = cfg->ckpt_keep_every;
     if (cfg->fleet != NULL) {
         fc.gp.peers = &gp_fleet_peers_ops;
         fc.gp.peers_ctx = &image_fleet;

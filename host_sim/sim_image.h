@@ -62,6 +62,8 @@ typedef struct sim_image_cfg {
     hal_host_sched_t sched;
     hal_log_level_t log_level;
     uint32_t ckpt_every;         /* round checkpoints every N rounds (1: all; 0: final only) */
+    uint32_t ckpt_keep;          /* the newest K kept (0: all) ... */
+    uint32_t ckpt_keep_every;    /* ... and every M-th (gp_core_cfg_t; defaults 5 and 100) */
     uint32_t start_round;        /* first round to run (0: a fresh run; < rounds) */
     const uint8_t *resume_ckpt;  /* NULL, or the checkpoint (bnn_ckpt) the model starts from */
     size_t resume_ckpt_bytes;

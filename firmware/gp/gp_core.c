@@ -17,6 +17,8 @@ gp_core_cfg_t gp_core_default_cfg(void)
     memset(&c, 0, sizeof c);
     c.telemetry_every = 10;
     c.ckpt_every = 1;
+    c.ckpt_keep = GP_CORE_CKPT_KEEP_DEFAULT;
+    c.ckpt_keep_every = GP_CORE_CKPT_KEEP_EVERY_DEFAULT;
     return c;
 }
 
@@ -117,6 +119,26 @@ static void coordinate(gp_core_t *gp, uint64_t now_us)
     gp->stats.rounds_coordinated++;
 }
 
+/* Round k's checkpoint is written: the one ckpt_keep checkpoints before it falls out of the
+ * newest, and goes unless it is one of the every-ckpt_keep_every kept for good. A robot that
+ * skipped rounds may leave a few older ones behind (never more than ckpt_keep per skip). */
+static void drop_old_ckpt(gp_core_t *gp, uint32_t k)
+{
+    const uint64_t span = (uint64_t)gp->cfg.ckpt_keep * gp->cfg.ckpt_every;
+    if (gp->cfg.ckpt_keep == 0 || k < span)
+        return;
+    const uint32_t old = k - (uint32_t)span;
+    if (gp->cfg.ckpt_keep_every > 0 && (old + 1u) % gp->cfg.ckpt_keep_every == 0)
+        return;
+    char name[HAL_STORAGE_NAME_MAX];
+    gp_core_ckpt_name(old, name, sizeof name);
+    const int r = hal_storage_remove(name);
+    if (r == 0)
+        gp->stats.ckpt_removed++;
+    else if (r != -ENOENT) /* not written (skipped, resumed past it): nothing to do */
+        hal_log(HAL_LOG_WARN, "cannot remove %s: %d", name, r);
+}
+
 static void handle_ckpt(gp_core_t *gp, uint64_t now_us)
 {
     if (mbox_fetch(gp->link->ai_ckpt) != 1)
@@ -131,6 +153,8 @@ static void handle_ckpt(gp_core_t *gp, uint64_t now_us)
         if (gp->cfg.ckpt_every > 0 && (in->round + 1u) % gp->cfg.ckpt_every == 0) {
             gp_core_ckpt_name(in->round, name, sizeof name);
             r = hal_storage_write(name, m->bytes, m->n_bytes);
+            if (r == 0)
+                drop_old_ckpt(gp, in->round);
         }
         if (r == 0 && (m->flags & AI_CKPT_FLAG_FINAL))
             r = hal_storage_write("final.bnn", m->bytes, m->n_bytes);

@@ -16,7 +16,8 @@
  *     checkpoint of round k shows the AI core's node update is over (Algorithm 1's
  *     RoundComplete; with final = 1 after the last round, before `done` is set);
  *   - when the AI core published the checkpoint of round k: writes it through the storage
- *     HAL as "round_<k>.bnn" (4 digits; every ckpt_every rounds) and, after the last round, as "final.bnn"; appends
+ *     HAL as "round_<k>.bnn" (4 digits; every ckpt_every rounds; the newest ckpt_keep and every
+ *     ckpt_keep_every-th kept, the one that falls out removed) and, after the last round, as "final.bnn"; appends
  *     the round's record to a fixed log (the host reads it for metrics); logs a line;
  *   - publishes a gp_telemetry_t on GP_TELEMETRY_CHANNEL_PREFIX<robot> every
  *     telemetry_every ticks and at every round (no network: counted, not an error).
@@ -67,13 +68,24 @@ typedef struct gp_core_cfg {
     void *peers_ctx;
     uint32_t ckpt_every;       /* round k's checkpoint when (k + 1) % ckpt_every == 0: 1 (default)
                                   every round; 0: the final one only */
+    uint32_t ckpt_keep;        /* round checkpoints kept: the newest ckpt_keep (default
+                                  GP_CORE_CKPT_KEEP_DEFAULT; 0: all), plus ... */
+    uint32_t ckpt_keep_every;  /* ... every round k with (k + 1) % ckpt_keep_every == 0 (default
+                                  GP_CORE_CKPT_KEEP_EVERY_DEFAULT; 0: none of the older ones) */
 } gp_core_cfg_t;
+
+/* Storage is finite on a board (and 3000 rounds of a lone run were 400 MB on the host): the
+ * newest few checkpoints are what a resume needs (more than one, in case the newest is torn),
+ * the sparse older ones what a look back at the training needs. */
+#define GP_CORE_CKPT_KEEP_DEFAULT 5u
+#define GP_CORE_CKPT_KEEP_EVERY_DEFAULT 100u
 
 typedef struct gp_core_stats {
     uint64_t ticks;
     uint64_t telemetry_sent;
     uint64_t telemetry_failed;  /* publish refused (no network, ...) */
     uint64_t ckpt_written;
+    uint64_t ckpt_removed;      /* older round checkpoints removed (ckpt_keep) */
     uint64_t ckpt_failed;
     uint64_t exchange_errors;
     uint64_t rounds_coordinated;

@@ -780,11 +780,24 @@ static int run_image(job_t *j)
     if (j->ctx.failed)
         return -1;
     if (!res->completed) {
+        /* Out of simulated time: what was done is kept (the rows, the round checkpoints), so the
+           run can go on from there rather than start over. */
+        const int kept = cmd_out_commit("run", &j->csv) == 0 &&
+                         (o->fleet < 2 || cmd_out_commit("run", &j->traffic) == 0);
         fprintf(stderr,
-                "host_sim run: only %u of %lld rounds done within --time-limit %.1f s (path progress %.2f of "
+                "host_sim run: stopped by --time-limit %.1f s after %u of %lld rounds (path progress %.2f of "
                 "%.2f m); no final checkpoint\n",
-                res->rounds_done, o->rounds, o->time_limit, (double)res->rt_status.progress_m,
+                o->time_limit, res->rounds_done, o->rounds, (double)res->rt_status.progress_m,
                 (double)res->path_length_m);
+        if (kept && res->rounds_done > 0 && o->offline)
+            fprintf(stderr, "host_sim run: kept %s/metrics.csv and the round checkpoints; to go on, run the same "
+                            "command with --resume and a larger --time-limit\n", o->out);
+        else if (kept && res->rounds_done > 0)
+            fprintf(stderr, "host_sim run: kept %s/metrics.csv and the round checkpoints; an online run cannot "
+                            "resume: run it again with a larger --time-limit\n", o->out);
+        else
+            fprintf(stderr, "host_sim run: no round was done (the tour takes longer): run again with a larger "
+                            "--time-limit\n");
         return -1;
     }
     if (res->final_ckpt_status != 0) {

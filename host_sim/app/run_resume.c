@@ -184,7 +184,9 @@ static char *slurp(const char *path, size_t *len)
 }
 
 /* Of the temporaries of `c->name` that dead processes left in out, the one with the most rows
- * of rounds < before. */
+ * of rounds < before. Without one, the file itself when ALL its rows are of rounds < before:
+ * what a run stopped by its --time-limit kept (a finished run's file goes further, and is
+ * not taken for a stopped one's). */
 static void carry_rows(const char *out, const char *header, uint32_t before, run_carry_t *c)
 {
     DIR *d = opendir(out);
@@ -213,6 +215,22 @@ static void carry_rows(const char *out, const char *header, uint32_t before, run
         }
     }
     closedir(d);
+    if (c->n_rows > 0)
+        return;
+    char file[PATH_MAX];
+    size_t len = 0;
+    char *text = snprintf(file, sizeof file, "%s/%s", out, c->name) < (int)sizeof file ? slurp(file, &len) : NULL;
+    if (text == NULL)
+        return;
+    run_carry_t got = {.name = c->name};
+    take_rows(text, len, header, UINT32_MAX, &got);
+    free(text);
+    if (got.n_rows > 0 && got.last < before) {
+        *c = got;
+        snprintf(c->from, sizeof c->from, "%s", file);
+    } else {
+        free(got.rows);
+    }
 }
 
 int run_resume_find(const char *out, uint32_t rounds, const char *const headers[RUN_CARRY_FILES], run_resume_t *r)

@@ -11,7 +11,10 @@
  *     k", no temporary file left, an earlier run's results in the folder untouched; also while
  *     the robot waits inside one tick for a peer that never comes (fleet of 2 over LCM); and
  *     another command (valset) stopped while writing: 143, its temporary file removed;
- *   - a checkpoint that cannot be written (the disk-full seam) stops the run at once.
+ *   - a checkpoint that cannot be written (the disk-full seam) stops the run at once;
+ *   - a run stopped by --time-limit keeps its rows and round checkpoints and says how to go
+ *     on; --resume then finishes it with the uninterrupted run's final.bnn; only the newest 5
+ *     round checkpoints (and every 100th) are kept.
  * Every child runs under alarm(): a hang ends as a failure, not as a stuck test. */
 #define _XOPEN_SOURCE 700 /* realpath, kill */
 #include <errno.h>
@@ -506,6 +509,61 @@ static void test_failed_checkpoint_stops_at_once(void **st)
     snap_free(&s);
 }
 
+/* Round checkpoints in dir, as a bit set of rounds 0 .. 63. */
+static uint64_t ckpts_in(const char *dir)
+{
+    uint64_t set = 0;
+    char name[32];
+    for (unsigned k = 0; k < 64; k++) {
+        snprintf(name, sizeof name, "round_%04u.bnn", k);
+        if (exists_in(dir, name))
+            set |= 1ull << k;
+    }
+    return set;
+}
+
+static void test_time_limit_keeps_what_was_done(void **st)
+{
+    (void)st;
+    char out[PATH_MAX], full[PATH_MAX];
+    path_in(out, "limited");
+    path_in(full, "unlimited");
+    HS_OK(RUN(full, "40"), "--val-every", "1");
+    assert_int_equal(ckpts_in(full), 0x1full << 35); /* rounds 35 .. 39: the newest 5 */
+    /* The tour of robot_2 takes 71 s of simulated time, then a round every 0.2 s. */
+    assert_int_equal(HS(RUN(out, "40"), "--val-every", "1", "--time-limit", "75"), 1);
+    expect(g_err, "stderr", "stopped by --time-limit 75.0 s after ");
+    expect(g_err, "stderr", "run the same command with --resume and a larger --time-limit");
+    size_t n = 0;
+    char *m = slurp_in(out, "metrics.csv", &n);
+    assert_non_null(m);
+    int rows = -1;
+    for (size_t i = 0; i < n; i++)
+        rows += m[i] == '\n';
+    free(m);
+    assert_true(rows >= 6 && rows < 40);
+    const uint64_t kept = ckpts_in(out);
+    assert_int_equal(kept, 0x1full << (rows - 5)); /* the newest 5 of the rounds done */
+    assert_false(exists_in(out, "final.bnn"));
+    HS_OK(RUN(out, "40"), "--val-every", "1", "--resume");
+    char want[64];
+    snprintf(want, sizeof want, "continuing at round %d of 40", rows);
+    expect(g_out, "stdout", want);
+    size_t na = 0, nb = 0;
+    char *a = slurp_in(full, "final.bnn", &na), *b = slurp_in(out, "final.bnn", &nb);
+    assert_true(a != NULL && b != NULL && na == nb && memcmp(a, b, na) == 0);
+    free(a);
+    free(b);
+    char *m1 = slurp_in(full, "metrics.csv", &na), *m2 = slurp_in(out, "metrics.csv", &nb);
+    char r1[8][64], r2[8][64];
+    assert_int_equal(rows_of(m1, r1, 8), 8); /* the first 8 rows carried over as they were */
+    assert_int_equal(rows_of(m2, r2, 8), 8);
+    for (int k = 0; k < 8; k++)
+        assert_string_equal(r1[k], r2[k]);
+    free(m1);
+    free(m2);
+}
+
 int main(void)
 {
     const struct CMUnitTest tests[] = {
@@ -515,6 +573,7 @@ int main(void)
         cmocka_unit_test(test_sigterm_stops_other_commands),
         cmocka_unit_test(test_sigterm_while_waiting_for_peers),
         cmocka_unit_test(test_failed_checkpoint_stops_at_once),
+        cmocka_unit_test(test_time_limit_keeps_what_was_done),
     };
     return cmocka_run_group_tests_name("app/resume", tests, setup, teardown);
 }
