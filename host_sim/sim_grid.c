@@ -224,8 +224,13 @@ int sim_grid_write_image(const sim_grid_t *grid, const char *path, char *err, si
     if (pix == NULL)
         return set_err(err, errlen, -ENOMEM, "%s: %s", path);
     static const uint8_t shade[3] = {255, 0, 160};
-    for (size_t i = 0; i < n; i++)
-        pix[i] = shade[grid->cells[i] <= 2 ? grid->cells[i] : 2];
+    /* y up (sim_figure.h): the image's first row is the grid's last (largest y). */
+    for (int r = 0; r < grid->h; r++) {
+        const uint8_t *src = grid->cells + (size_t)(grid->h - 1 - r) * (size_t)grid->w;
+        uint8_t *dst = pix + (size_t)r * (size_t)grid->w;
+        for (int c = 0; c < grid->w; c++)
+            dst[c] = shade[src[c] <= 2 ? src[c] : 2];
+    }
     int rc = 0;
     if (png) {
         rc = write_png(path, grid->w, grid->h, 1, pix, err, errlen);

@@ -13,7 +13,8 @@
  *
  * Layout: row-major, cells[row * w + col]; column c spans x in [origin.x + c*res,
  * origin.x + (c+1)*res), row r spans y likewise (rows grow with y, which points DOWN the SVG
- * drawing, so row 0 is the top of an image written as is). The grid covers the plan's
+ * drawing). Pictures are y up (sim_figure.h), so sim_grid_write_image writes row h-1 first
+ * and row 0 at the bottom: never write cells as an image row by row. The grid covers the plan's
  * bounding box (walls and railings): origin = plan->min, w = ceil(width / res),
  * h = ceil(height / res).
  * Not thread-safe per grid. Allocates (host side). */
@@ -68,7 +69,8 @@ static inline int sim_grid_at(const sim_grid_t *grid, int col, int row)
 }
 
 /* Writes the grid as an 8-bit grey image, chosen by the file name's extension: ".png"
- * (libpng) or ".pgm" (binary P5). Free 255, wall 0, outside 160. */
+ * (libpng) or ".pgm" (binary P5). Free 255, wall 0, outside 160. y up (sim_figure.h): the
+ * image's first row is the grid's last row (largest y), as in ROS's map.pgm. */
 FS_MUST_CHECK
 int sim_grid_write_image(const sim_grid_t *grid, const char *path, char *err, size_t errlen);
 

@@ -7,6 +7,9 @@
 #include <stdlib.h>
 #include <string.h>
 
+#include "sim_figure.h"
+#include "sim_palette.h"
+
 /* A compact perceptual ramp (dark blue -> teal -> yellow), t in [0, 1]. */
 static void ramp(double t, uint8_t *px)
 {
@@ -25,7 +28,7 @@ static void draw_paths(uint8_t *rgb, int W, int H, const sim_plan_t *plan, doubl
 {
     const double pix = res / zoom;
     for (int k = 0; k < n_paths; k++) {
-        const uint8_t *col = SIM_PATH_COLOURS[k % 8];
+        const uint8_t *col = sim_palette_rgb(k);
         for (int i = 0; i + 1 < paths[k].n; i++) {
             const double x0 = paths[k].p[i].x, y0 = paths[k].p[i].y;
             const double x1 = paths[k].p[i + 1].x, y1 = paths[k].p[i + 1].y;
@@ -33,7 +36,7 @@ static void draw_paths(uint8_t *rgb, int W, int H, const sim_plan_t *plan, doubl
             for (int s = 0; s <= steps; s++) {
                 const double t = (double)s / steps;
                 const int c = (int)floor((x0 + t * (x1 - x0) - plan->min.x) / pix);
-                const int r = (int)floor((y0 + t * (y1 - y0) - plan->min.y) / pix);
+                const int r = sim_figure_row(y0 + t * (y1 - y0), plan->min.y, pix, H); /* y up */
                 for (int d = 0; d < 2; d++)
                     for (int e = 0; e < 2; e++) {
                         const int cc = c + d, rr = r + e;
@@ -217,7 +220,8 @@ int sim_maps_write_png(const sim_maps_grid_t *g, const sim_plan_t *plan, const s
     for (int pass = 0; pass < 2; pass++) {
         for (int R = 0; R < H; R++)
             for (int C = 0; C < W; C++) {
-                const size_t i = (size_t)(R / zoom) * w + (size_t)(C / zoom);
+                /* y up (sim_figure.h): picture row R shows cell row h - 1 - R / zoom. */
+                const size_t i = (size_t)(h - 1 - R / zoom) * w + (size_t)(C / zoom);
                 uint8_t *px = rgb + 3 * ((size_t)R * W + C);
                 if (pass == 0) {
                     const uint8_t v = (uint8_t)lround(255.0 * (1.0 - fmin(fmax(mean[i], 0.0f), 1.0f)));

@@ -11,7 +11,9 @@
 
 /* MC mean and std (K passes) of model m on the plan's bounding box at res metres, written as
  * two PNGs (mean: white free .. black wall; std: dark blue .. yellow, scaled to the map's
- * max std, which goes to *std_max_out when not NULL), the paths drawn on top in colour. Each
+ * max std, which goes to *std_max_out when not NULL), the paths drawn on top, each in its
+ * robot's colour (sim_palette.h). The PNGs are y up (sim_figure.h): their first row shows
+ * the grid's last row (largest y), as map.pgm and the .npy arrays of host_sim maps. Each
  * cell is drawn as zoom x zoom pixels, zoom = ceil(0.1 m / res) within 1..8, so every map
  * shows about 10 pixels per metre or more. Returns 0 or a negative code, err.
  * = sim_maps_compute + sim_maps_write_png + sim_maps_grid_free. */
@@ -22,8 +24,8 @@ int sim_maps_write(bnn_model_t *m, const sim_plan_t *plan, double res, uint32_t 
 
 /* The cells of a map: w x h cells of res metres from the plan's lower corner (x0, y0) =
  * plan->min, row-major with row 0 the row of the SMALLEST y (the plan's axes: y down the
- * drawing, so row 0 is the drawing's top edge, as in the PNGs). Cell (r, c) has its centre
- * at (x0 + (c + 0.5) res, y0 + (r + 0.5) res); the grid covers the bounding box, so its far
+ * drawing, so row 0 is the drawing's top edge; the PNGs, y up, show it at their bottom).
+ * Cell (r, c) has its centre at (x0 + (c + 0.5) res, y0 + (r + 0.5) res); the grid covers the bounding box, so its far
  * edges x0 + w res, y0 + h res lie at or beyond plan->max. */
 typedef struct sim_maps_grid {
     int w, h;

@@ -111,9 +111,6 @@ double sim_path_distance(const sim_path_t *path, double x_m, double y_m)
     return d;
 }
 
-const uint8_t SIM_PATH_COLOURS[8][3] = {{230, 25, 75},  {60, 180, 75},  {0, 130, 200},  {245, 130, 48},
-                                        {145, 30, 180}, {70, 200, 200}, {240, 50, 230}, {128, 128, 0}};
-
 static double cross(sim_vec2_t o, sim_vec2_t a, sim_vec2_t b)
 {
     return (a.x - o.x) * (b.y - o.y) - (a.y - o.y) * (b.x - o.x);

@@ -62,9 +62,6 @@ double sim_path_length(const sim_path_t *path);
  * INFINITY when the path is empty). */
 double sim_path_distance(const sim_path_t *path, double x_m, double y_m);
 
-/* Colour of robot k's path in the PNG pictures: SIM_PATH_COLOURS[k % 8], RGB. */
-extern const uint8_t SIM_PATH_COLOURS[8][3];
-
 FS_MUST_CHECK
 int sim_path_write_csv(const sim_path_t *path, const char *file, char *err, size_t errlen);
 

@@ -11,6 +11,7 @@
 #include <string.h>
 
 #include "sim_grid.h"
+#include "sim_palette.h"
 #include "sim_shape.h"
 
 #define DEG (3.14159265358979323846 / 180.0)
@@ -22,10 +23,13 @@ sim_render_cfg_t sim_render_default_cfg(void)
     return c;
 }
 
-static const float PATH_COLOURS[8][3] = {{0.90f, 0.10f, 0.29f}, {0.24f, 0.71f, 0.29f},
-                                         {0.00f, 0.51f, 0.78f}, {0.96f, 0.51f, 0.19f},
-                                         {0.57f, 0.12f, 0.71f}, {0.27f, 0.78f, 0.78f},
-                                         {0.94f, 0.20f, 0.90f}, {0.50f, 0.50f, 0.00f}};
+/* Robot k's colour (sim_palette.h), as OpenGL takes it. */
+static void robot_colour(int k, float col[3])
+{
+    const uint8_t *c = sim_palette_rgb(k);
+    for (int i = 0; i < 3; i++)
+        col[i] = c[i] / 255.0f;
+}
 
 /* gluLookAt without GLU: column-major view matrix. */
 static void look_at(const double eye[3], const double at[3], const double up[3])
@@ -182,11 +186,12 @@ int sim_render_rgb(const sim_render_scene_t *scene, const sim_render_cfg_t *cfg,
      * fits the plan with a small margin for the usual aspect ratios. */
     double dist = 0.85 * radius / sin(half_min);
     double el = cfg->elevation_deg * DEG, az = cfg->azimuth_deg * DEG;
-    /* Plans are drawn with y pointing down (SVG). The scene is rendered mirrored in y so the
-     * image reads like the plan and the 2D maps (top of the drawing at the top of the image);
-     * the camera therefore aims at the mirrored centre (cx, -cy). */
-    double at[3] = {cx, -cy, 0.0};
-    double eye[3] = {cx + dist * cos(el) * cos(az), -cy + dist * cos(el) * sin(az), dist * sin(el)};
+    /* The world is drawn as it is (x, y in metres, z up: a right-handed frame, so normals and
+     * windings stay true). The picture convention (sim_figure.h: y up, as the maps) comes from
+     * the camera alone: from the default azimuth -90 (south, -y) with z up, +x runs to the
+     * right and +y away from the camera, i.e. up the image; straight down, up is +y. */
+    double at[3] = {cx, cy, 0.0};
+    double eye[3] = {cx + dist * cos(el) * cos(az), cy + dist * cos(el) * sin(az), dist * sin(el)};
     double up[3] = {0, 0, 1};
     if (cfg->elevation_deg > 89.9) { /* straight down: up is +y */
         up[1] = 1;
@@ -200,7 +205,6 @@ int sim_render_rgb(const sim_render_scene_t *scene, const sim_render_cfg_t *cfg,
     glMatrixMode(GL_MODELVIEW);
     glLoadIdentity();
     look_at(eye, at, up);
-    glScaled(1.0, -1.0, 1.0); /* normals follow through GL_NORMALIZE; nothing is culled */
 
     /* One directional light from above, a bit from the camera side; strong ambient so the
      * walls facing away stay readable. */
@@ -248,14 +252,19 @@ int sim_render_rgb(const sim_render_scene_t *scene, const sim_render_cfg_t *cfg,
                        plan->solids[i].height > 0.0 ? fmin(plan->solids[i].height, wall_h) : wall_h);
 
     /* Robots. */
-    for (int i = 0; i < scene->n_robots; i++)
-        draw_robot(&scene->robots[i], PATH_COLOURS[i % 8]);
+    for (int i = 0; i < scene->n_robots; i++) {
+        float col[3];
+        robot_colour(i, col);
+        draw_robot(&scene->robots[i], col);
+    }
 
     /* Unlit overlays: paths and the lidar sweep. */
     glDisable(GL_LIGHTING);
     glLineWidth(2.0f);
     for (int k = 0; k < scene->n_paths; k++) {
-        glColor3fv(PATH_COLOURS[k % 8]);
+        float col[3];
+        robot_colour(k, col);
+        glColor3fv(col);
         glBegin(GL_LINE_STRIP);
         for (int i = 0; i < scene->paths[k].n; i++)
             glVertex3d(scene->paths[k].p[i].x, scene->paths[k].p[i].y, 0.03);

@@ -7,8 +7,11 @@
  * and at most one lidar sweep drawn as rays from the sensor to their hits (red) or to max
  * range (faint) for beams without a hit.
  * Camera: perspective (fov_deg), looking at the plan centre from azimuth_deg (0 = from +x,
- * -90 = from the south) and elevation_deg above the floor, at the distance that fits the
- * plan's bounding box in the view.
+ * -90 = from the south, i.e. from -y) and elevation_deg above the floor, at the distance that
+ * fits the plan's bounding box in the view. The world is not mirrored: from the default
+ * azimuth -90 the plan's +y points up the image and +x to the right, as in every other figure
+ * (sim_figure.h), so the scene and the maps show the building the same way round. Robots and
+ * paths are drawn in their sim_palette.h colours.
  * Not thread-safe (one OSMesa context per call, made current on the calling thread). */
 #ifndef SIM_RENDER_H
 #define SIM_RENDER_H

@@ -37,6 +37,9 @@ import sys
 import tempfile
 
 TOOLS_DIR = os.path.dirname(os.path.realpath(__file__))
+sys.path.insert(0, TOOLS_DIR)
+from palette import robot_colour  # noqa: E402  (one colour per robot in every figure)
+sys.path.pop(0)
 TMP_PREFIX = ".fleet_report."
 KDE_MAX_POINTS = 20000
 KDE_GRID = 200
@@ -406,10 +409,8 @@ def md_cell(v):
 # ---- figures ---------------------------------------------------------------------------------
 
 def draw_tours(ax, run):
-    import matplotlib.pyplot as plt
-    colours = plt.get_cmap("tab10")
     for i, t in sorted(run.tours.items()):
-        c = colours(i % 10)
+        c = robot_colour(i)
         ax.plot(t[:, 0], t[:, 1], "-", lw=1.2, color=c, alpha=0.9, label=f"robot {i}")
         ax.plot(t[0, 0], t[0, 1], "o", ms=4, color=c)
     if run.tours:
@@ -494,13 +495,12 @@ def fig_kde(plt, run, out):
     fig, ax = plt.subplots(figsize=(8, max(3.0, 8 * h / w) + 0.6), constrained_layout=True)
     im = ax.imshow(dens, extent=[x0, x1, y0, y1], origin="lower", cmap="magma", interpolation="bilinear")
     fig.colorbar(im, ax=ax, label="density", shrink=0.85)
-    colours = plt.get_cmap("tab10")
     rng = np.random.default_rng(0)
     for i, (hx, hy) in sorted(run.hits.items()):
         if hx.size == 0:
             continue
         sel = rng.choice(hx.size, SCATTER_PER_ROBOT, replace=False) if hx.size > SCATTER_PER_ROBOT else slice(None)
-        ax.scatter(hx[sel], hy[sel], s=0.6, alpha=0.25, color=colours(i % 10), lw=0, label=f"robot {i}")
+        ax.scatter(hx[sel], hy[sel], s=0.6, alpha=0.25, color=robot_colour(i), lw=0, label=f"robot {i}")
     if len(run.hits) > 0:
         leg = ax.legend(loc="upper right", fontsize=7, markerscale=8, framealpha=0.7)
         for lh in leg.legend_handles if hasattr(leg, "legend_handles") else leg.legendHandles:
@@ -523,13 +523,12 @@ def fig_val_loss(plt, run, out):
         return None
     fig, ax = plt.subplots(figsize=(7, 4), constrained_layout=True)
     lo, hi, lines = math.inf, -math.inf, 0
-    colours = plt.get_cmap("tab10")
     for i, m in sorted(run.metrics.items()):
         r, v = m["round"], m["val_loss"]
         ok = np.isfinite(v)
         if not ok.any():
             continue
-        ax.plot(r[ok], v[ok], "-", lw=1.2, color=colours(i % 10), label=f"robot {i}",
+        ax.plot(r[ok], v[ok], "-", lw=1.2, color=robot_colour(i), label=f"robot {i}",
                 marker="." if ok.sum() < 30 else None)
         lo, hi, lines = min(lo, float(v[ok].min())), max(hi, float(v[ok].max())), lines + 1
     if lines == 0:

@@ -22,6 +22,7 @@ TOOLS = os.path.dirname(os.path.realpath(__file__))
 ROOT = os.path.dirname(TOOLS)
 sys.path.insert(0, TOOLS)
 import paper_metrics  # noqa: E402
+from palette import robot_colour  # noqa: E402
 
 STRATEGIES = ("uniform", "separate", "kl")
 MODES = (("val_mean", "mean weights"), ("val_sample", "1 sampled pass"), ("val_mc", "MC-50 predictive mean"))
@@ -230,7 +231,7 @@ def fig_single(plt, runs, out):
                                             (m["mean"], "mean of 50 passes", "mean"),
                                             (m["std"], "standard deviation of 50 passes", "std"))):
         panel(fig, ax, arr, m["meta"], title, kind)
-        ax.plot(tx, ty, "-", color="tab:red", lw=1.2, label="path")
+        ax.plot(tx, ty, "-", color=robot_colour(0), lw=1.2, label="robot 0's path")
     axs[0].legend(loc="lower right", fontsize=8)
     fig.suptitle(f"Single agent (robot 0 alone, kl_weight {first[0]['tags']['kl_weight']}, "
                  f"preset {first[0]['tags']['preset']})")

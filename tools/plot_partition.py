@@ -36,6 +36,9 @@ import sys
 
 import numpy as np
 
+sys.path.insert(0, os.path.dirname(os.path.realpath(__file__)))
+from palette import robot_colour  # noqa: E402  (one colour per robot in every figure)
+
 
 def fail(msg):
     raise SystemExit(f"plot_partition: {msg}")
@@ -164,7 +167,7 @@ def main():
     print("robot  rounds-alone  disagreement: before  during  after-heal  last-10%")
     for n, (i, m) in enumerate(robots):
         d = np.where(m["neighbours"] > 0, m["disagreement"], np.nan)
-        line, = ax1.plot(*with_gaps(m["round"], d), lw=1.0, label=f"robot {i}")
+        line, = ax1.plot(*with_gaps(m["round"], d), lw=1.0, color=robot_colour(i), label=f"robot {i}")
         ax2.step(*with_gaps(m["round"], m["neighbours"] + 0.06 * (n - (len(robots) - 1) / 2)), where="post",
                  lw=1.0, color=line.get_color(), label=f"robot {i}")
         before, during, after, tail, alone = figures(m, t1, t2, rounds)

@@ -17,9 +17,108 @@
 #include "sim_scan.h"
 #include "sim_valset.h"
 
+static const char *const val_mode_names[3] = {"mean", "sample", "mc"}; /* --val-mode, by index */
+#define FLEET_STRATEGIES "kl|separate|uniform|central|isolated" /* --strategy, by index */
+
+typedef struct opts {
+    const char *plan, *paths, *out, *samples, *valset;
+    long long robots, rounds, seed, metrics_every, val_poses, mc, threads, val_mc;
+    int val_mode; /* 0 mean, 1 sample, 2 mc */
+    double radius, occ_res, map_res, scale;
+    int inproc;
+    int strategy; /* index in FLEET_STRATEGIES */
+    sim_fleet_mode_t mode;
+    dinno_cfg_t d;
+    dinno_graph_kind_t graph;
+    char strategy_name[16];
+    sim_fleet_bad_t bad;    /* --bad-member I:KIND */
+    long long bad_agent;
+    double bad_scale;
+} opts_t;
+
+static void defaults(opts_t *o)
+{
+    memset(o, 0, sizeof *o);
+    o->robots = o->rounds = o->seed = -1;
+    o->metrics_every = 0;
+    o->val_poses = 500;
+    o->mc = 50;
+    o->val_mc = 50;
+    o->threads = 1;
+    o->radius = 4.0;
+    o->occ_res = 0.1;
+    o->map_res = 0.05;
+    o->scale = SIM_PLAN_DEFAULT_SCALE;
+    o->d = dinno_default_cfg();
+    o->d.strategy = DINNO_KL; /* --strategy's default, as tools/fleet's */
+    o->mode = SIM_FLEET_DINNO;
+}
+
+/* --bad-member I:scale=S|flip|random|silent */
+static int parse_bad_member(const char *cmd, const char *opt, const char *v, void *field, void *opts)
+{
+    (void)field;
+    opts_t *o = opts;
+    const char *colon = strchr(v, ':');
+    char *end = NULL;
+    long long i = colon ? strtoll(v, &end, 10) : -1;
+    if (colon == NULL || end != colon || colon == v || i < 0 || i > SIM_FLEET_MAX_AGENTS - 1 ||
+        sim_fleet_bad_parse(colon + 1, &o->bad, &o->bad_scale) != 0) {
+        fprintf(stderr, "host_sim %s: %s: '%s' is not I:scale=S, I:flip, I:random or I:silent (I in [0, %d])\n", cmd,
+                opt, v, SIM_FLEET_MAX_AGENTS - 1);
+        return -1;
+    }
+    o->bad_agent = i;
+    return 0;
+}
+
+static const cli_opt_t fleet_opts[] = {
+    {.names = "--inproc", CLI_FLAG(opts_t, inproc, 1), .help = "the in-process fleet (required)"},
+    {.names = "--plan", .meta = "FILE.svg", CLI_STRING(opts_t, plan), .required = 1, .help = "the floor plan"},
+    {.names = "--paths", .meta = "DIR", CLI_STRING(opts_t, paths), .required = 1,
+     .help = "the tours, DIR/robot_<i>.csv (host_sim paths gen)"},
+    {.names = "--robots", .meta = "N", CLI_INT(opts_t, robots, 1, SIM_FLEET_MAX_AGENTS), .required = 1,
+     .help = "agents"},
+    {.names = "--rounds", .meta = "R", CLI_INT(opts_t, rounds, 1, 10000000), .required = 1, .help = "DiNNO rounds"},
+    {.names = "--graph", CLI_CHOICE(opts_t, graph, "disk|full|ring"),
+     .values = (const int[]){DINNO_GRAPH_DISK, DINNO_GRAPH_FULL, DINNO_GRAPH_RING}, .required = 1,
+     .help = "communication graph: within --radius, all, or a ring"},
+    {.names = "--seed", .meta = "S", CLI_INT(opts_t, seed, 0, INT64_MAX), .required = 1, .help = "run seed"},
+    {.names = "--out", .meta = "DIR", CLI_STRING(opts_t, out), .required = 1, .help = "output folder"},
+    {.names = "--strategy", .meta = "S", CLI_CHOICE(opts_t, strategy, FLEET_STRATEGIES),
+     .help = "kl (as tools/fleet), separate, uniform (DiNNO regularisers), central or isolated (the baselines)"},
+    {.names = "--radius", .meta = "M", CLI_DOUBLE(opts_t, radius, 1e-6, 1e6), .help = "disk graph radius in metres"},
+    {CLI_INCLUDE(opts_t, d, cmd_dinno_opts)},
+    {.names = "--persistent-adam", CLI_FLAG(opts_t, d.persistent_adam, 1),
+     .help = "keep the Adam state across rounds (default: fresh each round)"},
+    {.names = "--val-mode", .meta = "M", CLI_CHOICE(opts_t, val_mode, "mean|sample|mc"),
+     .help = "which validation loss is val_loss: mean (one pass with the mean weights), sample (one sampled "
+             "pass), mc (BCE of the --val-mc pass predictive mean); val_mean and val_sample are on every row, "
+             "val_mc on the last (on every row with --val-mode mc: --val-mc times dearer)"},
+    {.names = "--val-mc", .meta = "K", CLI_INT(opts_t, val_mc, 1, 1000), .help = "passes of the predictive mean"},
+    {.names = "--metrics-every", .meta = "M", CLI_INT(opts_t, metrics_every, 1, 10000000), .def = "R/20",
+     .help = "metrics and a progress line every M rounds"},
+    {.names = "--samples", .meta = "DIR", CLI_STRING(opts_t, samples),
+     .help = "train on DIR/robot_<i>.samples (host_sim sample files) instead of scanning the paths"},
+    {.names = "--valset", .meta = "FILE", CLI_STRING(opts_t, valset), .def = "generate --val-poses poses",
+     .help = "validation samples file"},
+    {.names = "--val-poses", .meta = "N", CLI_INT(opts_t, val_poses, 1, 100000),
+     .help = "random free poses x one 500-point scan (as DiNNO)"},
+    {.names = "--occ-res", .meta = "M", CLI_DOUBLE(opts_t, occ_res, 0.01, 10.0), .help = "grid of the occupancy metrics"},
+    {.names = "--map-res", .meta = "M", CLI_DOUBLE(opts_t, map_res, 0.01, 10.0), .help = "grid of the final maps"},
+    {.names = "--mc", .meta = "K", CLI_INT(opts_t, mc, 1, 1000), .help = "MC passes of the final maps"},
+    {.names = "--threads", .meta = "T", CLI_INT(opts_t, threads, 1, 16),
+     .help = "worker threads for node updates (results identical)"},
+    {.names = "--bad-member", .meta = "I:K", CLI_CUSTOM(opts_t, bad, parse_bad_member),
+     .help = "agent I trains honestly but sends bad states every round: K = scale=S (theta x S), flip (-theta), "
+             "random (normal, theta's rms), or silent (sends nothing: the baseline); summary.txt gives the "
+             "honest members' figures"},
+    {.names = "--scale", .meta = "S", CLI_DOUBLE(opts_t, scale, 1e-6, 100.0), .help = "plan metres per pixel"},
+    CLI_OPT_END,
+};
+
 static void fleet_usage(FILE *out)
 {
-    const dinno_cfg_t d = dinno_default_cfg();
     fprintf(out,
             "usage: host_sim fleet --inproc --plan FILE.svg --paths DIR --robots N --rounds R\n"
             "                      --graph disk|full|ring --seed S --out DIR\n"
@@ -42,197 +141,31 @@ static void fleet_usage(FILE *out)
             "map_mean.png and map_std.png (agent 0, MC mean / std, paths on\n"
             "top), models/robot_<i>.bnn (every final model) and summary.txt.\n"
             "\n"
-            "options:\n"
-            "  --strategy S        kl (default, as tools/fleet), separate, uniform (DiNNO regularisers),\n"
-            "                      central or isolated (the baselines)\n"
-            "  --radius M          disk graph radius in metres (default 4.0)\n"
-            "  --batch B           minibatch size (default %u, <= %u)\n"
-            "  --primal-steps B    optimiser steps per round (default %u)\n"
-            "  --kl-weight W       weight of the BNN prior KL in the prediction loss (default %g)\n"
-            "  --w-mu W, --w-rho W regulariser weights of the mu / rho groups, times rho_k (default 1)\n"
-            "  --rho0 V            initial penalty (default %g);  --rho-scaling V (default %g)\n"
-            "  --lr-start V, --lr-end V   log-decaying learning rate (default %g -> %g)\n"
-            "  --persistent-adam   keep the Adam state across rounds (default: fresh each round)\n"
-            "  --kl-form F         the KL of the 'kl' strategy on the rho group (s own sigma, r the\n"
-            "                      neighbours' midpoint sigma, m their midpoint mean): own = KL(N(mu,s)||N(mu,r))\n"
-            "                      (default), reverse = KL(N(mu,r)||N(mu,s)), full = KL(N(m,r)||N(mu,s))\n"
-            "  --kl-reduce sum|mean  that KL summed over the rho elements (default) or their mean\n"
-            "  --rho-pred-grad 1|0 1 (default): both groups get the prediction-loss gradient; 0: Algorithm 2\n"
-            "                      read literally, the rho group moves only by its dual and regulariser\n"
-            "                      (separate, kl)\n"
-            "  --val-mode M        which validation loss is val_loss: mean (one pass with the mean weights,\n"
-            "                      default), sample (one sampled pass), mc (BCE of the --val-mc pass\n"
-            "                      predictive mean); val_mean and val_sample are on every row, val_mc on\n"
-            "                      the last (on every row with --val-mode mc: --val-mc times dearer)\n"
-            "  --val-mc K          passes of the predictive mean (default 50)\n"
-            "  --metrics-every M   metrics and a progress line every M rounds (default R/20)\n"
-            "  --samples DIR       train on DIR/robot_<i>.samples (host_sim sample files) instead of\n"
-            "                      scanning the paths\n"
-            "  --valset FILE       validation samples file (default: generate --val-poses poses)\n"
-            "  --val-poses N       random free poses x one 500-point scan (default 500, as DiNNO)\n"
-            "  --occ-res M         grid of the occupancy metrics (default 0.1)\n"
-            "  --map-res M         grid of the final maps (default 0.05);  --mc K passes (default 50)\n"
-            "  --threads T         worker threads for node updates (default 1; results identical)\n"
-            "  --screen-radius R   leave out a neighbour state further than R x ||own state|| (and any\n"
-            "                      non-finite one) before the node update (default 0.5; 0: no distance screen)\n"
-            "  --bad-member I:K    agent I trains honestly but sends bad states every round: K = scale=S\n"
-            "                      (theta x S), flip (-theta), random (normal, theta's rms), or silent (sends\n"
-            "                      nothing: the baseline); summary.txt gives the honest members' figures\n"
-            "  --scale S           plan metres per pixel (default %g)\n",
-            BNN_PRESET_NAME, d.batch, BNN_MAX_BATCH, d.primal_steps, (double)d.kl_weight, (double)d.rho0,
-            (double)d.rho_scaling, (double)d.lr_start, (double)d.lr_end, SIM_PLAN_DEFAULT_SCALE);
+            "options:\n",
+            BNN_PRESET_NAME);
+    opts_t d;
+    defaults(&d);
+    cli_opts_help(out, fleet_opts, &d);
 }
-
-static const char *const val_mode_names[3] = {"mean", "sample", "mc"}; /* --val-mode, by index */
-
-typedef struct opts {
-    const char *plan, *paths, *out, *samples, *valset;
-    long long robots, rounds, seed, metrics_every, val_poses, mc, threads, val_mc;
-    int val_mode; /* 0 mean, 1 sample, 2 mc */
-    double radius, occ_res, map_res, scale;
-    int inproc;
-    sim_fleet_mode_t mode;
-    dinno_cfg_t d;
-    dinno_graph_kind_t graph;
-    int have_graph;
-    char strategy_name[16];
-    sim_fleet_bad_t bad;    /* --bad-member I:KIND */
-    long long bad_agent;
-    double bad_scale;
-} opts_t;
 
 static int parse(int argc, char **argv, opts_t *o)
 {
-    memset(o, 0, sizeof *o);
-    o->robots = o->rounds = o->seed = -1;
-    o->metrics_every = 0;
-    o->val_poses = 500;
-    o->mc = 50;
-    o->val_mc = 50;
-    o->threads = 1;
-    o->radius = 4.0;
-    o->occ_res = 0.1;
-    o->map_res = 0.05;
-    o->scale = SIM_PLAN_DEFAULT_SCALE;
-    o->d = dinno_default_cfg();
-    o->d.strategy = DINNO_KL; /* --strategy's default, as tools/fleet's */
-    o->mode = SIM_FLEET_DINNO;
-    snprintf(o->strategy_name, sizeof o->strategy_name, "kl");
-    for (int i = 1; i < argc; i++) {
-        const char *a = argv[i];
-        if (strcmp(a, "--help") == 0 || strcmp(a, "-h") == 0) {
-            fleet_usage(stdout);
-            return 1;
-        }
-        if (strcmp(a, "--inproc") == 0) {
-            o->inproc = 1;
-            continue;
-        }
-        if (strcmp(a, "--persistent-adam") == 0) {
-            o->d.persistent_adam = 1;
-            continue;
-        }
-        if (strncmp(a, "--", 2) != 0) {
-            fprintf(stderr, "host_sim fleet: unexpected argument '%s'\n", a);
-            return -1;
-        }
-        if (cmd_need_value(argc, argv, i, "fleet", fleet_usage) != 0)
-            return -1;
-        const char *v = argv[++i];
-        int bad = 0;
-        if (strcmp(a, "--plan") == 0)
-            o->plan = v;
-        else if (strcmp(a, "--paths") == 0)
-            o->paths = v;
-        else if (strcmp(a, "--out") == 0)
-            o->out = v;
-        else if (strcmp(a, "--samples") == 0)
-            o->samples = v;
-        else if (strcmp(a, "--valset") == 0)
-            o->valset = v;
-        else if (strcmp(a, "--robots") == 0)
-            bad = cmd_parse_ll(v, a, 1, SIM_FLEET_MAX_AGENTS, &o->robots);
-        else if (strcmp(a, "--rounds") == 0)
-            bad = cmd_parse_ll(v, a, 1, 10000000, &o->rounds);
-        else if (strcmp(a, "--seed") == 0)
-            bad = cmd_parse_ll(v, a, 0, 0x7FFFFFFFFFFFFFFFLL, &o->seed);
-        else if (strcmp(a, "--metrics-every") == 0)
-            bad = cmd_parse_ll(v, a, 1, 10000000, &o->metrics_every);
-        else if (strcmp(a, "--val-poses") == 0)
-            bad = cmd_parse_ll(v, a, 1, 100000, &o->val_poses);
-        else if (strcmp(a, "--mc") == 0)
-            bad = cmd_parse_ll(v, a, 1, 1000, &o->mc);
-        else if (strcmp(a, "--threads") == 0)
-            bad = cmd_parse_ll(v, a, 1, 16, &o->threads);
-        else if (strcmp(a, "--val-mc") == 0)
-            bad = cmd_parse_ll(v, a, 1, 1000, &o->val_mc);
-        else if (strcmp(a, "--val-mode") == 0) {
-            o->val_mode = -1;
-            for (int m = 0; m < 3; m++)
-                if (strcmp(v, val_mode_names[m]) == 0)
-                    o->val_mode = m;
-            if (o->val_mode < 0) {
-                fprintf(stderr, "host_sim fleet: --val-mode: '%s' is not mean, sample or mc\n", v);
-                bad = 1;
-            }
-        }
-        else if (cmd_parse_dinno_opt(a, v, &o->d, &bad))
-            ;
-        else if (strcmp(a, "--bad-member") == 0) {
-            char *colon = strchr(v, ':');
-            bad = colon == NULL || sim_fleet_bad_parse(colon + 1, &o->bad, &o->bad_scale) != 0;
-            if (!bad) {
-                *colon = '\0';
-                bad = cmd_parse_ll(v, a, 0, SIM_FLEET_MAX_AGENTS - 1, &o->bad_agent) != 0;
-                *colon = ':';
-            } else {
-                fprintf(stderr, "host_sim fleet: --bad-member: '%s' is not I:scale=S, I:flip, I:random or I:silent\n", v);
-            }
-        } else if (strcmp(a, "--radius") == 0)
-            bad = cmd_parse_double(v, a, 1e-6, 1e6, &o->radius);
-        else if (strcmp(a, "--occ-res") == 0)
-            bad = cmd_parse_double(v, a, 0.01, 10.0, &o->occ_res);
-        else if (strcmp(a, "--map-res") == 0)
-            bad = cmd_parse_double(v, a, 0.01, 10.0, &o->map_res);
-        else if (strcmp(a, "--scale") == 0)
-            bad = cmd_parse_double(v, a, 1e-6, 100.0, &o->scale);
-        else if (strcmp(a, "--strategy") == 0) {
-            snprintf(o->strategy_name, sizeof o->strategy_name, "%s", v);
-            if (strcmp(v, "central") == 0)
-                o->mode = SIM_FLEET_CENTRAL;
-            else if (strcmp(v, "isolated") == 0)
-                o->mode = SIM_FLEET_ISOLATED;
-            else if (dinno_strategy_parse(v, &o->d.strategy) == 0)
-                o->mode = SIM_FLEET_DINNO;
-            else {
-                fprintf(stderr, "host_sim fleet: --strategy: '%s' is not kl, separate, uniform, central or isolated\n", v);
-                bad = 1;
-            }
-        } else if (strcmp(a, "--graph") == 0) {
-            o->have_graph = 1;
-            if (dinno_graph_parse(v, &o->graph) != 0) {
-                fprintf(stderr, "host_sim fleet: --graph: '%s' is not disk, full or ring\n", v);
-                bad = 1;
-            }
-        } else {
-            fprintf(stderr, "host_sim fleet: unknown option '%s' (see --help)\n", a);
-            return -1;
-        }
-        if (bad)
-            return -1;
-    }
+    defaults(o);
+    const cli_parser_t parser = {.cmd = "fleet", .opts = fleet_opts, .usage = fleet_usage};
+    const int pr = cli_opts_parse(&parser, argc, argv, o, NULL, NULL);
+    if (pr != 0)
+        return pr;
     if (!o->inproc) {
         fprintf(stderr, "host_sim fleet: --inproc is required (this command is the in-process fleet; the "
                         "multi-process one is tools/fleet, one `host_sim run --fleet N` per robot)\n");
         return -1;
     }
-    const char *missing = !o->plan ? "--plan" : !o->paths ? "--paths" : o->robots < 0 ? "--robots"
-                        : o->rounds < 0 ? "--rounds" : !o->have_graph ? "--graph" : o->seed < 0 ? "--seed"
-                        : !o->out ? "--out" : NULL;
-    if (missing) {
-        fprintf(stderr, "host_sim fleet: %s is required (see --help)\n", missing);
+    (void)cli_choice_name(FLEET_STRATEGIES, o->strategy, o->strategy_name, sizeof o->strategy_name);
+    o->mode = strcmp(o->strategy_name, "central") == 0    ? SIM_FLEET_CENTRAL
+              : strcmp(o->strategy_name, "isolated") == 0 ? SIM_FLEET_ISOLATED
+                                                          : SIM_FLEET_DINNO;
+    if (o->mode == SIM_FLEET_DINNO && dinno_strategy_parse(o->strategy_name, &o->d.strategy) != 0)
         return -1;
-    }
     if (o->metrics_every == 0)
         o->metrics_every = o->rounds >= 20 ? o->rounds / 20 : 1;
     return 0;

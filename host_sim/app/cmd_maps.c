@@ -21,6 +21,33 @@
 
 #define MAPS_MAX_CELLS 4000000u /* sim_maps_compute's limit */
 
+typedef struct maps_opts {
+    const char *plan, *out, *valset;
+    double res, scale;
+    long long mc, seed;
+    char **models;
+    int n_models;
+} maps_opts_t;
+
+static maps_opts_t maps_defaults(void)
+{
+    return (maps_opts_t){.res = 0.05, .scale = SIM_PLAN_DEFAULT_SCALE, .mc = 50, .seed = 1};
+}
+
+static const cli_opt_t maps_opts[] = {
+    {.names = "--plan", .meta = "FILE.svg", CLI_STRING(maps_opts_t, plan), .required = 1,
+     .help = "the floor plan the models were trained on"},
+    {.names = "--out", .meta = "DIR", CLI_STRING(maps_opts_t, out), .required = 1,
+     .help = "output folder, created with its parents"},
+    {.names = "--res", .meta = "M", CLI_DOUBLE(maps_opts_t, res, 0.001, 100.0), .help = "map cell size in metres"},
+    {.names = "--mc", .meta = "K", CLI_INT(maps_opts_t, mc, 1, 100000), .help = "Monte-Carlo passes"},
+    {.names = "--seed", .meta = "S", CLI_INT(maps_opts_t, seed, 0, INT64_MAX), .help = "seed of the MC draws"},
+    {.names = "--valset", .meta = "FILE", CLI_STRING(maps_opts_t, valset),
+     .help = "validation samples of the plan (host_sim valset): val_loss and the thresholds of map.yaml"},
+    {.names = "--scale", .meta = "S", CLI_DOUBLE(maps_opts_t, scale, 1e-6, 100.0), .help = "plan metres per pixel"},
+    CLI_OPT_END,
+};
+
 static void maps_usage(FILE *out)
 {
     fprintf(out,
@@ -62,79 +89,24 @@ static void maps_usage(FILE *out)
             "Inputs are checked first (plan, checkpoints, validation set): a bad one stops the run\n"
             "before any file is replaced.\n"
             "\n"
-            "options:\n"
-            "  --plan FILE.svg     the floor plan the models were trained on (required)\n"
-            "  --out DIR           output folder, created with its parents (required)\n"
-            "  --res M             map cell size in metres (default 0.05)\n"
-            "  --mc K              Monte-Carlo passes (default 50)\n"
-            "  --seed S            seed of the MC draws (default 1)\n"
-            "  --valset FILE       validation samples of the plan (host_sim valset): val_loss and the\n"
-            "                      thresholds of map.yaml\n"
-            "  --scale S           plan metres per pixel (default %g)\n",
-            SIM_PLAN_DEFAULT_SCALE);
+            "options:\n");
+    const maps_opts_t d = maps_defaults();
+    cli_opts_help(out, maps_opts, &d);
 }
-
-typedef struct maps_opts {
-    const char *plan, *out, *valset;
-    double res, scale;
-    long long mc, seed;
-    char **models;
-    int n_models;
-} maps_opts_t;
 
 /* 0, 1 after --help, -1 on a usage error (printed). o->models points into argv. */
 static int parse(int argc, char **argv, maps_opts_t *o)
 {
-    memset(o, 0, sizeof *o);
-    o->res = 0.05;
-    o->scale = SIM_PLAN_DEFAULT_SCALE;
-    o->mc = 50;
-    o->seed = 1;
+    *o = maps_defaults();
     o->models = calloc((size_t)argc, sizeof *o->models);
     if (o->models == NULL) {
         fprintf(stderr, "host_sim maps: out of memory\n");
         return -1;
     }
-    for (int i = 1; i < argc; i++) {
-        const char *a = argv[i];
-        if (strcmp(a, "--help") == 0 || strcmp(a, "-h") == 0) {
-            maps_usage(stdout);
-            return 1;
-        }
-        if (a[0] != '-' || a[1] == '\0') {
-            o->models[o->n_models++] = argv[i];
-            continue;
-        }
-        if (cmd_need_value(argc, argv, i, "maps", maps_usage) != 0)
-            return -1;
-        const char *v = argv[++i];
-        int bad = 0;
-        if (strcmp(a, "--plan") == 0)
-            o->plan = v;
-        else if (strcmp(a, "--out") == 0)
-            o->out = v;
-        else if (strcmp(a, "--valset") == 0)
-            o->valset = v;
-        else if (strcmp(a, "--res") == 0)
-            bad = cmd_parse_double(v, a, 0.001, 100.0, &o->res);
-        else if (strcmp(a, "--scale") == 0)
-            bad = cmd_parse_double(v, a, 1e-6, 100.0, &o->scale);
-        else if (strcmp(a, "--mc") == 0)
-            bad = cmd_parse_ll(v, a, 1, 100000, &o->mc);
-        else if (strcmp(a, "--seed") == 0)
-            bad = cmd_parse_ll(v, a, 0, 0x7FFFFFFFFFFFFFFFLL, &o->seed);
-        else {
-            fprintf(stderr, "host_sim maps: unknown option '%s' (see --help)\n", a);
-            return -1;
-        }
-        if (bad)
-            return -1;
-    }
-    const char *missing = !o->plan ? "--plan" : !o->out ? "--out" : NULL;
-    if (missing) {
-        fprintf(stderr, "host_sim maps: %s is required (see --help)\n", missing);
-        return -1;
-    }
+    const cli_parser_t parser = {.cmd = "maps", .opts = maps_opts, .usage = maps_usage, .operands = "MODEL.bnn"};
+    const int pr = cli_opts_parse(&parser, argc, argv, o, o->models, &o->n_models);
+    if (pr != 0)
+        return pr;
     if (o->n_models == 0) {
         fprintf(stderr, "host_sim maps: no MODEL.bnn given (see --help)\n");
         return -1;

@@ -8,12 +8,62 @@
 
 #include "commands.h"
 #include "cli.h"
+#include "sim_figure.h"
 #include "sim_grid.h"
 #include "sim_paths.h"
 #include "sim_plan.h"
 
+typedef struct paths_opts {
+    const char *plan, *out, *png;
+    double scale, check_clearance;
+    long long robots, seed;
+    sim_paths_cfg_t cfg;
+} paths_opts_t;
+
+static paths_opts_t paths_defaults(void)
+{
+    paths_opts_t o = {.scale = SIM_PLAN_DEFAULT_SCALE, .robots = -1, .seed = -1};
+    sim_paths_cfg_default(&o.cfg);
+    o.check_clearance = o.cfg.clearance_m;
+    return o;
+}
+
+#define PATHS_PLAN_OPT \
+    {.names = "--plan", .meta = "FILE", CLI_STRING(paths_opts_t, plan), .required = 1, .help = "the floor plan"}
+#define PATHS_PNG_OPT \
+    {.names = "--png", .meta = "FILE.png", CLI_STRING(paths_opts_t, png), .help = "draw the ground truth with the tours"}
+#define PATHS_SCALE_OPT \
+    {.names = "--scale", .meta = "S", CLI_DOUBLE(paths_opts_t, scale, 1e-6, 100.0), .help = "metres per SVG pixel"}
+
+static const cli_opt_t paths_gen_opts[] = {
+    PATHS_PLAN_OPT,
+    {.names = "--robots", .meta = "N", CLI_INT(paths_opts_t, robots, 1, SIM_PATHS_MAX_ROBOTS), .required = 1,
+     .help = "robots: one tour each, from N different start rooms"},
+    {.names = "--seed", .meta = "S", CLI_INT(paths_opts_t, seed, 0, INT64_MAX), .required = 1, .help = "seed"},
+    {.names = "--out", .meta = "DIR", CLI_STRING(paths_opts_t, out), .required = 1,
+     .help = "folder of the tours, DIR/robot_<i>.csv"},
+    {.names = "--clearance", .meta = "M", CLI_DOUBLE(paths_opts_t, cfg.clearance_m, 0.0, 5.0),
+     .help = "robot centre to any wall (TurtleBot3 burger radius 0.105 m + margin)"},
+    {.names = "--res", .meta = "M", CLI_DOUBLE(paths_opts_t, cfg.res_m, 0.005, 1.0), .help = "planning grid"},
+    {.names = "--sweep", .meta = "M", CLI_DOUBLE(paths_opts_t, cfg.sweep_m, 0.1, 100.0),
+     .help = "spacing of the sweep goals in each room"},
+    PATHS_SCALE_OPT,
+    PATHS_PNG_OPT,
+    CLI_OPT_END,
+};
+
+static const cli_opt_t paths_check_opts[] = {
+    PATHS_PLAN_OPT,
+    {.names = "--clearance", .meta = "M", CLI_DOUBLE(paths_opts_t, check_clearance, 0.0, 10.0),
+     .help = "the least distance of every segment from the walls"},
+    PATHS_SCALE_OPT,
+    PATHS_PNG_OPT,
+    CLI_OPT_END,
+};
+
 static void paths_usage(FILE *out)
 {
+    const paths_opts_t d = paths_defaults();
     fprintf(out,
             "usage: host_sim paths <gen|check> ...\n"
             "\n"
@@ -28,81 +78,19 @@ static void paths_usage(FILE *out)
             "      FILE:LINE: reason when a waypoint is not free or a segment comes closer than\n"
             "      --clearance to a wall (LINE: the waypoint the segment ends at)\n"
             "\n"
-            "  defaults: --clearance 0.2 (TurtleBot3 burger radius 0.105 m + margin), --res 0.05,\n"
-            "            --sweep 1.0 (spacing of the sweep goals in each room), --scale %g\n",
-            SIM_PLAN_DEFAULT_SCALE);
+            "options of paths gen:\n");
+    cli_opts_help(out, paths_gen_opts, &d);
+    fprintf(out, "options of paths check (before the CSV files):\n");
+    cli_opts_help(out, paths_check_opts, &d);
 }
 
-/* The picture: K x K pixels per grid cell (K chosen so the long side is about 1000 px). */
-typedef struct {
-    uint8_t *rgb;
-    int w, h, k;
-} canvas_t;
-
-static void put_px(canvas_t *cv, int x, int y, const uint8_t *col)
-{
-    if (x < 0 || y < 0 || x >= cv->w || y >= cv->h)
-        return;
-    uint8_t *p = cv->rgb + 3 * ((size_t)y * (size_t)cv->w + (size_t)x);
-    p[0] = col[0];
-    p[1] = col[1];
-    p[2] = col[2];
-}
-
-static void world_px(const sim_grid_t *g, const canvas_t *cv, double x, double y, int *px, int *py)
-{
-    *px = (int)floor((x - g->origin.x) / g->res * cv->k);
-    *py = (int)floor((y - g->origin.y) / g->res * cv->k);
-}
-
+/* The picture (ground truth + tours, y up, the robots' colours): sim_figure.h. */
 static int draw_png(const sim_grid_t *g, const sim_path_t *paths, int n, const char *file)
 {
-    canvas_t cv;
-    int side = g->w > g->h ? g->w : g->h;
-    cv.k = side >= 1000 ? 1 : 1000 / side;
-    cv.w = g->w * cv.k;
-    cv.h = g->h * cv.k;
-    cv.rgb = malloc((size_t)cv.w * (size_t)cv.h * 3);
-    if (cv.rgb == NULL)
-        return -ENOMEM;
-    for (int y = 0; y < cv.h; y++)
-        for (int x = 0; x < cv.w; x++) {
-            int c = g->cells[(size_t)(y / cv.k) * (size_t)g->w + (size_t)(x / cv.k)];
-            uint8_t v = c == SIM_CELL_FREE ? 255 : (c == SIM_CELL_WALL ? 0 : 190);
-            uint8_t col[3] = {v, v, v};
-            put_px(&cv, x, y, col);
-        }
-    for (int k = 0; k < n; k++) {
-        const uint8_t *col = SIM_PATH_COLOURS[k % 8];
-        for (int i = 0; i + 1 < paths[k].n; i++) {
-            double x0 = paths[k].p[i].x, y0 = paths[k].p[i].y, x1 = paths[k].p[i + 1].x, y1 = paths[k].p[i + 1].y;
-            int steps = (int)ceil(hypot(x1 - x0, y1 - y0) / g->res * cv.k) + 1;
-            for (int s = 0; s <= steps; s++) {
-                double t = (double)s / steps;
-                int px, py;
-                world_px(g, &cv, x0 + t * (x1 - x0), y0 + t * (y1 - y0), &px, &py);
-                for (int d = 0; d < (cv.k > 2 ? 2 : 1); d++) {
-                    put_px(&cv, px + d, py, col);
-                    put_px(&cv, px, py + d, col);
-                }
-            }
-        }
-        /* Waypoints as small crosses, the start as a filled square. */
-        for (int i = 0; i < paths[k].n; i++) {
-            int px, py;
-            world_px(g, &cv, paths[k].p[i].x, paths[k].p[i].y, &px, &py);
-            int rad = i == 0 ? 3 * cv.k : cv.k;
-            for (int d = -rad; d <= rad; d++)
-                for (int e = -rad; e <= rad; e++)
-                    if (i == 0 || d == 0 || e == 0)
-                        put_px(&cv, px + d, py + e, col);
-        }
-    }
     char err[256];
-    int rc = sim_png_write_rgb(file, cv.w, cv.h, cv.rgb, err, sizeof err);
+    int rc = sim_figure_paths_png(g, paths, n, file, err, sizeof err);
     if (rc != 0)
         fprintf(stderr, "host_sim paths: %s\n", err);
-    free(cv.rgb);
     return rc;
 }
 
@@ -139,55 +127,15 @@ static void report(const sim_plan_t *plan, const sim_grid_t *g, const sim_path_t
 
 static int paths_gen(int argc, char **argv)
 {
-    const char *plan_file = NULL, *out = NULL, *png = NULL;
-    double scale = SIM_PLAN_DEFAULT_SCALE;
-    long long robots = -1, seed = -1;
-    sim_paths_cfg_t cfg;
-    sim_paths_cfg_default(&cfg);
-    for (int i = 1; i < argc; i++) {
-        const char *o = argv[i];
-        if (strcmp(o, "--help") == 0 || strcmp(o, "-h") == 0) {
-            paths_usage(stdout);
-            return 0;
-        }
-        if (o[0] != '-' || strncmp(o, "--", 2) != 0) {
-            fprintf(stderr, "host_sim paths gen: unexpected argument '%s'\n", o);
-            return 2;
-        }
-        if (cmd_need_value(argc, argv, i, "paths gen", paths_usage) != 0)
-            return 2;
-        const char *v = argv[++i];
-        int bad = 0;
-        if (strcmp(o, "--plan") == 0)
-            plan_file = v;
-        else if (strcmp(o, "--out") == 0)
-            out = v;
-        else if (strcmp(o, "--png") == 0)
-            png = v;
-        else if (strcmp(o, "--robots") == 0)
-            bad = cmd_parse_ll(v, o, 1, SIM_PATHS_MAX_ROBOTS, &robots);
-        else if (strcmp(o, "--seed") == 0)
-            bad = cmd_parse_ll(v, o, 0, 0x7FFFFFFFFFFFFFFFLL, &seed);
-        else if (strcmp(o, "--clearance") == 0)
-            bad = cmd_parse_double(v, o, 0.0, 5.0, &cfg.clearance_m);
-        else if (strcmp(o, "--res") == 0)
-            bad = cmd_parse_double(v, o, 0.005, 1.0, &cfg.res_m);
-        else if (strcmp(o, "--sweep") == 0)
-            bad = cmd_parse_double(v, o, 0.1, 100.0, &cfg.sweep_m);
-        else if (strcmp(o, "--scale") == 0)
-            bad = cmd_parse_double(v, o, 1e-6, 100.0, &scale);
-        else {
-            fprintf(stderr, "host_sim paths gen: unknown option '%s'\n", o);
-            return 2;
-        }
-        if (bad)
-            return 2;
-    }
-    if (plan_file == NULL || out == NULL || robots < 0 || seed < 0) {
-        fprintf(stderr, "host_sim paths gen: --plan, --robots, --seed and --out are required\n");
-        paths_usage(stderr);
-        return 2;
-    }
+    paths_opts_t o = paths_defaults();
+    const cli_parser_t parser = {.cmd = "paths gen", .opts = paths_gen_opts, .usage = paths_usage};
+    const int pr = cli_opts_parse(&parser, argc, argv, &o, NULL, NULL);
+    if (pr != 0)
+        return pr > 0 ? 0 : 2;
+    const char *plan_file = o.plan, *out = o.out, *png = o.png;
+    const double scale = o.scale;
+    const long long robots = o.robots, seed = o.seed;
+    sim_paths_cfg_t cfg = o.cfg;
     cfg.n_robots = (int)robots;
     cfg.seed = (uint64_t)seed;
     sim_plan_t plan;
@@ -244,51 +192,20 @@ done:
 
 static int paths_check(int argc, char **argv)
 {
-    const char *plan_file = NULL, *png = NULL;
-    double scale = SIM_PLAN_DEFAULT_SCALE;
-    sim_paths_cfg_t defaults;
-    sim_paths_cfg_default(&defaults);
-    double clearance = defaults.clearance_m;
-    int first_csv = -1;
-    for (int i = 1; i < argc; i++) {
-        const char *o = argv[i];
-        if (strcmp(o, "--help") == 0 || strcmp(o, "-h") == 0) {
-            paths_usage(stdout);
-            return 0;
-        }
-        if (o[0] != '-') {
-            if (first_csv < 0)
-                first_csv = i;
-            continue;
-        }
-        if (first_csv >= 0) {
-            fprintf(stderr, "host_sim paths check: options must come before the CSV files ('%s')\n", o);
-            return 2;
-        }
-        if (cmd_need_value(argc, argv, i, "paths check", paths_usage) != 0)
-            return 2;
-        const char *v = argv[++i];
-        if (strcmp(o, "--plan") == 0)
-            plan_file = v;
-        else if (strcmp(o, "--png") == 0)
-            png = v;
-        else if (strcmp(o, "--scale") == 0) {
-            if (cmd_parse_double(v, o, 1e-6, 100.0, &scale) != 0)
-                return 2;
-        } else if (strcmp(o, "--clearance") == 0) {
-            if (cmd_parse_double(v, o, 0.0, 10.0, &clearance) != 0)
-                return 2;
-        } else {
-            fprintf(stderr, "host_sim paths check: unknown option '%s'\n", o);
-            return 2;
-        }
-    }
-    if (plan_file == NULL || first_csv < 0) {
-        fprintf(stderr, "host_sim paths check: --plan and at least one CSV are required\n");
-        paths_usage(stderr);
+    paths_opts_t o = paths_defaults();
+    char *csv[argc > 0 ? argc : 1];
+    int n = 0;
+    const cli_parser_t parser = {.cmd = "paths check", .opts = paths_check_opts, .usage = paths_usage,
+                                 .operands = "CSV files", .options_first = 1};
+    const int pr = cli_opts_parse(&parser, argc, argv, &o, csv, &n);
+    if (pr != 0)
+        return pr > 0 ? 0 : 2;
+    const char *plan_file = o.plan, *png = o.png;
+    const double scale = o.scale, clearance = o.check_clearance;
+    if (n == 0) {
+        fprintf(stderr, "host_sim paths check: at least one CSV is required (see --help)\n");
         return 2;
     }
-    int n = argc - first_csv;
     if (n > SIM_PATHS_MAX_ROBOTS) {
         fprintf(stderr, "host_sim paths check: at most %d files\n", SIM_PATHS_MAX_ROBOTS);
         return 2;
@@ -303,7 +220,7 @@ static int paths_check(int argc, char **argv)
     sim_path_t paths[SIM_PATHS_MAX_ROBOTS];
     sim_grid_t g = {0};
     for (; loaded < n; loaded++)
-        if (sim_path_read_csv(argv[first_csv + loaded], &plan, &paths[loaded], err, sizeof err) != 0) {
+        if (sim_path_read_csv(csv[loaded], &plan, &paths[loaded], err, sizeof err) != 0) {
             fprintf(stderr, "%s\n", err);
             goto done;
         }
@@ -316,7 +233,7 @@ static int paths_check(int argc, char **argv)
             fprintf(stderr,
                     "%s:%d: the segment (%.3f, %.3f) -> (%.3f, %.3f) passes %.3f m from a wall; the robot "
                     "needs %.3f m (--clearance)\n",
-                    argv[first_csv + k], p->line ? p->line[seg + 1] : 0, p->p[seg].x, p->p[seg].y,
+                    csv[k], p->line ? p->line[seg + 1] : 0, p->p[seg].x, p->p[seg].y,
                     p->p[seg + 1].x, p->p[seg + 1].y, d, clearance);
             goto done;
         }

@@ -11,8 +11,43 @@
 #include "sim_plan.h"
 #include "sim_plangen.h"
 
+typedef struct plan_opts {
+    const char *out;
+    double scale, res;
+    long long seed, rooms;
+} plan_opts_t;
+
+static plan_opts_t plan_defaults(void)
+{
+    return (plan_opts_t){.scale = SIM_PLAN_DEFAULT_SCALE, .res = -1.0, .seed = -1, .rooms = 6};
+}
+
+#define PLAN_SCALE_OPT \
+    {.names = "--scale", .meta = "S", CLI_DOUBLE(plan_opts_t, scale, 1e-6, 100.0), .help = "metres per SVG pixel"}
+
+static const cli_opt_t plan_check_opts[] = {PLAN_SCALE_OPT, CLI_OPT_END};
+
+static const cli_opt_t plan_gen_opts[] = {
+    {.names = "--seed", .meta = "N", CLI_INT(plan_opts_t, seed, 0, 0xFFFFFFFFLL), .required = 1,
+     .help = "the plan's seed"},
+    {.names = "--out", .meta = "FILE", CLI_STRING(plan_opts_t, out), .required = 1, .help = "the SVG written"},
+    {.names = "--rooms", .meta = "R", CLI_INT(plan_opts_t, rooms, SIM_PLANGEN_MIN_ROOMS, SIM_PLANGEN_MAX_ROOMS),
+     .help = "rooms besides the corridor"},
+    CLI_OPT_END,
+};
+
+static const cli_opt_t plan_grid_opts[] = {
+    {.names = "--res", .meta = "M", CLI_DOUBLE(plan_opts_t, res, 0.005, 10.0), .required = 1,
+     .help = "metres per cell"},
+    {.names = "--out", .meta = "FILE.png|FILE.pgm", CLI_STRING(plan_opts_t, out), .required = 1,
+     .help = "the raster written"},
+    PLAN_SCALE_OPT,
+    CLI_OPT_END,
+};
+
 static void plan_usage(FILE *out)
 {
+    const plan_opts_t d = plan_defaults();
     fprintf(out,
             "usage: host_sim plan <check|gen|grid> ... \n"
             "\n"
@@ -22,43 +57,48 @@ static void plan_usage(FILE *out)
             "      (FILE: reason when the file cannot be read); an opening over no wall is a\n"
             "      FILE:LINE:COL: warning on stderr (the plan still loads)\n"
             "  host_sim plan gen --seed N --out FILE [--rooms R]\n"
-            "      write a procedural floor plan (R rooms besides the corridor, %d..%d, default 6)\n"
+            "      write a procedural floor plan (R rooms besides the corridor, %d..%d)\n"
             "  host_sim plan grid FILE --res M --out FILE.png|FILE.pgm [--scale S]\n"
             "      write the ground-truth occupancy raster (M metres per cell): free white,\n"
             "      wall black, outside the building grey\n"
             "\n"
-            "  --scale S   metres per SVG pixel (default %g)\n",
-            SIM_PLANGEN_MIN_ROOMS, SIM_PLANGEN_MAX_ROOMS, SIM_PLAN_DEFAULT_SCALE);
+            "options of plan check:\n",
+            SIM_PLANGEN_MIN_ROOMS, SIM_PLANGEN_MAX_ROOMS);
+    cli_opts_help(out, plan_check_opts, &d);
+    fprintf(out, "options of plan gen:\n");
+    cli_opts_help(out, plan_gen_opts, &d);
+    fprintf(out, "options of plan grid:\n");
+    cli_opts_help(out, plan_grid_opts, &d);
+}
+
+/* FILE, the one operand of check and grid. */
+static int one_file(const char *cmd, char **ops, int n, const char **file)
+{
+    if (n > 1) {
+        fprintf(stderr, "host_sim %s: more than one FILE ('%s')\n", cmd, ops[1]);
+        return -1;
+    }
+    if (n == 0) {
+        fprintf(stderr, "host_sim %s: FILE missing (see --help)\n", cmd);
+        return -1;
+    }
+    *file = ops[0];
+    return 0;
 }
 
 static int plan_check(int argc, char **argv)
 {
+    plan_opts_t o = plan_defaults();
+    char *ops[argc > 0 ? argc : 1];
+    int n_ops = 0;
+    const cli_parser_t parser = {.cmd = "plan check", .opts = plan_check_opts, .usage = plan_usage, .operands = "FILE"};
+    const int pr = cli_opts_parse(&parser, argc, argv, &o, ops, &n_ops);
+    if (pr != 0)
+        return pr > 0 ? 0 : 2;
     const char *file = NULL;
-    double scale = SIM_PLAN_DEFAULT_SCALE;
-    for (int i = 1; i < argc; i++) {
-        if (strcmp(argv[i], "--help") == 0 || strcmp(argv[i], "-h") == 0) {
-            plan_usage(stdout);
-            return 0;
-        } else if (strcmp(argv[i], "--scale") == 0) {
-            if (cmd_need_value(argc, argv, i, "plan check", plan_usage) != 0 ||
-                cmd_parse_double(argv[i + 1], "--scale", 1e-6, 100.0, &scale) != 0)
-                return 2;
-            i++;
-        } else if (argv[i][0] == '-') {
-            fprintf(stderr, "host_sim plan check: unknown option '%s'\n", argv[i]);
-            return 2;
-        } else if (file == NULL) {
-            file = argv[i];
-        } else {
-            fprintf(stderr, "host_sim plan check: more than one FILE ('%s')\n", argv[i]);
-            return 2;
-        }
-    }
-    if (file == NULL) {
-        fprintf(stderr, "host_sim plan check: FILE missing\n");
-        plan_usage(stderr);
+    if (one_file("plan check", ops, n_ops, &file) != 0)
         return 2;
-    }
+    const double scale = o.scale;
     sim_plan_t plan;
     char err[8192];
     if (sim_plan_load(file, scale, &plan, err, sizeof err) != 0) {
@@ -92,39 +132,14 @@ static int plan_check(int argc, char **argv)
 
 static int plan_gen(int argc, char **argv)
 {
-    const char *out = NULL;
-    long long seed = -1;
-    int rooms = 6;
-    for (int i = 1; i < argc; i++) {
-        if (strcmp(argv[i], "--help") == 0 || strcmp(argv[i], "-h") == 0) {
-            plan_usage(stdout);
-            return 0;
-        } else if (strcmp(argv[i], "--seed") == 0) {
-            if (cmd_need_value(argc, argv, i, "plan gen", plan_usage) != 0 ||
-                cmd_parse_ll(argv[i + 1], "--seed", 0, 0xFFFFFFFFLL, &seed) != 0)
-                return 2;
-            i++;
-        } else if (strcmp(argv[i], "--out") == 0) {
-            if (cmd_need_value(argc, argv, i, "plan gen", plan_usage) != 0)
-                return 2;
-            out = argv[++i];
-        } else if (strcmp(argv[i], "--rooms") == 0) {
-            long long r;
-            if (cmd_need_value(argc, argv, i, "plan gen", plan_usage) != 0 ||
-                cmd_parse_ll(argv[i + 1], "--rooms", SIM_PLANGEN_MIN_ROOMS, SIM_PLANGEN_MAX_ROOMS, &r) != 0)
-                return 2;
-            rooms = (int)r;
-            i++;
-        } else {
-            fprintf(stderr, "host_sim plan gen: unknown argument '%s'\n", argv[i]);
-            return 2;
-        }
-    }
-    if (seed < 0 || out == NULL) {
-        fprintf(stderr, "host_sim plan gen: --seed and --out are required\n");
-        plan_usage(stderr);
-        return 2;
-    }
+    plan_opts_t o = plan_defaults();
+    const cli_parser_t parser = {.cmd = "plan gen", .opts = plan_gen_opts, .usage = plan_usage};
+    const int pr = cli_opts_parse(&parser, argc, argv, &o, NULL, NULL);
+    if (pr != 0)
+        return pr > 0 ? 0 : 2;
+    const char *out = o.out;
+    const long long seed = o.seed;
+    const int rooms = (int)o.rooms;
     char err[8192];
     int rc = sim_plangen_write(out, (unsigned long)seed, rooms, err, sizeof err);
     if (rc != 0) {
@@ -137,41 +152,17 @@ static int plan_gen(int argc, char **argv)
 
 static int plan_grid(int argc, char **argv)
 {
-    const char *file = NULL, *out = NULL;
-    double scale = SIM_PLAN_DEFAULT_SCALE, res = -1.0;
-    for (int i = 1; i < argc; i++) {
-        if (strcmp(argv[i], "--help") == 0 || strcmp(argv[i], "-h") == 0) {
-            plan_usage(stdout);
-            return 0;
-        } else if (strcmp(argv[i], "--scale") == 0) {
-            if (cmd_need_value(argc, argv, i, "plan grid", plan_usage) != 0 ||
-                cmd_parse_double(argv[i + 1], "--scale", 1e-6, 100.0, &scale) != 0)
-                return 2;
-            i++;
-        } else if (strcmp(argv[i], "--res") == 0) {
-            if (cmd_need_value(argc, argv, i, "plan grid", plan_usage) != 0 ||
-                cmd_parse_double(argv[i + 1], "--res", 0.005, 10.0, &res) != 0)
-                return 2;
-            i++;
-        } else if (strcmp(argv[i], "--out") == 0) {
-            if (cmd_need_value(argc, argv, i, "plan grid", plan_usage) != 0)
-                return 2;
-            out = argv[++i];
-        } else if (argv[i][0] == '-') {
-            fprintf(stderr, "host_sim plan grid: unknown option '%s'\n", argv[i]);
-            return 2;
-        } else if (file == NULL) {
-            file = argv[i];
-        } else {
-            fprintf(stderr, "host_sim plan grid: more than one FILE ('%s')\n", argv[i]);
-            return 2;
-        }
-    }
-    if (file == NULL || out == NULL || res < 0) {
-        fprintf(stderr, "host_sim plan grid: FILE, --res and --out are required\n");
-        plan_usage(stderr);
+    plan_opts_t o = plan_defaults();
+    char *ops[argc > 0 ? argc : 1];
+    int n_ops = 0;
+    const cli_parser_t parser = {.cmd = "plan grid", .opts = plan_grid_opts, .usage = plan_usage, .operands = "FILE"};
+    const int pr = cli_opts_parse(&parser, argc, argv, &o, ops, &n_ops);
+    if (pr != 0)
+        return pr > 0 ? 0 : 2;
+    const char *file = NULL, *out = o.out;
+    if (one_file("plan grid", ops, n_ops, &file) != 0)
         return 2;
-    }
+    const double scale = o.scale, res = o.res;
     sim_plan_t plan;
     char err[8192];
     if (sim_plan_load(file, scale, &plan, err, sizeof err) != 0) {

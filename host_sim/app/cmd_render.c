@@ -15,10 +15,62 @@
 #include "sim_world.h"
 
 #define MAX_PATHS 64
+#define CLI_STR__(x) #x
+#define CLI_STR_(x) CLI_STR__(x)
+
+typedef struct render_opts {
+    const char *plan, *out, *path_files[MAX_PATHS];
+    int n_paths;
+    long long sweep_beams, seed;
+    sim_render_cfg_t cfg;
+    double scale, wall_h;
+} render_opts_t;
+
+static render_opts_t render_defaults(void)
+{
+    return (render_opts_t){.sweep_beams = 180, .seed = 1, .cfg = sim_render_default_cfg(),
+                           .scale = SIM_PLAN_DEFAULT_SCALE, .wall_h = 2.5};
+}
+
+/* --path, repeated: one robot each. */
+static int add_path(const char *cmd, const char *opt, const char *v, void *field, void *opts)
+{
+    (void)field;
+    render_opts_t *o = opts;
+    if (o->n_paths == MAX_PATHS) {
+        fprintf(stderr, "host_sim %s: at most %d %s options\n", cmd, MAX_PATHS, opt);
+        return -1;
+    }
+    o->path_files[o->n_paths++] = v;
+    return 0;
+}
+
+static const cli_opt_t render_opts[] = {
+    {.names = "--plan", .meta = "FILE.svg", CLI_STRING(render_opts_t, plan), .required = 1, .help = "the floor plan"},
+    {.names = "--out", .meta = "SCENE.png", CLI_STRING(render_opts_t, out), .required = 1, .help = "the image written"},
+    {.names = "--path", .meta = "FILE", CLI_CUSTOM(render_opts_t, path_files, add_path),
+     .help = "a waypoint CSV (x_m,y_m); repeat for several robots (max " CLI_STR_(MAX_PATHS) ")"},
+    {.names = "--width", .meta = "W", CLI_INT(render_opts_t, cfg.width, 16, SIM_RENDER_MAX_SIDE), .help = "image width"},
+    {.names = "--height", .meta = "H", CLI_INT(render_opts_t, cfg.height, 16, SIM_RENDER_MAX_SIDE), .help = "image height"},
+    {.names = "--azimuth", .meta = "DEG", CLI_DOUBLE(render_opts_t, cfg.azimuth_deg, -360, 360),
+     .help = "camera azimuth, -90 = from the south"},
+    {.names = "--elevation", .meta = "DEG", CLI_DOUBLE(render_opts_t, cfg.elevation_deg, 5.01, 90),
+     .help = "camera elevation above the floor"},
+    {.names = "--fov", .meta = "DEG", CLI_DOUBLE(render_opts_t, cfg.fov_deg, 5.01, 119.9), .help = "vertical field of view"},
+    {.names = "--wall-height", .meta = "M", CLI_DOUBLE(render_opts_t, wall_h, 0.01, 10),
+     .help = "height the walls are drawn at, e.g. 1.0 for a cut-away view that shows robots next to walls "
+             "(the default is the simulated height)"},
+    {.names = "--sweep-beams", .meta = "N", CLI_INT(render_opts_t, sweep_beams, 0, SIM_LIDAR_MAX_BEAMS),
+     .help = "beams drawn in the lidar sweep, 0 = none"},
+    {.names = "--seed", .meta = "S", CLI_INT(render_opts_t, seed, 0, INT64_MAX),
+     .help = "seed of the free pose used when no path is given"},
+    {.names = "--scale", .meta = "S", CLI_DOUBLE(render_opts_t, scale, 1e-6, 1e3), .help = "plan metres per pixel"},
+    CLI_OPT_END,
+};
 
 static void render_usage(FILE *out)
 {
-    sim_render_cfg_t d = sim_render_default_cfg();
+    const render_opts_t d = render_defaults();
     fprintf(out,
             "usage: host_sim render --plan FILE.svg [--path ROBOT.csv ...] --out SCENE.png [options]\n"
             "\n"
@@ -27,83 +79,22 @@ static void render_usage(FILE *out)
             "sweep from the first robot (or from a free pose when no path is given), offscreen\n"
             "(OSMesa, no display), from a perspective camera above the plan.\n"
             "\n"
-            "options:\n"
-            "  --path FILE       a waypoint CSV (x_m,y_m); repeat for several robots (max %d)\n"
-            "  --width W         image width (default %d)\n"
-            "  --height H        image height (default %d)\n"
-            "  --azimuth DEG     camera azimuth, -90 = from the south (default %g)\n"
-            "  --elevation DEG   camera elevation above the floor (default %g)\n"
-            "  --fov DEG         vertical field of view (default %g)\n"
-            "  --wall-height M   height the walls are drawn at, e.g. 1.0 for a cut-away view\n"
-            "                    that shows robots next to walls (default 2.5, the simulated height)\n"
-            "  --sweep-beams N   beams drawn in the lidar sweep, 0 = none (default 180)\n"
-            "  --seed S          seed of the free pose used when no path is given (default 1)\n"
-            "  --scale S         plan metres per pixel (default %g)\n",
-            MAX_PATHS, d.width, d.height, d.azimuth_deg, d.elevation_deg, d.fov_deg,
-            SIM_PLAN_DEFAULT_SCALE);
+            "options:\n");
+    cli_opts_help(out, render_opts, &d);
 }
 
 int cmd_render(int argc, char **argv)
 {
-    const char *plan_file = NULL, *out = NULL, *path_files[MAX_PATHS];
-    int n_paths = 0;
-    long long sweep_beams = 180, seed = 1;
-    sim_render_cfg_t rc_cfg = sim_render_default_cfg();
-    double scale = SIM_PLAN_DEFAULT_SCALE, wall_h = 2.5;
-    for (int i = 1; i < argc; i++) {
-        const char *a = argv[i];
-        long long ll = 0; // set by the parsers on success; 0 keeps -O1 -Wmaybe-uninitialized quiet
-        if (strcmp(a, "--help") == 0 || strcmp(a, "-h") == 0) {
-            render_usage(stdout);
-            return 0;
-        }
-        if (strncmp(a, "--", 2) != 0) {
-            fprintf(stderr, "host_sim render: unexpected argument '%s' (see --help)\n", a);
-            return 2;
-        }
-        if (cmd_need_value(argc, argv, i, "render", render_usage) < 0)
-            return 2;
-        const char *v = argv[++i];
-        int bad = 0;
-        if (strcmp(a, "--plan") == 0)
-            plan_file = v;
-        else if (strcmp(a, "--out") == 0)
-            out = v;
-        else if (strcmp(a, "--path") == 0) {
-            if (n_paths == MAX_PATHS) {
-                fprintf(stderr, "host_sim render: at most %d --path options\n", MAX_PATHS);
-                return 2;
-            }
-            path_files[n_paths++] = v;
-        } else if (strcmp(a, "--width") == 0)
-            bad = cmd_parse_ll(v, a, 16, SIM_RENDER_MAX_SIDE, &ll) < 0 || (rc_cfg.width = (int)ll, 0);
-        else if (strcmp(a, "--height") == 0)
-            bad = cmd_parse_ll(v, a, 16, SIM_RENDER_MAX_SIDE, &ll) < 0 || (rc_cfg.height = (int)ll, 0);
-        else if (strcmp(a, "--azimuth") == 0)
-            bad = cmd_parse_double(v, a, -360, 360, &rc_cfg.azimuth_deg) < 0;
-        else if (strcmp(a, "--elevation") == 0)
-            bad = cmd_parse_double(v, a, 5.01, 90, &rc_cfg.elevation_deg) < 0;
-        else if (strcmp(a, "--fov") == 0)
-            bad = cmd_parse_double(v, a, 5.01, 119.9, &rc_cfg.fov_deg) < 0;
-        else if (strcmp(a, "--wall-height") == 0)
-            bad = cmd_parse_double(v, a, 0.01, 10, &wall_h) < 0;
-        else if (strcmp(a, "--sweep-beams") == 0)
-            bad = cmd_parse_ll(v, a, 0, SIM_LIDAR_MAX_BEAMS, &sweep_beams) < 0;
-        else if (strcmp(a, "--seed") == 0)
-            bad = cmd_parse_ll(v, a, 0, 9223372036854775807LL, &seed) < 0;
-        else if (strcmp(a, "--scale") == 0)
-            bad = cmd_parse_double(v, a, 1e-6, 1e3, &scale) < 0;
-        else {
-            fprintf(stderr, "host_sim render: unknown option '%s' (see --help)\n", a);
-            return 2;
-        }
-        if (bad)
-            return 2;
-    }
-    if (plan_file == NULL || out == NULL) {
-        fprintf(stderr, "host_sim render: --plan and --out are required (see --help)\n");
-        return 2;
-    }
+    render_opts_t o = render_defaults();
+    const cli_parser_t parser = {.cmd = "render", .opts = render_opts, .usage = render_usage};
+    const int pr = cli_opts_parse(&parser, argc, argv, &o, NULL, NULL);
+    if (pr != 0)
+        return pr > 0 ? 0 : 2;
+    const char *plan_file = o.plan, *out = o.out, *const *path_files = o.path_files;
+    const int n_paths = o.n_paths;
+    const long long sweep_beams = o.sweep_beams, seed = o.seed;
+    const sim_render_cfg_t rc_cfg = o.cfg;
+    const double scale = o.scale, wall_h = o.wall_h;
     char err[8192];
     int status = 1;
     sim_plan_t plan;

@@ -22,9 +22,134 @@
 #include "sim_samples.h"
 #include "sim_valset.h"
 
+typedef struct run_opts {
+    const char *plan, *path, *out, *net;
+    long long rounds, per_comm, seed, robot, val_poses, mc, fleet, fleet_id, val_every, chunk_bytes;
+    double time_limit, map_res, scale, radius, peer_timeout, join_timeout;
+    dinno_cfg_t d;
+    ai_pool_policy_t pool;
+    hal_host_sched_t sched;
+    gp_fleet_encoding_t encoding;
+    int offline, train_between, no_maps, quiet, net_given, resume;
+    int transport;          /* --transport: 0, lcm (the only one) */
+    const char *net_faults; /* --net-faults SPEC, checked at parse time; NULL: none */
+    const char *key_file;   /* --key-file: a keyed fleet; NULL: unkeyed */
+    uint64_t run_id;
+    int run_id_given;
+} run_opts_t;
+
+static void run_defaults(run_opts_t *o)
+{
+    memset(o, 0, sizeof *o);
+    o->d = dinno_default_cfg();
+    o->rounds = 8;
+    o->per_comm = 1;
+    o->seed = 1;
+    o->fleet = 1;
+    o->time_limit = 1800;
+    o->val_poses = 500;
+    o->mc = 50;
+    o->map_res = 0.1;
+    o->scale = SIM_PLAN_DEFAULT_SCALE;
+    o->radius = 6.0;
+    o->peer_timeout = 10.0;
+    o->join_timeout = 120.0;
+    o->net = "memq://";
+    o->pool = AI_POOL_CDR;
+    o->sched = HAL_HOST_SCHED_SERIAL;
+    o->encoding = GP_FLEET_FP32;
+}
+
+/* --net-faults SPEC: checked now, applied when the network opens. */
+static int parse_net_faults(const char *cmd, const char *opt, const char *v, void *field, void *opts)
+{
+    (void)opts;
+    hal_host_netfault_cfg_t fc;
+    char why[200];
+    if (hal_host_netfault_parse(v, &fc, why, sizeof why) != 0) {
+        fprintf(stderr, "host_sim %s: %s: %s\n", cmd, opt, why);
+        return -1;
+    }
+    memcpy(field, &v, sizeof v);
+    return 0;
+}
+
+static const cli_opt_t run_opts[] = {
+    {.names = "--plan", .meta = "FILE.svg", CLI_STRING(run_opts_t, plan), .required = 1, .help = "the floor plan"},
+    {.names = "--path", .meta = "FILE.csv", CLI_STRING(run_opts_t, path), .required = 1, .help = "the robot's tour"},
+    {.names = "--out", .meta = "DIR", CLI_STRING(run_opts_t, out), .required = 1, .help = "output folder"},
+    {.names = "--online", CLI_FLAG(run_opts_t, offline, 0), .help = "rounds at distance boundaries (default)"},
+    {.names = "--offline", CLI_FLAG(run_opts_t, offline, 1), .help = "the whole tour first, then every round"},
+    {.names = "--resume", CLI_FLAG(run_opts_t, resume, 1),
+     .help = "offline: continue from the last complete round_NNNN.bnn in DIR (invalid ones skipped), keeping the "
+             "stopped run's rows of metrics.csv and traffic.csv; the tour is driven again (same samples), duals "
+             "and Adam moments restart at 0"},
+    {.names = "--rounds", .meta = "N", CLI_INT(run_opts_t, rounds, 1, AI_CORE_MAX_ROUNDS), .help = "DiNNO rounds in all"},
+    {.names = "--rounds-per-comm", .meta = "R", CLI_INT(run_opts_t, per_comm, 1, AI_CORE_MAX_ROUNDS),
+     .help = "online: DiNNO rounds per communication round (divides N)"},
+    {.names = "--pool", CLI_CHOICE(run_opts_t, pool, "cdr|dr"), .values = (const int[]){AI_POOL_CDR, AI_POOL_DR},
+     .help = "online: cumulative data retention or data refresh per round"},
+    {.names = "--seed", .meta = "S", CLI_INT(run_opts_t, seed, 0, INT64_MAX),
+     .help = "run seed: noise, weights, minibatches, reservoir"},
+    {.names = "--strategy", CLI_CHOICE(run_opts_t, d.strategy, "kl|separate|uniform"),
+     .values = (const int[]){DINNO_KL, DINNO_SEPARATE, DINNO_UNIFORM}, .help = "DiNNO regulariser"},
+    {CLI_INCLUDE(run_opts_t, d, cmd_dinno_opts)},
+    {.names = "--train-between", CLI_FLAG(run_opts_t, train_between, 1),
+     .help = "one more optimiser step per AI tick between boundaries"},
+    {.names = "--time-limit", .meta = "S", CLI_DOUBLE(run_opts_t, time_limit, 0.1, 1e6),
+     .help = "simulated seconds before giving up"},
+    {.names = "--robot|--id", .meta = "I", CLI_INT(run_opts_t, robot, 0, 1000000),
+     .help = "robot index: noise streams, seeds, telemetry, fleet member id"},
+    {.names = "--fleet", .meta = "N", CLI_INT(run_opts_t, fleet, 1, GP_PSE_MAX_PEERS),
+     .help = "fleet size (1: alone); needs the network"},
+    {.names = "--fleet-id", .meta = "F", CLI_INT(run_opts_t, fleet_id, 0, 1000000),
+     .help = "fleet number: its LCM channels fleetsim/F/..."},
+    {.names = "--transport", CLI_CHOICE(run_opts_t, transport, "lcm"), .def = "",
+     .help = "the fleet's transport (LCM is the only one)"},
+    {.names = "--lcm-url", .meta = "URL", CLI_STRING(run_opts_t, net), CLI_GIVEN(run_opts_t, net_given),
+     .def = HAL_HOST_NET_URL_DEFAULT, .help = "LCM URL"},
+    {.names = "--net", .meta = "URL", CLI_STRING(run_opts_t, net), CLI_GIVEN(run_opts_t, net_given),
+     .help = "the same (alone: default memq://, in-process; 'none' for no network)", .def = ""},
+    {.names = "--radius", .meta = "M", CLI_DOUBLE(run_opts_t, radius, 0.0, 1e6),
+     .help = "fleet: neighbours within M metres (0: every peer)"},
+    {.names = "--encoding", CLI_CHOICE(run_opts_t, encoding, "fp32|int8"),
+     .values = (const int[]){GP_FLEET_FP32, GP_FLEET_INT8},
+     .help = "fleet: states as fp32 or int8 with per-row scales"},
+    {.names = "--peer-timeout", .meta = "S", CLI_DOUBLE(run_opts_t, peer_timeout, 0.1, 3600.0),
+     .help = "fleet: a peer silent S seconds leaves the round"},
+    {.names = "--join-timeout", .meta = "S", CLI_DOUBLE(run_opts_t, join_timeout, 0.1, 3600.0),
+     .help = "fleet: the same for a peer never heard yet"},
+    {.names = "--chunk-bytes", .meta = "B", CLI_INT(run_opts_t, chunk_bytes, GP_PSE_MIN_CHUNK_BYTES, GP_PSE_MAX_CHUNK_BYTES),
+     .def = "the most, 60 KB or less on a small MTU", .help = "fleet: state bytes per datagram"},
+    {.names = "--key-file", .meta = "F", CLI_STRING(run_opts_t, key_file),
+     .help = "fleet: a keyed fleet (F from `host_sim key new`, mode 0600): every datagram carries an "
+             "HMAC-SHA-512-256 tag of the key; others are dropped and counted"},
+    {.names = "--run-id", .meta = "X", CLI_HEX64(run_opts_t, run_id), CLI_GIVEN(run_opts_t, run_id_given),
+     .help = "keyed fleet: this launch's id, 1-16 hex digits, the same for every member (tools/fleet draws one per "
+             "run): recordings of other runs are refused"},
+    {.names = "--net-faults", .meta = "SPEC", CLI_CUSTOM(run_opts_t, net_faults, parse_net_faults),
+     .help = "inject faults into what this robot receives, comma-separated: drop=P, dup=P, reorder=P "
+             "(probabilities), delay_ms=D (uniform 0..D), seed=S (default: the run seed; each robot mixes in its "
+             "id), partition=A/B (robot ids '.'-separated, e.g. 0.1/2.3) with from=T1, until=T2 (seconds since the "
+             "network opened); counted in summary.txt"},
+    {.names = "--sched", CLI_CHOICE(run_opts_t, sched, "serial|parallel"),
+     .values = (const int[]){HAL_HOST_SCHED_SERIAL, HAL_HOST_SCHED_PARALLEL},
+     .help = "lockstep release order (serial: bit-reproducible)"},
+    {.names = "--val-poses", .meta = "N", CLI_INT(run_opts_t, val_poses, 0, 100000),
+     .help = "validation poses x 500 points (0: no validation)"},
+    {.names = "--val-every", .meta = "M", CLI_INT(run_opts_t, val_every, 1, AI_CORE_MAX_ROUNDS),
+     .def = "1 alone, rounds/50 in a fleet",
+     .help = "validation loss (and a round checkpoint) every M rounds and at the end"},
+    {.names = "--map-res", .meta = "M", CLI_DOUBLE(run_opts_t, map_res, 0.01, 10.0), .help = "map grid in metres"},
+    {.names = "--mc", .meta = "K", CLI_INT(run_opts_t, mc, 1, 1000), .help = "MC passes of the maps"},
+    {.names = "--no-maps", CLI_FLAG(run_opts_t, no_maps, 1), .help = "skip the PNG maps"},
+    {.names = "--quiet", CLI_FLAG(run_opts_t, quiet, 1), .help = "firmware log at WARN (default INFO: a line per round)"},
+    {.names = "--scale", .meta = "S", CLI_DOUBLE(run_opts_t, scale, 1e-6, 100.0), .help = "plan metres per pixel"},
+    CLI_OPT_END,
+};
+
 static void run_usage(FILE *out)
 {
-    const dinno_cfg_t d = dinno_default_cfg();
     fprintf(out,
             "usage: host_sim run --plan FILE.svg --path FILE.csv --out DIR [options]\n"
             "       host_sim run ... --fleet N --id I [--fleet-id F] [--transport lcm] [--lcm-url URL]\n"
@@ -58,225 +183,23 @@ static void run_usage(FILE *out)
             "profile.csv (per core: ticks, lateness, wall time per tick, stack high-water; static memory),\n"
             "summary.txt.\n"
             "\n"
-            "options:\n"
-            "  --online             rounds at distance boundaries (default)\n"
-            "  --offline            the whole tour first, then every round\n"
-            "  --resume             offline: continue from the last complete round_NNNN.bnn in DIR (invalid ones\n"
-            "                       skipped), keeping the stopped run's rows of metrics.csv and traffic.csv;\n"
-            "                       the tour is driven again (same samples), duals and Adam moments restart at 0\n"
-            "  --rounds N           DiNNO rounds in all (default 8)\n"
-            "  --rounds-per-comm R  online: DiNNO rounds per communication round (default 1; divides N)\n"
-            "  --pool cdr|dr        online: cumulative data retention (default) or data refresh per round\n"
-            "  --seed S             run seed (default 1): noise, weights, minibatches, reservoir\n"
-            "  --strategy kl|separate|uniform   DiNNO regulariser (default kl)\n"
-            "  --steps-per-round B  optimiser steps per round (default %u; also --primal-steps)\n"
-            "  --kl-weight W        weight of the BNN prior KL (default %g)\n"
-            "  --batch N            minibatch size (default %u, <= %u)\n"
-            "  --lr-start V, --lr-end V   log-decaying learning rate over the rounds (default %g -> %g)\n"
-            "  --rho0 V, --rho-scaling V, --w-mu W, --w-rho W   ADMM penalty (default %g, %g, 1, 1)\n"
-            "  --kl-form own|reverse|full, --kl-reduce sum|mean, --rho-pred-grad 1|0   readings of the\n"
-            "                       KL strategy (default own, sum, 1; see host_sim fleet --help)\n"
-            "  --screen-radius R    fleet: leave out a neighbour state further than R x ||own state|| (and any\n"
-            "                       non-finite one), counted and logged (default 0.5; 0: no distance screen)\n"
-            "  --train-between      one more optimiser step per AI tick between boundaries\n"
-            "  --time-limit S       simulated seconds before giving up (default 1800)\n"
-            "  --robot I, --id I    robot index: noise streams, seeds, telemetry, fleet member id (default 0)\n"
-            "  --fleet N            fleet size (default 1: alone); needs the network\n"
-            "  --fleet-id F         fleet number: its LCM channels fleetsim/F/... (default 0)\n"
-            "  --transport lcm      the fleet's transport (LCM is the only one)\n"
-            "  --lcm-url URL        LCM URL (default %s)\n"
-            "  --net URL            the same (alone: default memq://, in-process; 'none' for no network)\n"
-            "  --radius M           fleet: neighbours within M metres (default 6; 0: every peer)\n"
-            "  --encoding fp32|int8 fleet: states as fp32 or int8 with per-row scales (default fp32)\n"
-            "  --peer-timeout S     fleet: a peer silent S seconds leaves the round (default 10)\n"
-            "  --join-timeout S     fleet: the same for a peer never heard yet (default 120)\n"
-            "  --chunk-bytes B      fleet: state bytes per datagram (default and most %u)\n"
-            "  --key-file F         fleet: a keyed fleet (F from `host_sim key new`, mode 0600): every datagram\n"
-            "                       carries an HMAC-SHA-512-256 tag of the key; others are dropped and counted\n"
-            "  --run-id X           keyed fleet: this launch's id, 1-16 hex digits, the same for every member\n"
-            "                       (tools/fleet draws one per run): recordings of other runs are refused\n"
-            "  --net-faults SPEC    inject faults into what this robot receives, comma-separated: drop=P,\n"
-            "                       dup=P, reorder=P (probabilities), delay_ms=D (uniform 0..D), seed=S\n"
-            "                       (default: the run seed; each robot mixes in its id), partition=A/B\n"
-            "                       (robot ids '.'-separated, e.g. 0.1/2.3) with from=T1, until=T2 (seconds\n"
-            "                       since the network opened); counted in summary.txt\n"
-            "  --sched serial|parallel   lockstep release order (default serial: bit-reproducible)\n"
-            "  --val-poses N        validation poses x 500 points (default 500; 0: no validation)\n"
-            "  --val-every M        validation loss (and a round checkpoint) every M rounds and at the end\n"
-            "                       (default 1 alone, rounds/50 in a fleet)\n"
-            "  --map-res M          map grid in metres (default 0.1); --mc K passes (default 50)\n"
-            "  --no-maps            skip the PNG maps\n"
-            "  --quiet              firmware log at WARN (default INFO: a line per round)\n"
-            "  --scale S            plan metres per pixel (default %g)\n",
-            BNN_PRESET_NAME, d.primal_steps, (double)d.kl_weight, d.batch, BNN_MAX_BATCH, (double)d.lr_start,
-            (double)d.lr_end, (double)d.rho0, (double)d.rho_scaling, HAL_HOST_NET_URL_DEFAULT, (unsigned)GP_PSE_MAX_CHUNK_BYTES,
-            SIM_PLAN_DEFAULT_SCALE);
+            "options:\n",
+            BNN_PRESET_NAME);
+    run_opts_t d;
+    run_defaults(&d);
+    cli_opts_help(out, run_opts, &d);
 }
 
-typedef struct run_opts {
-    const char *plan, *path, *out, *net;
-    long long rounds, per_comm, seed, robot, val_poses, mc, fleet, fleet_id, val_every, chunk_bytes;
-    double time_limit, map_res, scale, radius, peer_timeout, join_timeout;
-    dinno_cfg_t d;
-    ai_pool_policy_t pool;
-    hal_host_sched_t sched;
-    gp_fleet_encoding_t encoding;
-    int offline, train_between, no_maps, quiet, net_given, resume;
-    const char *net_faults; /* --net-faults SPEC, checked at parse time; NULL: none */
-    const char *key_file;   /* --key-file: a keyed fleet; NULL: unkeyed */
-    uint64_t run_id;
-    int run_id_given;
-} run_opts_t;
 
 static int parse(int argc, char **argv, run_opts_t *o)
 {
-    memset(o, 0, sizeof *o);
-    o->d = dinno_default_cfg();
-    o->rounds = 8;
-    o->per_comm = 1;
-    o->seed = 1;
-    o->fleet = 1;
-    o->time_limit = 1800;
-    o->val_poses = 500;
-    o->mc = 50;
-    o->map_res = 0.1;
-    o->scale = SIM_PLAN_DEFAULT_SCALE;
-    o->radius = 6.0;
-    o->peer_timeout = 10.0;
-    o->join_timeout = 120.0;
-    o->net = "memq://";
-    o->pool = AI_POOL_CDR;
-    o->sched = HAL_HOST_SCHED_SERIAL;
-    o->encoding = GP_FLEET_FP32;
-    for (int i = 1; i < argc; i++) {
-        const char *a = argv[i];
-        if (strcmp(a, "--help") == 0 || strcmp(a, "-h") == 0) {
-            run_usage(stdout);
-            return 1;
-        }
-        int *flag = strcmp(a, "--train-between") == 0 ? &o->train_between
-                    : strcmp(a, "--no-maps") == 0     ? &o->no_maps
-                    : strcmp(a, "--quiet") == 0       ? &o->quiet
-                    : strcmp(a, "--offline") == 0     ? &o->offline
-                    : strcmp(a, "--resume") == 0      ? &o->resume
-                                                      : NULL;
-        if (flag) {
-            *flag = 1;
-            continue;
-        }
-        if (strcmp(a, "--online") == 0) {
-            o->offline = 0;
-            continue;
-        }
-        if (strncmp(a, "--", 2) != 0) {
-            fprintf(stderr, "host_sim run: unexpected argument '%s'\n", a);
-            return -1;
-        }
-        if (cmd_need_value(argc, argv, i, "run", run_usage) != 0)
-            return -1;
-        const char *v = argv[++i];
-        int bad = 0;
-        if (strcmp(a, "--plan") == 0)
-            o->plan = v;
-        else if (strcmp(a, "--path") == 0)
-            o->path = v;
-        else if (strcmp(a, "--out") == 0)
-            o->out = v;
-        else if (strcmp(a, "--net") == 0 || strcmp(a, "--lcm-url") == 0) {
-            o->net = strcmp(v, "none") == 0 ? NULL : v;
-            o->net_given = 1;
-        } else if (strcmp(a, "--net-faults") == 0) {
-            hal_host_netfault_cfg_t fc;
-            char why[200];
-            if (hal_host_netfault_parse(v, &fc, why, sizeof why) != 0) {
-                fprintf(stderr, "host_sim run: --net-faults: %s\n", why);
-                bad = 1;
-            }
-            o->net_faults = v;
-        } else if (strcmp(a, "--key-file") == 0) {
-            o->key_file = v;
-        } else if (strcmp(a, "--run-id") == 0) {
-            bad = cmd_parse_hex64(v, a, &o->run_id);
-            o->run_id_given = 1;
-        } else if (strcmp(a, "--transport") == 0) {
-            if (strcmp(v, "lcm") != 0) {
-                fprintf(stderr, "host_sim run: --transport: '%s' is not lcm (the only transport)\n", v);
-                bad = 1;
-            }
-        } else if (cmd_parse_dinno_opt(a, v, &o->d, &bad))
-            ;
-        else if (strcmp(a, "--strategy") == 0) {
-            if (dinno_strategy_parse(v, &o->d.strategy) != 0) {
-                fprintf(stderr, "host_sim run: --strategy: '%s' is not kl, separate or uniform\n", v);
-                bad = 1;
-            }
-        } else if (strcmp(a, "--encoding") == 0) {
-            if (strcmp(v, "fp32") == 0)
-                o->encoding = GP_FLEET_FP32;
-            else if (strcmp(v, "int8") == 0)
-                o->encoding = GP_FLEET_INT8;
-            else {
-                fprintf(stderr, "host_sim run: --encoding: '%s' is not fp32 or int8\n", v);
-                bad = 1;
-            }
-        } else if (strcmp(a, "--rounds") == 0)
-            bad = cmd_parse_ll(v, a, 1, AI_CORE_MAX_ROUNDS, &o->rounds);
-        else if (strcmp(a, "--rounds-per-comm") == 0)
-            bad = cmd_parse_ll(v, a, 1, AI_CORE_MAX_ROUNDS, &o->per_comm);
-        else if (strcmp(a, "--seed") == 0)
-            bad = cmd_parse_ll(v, a, 0, 0x7FFFFFFFFFFFFFFFLL, &o->seed);
-        else if (strcmp(a, "--robot") == 0 || strcmp(a, "--id") == 0)
-            bad = cmd_parse_ll(v, a, 0, 1000000, &o->robot);
-        else if (strcmp(a, "--fleet") == 0)
-            bad = cmd_parse_ll(v, a, 1, GP_PSE_MAX_PEERS, &o->fleet);
-        else if (strcmp(a, "--fleet-id") == 0)
-            bad = cmd_parse_ll(v, a, 0, 1000000, &o->fleet_id);
-        else if (strcmp(a, "--val-poses") == 0)
-            bad = cmd_parse_ll(v, a, 0, 100000, &o->val_poses);
-        else if (strcmp(a, "--chunk-bytes") == 0)
-            bad = cmd_parse_ll(v, a, GP_PSE_MIN_CHUNK_BYTES, GP_PSE_MAX_CHUNK_BYTES, &o->chunk_bytes);
-        else if (strcmp(a, "--val-every") == 0)
-            bad = cmd_parse_ll(v, a, 1, AI_CORE_MAX_ROUNDS, &o->val_every);
-        else if (strcmp(a, "--mc") == 0)
-            bad = cmd_parse_ll(v, a, 1, 1000, &o->mc);
-        else if (strcmp(a, "--time-limit") == 0)
-            bad = cmd_parse_double(v, a, 0.1, 1e6, &o->time_limit);
-        else if (strcmp(a, "--radius") == 0)
-            bad = cmd_parse_double(v, a, 0.0, 1e6, &o->radius);
-        else if (strcmp(a, "--peer-timeout") == 0)
-            bad = cmd_parse_double(v, a, 0.1, 3600.0, &o->peer_timeout);
-        else if (strcmp(a, "--join-timeout") == 0)
-            bad = cmd_parse_double(v, a, 0.1, 3600.0, &o->join_timeout);
-        else if (strcmp(a, "--map-res") == 0)
-            bad = cmd_parse_double(v, a, 0.01, 10.0, &o->map_res);
-        else if (strcmp(a, "--scale") == 0)
-            bad = cmd_parse_double(v, a, 1e-6, 100.0, &o->scale);
-        else if (strcmp(a, "--pool") == 0) {
-            if (ai_pool_policy_parse(v, &o->pool) != 0) {
-                fprintf(stderr, "host_sim run: --pool: '%s' is not cdr or dr\n", v);
-                bad = 1;
-            }
-        } else if (strcmp(a, "--sched") == 0) {
-            if (strcmp(v, "serial") == 0)
-                o->sched = HAL_HOST_SCHED_SERIAL;
-            else if (strcmp(v, "parallel") == 0)
-                o->sched = HAL_HOST_SCHED_PARALLEL;
-            else {
-                fprintf(stderr, "host_sim run: --sched: '%s' is not serial or parallel\n", v);
-                bad = 1;
-            }
-        } else {
-            fprintf(stderr, "host_sim run: unknown option '%s' (see --help)\n", a);
-            return -1;
-        }
-        if (bad)
-            return -1;
-    }
-    const char *missing = !o->plan ? "--plan" : !o->path ? "--path" : !o->out ? "--out" : NULL;
-    if (missing) {
-        fprintf(stderr, "host_sim run: %s is required (see --help)\n", missing);
-        return -1;
-    }
+    run_defaults(o);
+    const cli_parser_t parser = {.cmd = "run", .opts = run_opts, .usage = run_usage};
+    const int pr = cli_opts_parse(&parser, argc, argv, o, NULL, NULL);
+    if (pr != 0)
+        return pr;
+    if (o->net_given && strcmp(o->net, "none") == 0)
+        o->net = NULL;
     if (o->resume && !o->offline) {
         fprintf(stderr, "host_sim run: --resume needs --offline: an online robot's pose and sample pool are not "
                         "in a checkpoint, so it cannot continue where it stopped (start it again without --resume)\n");

@@ -12,9 +12,47 @@
 #include "sim_plan.h"
 #include "sim_scan.h"
 
+typedef struct scan_opts {
+    const char *plan, *path, *out;
+    sim_scan_cfg_t c;
+    double scale;
+    int quiet;
+} scan_opts_t;
+
+static scan_opts_t scan_defaults(void)
+{
+    return (scan_opts_t){.c = sim_scan_default_cfg(), .scale = SIM_PLAN_DEFAULT_SCALE};
+}
+
+static const cli_opt_t scan_opts[] = {
+    {.names = "--plan", .meta = "FILE.svg", CLI_STRING(scan_opts_t, plan), .required = 1, .help = "the floor plan"},
+    {.names = "--path", .meta = "ROBOT.csv", CLI_STRING(scan_opts_t, path), .required = 1,
+     .help = "the robot's waypoints"},
+    {.names = "--out", .meta = "SAMPLES.bin", CLI_STRING(scan_opts_t, out), .required = 1,
+     .help = "the samples file written"},
+    {.names = "--seed", .meta = "S", CLI_INT(scan_opts_t, c.seed, 0, INT64_MAX), .help = "run seed for every noise stream"},
+    {.names = "--robot", .meta = "I", CLI_INT(scan_opts_t, c.robot, 0, 1000000), .help = "robot index, keys the noise streams"},
+    {.names = "--beams", .meta = "B", CLI_INT(scan_opts_t, c.beams, 1, 4096), .help = "beams per scan used for samples"},
+    {.names = "--points", .meta = "K", CLI_INT(scan_opts_t, c.points, 1, 1024), .help = "points per beam"},
+    {.names = "--lidar-beams", .meta = "N", CLI_INT(scan_opts_t, c.sensor_beams, 1, 4096),
+     .help = "beams of the simulated sensor"},
+    {.names = "--scan-hz", .meta = "F", CLI_DOUBLE(scan_opts_t, c.scan_hz, 0.01, 1000), .help = "scans per simulated second"},
+    {.names = "--control-hz", .meta = "F", CLI_DOUBLE(scan_opts_t, c.control_hz, 0.01, 1000), .help = "follower rate"},
+    {.names = "--dt", .meta = "S", CLI_DOUBLE(scan_opts_t, c.dt, 1e-4, 0.05), .help = "physics step in seconds"},
+    {.names = "--noise", .meta = "M", CLI_DOUBLE(scan_opts_t, c.noise_sigma, 0, 1), .help = "lidar range noise sigma in metres"},
+    {.names = "--dropout", .meta = "P", CLI_DOUBLE(scan_opts_t, c.dropout_p, 0, 0.99), .help = "lidar dropout probability"},
+    {.names = "--gps-sigma", .meta = "M", CLI_DOUBLE(scan_opts_t, c.gps_sigma_xy, 0, 1), .help = "GPS position noise in metres"},
+    {.names = "--compass-sigma", .meta = "R", CLI_DOUBLE(scan_opts_t, c.gps_sigma_theta, 0, 1), .help = "compass noise in radians"},
+    {.names = "--max-time", .meta = "S", CLI_DOUBLE(scan_opts_t, c.max_time_s, 0.01, 1e7),
+     .help = "give up after S simulated seconds"},
+    {.names = "--scale", .meta = "S", CLI_DOUBLE(scan_opts_t, scale, 1e-6, 1e3), .help = "plan metres per pixel"},
+    {.names = "-q|--quiet", CLI_FLAG(scan_opts_t, quiet, 1), .help = "no progress lines"},
+    CLI_OPT_END,
+};
+
 static void scan_usage(FILE *out)
 {
-    sim_scan_cfg_t d = sim_scan_default_cfg();
+    const scan_opts_t d = scan_defaults();
     fprintf(out,
             "usage: host_sim scan --plan FILE.svg --path ROBOT.csv --out SAMPLES.bin [options]\n"
             "\n"
@@ -24,25 +62,8 @@ static void scan_usage(FILE *out)
             "labelled samples (per beam, K points evenly spaced to the hit; the hit 1, the rest 0)\n"
             "and writes what the RT core produced in the samples format (sim_samples.h).\n"
             "\n"
-            "options:\n"
-            "  --seed S          run seed for every noise stream (default %llu)\n"
-            "  --robot I         robot index, keys the noise streams (default %u)\n"
-            "  --beams B         beams per scan used for samples (default %d)\n"
-            "  --points K        points per beam (default %d)\n"
-            "  --lidar-beams N   beams of the simulated sensor (default %d)\n"
-            "  --scan-hz F       scans per simulated second (default %g)\n"
-            "  --control-hz F    follower rate (default %g)\n"
-            "  --dt S            physics step in seconds (default %g)\n"
-            "  --noise M         lidar range noise sigma in metres (default %g)\n"
-            "  --dropout P       lidar dropout probability (default %g)\n"
-            "  --gps-sigma M     GPS position noise in metres (default %g)\n"
-            "  --compass-sigma R compass noise in radians (default %g)\n"
-            "  --max-time S      give up after S simulated seconds (default %g)\n"
-            "  --scale S         plan metres per pixel (default %g)\n"
-            "  -q, --quiet       no progress lines\n",
-            (unsigned long long)d.seed, d.robot, d.beams, d.points, d.sensor_beams, d.scan_hz,
-            d.control_hz, d.dt, d.noise_sigma, d.dropout_p, d.gps_sigma_xy, d.gps_sigma_theta,
-            d.max_time_s, SIM_PLAN_DEFAULT_SCALE);
+            "options:\n");
+    cli_opts_help(out, scan_opts, &d);
 }
 
 static void progress(const sim_scan_stats_t *st, int n_wp, void *user)
@@ -55,74 +76,15 @@ static void progress(const sim_scan_stats_t *st, int n_wp, void *user)
 
 int cmd_scan(int argc, char **argv)
 {
-    const char *plan_file = NULL, *path_file = NULL, *out = NULL;
-    sim_scan_cfg_t c = sim_scan_default_cfg();
-    double scale = SIM_PLAN_DEFAULT_SCALE;
-    int quiet = 0;
-    for (int i = 1; i < argc; i++) {
-        const char *a = argv[i];
-        long long ll = 0; // set by the parsers on success; 0 keeps -O1 -Wmaybe-uninitialized quiet
-        double d;
-        if (strcmp(a, "--help") == 0 || strcmp(a, "-h") == 0) {
-            scan_usage(stdout);
-            return 0;
-        } else if (strcmp(a, "-q") == 0 || strcmp(a, "--quiet") == 0) {
-            quiet = 1;
-            continue;
-        }
-        if (strncmp(a, "--", 2) != 0) {
-            fprintf(stderr, "host_sim scan: unexpected argument '%s' (see --help)\n", a);
-            return 2;
-        }
-        if (cmd_need_value(argc, argv, i, "scan", scan_usage) < 0)
-            return 2;
-        const char *v = argv[++i];
-        int bad = 0;
-        if (strcmp(a, "--plan") == 0)
-            plan_file = v;
-        else if (strcmp(a, "--path") == 0)
-            path_file = v;
-        else if (strcmp(a, "--out") == 0)
-            out = v;
-        else if (strcmp(a, "--seed") == 0)
-            bad = cmd_parse_ll(v, a, 0, 9223372036854775807LL, &ll) < 0 || (c.seed = (uint64_t)ll, 0);
-        else if (strcmp(a, "--robot") == 0)
-            bad = cmd_parse_ll(v, a, 0, 1000000, &ll) < 0 || (c.robot = (uint32_t)ll, 0);
-        else if (strcmp(a, "--beams") == 0)
-            bad = cmd_parse_ll(v, a, 1, 4096, &ll) < 0 || (c.beams = (int)ll, 0);
-        else if (strcmp(a, "--points") == 0)
-            bad = cmd_parse_ll(v, a, 1, 1024, &ll) < 0 || (c.points = (int)ll, 0);
-        else if (strcmp(a, "--lidar-beams") == 0)
-            bad = cmd_parse_ll(v, a, 1, 4096, &ll) < 0 || (c.sensor_beams = (int)ll, 0);
-        else if (strcmp(a, "--scan-hz") == 0)
-            bad = cmd_parse_double(v, a, 0.01, 1000, &d) < 0 || (c.scan_hz = d, 0);
-        else if (strcmp(a, "--control-hz") == 0)
-            bad = cmd_parse_double(v, a, 0.01, 1000, &d) < 0 || (c.control_hz = d, 0);
-        else if (strcmp(a, "--dt") == 0)
-            bad = cmd_parse_double(v, a, 1e-4, 0.05, &d) < 0 || (c.dt = d, 0);
-        else if (strcmp(a, "--noise") == 0)
-            bad = cmd_parse_double(v, a, 0, 1, &d) < 0 || (c.noise_sigma = d, 0);
-        else if (strcmp(a, "--dropout") == 0)
-            bad = cmd_parse_double(v, a, 0, 0.99, &d) < 0 || (c.dropout_p = d, 0);
-        else if (strcmp(a, "--gps-sigma") == 0)
-            bad = cmd_parse_double(v, a, 0, 1, &d) < 0 || (c.gps_sigma_xy = d, 0);
-        else if (strcmp(a, "--compass-sigma") == 0)
-            bad = cmd_parse_double(v, a, 0, 1, &d) < 0 || (c.gps_sigma_theta = d, 0);
-        else if (strcmp(a, "--max-time") == 0)
-            bad = cmd_parse_double(v, a, 0.01, 1e7, &d) < 0 || (c.max_time_s = d, 0);
-        else if (strcmp(a, "--scale") == 0)
-            bad = cmd_parse_double(v, a, 1e-6, 1e3, &scale) < 0;
-        else {
-            fprintf(stderr, "host_sim scan: unknown option '%s' (see --help)\n", a);
-            return 2;
-        }
-        if (bad)
-            return 2;
-    }
-    if (plan_file == NULL || path_file == NULL || out == NULL) {
-        fprintf(stderr, "host_sim scan: --plan, --path and --out are required (see --help)\n");
-        return 2;
-    }
+    scan_opts_t o = scan_defaults();
+    const cli_parser_t parser = {.cmd = "scan", .opts = scan_opts, .usage = scan_usage};
+    const int pr = cli_opts_parse(&parser, argc, argv, &o, NULL, NULL);
+    if (pr != 0)
+        return pr > 0 ? 0 : 2;
+    const char *plan_file = o.plan, *path_file = o.path, *out = o.out;
+    const sim_scan_cfg_t c = o.c;
+    const double scale = o.scale;
+    const int quiet = o.quiet;
     if (c.beams > c.sensor_beams) {
         fprintf(stderr, "host_sim scan: --beams %d exceeds --lidar-beams %d\n", c.beams, c.sensor_beams);
         return 2;

@@ -7,79 +7,57 @@
 #include "sim_plan.h"
 #include "sim_valset.h"
 
+typedef struct valset_opts {
+    const char *plan, *out;
+    sim_valset_cfg_t c;
+    double scale;
+} valset_opts_t;
+
+static valset_opts_t valset_defaults(void)
+{
+    return (valset_opts_t){.c = sim_valset_default_cfg(), .scale = SIM_PLAN_DEFAULT_SCALE};
+}
+
+static const cli_opt_t valset_opts[] = {
+    {.names = "--plan", .meta = "FILE.svg", CLI_STRING(valset_opts_t, plan), .required = 1, .help = "the floor plan"},
+    {.names = "--out", .meta = "VAL.bin", CLI_STRING(valset_opts_t, out), .required = 1, .help = "the samples file written"},
+    {.names = "--poses", .meta = "N", CLI_INT(valset_opts_t, c.n_poses, 1, 1000000), .help = "number of poses"},
+    {.names = "--seed", .meta = "S", CLI_INT(valset_opts_t, c.seed, 0, INT64_MAX), .help = "seed"},
+    {.names = "--beams", .meta = "B", CLI_INT(valset_opts_t, c.n_beams, 1, 4096), .help = "beams per pose"},
+    {.names = "--points", .meta = "K", CLI_INT(valset_opts_t, c.points_per_beam, 1, 1024), .help = "points per beam"},
+    {.names = "--clearance", .meta = "M", CLI_DOUBLE(valset_opts_t, c.clearance_m, 0, 10),
+     .help = "minimum distance of a pose from any wall"},
+    {.names = "--range", .meta = "M", CLI_DOUBLE(valset_opts_t, c.range_max, 0.01, 100), .help = "lidar max range"},
+    {.names = "--scale", .meta = "S", CLI_DOUBLE(valset_opts_t, scale, 1e-6, 1e3), .help = "plan metres per pixel"},
+    CLI_OPT_END,
+};
+
 static void valset_usage(FILE *out)
 {
-    sim_valset_cfg_t d = sim_valset_default_cfg();
+    const valset_opts_t d = valset_defaults();
     fprintf(out,
             "usage: host_sim valset --plan FILE.svg --out VAL.bin [options]\n"
             "\n"
             "Draws N random poses inside the plan's rooms, clear of walls, takes a noise-free\n"
             "lidar scan at each against the ground truth and labels it (per beam, K points evenly\n"
             "spaced to the hit; the hit 1, the rest 0; no hit: free points to the max range).\n"
-            "Writes the samples format (sim_samples.h). Default: 500 poses x 20 beams x 25 points.\n"
+            "Writes the samples format (sim_samples.h). Default: %d poses x %d beams x %d points.\n"
             "\n"
-            "options:\n"
-            "  --poses N       number of poses (default %d)\n"
-            "  --seed S        seed (default %llu)\n"
-            "  --beams B       beams per pose (default %d)\n"
-            "  --points K      points per beam (default %d)\n"
-            "  --clearance M   minimum distance of a pose from any wall (default %g)\n"
-            "  --range M       lidar max range (default %g)\n"
-            "  --scale S       plan metres per pixel (default %g)\n",
-            d.n_poses, (unsigned long long)d.seed, d.n_beams, d.points_per_beam, d.clearance_m,
-            d.range_max, SIM_PLAN_DEFAULT_SCALE);
+            "options:\n",
+            d.c.n_poses, d.c.n_beams, d.c.points_per_beam);
+    cli_opts_help(out, valset_opts, &d);
 }
 
 int cmd_valset(int argc, char **argv)
 {
-    const char *plan_file = NULL, *out = NULL;
-    sim_valset_cfg_t c = sim_valset_default_cfg();
-    double scale = SIM_PLAN_DEFAULT_SCALE;
-    for (int i = 1; i < argc; i++) {
-        const char *a = argv[i];
-        long long ll = 0; // set by the parsers on success; 0 keeps -O1 -Wmaybe-uninitialized quiet
-        double d;
-        if (strcmp(a, "--help") == 0 || strcmp(a, "-h") == 0) {
-            valset_usage(stdout);
-            return 0;
-        }
-        if (strncmp(a, "--", 2) != 0) {
-            fprintf(stderr, "host_sim valset: unexpected argument '%s' (see --help)\n", a);
-            return 2;
-        }
-        if (cmd_need_value(argc, argv, i, "valset", valset_usage) < 0)
-            return 2;
-        const char *v = argv[++i];
-        int bad = 0;
-        if (strcmp(a, "--plan") == 0)
-            plan_file = v;
-        else if (strcmp(a, "--out") == 0)
-            out = v;
-        else if (strcmp(a, "--poses") == 0)
-            bad = cmd_parse_ll(v, a, 1, 1000000, &ll) < 0 || (c.n_poses = (int)ll, 0);
-        else if (strcmp(a, "--seed") == 0)
-            bad = cmd_parse_ll(v, a, 0, 9223372036854775807LL, &ll) < 0 || (c.seed = (uint64_t)ll, 0);
-        else if (strcmp(a, "--beams") == 0)
-            bad = cmd_parse_ll(v, a, 1, 4096, &ll) < 0 || (c.n_beams = (int)ll, 0);
-        else if (strcmp(a, "--points") == 0)
-            bad = cmd_parse_ll(v, a, 1, 1024, &ll) < 0 || (c.points_per_beam = (int)ll, 0);
-        else if (strcmp(a, "--clearance") == 0)
-            bad = cmd_parse_double(v, a, 0, 10, &d) < 0 || (c.clearance_m = d, 0);
-        else if (strcmp(a, "--range") == 0)
-            bad = cmd_parse_double(v, a, 0.01, 100, &d) < 0 || (c.range_max = d, 0);
-        else if (strcmp(a, "--scale") == 0)
-            bad = cmd_parse_double(v, a, 1e-6, 1e3, &scale) < 0;
-        else {
-            fprintf(stderr, "host_sim valset: unknown option '%s' (see --help)\n", a);
-            return 2;
-        }
-        if (bad)
-            return 2;
-    }
-    if (plan_file == NULL || out == NULL) {
-        fprintf(stderr, "host_sim valset: --plan and --out are required (see --help)\n");
-        return 2;
-    }
+    valset_opts_t o = valset_defaults();
+    const cli_parser_t parser = {.cmd = "valset", .opts = valset_opts, .usage = valset_usage};
+    const int pr = cli_opts_parse(&parser, argc, argv, &o, NULL, NULL);
+    if (pr != 0)
+        return pr > 0 ? 0 : 2;
+    const char *plan_file = o.plan, *out = o.out;
+    const sim_valset_cfg_t c = o.c;
+    const double scale = o.scale;
     char err[8192];
     sim_plan_t plan;
     if (sim_plan_load(plan_file, scale, &plan, err, sizeof err) < 0) {

@@ -22,12 +22,14 @@
 #include <unistd.h>
 #include <cmocka.h>
 
+#include "png_read.h"
 #include "run_outputs.h"
 
 #include "ai/bnn.h"
 #include "ai/bnn_ckpt.h"
 #include "sim_grid.h"
 #include "sim_maps.h"
+#include "sim_palette.h"
 #include "sim_plan.h"
 #include "sim_samples.h"
 
@@ -416,10 +418,18 @@ static void test_map_files_agree(void **st)
     assert_non_null(strstr(yaml, "\nnegate: 0\n"));
     assert_non_null(strstr(yaml, "\noccupied_thresh: 0.65\n"));
     assert_non_null(strstr(yaml, "\nfree_thresh: 0.196\n"));
-    /* The pictures. */
+    /* The pictures: y up like map.pgm (host_sim/sim_figure.h); at 0.2 m one pixel per cell, so
+       map_mean.png is map.pgm's picture pixel for pixel. */
     struct stat sb;
     path_at(p, out, "map_mean.png");
-    assert_true(stat(p, &sb) == 0 && sb.st_size > 0);
+    int pw = 0, ph = 0;
+    uint8_t *png = tpng_read_rgb(p, &pw, &ph);
+    assert_non_null(png);
+    assert_true(pw == W && ph == H);
+    for (size_t i = 0; i < (size_t)W * H; i++)
+        if (png[3 * i] != pgm[hn + i] || png[3 * i + 1] != pgm[hn + i] || png[3 * i + 2] != pgm[hn + i])
+            fail_msg("map_mean.png pixel (%zu, %zu) is not map.pgm's", i % (size_t)W, i / (size_t)W);
+    free(png);
     path_at(p, out, "map_std.png");
     assert_true(stat(p, &sb) == 0 && sb.st_size > 0);
     free(yaml);
@@ -430,6 +440,54 @@ static void test_map_files_agree(void **st)
     sim_maps_grid_free(&one);
     sim_plan_free(&plan);
     free(json);
+}
+
+/* The picture convention (host_sim/sim_figure.h): a dark cell near the plan's top-left in
+ * metres (small x, large y) is drawn top-left in both map PNGs, and each tour in its robot's
+ * sim_palette.h colour: robot 0's near (small x, large y) top-left, robot 1's bottom-right. */
+static void test_map_png_y_up(void **st)
+{
+    (void)st;
+    sim_plan_t plan;
+    memset(&plan, 0, sizeof plan);
+    plan.min = (sim_vec2_t){0.0, 0.0};
+    plan.max = (sim_vec2_t){4.0, 3.0};
+    enum { W = 20, H = 15 }; /* 0.2 m cells: zoom 1, one pixel per cell */
+    float mean[W * H], sd[W * H];
+    for (int i = 0; i < W * H; i++) {
+        mean[i] = 0.0f;
+        sd[i] = 0.0f;
+    }
+    const int c0 = 2, r0 = 13; /* cell centre (0.5, 2.7) m */
+    mean[r0 * W + c0] = 1.0f;
+    sd[r0 * W + c0] = 0.5f;
+    sim_maps_grid_t g = {W, H, 0.2, 0.0, 0.0, mean, sd};
+    sim_vec2_t a[2] = {{1.5, 2.5}, {1.9, 2.5}}, b[2] = {{3.5, 0.3}, {3.1, 0.3}};
+    sim_path_t paths[2] = {{2, a, -1, NULL}, {2, b, -1, NULL}};
+    char mp[PATH_MAX], sp[PATH_MAX], err[256];
+    path_in(mp, "yup_mean.png");
+    path_in(sp, "yup_std.png");
+    assert_int_equal(sim_maps_write_png(&g, &plan, paths, 2, mp, sp, NULL, err, sizeof err), 0);
+    for (int k = 0; k < 2; k++) {
+        int w = 0, h = 0;
+        uint8_t *rgb = tpng_read_rgb(k == 0 ? mp : sp, &w, &h);
+        assert_non_null(rgb);
+        assert_true(w == W && h == H);
+        /* The marked cell: black in the mean, yellow (the ramp's top) in the std. */
+        const uint8_t *px = rgb + 3 * ((size_t)(H - 1 - r0) * W + c0);
+        if (k == 0)
+            assert_true(px[0] == 0 && px[1] == 0 && px[2] == 0);
+        else
+            assert_true(px[0] == 253 && px[1] == 231 && px[2] == 37);
+        double fx = -1.0, fy = -1.0;
+        assert_true(tpng_find(rgb, w, h, sim_palette_rgb(0), 0, &fx, &fy) > 0);
+        assert_true(fx < 0.5 && fy < 0.3);
+        assert_true(tpng_find(rgb, w, h, sim_palette_rgb(1), 0, &fx, &fy) > 0);
+        assert_true(fx > 0.7 && fy > 0.8);
+        free(rgb);
+    }
+    unlink(mp);
+    unlink(sp);
 }
 
 /* The outputs a good run leaves in DIR: a failed run must keep every one of them. */
@@ -541,6 +599,7 @@ int main(void)
         cmocka_unit_test(test_two_models_mean_and_errors),
         cmocka_unit_test(test_map_files_agree),
         cmocka_unit_test(test_bad_inputs_keep_earlier_output),
+        cmocka_unit_test(test_map_png_y_up),
     };
     return cmocka_run_group_tests_name("app/maps", tests, setup, teardown);
 }

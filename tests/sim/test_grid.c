@@ -14,6 +14,7 @@
 #include <cmocka.h>
 
 #include "alloc_count.h"
+#include "png_read.h"
 #include "sim_grid.h"
 #include "sim_paths.h"
 #include "sim_plan.h"
@@ -135,16 +136,28 @@ static void test_images(void **state)
     assert_int_equal(n, strlen(hdr) + 200);
     assert_memory_equal(buf, hdr, strlen(hdr));
     const uint8_t *px = buf + strlen(hdr);
-    assert_int_equal(px[0], 0);            /* wall corner */
-    assert_int_equal(px[4], 255);          /* door */
-    assert_int_equal(px[5 * 20 + 5], 255); /* room */
-    assert_int_equal(px[5 * 20 + 15], 160);/* outside */
-    f = fopen(png, "rb");
-    assert_non_null(f);
-    n = fread(buf, 1, 8, f);
-    fclose(f);
-    assert_int_equal(n, 8);
-    assert_memory_equal(buf, "\x89PNG\r\n\x1a\n", 8);
+    /* y up (sim_figure.h): image row R shows grid row 9 - R, so the door and the lone wall
+     * piece at the plan's smallest y (the SVG's top) are on the image's LAST row. */
+    assert_int_equal(px[9 * 20 + 0], 0);    /* wall corner */
+    assert_int_equal(px[9 * 20 + 4], 255);  /* door */
+    assert_int_equal(px[9 * 20 + 15], 0);   /* the lone wall piece, bottom right */
+    assert_int_equal(px[0 * 20 + 15], 160); /* above it: outside */
+    assert_int_equal(px[4 * 20 + 5], 255);  /* room */
+    static const uint8_t shade[3] = {255, 0, 160};
+    for (int R = 0; R < 10; R++)
+        for (int c = 0; c < 20; c++)
+            if (px[R * 20 + c] != shade[expected(c, 9 - R)])
+                fail_msg("pgm pixel (%d, %d) is %d, expected %d", c, R, px[R * 20 + c], shade[expected(c, 9 - R)]);
+    /* The PNG is the same picture. */
+    int pw = 0, ph = 0;
+    uint8_t *rgb = tpng_read_rgb(png, &pw, &ph);
+    assert_non_null(rgb);
+    assert_int_equal(pw, 20);
+    assert_int_equal(ph, 10);
+    for (int i = 0; i < 200; i++)
+        if (rgb[3 * i] != px[i] || rgb[3 * i + 1] != px[i] || rgb[3 * i + 2] != px[i])
+            fail_msg("png pixel %d differs from the pgm's", i);
+    free(rgb);
     assert_int_equal(sim_grid_write_image(&g, "/tmp/x.bmp", err, sizeof err), -EINVAL);
     assert_non_null(strstr(err, "unknown image type"));
     assert_true(sim_grid_write_image(&g, "/dev/null/x.png", err, sizeof err) < 0);

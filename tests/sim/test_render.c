@@ -14,6 +14,8 @@
 #include <cmocka.h>
 
 #include "alloc_count.h"
+#include "png_read.h"
+#include "sim_palette.h"
 #include "sim_render.h"
 #include "sim_test_util.h"
 
@@ -71,6 +73,43 @@ static void test_render_image(void **st)
     free(rgb);
 }
 
+/* The picture convention (host_sim/sim_figure.h): the scene is viewed with the plan's +y up
+ * the image and +x to the right, like the maps, whatever the elevation: robot 0's tour near
+ * (small x, large y) lands top-left, robot 1's near (large x, small y) bottom-right, each in
+ * its sim_palette.h colour (the tours are drawn unlit, so the colour is exact). */
+static void test_render_y_up_and_colours(void **st)
+{
+    (void)st;
+    sim_plan_t p;
+    sim_solid_t s[4];
+    sim_room_t room;
+    scene_box(&p, s, &room);
+    sim_vec2_t a[2] = {{0.4, 2.6}, {1.4, 2.6}}, b[2] = {{3.6, 0.4}, {2.6, 0.4}};
+    sim_path_t paths[2] = {{2, a, -1, NULL}, {2, b, -1, NULL}};
+    sim_render_scene_t sc = {&p, paths, 2, NULL, 0, NULL, 1.0};
+    const double elevations[2] = {72.0, 90.0};
+    for (int e = 0; e < 2; e++) {
+        sim_render_cfg_t c = sim_render_default_cfg();
+        c.width = 320;
+        c.height = 240;
+        c.elevation_deg = elevations[e];
+        uint8_t *rgb = malloc(320 * 240 * 3);
+        assert_non_null(rgb);
+        char err[256];
+        assert_int_equal(sim_render_rgb(&sc, &c, rgb, err, sizeof err), 0);
+        double fx = -1.0, fy = -1.0;
+        assert_true(tpng_find(rgb, 320, 240, sim_palette_rgb(0), 2, &fx, &fy) > 20);
+        if (!(fx < 0.45 && fy < 0.45))
+            fail_msg("elevation %g: robot 0's tour at (%.2f, %.2f) of the image, expected top-left",
+                     elevations[e], fx, fy);
+        assert_true(tpng_find(rgb, 320, 240, sim_palette_rgb(1), 2, &fx, &fy) > 20);
+        if (!(fx > 0.55 && fy > 0.55))
+            fail_msg("elevation %g: robot 1's tour at (%.2f, %.2f) of the image, expected bottom-right",
+                     elevations[e], fx, fy);
+        free(rgb);
+    }
+}
+
 static void test_render_png(void **st)
 {
     (void)st;
@@ -125,6 +164,7 @@ int main(void)
     alloc_count_reset();
     const struct CMUnitTest tests[] = {
         cmocka_unit_test(test_render_image),
+        cmocka_unit_test(test_render_y_up_and_colours),
         cmocka_unit_test(test_render_png),
         cmocka_unit_test(test_render_errors),
     };
