@@ -1,8 +1,9 @@
-/* hal_net over LCM. Subscriptions deliver into one bounded queue of fixed-size slots that
- * the GP core polls; the queue is allocated once at open, so receiving never allocates in
- * our code (LCM's own buffers are its business).
+/* hal_net on the host, over LCM or ZeroMQ (the transports: hal_host_net_transport.h; the URL
+ * chooses). Subscriptions deliver into one bounded queue of fixed-size slots that the GP core
+ * polls; the queue is allocated once at open, so receiving never allocates in our code (the
+ * transports' own buffers are their business).
  *
- * A receiver thread (started with the first subscription) runs LCM's handler all along and
+ * A receiver thread (started with the first subscription) runs the transport's handler all along and
  * moves every datagram into the queue at once, as a board's network interface receives while
  * its cores compute. Without it LCM's own buffer (about 1 MB in LCM 1.3) fills whenever the
  * process is busy, and a fleet of 14 robots lost chunks every round. The queue is the one
@@ -16,10 +17,10 @@
 #include "hal_host.h"
 #include "hal_host_auth.h"
 #include "hal_host_msg.h"
+#include "hal_host_net_transport.h"
 #include "hal_host_netfault.h"
 
 #include <errno.h>
-#include <lcm/lcm.h>
 #include <pthread.h>
 #include <stdatomic.h>
 #include <stdio.h>
@@ -38,14 +39,14 @@ typedef struct net_slot {
 } net_slot_t;
 
 struct hal_host_net {
-    lcm_t *lcm;
+    const hal_host_net_transport_t *tp; /* LCM or ZeroMQ (hal_host_net_transport.h) */
+    void *tp_ctx;
     uint32_t depth;
     uint32_t head; /* next slot to pop */
     uint32_t fill;
     net_slot_t *slots;
     uint32_t n_subs;
-    char sub_channel[HAL_HOST_NET_MAX_SUBS][HAL_NET_CHANNEL_MAX];
-    lcm_subscription_t *sub[HAL_HOST_NET_MAX_SUBS];
+    char sub_channel[HAL_HOST_NET_MAX_SUBS][HAL_NET_CHANNEL_MAX]; /* under mu */
     uint32_t n_typed;
     char typed_channel[HAL_HOST_NET_MAX_SUBS][HAL_NET_CHANNEL_MAX];
     hal_host_msg_type_t typed[HAL_HOST_NET_MAX_SUBS];
@@ -69,7 +70,7 @@ struct hal_host_net {
     pthread_t rx_thread;
     int rx_started;
     atomic_int rx_stop;
-    atomic_int rx_failed;  /* lcm_handle failed: the transport is gone */
+    atomic_int rx_failed;  /* the transport's handle failed: it is gone */
 };
 
 static uint64_t mono_us(void)
@@ -181,12 +182,13 @@ static int rx_timeout_ms(hal_host_net_t *n)
     return ms;
 }
 
-/* The receiver: LCM's handler all along (net_on_message queues under the mutex). */
+/* The receiver: the transport's handler all along (hal_host_net_on_datagram queues under the
+ * mutex). */
 static void *rx_main(void *arg)
 {
     hal_host_net_t *n = arg;
     while (!atomic_load(&n->rx_stop)) {
-        if (lcm_handle_timeout(n->lcm, rx_timeout_ms(n)) < 0) {
+        if (n->tp->handle(n->tp_ctx, rx_timeout_ms(n)) < 0) {
             atomic_store(&n->rx_failed, 1);
             pthread_mutex_lock(&n->mu);
             pthread_cond_broadcast(&n->cv);
@@ -260,17 +262,16 @@ int hal_host_net_open(const char *url, uint32_t queue_depth, hal_host_net_t **ou
         else
             fprintf(stderr, "hal_host_net: FLEETSIM_NET_DROP_EVERY='%s' ignored (a whole number >= 2)\n", drop);
     }
-    n->lcm = lcm_create(url[0] != '\0' ? url : HAL_HOST_NET_URL_DEFAULT);
-    if (n->lcm == NULL) {
-        fprintf(stderr, "hal_host_net: cannot create LCM on '%s' (for udpm:// on one host, "
-                        "loopback needs multicast: see tests/hal/test_net.c)\n",
-                url[0] != '\0' ? url : HAL_HOST_NET_URL_DEFAULT);
+    /* "zmq://..." is ZeroMQ over TCP; anything else an LCM URL ("" for the default). */
+    n->tp = strncmp(url, "zmq://", 6) == 0 ? &hal_host_net_zmq : &hal_host_net_lcm;
+    const int rc = n->tp->open(n, url, &n->tp_ctx);
+    if (rc != 0) {
         pthread_cond_destroy(&n->cv);
         pthread_mutex_destroy(&n->tx_mu);
         pthread_mutex_destroy(&n->mu);
         free(n->slots);
         free(n);
-        return -EIO;
+        return rc;
     }
     *out = n;
     return 0;
@@ -284,9 +285,7 @@ void hal_host_net_close(hal_host_net_t *n)
         atomic_store(&n->rx_stop, 1);
         pthread_join(n->rx_thread, NULL);
     }
-    for (uint32_t i = 0; i < n->n_subs; i++)
-        (void)lcm_unsubscribe(n->lcm, n->sub[i]);
-    lcm_destroy(n->lcm);
+    n->tp->close(n->tp_ctx);
     pthread_cond_destroy(&n->cv);
     pthread_mutex_destroy(&n->tx_mu);
     pthread_mutex_destroy(&n->mu);
@@ -370,31 +369,38 @@ int hal_host_net_publish(hal_host_net_t *n, const char *channel, const void *dat
             memcpy(n->tx_wire, data, len);
         hal_host_auth_seal(&n->auth, channel, data, len, n->tx_wire + len);
         const size_t wire = len + HAL_HOST_AUTH_TRAILER_BYTES;
-        const int rc = lcm_publish(n->lcm, channel, n->tx_wire, (unsigned)wire) != 0 ? -EIO : 0;
+        const int rc = n->tp->publish(n->tp_ctx, channel, n->tx_wire, wire);
         pthread_mutex_unlock(&n->tx_mu);
         return tx_count(n, rc, wire);
     }
-    /* LCM wants a non-NULL pointer even for an empty message. */
-    static const uint8_t empty;
-    return tx_count(n, lcm_publish(n->lcm, channel, len > 0 ? data : &empty, (unsigned)len) != 0 ? -EIO : 0, len);
+    pthread_mutex_lock(&n->tx_mu); /* a transport's sending side is one thread's at a time */
+    const int rc = n->tp->publish(n->tp_ctx, channel, data, len);
+    pthread_mutex_unlock(&n->tx_mu);
+    return tx_count(n, rc, len);
 }
 
-/* LCM handler: everything from the wire is checked before it is queued: first who sent it
- * (a keyed fleet's tag), then its shape (the bounds check of a typed channel). */
-static void net_on_message(const lcm_recv_buf_t *rbuf, const char *channel, void *user)
+/* A datagram from the transport: everything from the wire is checked before it is queued:
+ * first who sent it (a keyed fleet's tag), then its shape (the bounds check of a typed
+ * channel). A channel nobody subscribed to (a transport that filters by prefix) is ignored. */
+void hal_host_net_on_datagram(hal_host_net_t *n, const char *channel, const void *data, size_t len)
 {
-    hal_host_net_t *n = user;
     pthread_mutex_lock(&n->mu);
     const size_t trailer = n->keyed ? HAL_HOST_AUTH_TRAILER_BYTES : 0u;
-    if (rbuf == NULL || !hal_net_channel_valid(channel) || rbuf->data_size > HAL_NET_MTU_BYTES + trailer ||
-        (rbuf->data == NULL && rbuf->data_size > 0)) {
+    if (channel == NULL || !hal_net_channel_valid(channel) || len > HAL_NET_MTU_BYTES + trailer ||
+        (data == NULL && len > 0)) {
         n->stats.rx_dropped_invalid++;
         pthread_mutex_unlock(&n->mu);
         return;
     }
-    size_t len = rbuf->data_size;
+    uint32_t i = 0;
+    while (i < n->n_subs && strcmp(n->sub_channel[i], channel) != 0)
+        i++;
+    if (i == n->n_subs) {
+        pthread_mutex_unlock(&n->mu);
+        return;
+    }
     if (n->keyed) {
-        const hal_host_auth_verdict_t v = hal_host_auth_open(&n->auth, channel, rbuf->data, len, &len);
+        const hal_host_auth_verdict_t v = hal_host_auth_open(&n->auth, channel, data, len, &len);
         if (v != HAL_HOST_AUTH_OK) {
             if (v == HAL_HOST_AUTH_OTHER_RUN)
                 n->stats.rx_dropped_replay++;
@@ -405,15 +411,15 @@ static void net_on_message(const lcm_recv_buf_t *rbuf, const char *channel, void
         }
     }
     /* Typed channels: the bytes are checked here, before anything can decode them. */
-    if (hal_host_msg_check(channel_type(n, channel), rbuf->data, len) != HAL_HOST_MSG_OK) {
+    if (hal_host_msg_check(channel_type(n, channel), data, len) != HAL_HOST_MSG_OK) {
         n->stats.rx_dropped_malformed++;
         pthread_mutex_unlock(&n->mu);
         return;
     }
     if (n->faults_on)
-        inject(n, channel_type(n, channel), channel, rbuf->data, (uint32_t)len);
+        inject(n, channel_type(n, channel), channel, data, (uint32_t)len);
     else
-        enqueue(n, channel, rbuf->data, (uint32_t)len);
+        enqueue(n, channel, data, (uint32_t)len);
     pthread_mutex_unlock(&n->mu);
 }
 
@@ -421,26 +427,23 @@ int hal_host_net_subscribe(hal_host_net_t *n, const char *channel)
 {
     if (n == NULL || !hal_net_channel_valid(channel))
         return -EINVAL;
-    for (uint32_t i = 0; i < n->n_subs; i++)
-        if (strcmp(n->sub_channel[i], channel) == 0)
-            return 0;
-    if (n->n_subs == HAL_HOST_NET_MAX_SUBS)
+    pthread_mutex_lock(&n->mu);
+    uint32_t i = 0;
+    while (i < n->n_subs && strcmp(n->sub_channel[i], channel) != 0)
+        i++;
+    const int known = i < n->n_subs, full = n->n_subs == HAL_HOST_NET_MAX_SUBS;
+    pthread_mutex_unlock(&n->mu);
+    if (known)
+        return 0;
+    if (full)
         return -ENOSPC;
-    /* LCM channel arguments are regular expressions; a valid channel name may contain '.',
-     * so escape it to match exactly that channel. */
-    char re[2u * HAL_NET_CHANNEL_MAX + 1u];
-    size_t k = 0;
-    for (const char *c = channel; *c != '\0'; c++) {
-        if (*c == '.')
-            re[k++] = '\\';
-        re[k++] = *c;
-    }
-    re[k] = '\0';
-    lcm_subscription_t *sub = lcm_subscribe(n->lcm, re, net_on_message, n);
-    if (sub == NULL)
-        return -EIO;
+    const int rc = n->tp->subscribe(n->tp_ctx, channel);
+    if (rc != 0)
+        return rc;
+    pthread_mutex_lock(&n->mu);
     memcpy(n->sub_channel[n->n_subs], channel, strlen(channel) + 1u);
-    n->sub[n->n_subs++] = sub;
+    n->n_subs++;
+    pthread_mutex_unlock(&n->mu);
     if (!n->rx_started) {
         if (pthread_create(&n->rx_thread, NULL, rx_main, n) != 0)
             return -EIO;

@@ -50,11 +50,17 @@ static char *slurp(const char *path, size_t *len)
     return (char *)test_slurp(path, len);
 }
 
+static int g_zmq; /* the next fleet over ZeroMQ/TCP on loopback instead of LCM */
+
 /* The fleet: NPROC `host_sim run --fleet` processes into DIR/<tag>/robot_<i>. */
 static void run_fleet(const char *tag, const char *encoding, const char *drop_every)
 {
     static fp_fleet_t f;
-    const char *args[] = {"--rounds", ROUNDS, "--radius", "6", "--encoding", encoding, "--peer-timeout", "20", NULL};
+    static char peers[128];
+    const unsigned port = 24000u + (unsigned)(getpid() % 1000) * 8u;
+    snprintf(peers, sizeof peers, "127.0.0.1:%u,127.0.0.1:%u,127.0.0.1:%u", port, port + 1u, port + 2u);
+    const char *args[] = {"--rounds", ROUNDS, "--radius", "6", "--encoding", encoding, "--peer-timeout", "20",
+                          g_zmq ? "--transport" : NULL, "zmq", "--peers", peers, NULL};
     fp_fleet_init(&f, tag, NPROC, NULL, args);
     fp_fleet_start(&f, drop_every ? "FLEETSIM_NET_DROP_EVERY" : NULL, drop_every);
     fp_fleet_wait_ok(&f, FLEET_DEADLINE_S);
@@ -112,6 +118,22 @@ static void test_lost_datagrams_are_recovered(void **st)
     assert_true(traffic_sum("lossy", "chunks_requested") > 0);
     assert_true(traffic_sum("lossy", "chunks_resent") > 0);
     assert_int_equal(traffic_sum("lossy", "timeouts"), 0);
+}
+
+/* Both transports pass the same protocol cases: ZeroMQ/TCP gives the reference's models, also
+ * when every 7th datagram is lost at the sender. */
+static void test_zmq_equals_inproc(void **st)
+{
+    (void)st;
+    g_zmq = 1;
+    run_fleet("zmq", "fp32", NULL);
+    run_fleet("zmq-lossy", "fp32", "7");
+    g_zmq = 0;
+    fp_inproc_reference(NPROC, ROUNDS, REF_DEADLINE_S);
+    fp_expect_reference_models("zmq", NPROC);
+    fp_expect_reference_models("zmq-lossy", NPROC);
+    assert_true(traffic_sum("zmq-lossy", "chunks_requested") > 0);
+    assert_int_equal(traffic_sum("zmq", "timeouts"), 0);
 }
 
 static void test_int8_states(void **st)
@@ -242,6 +264,7 @@ static void test_ctrl_c_stops_the_fleet(void **st)
 static int teardown_case(void **st)
 {
     (void)st;
+    g_zmq = 0;
     fp_kill_all();
     return 0;
 }
@@ -263,6 +286,7 @@ int main(void)
     const struct CMUnitTest tests[] = {
         cmocka_unit_test_teardown(test_three_processes_equal_inproc, teardown_case),
         cmocka_unit_test_teardown(test_lost_datagrams_are_recovered, teardown_case),
+        cmocka_unit_test_teardown(test_zmq_equals_inproc, teardown_case),
         cmocka_unit_test_teardown(test_int8_states, teardown_case),
         cmocka_unit_test_teardown(test_killed_robot_stops_the_fleet, teardown_case),
         cmocka_unit_test_teardown(test_ctrl_c_stops_the_fleet, teardown_case),

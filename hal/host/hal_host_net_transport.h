@@ -1,0 +1,39 @@
+/* The transports under the host network (hal_host_net.c): what moves datagrams between
+ * processes. hal_host_net.c owns everything above them (the bounded queue, the keyed fleet's
+ * tag check, the bounds check, fault injection, the counters) and runs one receiver thread
+ * that calls the transport's `handle`; the transport hands each datagram it receives to
+ * hal_host_net_on_datagram(). Two exist:
+ *   - LCM (any LCM URL: udpm:// multicast on one host or a routed segment, memq:// in one
+ *     process): hal_host_net_lcm.c;
+ *   - ZeroMQ over TCP ("zmq://BIND?peers=EP,EP,...", hal_host_net_zmq.c): peer to peer, each
+ *     process binds one PUB endpoint and connects its SUB to every peer's.
+ * Not part of the board's API. */
+#ifndef HAL_HOST_NET_TRANSPORT_H
+#define HAL_HOST_NET_TRANSPORT_H
+
+#include <stddef.h>
+
+typedef struct hal_host_net hal_host_net_t;
+
+typedef struct hal_host_net_transport {
+    const char *name;
+    /* Opens the transport for url; on failure prints why on stderr and returns -EINVAL (a bad
+       URL) or -EIO. */
+    int (*open)(hal_host_net_t *n, const char *url, void **ctx);
+    void (*close)(void *ctx);
+    /* Sends one datagram (any thread, one at a time: hal_host_net.c serialises). 0 or -EIO. */
+    int (*publish)(void *ctx, const char *channel, const void *data, size_t len);
+    /* Adds a channel (the caller's thread, before or while the receiver runs). 0, -EIO. */
+    int (*subscribe)(void *ctx, const char *channel);
+    /* The receiver thread: waits up to timeout_ms, delivering what arrives through
+       hal_host_net_on_datagram(). 0, or < 0 when the transport is gone. */
+    int (*handle)(void *ctx, int timeout_ms);
+} hal_host_net_transport_t;
+
+extern const hal_host_net_transport_t hal_host_net_lcm;
+extern const hal_host_net_transport_t hal_host_net_zmq;
+
+/* One datagram received on `channel` (any transport, the receiver thread). */
+void hal_host_net_on_datagram(hal_host_net_t *n, const char *channel, const void *data, size_t len);
+
+#endif /* HAL_HOST_NET_TRANSPORT_H */

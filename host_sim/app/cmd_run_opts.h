@@ -1,0 +1,39 @@
+/* `host_sim run`'s options: the table (cli_opts.h), the defaults, the checks across options,
+ * and --help. cmd_run.c runs what they describe. */
+#ifndef HOST_SIM_APP_CMD_RUN_OPTS_H
+#define HOST_SIM_APP_CMD_RUN_OPTS_H
+
+#include <stdint.h>
+
+#include "ai/ai_pool.h"
+#include "ai/dinno.h"
+#include "gp/gp_fleet.h"
+#include "hal_host.h"
+
+enum { RUN_TRANSPORT_LCM = 0, RUN_TRANSPORT_ZMQ = 1 };
+
+/* The longest network URL --peers can make: zmq:// + the bind + every peer's HOST:PORT. */
+#define RUN_NET_URL_MAX 16384
+
+typedef struct run_opts {
+    const char *plan, *path, *out, *net;
+    long long rounds, per_comm, seed, robot, val_poses, mc, fleet, fleet_id, val_every, chunk_bytes;
+    double time_limit, map_res, scale, radius, peer_timeout, join_timeout;
+    dinno_cfg_t d;
+    ai_pool_policy_t pool;
+    hal_host_sched_t sched;
+    gp_fleet_encoding_t encoding;
+    int offline, train_between, no_maps, quiet, net_given, resume;
+    int transport;          /* --transport: RUN_TRANSPORT_LCM or RUN_TRANSPORT_ZMQ */
+    const char *peers;      /* --peers HOST:PORT,... (zmq: every member, in id order) */
+    const char *net_faults; /* --net-faults SPEC, checked at parse time; NULL: none */
+    const char *key_file;   /* --key-file: a keyed fleet; NULL: unkeyed */
+    uint64_t run_id;
+    int run_id_given;
+} run_opts_t;
+
+/* Parses argv into o (defaults first), then checks the options together; --peers becomes the
+ * ZeroMQ URL in url (RUN_NET_URL_MAX). 0, 1 after --help, -1 after printing why. */
+int run_parse(int argc, char **argv, run_opts_t *o, char *url);
+
+#endif /* HOST_SIM_APP_CMD_RUN_OPTS_H */

@@ -1,0 +1,195 @@
+/* The host network over ZeroMQ/TCP (hal/host/hal_host_net_zmq.c), on this host's loopback:
+ * three robots' networks, each binding its own port and connected to the other two, deliver
+ * every datagram of a subscribed channel whole to both others (never to the sender), keep
+ * channels nobody subscribed to out, carry a keyed fleet's trailer, refuse bad URLs and a port
+ * already bound with the reason, and a peer that closes and opens again on its port is
+ * reconnected to by itself. The fleet over ZeroMQ as real processes: tests/fleet. */
+#define _GNU_SOURCE 1
+#include <setjmp.h>
+#include <stdarg.h>
+#include <stddef.h>
+#include <stdint.h>
+#include <errno.h>
+#include <stdio.h>
+#include <stdlib.h>
+#include <string.h>
+#include <unistd.h>
+#include <cmocka.h>
+
+#include "hal/hal.h"
+#include "hal_host.h"
+
+#define N 3
+#define CH "fleetsim/9/state"
+
+static unsigned base_port(void)
+{
+    return 23000u + (unsigned)(getpid() % 2000) * 3u;
+}
+
+/* The URL of robot i of N on ports base .. base + N - 1. */
+static void url_of(char *url, size_t cap, int i, unsigned base)
+{
+    int k = snprintf(url, cap, "zmq://127.0.0.1:%u?peers=", base + (unsigned)i);
+    for (int j = 0, first = 1; j < N; j++)
+        if (j != i) {
+            k += snprintf(url + k, cap - (size_t)k, "%s127.0.0.1:%u", first ? "" : ",", base + (unsigned)j);
+            first = 0;
+        }
+}
+
+static hal_host_net_t *open_robot(int i, unsigned base)
+{
+    char url[256];
+    url_of(url, sizeof url, i, base);
+    hal_host_net_t *n = NULL;
+    assert_int_equal(hal_host_net_open(url, 256, &n), 0);
+    return n;
+}
+
+/* Publishes from `from` until every other robot received `want` datagrams of the channel (the
+ * first ones may go before the connections are up: ZeroMQ's slow joiner), at most 5 s. */
+static void exchange(hal_host_net_t **net, int from, const uint8_t *msg, size_t len, int *got)
+{
+    static uint8_t buf[HAL_NET_MTU_BYTES + 64];
+    for (int tries = 0; tries < 100; tries++) {
+        assert_int_equal(hal_host_net_publish(net[from], CH, msg, len), 0);
+        int all = 1;
+        for (int i = 0; i < N; i++) {
+            if (i == from)
+                continue;
+            assert_int_equal(hal_host_net_wait(net[i], 0, 50), 0);
+            hal_net_rx_info_t info;
+            while (hal_host_net_receive(net[i], 0, &info, buf, sizeof buf) == 0) {
+                assert_string_equal(info.channel, CH);
+                assert_int_equal(info.len, len);
+                assert_memory_equal(buf, msg, len);
+                got[i]++;
+            }
+            all &= got[i] > 0;
+        }
+        if (all)
+            return;
+    }
+    fail_msg("robot %d's datagrams did not reach every peer within 5 s", from);
+}
+
+static void test_three_robots_exchange(void **st)
+{
+    (void)st;
+    const unsigned base = base_port();
+    hal_host_net_t *net[N];
+    for (int i = 0; i < N; i++) {
+        net[i] = open_robot(i, base);
+        assert_int_equal(hal_host_net_subscribe(net[i], CH), 0);
+    }
+    static uint8_t msg[HAL_NET_MTU_BYTES];
+    for (size_t i = 0; i < sizeof msg; i++)
+        msg[i] = (uint8_t)(i * 11u + 3u);
+    for (int from = 0; from < N; from++) {
+        int got[N] = {0};
+        exchange(net, from, msg, from == 0 ? sizeof msg : 1000u + (size_t)from, got);
+        hal_net_stats_t s;
+        hal_host_net_get_stats(net[from], &s);
+        assert_int_equal(hal_host_net_queued(net[from]), 0); /* never to the sender */
+    }
+    /* A channel nobody subscribed to is kept out. */
+    assert_int_equal(hal_host_net_publish(net[0], "fleetsim/9/other", msg, 10), 0);
+    assert_int_equal(hal_host_net_wait(net[1], 0, 200), 0);
+    assert_int_equal(hal_host_net_queued(net[1]), 0);
+    for (int i = 0; i < N; i++)
+        hal_host_net_close(net[i]);
+}
+
+static void test_keyed_over_zmq(void **st)
+{
+    (void)st;
+    const unsigned base = base_port() + 3000u;
+    hal_host_auth_t a;
+    memset(a.key, 5, sizeof a.key);
+    a.run_id = 77;
+    hal_host_net_t *net[N];
+    for (int i = 0; i < N; i++) {
+        net[i] = open_robot(i, base);
+        if (i < 2) /* robot 2 holds no key */
+            assert_int_equal(hal_host_net_set_auth(net[i], &a), 0);
+        assert_int_equal(hal_host_net_subscribe(net[i], CH), 0);
+    }
+    const uint8_t msg[64] = {1, 2, 3};
+    int got[N] = {0};
+    static uint8_t buf[HAL_NET_MTU_BYTES];
+    for (int tries = 0; tries < 100 && got[1] == 0; tries++) {
+        assert_int_equal(hal_host_net_publish(net[0], CH, msg, sizeof msg), 0);
+        assert_int_equal(hal_host_net_publish(net[2], CH, msg, sizeof msg), 0); /* not a member */
+        assert_int_equal(hal_host_net_wait(net[1], 0, 50), 0);
+        hal_net_rx_info_t info;
+        while (hal_host_net_receive(net[1], 0, &info, buf, sizeof buf) == 0) {
+            assert_int_equal(info.len, sizeof msg); /* the member's, its trailer stripped */
+            got[1]++;
+        }
+    }
+    assert_true(got[1] > 0);
+    hal_net_stats_t s;
+    for (int tries = 0; tries < 100; tries++) {
+        hal_host_net_get_stats(net[1], &s);
+        if (s.rx_dropped_unauth > 0)
+            break;
+        assert_int_equal(hal_host_net_publish(net[2], CH, msg, sizeof msg), 0);
+        assert_int_equal(hal_host_net_wait(net[1], 0, 50), 0);
+    }
+    assert_true(s.rx_dropped_unauth > 0);
+    for (int i = 0; i < N; i++)
+        hal_host_net_close(net[i]);
+}
+
+static void test_bad_urls_and_a_taken_port(void **st)
+{
+    (void)st;
+    hal_host_net_t *n = NULL;
+    assert_int_equal(hal_host_net_open("zmq://127.0.0.1:7000", 8, &n), -EINVAL); /* no peers= */
+    assert_int_equal(hal_host_net_open("zmq://127.0.0.1?peers=", 8, &n), -EINVAL);
+    assert_int_equal(hal_host_net_open("zmq://127.0.0.1:70000?peers=", 8, &n), -EINVAL);
+    assert_int_equal(hal_host_net_open("zmq://127.0.0.1:7000?peers=a b:1", 8, &n), -EINVAL);
+    assert_int_equal(hal_host_net_open("zmq://127.0.0.1:7000?peers=host", 8, &n), -EINVAL);
+    assert_null(n);
+    char url[128];
+    const unsigned port = base_port() + 6000u;
+    snprintf(url, sizeof url, "zmq://127.0.0.1:%u?peers=", port);
+    hal_host_net_t *a = NULL, *b = NULL;
+    assert_int_equal(hal_host_net_open(url, 8, &a), 0); /* a fleet of one: no peers */
+    assert_int_equal(hal_host_net_open(url, 8, &b), -EIO); /* the port is taken */
+    hal_host_net_close(a);
+}
+
+/* Robot 1 goes away and comes back on its port: robot 0 hears it again without doing anything. */
+static void test_peer_restart_reconnects(void **st)
+{
+    (void)st;
+    const unsigned base = base_port() + 9000u;
+    hal_host_net_t *net[N];
+    for (int i = 0; i < N; i++) {
+        net[i] = open_robot(i, base);
+        assert_int_equal(hal_host_net_subscribe(net[i], CH), 0);
+    }
+    const uint8_t msg[32] = {9};
+    int got[N] = {0};
+    exchange(net, 1, msg, sizeof msg, got);
+    hal_host_net_close(net[1]);
+    net[1] = open_robot(1, base);
+    assert_int_equal(hal_host_net_subscribe(net[1], CH), 0);
+    memset(got, 0, sizeof got);
+    exchange(net, 1, msg, sizeof msg, got);
+    for (int i = 0; i < N; i++)
+        hal_host_net_close(net[i]);
+}
+
+int main(void)
+{
+    const struct CMUnitTest tests[] = {
+        cmocka_unit_test(test_three_robots_exchange),
+        cmocka_unit_test(test_keyed_over_zmq),
+        cmocka_unit_test(test_bad_urls_and_a_taken_port),
+        cmocka_unit_test(test_peer_restart_reconnects),
+    };
+    return cmocka_run_group_tests(tests, NULL, NULL);
+}
