@@ -9,6 +9,8 @@ Prints `BENCH <name> <value> <unit>` lines:
                                         --scaling: the 7 tours reused)
   fleet_round_ms_<preset>_7proc_unkeyed the same 7 processes without the key (--no-key), run right
                                         after: what the datagram MAC costs a round
+  fleet_round_ms_zmq_<preset>_7proc     the same 7 processes over ZeroMQ/TCP (--transport zmq) instead
+                                        of LCM multicast, keyed
   fleet_round_compute_ms_<preset>_7     the same 7 models trained in ONE process on 2 threads
                                         (`host_sim fleet --inproc --threads 2`): the round's training compute
   fleet_round_overhead_ms_<preset>_7proc  the difference: what the processes, the network and the
@@ -44,11 +46,11 @@ def run(cmd, **kw):
     return r.stdout
 
 
-def fleet(hs, n, rounds, paths, out, encoding="fp32", keyed=True):
+def fleet(hs, n, rounds, paths, out, encoding="fp32", keyed=True, transport="lcm"):
     """n processes through the launcher; returns (median round ms, mean bytes sent per round)."""
-    name = f"n{n}-{encoding}" + ("" if keyed else "-unkeyed")
+    name = f"n{n}-{encoding}-{transport}" + ("" if keyed else "-unkeyed")
     run([os.path.join(ROOT, "tools/fleet"), "--bin", hs, "--robots", str(n), "--rounds", str(rounds),
-         "--paths", paths, "--results", out, "--name", name, "--encoding", encoding,
+         "--paths", paths, "--results", out, "--name", name, "--encoding", encoding, "--transport", transport,
          "--val-every", str(rounds), "--val-poses", "1", "--no-report"] + ([] if keyed else ["--no-key"]))
     walls, sent = [], []
     for i in range(n):
@@ -94,6 +96,8 @@ def main():
         ms7u, _ = fleet(a.bin, 7, rounds, PATHS, tmp, keyed=False)
         bench(f"fleet_round_ms_{a.preset}_7proc_unkeyed", ms7u, "ms")
         bench(f"fleet_round_keyed_cost_{a.preset}_7proc", 100.0 * (ms7 - ms7u) / ms7u, "%")
+        ms7z, _ = fleet(a.bin, 7, rounds, PATHS, tmp, transport="zmq")
+        bench(f"fleet_round_ms_zmq_{a.preset}_7proc", ms7z, "ms")
         comp = inproc_round_ms(a.bin, rounds, tmp)
         bench(f"fleet_round_compute_ms_{a.preset}_7", comp, "ms")
         bench(f"fleet_round_overhead_ms_{a.preset}_7proc", ms7 - comp, "ms")
