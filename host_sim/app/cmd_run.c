@@ -438,6 +438,8 @@ static int run_image(job_t *j)
     ic.sched = o->sched;
     ic.log_level = o->quiet ? HAL_LOG_WARN : HAL_LOG_INFO;
     ic.ckpt_every = (uint32_t)o->val_every;
+    ic.ckpt_keep = (uint32_t)o->ckpt_keep;
+    ic.ckpt_keep_every = (uint32_t)o->ckpt_keep_every;
     ic.start_round = j->resume.start_round;
     ic.resume_ckpt = j->resume.ckpt;
     ic.resume_ckpt_bytes = j->resume.ckpt_bytes;

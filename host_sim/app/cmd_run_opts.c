@@ -10,6 +10,7 @@
 #include "ai/bnn.h"
 #include "cli.h"
 #include "cli_opts.h"
+#include "gp/gp_core.h"
 #include "gp/gp_pse.h"
 #include "sim_plan.h"
 
@@ -34,6 +35,8 @@ static void run_defaults(run_opts_t *o)
     o->pool = AI_POOL_CDR;
     o->sched = HAL_HOST_SCHED_SERIAL;
     o->encoding = GP_FLEET_FP32;
+    o->ckpt_keep = GP_CORE_CKPT_KEEP_DEFAULT;
+    o->ckpt_keep_every = GP_CORE_CKPT_KEEP_EVERY_DEFAULT;
 }
 
 /* --net-faults SPEC: checked now, applied when the network opens. */
@@ -120,6 +123,10 @@ static const cli_opt_t run_opts[] = {
     {.names = "--val-every", .meta = "M", CLI_INT(run_opts_t, val_every, 1, AI_CORE_MAX_ROUNDS),
      .def = "1 alone, rounds/50 in a fleet",
      .help = "validation loss (and a round checkpoint) every M rounds and at the end"},
+    {.names = "--keep-ckpt", .meta = "K", CLI_INT(run_opts_t, ckpt_keep, 0, AI_CORE_MAX_ROUNDS),
+     .help = "round checkpoints kept: the newest K (0: every one written)"},
+    {.names = "--keep-ckpt-every", .meta = "M", CLI_INT(run_opts_t, ckpt_keep_every, 0, AI_CORE_MAX_ROUNDS),
+     .help = "and, of the older ones, round k when (k + 1) % M == 0 (0: none)"},
     {.names = "--map-res", .meta = "M", CLI_DOUBLE(run_opts_t, map_res, 0.01, 10.0), .help = "map grid in metres"},
     {.names = "--mc", .meta = "K", CLI_INT(run_opts_t, mc, 1, 1000), .help = "MC passes of the maps"},
     {.names = "--no-maps", CLI_FLAG(run_opts_t, no_maps, 1), .help = "skip the PNG maps"},
@@ -162,8 +169,8 @@ static void run_usage(FILE *out)
             "round wall_ms,wait_ms,bytes_sent,bytes_received,chunks_sent,chunks_received,chunks_resent,\n"
             "chunks_requested,duplicates,stale,timeouts,rejoins,crc_failures,invalid,chunks_recovered,chunks_lost,\n"
             "states_missed,rounds_skipped,beacons_sent,peer_restarts,old_incarnation), round_NNNN.bnn (every\n"
-            "--val-every rounds), final.bnn, train.samples (the pool trained on), valset.samples,\n"
-            "map_mean.png and map_std.png (MC mean / std of the final model, path on top), profile.txt and\n"
+            "--val-every rounds; the newest --keep-ckpt and every --keep-ckpt-every-th kept), final.bnn,\n"
+            "train.samples (the pool trained on), valset.samples, map_mean.png and map_std.png (MC mean / std of the final model, path on top), profile.txt and\n"
             "profile.csv (per core: ticks, lateness, wall time per tick, stack high-water; static memory),\n"
             "summary.txt.\n"
             "\n"

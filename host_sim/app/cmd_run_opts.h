@@ -30,6 +30,7 @@ typedef struct run_opts {
     const char *key_file;   /* --key-file: a keyed fleet; NULL: unkeyed */
     uint64_t run_id;
     int run_id_given;
+    long long ckpt_keep, ckpt_keep_every; /* --keep-ckpt K, --keep-ckpt-every M */
 } run_opts_t;
 
 /* Parses argv into o (defaults first), then checks the options together; --peers becomes the
