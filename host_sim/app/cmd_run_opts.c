@@ -14,7 +14,6 @@
 #include "gp/gp_pse.h"
 #include "sim_plan.h"
 
-
 static void run_defaults(run_opts_t *o)
 {
     memset(o, 0, sizeof *o);

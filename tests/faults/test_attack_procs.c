@@ -64,17 +64,6 @@ static fp_fleet_t *start_fleet(const char *tag, const char *run_id, const char *
     return &f;
 }
 
-static unsigned long long summary_sum(const char *tag, const char *line, const char *what, int after)
-{
-    unsigned long long total = 0;
-    for (int i = 0; i < NPROC; i++) {
-        char p[PATH_MAX + 64];
-        snprintf(p, sizeof p, "%s/%s/robot_%d/summary.txt", fp_env.dir, tag, i);
-        total += (unsigned long long)fp_summary_number(p, line, what, after);
-    }
-    return total;
-}
-
 /* The attacker: a process of its own on the fleet's multicast group, holding no key. */
 static void attacker_main(unsigned fleet_id, int rounds)
 {
@@ -149,8 +138,8 @@ static void test_forger_without_the_key(void **st)
     const double wall = fp_fleet_wait_ok(f, FLEET_DEADLINE_S);
     stop_attacker(att);
     fp_expect_reference_models("forged", NPROC);
-    const unsigned long long unauth = summary_sum("forged", "keyed fleet", " datagrams without a valid tag", 0);
-    const unsigned long long bad = summary_sum("forged", "malformed datagrams dropped", "malformed datagrams dropped", 1);
+    const unsigned long long unauth = fp_summary_sum("forged", NPROC, "keyed fleet", " datagrams without a valid tag", 0);
+    const unsigned long long bad = fp_summary_sum("forged", NPROC, "malformed datagrams dropped", "malformed datagrams dropped", 1);
     printf("# forger without the key (a forged chunk and a state x1e6 of robot 1 every 20 ms): 3 robots, %s rounds "
            "in %.1f s, %llu datagrams without a valid tag dropped, %llu malformed; models equal the clean run's\n",
            ROUNDS, wall, unauth, bad);
@@ -212,7 +201,7 @@ static void test_replayed_recording(void **st)
     const double wall = fp_fleet_wait_ok(f, FLEET_DEADLINE_S);
     fp_kill(play);
     fp_expect_reference_models("replayed", NPROC);
-    const unsigned long long replayed = summary_sum("replayed", "keyed fleet", " of another run dropped", 0);
+    const unsigned long long replayed = fp_summary_sum("replayed", NPROC, "keyed fleet", " of another run dropped", 0);
     printf("# a recording of an earlier run with the same key, played back by lcm-logplayer: 3 robots, %s rounds in "
            "%.1f s, %llu datagrams of another run dropped; models equal the clean run's\n",
            ROUNDS, wall, replayed);

@@ -53,19 +53,7 @@ static void delete_ns(void)
 {
     if (g_ns[0] == '\0')
         return;
-    pid_t pid = fork();
-    if (pid == 0) {
-        int fd = open("/dev/null", O_WRONLY);
-        if (fd >= 0) {
-            dup2(fd, 1);
-            dup2(fd, 2);
-        }
-        char *const argv[] = {g_ip, (char *)"netns", (char *)"del", g_ns, NULL};
-        execv(g_ip, argv);
-        _exit(127);
-    }
-    if (pid > 0)
-        waitpid(pid, NULL, 0);
+    fp_netns_delete(g_ip, g_ns);
     g_ns[0] = '\0';
 }
 
@@ -83,57 +71,34 @@ static double run_fleet(const char *tag, const char *ns, const char *faults)
     return fp_fleet_wait_ok(&f, FLEET_DEADLINE_S);
 }
 
-/* A counter of DIR/<tag>/robot_<i>/summary.txt: the number before (after, when `after`)
- * `what` on the line that holds `line`, summed over the robots. */
-static unsigned long long summary_sum(const char *tag, const char *line, const char *what, int after)
-{
-    unsigned long long total = 0;
-    for (int i = 0; i < NPROC; i++) {
-        char p[PATH_MAX + 64];
-        snprintf(p, sizeof p, "%s/%s/robot_%d/summary.txt", fp_env.dir, tag, i);
-        total += (unsigned long long)fp_summary_number(p, line, what, after);
-    }
-    return total;
-}
-
 static void test_injected_drops(void **st)
 {
     (void)st;
     fp_inproc_reference(NPROC, ROUNDS, REF_DEADLINE_S);
     const double wall = run_fleet("injected", NULL, "drop=" DROP_P ",seed=26");
     fp_expect_reference_models("injected", NPROC);
-    const unsigned long long dropped = summary_sum("injected", "network faults injected", " dropped", 0);
+    const unsigned long long dropped = fp_summary_sum("injected", NPROC, "network faults injected", " dropped", 0);
     printf("# injector drop=%s: 3 robots, %s rounds in %.1f s, %llu datagrams dropped on receipt; models equal "
            "the lossless reference\n",
            DROP_P, ROUNDS, wall, dropped);
     assert_true(dropped > 0);
 }
 
-/* Skips the test with the reason (cmocka prints SKIPPED; tools/run-tests.sh counts it). */
-#define SKIP_BECAUSE(...)                                                                                     \
-    do {                                                                                                      \
-        printf("# skipped: ");                                                                                \
-        printf(__VA_ARGS__);                                                                                  \
-        printf("\n");                                                                                         \
-        fflush(stdout);                                                                                       \
-        skip();                                                                                               \
-    } while (0)
-
 static void test_kernel_drops(void **st)
 {
     (void)st;
     char ipt[PATH_MAX], out[4096];
     if (geteuid() != 0)
-        SKIP_BECAUSE("not root (a network namespace and iptables need root)");
+        FP_SKIP_BECAUSE("not root (a network namespace and iptables need root)");
     if (fp_find_program("ip", g_ip, sizeof g_ip) != 0)
-        SKIP_BECAUSE("'ip' (iproute2) not found; tools/install-deps.sh installs it");
+        FP_SKIP_BECAUSE("'ip' (iproute2) not found; tools/install-deps.sh installs it");
     if (fp_find_program("iptables", ipt, sizeof ipt) != 0)
-        SKIP_BECAUSE("'iptables' not found; tools/install-deps.sh installs it");
+        FP_SKIP_BECAUSE("'iptables' not found; tools/install-deps.sh installs it");
     char ns[64];
     snprintf(ns, sizeof ns, "fleetsim-drop-%d", (int)getpid());
     const char *add[] = {g_ip, "netns", "add", ns, NULL};
     if (fp_run_cmd(add, out, sizeof out) != 0)
-        SKIP_BECAUSE("cannot create network namespace %s: %s", ns, out);
+        FP_SKIP_BECAUSE("cannot create network namespace %s: %s", ns, out);
     snprintf(g_ns, sizeof g_ns, "%s", ns); /* from here on the teardown deletes it */
     fp_inproc_reference(NPROC, ROUNDS, REF_DEADLINE_S);
     /* Loopback up with multicast and a route for it: what LCM's udpm:// needs (test_net.c). */
@@ -147,7 +112,7 @@ static void test_kernel_drops(void **st)
             fail_msg("in namespace %s, '%s %s %s %s' failed: %s", ns, setup[i][3], setup[i][4], setup[i][5],
                      setup[i][6], out);
     if (fp_run_cmd(drop, out, sizeof out) != 0)
-        SKIP_BECAUSE("iptables cannot add a random-drop rule here (no xt_statistic?): %s", out);
+        FP_SKIP_BECAUSE("iptables cannot add a random-drop rule here (no xt_statistic?): %s", out);
     const double wall = run_fleet("kernel", ns, NULL);
     fp_expect_reference_models("kernel", NPROC);
     /* The rule did drop: its packet counter. */
@@ -157,7 +122,7 @@ static void test_kernel_drops(void **st)
     while (l && l > out && l[-1] != '\n')
         l--;
     unsigned long long pkts = l ? strtoull(l, NULL, 10) : 0;
-    const unsigned long long refused = summary_sum("kernel", "waiting for peers", " sends refused", 1);
+    const unsigned long long refused = fp_summary_sum("kernel", NPROC, "waiting for peers", " sends refused", 1);
     printf("# kernel drops (iptables, p = %s, namespace %s): 3 robots, %s rounds in %.1f s, %llu datagrams "
            "dropped, %llu sends refused; models equal the lossless reference\n",
            DROP_P, ns, ROUNDS, wall, pkts, refused);

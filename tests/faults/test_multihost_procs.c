@@ -44,32 +44,10 @@ static int g_made;
  * the signal handler calls it too. */
 static void delete_ns(void)
 {
-    for (int i = 0; i < g_made; i++) {
-        pid_t pid = fork();
-        if (pid == 0) {
-            int fd = open("/dev/null", O_WRONLY);
-            if (fd >= 0) {
-                dup2(fd, 1);
-                dup2(fd, 2);
-            }
-            char *const argv[] = {g_ip, (char *)"netns", (char *)"del", g_ns[i], NULL};
-            execv(g_ip, argv);
-            _exit(127);
-        }
-        if (pid > 0)
-            waitpid(pid, NULL, 0);
-    }
+    for (int i = 0; i < g_made; i++)
+        fp_netns_delete(g_ip, g_ns[i]);
     g_made = 0;
 }
-
-#define SKIP_BECAUSE(...)                                                                                     \
-    do {                                                                                                      \
-        printf("# skipped: ");                                                                                \
-        printf(__VA_ARGS__);                                                                                  \
-        printf("\n");                                                                                         \
-        fflush(stdout);                                                                                       \
-        skip();                                                                                               \
-    } while (0)
 
 static void ip_cmd(const char *const *argv)
 {
@@ -89,9 +67,9 @@ static void make_hosts(void)
     if (g_made > 0)
         return;
     if (geteuid() != 0)
-        SKIP_BECAUSE("not root (network namespaces need root)");
+        FP_SKIP_BECAUSE("not root (network namespaces need root)");
     if (fp_find_program("ip", g_ip, sizeof g_ip) != 0)
-        SKIP_BECAUSE("no `ip` program (iproute2; tools/install-deps.sh installs it)");
+        FP_SKIP_BECAUSE("no `ip` program (iproute2; tools/install-deps.sh installs it)");
     const unsigned tag = (unsigned)getpid() % 100000u;
     for (int i = 0; i <= NPROC; i++)
         snprintf(g_ns[i], sizeof g_ns[i], i < NPROC ? "fsh%d-%u" : "fsw-%u", i, tag);
@@ -101,7 +79,7 @@ static void make_hosts(void)
         const char *add[] = {g_ip, "netns", "add", g_ns[i], NULL};
         if (fp_run_cmd(add, out, sizeof out) != 0) {
             delete_ns();
-            SKIP_BECAUSE("cannot make a network namespace here: %s", out);
+            FP_SKIP_BECAUSE("cannot make a network namespace here: %s", out);
         }
         g_made = i + 1;
         const char *lo[] = {g_ip, "-n", g_ns[i], "link", "set", "lo", "up", NULL};

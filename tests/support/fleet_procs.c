@@ -198,6 +198,34 @@ int fp_same_file(const char *a, const char *b)
     return same;
 }
 
+unsigned long long fp_summary_sum(const char *tag, int n, const char *line, const char *what, int after)
+{
+    unsigned long long total = 0;
+    for (int i = 0; i < n; i++) {
+        char p[PATH_MAX + 64];
+        snprintf(p, sizeof p, "%s/%s/robot_%d/summary.txt", fp_env.dir, tag, i);
+        total += (unsigned long long)fp_summary_number(p, line, what, after);
+    }
+    return total;
+}
+
+void fp_netns_delete(const char *ip, const char *name)
+{
+    pid_t pid = fork();
+    if (pid == 0) {
+        int fd = open("/dev/null", O_WRONLY);
+        if (fd >= 0) {
+            dup2(fd, 1);
+            dup2(fd, 2);
+        }
+        char *const argv[] = {(char *)ip, (char *)"netns", (char *)"del", (char *)name, NULL};
+        execv(ip, argv);
+        _exit(127);
+    }
+    if (pid > 0)
+        waitpid(pid, NULL, 0);
+}
+
 static int g_have_ref;
 
 void fp_inproc_reference(int n, const char *rounds, int deadline_s)

@@ -114,6 +114,23 @@ void fp_inproc_reference(int n, const char *rounds, int deadline_s);
  * fails the test naming the first robot that differs. */
 void fp_expect_reference_models(const char *tag, int n);
 
+/* fp_summary_number of DIR/<tag>/robot_<i>/summary.txt, summed over robots 0 .. n-1. */
+unsigned long long fp_summary_sum(const char *tag, int n, const char *line, const char *what, int after);
+
+/* Deletes the network namespace `name` with `ip netns del` (its veths and bridges go with it),
+ * output discarded. Async-signal-safe (fork, execv, waitpid): signal handlers call it. */
+void fp_netns_delete(const char *ip, const char *name);
+
+/* Skips the running test with the reason (cmocka prints SKIPPED; tools/run-tests.sh counts it). */
+#define FP_SKIP_BECAUSE(...)                                                                                  \
+    do {                                                                                                      \
+        printf("# skipped: ");                                                                                \
+        printf(__VA_ARGS__);                                                                                  \
+        printf("\n");                                                                                         \
+        fflush(stdout);                                                                                       \
+        skip();                                                                                               \
+    } while (0)
+
 /* A number of a summary.txt: on the first line that contains `line`, the number just before
  * `what` (just after, when `after`). Fails the test when the file, the line or `what` is not
  * there. */
