@@ -5,6 +5,9 @@
 #                     host_sim processes over LCM (tools/fleet; FLEET_ARGS="..." adds options)
 #   make run-inproc   the same job with all robots in one process (the reference)
 #   make test         install missing packages (as root), build and run every cmocka test
+#   make test-slurm   a one-node SLURM cluster on this machine (root; installs slurm-wlm and munge),
+#                     tools/slurm/fleet.sbatch run on it (4 robots over ZeroMQ), its models
+#                     compared with host_sim fleet --inproc's; daemons and scratch removed after
 #   make test-asan    the tests under AddressSanitizer + UndefinedBehaviorSanitizer
 #   make test-tsan    the threaded tests under ThreadSanitizer
 #   make test-faults  the fleet as real processes under packet loss (tests/faults/: the fault
@@ -261,7 +264,7 @@ $(O)/tests/%: $(O)/obj/tests/%.c.o $(LIB)/libtestsupport.a $(LIB)/libhal_stdc.a 
 	$(call say,LD,$@)$(CXX) $(OPT) $< -Wl,--start-group $(LIB)/libtestsupport.a $(LIB)/libhal_stdc.a $(LIBS) -Wl,--end-group $(SYS_LIBS) -lcmocka $(WRAP) -o $@
 
 # ---- targets ----------------------------------------------------------------------------
-.PHONY: experiments all layering deps run run-inproc test test-asan test-tsan test-faults tests bench bench-one bench-pse-sim clean help check-portable check-config fuzz fuzz-build fuzz-seeds $(CROSS_GOALS)
+.PHONY: experiments all layering deps run run-inproc test test-asan test-tsan test-faults test-slurm tests bench bench-one bench-pse-sim clean help check-portable check-config fuzz fuzz-build fuzz-seeds $(CROSS_GOALS)
 
 all: deps layering $(LIBS) $(PROGRAMS)
 ifeq ($(BUILD),release)
@@ -289,6 +292,10 @@ SCHEDULES ?= 4000
 PSE_SIM_BIN := $(filter %/tests/gp/test_pse_sim,$(TEST_BIN))
 test-faults: all $(FAULTS_TEST_BIN) $(PSE_SIM_BIN)
 	@FLEETSIM_PSE_SIM_SCHEDULES=$(SCHEDULES) tools/run-tests.sh $(FAULTS_TEST_BIN) $(PSE_SIM_BIN)
+
+# The fleet under SLURM (tools/slurm/): not part of `make test` (root, daemons, packages).
+test-slurm: all
+	@tools/slurm/test-slurm.sh $(BIN)/host_sim
 
 test-asan:
 	@$(MAKE) --no-print-directory BUILD=asan test

@@ -17,6 +17,8 @@
 #   tools/install-deps.sh --fuzz      also clang and its runtime libraries (libFuzzer, ASan,
 #                                     UBSan: Debian ships them apart from the compiler), for
 #                                     `make fuzz`
+#   tools/install-deps.sh --slurm     also SLURM (slurmctld, slurmd, the clients) and munge, for
+#                                     `make test-slurm` (a one-node cluster on this machine)
 set -euo pipefail
 
 # package  file-that-proves-it-is-installed
@@ -62,6 +64,14 @@ cross_deps=(
     "libcmocka-dev:arm64      /usr/lib/aarch64-linux-gnu/libcmocka.so"
 )
 
+# SLURM and its authentication, for `make test-slurm` (tools/slurm/test-slurm.sh). Debian's
+# packages enable their systemd services; the test starts its own daemons instead.
+slurm_deps=(
+    "slurm-wlm  /usr/sbin/slurmctld"
+    "slurmd     /usr/sbin/slurmd"
+    "munge      /usr/sbin/munged"
+)
+
 check_only=0
 for arg in "$@"; do
     case "$arg" in
@@ -69,7 +79,8 @@ for arg in "$@"; do
         --portable) deps+=("${portable_deps[@]}") ;;
         --cross) deps+=("${cross_deps[@]}") ;;
         --fuzz) deps+=("${fuzz_deps[@]}") ;;
-        -h|--help) sed -n '2,19p' "$0" | sed 's/^# \{0,1\}//'; exit 0 ;;
+        --slurm) deps+=("${slurm_deps[@]}") ;;
+        -h|--help) sed -n '2,21p' "$0" | sed 's/^# \{0,1\}//'; exit 0 ;;
         *) echo "install-deps: unknown option '$arg' (see --help)" >&2; exit 2 ;;
     esac
 done
