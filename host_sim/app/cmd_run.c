@@ -5,6 +5,7 @@
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
+#include <sys/resource.h>
 #include <sys/stat.h>
 #include <time.h>
 
@@ -644,6 +645,13 @@ static int report(job_t *j)
                         (unsigned long long)res->net.fault_partitioned, (unsigned long long)res->net.fault_duplicated,
                         (unsigned long long)res->net.fault_reordered, (unsigned long long)res->net.fault_delayed);
         }
+        struct rusage ru;
+        if (getrusage(RUSAGE_SELF, &ru) == 0) /* what the process cost the machine (scaling tables) */
+            fprintf(f, "process: %.2f s CPU (user %.2f, system %.2f), peak RSS %.1f MB\n",
+                    (double)ru.ru_utime.tv_sec + 1e-6 * (double)ru.ru_utime.tv_usec +
+                        (double)ru.ru_stime.tv_sec + 1e-6 * (double)ru.ru_stime.tv_usec,
+                    (double)ru.ru_utime.tv_sec + 1e-6 * (double)ru.ru_utime.tv_usec,
+                    (double)ru.ru_stime.tv_sec + 1e-6 * (double)ru.ru_stime.tv_usec, (double)ru.ru_maxrss / 1024.0);
         fprintf(f, "checkpoints: %llu written, %llu failed; telemetry: %llu sent, %llu not sent\n",
                 (unsigned long long)res->gp.ckpt_written, (unsigned long long)res->gp.ckpt_failed,
                 (unsigned long long)res->gp.telemetry_sent, (unsigned long long)res->gp.telemetry_failed);
