@@ -357,8 +357,8 @@ static void test_help_listing(void **st)
         "  --choice a|b|c         by index (default b)\n",
         "  --mapped M             by value (default y)\n",
         "  --hex H                hex\n",
-        "  --custom C             a callback, repeatable; this help text is long enough to be wrapped onto a\n"
-        "                         second line of the listing, under its own column (default none)\n",
+        /* one row over two lines (a single literal: clang's -Wstring-concatenation) */
+        "  --custom C             a callback, repeatable; this help text is long enough to be wrapped onto a\n                         second line of the listing, under its own column (default none)\n",
         "  --depth D              a sub-table option (default 2)\n",
         "  -w, --weight W         another (default 1.5)\n",
     };
