@@ -23,6 +23,9 @@ fi
 # Sanitizer builds: LeakSanitizer ignores the one third-party leak listed in tests/lsan.supp
 # (also in the programs the tests start). Harmless for other builds.
 export LSAN_OPTIONS="suppressions=$(cd "$(dirname "$0")/.." && pwd)/tests/lsan.supp${LSAN_OPTIONS:+:$LSAN_OPTIONS}"
+# ThreadSanitizer builds: the races it cannot see through in the uninstrumented libzmq
+# (tests/tsan.supp says why).
+export TSAN_OPTIONS="suppressions=$(cd "$(dirname "$0")/.." && pwd)/tests/tsan.supp${TSAN_OPTIONS:+:$TSAN_OPTIONS}"
 
 # Cases of one cmocka verdict in a program's output: the sum over its "[  <WORD> ] N test(s)" lines.
 count() { sed -n "s/^\[  $1 *\] \([0-9]\+\) test.*/\1/p" "$2" | awk '{s+=$1} END {print s+0}'; }
