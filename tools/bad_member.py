@@ -2,7 +2,7 @@
 """A member that goes bad: the in-process fleet with one robot sending bad states every round,
 with the screen (dinno.h, --screen-radius) and without it, against the clean run.
 
-    tools/bad_member.py [--bin build/bin/host_sim] [--rounds 1500] [--out results/bad_member]
+    tools/bad_member.py [--bin build/release-host-small/bin/host_sim] [--rounds 1500] [--out results/bad_member]
                         [--csv docs/faults/bad_member.csv]
 
 Runs, each in OUT/<name>/ (skipped when its summary.txt exists, so a stopped sweep resumes):
@@ -53,7 +53,7 @@ def figures(summary):
 
 def main():
     p = argparse.ArgumentParser(description=__doc__.split("\n")[0])
-    p.add_argument("--bin", default=os.path.join(ROOT, "build/bin/host_sim"))
+    p.add_argument("--bin", default=os.path.join(ROOT, "build/release-host-small/bin/host_sim"))
     p.add_argument("--rounds", type=int, default=1500)
     p.add_argument("--seed", type=int, default=1)
     p.add_argument("--bad", type=int, default=3, help="the bad robot (default 3)")

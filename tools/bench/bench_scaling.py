@@ -2,7 +2,7 @@
 """How the cost of a fleet grows with its size: N host_sim processes on this machine, over LCM
 multicast and over ZeroMQ/TCP, offline, keyed, `small` preset (docs/scaling.md).
 
-    tools/bench/bench_scaling.py --bin build/bin/host_sim [--robots 7,16,32] [--transports lcm,zmq]
+    tools/bench/bench_scaling.py [--bin build/release-host-small/bin/host_sim] [--robots 7,16,32] [--transports lcm,zmq]
                                  [--rounds 100] [--csv docs/scaling.csv] [--plot docs/scaling.png]
 
 Robot i drives tour robot_<i mod 7> of the default plan (the plan has 8 rooms; the cost is the
@@ -111,8 +111,7 @@ def plot(rows, out):
 
 def main():
     p = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
-    p.add_argument("--bin", default=os.path.join(ROOT, "build/bin/host_sim"))
-    p.add_argument("--preset", default="small")
+    p.add_argument("--bin", default=os.path.join(ROOT, "build/release-host-small/bin/host_sim"))
     p.add_argument("--robots", default="7,16,32", help="fleet sizes, comma-separated (default 7,16,32)")
     p.add_argument("--transports", default="lcm,zmq")
     p.add_argument("--rounds", type=int, default=100)
@@ -130,7 +129,10 @@ def main():
     if not os.access(a.bin, os.X_OK):
         sys.exit(f"bench_scaling: {a.bin} not found: build first (make)")
     os.makedirs(a.results, exist_ok=True)
-    rows = [measure(a, t, n, a.preset) for t in transports for n in sizes]
+    r = subprocess.run([a.bin, "run", "--help"], stdout=subprocess.PIPE, text=True)
+    m = re.search(r"BNN preset '(\w+)'", r.stdout)
+    preset = m.group(1) if m else "unknown"  # the build's preset, as host_sim says it
+    rows = [measure(a, t, n, preset) for t in transports for n in sizes]
     print(f"{'transport':>9} {'N':>4} {'round ms':>9} {'recv/robot MB':>13} {'CPU ms/round':>12} "
           f"{'RSS MB':>7} {'static MB':>9}")
     for r in rows:
