@@ -76,9 +76,9 @@ static const cli_opt_t run_opts[] = {
      .help = "one more optimiser step per AI tick between boundaries"},
     {.names = "--time-limit", .meta = "S", CLI_DOUBLE(run_opts_t, time_limit, 0.1, 1e6),
      .help = "simulated seconds before giving up"},
-    {.names = "--robot|--id", .meta = "I", CLI_INT(run_opts_t, robot, 0, 1000000),
+    {.names = "--robot|--id", .meta = "I", CLI_INT(run_opts_t, robot, 0, 1000000), CLI_GIVEN(run_opts_t, robot_given),
      .help = "robot index: noise streams, seeds, telemetry, fleet member id"},
-    {.names = "--fleet", .meta = "N", CLI_INT(run_opts_t, fleet, 1, GP_PSE_MAX_PEERS),
+    {.names = "--fleet", .meta = "N", CLI_INT(run_opts_t, fleet, 1, GP_PSE_MAX_PEERS), CLI_GIVEN(run_opts_t, fleet_given),
      .help = "fleet size (1: alone); needs the network"},
     {.names = "--fleet-id", .meta = "F", CLI_INT(run_opts_t, fleet_id, 0, 1000000),
      .help = "fleet number: its LCM channels fleetsim/F/..."},
@@ -232,18 +232,12 @@ static int zmq_url(const run_opts_t *o, char *url)
 
 /* Under srun: SLURM_PROCID and SLURM_NTASKS name the member and the fleet's size, unless the
  * command line does. Their values are checked like the options'. */
-static int slurm_member(int argc, char **argv, run_opts_t *o)
+static int slurm_member(run_opts_t *o)
 {
-    int has_id = 0, has_fleet = 0;
-    for (int i = 1; i < argc; i++) {
-        has_id |= strcmp(argv[i], "--id") == 0 || strcmp(argv[i], "--robot") == 0 ||
-                  strncmp(argv[i], "--id=", 5) == 0 || strncmp(argv[i], "--robot=", 8) == 0;
-        has_fleet |= strcmp(argv[i], "--fleet") == 0 || strncmp(argv[i], "--fleet=", 8) == 0;
-    }
     const char *id = getenv("SLURM_PROCID"), *ntasks = getenv("SLURM_NTASKS");
-    if (id != NULL && !has_id && cmd_parse_ll(id, "SLURM_PROCID", 0, 1000000, &o->robot) != 0)
+    if (id != NULL && !o->robot_given && cmd_parse_ll(id, "SLURM_PROCID", 0, 1000000, &o->robot) != 0)
         return -1;
-    if (ntasks != NULL && !has_fleet && cmd_parse_ll(ntasks, "SLURM_NTASKS", 1, GP_PSE_MAX_PEERS, &o->fleet) != 0)
+    if (ntasks != NULL && !o->fleet_given && cmd_parse_ll(ntasks, "SLURM_NTASKS", 1, GP_PSE_MAX_PEERS, &o->fleet) != 0)
         return -1;
     return 0;
 }
@@ -266,7 +260,7 @@ int run_parse(int argc, char **argv, run_opts_t *o, char *url)
         fprintf(stderr, "host_sim run: --rounds-per-comm %lld does not divide --rounds %lld\n", o->per_comm, o->rounds);
         return -1;
     }
-    if (slurm_member(argc, argv, o) != 0)
+    if (slurm_member(o) != 0)
         return -1;
     if (o->fleet > 1) {
         if (o->robot >= o->fleet) {

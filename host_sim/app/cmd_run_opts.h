@@ -24,6 +24,7 @@ typedef struct run_opts {
     hal_host_sched_t sched;
     gp_fleet_encoding_t encoding;
     int offline, train_between, no_maps, quiet, net_given, resume;
+    int robot_given, fleet_given; /* --id / --fleet on the command line (else SLURM's may say) */
     int transport;          /* --transport: RUN_TRANSPORT_LCM or RUN_TRANSPORT_ZMQ */
     const char *peers;      /* --peers HOST:PORT,... (zmq: every member, in id order) */
     const char *net_faults; /* --net-faults SPEC, checked at parse time; NULL: none */
