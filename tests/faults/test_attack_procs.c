@@ -80,7 +80,10 @@ static void attacker_main(unsigned fleet_id, int rounds)
         memcpy(state + i, &big, 4);
     memset(junk, 0xA5, sizeof junk);
     const uint32_t crc = crc32_ieee(state, sb);
-    for (uint64_t it = 0;; it++) { /* until the test kills it */
+    /* Until the test kills it; a test that was itself killed cannot, so the attack also ends
+       by itself once no fleet of the test can still run. */
+    const double end = fp_now() + 2.0 * FLEET_DEADLINE_S;
+    for (uint64_t it = 0; fp_now() < end; it++) {
         const uint32_t r = (uint32_t)(it % (uint64_t)rounds);
         gp_pse_chunk_t forged = {.sender = 1, .round = r, .chunk = 0, .n_chunks = nc, .state_bytes = sb,
                                  .crc32 = 0xdeadbeefu, .x_m = 0.0, .y_m = 0.0, .n_bytes = nc > 1 ? GP_PSE_MAX_CHUNK_BYTES : sb,
@@ -108,6 +111,7 @@ static void attacker_main(unsigned fleet_id, int rounds)
         }
         fp_sleep_ms(20);
     }
+    _exit(0);
 }
 
 static pid_t start_attacker(unsigned fleet_id)
