@@ -26,6 +26,7 @@ typedef struct fw_config_sizes {
     size_t net_mtu_bytes;     /* HAL_NET_MTU_BYTES */
     uint32_t lidar_beams;     /* HAL_LIDAR_MAX_BEAMS */
     uint32_t max_peers;       /* BOARD_MAX_PEERS (= DINNO_MAX_PEERS) */
+    uint32_t max_fleet;       /* BOARD_MAX_FLEET (= GP_PSE_MAX_FLEET) */
     uint32_t ring_capacity;   /* FW_LINK_RING_CAPACITY */
     uint32_t pool_capacity;   /* AI_POOL_CAPACITY */
     uint32_t log_rounds;      /* GP_CORE_LOG_ROUNDS */
@@ -36,7 +37,8 @@ typedef struct fw_config_sizes {
 #define FW_CONFIG_SIZES_HERE                                                                  \
     ((fw_config_sizes_t){sizeof(hal_lidar_scan_t), sizeof(rt_core_t), sizeof(ai_core_t),      \
                          sizeof(gp_core_t), sizeof(fw_link_t), HAL_NET_MTU_BYTES,             \
-                         HAL_LIDAR_MAX_BEAMS, BOARD_MAX_PEERS, FW_LINK_RING_CAPACITY,         \
+                         HAL_LIDAR_MAX_BEAMS, BOARD_MAX_PEERS, BOARD_MAX_FLEET,               \
+                         FW_LINK_RING_CAPACITY,                                               \
                          AI_POOL_CAPACITY, GP_CORE_LOG_ROUNDS, RT_CORE_MAX_WAYPOINTS,         \
                          RT_CORE_MAX_SCAN_SAMPLES})
 

@@ -44,6 +44,7 @@ void fw_link_reset(void)
     mbox_reset(&fw_gp_ready);
     memset(fw_slots.valid, 0, sizeof fw_slots.valid);
     memset(fw_slots.round, 0, sizeof fw_slots.round);
+    memset(fw_slots.id, 0, sizeof fw_slots.id);
 }
 
 size_t fw_link_bytes_rt(void)

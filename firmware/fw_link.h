@@ -11,7 +11,7 @@
  *   AI -> GP  ckpt      mbox of ai_ckpt_msg_t: the checkpoint (bnn_ckpt format, no Adam)
  *                       after round k, with the round's statistics
  *   GP -> AI  ready     mbox of gp_ready_t: "the neighbour slots of round k are filled"
- *   GP -> AI  slots     dinno_slots_t in fixed storage (one slot per possible peer), OWNED BY
+ *   GP -> AI  slots     dinno_slots_t in fixed storage (one slot per neighbour), OWNED BY
  *                       GP from the AI's state publish of round k until GP's ready(k), and
  *                       by AI from ready(k) until AI's next state publish. The ownership
  *                       passes with the mailboxes' acquire/release exchanges, so the bytes

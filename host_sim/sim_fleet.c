@@ -110,6 +110,13 @@ int sim_fleet_create(const sim_fleet_cfg_t *cfg, const bnn_config_t *bcfg, const
         snprintf(err, errlen, "the disk graph needs the agents' paths and a radius > 0");
         return -EINVAL;
     }
+    if (cfg->mode == SIM_FLEET_DINNO && cfg->graph == DINNO_GRAPH_FULL &&
+        (uint32_t)cfg->n_agents - 1u > DINNO_GRAPH_MAX_DEGREE) {
+        snprintf(err, errlen, "the full graph of %d agents needs %d neighbour slots, the board has %u: use the disk "
+                 "graph (each agent takes its %u nearest in reach)", cfg->n_agents, cfg->n_agents - 1,
+                 (unsigned)DINNO_GRAPH_MAX_DEGREE, (unsigned)DINNO_GRAPH_MAX_DEGREE);
+        return -E2BIG;
+    }
     if (cfg->bad != SIM_FLEET_BAD_NONE &&
         (cfg->mode != SIM_FLEET_DINNO || cfg->bad < SIM_FLEET_BAD_SCALE || cfg->bad > SIM_FLEET_BAD_SILENT ||
          cfg->bad_agent < 0 || cfg->bad_agent >= cfg->n_agents || !isfinite(cfg->bad_scale))) {
@@ -298,14 +305,16 @@ int sim_fleet_round(sim_fleet_t *f, dinno_graph_report_t *rep)
             make_bad_state(f, k, bnn_params_const(&f->nodes[f->cfg.bad_agent]->model), P);
         for (int i = 0; i < f->n_models; i++) {
             dinno_slots_clear(f->nodes[i]);
-            for (int j = 0; j < f->n_models; j++) {
-                if (!dinno_graph_has_edge(&f->graph, (uint32_t)i, (uint32_t)j) ||
-                    (f->cfg.bad == SIM_FLEET_BAD_SILENT && j == f->cfg.bad_agent))
+            /* Slots in ascending neighbour id, as the GP core fills them. */
+            uint32_t s = 0;
+            for (uint32_t e = 0; e < f->graph.deg[i]; e++) {
+                const int j = f->graph.nb[i][e];
+                if (f->cfg.bad == SIM_FLEET_BAD_SILENT && j == f->cfg.bad_agent)
                     continue;
                 const float *theta_j = f->bad_theta != NULL && j == f->cfg.bad_agent
                                            ? f->bad_theta
                                            : bnn_params_const(&f->nodes[j]->model);
-                rc = dinno_slot_put(f->nodes[i], (uint32_t)j, k, theta_j, P);
+                rc = dinno_slot_put(f->nodes[i], s++, (uint32_t)j, k, theta_j, P);
                 if (rc)
                     return rc;
             }
@@ -313,8 +322,8 @@ int sim_fleet_round(sim_fleet_t *f, dinno_graph_report_t *rep)
         if (rep)
             dinno_graph_report(&f->graph, rep);
     } else {
-        memset(&f->graph, 0, sizeof f->graph);
         f->graph.n = (uint32_t)f->n_models;
+        memset(f->graph.deg, 0, sizeof f->graph.deg);
         if (rep)
             dinno_graph_report(&f->graph, rep);
     }

@@ -12,7 +12,7 @@
 /* Static RAM each core may use for its own buffers (arena, pools, rings it owns).
  * The host is generous so that the `paper` preset (527,361 parameters) fits with its
  * gradients, Adam moments, duals, neighbour slots and a 1024-point batch, and the GP core
- * the peers' states of two rounds (gp_pse) for a fleet of BOARD_MAX_PEERS. */
+ * the states of two rounds of BOARD_MAX_PEERS neighbours (gp_pse). */
 #define BOARD_RAM_RT_BYTES (1u * 1024u * 1024u)
 #define BOARD_RAM_GP_BYTES (256u * 1024u * 1024u)
 #define BOARD_RAM_AI_BYTES (512u * 1024u * 1024u)
@@ -25,8 +25,11 @@
 /* Largest single network datagram the board's link layer accepts (docs/architecture.md section 4). */
 #define BOARD_NET_MTU_BYTES (60u * 1024u)
 
-/* Fleet size the neighbour tables are dimensioned for (28 robots run in `make bench`). */
+/* Neighbour states one round keeps (DiNNO's slots; a fleet up to 33 robots uses every state). */
 #define BOARD_MAX_PEERS 32u
+/* Largest fleet (robot ids 0 .. BOARD_MAX_FLEET - 1): about 80 bytes of GP RAM per robot;
+ * each round keeps the states of the BOARD_MAX_PEERS nearest within the radius. */
+#define BOARD_MAX_FLEET 1024u
 
 /* Sample pool of the AI core: 2^20 samples (12 MB), more than one tour of the default plan
  * gives (~550,000), so an offline robot trains on every sample it took, as the in-process

@@ -39,8 +39,11 @@
 /* Ethernet: one UDP datagram of a 1500-byte frame. */
 #define BOARD_NET_MTU_BYTES 1472u
 
-/* The paper's fleet of 7 and one spare. */
+/* Neighbour states per round: every other robot of the paper's fleet of 7, and a spare. */
 #define BOARD_MAX_PEERS 8u
+/* Largest fleet (robot ids 0 .. BOARD_MAX_FLEET - 1): about 80 bytes of GP RAM per robot;
+ * each round keeps the states of the BOARD_MAX_PEERS nearest within the radius. */
+#define BOARD_MAX_FLEET 1024u
 
 /* RT -> AI sample ring: 8 scans of 500 samples (the AI core drains it every 100 ms). */
 #define FW_LINK_RING_CAPACITY 4096u

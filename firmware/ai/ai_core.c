@@ -151,7 +151,7 @@ static int run_round(ai_core_t *ai, const gp_ready_t *ready)
     const size_t np = bnn_n_params(&ai->node.model);
     for (uint32_t s = 0; s < DINNO_MAX_PEERS && ready->neighbours > 0; s++) {
         if (slots->valid[s] && slots->round[s] == k) {
-            int r = dinno_slot_put(&ai->node, s, k, slots->theta[s], np);
+            int r = dinno_slot_put(&ai->node, s, slots->id[s], k, slots->theta[s], np);
             if (r != 0)
                 rc = r;
         }
@@ -167,7 +167,7 @@ static int run_round(ai_core_t *ai, const gp_ready_t *ready)
             for (uint32_t s = 0; s < DINNO_MAX_PEERS; s++)
                 if (slots->valid[s] && slots->round[s] == k && !ai->node.slots.valid[s])
                     hal_log(HAL_LOG_WARN, "round %" PRIu32 ": robot %" PRIu32 "'s state left out (not finite, or "
-                            "beyond %g x ||own state||; largest distance %g)", k, s,
+                            "beyond %g x ||own state||; largest distance %g)", k, slots->id[s],
                             (double)ai->cfg.dinno.screen_radius, (double)st.nb_dist_max);
             ai->status.states_excluded += st.excluded;
         }

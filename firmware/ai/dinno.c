@@ -113,12 +113,13 @@ void dinno_slots_clear(dinno_node_t *n)
     memset(n->slots.round, 0, sizeof n->slots.round);
 }
 
-int dinno_slot_put(dinno_node_t *n, uint32_t s, uint32_t round, const float *theta, size_t n_params)
+int dinno_slot_put(dinno_node_t *n, uint32_t s, uint32_t peer, uint32_t round, const float *theta, size_t n_params)
 {
     if (!n || !theta || s >= DINNO_MAX_PEERS || n_params != bnn_n_params(&n->model))
         return -EINVAL;
     memcpy(n->slots.theta[s], theta, n_params * sizeof(float));
     n->slots.round[s] = round;
+    n->slots.id[s] = peer;
     n->slots.valid[s] = 1;
     return 0;
 }

@@ -124,10 +124,12 @@ typedef struct dinno_cfg {
     float screen_radius;   /* >= 0, default DINNO_SCREEN_RADIUS_DEFAULT; 0: no distance screen */
 } dinno_cfg_t;
 
-/* Neighbour states of one round, in fixed slots (one per possible peer). */
+/* Neighbour states of one round, in fixed slots: the round's neighbours in ascending robot id
+ * (so every sum over them runs in the same order in every fleet). */
 typedef struct dinno_slots {
     uint32_t valid[DINNO_MAX_PEERS];  /* != 0: theta[s] holds a neighbour's state */
     uint32_t round[DINNO_MAX_PEERS];  /* the round that state belongs to */
+    uint32_t id[DINNO_MAX_PEERS];     /* whose state it is (the robot id) */
     _Alignas(64) float theta[DINNO_MAX_PEERS][BNN_N_PARAMS]; /* first n_params floats used */
 } dinno_slots_t;
 
@@ -184,10 +186,10 @@ FS_MUST_CHECK int dinno_node_init(dinno_node_t *n, const dinno_cfg_t *cfg, const
 /* Marks every slot invalid. */
 void dinno_slots_clear(dinno_node_t *n);
 
-/* Copies a neighbour's state (n_params floats) of round `round` into slot s and marks it
- * valid. Returns 0 or -EINVAL (s out of range, NULL). */
-FS_MUST_CHECK int dinno_slot_put(dinno_node_t *n, uint32_t s, uint32_t round, const float *theta,
-                             size_t n_params);
+/* Copies the state (n_params floats) of robot `peer` of round `round` into slot s and marks
+ * it valid. Returns 0 or -EINVAL (s out of range, NULL). */
+FS_MUST_CHECK int dinno_slot_put(dinno_node_t *n, uint32_t s, uint32_t peer, uint32_t round, const float *theta,
+                                 size_t n_params);
 
 /* rho_k and lr_k of round k under cfg. */
 float dinno_rho_at(const dinno_cfg_t *cfg, uint32_t k);

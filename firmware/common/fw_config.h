@@ -28,7 +28,10 @@
 #error "board.h must define BOARD_NET_MTU_BYTES (the largest datagram of its network)"
 #endif
 #ifndef BOARD_MAX_PEERS
-#error "board.h must define BOARD_MAX_PEERS (the fleet size its tables are dimensioned for)"
+#error "board.h must define BOARD_MAX_PEERS (the neighbour states one round keeps: DiNNO's slots)"
+#endif
+#ifndef BOARD_MAX_FLEET
+#error "board.h must define BOARD_MAX_FLEET (the largest fleet: ids 0 .. BOARD_MAX_FLEET - 1)"
 #endif
 
 /* ---- defaults a board may override in its board.h ---------------------------------------- */
@@ -90,6 +93,9 @@
 #endif
 #if BOARD_MAX_PEERS < 1 || BOARD_MAX_PEERS > 255
 #error "BOARD_MAX_PEERS must be 1 .. 255"
+#endif
+#if BOARD_MAX_FLEET < 1 || BOARD_MAX_FLEET > 65535
+#error "BOARD_MAX_FLEET must be 1 .. 65535"
 #endif
 #if BOARD_NET_MTU_BYTES < 1024
 #error "BOARD_NET_MTU_BYTES must be at least 1024"

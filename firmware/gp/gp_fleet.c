@@ -276,7 +276,7 @@ static int decode_state(gp_fleet_t *f, const uint8_t *bytes, float *theta)
 }
 
 /* ||theta - mean of the neighbours|| / ||mean||: how far this robot is from its neighbours. */
-static float disagreement(const float *theta, const dinno_slots_t *slots, const uint32_t *ids, uint32_t n)
+static float disagreement(const float *theta, const dinno_slots_t *slots, uint32_t n)
 {
     if (n == 0)
         return NAN;
@@ -284,7 +284,7 @@ static float disagreement(const float *theta, const dinno_slots_t *slots, const 
     for (uint32_t p = 0; p < BNN_N_PARAMS; p++) {
         double m = 0.0;
         for (uint32_t j = 0; j < n; j++)
-            m += slots->theta[ids[j]][p];
+            m += slots->theta[j][p];
         m /= (double)n;
         const double d = (double)theta[p] - m;
         num += d * d;
@@ -330,22 +330,25 @@ static int fleet_exchange(void *ctx, const gp_exchange_req_t *req, dinno_slots_t
     }
     if (wait_for(f, gp_pse_states_ready) != 0)
         return -EAGAIN;
-    uint32_t ids[GP_PSE_MAX_PEERS];
-    const uint8_t *states[GP_PSE_MAX_PEERS];
+    uint32_t ids[GP_PSE_MAX_NEIGHBOURS];
+    const uint8_t *states[GP_PSE_MAX_NEIGHBOURS];
     const uint32_t n = gp_pse_neighbours(p, ids, states);
     memset(slots->valid, 0, sizeof slots->valid);
-    uint32_t used[GP_PSE_MAX_PEERS], k = 0;
-    for (uint32_t j = 0; j < n; j++) {
-        if (ids[j] >= DINNO_MAX_PEERS || decode_state(f, states[j], slots->theta[ids[j]]) != 0) {
+    /* Slots 0 .. k-1 in ascending robot id: the order the in-process fleet fills them in, so
+       DiNNO's sums over them run in the same order. */
+    uint32_t k = 0;
+    for (uint32_t j = 0; j < n && k < DINNO_MAX_PEERS; j++) {
+        if (decode_state(f, states[j], slots->theta[k]) != 0) {
             f->stats.decode_failures++;
             continue;
         }
-        slots->valid[ids[j]] = 1;
-        slots->round[ids[j]] = req->round;
-        used[k++] = ids[j];
+        slots->valid[k] = 1;
+        slots->round[k] = req->round;
+        slots->id[k] = ids[j];
+        k++;
     }
     f->cur.neighbours = k;
-    f->cur.disagreement = disagreement(req->theta, slots, used, k);
+    f->cur.disagreement = disagreement(req->theta, slots, k);
     return (int)k;
 }
 

@@ -25,7 +25,8 @@
  * Per-round records (traffic, waiting time, neighbours, disagreement) go into a ring the host
  * reads between lockstep slices, like the GP core's round log.
  *
- * Storage: gp_fleet_t is static (the image declares it); sized from BOARD_MAX_PEERS, the preset
+ * Storage: gp_fleet_t is static (the image declares it); sized from BOARD_MAX_FLEET,
+ * BOARD_MAX_PEERS, the preset
  * and the board's datagram. No allocation. Little-endian boards (fp32 states travel as raw
  * IEEE-754 little-endian words). */
 #ifndef GP_GP_FLEET_H
@@ -53,7 +54,7 @@ typedef enum gp_fleet_channel { GP_FLEET_CH_STATE = 0, GP_FLEET_CH_DONE = 1, GP_
 
 typedef struct gp_fleet_cfg {
     uint32_t fleet_id;
-    uint32_t self, n_peers;          /* self < n_peers <= GP_PSE_MAX_PEERS */
+    uint32_t self, n_peers;          /* self < n_peers <= GP_PSE_MAX_FLEET */
     uint32_t rounds;                 /* DiNNO rounds of the run (tour fractions) */
     double radius_m;                 /* disk graph radius; <= 0: every peer */
     gp_fleet_encoding_t encoding;

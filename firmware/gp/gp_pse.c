@@ -46,7 +46,7 @@ static void send_done(gp_pse_t *p, uint64_t now_us)
 
 int gp_pse_init(gp_pse_t *p, const gp_pse_cfg_t *c)
 {
-    if (p == NULL || c == NULL || c->send == NULL || c->n_peers < 1 || c->n_peers > GP_PSE_MAX_PEERS ||
+    if (p == NULL || c == NULL || c->send == NULL || c->n_peers < 1 || c->n_peers > GP_PSE_MAX_FLEET ||
         c->self >= c->n_peers || c->state_bytes < 1 || c->state_bytes > GP_PSE_MAX_STATE_BYTES ||
         c->chunk_bytes < GP_PSE_MIN_CHUNK_BYTES || c->chunk_bytes > GP_PSE_MAX_CHUNK_BYTES ||
         !isfinite(c->radius_m) || c->resend_after_us == 0 || c->peer_timeout_us <= c->resend_after_us ||
@@ -60,11 +60,14 @@ int gp_pse_init(gp_pse_t *p, const gp_pse_cfg_t *c)
     p->in_round = p->completed = p->later_heard = p->ready_noted = p->leaving = 0;
     p->sent_us = 0;
     p->mine = NULL;
-    for (uint32_t i = 0; i < GP_PSE_MAX_PEERS; i++) {
-        gp_pse_peer_t *q = &p->peer[i];
-        q->buf[0].used = q->buf[1].used = 0;
-        q->heard = q->has_inc = q->has_round = q->has_done = q->absent = 0;
-    }
+    p->x_m = p->y_m = 0.0;
+    memset(p->near, 0, sizeof p->near);
+    for (uint32_t par = 0; par < 2u; par++)
+        for (uint32_t s = 0; s < GP_PSE_MAX_NEIGHBOURS; s++)
+            p->pool[par][s].used = 0;
+    memset(p->peer, 0, sizeof(gp_pse_peer_t) * c->n_peers);
+    for (uint32_t i = 0; i < c->n_peers; i++)
+        p->peer[i].buf[0] = p->peer[i].buf[1] = GP_PSE_NO_BUF;
     return 0;
 }
 
@@ -76,6 +79,170 @@ static void buf_reset(gp_pse_buf_t *b, uint32_t round, uint32_t n_chunks, uint64
     b->got = 0;
     b->progress_us = now_us;
     memset(b->have, 0, n_chunks);
+}
+
+/* ---- the nearest peers of a round and their buffers ----------------------------------------- */
+
+/* Peer i's buffer of round `round` (parity round & 1), or NULL. */
+static gp_pse_buf_t *buf_of(gp_pse_t *p, uint32_t i, uint32_t round)
+{
+    const uint32_t par = round & 1u, s = p->peer[i].buf[par];
+    if (s == GP_PSE_NO_BUF || p->pool[par][s].round != round)
+        return NULL;
+    return &p->pool[par][s];
+}
+
+static const gp_pse_buf_t *cbuf_of(const gp_pse_t *p, uint32_t i, uint32_t round)
+{
+    return buf_of((gp_pse_t *)p, i, round);
+}
+
+static int state_complete(const gp_pse_t *p, uint32_t i, uint32_t round)
+{
+    const gp_pse_buf_t *b = cbuf_of(p, i, round);
+    return b != NULL && b->complete;
+}
+
+static int pos_known(const gp_pse_peer_t *q, uint32_t round)
+{
+    return q->has_pos[round & 1u] && q->pos_round[round & 1u] == round;
+}
+
+static void buf_release(gp_pse_t *p, uint32_t par, uint32_t i)
+{
+    const uint32_t s = p->peer[i].buf[par];
+    if (s != GP_PSE_NO_BUF) {
+        p->pool[par][s].used = 0;
+        p->peer[i].buf[par] = GP_PSE_NO_BUF;
+    }
+}
+
+/* A free buffer of the round's parity for peer i. One always exists for a listed peer: the
+   list holds GP_PSE_MAX_NEIGHBOURS peers at most and only listed peers own buffers. */
+static void buf_attach(gp_pse_t *p, uint32_t i, uint32_t round, uint64_t now_us)
+{
+    const uint32_t par = round & 1u;
+    for (uint32_t s = 0; s < GP_PSE_MAX_NEIGHBOURS; s++) {
+        gp_pse_buf_t *b = &p->pool[par][s];
+        if (b->used)
+            continue;
+        buf_reset(b, round, p->n_chunks, now_us);
+        b->owner = i;
+        p->peer[i].buf[par] = (uint16_t)s;
+        return;
+    }
+}
+
+/* Squared distance of peer i's position of the list's round to ours, and whether it is within
+   the radius: the test of dinno_graph_disk. */
+static int in_reach(const gp_pse_t *p, uint32_t i, uint32_t par, double *d2)
+{
+    const double dx = p->peer[i].x_m[par] - p->x_m, dy = p->peer[i].y_m[par] - p->y_m;
+    *d2 = dx * dx + dy * dy;
+    return p->cfg.radius_m <= 0.0 || *d2 <= p->cfg.radius_m * p->cfg.radius_m;
+}
+
+static int nearer(double d2a, uint32_t a, double d2b, uint32_t b)
+{
+    return d2a < d2b || (d2a == d2b && a < b);
+}
+
+/* Puts peer i (its position of the list's round known) into the list when it is among the
+   nearest; a peer pushed out is returned in *out (else GP_PSE_NO_BUF). 1 when i is listed. */
+static int near_insert(gp_pse_t *p, uint32_t par, uint32_t i, uint32_t *out)
+{
+    gp_pse_nearest_t *nr = &p->near[par];
+    double d2;
+    *out = GP_PSE_NO_BUF;
+    if (!in_reach(p, i, par, &d2))
+        return 0;
+    if (nr->n == GP_PSE_MAX_NEIGHBOURS) {
+        if (!nearer(d2, i, nr->d2[nr->n - 1u], nr->id[nr->n - 1u]))
+            return 0;
+        *out = nr->id[--nr->n];
+    }
+    uint32_t at = nr->n;
+    for (; at > 0 && nearer(d2, i, nr->d2[at - 1u], nr->id[at - 1u]); at--) {
+        nr->d2[at] = nr->d2[at - 1u];
+        nr->id[at] = nr->id[at - 1u];
+    }
+    nr->d2[at] = d2;
+    nr->id[at] = i;
+    nr->n++;
+    return 1;
+}
+
+/* Starts the list of `round` afresh (an older round's list and buffers are free). */
+static void near_reset(gp_pse_t *p, uint32_t round)
+{
+    const uint32_t par = round & 1u;
+    gp_pse_nearest_t *nr = &p->near[par];
+    for (uint32_t s = 0; s < GP_PSE_MAX_NEIGHBOURS; s++) {
+        gp_pse_buf_t *b = &p->pool[par][s];
+        if (b->used) {
+            p->peer[b->owner].buf[par] = GP_PSE_NO_BUF;
+            b->used = 0;
+        }
+    }
+    nr->round = round;
+    nr->valid = 1;
+    nr->n = 0;
+}
+
+/* Peer i's position of `round` became known: it takes a buffer when it is among the nearest,
+   the peer it pushed out gives its own up. */
+static void near_place(gp_pse_t *p, uint32_t i, uint32_t round, uint64_t now_us)
+{
+    const uint32_t par = round & 1u;
+    uint32_t out;
+    if (!near_insert(p, par, i, &out))
+        return;
+    if (out != GP_PSE_NO_BUF) {
+        if (p->peer[out].buf[par] != GP_PSE_NO_BUF)
+            p->stats.evictions++;
+        buf_release(p, par, out);
+    }
+    buf_attach(p, i, round, now_us);
+}
+
+/* Ranks the list of `round` again from every known position (ours moved, or a peer's): the
+   listed peers keep what they hold, the others give their buffers up, a peer newly listed
+   gets one and is asked soon for what it already sent. */
+static void near_rank(gp_pse_t *p, uint32_t round, uint64_t now_us)
+{
+    const uint32_t par = round & 1u;
+    gp_pse_nearest_t *nr = &p->near[par];
+    if (!nr->valid || nr->round != round) {
+        near_reset(p, round);
+    } else {
+        nr->n = 0;
+    }
+    uint32_t out; /* nobody gives a buffer up in the loop: that is settled below */
+    for (uint32_t i = 0; i < p->cfg.n_peers; i++)
+        if (i != p->cfg.self && pos_known(&p->peer[i], round))
+            (void)near_insert(p, par, i, &out);
+    for (uint32_t s = 0; s < GP_PSE_MAX_NEIGHBOURS; s++) {
+        gp_pse_buf_t *b = &p->pool[par][s];
+        if (!b->used)
+            continue;
+        int keep = 0;
+        for (uint32_t m = 0; m < nr->n && !keep; m++)
+            keep = nr->id[m] == b->owner;
+        if (!keep) {
+            p->peer[b->owner].buf[par] = GP_PSE_NO_BUF;
+            b->used = 0;
+        }
+    }
+    for (uint32_t m = 0; m < nr->n; m++) {
+        const uint32_t i = nr->id[m];
+        if (p->peer[i].buf[par] != GP_PSE_NO_BUF)
+            continue;
+        buf_attach(p, i, round, now_us);
+        /* Its chunks came before it was listed and were not kept: it sent them already. */
+        gp_pse_buf_t *b = buf_of(p, i, round);
+        if (b != NULL && now_us >= p->cfg.resend_after_us)
+            b->progress_us = now_us - p->cfg.resend_after_us;
+    }
 }
 
 /* Our next `burst` chunks (all of them without a burst). */
@@ -109,14 +276,14 @@ int gp_pse_begin_round(gp_pse_t *p, uint32_t round, const uint8_t *state, double
     p->x_m = x_m;
     p->y_m = y_m;
     memset(p->resent_at, 0, sizeof p->resent_at);
+    /* Chunks of this round that came early were ranked against our previous position. */
+    near_rank(p, round, now_us);
+    for (uint32_t m = 0; m < p->near[round & 1u].n; m++)
+        buf_of(p, p->near[round & 1u].id[m], round)->progress_us = now_us;
     for (uint32_t i = 0; i < p->cfg.n_peers; i++) {
         if (i == p->cfg.self)
             continue;
         gp_pse_peer_t *q = &p->peer[i];
-        gp_pse_buf_t *b = &q->buf[round & 1u];
-        if (!b->used || b->round != round) /* an older round's buffer: free for this one */
-            buf_reset(b, round, p->n_chunks, now_us);
-        b->progress_us = now_us;
         /* A peer that left comes back only here, at a round boundary, and only when it was
            heard lately in the round before this one or later: it is on its way to this round.
            So a crashed peer costs one timeout, not one per round, and a peer that keeps
@@ -137,10 +304,14 @@ int gp_pse_begin_round(gp_pse_t *p, uint32_t round, const uint8_t *state, double
 
 /* Forgets what we held of a peer that restarted: its buffers may hold chunks of a state its new
    incarnation will never finish, and its rounds start again where it resumed. */
-static void peer_restarted(gp_pse_t *p, gp_pse_peer_t *q)
+static void peer_restarted(gp_pse_t *p, uint32_t i, uint64_t now_us)
 {
-    q->buf[0].used = q->buf[1].used = 0;
+    gp_pse_peer_t *q = &p->peer[i];
     q->has_round = q->has_done = 0;
+    q->has_pos[0] = q->has_pos[1] = 0;
+    for (uint32_t par = 0; par < 2u; par++)
+        if (p->near[par].valid) /* the next nearest takes its place */
+            near_rank(p, p->near[par].round, now_us);
     p->stats.restarts++;
 }
 
@@ -154,7 +325,7 @@ static int note_sender(gp_pse_t *p, uint32_t sender, uint32_t incarnation, uint3
         return -ESTALE;
     }
     if (q->has_inc && incarnation > q->incarnation)
-        peer_restarted(p, q);
+        peer_restarted(p, sender, now_us);
     q->incarnation = incarnation;
     q->has_inc = 1;
     if (!q->has_round || round > q->at_round) {
@@ -185,8 +356,8 @@ static void sender_state_sent(gp_pse_t *p, uint32_t sender, uint32_t round, uint
 {
     if (!p->in_round || round != p->round)
         return;
-    gp_pse_buf_t *b = &p->peer[sender].buf[round & 1u];
-    if (b->used && b->round == round && !b->complete)
+    gp_pse_buf_t *b = buf_of(p, sender, round);
+    if (b != NULL && !b->complete)
         ask_soon(p, b, now_us);
 }
 
@@ -220,14 +391,39 @@ int gp_pse_on_chunk(gp_pse_t *p, const gp_pse_chunk_t *c, uint64_t now_us)
     if (rc != 0)
         return rc;
     p->stats.chunks_received++;
-    gp_pse_buf_t *b = &p->peer[c->sender].buf[c->round & 1u];
-    if (!b->used || b->round != c->round)
+    const uint32_t par = c->round & 1u;
+    if (!p->near[par].valid || p->near[par].round != c->round)
+        near_reset(p, c->round); /* the first of this round: the list of round - 2 is done */
+    gp_pse_peer_t *q = &p->peer[c->sender];
+    int moved = 0;
+    if (!pos_known(q, c->round)) {
+        q->x_m[par] = c->x_m;
+        q->y_m[par] = c->y_m;
+        q->pos_round[par] = c->round;
+        q->has_pos[par] = 1;
+        near_place(p, c->sender, c->round, now_us);
+    } else if (q->x_m[par] != c->x_m || q->y_m[par] != c->y_m) {
+        /* Chunks of one round disagree on where their sender is (corruption, or bytes forged
+           in an unkeyed fleet; a restart changes the incarnation): the newcomer's position
+           ranks the round again and its state starts over, as for a CRC conflict below. */
+        p->stats.invalid++;
+        q->x_m[par] = c->x_m;
+        q->y_m[par] = c->y_m;
+        near_rank(p, c->round, now_us);
+        moved = 1;
+    }
+    gp_pse_buf_t *b = buf_of(p, c->sender, c->round);
+    if (b == NULL) {
+        p->stats.not_nearest++; /* beyond the radius or the nearest: its position was what we needed */
+        return 0;
+    }
+    if (moved)
         buf_reset(b, c->round, p->n_chunks, now_us);
     if (b->complete) {
         p->stats.duplicates++;
         return -EALREADY;
     }
-    if (b->got > 0 && (b->crc32 != c->crc32 || b->x_m != c->x_m || b->y_m != c->y_m)) {
+    if (b->got > 0 && b->crc32 != c->crc32) {
         /* Chunks of one state disagree (corruption, or bytes forged in an unkeyed fleet; a
            restart changes the incarnation). Which side is right is unknown until a state is
            whole and its CRC checks, so the first chunk must not decide: the newcomer starts the
@@ -245,8 +441,6 @@ int gp_pse_on_chunk(gp_pse_t *p, const gp_pse_chunk_t *c, uint64_t now_us)
     b->have[c->chunk] = GP_PSE_HAVE;
     b->got++;
     b->crc32 = c->crc32;
-    b->x_m = c->x_m;
-    b->y_m = c->y_m;
     b->progress_us = now_us;
     p->stats.bytes_received += c->n_bytes;
     /* Chunks go out in order: a gap below this one is most likely a loss, so the next poll
@@ -326,15 +520,17 @@ int gp_pse_on_request(gp_pse_t *p, const gp_pse_request_t *r, uint64_t now_us)
     return 0;
 }
 
-/* What we still wait for from peer q in round k: its state, then (once we completed) its
-   RoundComplete; nothing once a later round was heard. */
-static int waiting_for(const gp_pse_t *p, const gp_pse_peer_t *q)
+/* What we still wait for from peer i in round k: its position, its state when it is among the
+   nearest, then (once we completed) its RoundComplete; nothing once a later round was heard. */
+static int waiting_for(const gp_pse_t *p, uint32_t i)
 {
+    const gp_pse_peer_t *q = &p->peer[i];
     if (p->later_heard)
         return 0;
-    const gp_pse_buf_t *b = &q->buf[p->round & 1u];
-    const int have_state = b->used && b->round == p->round && b->complete;
-    return !have_state || (p->completed && !(q->has_done && q->done_round >= p->round));
+    if (!pos_known(q, p->round))
+        return 1;
+    const gp_pse_buf_t *b = cbuf_of(p, i, p->round);
+    return (b != NULL && !b->complete) || (p->completed && !(q->has_done && q->done_round >= p->round));
 }
 
 /* Asks peer i for the chunks of its round-k state we still miss. */
@@ -393,8 +589,7 @@ void gp_pse_poll(gp_pse_t *p, uint64_t now_us)
         if (i == p->cfg.self)
             continue;
         gp_pse_peer_t *q = &p->peer[i];
-        gp_pse_buf_t *b = &q->buf[p->round & 1u];
-        if (q->absent || !waiting_for(p, q))
+        if (q->absent || !waiting_for(p, i))
             continue;
         /* The clock runs from the peer's last progress (a live peer speaks every resend
            period), or from the round's start when that is later. Not from the start of the
@@ -416,17 +611,31 @@ void gp_pse_poll(gp_pse_t *p, uint64_t now_us)
             continue;
         }
         /* Ask again for missing chunks, once the peer is known to be in this round (asking a
-           peer that has not begun it yet only adds traffic: its state comes by itself). */
-        if (!b->complete && q->has_round && q->at_round >= p->round && now_us - b->progress_us >= p->cfg.resend_after_us)
+           peer that has not begun it yet only adds traffic: its state comes by itself); for a
+           peer not heard in the round at all, its chunk 0 tells where it is. */
+        if (!q->has_round || q->at_round < p->round)
+            continue;
+        gp_pse_buf_t *b = buf_of(p, i, p->round);
+        if (b != NULL && !b->complete && now_us - b->progress_us >= p->cfg.resend_after_us) {
             ask_again(p, i, b, now_us);
+        } else if (!pos_known(q, p->round) && now_us - p->round_start_us >= p->cfg.resend_after_us &&
+                   now_us - q->asked_us >= p->cfg.resend_after_us) {
+            const gp_pse_request_t r = {p->cfg.self, i, p->round, 1, {0}, p->cfg.incarnation};
+            send_msg(p, GP_PSE_REQUEST, &r, now_us);
+            p->stats.requests_sent++;
+            p->stats.chunks_requested++;
+            q->asked_us = now_us;
+        }
     }
     if (!p->ready_noted && gp_pse_states_ready(p)) {
         p->ready_noted = 1;
         for (uint32_t i = 0; i < p->cfg.n_peers; i++) {
-            const gp_pse_buf_t *b = &p->peer[i].buf[p->round & 1u];
-            if (i != p->cfg.self && !(b->used && b->round == p->round && b->complete)) {
+            /* A listed peer whose state did not arrive, or a peer not heard in the round (its
+               state might have been one we needed). */
+            const gp_pse_buf_t *b = cbuf_of(p, i, p->round);
+            if (i != p->cfg.self && ((b != NULL && !b->complete) || !pos_known(&p->peer[i], p->round))) {
                 p->stats.states_missed++;
-                p->stats.chunks_lost += p->n_chunks - (b->used && b->round == p->round ? b->got : 0u);
+                p->stats.chunks_lost += p->n_chunks - (b != NULL ? b->got : 0u);
             }
         }
         if (p->later_heard && p->stats.states_missed > 0)
@@ -446,27 +655,37 @@ int gp_pse_states_ready(const gp_pse_t *p)
         return 1;
     for (uint32_t i = 0; i < p->cfg.n_peers; i++) {
         const gp_pse_peer_t *q = &p->peer[i];
-        const gp_pse_buf_t *b = &q->buf[p->round & 1u];
-        if (i != p->cfg.self && !q->absent && !(b->used && b->round == p->round && b->complete))
-            return 0;
+        if (i != p->cfg.self && !q->absent && !pos_known(q, p->round))
+            return 0; /* it may be nearer than a listed peer */
     }
+    const gp_pse_nearest_t *nr = &p->near[p->round & 1u];
+    for (uint32_t m = 0; m < nr->n; m++)
+        if (!p->peer[nr->id[m]].absent && !state_complete(p, nr->id[m], p->round))
+            return 0;
     return 1;
 }
 
-uint32_t gp_pse_neighbours(const gp_pse_t *p, uint32_t ids[GP_PSE_MAX_PEERS], const uint8_t *states[GP_PSE_MAX_PEERS])
+uint32_t gp_pse_neighbours(const gp_pse_t *p, uint32_t ids[GP_PSE_MAX_NEIGHBOURS],
+                           const uint8_t *states[GP_PSE_MAX_NEIGHBOURS])
 {
+    if (!p->in_round)
+        return 0;
+    /* The list is by distance; the caller gets ascending ids (DiNNO sums its slots in that
+       order, as the in-process fleet does). */
+    const gp_pse_nearest_t *nr = &p->near[p->round & 1u];
     uint32_t n = 0;
-    const double r2 = p->cfg.radius_m * p->cfg.radius_m;
-    for (uint32_t i = 0; i < p->cfg.n_peers && p->in_round; i++) {
-        const gp_pse_buf_t *b = &p->peer[i].buf[p->round & 1u];
-        if (i == p->cfg.self || !b->used || b->round != p->round || !b->complete)
+    for (uint32_t m = 0; m < nr->n; m++) {
+        const uint32_t i = nr->id[m];
+        const gp_pse_buf_t *b = cbuf_of(p, i, p->round);
+        if (b == NULL || !b->complete)
             continue;
-        /* The test of dinno_graph_disk, on the positions both ends carried in this round. */
-        const double dx = b->x_m - p->x_m, dy = b->y_m - p->y_m;
-        if (p->cfg.radius_m > 0.0 && !(dx * dx + dy * dy <= r2))
-            continue;
-        ids[n] = i;
-        states[n] = b->bytes;
+        uint32_t at = n;
+        for (; at > 0 && ids[at - 1u] > i; at--) {
+            ids[at] = ids[at - 1u];
+            states[at] = states[at - 1u];
+        }
+        ids[at] = i;
+        states[at] = b->bytes;
         n++;
     }
     return n;

@@ -23,7 +23,8 @@
  *   gp_pse_states_ready()  every peer delivered its state of round k, left the round, or a
  *                 later round was heard;
  *   gp_pse_neighbours()  the peers whose round-k position is within radius_m of ours (the same
- *                 test as dinno_graph_disk), or all of them with radius_m <= 0: it depends on
+ *                 test as dinno_graph_disk), or all of them with radius_m <= 0, the nearest
+ *                 GP_PSE_MAX_NEIGHBOURS of them when there are more (ties by id): it depends on
  *                 the positions only, never on arrival times;
  *   gp_pse_complete(now)  after the node update: RoundComplete(k) goes out (and again every
  *                 resend_after_us until the next round begins);
@@ -45,8 +46,20 @@
  * the models stay those of the lossless run). A robot therefore finishes every round at most
  * one peer_timeout_us after the last progress of the peers it waits for.
  *
- * Memory: everything is inside gp_pse_t (static in the image), sized from BOARD_MAX_PEERS and
- * the preset's state size; no allocation. One thread (the GP core). */
+ * Fleets larger than the neighbour slots: the fleet has up to GP_PSE_MAX_FLEET ids (the board's
+ * BOARD_MAX_FLEET), but a round keeps the states of GP_PSE_MAX_NEIGHBOURS peers at most (the
+ * board's BOARD_MAX_PEERS, DiNNO's slots). Every chunk carries its sender's position, so the
+ * first chunk of a peer in a round places it: each round keeps a list of its nearest peers
+ * within the radius, sorted by (squared distance, id), and only those own a state buffer; a
+ * nearer peer heard later takes the buffer of the farthest (an eviction). Chunks of round
+ * k + 1 are ranked against our position of round k until round k + 1 begins and the list is
+ * ranked again; a peer that got in only then is asked for its chunks. A round's states are
+ * ready when every live peer's position of the round is known and every listed peer
+ * delivered. A peer never heard in the round is asked for its chunk 0 (its position).
+ *
+ * Memory: everything is inside gp_pse_t (static in the image): a table of GP_PSE_MAX_FLEET
+ * peers (about 80 bytes each) and a pool of 2 x GP_PSE_MAX_NEIGHBOURS state buffers of the
+ * preset's state size; no allocation. One thread (the GP core). */
 #ifndef GP_GP_PSE_H
 #define GP_GP_PSE_H
 
@@ -55,7 +68,10 @@
 
 #include "ai/bnn.h"
 
-#define GP_PSE_MAX_PEERS BOARD_MAX_PEERS
+/* Fleet ids 0 .. GP_PSE_MAX_FLEET - 1; states kept per round: GP_PSE_MAX_NEIGHBOURS (the board's
+ * neighbour slots, which DiNNO's slots match). */
+#define GP_PSE_MAX_FLEET BOARD_MAX_FLEET
+#define GP_PSE_MAX_NEIGHBOURS BOARD_MAX_PEERS
 #define GP_PSE_MAX_STATE_BYTES ((uint32_t)BNN_N_PARAMS * 4u) /* the fp32 parameters of the preset */
 #define GP_PSE_MIN_CHUNK_BYTES 1024u
 /* A chunk and its header (GP_PSE_CHUNK_HEADER_ROOM bytes at most) fit one datagram of the
@@ -105,7 +121,7 @@ typedef int (*gp_pse_send_fn)(void *ctx, gp_pse_kind_t kind, const void *msg);
 #define GP_PSE_ROUND_CAP 4u
 
 typedef struct gp_pse_cfg {
-    uint32_t self, n_peers;     /* self < n_peers <= GP_PSE_MAX_PEERS */
+    uint32_t self, n_peers;     /* self < n_peers <= GP_PSE_MAX_FLEET: our id, the fleet's size */
     uint32_t state_bytes;       /* 1 .. GP_PSE_MAX_STATE_BYTES, the same for the whole fleet */
     uint32_t chunk_bytes;       /* GP_PSE_MIN_CHUNK_BYTES .. GP_PSE_MAX_CHUNK_BYTES, same for all */
     double radius_m;            /* neighbours within it; <= 0: every peer (full mesh) */
@@ -140,14 +156,17 @@ typedef struct gp_pse_stats {
     uint64_t chunks_lost;       /* their chunks never received */
     uint64_t rounds_cut;        /* rounds whose waiting a later round ended */
     uint64_t rounds_skipped;    /* rounds jumped over to catch up with the fleet */
+    uint64_t not_nearest;       /* chunks of peers beyond the radius or the nearest: position noted */
+    uint64_t evictions;         /* states given up for a nearer peer's (its chunks came later) */
 } gp_pse_stats_t;
 
+/* One state being reassembled: a slot of the buffer pool, owned by one of the nearest peers of
+ * its round (see "Fleets larger than the neighbour slots" above). */
 typedef struct gp_pse_buf {
-    uint32_t round;
+    uint32_t round, owner;
     int used, complete;
     uint32_t got;
     uint32_t crc32;
-    double x_m, y_m;
     uint64_t progress_us;       /* last chunk or request: when to ask again */
     uint8_t have[GP_PSE_MAX_CHUNKS]; /* GP_PSE_HAVE, GP_PSE_ASKED (missing, asked for) or 0 */
     _Alignas(64) uint8_t bytes[GP_PSE_MAX_STATE_BYTES];
@@ -155,19 +174,33 @@ typedef struct gp_pse_buf {
 
 #define GP_PSE_HAVE 1u
 #define GP_PSE_ASKED 2u
+#define GP_PSE_NO_BUF 0xFFFFu
 
+/* What we know of one fleet member (every id of the fleet has one; about 80 bytes). Positions
+ * and buffers are kept by round parity: rounds k and k + 1. */
 typedef struct gp_pse_peer {
-    gp_pse_buf_t buf[2];        /* by round parity: k and k + 1 */
     uint64_t heard_us;          /* last progress from it (see the liveness rule above) */
-    int heard;                  /* heard at all */
+    uint64_t asked_us;          /* last request for its position (its chunk 0) */
+    double x_m[2], y_m[2];      /* its position of round pos_round[parity] (with has_pos) */
+    uint32_t pos_round[2];
     uint32_t incarnation;       /* newest seen (with has_inc) */
-    int has_inc;
     uint32_t at_round;          /* the highest round it is known to be in (with has_round) */
-    int has_round;
-    uint32_t done_round;        /* highest RoundComplete */
-    int has_done;
-    int absent;                 /* left the current round (silent past the timeout) */
+    uint32_t done_round;        /* highest RoundComplete (with has_done) */
+    uint16_t buf[2];            /* its slot of pool[parity], or GP_PSE_NO_BUF */
+    uint8_t heard, has_inc, has_round, has_done;
+    uint8_t absent;             /* left the current round (silent past the timeout) */
+    uint8_t has_pos[2];
 } gp_pse_peer_t;
+
+/* The nearest peers of one round within the radius, at most GP_PSE_MAX_NEIGHBOURS, sorted by
+ * (squared distance, id): the peers whose states that round keeps. */
+typedef struct gp_pse_nearest {
+    uint32_t round;
+    int valid;
+    uint32_t n;
+    uint32_t id[GP_PSE_MAX_NEIGHBOURS];
+    double d2[GP_PSE_MAX_NEIGHBOURS];
+} gp_pse_nearest_t;
 
 typedef struct gp_pse {
     gp_pse_cfg_t cfg;
@@ -178,9 +211,11 @@ typedef struct gp_pse {
     const uint8_t *mine;
     uint32_t next_send;         /* our next chunk not sent yet this round (the send window) */
     uint32_t my_crc32;
-    double x_m, y_m;
+    double x_m, y_m;            /* ours of round k (before the first round: 0, 0) */
     uint64_t resent_at[GP_PSE_MAX_CHUNKS]; /* when each chunk of ours was last re-sent (0: never) */
-    gp_pse_peer_t peer[GP_PSE_MAX_PEERS];
+    gp_pse_nearest_t near[2];   /* by round parity */
+    gp_pse_buf_t pool[2][GP_PSE_MAX_NEIGHBOURS]; /* by round parity */
+    gp_pse_peer_t peer[GP_PSE_MAX_FLEET];
     gp_pse_stats_t stats;
 } gp_pse_t;
 
@@ -205,9 +240,10 @@ void gp_pse_poll(gp_pse_t *pse, uint64_t now_us);
 /* 1 when every other peer delivered its state of round k or left the round. */
 int gp_pse_states_ready(const gp_pse_t *pse);
 
-/* The neighbours of round k (after states_ready): their ids and states. Returns the count. */
-uint32_t gp_pse_neighbours(const gp_pse_t *pse, uint32_t ids[GP_PSE_MAX_PEERS],
-                           const uint8_t *states[GP_PSE_MAX_PEERS]);
+/* The neighbours of round k (after states_ready): the nearest peers within the radius whose
+ * states arrived, at most GP_PSE_MAX_NEIGHBOURS, in ascending id order. Returns the count. */
+uint32_t gp_pse_neighbours(const gp_pse_t *pse, uint32_t ids[GP_PSE_MAX_NEIGHBOURS],
+                           const uint8_t *states[GP_PSE_MAX_NEIGHBOURS]);
 
 /* Our node update of round k is done: RoundComplete(k) goes out. 0 or -EINVAL. */
 FS_MUST_CHECK int gp_pse_complete(gp_pse_t *pse, uint64_t now_us);

@@ -78,7 +78,7 @@ static const cli_opt_t run_opts[] = {
      .help = "simulated seconds before giving up"},
     {.names = "--robot|--id", .meta = "I", CLI_INT(run_opts_t, robot, 0, 1000000), CLI_GIVEN(run_opts_t, robot_given),
      .help = "robot index: noise streams, seeds, telemetry, fleet member id"},
-    {.names = "--fleet", .meta = "N", CLI_INT(run_opts_t, fleet, 1, GP_PSE_MAX_PEERS), CLI_GIVEN(run_opts_t, fleet_given),
+    {.names = "--fleet", .meta = "N", CLI_INT(run_opts_t, fleet, 1, GP_PSE_MAX_FLEET), CLI_GIVEN(run_opts_t, fleet_given),
      .help = "fleet size (1: alone); needs the network"},
     {.names = "--fleet-id", .meta = "F", CLI_INT(run_opts_t, fleet_id, 0, 1000000),
      .help = "fleet number: its LCM channels fleetsim/F/..."},
@@ -237,7 +237,7 @@ static int slurm_member(run_opts_t *o)
     const char *id = getenv("SLURM_PROCID"), *ntasks = getenv("SLURM_NTASKS");
     if (id != NULL && !o->robot_given && cmd_parse_ll(id, "SLURM_PROCID", 0, 1000000, &o->robot) != 0)
         return -1;
-    if (ntasks != NULL && !o->fleet_given && cmd_parse_ll(ntasks, "SLURM_NTASKS", 1, GP_PSE_MAX_PEERS, &o->fleet) != 0)
+    if (ntasks != NULL && !o->fleet_given && cmd_parse_ll(ntasks, "SLURM_NTASKS", 1, GP_PSE_MAX_FLEET, &o->fleet) != 0)
         return -1;
     return 0;
 }

@@ -113,10 +113,10 @@ static void test_dual_and_l2_midpoints_by_hand(void **st)
     memcpy(th0, bnn_params(&node.model), sizeof th0);
     for (int i = 0; i < 28; i++)
         node.dual[i] = 0.01f * (float)i; /* a previous dual */
-    assert_int_equal(dinno_slot_put(&node, 3, 0, ta, 28), 0);
-    assert_int_equal(dinno_slot_put(&node, 9, 0, tb, 28), 0);
-    assert_int_equal(dinno_slot_put(&node, DINNO_MAX_PEERS, 0, tb, 28), -EINVAL);
-    assert_int_equal(dinno_slot_put(&node, 1, 0, tb, 27), -EINVAL);
+    assert_int_equal(dinno_slot_put(&node, 3, 3, 0, ta, 28), 0);
+    assert_int_equal(dinno_slot_put(&node, 9, 9, 0, tb, 28), 0);
+    assert_int_equal(dinno_slot_put(&node, DINNO_MAX_PEERS, DINNO_MAX_PEERS, 0, tb, 28), -EINVAL);
+    assert_int_equal(dinno_slot_put(&node, 1, 1, 0, tb, 27), -EINVAL);
     const float rho = 0.4f;
     assert_int_equal(dinno_dual_update(&node, rho), 2);
     for (int i = 0; i < 28; i++) {
@@ -188,8 +188,8 @@ static void check_kl_reading(dinno_kl_form_t form, dinno_kl_reduce_t reduce)
     assert_int_equal(dinno_node_init(&node, &c, &b, 1, 2, 0), 0);
     float ta[28], tb[28];
     set_known(&node, ta, tb);
-    assert_int_equal(dinno_slot_put(&node, 0, 0, ta, 28), 0);
-    assert_int_equal(dinno_slot_put(&node, 15, 0, tb, 28), 0);
+    assert_int_equal(dinno_slot_put(&node, 0, 0, 0, ta, 28), 0);
+    assert_int_equal(dinno_slot_put(&node, 15, 15, 0, tb, 28), 0);
     const float rho = 0.3f;
     assert_int_equal(dinno_dual_update(&node, rho), 2);
     dinno_prepare(&node);
@@ -236,7 +236,7 @@ static void check_kl_reading(dinno_kl_form_t form, dinno_kl_reduce_t reduce)
     /* At agreement (theta = every midpoint) the KL term and its gradient vanish. */
     assert_int_equal(dinno_node_init(&node, &c, &b, 1, 2, 0), 0);
     const float *t0 = bnn_params(&node.model);
-    assert_int_equal(dinno_slot_put(&node, 0, 0, t0, 28), 0);
+    assert_int_equal(dinno_slot_put(&node, 0, 0, 0, t0, 28), 0);
     (void)dinno_dual_update(&node, rho);
     dinno_prepare(&node);
     memset(bnn_grads(&node.model), 0, 28 * sizeof(float));
@@ -290,7 +290,7 @@ static void test_literal_rho_loss_moves_rho_only_by_consensus(void **st)
         float other_state[28];
         for (int i = 0; i < 28; i++)
             other_state[i] = bnn_params(&node.model)[i] + (i >= 20 ? 0.5f : 0.0f);
-        assert_int_equal(dinno_slot_put(&node, 1, 5, other_state, 28), 0);
+        assert_int_equal(dinno_slot_put(&node, 1, 1, 5, other_state, 28), 0);
         memcpy(t0, bnn_params(&node.model), sizeof t0);
         assert_int_equal(dinno_node_round(&node, data, 256, NULL), 0);
         for (int i = 20; i < 28; i++)
@@ -323,8 +323,8 @@ static void run_pair(dinno_strategy_t s, float w_rho, float *out, int rounds)
         memcpy(to, bnn_params(&other.model), sizeof to);
         dinno_slots_clear(&node);
         dinno_slots_clear(&other);
-        assert_int_equal(dinno_slot_put(&node, 1, (uint32_t)k, to, 28), 0);
-        assert_int_equal(dinno_slot_put(&other, 0, (uint32_t)k, tn, 28), 0);
+        assert_int_equal(dinno_slot_put(&node, 1, 1, (uint32_t)k, to, 28), 0);
+        assert_int_equal(dinno_slot_put(&other, 0, 0, (uint32_t)k, tn, 28), 0);
         assert_int_equal(dinno_node_round(&node, data, 128, NULL), 0);
         assert_int_equal(dinno_node_round(&other, data + 128, 128, NULL), 0);
     }
@@ -350,7 +350,7 @@ static void test_slot_round_mismatch_rejected(void **st)
     assert_int_equal(dinno_node_init(&node, &c, &b, 1, 2, 0), 0);
     float t[28];
     memcpy(t, bnn_params(&node.model), sizeof t);
-    assert_int_equal(dinno_slot_put(&node, 2, 1, t, 28), 0); /* round 1 state in round 0 */
+    assert_int_equal(dinno_slot_put(&node, 2, 2, 1, t, 28), 0); /* round 1 state in round 0 */
     assert_int_equal(dinno_node_round(&node, data, 256, NULL), -EINVAL);
     assert_memory_equal(t, bnn_params(&node.model), sizeof t);
     assert_int_equal(node.round, 0);
@@ -374,7 +374,7 @@ static void test_no_neighbours_trains_alone(void **st)
     dinno_round_stats_t sa, sb, first = {0};
     for (int k = 0; k < 40; k++) {
         dinno_slots_clear(&other);
-        assert_int_equal(dinno_slot_put(&other, 4, (uint32_t)k, bnn_params(&other.model), 28), 0);
+        assert_int_equal(dinno_slot_put(&other, 4, 4, (uint32_t)k, bnn_params(&other.model), 28), 0);
         assert_int_equal(dinno_node_round(&node, data, 256, &sa), 0);
         assert_int_equal(dinno_node_round(&other, data, 256, &sb), 0);
         if (k == 0)
@@ -408,20 +408,20 @@ static void test_screen_leaves_out_bad_states(void **st)
     /* slot 1: close (a tenth of the radius); 2: NaN; 3: x1000; 4: -theta; 5: +inf */
     for (int e = 0; e < 28; e++)
         t[e] = own[e] + (float)(0.05 * norm / sqrt(28.0));
-    assert_int_equal(dinno_slot_put(&node, 1, 0, t, 28), 0);
-    assert_int_equal(dinno_slot_put(&other, 1, 0, t, 28), 0); /* `other` never sees the bad ones */
+    assert_int_equal(dinno_slot_put(&node, 1, 1, 0, t, 28), 0);
+    assert_int_equal(dinno_slot_put(&other, 1, 1, 0, t, 28), 0); /* `other` never sees the bad ones */
     memcpy(t, own, sizeof t);
     t[7] = NAN;
-    assert_int_equal(dinno_slot_put(&node, 2, 0, t, 28), 0);
+    assert_int_equal(dinno_slot_put(&node, 2, 2, 0, t, 28), 0);
     for (int e = 0; e < 28; e++)
         t[e] = own[e] * 1000.0f;
-    assert_int_equal(dinno_slot_put(&node, 3, 0, t, 28), 0);
+    assert_int_equal(dinno_slot_put(&node, 3, 3, 0, t, 28), 0);
     for (int e = 0; e < 28; e++)
         t[e] = -own[e];
-    assert_int_equal(dinno_slot_put(&node, 4, 0, t, 28), 0);
+    assert_int_equal(dinno_slot_put(&node, 4, 4, 0, t, 28), 0);
     memcpy(t, own, sizeof t);
     t[0] = INFINITY;
-    assert_int_equal(dinno_slot_put(&node, 5, 0, t, 28), 0);
+    assert_int_equal(dinno_slot_put(&node, 5, 5, 0, t, 28), 0);
     dinno_round_stats_t sa, sb;
     assert_int_equal(dinno_node_round(&node, data, 256, &sa), 0);
     assert_int_equal(dinno_node_round(&other, data, 256, &sb), 0);
@@ -437,9 +437,9 @@ static void test_screen_leaves_out_bad_states(void **st)
     assert_int_equal(dinno_node_init(&node, &c, &b, 1, 2, 0), 0);
     for (int e = 0; e < 28; e++)
         t[e] = -own[e];
-    assert_int_equal(dinno_slot_put(&node, 4, 0, t, 28), 0);
+    assert_int_equal(dinno_slot_put(&node, 4, 4, 0, t, 28), 0);
     t[3] = NAN;
-    assert_int_equal(dinno_slot_put(&node, 2, 0, t, 28), 0);
+    assert_int_equal(dinno_slot_put(&node, 2, 2, 0, t, 28), 0);
     float dmax = 0.0f;
     assert_int_equal(dinno_screen_slots(&node, &dmax), 1);
     assert_true(node.slots.valid[4] && !node.slots.valid[2]);
@@ -461,13 +461,13 @@ static void test_round_allocates_nothing(void **st)
     alloc_count_reset();
     assert_int_equal(dinno_node_init(&big, &c, NULL, 1, 2, 0), 0);
     for (uint32_t s = 0; s < DINNO_MAX_PEERS; s++)
-        assert_int_equal(dinno_slot_put(&big, s, 0, bnn_params(&big.model), bnn_n_params(&big.model)), 0);
+        assert_int_equal(dinno_slot_put(&big, s, s, 0, bnn_params(&big.model), bnn_n_params(&big.model)), 0);
     dinno_round_stats_t rs;
     assert_int_equal(dinno_node_round(&big, many, 2048, &rs), 0);
     assert_int_equal(rs.neighbours, DINNO_MAX_PEERS);
     big.cfg.strategy = DINNO_UNIFORM;
     for (uint32_t s = 0; s < DINNO_MAX_PEERS; s++)
-        assert_int_equal(dinno_slot_put(&big, s, 1, bnn_params(&big.model), bnn_n_params(&big.model)), 0);
+        assert_int_equal(dinno_slot_put(&big, s, s, 1, bnn_params(&big.model), bnn_n_params(&big.model)), 0);
     assert_int_equal(dinno_node_round(&big, many, 2048, &rs), 0);
     print_message("node %zu bytes: %llu allocations\n", dinno_get_buffer_size(),
                   (unsigned long long)alloc_count_allocations());

@@ -103,14 +103,16 @@ static void fill_state(harness_t *h, uint32_t round)
 /* Every neighbour state handed out is a whole one of this round: its CRC is its chunks'. */
 static void check_neighbours(const harness_t *h)
 {
-    uint32_t ids[GP_PSE_MAX_PEERS];
-    const uint8_t *states[GP_PSE_MAX_PEERS];
+    uint32_t ids[GP_PSE_MAX_NEIGHBOURS];
+    const uint8_t *states[GP_PSE_MAX_NEIGHBOURS];
     const uint32_t n = gp_pse_neighbours(&h->pse, ids, states);
     CHECK(n < FUZZ_WIRE_PEERS);
     for (uint32_t j = 0; j < n; j++) {
         CHECK(ids[j] < FUZZ_WIRE_PEERS && ids[j] != FUZZ_WIRE_SELF && (j == 0 || ids[j] > ids[j - 1]));
-        const gp_pse_buf_t *b = &h->pse.peer[ids[j]].buf[h->pse.round & 1u];
-        CHECK(b->complete && b->round == h->pse.round && states[j] == b->bytes);
+        const uint32_t par = h->pse.round & 1u, slot = h->pse.peer[ids[j]].buf[par];
+        CHECK(slot < GP_PSE_MAX_NEIGHBOURS);
+        const gp_pse_buf_t *b = &h->pse.pool[par][slot];
+        CHECK(b->complete && b->round == h->pse.round && b->owner == ids[j] && states[j] == b->bytes);
         CHECK(crc32_ieee(states[j], FUZZ_WIRE_STATE_BYTES) == b->crc32);
     }
 }
@@ -238,23 +240,20 @@ static void datagram(harness_t *h, unsigned what, const uint8_t *d, size_t len, 
         CHECK(p->stats.invalid == before.invalid + 1u);
 }
 
-/* The engine is BOARD_MAX_PEERS peers x 2 buffers of the preset's whole state (8.6 MB for
+/* The engine is a pool of 2 x BOARD_MAX_PEERS buffers of the preset's whole state (8.6 MB for
    `small`): allocating it per input costs ten times the fuzzing. So it lives here, and every
-   input starts by zeroing all of it a fleet of FUZZ_WIRE_PEERS can reach (the engine's own
-   fields, and per peer its fields and the first FUZZ_WIRE_STATE_BYTES of its two buffers), as
+   input starts by zeroing all of it an input can reach (the engine's own fields, the peer
+   table of a fleet of FUZZ_WIRE_PEERS, and the first FUZZ_WIRE_STATE_BYTES of each buffer), as
    a fresh calloc would: nothing of an input reaches the next one, and a crash replays alone. */
 static harness_t *fresh_harness(void)
 {
     static harness_t h;
-    memset(&h.pse, 0, offsetof(gp_pse_t, peer));
+    memset(&h.pse, 0, offsetof(gp_pse_t, pool));
+    for (int par = 0; par < 2; par++)
+        for (uint32_t s = 0; s < GP_PSE_MAX_NEIGHBOURS; s++)
+            memset(&h.pse.pool[par][s], 0, offsetof(gp_pse_buf_t, bytes) + FUZZ_WIRE_STATE_BYTES);
+    memset(h.pse.peer, 0, sizeof h.pse.peer[0] * FUZZ_WIRE_PEERS);
     memset(&h.pse.stats, 0, sizeof h.pse.stats);
-    for (uint32_t i = 0; i < FUZZ_WIRE_PEERS; i++) {
-        gp_pse_peer_t *q = &h.pse.peer[i];
-        for (int k = 0; k < 2; k++)
-            memset(&q->buf[k], 0, offsetof(gp_pse_buf_t, bytes) + FUZZ_WIRE_STATE_BYTES);
-        const size_t after = offsetof(gp_pse_peer_t, heard_us); /* the fields after buf[] */
-        memset((uint8_t *)q + after, 0, sizeof *q - after);
-    }
     return &h;
 }
 

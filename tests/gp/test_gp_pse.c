@@ -109,8 +109,8 @@ static void check_states(uint32_t round)
 {
     for (int i = 0; i < N; i++) {
         assert_true(gp_pse_states_ready(&eng[i]));
-        uint32_t ids[GP_PSE_MAX_PEERS];
-        const uint8_t *st[GP_PSE_MAX_PEERS];
+        uint32_t ids[GP_PSE_MAX_NEIGHBOURS];
+        const uint8_t *st[GP_PSE_MAX_NEIGHBOURS];
         assert_int_equal(gp_pse_neighbours(&eng[i], ids, st), N - 1);
         for (int k = 0; k < N - 1; k++)
             assert_memory_equal(st[k], state[ids[k]][round & 1u], STATE_BYTES);
@@ -266,8 +266,8 @@ static void test_silent_peer_leaves_and_rejoins(void **st)
     }
     assert_true(gp_pse_states_ready(&eng[0]));
     assert_int_equal(eng[0].stats.timeouts, 1);
-    uint32_t ids[GP_PSE_MAX_PEERS];
-    const uint8_t *s[GP_PSE_MAX_PEERS];
+    uint32_t ids[GP_PSE_MAX_NEIGHBOURS];
+    const uint8_t *s[GP_PSE_MAX_NEIGHBOURS];
     assert_int_equal(gp_pse_neighbours(&eng[0], ids, s), 1);
     assert_int_equal(ids[0], 1);
     /* Peer 2 speaks again within the round: it is not taken back before the round boundary,
@@ -395,8 +395,8 @@ static void test_disk_neighbours_match_dinno_graph(void **st)
     dinno_graph_t g;
     assert_int_equal(dinno_graph_disk(&g, N, xy, 1.5), 0);
     for (int i = 0; i < N; i++) {
-        uint32_t ids[GP_PSE_MAX_PEERS];
-        const uint8_t *s[GP_PSE_MAX_PEERS];
+        uint32_t ids[GP_PSE_MAX_NEIGHBOURS];
+        const uint8_t *s[GP_PSE_MAX_NEIGHBOURS];
         const uint32_t n = gp_pse_neighbours(&eng[i], ids, s);
         uint32_t want = 0;
         for (int j = 0; j < N; j++)

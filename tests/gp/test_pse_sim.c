@@ -30,9 +30,12 @@
 #include <string.h>
 #include <cmocka.h>
 
+#include "ai/dinno_graph.h"
 #include "gp/gp_pse.h"
 
-#define MAXN 7
+#define SMALL_N 7         /* most schedules: 2 .. SMALL_N robots */
+#define BIG_N_MIN (GP_PSE_MAX_NEIGHBOURS + 1) /* one in 32: more robots than neighbour slots */
+#define MAXN (BIG_N_MIN + 7)
 #define MAXR 24
 #define STATE_BYTES 2600u /* 3 chunks of 1024 */
 #define CHUNK 1024u
@@ -44,7 +47,7 @@
 #define JOIN_US 500000u
 #define LINGER_US (2u * RESEND_US)
 #define LATE_MAX_US (2u * TIMEOUT_US) /* a late datagram arrives up to this much later */
-#define QCAP 8192
+#define QCAP 32768
 
 /* ---- seeded randomness --------------------------------------------------------------- */
 static uint64_t rng_s;
@@ -124,6 +127,7 @@ static const schedule_t *cur;
 typedef struct totals {
     uint64_t schedules, loss_only, sent, dropped, duplicated, corrupted, late, partitioned, overflow;
     uint64_t pauses, crashes, restarts, timeouts, rejoins, skipped, cut, missed, crc, old_inc, used;
+    uint64_t big, nearest_checked, beyond_slots, evictions;
 } totals_t;
 static totals_t tot;
 
@@ -222,22 +226,32 @@ static void deliver(robot_t *r, dgram_t *d)
     }
 }
 
-/* Everything due by now, in (time, sequence) order, to robots that listen. */
+static int by_time_then_seq(const void *a, const void *b)
+{
+    const dgram_t *x = a, *y = b;
+    if (x->at != y->at)
+        return x->at < y->at ? -1 : 1;
+    return x->seq < y->seq ? -1 : x->seq > y->seq;
+}
+
+/* Everything due by now, in (time, sequence) order, to robots that listen. What a delivery
+   sends is due a tick later at the earliest, so the due set is taken out and sorted once. */
+static dgram_t due[QCAP];
 static void deliver_due(void)
 {
-    for (;;) {
-        int best = -1;
-        for (int i = 0; i < qn; i++)
-            if (q[i].at <= now_us && (best < 0 || q[i].at < q[best].at || (q[i].at == q[best].at && q[i].seq < q[best].seq)))
-                if (!is_paused(q[i].to))
-                    best = i;
-        if (best < 0)
-            return;
-        dgram_t d = q[best];
-        q[best] = q[--qn];
-        robot_t *r = &rob[d.to];
+    int nd = 0;
+    for (int i = 0; i < qn;)
+        if (q[i].at <= now_us && !is_paused(q[i].to)) {
+            due[nd++] = q[i];
+            q[i] = q[--qn];
+        } else {
+            i++;
+        }
+    qsort(due, (size_t)nd, sizeof due[0], by_time_then_seq);
+    for (int i = 0; i < nd; i++) {
+        robot_t *r = &rob[due[i].to];
         if (r->phase != R_DOWN && r->phase != R_EXITED)
-            deliver(r, &d);
+            deliver(r, &due[i]);
     }
 }
 
@@ -277,13 +291,40 @@ static void begin(robot_t *r)
     r->paused_in_round = 0;
 }
 
+/* With loss alone every robot is heard in every round, so a robot's neighbours are exactly
+   the in-process reference's: its GP_PSE_MAX_NEIGHBOURS nearest within the radius. */
+static void check_nearest(const robot_t *r, const uint32_t *ids, uint32_t n)
+{
+    double xy[2 * MAXN];
+    for (int i = 0; i < cur->n; i++)
+        position(i, r->round, &xy[2 * i], &xy[2 * i + 1]);
+    static dinno_graph_t g;
+    assert_int_equal(dinno_graph_disk(&g, (uint32_t)cur->n, xy, cur->radius > 0.0 ? cur->radius : 1e9), 0);
+    tot.nearest_checked++;
+    uint32_t in_reach = 0;
+    for (int i = 0; i < cur->n; i++) {
+        const double dx = xy[2 * i] - xy[2 * r->id], dy = xy[2 * i + 1] - xy[2 * r->id + 1];
+        in_reach += i != r->id && (cur->radius <= 0.0 || dx * dx + dy * dy <= cur->radius * cur->radius);
+    }
+    tot.beyond_slots += in_reach > GP_PSE_MAX_NEIGHBOURS;
+    int same = n == g.deg[r->id];
+    for (uint32_t j = 0; j < n && same; j++)
+        same = ids[j] == g.nb[r->id][j];
+    if (!same)
+        fail_msg("schedule %llu: robot %d of %d took %u neighbour states in round %u, the reference %u (or others) "
+                 "(replay: FLEETSIM_PSE_SIM_SEED=%llu)", (unsigned long long)cur->seed, r->id, cur->n, n, r->round,
+                 g.deg[r->id], (unsigned long long)cur->seed);
+}
+
 /* The "node update": the model mixed with the neighbours' states in id order, after the
    oracle checked that each is the sender's state of this round, whole. */
 static void train(robot_t *r)
 {
-    uint32_t ids[GP_PSE_MAX_PEERS];
-    const uint8_t *st[GP_PSE_MAX_PEERS];
+    uint32_t ids[GP_PSE_MAX_NEIGHBOURS];
+    const uint8_t *st[GP_PSE_MAX_NEIGHBOURS];
     const uint32_t n = gp_pse_neighbours(&r->pse, ids, st);
+    if (loss_only(cur))
+        check_nearest(r, ids, n);
     for (uint32_t j = 0; j < n; j++) {
         if (get32(st[j]) != ids[j] || get32(st[j] + 4) != r->round ||
             get32(st[j] + 8) != hash32(st[j] + HDR, STATE_BYTES - HDR))
@@ -381,6 +422,7 @@ static void add_stats(const gp_pse_stats_t *s)
     tot.missed += s->states_missed;
     tot.crc += s->crc_failures;
     tot.old_inc += s->old_incarnation;
+    tot.evictions += s->evictions;
 }
 
 /* Runs one schedule; the final models land in out (per robot) when it is given. */
@@ -496,7 +538,7 @@ static void draw(uint64_t seed, schedule_t *s)
     rng_s = seed;
     memset(s, 0, sizeof *s);
     s->seed = seed;
-    s->n = 2 + (int)rnd_below(MAXN - 1);
+    s->n = 2 + (int)rnd_below(SMALL_N - 1);
     s->rounds = 3 + (int)rnd_below(MAXR - 3);
     s->radius = rnd_below(3) == 0 ? 0.0 : 6.0;
     static const double drops[] = {0.0, 0.05, 0.2, 0.4};
@@ -522,6 +564,11 @@ static void draw(uint64_t seed, schedule_t *s)
         s->crash_at = t;
         s->restart_after = rnd_below(3) == 0 ? 0 : 50000u + rnd_below(3u * TIMEOUT_US);
     }
+    /* Drawn last, so the schedules of small fleets stay what they were. */
+    if (rnd_below(32) == 0) {
+        s->n = BIG_N_MIN + (int)rnd_below(MAXN - BIG_N_MIN + 1);
+        s->rounds = 3 + s->rounds / 4; /* a big fleet's round costs ~40 small ones */
+    }
 }
 
 static uint64_t env_u64(const char *name, uint64_t dflt)
@@ -543,6 +590,7 @@ static void check_schedule(uint64_t seed)
     schedule_t s;
     draw(seed, &s);
     tot.schedules++;
+    tot.big += s.n >= (int)BIG_N_MIN;
     uint64_t timeouts = 0, cut = 0;
     run(&s, got_model, &timeouts, &cut);
     if (!loss_only(&s))
@@ -591,6 +639,12 @@ static void test_seeded_schedules(void **st)
     print_message("pse_sim: rejected: %llu CRC failures, %llu messages of an earlier incarnation, %llu states "
                   "missed\n",
                   (unsigned long long)tot.crc, (unsigned long long)tot.old_inc, (unsigned long long)tot.missed);
+    print_message("pse_sim: %llu fleets of %d..%d robots (more than the %u neighbour slots); loss only: %llu neighbour "
+                  "sets equal to the reference's, %llu of them the nearest of more in reach; %llu states given up "
+                  "for a nearer one\n",
+                  (unsigned long long)tot.big, BIG_N_MIN, MAXN, (unsigned)GP_PSE_MAX_NEIGHBOURS,
+                  (unsigned long long)tot.nearest_checked, (unsigned long long)tot.beyond_slots,
+                  (unsigned long long)tot.evictions);
 }
 
 int main(void)

@@ -221,7 +221,7 @@ int main(int argc, char **argv)
     uint64_t train_insns = 0, round_max = 0;
     dinno_round_stats_t st = {0};
     for (uint32_t k = 0; k < o.rounds; k++) {
-        if ((r = dinno_slot_put(&ai->node, 0, k, bnn_params(m), n_params)) != 0)
+        if ((r = dinno_slot_put(&ai->node, 0, 0, k, bnn_params(m), n_params)) != 0)
             break;
         uint64_t t0 = insns();
         hal_stdc_target_mark(MARK_ROUND_BEGIN);
