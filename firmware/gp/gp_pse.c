@@ -238,9 +238,10 @@ static void near_rank(gp_pse_t *p, uint32_t round, uint64_t now_us)
         if (p->peer[i].buf[par] != GP_PSE_NO_BUF)
             continue;
         buf_attach(p, i, round, now_us);
-        /* Its chunks came before it was listed and were not kept: it sent them already. */
+        /* Its chunks came before it was listed and were not kept: it sent them already, so
+           the next poll asks for them (unsigned time: "a resend period ago" also near 0). */
         gp_pse_buf_t *b = buf_of(p, i, round);
-        if (b != NULL && now_us >= p->cfg.resend_after_us)
+        if (b != NULL)
             b->progress_us = now_us - p->cfg.resend_after_us;
     }
 }
@@ -278,8 +279,11 @@ int gp_pse_begin_round(gp_pse_t *p, uint32_t round, const uint8_t *state, double
     memset(p->resent_at, 0, sizeof p->resent_at);
     /* Chunks of this round that came early were ranked against our previous position. */
     near_rank(p, round, now_us);
-    for (uint32_t m = 0; m < p->near[round & 1u].n; m++)
-        buf_of(p, p->near[round & 1u].id[m], round)->progress_us = now_us;
+    for (uint32_t m = 0; m < p->near[round & 1u].n; m++) {
+        gp_pse_buf_t *b = buf_of(p, p->near[round & 1u].id[m], round);
+        if (b->got > 0) /* its chunks are coming: ask a resend period from now */
+            b->progress_us = now_us;
+    }
     for (uint32_t i = 0; i < p->cfg.n_peers; i++) {
         if (i == p->cfg.self)
             continue;

@@ -76,11 +76,47 @@ static void test_disk_components(void **st)
     assert_int_equal(dinno_graph_disk(&g, 6, NULL, 1.0), -EINVAL);
 }
 
+/* More nodes in reach than slots: each node takes its DINNO_GRAPH_MAX_DEGREE nearest (ties by
+ * id), listed in ascending id, and the graph is no longer symmetric. */
+static void test_disk_keeps_the_nearest(void **st)
+{
+    (void)st;
+    enum { K = DINNO_GRAPH_MAX_DEGREE, N = K + 4 };
+    static dinno_graph_t g;
+    dinno_graph_report_t r;
+    /* Node 0 at the origin, node i at x = i; nodes 1 and 2 swapped so that order is not id
+       order, and node N-1 at the same distance as node N-2. */
+    double xy[2 * N] = {0};
+    for (int i = 1; i < N; i++)
+        xy[2 * i] = (double)i;
+    xy[2 * 1] = 2.0;
+    xy[2 * 2] = 1.0;
+    xy[2 * (N - 1)] = (double)(N - 2);
+    assert_int_equal(dinno_graph_disk(&g, N, xy, 1e6), 0);
+    assert_int_equal(dinno_graph_degree(&g, 0), K);
+    for (uint32_t s = 1; s < K; s++)
+        assert_true(g.nb[0][s - 1] < g.nb[0][s]); /* ascending ids */
+    for (uint32_t j = 1; j <= K; j++)
+        assert_true(dinno_graph_has_edge(&g, 0, j)); /* 1 .. K are the nearest K */
+    assert_false(dinno_graph_has_edge(&g, 0, N - 2));
+    assert_false(dinno_graph_has_edge(&g, 0, N - 1));
+    /* Node N-1 ties with N-2 for node 0; from N-1's side node 0 is the farthest and left out. */
+    assert_false(dinno_graph_has_edge(&g, N - 1, 0));
+    assert_true(dinno_graph_has_edge(&g, N - 1, N - 2));
+    dinno_graph_report(&g, &r);
+    assert_int_equal(r.components, 1);
+    assert_int_equal(r.isolated, 0);
+    /* full has no positions to choose by: a fleet beyond the slots is refused. */
+    assert_int_equal(dinno_graph_full(&g, K + 1), 0);
+    assert_int_equal(dinno_graph_full(&g, K + 2), -E2BIG);
+}
+
 int main(void)
 {
     const struct CMUnitTest tests[] = {
         cmocka_unit_test(test_full_and_ring),
         cmocka_unit_test(test_disk_components),
+        cmocka_unit_test(test_disk_keeps_the_nearest),
     };
     return cmocka_run_group_tests_name("dinno/graph", tests, NULL, NULL);
 }

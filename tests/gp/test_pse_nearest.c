@@ -1,0 +1,202 @@
+/* The peers state exchange in a fleet larger than its neighbour slots (firmware/gp/gp_pse.h):
+ * one engine, robot 0 of GP_PSE_MAX_NEIGHBOURS + 6 robots, fed chunks by hand. It keeps the
+ * states of its nearest peers only (ties by id), gives a state up for a nearer peer's, ranks
+ * early chunks of the next round again once that round begins and asks for what it dropped,
+ * and asks a peer it never heard in the round for the chunk that places it. */
+#include <setjmp.h>
+#include <stdarg.h>
+#include <stddef.h>
+#include <stdint.h>
+#include <string.h>
+#include <cmocka.h>
+
+#include "ai/dinno_graph.h"
+#include "common/crc32.h"
+#include "gp/gp_pse.h"
+
+#define K GP_PSE_MAX_NEIGHBOURS
+#define N (K + 6u)
+#define STATE_BYTES 1500u /* 2 chunks */
+#define CHUNK 1024u
+#define RESEND 100000u
+#define TIMEOUT 1000000u
+
+static gp_pse_t eng;
+static uint8_t mine[STATE_BYTES], theirs[STATE_BYTES];
+static gp_pse_request_t asked[4 * N]; /* the requests the engine sent */
+static uint32_t n_asked;
+
+static int capture(void *ctx, gp_pse_kind_t kind, const void *m)
+{
+    (void)ctx;
+    if (kind == GP_PSE_REQUEST && ((const gp_pse_request_t *)m)->n > 0 && n_asked < 4 * N)
+        asked[n_asked++] = *(const gp_pse_request_t *)m;
+    return 0;
+}
+
+static void start(double radius)
+{
+    const gp_pse_cfg_t c = {0, N, STATE_BYTES, CHUNK, radius, RESEND, TIMEOUT, 0, capture, NULL, 0, 0, 0};
+    assert_int_equal(gp_pse_init(&eng, &c), 0);
+    n_asked = 0;
+    memset(mine, 7, sizeof mine);
+    memset(theirs, 9, sizeof theirs);
+}
+
+/* Peer i's chunk `chunk` of `round`, sent from (x, 0). */
+static int chunk_from(uint32_t i, uint32_t round, uint32_t chunk, double x, uint64_t now)
+{
+    const uint32_t off = chunk * CHUNK, n = STATE_BYTES - off < CHUNK ? STATE_BYTES - off : CHUNK;
+    const gp_pse_chunk_t c = {i, round, chunk, 2, STATE_BYTES, crc32_ieee(theirs, STATE_BYTES), x, 0.0, n,
+                              theirs + off, 0, 0};
+    return gp_pse_on_chunk(&eng, &c, now);
+}
+
+static void whole_state_from(uint32_t i, uint32_t round, double x, uint64_t now)
+{
+    assert_int_equal(chunk_from(i, round, 0, x, now), 0);
+    assert_int_equal(chunk_from(i, round, 1, x, now), 0);
+}
+
+/* The engine's neighbours are exactly `want` (ascending). */
+static void expect_neighbours(const uint32_t *want, uint32_t n_want)
+{
+    uint32_t ids[K];
+    const uint8_t *st[K];
+    assert_int_equal(gp_pse_neighbours(&eng, ids, st), n_want);
+    for (uint32_t j = 0; j < n_want; j++) {
+        assert_int_equal(ids[j], want[j]);
+        assert_memory_equal(st[j], theirs, STATE_BYTES);
+    }
+}
+
+/* Peer i stands at x = 100 - i: the higher the id, the nearer to robot 0 at x = 0. Peers 20
+ * and 21 stand at the same distance. Every state arrives, farthest first: each of the last
+ * N - 1 - K peers pushes the farthest kept one out. */
+static double x_of(uint32_t i)
+{
+    return i == 21u ? 100.0 - 20.0 : 100.0 - (double)i;
+}
+
+static void test_keeps_the_nearest(void **st)
+{
+    (void)st;
+    start(0.0); /* every peer in reach */
+    assert_int_equal(gp_pse_begin_round(&eng, 0, mine, 0.0, 0.0, 0), 0);
+    for (uint32_t i = 1; i < N; i++) {
+        assert_false(gp_pse_states_ready(&eng)); /* a peer not heard yet may be nearer */
+        whole_state_from(i, 0, x_of(i), 10);
+    }
+    assert_true(gp_pse_states_ready(&eng));
+    /* The nearest by (distance, id) with the same rule as the in-process reference. */
+    double xy[2 * N];
+    for (uint32_t i = 0; i < N; i++) {
+        xy[2 * i] = i == 0 ? 0.0 : x_of(i);
+        xy[2 * i + 1] = 0.0;
+    }
+    static dinno_graph_t g;
+    assert_int_equal(dinno_graph_disk(&g, N, xy, 1e9), 0);
+    assert_int_equal(g.deg[0], K);
+    uint32_t want[K];
+    for (uint32_t j = 0; j < K; j++)
+        want[j] = g.nb[0][j];
+    expect_neighbours(want, K);
+    /* Peers 20 and 21 tie and both stay; peers 1 .. 5, the farthest, were pushed out. */
+    assert_true(dinno_graph_has_edge(&g, 0, 20) && dinno_graph_has_edge(&g, 0, 21));
+    assert_int_equal(eng.stats.evictions, N - 1u - K);
+    assert_int_equal(eng.stats.not_nearest, 0); /* every chunk came while its sender was kept */
+}
+
+static void test_a_tie_at_the_last_slot_goes_to_the_lower_id(void **st)
+{
+    (void)st;
+    start(0.0);
+    assert_int_equal(gp_pse_begin_round(&eng, 0, mine, 0.0, 0.0, 0), 0);
+    /* K - 1 peers near, then peers N-1 and N-2 at the same distance, higher id first. */
+    for (uint32_t i = 1; i < K; i++)
+        whole_state_from(i, 0, 1.0 + 0.01 * i, 10);
+    whole_state_from(N - 1u, 0, 50.0, 10);
+    assert_int_equal(chunk_from(N - 2u, 0, 0, 50.0, 10), 0);
+    assert_int_equal(chunk_from(N - 2u, 0, 1, 50.0, 10), 0);
+    for (uint32_t i = K; i < N - 2u; i++)
+        assert_int_equal(chunk_from(i, 0, 0, 90.0, 10), 0); /* far: only placed */
+    assert_true(gp_pse_states_ready(&eng));
+    uint32_t want[K];
+    for (uint32_t j = 0; j + 1u < K; j++)
+        want[j] = j + 1u;
+    want[K - 1u] = N - 2u;
+    expect_neighbours(want, K);
+    assert_int_equal(eng.stats.evictions, 1);
+    assert_int_equal(eng.stats.not_nearest, N - 2u - K);
+}
+
+static void test_next_round_is_ranked_again_when_it_begins(void **st)
+{
+    (void)st;
+    start(0.0);
+    assert_int_equal(gp_pse_begin_round(&eng, 0, mine, 0.0, 0.0, 0), 0);
+    /* Round 1's states come early, ranked against our round-0 position at x = 0: peers at
+       x = i are kept, the 5 farthest dropped. */
+    for (uint32_t i = 1; i < N; i++)
+        whole_state_from(i, 1, (double)i, 10);
+    assert_int_equal(eng.stats.not_nearest, 2u * (N - 1u - K));
+    /* Round 1 begins at x = N: now the far end is the nearest; what was dropped is asked for. */
+    for (uint32_t i = 1; i < N; i++)
+        whole_state_from(i, 0, (double)i, 20);
+    assert_int_equal(gp_pse_complete(&eng, 30), 0);
+    assert_int_equal(gp_pse_begin_round(&eng, 1, mine, (double)N, 0.0, 40), 0);
+    assert_false(gp_pse_states_ready(&eng));
+    n_asked = 0;
+    gp_pse_poll(&eng, 50);
+    uint32_t targets = 0;
+    for (uint32_t a = 0; a < n_asked; a++) {
+        assert_true(asked[a].target >= K + 1u && asked[a].round == 1 && asked[a].n == 2);
+        targets++;
+    }
+    assert_int_equal(targets, N - 1u - K); /* at once: they sent their state already */
+    for (uint32_t i = K + 1u; i < N; i++)
+        whole_state_from(i, 1, (double)i, 60);
+    assert_true(gp_pse_states_ready(&eng));
+    uint32_t want[K];
+    for (uint32_t j = 0; j < K; j++)
+        want[j] = N - K + j; /* the K nearest of x = N: ids N-K .. N-1 */
+    expect_neighbours(want, K);
+}
+
+static void test_a_peer_never_heard_is_asked_where_it_is(void **st)
+{
+    (void)st;
+    start(5.0);
+    assert_int_equal(gp_pse_begin_round(&eng, 0, mine, 0.0, 0.0, 0), 0);
+    for (uint32_t i = 2; i < N; i++)
+        whole_state_from(i, 0, 100.0, 10); /* all out of reach */
+    /* Peer 1 is in round 0 (its beacon), but every chunk of it was lost. */
+    const gp_pse_request_t beacon = {1, 1, 0, 0, {0}, 0};
+    assert_int_equal(gp_pse_on_request(&eng, &beacon, 10), 0);
+    gp_pse_poll(&eng, 20);
+    assert_int_equal(n_asked, 0); /* within a resend period of the round's start: in flight */
+    assert_false(gp_pse_states_ready(&eng));
+    gp_pse_poll(&eng, RESEND + 20);
+    assert_int_equal(n_asked, 1);
+    assert_true(asked[0].target == 1 && asked[0].round == 0 && asked[0].n == 1 && asked[0].chunks[0] == 0);
+    gp_pse_poll(&eng, RESEND + 30);
+    assert_int_equal(n_asked, 1); /* once per resend period */
+    /* Its chunk 0 places it in reach: now its whole state is needed. */
+    assert_int_equal(chunk_from(1, 0, 0, 1.0, RESEND + 40), 0);
+    assert_false(gp_pse_states_ready(&eng));
+    assert_int_equal(chunk_from(1, 0, 1, 1.0, RESEND + 50), 0);
+    assert_true(gp_pse_states_ready(&eng));
+    const uint32_t want[] = {1};
+    expect_neighbours(want, 1);
+}
+
+int main(void)
+{
+    const struct CMUnitTest tests[] = {
+        cmocka_unit_test(test_keeps_the_nearest),
+        cmocka_unit_test(test_a_tie_at_the_last_slot_goes_to_the_lower_id),
+        cmocka_unit_test(test_next_round_is_ranked_again_when_it_begins),
+        cmocka_unit_test(test_a_peer_never_heard_is_asked_where_it_is),
+    };
+    return cmocka_run_group_tests_name("gp/pse_nearest", tests, NULL, NULL);
+}
