@@ -608,6 +608,9 @@ static int report(job_t *j)
             fprintf(f, "traffic: %.0f B sent and %.0f B received per round; %llu chunks sent, %llu received\n",
                     (double)p->bytes_sent / R, (double)p->bytes_received / R, (unsigned long long)p->chunks_sent,
                     (unsigned long long)p->chunks_received);
+            fprintf(f, "network: %.0f B received per round in %.1f datagrams (every member's, own echoes included, "
+                       "before the protocol keeps the nearest)\n",
+                    (double)res->net.rx_bytes / R, (double)res->net.rx_messages / R);
             fprintf(f, "nearest: at most %u neighbour states per round; %llu chunks of peers beyond the radius or the "
                        "nearest only placed their sender, %llu states given up for a nearer peer's\n",
                     (unsigned)GP_PSE_MAX_NEIGHBOURS, (unsigned long long)p->not_nearest,
