@@ -145,8 +145,16 @@ static void handle_ckpt(gp_core_t *gp, uint64_t now_us)
         return;
     const ai_ckpt_msg_t *m = mbox_read_buffer(gp->link->ai_ckpt, NULL);
     const ai_round_info_t *in = &m->info;
+    const int final = (m->flags & AI_CKPT_FLAG_FINAL) != 0;
     char name[HAL_STORAGE_NAME_MAX];
     int r = 0;
+    /* RoundComplete(k) goes out before the checkpoint is written: the write ends in an fsync,
+       milliseconds on a disk, which then overlaps the peers' last node updates instead of
+       lengthening every round of the whole fleet. A robot that dies in between resumes from
+       the checkpoint before, as after any crash. The final model is written first (round_done
+       then lingers for the peers). */
+    if (!final && gp->cfg.peers != NULL && gp->cfg.peers->round_done != NULL)
+        gp->cfg.peers->round_done(gp->cfg.peers_ctx, in->round, 0);
     if (m->n_bytes == 0) {
         r = -EINVAL;
     } else {
@@ -156,7 +164,7 @@ static void handle_ckpt(gp_core_t *gp, uint64_t now_us)
             if (r == 0)
                 drop_old_ckpt(gp, in->round);
         }
-        if (r == 0 && (m->flags & AI_CKPT_FLAG_FINAL))
+        if (r == 0 && final)
             r = hal_storage_write("final.bnn", m->bytes, m->n_bytes);
     }
     if (r == 0)
@@ -174,10 +182,10 @@ static void handle_ckpt(gp_core_t *gp, uint64_t now_us)
             in->round, (double)in->progress_m, in->pool_fill, in->pool_capacity, in->ring_drops,
             (double)in->loss_train, (double)in->bce, (double)in->kl, in->neighbours,
             r == 0 ? "written" : "FAILED");
-    if (gp->cfg.peers != NULL && gp->cfg.peers->round_done != NULL)
-        gp->cfg.peers->round_done(gp->cfg.peers_ctx, in->round, (m->flags & AI_CKPT_FLAG_FINAL) != 0);
+    if (final && gp->cfg.peers != NULL && gp->cfg.peers->round_done != NULL)
+        gp->cfg.peers->round_done(gp->cfg.peers_ctx, in->round, 1);
     send_telemetry(gp, now_us);
-    if (m->flags & AI_CKPT_FLAG_FINAL) {
+    if (final) {
         gp->final_ckpt_status = r;
         atomic_store_explicit(&gp->done, 1u, memory_order_release);
     }
