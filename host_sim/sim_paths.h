@@ -21,14 +21,15 @@
  * others, largest work first: robot r < R (R reachable rooms) starts in the r-th of them in
  * room order; each further robot, in id order, joins the room with the most sweep goals per
  * robot so far (ties: the lower room index), so the robots of a room are its first, then the
- * later ids in the order they joined. The k robots of a room with g goals (repeated cells
- * dropped) share its sweep: robot j of them drives goals j*g/k .. (j+1)*g/k - 1, consecutive
- * runs of the sweep order, and starts on the first of its run, so the starts are distinct
- * traversable cells spread along the sweep, and together the robots still visit every goal of
- * every room. A room with fewer goals than robots gets a finer lattice for them (half the
- * spacing, down to res_m); a room still too small fails with its index, type and the count.
+ * later ids in the order they joined. The k robots of a room with g goals (a goal closer than
+ * half the lattice spacing to an earlier one dropped) share its sweep: robot j of them drives
+ * goals j*g/k .. (j+1)*g/k - 1, consecutive runs of the sweep order, and starts on the first of
+ * its run, so the starts are distinct traversable cells at least half the spacing apart,
+ * spread along the sweep, and together the robots still visit every goal of every room. A
+ * room with fewer goals than robots gets a finer lattice for them (half the spacing, again,
+ * down to res_m); a room still too small fails with its index, type and the counts.
  * A robot whose run is one goal drives on to the neighbouring run's first goal. The seed
- * plays no part then. Each robot drives only its own room.
+ * plays no part then. Each robot sweeps only its own room.
  *
  * Consecutive goals are joined by A* (8-connected, no corner cutting) and each leg is
  * shortened by line-of-sight shortcuts that stay on traversable cells (sampled every res/2),
@@ -44,7 +45,7 @@
 #include "sim_grid.h"
 #include "sim_plan.h"
 
-/* A fleet of up to 1024 robots (the firmware's fleet limit). */
+/* Up to 1024 robots: tools/fleet's fleet limit, which the firmware's is being raised to. */
 #define SIM_PATHS_MAX_ROBOTS 1024
 #define SIM_PATH_MAX_POINTS 100000
 
