@@ -216,8 +216,9 @@ static heap_item_t heap_pop(heap_t *h)
 }
 
 /* Per-cell state of a search. A cell's gcost and closed flag count only when its stamp is the
- * current search's: a search starts by taking a new stamp instead of clearing the whole grid,
- * which cost more than the search itself for the short legs between sweep goals. */
+ * current search's: a search starts by taking a new stamp instead of clearing the whole grid
+ * (the legs between sweep goals are short, and a fleet of 1024 robots makes thousands of them
+ * on grids of a million cells). */
 typedef struct {
     double *gcost;
     int *parent;
