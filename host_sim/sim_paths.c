@@ -187,6 +187,19 @@ int sim_path_first_tight_segment(const sim_plan_t *plan, const sim_path_t *path,
 
 /* ---- coverage ----------------------------------------------------------------------------- */
 
+/* The cell of (x, y) as sim_grid_world_to_cell finds it, for points that may be off the grid
+ * (0) but are never far from it: the coverage sweep asks this millions of times, and the
+ * clamping that guards sim_grid_world_to_cell against absurd coordinates cost most of it. */
+static inline int cell_near(const sim_grid_t *g, double x, double y, int *c, int *r)
+{
+    const double fc = floor((x - g->origin.x) / g->res), fr = floor((y - g->origin.y) / g->res);
+    if (!(fc >= 0 && fr >= 0 && fc < g->w && fr < g->h)) /* NaN too */
+        return 0;
+    *c = (int)fc;
+    *r = (int)fr;
+    return 1;
+}
+
 static int line_of_sight(const sim_grid_t *g, double x0, double y0, double x1, double y1)
 {
     double len = hypot(x1 - x0, y1 - y0);
@@ -194,9 +207,9 @@ static int line_of_sight(const sim_grid_t *g, double x0, double y0, double x1, d
     for (int i = 1; i < steps; i++) {
         double t = (double)i / steps;
         int c, r;
-        if (sim_grid_world_to_cell(g, x0 + t * (x1 - x0), y0 + t * (y1 - y0), &c, &r) != 0)
+        if (!cell_near(g, x0 + t * (x1 - x0), y0 + t * (y1 - y0), &c, &r))
             return 0;
-        if (sim_grid_at(g, c, r) == SIM_CELL_WALL)
+        if (g->cells[(size_t)r * (size_t)g->w + (size_t)c] == SIM_CELL_WALL)
             return 0;
     }
     return 1;

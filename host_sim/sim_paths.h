@@ -8,14 +8,34 @@
  * Generator: the plan is rasterised (sim_grid) at cfg->res_m; a cell is traversable when it
  * is FREE, its centre is at least clearance_m + res_m from every solid (exact polygon
  * distance) and from every OUTSIDE cell centre, and it belongs to the largest 4-connected
- * traversable region. Each robot starts in its own room (N distinct start rooms; with more
+ * traversable region; a room is reachable when one of its cells is. In each room the sweep
+ * goals are the traversable cells nearest the points of a lattice of spacing sweep_m, in
+ * boustrophedon order (row by row, alternating direction).
+ *
+ * N <= reachable rooms: each robot starts in its own room (N distinct start rooms; with more
  * rooms than robots the start rooms are a seeded choice), every other room is assigned to
  * the robot with the smallest tour so far (nearest room first), so together the robots visit
- * every reachable room. In each room the tour visits sweep goals on a lattice of spacing
- * sweep_m in boustrophedon order; consecutive goals are joined by A* (8-connected, no corner
- * cutting) and each leg is shortened by line-of-sight shortcuts that stay on traversable
- * cells (sampled every res/2), so every point of every segment keeps at least clearance_m
- * from every solid. Deterministic for (plan, cfg). Not thread-safe per path; allocates. */
+ * every reachable room; a robot sweeps each of its rooms whole.
+ *
+ * N > reachable rooms: every reachable room starts at least one robot and the rooms take the
+ * others, largest work first: robot r < R (R reachable rooms) starts in the r-th of them in
+ * room order; each further robot, in id order, joins the room with the most sweep goals per
+ * robot so far (ties: the lower room index), so the robots of a room are its first, then the
+ * later ids in the order they joined. The k robots of a room with g goals (a goal closer than
+ * half the lattice spacing to an earlier one dropped) share its sweep: robot j of them drives
+ * goals j*g/k .. (j+1)*g/k - 1, consecutive runs of the sweep order, and starts on the first of
+ * its run, so the starts are distinct traversable cells at least half the spacing apart,
+ * spread along the sweep, and together the robots still visit every goal of every room. A
+ * room with fewer goals than robots gets a finer lattice for them (half the spacing, again,
+ * down to res_m); a room still too small fails with its index, type and the counts.
+ * A robot whose run is one goal drives on to the neighbouring run's first goal. The seed
+ * plays no part then. Each robot sweeps only its own room.
+ *
+ * Consecutive goals are joined by A* (8-connected, no corner cutting) and each leg is
+ * shortened by line-of-sight shortcuts that stay on traversable cells (sampled every res/2),
+ * so every point of every segment keeps at least clearance_m from every solid. Deterministic
+ * for (plan, cfg). Not thread-safe per path; allocates: about 30 bytes per grid cell (the
+ * grid, its traversable cells, the searches' state) and the tours. */
 #ifndef SIM_PATHS_H
 #define SIM_PATHS_H
 
@@ -25,7 +45,8 @@
 #include "sim_grid.h"
 #include "sim_plan.h"
 
-#define SIM_PATHS_MAX_ROBOTS 64
+/* Up to 1024 robots: tools/fleet's fleet limit, which the firmware's is being raised to. */
+#define SIM_PATHS_MAX_ROBOTS 1024
 #define SIM_PATH_MAX_POINTS 100000
 
 typedef struct sim_path {
@@ -46,7 +67,7 @@ typedef struct sim_paths_cfg {
 void sim_paths_cfg_default(sim_paths_cfg_t *cfg);
 
 /* Fills paths[0 .. cfg->n_robots-1]. On failure every path is left empty, err says why
- * (e.g. fewer reachable rooms than robots) and a negative code is returned. */
+ * (e.g. no reachable room, a room too small for its robots) and a negative code is returned. */
 FS_MUST_CHECK
 int sim_paths_generate(const sim_plan_t *plan, const sim_paths_cfg_t *cfg, sim_path_t *paths, char *err,
                        size_t errlen);

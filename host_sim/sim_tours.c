@@ -215,10 +215,16 @@ static heap_item_t heap_pop(heap_t *h)
     return top;
 }
 
+/* Per-cell state of a search. A cell's gcost and closed flag count only when its stamp is the
+ * current search's: a search starts by taking a new stamp instead of clearing the whole grid
+ * (the legs between sweep goals are short, and a fleet of 1024 robots makes thousands of them
+ * on grids of a million cells). */
 typedef struct {
     double *gcost;
     int *parent;
-    uint8_t *closed;
+    uint32_t *open_at;   /* stamp of the search that set gcost */
+    uint32_t *closed_at; /* stamp of the search that closed the cell */
+    uint32_t stamp;
     heap_t heap;
     int *cells; /* result buffer */
     int cap_cells;
@@ -236,23 +242,26 @@ static double octile(int c0, int r0, int c1, int r1)
 static int astar(const planner_t *pl, astar_t *as, int s, int t, int *len)
 {
     const sim_grid_t *g = &pl->g;
-    size_t n = (size_t)g->w * (size_t)g->h;
-    for (size_t i = 0; i < n; i++) {
-        as->gcost[i] = INFINITY;
-        as->closed[i] = 0;
+    if (++as->stamp == 0) { /* wrapped: forget every older stamp */
+        size_t n = (size_t)g->w * (size_t)g->h;
+        memset(as->open_at, 0, n * sizeof *as->open_at);
+        memset(as->closed_at, 0, n * sizeof *as->closed_at);
+        as->stamp = 1;
     }
+    const uint32_t stamp = as->stamp;
     as->heap.n = 0;
     int tc = t % g->w, tr = t / g->w;
     as->gcost[s] = 0;
+    as->open_at[s] = stamp;
     as->parent[s] = -1;
     int rc = heap_push(&as->heap, octile(s % g->w, s / g->w, tc, tr), s);
     int found = 0;
     while (rc == 0 && as->heap.n > 0) {
         heap_item_t it = heap_pop(&as->heap);
         int i = it.i;
-        if (as->closed[i])
+        if (as->closed_at[i] == stamp)
             continue;
-        as->closed[i] = 1;
+        as->closed_at[i] = stamp;
         if (i == t) {
             found = 1;
             break;
@@ -266,13 +275,14 @@ static int astar(const planner_t *pl, astar_t *as, int s, int t, int *len)
                 if (cc < 0 || rr < 0 || cc >= g->w || rr >= g->h)
                     continue;
                 int j = rr * g->w + cc;
-                if (!pl->trav[j] || as->closed[j])
+                if (!pl->trav[j] || as->closed_at[j] == stamp)
                     continue;
                 if (dr != 0 && dc != 0 && (!pl->trav[r * g->w + cc] || !pl->trav[rr * g->w + c]))
                     continue;
                 double ng = as->gcost[i] + ((dr != 0 && dc != 0) ? 1.4142135623730951 : 1.0);
-                if (ng < as->gcost[j]) {
+                if (as->open_at[j] != stamp || ng < as->gcost[j]) {
                     as->gcost[j] = ng;
+                    as->open_at[j] = stamp;
                     as->parent[j] = i;
                     rc = heap_push(&as->heap, ng + octile(cc, rr, tc, tr), j);
                 }
@@ -450,6 +460,126 @@ static int room_goals(const planner_t *pl, const sim_poly_t *room, double sweep,
     return rc;
 }
 
+/* ---- more robots than rooms -------------------------------------------------------------- */
+
+static int astar_alloc(astar_t *as, size_t ncell)
+{
+    as->gcost = malloc(ncell * sizeof *as->gcost);
+    as->parent = malloc(ncell * sizeof *as->parent);
+    as->open_at = calloc(ncell, sizeof *as->open_at);
+    as->closed_at = calloc(ncell, sizeof *as->closed_at);
+    return as->gcost == NULL || as->parent == NULL || as->open_at == NULL || as->closed_at == NULL ? -ENOMEM : 0;
+}
+
+/* Keeps, in sweep order, the room's goals at least half the lattice spacing from every goal
+ * kept before (two lattice points near a wall may pick one cell, or two cells side by side);
+ * then, while they are fewer than `need`, recomputes them on a lattice of half the spacing,
+ * down to the grid's resolution: so `need` robots start on distinct cells, as far apart as
+ * the room allows. O(goals^2): goals stay within a few times `need`. 0, -ENOSPC, -ENOMEM. */
+static int distinct_goals(const planner_t *pl, const sim_poly_t *room, double sweep, int need, room_info_t *ri)
+{
+    const int w = pl->g.w;
+    for (;;) {
+        const double apart = 0.5 * sweep / pl->g.res; /* in cells */
+        int n = 0;
+        for (int k = 0; k < ri->n_goals; k++) {
+            int near = 0, c = ri->goals[k];
+            for (int q = 0; q < n && !near; q++)
+                near = hypot(ri->goals[q] % w - c % w, ri->goals[q] / w - c / w) < apart;
+            if (!near)
+                ri->goals[n++] = c;
+        }
+        ri->n_goals = n;
+        if (n >= need)
+            return 0;
+        sweep *= 0.5;
+        if (sweep < pl->g.res)
+            return -ENOSPC;
+        room_info_t finer = *ri;
+        int rc = room_goals(pl, room, sweep, &finer);
+        if (rc != 0)
+            return rc;
+        free(ri->goals);
+        ri->goals = finer.goals;
+        ri->n_goals = finer.n_goals;
+    }
+}
+
+/* Tours for more robots than reachable rooms (the rule in sim_paths.h): robot r < eligible
+ * starts in the r-th reachable room; each further robot goes to the room with the most sweep
+ * goals per robot so far (ties: the lower room index); a room's robots split its goals, in
+ * sweep order, into consecutive runs of near equal length (robot j of k: goals j*g/k ..
+ * (j+1)*g/k - 1), each starting on the first goal of its run. pl, as and ri are the
+ * generator's, ready; the caller frees them and, on failure, the paths. */
+static int crowded_tours(const sim_plan_t *plan, const sim_paths_cfg_t *cfg, const planner_t *pl, astar_t *as,
+                         room_info_t *ri, sim_path_t *paths, char *err, size_t errlen)
+{
+    const int N = cfg->n_robots;
+    int *room_of = malloc((size_t)N * sizeof *room_of);      /* robot -> room */
+    int *rank = malloc((size_t)N * sizeof *rank);            /* its place among the room's robots */
+    int *count = calloc((size_t)plan->n_rooms, sizeof *count); /* robots per room */
+    int *work = calloc((size_t)plan->n_rooms, sizeof *work);   /* the room's sweep goals */
+    int rc = room_of == NULL || rank == NULL || count == NULL || work == NULL ? -ENOMEM : 0;
+    int r = 0;
+    for (int k = 0; k < plan->n_rooms && rc == 0; k++) {
+        if (ri[k].rep < 0)
+            continue;
+        rc = distinct_goals(pl, &plan->rooms[k].outline, cfg->sweep_m, 1, &ri[k]);
+        work[k] = ri[k].n_goals;
+        room_of[r] = k;
+        rank[r++] = 0;
+        count[k] = 1;
+    }
+    for (; r < N && rc == 0; r++) {
+        int kb = -1;
+        for (int k = 0; k < plan->n_rooms; k++)
+            if (count[k] > 0 && (kb < 0 || (long long)work[k] * count[kb] > (long long)work[kb] * count[k]))
+                kb = k;
+        room_of[r] = kb;
+        rank[r] = count[kb]++;
+    }
+    for (int k = 0; k < plan->n_rooms && rc == 0; k++) {
+        if (count[k] < 2)
+            continue;
+        rc = distinct_goals(pl, &plan->rooms[k].outline, cfg->sweep_m, count[k], &ri[k]);
+        if (rc == -ENOSPC)
+            rc = sim_paths_errf(err, errlen,
+                                "room %d (%s) gets %d robots, but only %d distinct start cells keep %g m clearance "
+                                "on the %g m grid: give fewer robots, a finer --res or a plan with more rooms",
+                                k, plan->rooms[k].type, count[k], ri[k].n_goals, cfg->clearance_m, cfg->res_m);
+    }
+    for (r = 0; r < N && rc == 0; r++) {
+        const room_info_t *room = &ri[room_of[r]];
+        const int g = room->n_goals, k = count[room_of[r]];
+        const int lo = (int)((long long)rank[r] * g / k), hi = (int)((long long)(rank[r] + 1) * g / k);
+        int cap = 0, cur = room->goals[lo];
+        double x, y;
+        sim_grid_cell_centre(&pl->g, cur % pl->g.w, cur / pl->g.w, &x, &y);
+        rc = sim_paths_push(&paths[r], &cap, x, y);
+        for (int q = lo + 1; q < hi && rc == 0; q++) {
+            rc = append_leg(pl, as, cur, room->goals[q], &paths[r], &cap);
+            cur = room->goals[q];
+        }
+        if (rc == 0 && paths[r].n < 2) {
+            /* A run of one goal: on to the next run's first goal (the previous run's last for
+             * the last run, the room's representative for a room of one goal) for a direction. */
+            int to = hi < g ? room->goals[hi] : lo > 0 ? room->goals[lo - 1] : room->rep;
+            if (to != cur)
+                rc = append_leg(pl, as, cur, to, &paths[r], &cap);
+            else
+                rc = sim_paths_errf(err, errlen, "room %d is too small for a path of 2 waypoints", room_of[r]);
+        }
+        if (rc == -ENOENT)
+            rc = sim_paths_errf(err, errlen, "robot %d: no path between two goals (disconnected region)", r);
+        paths[r].start_room = room_of[r];
+    }
+    free(room_of);
+    free(rank);
+    free(count);
+    free(work);
+    return rc;
+}
+
 /* ---- the generator ---------------------------------------------------------------------- */
 
 int sim_paths_generate(const sim_plan_t *plan, const sim_paths_cfg_t *cfg, sim_path_t *paths, char *err,
@@ -498,9 +628,14 @@ int sim_paths_generate(const sim_plan_t *plan, const sim_paths_cfg_t *cfg, sim_p
     }
     if (rc != 0)
         goto out;
-    if (eligible < N) {
-        rc = sim_paths_errf(err, errlen, "the plan has %d reachable room%s (with %g m clearance), fewer than %d robots",
-                  eligible, eligible == 1 ? "" : "s", cfg->clearance_m, N);
+    if (eligible == 0) {
+        rc = sim_paths_errf(err, errlen, "the plan has no reachable room (with %g m clearance)", cfg->clearance_m);
+        goto out;
+    }
+    if (N > eligible) {
+        rc = astar_alloc(&as, (size_t)pl.g.w * (size_t)pl.g.h);
+        if (rc == 0)
+            rc = crowded_tours(plan, cfg, &pl, &as, ri, paths, err, errlen);
         goto out;
     }
 
@@ -575,14 +710,9 @@ int sim_paths_generate(const sim_plan_t *plan, const sim_paths_cfg_t *cfg, sim_p
     }
 
     /* Walk each tour: sweep goals of each room, nearer end first; A* legs between them. */
-    size_t ncell = (size_t)pl.g.w * (size_t)pl.g.h;
-    as.gcost = malloc(ncell * sizeof *as.gcost);
-    as.parent = malloc(ncell * sizeof *as.parent);
-    as.closed = malloc(ncell);
-    if (as.gcost == NULL || as.parent == NULL || as.closed == NULL) {
-        rc = -ENOMEM;
+    rc = astar_alloc(&as, (size_t)pl.g.w * (size_t)pl.g.h);
+    if (rc != 0)
         goto out2;
-    }
     for (int r = 0; r < N && rc == 0; r++) {
         int cap = 0, cur = -1;
         for (int q = 0; q < tour_n[r] && rc == 0; q++) {
@@ -634,7 +764,8 @@ out:
     free(ri);
     free(as.gcost);
     free(as.parent);
-    free(as.closed);
+    free(as.open_at);
+    free(as.closed_at);
     free(as.cells);
     free(as.heap.a);
     free(pl.trav);

@@ -38,7 +38,7 @@ static paths_opts_t paths_defaults(void)
 static const cli_opt_t paths_gen_opts[] = {
     PATHS_PLAN_OPT,
     {.names = "--robots", .meta = "N", CLI_INT(paths_opts_t, robots, 1, SIM_PATHS_MAX_ROBOTS), .required = 1,
-     .help = "robots: one tour each, from N different start rooms"},
+     .help = "robots: one tour each, from N different start rooms; more robots than rooms share them"},
     {.names = "--seed", .meta = "S", CLI_INT(paths_opts_t, seed, 0, INT64_MAX), .required = 1, .help = "seed"},
     {.names = "--out", .meta = "DIR", CLI_STRING(paths_opts_t, out), .required = 1,
      .help = "folder of the tours, DIR/robot_<i>.csv"},
@@ -70,15 +70,19 @@ static void paths_usage(FILE *out)
             "  host_sim paths gen --plan FILE --robots N --seed S --out DIR\n"
             "                     [--clearance M] [--res M] [--sweep M] [--scale S] [--png FILE.png]\n"
             "      plan collision-free coverage tours from N different start rooms and write\n"
-            "      DIR/robot_<i>.csv (header x_m,y_m); prints waypoints, length and start room per\n"
-            "      robot, the clearance kept and the coverage of the free cells (line of sight\n"
-            "      within 1.5 m and 3.5 m); --png draws the ground truth with the tours\n"
+            "      DIR/robot_<i>.csv (header x_m,y_m); with more robots than reachable rooms every\n"
+            "      room starts one and the rooms with the most sweep per robot take the others,\n"
+            "      each robot sweeping its share of its room from a start cell of its own (up to %d\n"
+            "      robots); prints waypoints, length and start room per robot, the clearance kept\n"
+            "      and the coverage of the free cells (line of sight within 1.5 m and 3.5 m);\n"
+            "      --png draws the ground truth with the tours\n"
             "  host_sim paths check --plan FILE [--clearance M] [--scale S] [--png FILE.png] CSV...\n"
             "      validate waypoint files against the plan and print the same figures; exit 1 with\n"
             "      FILE:LINE: reason when a waypoint is not free or a segment comes closer than\n"
             "      --clearance to a wall (LINE: the waypoint the segment ends at)\n"
             "\n"
-            "options of paths gen:\n");
+            "options of paths gen:\n",
+            SIM_PATHS_MAX_ROBOTS);
     cli_opts_help(out, paths_gen_opts, &d);
     fprintf(out, "options of paths check (before the CSV files):\n");
     cli_opts_help(out, paths_check_opts, &d);

@@ -32,7 +32,7 @@ static const cli_opt_t plan_gen_opts[] = {
      .help = "the plan's seed"},
     {.names = "--out", .meta = "FILE", CLI_STRING(plan_opts_t, out), .required = 1, .help = "the SVG written"},
     {.names = "--rooms", .meta = "R", CLI_INT(plan_opts_t, rooms, SIM_PLANGEN_MIN_ROOMS, SIM_PLANGEN_MAX_ROOMS),
-     .help = "rooms besides the corridor"},
+     .help = "rooms besides the corridors (more than 16: wings off a spine)"},
     CLI_OPT_END,
 };
 
@@ -57,13 +57,15 @@ static void plan_usage(FILE *out)
             "      (FILE: reason when the file cannot be read); an opening over no wall is a\n"
             "      FILE:LINE:COL: warning on stderr (the plan still loads)\n"
             "  host_sim plan gen --seed N --out FILE [--rooms R]\n"
-            "      write a procedural floor plan (R rooms besides the corridor, %d..%d)\n"
+            "      write a procedural floor plan (R rooms besides the corridors, %d..%d): one\n"
+            "      corridor with a row of rooms on each side, or, beyond %d rooms, such bands as the\n"
+            "      wings of an office, their corridors joined by a spine corridor\n"
             "  host_sim plan grid FILE --res M --out FILE.png|FILE.pgm [--scale S]\n"
             "      write the ground-truth occupancy raster (M metres per cell): free white,\n"
             "      wall black, outside the building grey\n"
             "\n"
             "options of plan check:\n",
-            SIM_PLANGEN_MIN_ROOMS, SIM_PLANGEN_MAX_ROOMS);
+            SIM_PLANGEN_MIN_ROOMS, SIM_PLANGEN_MAX_ROOMS, SIM_PLANGEN_BAND_ROOMS);
     cli_opts_help(out, plan_check_opts, &d);
     fprintf(out, "options of plan gen:\n");
     cli_opts_help(out, plan_gen_opts, &d);
@@ -146,7 +148,11 @@ static int plan_gen(int argc, char **argv)
         fprintf(stderr, "host_sim plan gen: %s\n", err);
         return 1;
     }
-    printf("wrote %s (seed %lld, %d rooms + corridor)\n", out, seed, rooms);
+    if (rooms <= SIM_PLANGEN_BAND_ROOMS)
+        printf("wrote %s (seed %lld, %d rooms + corridor)\n", out, seed, rooms);
+    else
+        printf("wrote %s (seed %lld, %d rooms in %d wings + their corridors and a spine)\n", out, seed, rooms,
+               (rooms + SIM_PLANGEN_BAND_ROOMS - 1) / SIM_PLANGEN_BAND_ROOMS);
     return 0;
 }
 

@@ -14,7 +14,7 @@
 #include "sim_valset.h"
 #include "sim_world.h"
 
-#define MAX_PATHS 64
+#define MAX_PATHS SIM_PATHS_MAX_ROBOTS /* a whole fleet's tours, as tools/fleet passes them */
 #define CLI_STR__(x) #x
 #define CLI_STR_(x) CLI_STR__(x)
 

@@ -1,5 +1,6 @@
 /* Robot tours on the default plan (distinct start rooms, clearance on every segment,
- * coverage, determinism), the committed CSV files, and CSV validation. */
+ * coverage, determinism), more robots than rooms (rooms shared, distinct starts), the
+ * committed CSV files, and CSV validation. */
 #include <setjmp.h>
 #include <stdarg.h>
 #include <stddef.h>
@@ -114,21 +115,128 @@ static void test_other_fleets(void **state)
         for (int r = 0; r < cfg.n_robots; r++)
             sim_path_free(&p[r]);
     }
-    /* More robots than rooms: a clear error, nothing allocated left behind. */
-    cfg.n_robots = 9;
+    /* More robots than a room has start cells (a coarse grid): a clear error naming the room,
+       nothing allocated left behind. */
+    cfg.n_robots = SIM_PATHS_MAX_ROBOTS;
     cfg.clearance_m = 0.2;
-    sim_path_t q[9];
+    cfg.res_m = 0.2;
+    sim_path_t q[SIM_PATHS_MAX_ROBOTS + 1];
     assert_int_equal(sim_paths_generate(&plan, &cfg, q, err, sizeof err), -EINVAL);
-    assert_non_null(strstr(err, "8 reachable rooms"));
-    for (int r = 0; r < 9; r++)
+    if (strstr(err, "room 3 (Hall) gets ") == NULL || strstr(err, "distinct start cells keep 0.2 m clearance on the "
+                                                                  "0.2 m grid") == NULL)
+        fail_msg("message: %s", err);
+    for (int r = 0; r < SIM_PATHS_MAX_ROBOTS; r++)
         assert_null(q[r].p);
-    /* Doors of 0.8-1.0 m cannot pass a 0.45 m clearance: rooms become unreachable. */
+    cfg.res_m = 0.05;
+    cfg.n_robots = SIM_PATHS_MAX_ROBOTS + 1;
+    assert_int_equal(sim_paths_generate(&plan, &cfg, q, err, sizeof err), -EINVAL);
+    assert_non_null(strstr(err, "out of range 1..1024"));
+    /* Doors of 0.8-1.0 m cannot pass a 0.45 m clearance: the rooms behind them become
+       unreachable, and the 7 robots share the one room left (the living room). */
     cfg.n_robots = 7;
     cfg.clearance_m = 0.45;
-    assert_true(sim_paths_generate(&plan, &cfg, q, err, sizeof err) < 0);
+    assert_int_equal(sim_paths_generate(&plan, &cfg, q, err, sizeof err), 0);
+    for (int r = 0; r < 7; r++) {
+        assert_int_equal(q[r].start_room, 0);
+        for (int i = 0; i < q[r].n; i++)
+            assert_int_equal(sim_plan_room_at(&plan, q[r].p[i].x, q[r].p[i].y), 0);
+        sim_path_free(&q[r]);
+    }
+    /* Nothing keeps 5 m from the walls: no reachable room. */
+    cfg.clearance_m = 5.0;
+    assert_int_equal(sim_paths_generate(&plan, &cfg, q, err, sizeof err), -ENOENT);
+    assert_non_null(strstr(err, "keeps 5 m clearance"));
     cfg.n_robots = 0;
     assert_int_equal(sim_paths_generate(&plan, &cfg, q, err, sizeof err), -EINVAL);
     assert_non_null(strstr(err, "robots 0"));
+}
+
+/* More robots than rooms (8): every room starts at least one robot, robot r < 8 in room r,
+ * the others in the rooms with the most sweep goals per robot; starts are distinct cells kept
+ * clear of the walls and spread apart; together the robots still visit every room and cover
+ * the plan; the same configuration gives the same tours. */
+static void check_crowded(int n, double min_apart)
+{
+    sim_paths_cfg_t cfg;
+    sim_paths_cfg_default(&cfg);
+    cfg.n_robots = n;
+    cfg.seed = 3;
+    sim_path_t *a = calloc((size_t)n, sizeof *a), *b = calloc((size_t)n, sizeof *b);
+    int *per_room = calloc((size_t)plan.n_rooms, sizeof *per_room);
+    assert_true(a != NULL && b != NULL && per_room != NULL);
+    char err[256];
+    if (sim_paths_generate(&plan, &cfg, a, err, sizeof err) != 0)
+        fail_msg("%d robots: %s", n, err);
+    for (int r = 0; r < n; r++) {
+        const sim_vec2_t s0 = a[r].p[0];
+        assert_int_equal(sim_plan_room_at(&plan, s0.x, s0.y), a[r].start_room);
+        if (r < plan.n_rooms)
+            assert_int_equal(a[r].start_room, r);
+        per_room[a[r].start_room]++;
+        for (int q = 0; q < r; q++)
+            if (a[q].start_room == a[r].start_room) {
+                double d = hypot(a[q].p[0].x - s0.x, a[q].p[0].y - s0.y);
+                if (d < min_apart)
+                    fail_msg("%d robots: robots %d and %d start %.3f m apart in room %d", n, q, r, d,
+                             a[r].start_room);
+            }
+    }
+    /* Rooms share the robots by their work: the hall (the largest sweep) has the most. */
+    int most = 0;
+    for (int k = 0; k < plan.n_rooms; k++) {
+        assert_true(per_room[k] >= 1);
+        most = per_room[k] > per_room[most] ? k : most;
+    }
+    assert_string_equal(plan.rooms[most].type, "Hall");
+    check_fleet(a, n, cfg.clearance_m); /* clearance of every segment, every room visited, coverage */
+    cfg.seed = 4; /* the seed plays no part when every room starts a robot */
+    assert_int_equal(sim_paths_generate(&plan, &cfg, b, err, sizeof err), 0);
+    for (int r = 0; r < n; r++) {
+        assert_int_equal(a[r].n, b[r].n);
+        assert_memory_equal(a[r].p, b[r].p, (size_t)a[r].n * sizeof *a[r].p);
+        sim_path_free(&a[r]);
+        sim_path_free(&b[r]);
+    }
+    free(a);
+    free(b);
+    free(per_room);
+}
+
+static void test_more_robots_than_rooms(void **state)
+{
+    (void)state;
+    check_crowded(9, 1.0);
+    check_crowded(64, 0.5);                  /* the 1 m sweep still has a goal per robot */
+    check_crowded(SIM_PATHS_MAX_ROBOTS, 0.05); /* finer lattices: distinct cells */
+}
+
+/* N <= rooms is what it was: the committed tours are `paths gen --robots 7 --seed 1`, byte
+ * for byte. */
+static void test_committed_paths_regenerate(void **state)
+{
+    (void)state;
+    sim_paths_cfg_t cfg;
+    sim_paths_cfg_default(&cfg);
+    sim_path_t a[N_ROBOTS];
+    char err[256], dir[] = "/tmp/test_paths_XXXXXX", file[64], committed[64];
+    assert_int_equal(sim_paths_generate(&plan, &cfg, a, err, sizeof err), 0);
+    assert_non_null(mkdtemp(dir));
+    for (int r = 0; r < N_ROBOTS; r++) {
+        snprintf(file, sizeof file, "%s/robot_%d.csv", dir, r);
+        snprintf(committed, sizeof committed, "host_sim/plans/apartment/robot_%d.csv", r);
+        assert_int_equal(sim_path_write_csv(&a[r], file, err, sizeof err), 0);
+        char x[4096], y[4096];
+        FILE *fx = fopen(file, "rb"), *fy = fopen(committed, "rb");
+        assert_true(fx != NULL && fy != NULL);
+        size_t nx = fread(x, 1, sizeof x, fx), ny = fread(y, 1, sizeof y, fy);
+        fclose(fx);
+        fclose(fy);
+        if (nx != ny || memcmp(x, y, nx) != 0)
+            fail_msg("robot %d: the generated tour differs from %s", r, committed);
+        unlink(file);
+        sim_path_free(&a[r]);
+    }
+    rmdir(dir);
 }
 
 /* The committed tours of the default plan parse, keep clearance and cover the plan. */
@@ -250,6 +358,8 @@ int main(void)
     const struct CMUnitTest tests[] = {
         cmocka_unit_test(test_generate_default_plan),
         cmocka_unit_test(test_other_fleets),
+        cmocka_unit_test(test_more_robots_than_rooms),
+        cmocka_unit_test(test_committed_paths_regenerate),
         cmocka_unit_test(test_committed_paths),
         cmocka_unit_test(test_csv_round_trip),
         cmocka_unit_test(test_csv_validation),

@@ -13,7 +13,9 @@ that prints host_sim's round lines, and dies by SIGKILL at a chosen round unless
     NAME.prev-<date-time> and says so, the new run's robots start once there (a restarted one
     resumes inside the new folder); --extra --resume keeps the folder;
   - bad set-ups refused at once with exit 2 and one line, no traceback: --plan of another plan
-    without --paths, --results that cannot be written, more robots than tours in --paths.
+    without --paths, --results that cannot be written, more robots than tours in --paths;
+  - more robots than the default tours without --paths: `host_sim paths gen` makes them in the
+    run's folder (one line says so) and robot i drives RUN/tours/robot_<i>.csv; up to 1024.
 Every launcher runs under a timeout: a hang is a failure.
 
     python3 tests/tools/test_fleet.py      prints "N passed, M failed", exit 1 on failure
@@ -44,6 +46,17 @@ if args[:1] == ["key"]:  # host_sim key new|check FILE
         os.close(fd)
     sys.exit(0 if os.path.exists(args[2]) else 1)
 opt = lambda name: args[args.index(name) + 1]
+if args[:2] == ["paths", "gen"]:  # host_sim paths gen ... --out DIR: a tour per robot
+    if os.environ.get("FAKE_PATHS_FAIL"):
+        print("host_sim paths gen: plan.svg: " + os.environ["FAKE_PATHS_FAIL"], file=sys.stderr)
+        sys.exit(1)
+    os.makedirs(opt("--out"), exist_ok=True)
+    with open(os.path.join(opt("--out"), "gen.txt"), "w") as f:
+        f.write(" ".join(args) + "\n")
+    for i in range(int(opt("--robots"))):
+        with open(os.path.join(opt("--out"), f"robot_{i}.csv"), "w") as f:
+            f.write("x_m,y_m\n1,1\n2,1\n")
+    sys.exit(0)
 out, me, rounds = opt("--out"), int(opt("--id")), int(opt("--rounds"))
 resume = "--resume" in args
 os.makedirs(out, exist_ok=True)
@@ -65,13 +78,13 @@ sys.exit(0)
 '''
 
 
-def launch(tmp, extra, env_extra, name):
+def launch(tmp, extra, env_extra, name, robots=3):
     fake = os.path.join(tmp, "host_sim")
     with open(fake, "w") as f:
         f.write(f"#!{sys.executable}\n" + FAKE)
     os.chmod(fake, 0o755)
     env = dict(os.environ, **env_extra)
-    cmd = ["/usr/bin/python3", FLEET, "--bin", fake, "--robots", "3", "--rounds", "10", "--results", tmp,
+    cmd = ["/usr/bin/python3", FLEET, "--bin", fake, "--robots", str(robots), "--rounds", "10", "--results", tmp,
            "--name", name, "--force", "--val-poses", "1", "--fleet-id", str(60000 + os.getpid() % 5000)] + extra
     res = subprocess.run(cmd, stdout=subprocess.PIPE, stderr=subprocess.STDOUT, text=True, env=env,
                          timeout=TIMEOUT)
@@ -264,9 +277,46 @@ def unwritable_results_refused():
 def more_robots_than_tours_refused():
     tmp = tempfile.mkdtemp()
     try:
-        out = refused(tmp, ["--robots", "9"])
+        out = refused(tmp, ["--robots", "9", "--paths", os.path.join(ROOT, "host_sim/plans/apartment")])
         check("has 7 tours (robot_0.csv .. robot_6.csv) for --robots 9" in out and
-              "--robots 9 --seed 1 --out NEWDIR" in out and "more robots than the plan has rooms" in out, out)
+              "--robots 9 --seed 1 --out NEWDIR" in out and "share the rooms" in out, out)
+        rc, out, run_dir = launch(tmp, ["--no-report"], {}, "too-many", robots=1025)
+        check(rc == 2 and "--robots must be 1 .. 1024" in out and not os.path.exists(run_dir), f"exit {rc}:\n{out}")
+    finally:
+        shutil.rmtree(tmp, ignore_errors=True)
+
+
+@test
+def more_robots_than_default_tours_made():
+    tmp = tempfile.mkdtemp()
+    try:
+        rc, out, run_dir = launch(tmp, ["--no-report", "--seed", "5"], {}, "nine", robots=9)
+        check(rc == 0, f"exit {rc}:\n{out}")
+        tours = os.path.join(run_dir, "tours")
+        lines = [l for l in out.splitlines() if "making 9" in l]
+        check(len(lines) == 1 and lines[0].startswith("fleet: the default tours cover 7 robots: making 9 with "
+                                                      "`host_sim paths gen --plan ") and
+              f"--robots 9 --seed 5 --out {tours}`" in lines[0], f"no progress line in:\n{out}")
+        with open(os.path.join(tours, "gen.txt")) as f:
+            gen = f.read().split()
+        check(gen[:2] == ["paths", "gen"] and gen[gen.index("--robots") + 1] == "9" and
+              gen[gen.index("--seed") + 1] == "5" and gen[gen.index("--plan") + 1].endswith("apartment.svg"),
+              f"paths gen was run as {gen}")
+        for i in range(9):
+            s = starts(run_dir, i)
+            check(len(s) == 1 and f"--path {tours}/robot_{i}.csv " in s[0] and "--fleet 9 " in s[0],
+                  f"robot {i} was started as {s}")
+        check(run_json(run_dir)["paths"][8].endswith("tours/robot_8.csv"), "run.json names the made tours")
+        # paths gen refuses: the launcher stops with its reason, before any robot starts.
+        why = "room 3 (Hall) gets 200 robots, but only 99 distinct start cells keep 0.2 m clearance"
+        rc, out, run_dir = launch(tmp, ["--no-report"], {"FAKE_PATHS_FAIL": why}, "refused", robots=300)
+        check(rc == 1 and "fleet: cannot make the tours (" in out and why in out and
+              not os.path.exists(os.path.join(run_dir, "robot_0")), f"exit {rc}:\n{out}")
+        # The shipped tours when they are enough: no paths gen.
+        rc, out, run_dir = launch(tmp, ["--no-report"], {}, "seven", robots=7)
+        check(rc == 0 and "making" not in out and not os.path.exists(os.path.join(run_dir, "tours")) and
+              "--path " + os.path.join(ROOT, "host_sim/plans/apartment/robot_6.csv") in starts(run_dir, 6)[0],
+              f"exit {rc}:\n{out}")
     finally:
         shutil.rmtree(tmp, ignore_errors=True)
 
