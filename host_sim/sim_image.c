@@ -112,10 +112,13 @@ int sim_image_run(const sim_plan_t *plan, const sim_path_t *path, const sim_imag
     hc.storage_dir = cfg->storage_dir;
     hc.log_level = cfg->log_level;
     if (cfg->fleet != NULL) {
-        /* Room for two rounds of every peer's chunks, and their requests and completions. */
+        /* Room for four rounds of every peer's chunks, and their requests and completions: the
+           GP core drains the queue only when it runs, and on a host with more robots than cores
+           a robot can stay unscheduled while its peers send two rounds (a slot is taken only when
+           used, so the room costs memory only when a burst needs it). */
         const uint32_t chunks = (gp_fleet_state_bytes(cfg->fleet->encoding) + GP_PSE_MAX_CHUNK_BYTES - 1u) /
                                 GP_PSE_MAX_CHUNK_BYTES;
-        const uint32_t want = 2u * cfg->fleet->n_peers * (chunks + 2u) + 64u;
+        const uint32_t want = 4u * cfg->fleet->n_peers * (chunks + 2u) + 64u;
         hc.net_queue_depth = want > 4096u ? 4096u : want;
     }
     if ((rc = sim_hal_world_host(hw, cfg->robot, hc, &h, err, errlen)) < 0)

@@ -78,7 +78,14 @@ static void buf_reset(gp_pse_buf_t *b, uint32_t round, uint32_t n_chunks, uint64
     b->complete = 0;
     b->got = 0;
     b->progress_us = now_us;
+    b->backoff = 0;
     memset(b->have, 0, n_chunks);
+}
+
+/* The wait before asking again: one resend period, doubled per request that brought nothing. */
+static uint64_t ask_after(const gp_pse_t *p, uint32_t backoff)
+{
+    return p->cfg.resend_after_us << (backoff < GP_PSE_BACKOFF_MAX ? backoff : GP_PSE_BACKOFF_MAX);
 }
 
 /* ---- the nearest peers of a round and their buffers ----------------------------------------- */
@@ -288,6 +295,7 @@ int gp_pse_begin_round(gp_pse_t *p, uint32_t round, const uint8_t *state, double
         if (i == p->cfg.self)
             continue;
         gp_pse_peer_t *q = &p->peer[i];
+        q->pos_backoff = 0;
         /* A peer that left comes back only here, at a round boundary, and only when it was
            heard lately in the round before this one or later: it is on its way to this round.
            So a crashed peer costs one timeout, not one per round, and a peer that keeps
@@ -346,11 +354,14 @@ static int note_sender(gp_pse_t *p, uint32_t sender, uint32_t incarnation, uint3
     return 0;
 }
 
-/* The next poll asks for what b misses (unless it asked within a quarter resend period). */
+/* The next poll asks for what b misses, unless it had some of it within a quarter resend
+   period or asked already: a request that is out waits for its answer (or its backoff), and
+   the signals that call this (a gap, a peer's RoundComplete, repeated every quarter period)
+   must not turn into a request each. */
 static void ask_soon(const gp_pse_t *p, gp_pse_buf_t *b, uint64_t now_us)
 {
     const uint64_t quarter = p->cfg.resend_after_us / 4u;
-    if (now_us - b->progress_us >= quarter && now_us >= p->cfg.resend_after_us)
+    if (b->backoff == 0 && now_us - b->progress_us >= quarter && now_us >= p->cfg.resend_after_us)
         b->progress_us = now_us - p->cfg.resend_after_us;
 }
 
@@ -446,6 +457,7 @@ int gp_pse_on_chunk(gp_pse_t *p, const gp_pse_chunk_t *c, uint64_t now_us)
     b->got++;
     b->crc32 = c->crc32;
     b->progress_us = now_us;
+    b->backoff = 0;
     p->stats.bytes_received += c->n_bytes;
     /* Chunks go out in order: a gap below this one is most likely a loss, so the next poll
        asks for it at once instead of a resend period later (a fast retransmit). */
@@ -550,6 +562,8 @@ static void ask_again(gp_pse_t *p, uint32_t i, gp_pse_buf_t *b, uint64_t now_us)
     p->stats.requests_sent++;
     p->stats.chunks_requested += r.n;
     b->progress_us = now_us;
+    if (b->backoff < GP_PSE_BACKOFF_MAX)
+        b->backoff++;
 }
 
 static void send_beacon(gp_pse_t *p, uint32_t round, uint64_t now_us)
@@ -620,15 +634,16 @@ void gp_pse_poll(gp_pse_t *p, uint64_t now_us)
         if (!q->has_round || q->at_round < p->round)
             continue;
         gp_pse_buf_t *b = buf_of(p, i, p->round);
-        if (b != NULL && !b->complete && now_us - b->progress_us >= p->cfg.resend_after_us) {
+        if (b != NULL && !b->complete && now_us - b->progress_us >= ask_after(p, b->backoff)) {
             ask_again(p, i, b, now_us);
         } else if (!pos_known(q, p->round) && now_us - p->round_start_us >= p->cfg.resend_after_us &&
-                   now_us - q->asked_us >= p->cfg.resend_after_us) {
+                   (q->pos_backoff == 0 || now_us - q->asked_us >= ask_after(p, q->pos_backoff))) {
             const gp_pse_request_t r = {p->cfg.self, i, p->round, 1, {0}, p->cfg.incarnation};
             send_msg(p, GP_PSE_REQUEST, &r, now_us);
             p->stats.requests_sent++;
             p->stats.chunks_requested++;
             q->asked_us = now_us;
+            q->pos_backoff++;
         }
     }
     if (!p->ready_noted && gp_pse_states_ready(p)) {

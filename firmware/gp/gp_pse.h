@@ -168,9 +168,16 @@ typedef struct gp_pse_buf {
     uint32_t got;
     uint32_t crc32;
     uint64_t progress_us;       /* last chunk or request: when to ask again */
+    uint32_t backoff;           /* requests since its last chunk (the wait doubles, see below) */
     uint8_t have[GP_PSE_MAX_CHUNKS]; /* GP_PSE_HAVE, GP_PSE_ASKED (missing, asked for) or 0 */
     _Alignas(64) uint8_t bytes[GP_PSE_MAX_STATE_BYTES];
 } gp_pse_buf_t;
+
+/* A request that brought nothing doubles the wait before the next one to the same peer, up to
+ * 2^GP_PSE_BACKOFF_MAX resend periods (400 ms with the defaults, far inside a peer timeout):
+ * a peer or a network too busy to answer is not buried under more requests, whose answers
+ * every robot of the fleet receives. A chunk of the state starts over at one period. */
+#define GP_PSE_BACKOFF_MAX 1u
 
 #define GP_PSE_HAVE 1u
 #define GP_PSE_ASKED 2u
@@ -181,6 +188,7 @@ typedef struct gp_pse_buf {
 typedef struct gp_pse_peer {
     uint64_t heard_us;          /* last progress from it (see the liveness rule above) */
     uint64_t asked_us;          /* last request for its position (its chunk 0) */
+    uint32_t pos_backoff;       /* such requests this round (the wait doubles as for a state) */
     double x_m[2], y_m[2];      /* its position of round pos_round[parity] (with has_pos) */
     uint32_t pos_round[2];
     uint32_t incarnation;       /* newest seen (with has_inc) */

@@ -466,6 +466,7 @@ static int run_image(job_t *j)
         f->incarnation = j->incarnation;
         f->chunk_bytes = (uint32_t)o->chunk_bytes;
         f->peer_timeout_us = (uint32_t)llround(o->peer_timeout * 1e6);
+        f->resend_after_us = (uint32_t)llround(o->resend_ms * 1e3);
         f->join_timeout_us = (uint32_t)llround(o->join_timeout * 1e6);
         f->positions_from_tour = o->offline;
         f->tour = j->tour;

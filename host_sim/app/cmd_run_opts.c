@@ -29,6 +29,7 @@ static void run_defaults(run_opts_t *o)
     o->scale = SIM_PLAN_DEFAULT_SCALE;
     o->radius = 6.0;
     o->peer_timeout = 10.0;
+    o->resend_ms = 50.0;
     o->join_timeout = 120.0;
     o->net = "memq://";
     o->pool = AI_POOL_CDR;
@@ -101,6 +102,9 @@ static const cli_opt_t run_opts[] = {
      .help = "fleet: a peer silent S seconds leaves the round"},
     {.names = "--join-timeout", .meta = "S", CLI_DOUBLE(run_opts_t, join_timeout, 0.1, 3600.0),
      .help = "fleet: the same for a peer never heard yet"},
+    {.names = "--resend-ms", .meta = "MS", CLI_DOUBLE(run_opts_t, resend_ms, 1.0, 60000.0),
+     .help = "fleet: ask again for missing chunks after MS without progress (every live robot speaks at least "
+             "this often); more on a host with many more robots than cores, where a robot waits its turn"},
     {.names = "--chunk-bytes", .meta = "B", CLI_INT(run_opts_t, chunk_bytes, GP_PSE_MIN_CHUNK_BYTES, GP_PSE_MAX_CHUNK_BYTES),
      .def = "the most, 60 KB or less on a small MTU", .help = "fleet: state bytes per datagram"},
     {.names = "--key-file", .meta = "F", CLI_STRING(run_opts_t, key_file),
@@ -287,6 +291,11 @@ int run_parse(int argc, char **argv, run_opts_t *o, char *url)
         }
         if (o->join_timeout < o->peer_timeout)
             o->join_timeout = o->peer_timeout;
+        if (o->peer_timeout * 1e3 <= 2.0 * o->resend_ms) {
+            fprintf(stderr, "host_sim run: --peer-timeout %g s must exceed twice --resend-ms %g: a live robot "
+                            "speaks once per resend period\n", o->peer_timeout, o->resend_ms);
+            return -1;
+        }
     }
     if ((o->transport == RUN_TRANSPORT_ZMQ || o->peers != NULL) && o->fleet < 2) {
         fprintf(stderr, "host_sim run: --transport zmq and --peers are for a fleet (--fleet N, N >= 2)\n");

@@ -19,7 +19,9 @@
  *   and with loss alone (drops, duplicates, delays, corruption; no pause, crash or
  *   partition): no timeout fired and every final model equals the lossless schedule's.
  * A failing schedule prints its seed; FLEETSIM_PSE_SIM_SEED=S replays exactly that one, and
- * FLEETSIM_PSE_SIM_SCHEDULES=N runs N schedules (default 400; `make test-faults` runs more). */
+ * FLEETSIM_PSE_SIM_SCHEDULES=N runs N schedules (default 400; `make test-faults` runs more);
+ * FLEETSIM_PSE_SIM_TRACE=1 prints each robot's rounds, FLEETSIM_PSE_SIM_DEBUG=1 its neighbour list
+ * when that differs from the reference's. */
 #include <math.h>
 #include <setjmp.h>
 #include <stdarg.h>
@@ -310,6 +312,18 @@ static void check_nearest(const robot_t *r, const uint32_t *ids, uint32_t n)
     int same = n == g.deg[r->id];
     for (uint32_t j = 0; j < n && same; j++)
         same = ids[j] == g.nb[r->id][j];
+    if (!same && getenv("FLEETSIM_PSE_SIM_DEBUG")) {
+        const gp_pse_nearest_t *nr = &r->pse.near[r->round & 1u];
+        fprintf(stderr, "near round %u valid %d n %u:", nr->round, nr->valid, nr->n);
+        for (uint32_t m = 0; m < nr->n; m++)
+            fprintf(stderr, " %u(buf %u)", nr->id[m], r->pse.peer[nr->id[m]].buf[r->round & 1u]);
+        fprintf(stderr, "\n");
+        for (int i = 0; i < cur->n; i++)
+            fprintf(stderr, "peer %d: has_pos %d pos_round %u absent %d heard %d at %llu; now %llu start %llu timeouts %llu\n", i, r->pse.peer[i].has_pos[r->round & 1u],
+                    r->pse.peer[i].pos_round[r->round & 1u], r->pse.peer[i].absent, r->pse.peer[i].heard,
+                    (unsigned long long)r->pse.peer[i].heard_us, (unsigned long long)now_us,
+                    (unsigned long long)r->pse.round_start_us, (unsigned long long)r->pse.stats.timeouts);
+    }
     if (!same)
         fail_msg("schedule %llu: robot %d of %d took %u neighbour states in round %u, the reference %u (or others) "
                  "(replay: FLEETSIM_PSE_SIM_SEED=%llu)", (unsigned long long)cur->seed, r->id, cur->n, n, r->round,
