@@ -139,4 +139,24 @@ static inline void ai_fm_sincosf(float x, float *s, float *c)
     *c = cv;
 }
 
+/* The sine of ai_fm_sincosf alone, for the int8 inference's SIREN layer (no cosine needed
+ * there): the same statements, so the same value as ai_fm_sincosf's *s under the same
+ * contraction. |x| < 8192. */
+static inline float ai_fm_sinf(float x)
+{
+    float ax = x < 0.0f ? -x : x;
+    int32_t j = (int32_t)(ax * 1.27323954473516f);
+    j = (j + 1) & ~1;
+    float y = (float)j;
+    float r = ((ax - y * 0.78515625f) - y * 2.4187564849853515625e-4f) - y * 3.77489497744594108e-8f;
+    float z = r * r;
+    float ps = ((-1.9515295891E-4f * z + 8.3321608736E-3f) * z - 1.6666654611E-1f) * z * r + r;
+    float pc = ((2.443315711809948E-5f * z - 1.388731625493765E-3f) * z + 4.166664568298827E-2f) * z * z
+               - 0.5f * z + 1.0f;
+    int32_t q = (j >> 1) & 3;
+    float sv = (q & 1) ? pc : ps;
+    sv = (q & 2) ? -sv : sv;
+    return x < 0.0f ? -sv : sv;
+}
+
 #endif /* AI_FASTMATH_H */

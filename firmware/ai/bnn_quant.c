@@ -1,6 +1,7 @@
 /* Per-row symmetric int8 quantisation and an int8 x int8 -> int32 inference path. */
 #include "ai/bnn_quant.h"
 
+#include "ai/ai_fastmath.h"
 #include "ai/q8_gemm.h"
 
 #include <errno.h>
@@ -177,9 +178,9 @@ typedef struct qtensor {
 #endif
 _Static_assert(QCH_ == Q8_PAD_POINTS(BNN_QUANT_CHUNK), "bnn_quant.h and q8_gemm.h disagree");
 _Static_assert(BNN_QUANT_CHUNK >= 1u, "BNN_QUANT_CHUNK must be >= 1");
-/* the arrays of bnn_quant_forward_mean (A, C, wsum, a, sa, sa_next), relu_requant (amax, inv,
- * bq, bt) and quantise_point (m, q), and 1 KB for the rest */
-_Static_assert(QQ_ * 4u * QCH_ + 4u * (QW_ * QCH_ + 4u * QCH_ + QWSUM_ + 3u * QW_) + QQ_ * 4u +
+/* the arrays of bnn_quant_forward_mean (A, C, wsum, a, wx, wy, bq0, sa, sa_next), relu_requant
+ * (amax, inv, bq, bt) and quantise_point (m, q), and 1 KB for the rest */
+_Static_assert(QQ_ * 4u * QCH_ + 4u * (QW_ * QCH_ + 4u * QCH_ + QWSUM_ + 6u * QW_) + QQ_ * 4u +
                        64u + 1024u <=
                    BNN_QUANT_STACK_BYTES,
                "BNN_QUANT_STACK_BYTES understates the stack of bnn_quant_forward_mean");
@@ -355,6 +356,13 @@ int bnn_quant_forward_mean(const bnn_config_t *cfg, bnn_group_t g, const uint8_t
     /* Every byte a kernel may read is initialised (padding points, the last quad's tail). */
     memset(A, 0, sizeof A);
     const float sb0 = getf(Q[1].scales);
+    float wx[QW_], wy[QW_], bq0[QW_]; /* the SIREN layer's s * q of W0 and the q of b0 */
+    for (size_t j = 0; j < S; j++) {
+        const float s = getf(Q[0].scales + 4 * j);
+        wx[j] = s * (float)Q[0].q[2 * j];
+        wy[j] = s * (float)Q[0].q[2 * j + 1];
+        bq0[j] = (float)Q[1].q[j];
+    }
     /* the output layer's bias: sb * bq, apart (see affine) */
     const float sbo = getf(Q[3 + 2 * L].scales), bqo = (float)Q[3 + 2 * L].q[0], bto = sbo * bqo;
     for (size_t i0 = 0; i0 < n;) {
@@ -366,15 +374,12 @@ int bnn_quant_forward_mean(const bnn_config_t *cfg, bnn_group_t g, const uint8_t
             return -EINVAL;
         for (size_t i = 0; i < np; i++) {
             const float x = xy[2 * (i0 + i)], y = xy[2 * (i0 + i) + 1];
-            /* the statement of the per-point path, in a loop of its own so that it vectorises
-             * (the same operations: the compilers contract it the same way, as tested) */
-            for (size_t j = 0; j < S; j++) {
-                const float s = getf(Q[0].scales + 4 * j);
-                a[j] = s * (float)Q[0].q[2 * j] * x + s * (float)Q[0].q[2 * j + 1] * y +
-                       sb0 * (float)Q[1].q[j];
-            }
+            /* the statement of the per-point path (s * qx * x + s * qy * y + sb * qb, the
+             * products s * q taken once above: the same values), and the fp32 path's sine
+             * (ai_fm_sinf), which vectorises where libm's sinf was a call per element: that
+             * call was most of the int8 pass */
             for (size_t j = 0; j < S; j++)
-                a[j] = sinf(w0 * a[j]);
+                a[j] = ai_fm_sinf(w0 * (wx[j] * x + wy[j] * y + sb0 * bq0[j]));
             sa[i] = quantise_point(a, S, A, i);
         }
         size_t in = S;

@@ -392,6 +392,25 @@ int main(void)
 
 #else /* Q8_ORACLE: the per-point path, included twice by the program above --------------- */
 
+/* ai_fm_sinf (ai/ai_fastmath.h), the sine of the SIREN layer, copied here so that it is
+ * compiled with the oracle's contraction (the header's copy would take the file's). */
+static float Q8_ORACLE(sin)(float x)
+{
+    float ax = x < 0.0f ? -x : x;
+    int32_t j = (int32_t)(ax * 1.27323954473516f);
+    j = (j + 1) & ~1;
+    float y = (float)j;
+    float r = ((ax - y * 0.78515625f) - y * 2.4187564849853515625e-4f) - y * 3.77489497744594108e-8f;
+    float z = r * r;
+    float ps = ((-1.9515295891E-4f * z + 8.3321608736E-3f) * z - 1.6666654611E-1f) * z * r + r;
+    float pc = ((2.443315711809948E-5f * z - 1.388731625493765E-3f) * z + 4.166664568298827E-2f) * z * z
+               - 0.5f * z + 1.0f;
+    int32_t q = (j >> 1) & 3;
+    float sv = (q & 1) ? pc : ps;
+    sv = (q & 2) ? -sv : sv;
+    return x < 0.0f ? -sv : sv;
+}
+
 static void Q8_ORACLE(int8_layer)(const qtensor_t *W, const qtensor_t *b, const float *a,
                                    size_t in, float *y)
 {
@@ -448,7 +467,7 @@ static int Q8_ORACLE(oracle_forward)(const bnn_config_t *cfg, const uint8_t *pac
             const float s = getf(Q[0].scales + 4 * j);
             const float z = s * (float)Q[0].q[2 * j] * x + s * (float)Q[0].q[2 * j + 1] * y +
                             sb0 * (float)Q[1].q[j];
-            a[j] = sinf(cfg->w0 * z);
+            a[j] = Q8_ORACLE(sin)(cfg->w0 * z);
         }
         size_t in = S;
         for (size_t l = 0; l < L; l++) {
