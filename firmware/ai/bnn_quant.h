@@ -64,8 +64,8 @@
 #define BNN_QUANT_WMAX_ (BNN_SIREN_MAX > BNN_HIDDEN_MAX ? BNN_SIREN_MAX : BNN_HIDDEN_MAX)
 /* Largest stack of one bnn_quant_forward_mean call (its buffers, with margin for the rest). */
 #define BNN_QUANT_STACK_BYTES                                                                  \
-    (BNN_QUANT_CHUNK_PADDED * (5u * BNN_QUANT_WMAX_ + 19u) +                                   \
-     4u * (BNN_LAYERS_MAX + 8u) * BNN_QUANT_WMAX_ + 1024u)
+    (BNN_QUANT_CHUNK_PADDED * (9u * BNN_QUANT_WMAX_ + 24u) +                                   \
+     4u * (BNN_LAYERS_MAX + 9u) * BNN_QUANT_WMAX_ + 1088u)
 
 /* Packed bytes of group g of this model. */
 size_t bnn_quant_packed_size(const bnn_model_t *m, bnn_group_t g);

@@ -392,23 +392,24 @@ int main(void)
 
 #else /* Q8_ORACLE: the per-point path, included twice by the program above --------------- */
 
-/* ai_fm_sinf (ai/ai_fastmath.h), the sine of the SIREN layer, copied here so that it is
- * compiled with the oracle's contraction (the header's copy would take the file's). */
+/* ai_fm_sinf (ai/ai_fastmath.h), the sine of the SIREN layer, copied here (with plain
+ * selects: the same values) so that it is compiled with the oracle's contraction (the
+ * header's copy would take the file's). */
 static float Q8_ORACLE(sin)(float x)
 {
-    float ax = x < 0.0f ? -x : x;
-    int32_t j = (int32_t)(ax * 1.27323954473516f);
-    j = (j + 1) & ~1;
-    float y = (float)j;
-    float r = ((ax - y * 0.78515625f) - y * 2.4187564849853515625e-4f) - y * 3.77489497744594108e-8f;
-    float z = r * r;
-    float ps = ((-1.9515295891E-4f * z + 8.3321608736E-3f) * z - 1.6666654611E-1f) * z * r + r;
-    float pc = ((2.443315711809948E-5f * z - 1.388731625493765E-3f) * z + 4.166664568298827E-2f) * z * z
-               - 0.5f * z + 1.0f;
-    int32_t q = (j >> 1) & 3;
-    float sv = (q & 1) ? pc : ps;
-    sv = (q & 2) ? -sv : sv;
-    return x < 0.0f ? -sv : sv;
+    const float ax = x < 0.0f ? -x : x;
+    const int32_t k = ((int32_t)(ax * 0.636619772367581343076f) + 1) >> 1;
+    const float kf = (float)k;
+    const float r = ((ax - kf * 3.140625f) - kf * 9.67502593994140625e-4f) -
+                    kf * 1.509957990978376432e-7f;
+    const float z = r * r;
+    float u = 2.6083159809786593541503e-06f;
+    u = u * z + -0.0001981069071916863322258f;
+    u = u * z + 0.00833307858556509017944336f;
+    u = u * z + -0.166666597127914428710938f;
+    const float s = z * (u * r) + r;
+    const float sk = (k & 1) ? -s : s;
+    return x < 0.0f ? -sk : sk;
 }
 
 static void Q8_ORACLE(int8_layer)(const qtensor_t *W, const qtensor_t *b, const float *a,
@@ -458,17 +459,21 @@ static int Q8_ORACLE(oracle_forward)(const bnn_config_t *cfg, const uint8_t *pac
         p += 4 * R + R * C;
     }
     float a[WMAX], b[WMAX];
+    /* the SIREN layer's products s q, each one float (rounded once, fused into nothing) */
+    float sx[WMAX], sy[WMAX], bb[WMAX];
     const float sb0 = getf(Q[1].scales);
+    for (size_t j = 0; j < S; j++) {
+        const float s = getf(Q[0].scales + 4 * j);
+        sx[j] = s * (float)Q[0].q[2 * j];
+        sy[j] = s * (float)Q[0].q[2 * j + 1];
+        bb[j] = sb0 * (float)Q[1].q[j];
+    }
     for (size_t i = 0; i < n; i++) {
         const float x = xy[2 * i], y = xy[2 * i + 1];
         if (!isfinite(x) || !isfinite(y))
             return -EINVAL;
-        for (size_t j = 0; j < S; j++) {
-            const float s = getf(Q[0].scales + 4 * j);
-            const float z = s * (float)Q[0].q[2 * j] * x + s * (float)Q[0].q[2 * j + 1] * y +
-                            sb0 * (float)Q[1].q[j];
-            a[j] = Q8_ORACLE(sin)(cfg->w0 * z);
-        }
+        for (size_t j = 0; j < S; j++)
+            a[j] = Q8_ORACLE(sin)(cfg->w0 * (sx[j] * x + (sy[j] * y + bb[j])));
         size_t in = S;
         for (size_t l = 0; l < L; l++) {
             Q8_ORACLE(int8_layer)(&Q[2 + 2 * l], &Q[3 + 2 * l], a, in, b);
