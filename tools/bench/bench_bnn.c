@@ -445,7 +445,7 @@ int main(int argc, char **argv)
         }
     }
 
-    bench_mean_pass(P, 10);
+    bench_mean_pass(P, 30);
     printf("BENCH bnn_arena_bytes_%s %zu bytes\n", P, bnn_get_buffer_size());
     printf("BENCH bnn_params_%s %zu params\n", P, bnn_n_params(&model));
     return 0;
