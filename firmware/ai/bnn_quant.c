@@ -279,6 +279,18 @@ static inline void requant_rows(const float *Y, size_t out, const float *amax, f
 #undef Q8_RQ_
 }
 
+/* The chunk's passes in a build for an older baseline (ARCH=portable: x86-64-v2) also as an
+ * AVX2 clone, chosen at load time like AI_WIDE's (ai/ai_fastmath.h), 8 points per vector
+ * instead of 4: measured 1.0x fp32 for `small` without. AI_WIDE's clones would not do: they
+ * have FMA, so the compilers would contract there and not in the baseline, and the logits
+ * would depend on the CPU; "avx2" has no FMA, so every clone rounds alike. */
+#if defined(__x86_64__) && defined(__linux__) && !defined(__AVX2__) &&                           \
+    (defined(__GNUC__) || defined(__clang__)) && !defined(AI_TSAN_) && !defined(Q8_NO_SIMD)
+#define Q8_WIDE __attribute__((target_clones("avx2", "default")))
+#else
+#define Q8_WIDE
+#endif
+
 /* The SIREN layer of the chunk's points (xs, ys: QCH_ of them, padding points at 0) into Y,
  * quantised into A; sa: the points' scales. Per element the statement of the per-point path,
  * z = (s q_x) x + ((s q_y) y + s_b q_b), each product in parentheses a float taken once per
@@ -286,7 +298,7 @@ static inline void requant_rows(const float *Y, size_t out, const float *amax, f
  * the per-point one, fma(sx, x, fma(sy, y, bb)) with FMA, as tested), then ai_fm_sinf (libm's
  * sinf, one call per element, was most of the int8 pass). Rows outer, points inner: the
  * maxima per point are vector maxima, no reduction across lanes. */
-static void siren_chunk(const float *xs, const float *ys, const float *sx, const float *sy,
+Q8_WIDE static void siren_chunk(const float *xs, const float *ys, const float *sx, const float *sy,
                         const float *bb, float w0, size_t S, float *Y, float *sa, int8_t *A)
 {
     float amax[QCH_];
@@ -306,7 +318,7 @@ static void siren_chunk(const float *xs, const float *ys, const float *sx, const
 
 /* A hidden layer's outputs y(p, j) = relu(sa[p] * scale_w[j] * C[j, p] + b_j) into Y, then
  * quantised into A as the next layer's input (sa_next: the points' new scales). */
-static void relu_layer(const qtensor_t *W, const qtensor_t *b, const int32_t *C, size_t out,
+Q8_WIDE static void relu_layer(const qtensor_t *W, const qtensor_t *b, const int32_t *C, size_t out,
                        const float *sa, float *sa_next, float *Y, int8_t *A)
 {
     float amax[QCH_], bq[QW_], bt[QW_], sw[QW_];
