@@ -139,4 +139,29 @@ static inline void ai_fm_sincosf(float x, float *s, float *c)
     *c = cv;
 }
 
+/* sin x alone, for the int8 inference's SIREN layer (no cosine is needed there): reduced by
+ * the nearest multiple k of pi (Cody-Waite, pi in three parts: Cephes' pi/4 split times 4, so
+ * k * 3.140625 is exact for |k| < 2^16), r in [-pi/2, pi/2], one odd polynomial of degree 9
+ * (SLEEF's sinf_u35 coefficients), the sign of (-1)^k: 16 operations where the two
+ * polynomials of ai_fm_sincosf take 28. Max abs error 1.3e-7 over |x| < 8192 (ai_fm_sincosf:
+ * 7.7e-8), with or without FMA contraction; the int8 path quantises it to 1/127 of its max.
+ * Selects are bit selects (ai_fm_sel): with `c ? a : b` GCC sank the arms' arithmetic into
+ * branches and vectorised it as masked operations under -ftrapping-math. */
+static inline float ai_fm_sinf(float x)
+{
+    const float ax = ai_fm_sel(x < 0.0f, -x, x);
+    const int32_t k = ((int32_t)(ax * 0.636619772367581343076f) + 1) >> 1;
+    const float kf = (float)k;
+    const float r = ((ax - kf * 3.140625f) - kf * 9.67502593994140625e-4f) -
+                    kf * 1.509957990978376432e-7f;
+    const float z = r * r;
+    float u = 2.6083159809786593541503e-06f;
+    u = u * z + -0.0001981069071916863322258f;
+    u = u * z + 0.00833307858556509017944336f;
+    u = u * z + -0.166666597127914428710938f;
+    const float s = z * (u * r) + r;
+    const float sk = ai_fm_sel(k & 1, -s, s);
+    return ai_fm_sel(x < 0.0f, -sk, sk);
+}
+
 #endif /* AI_FASTMATH_H */

@@ -1,6 +1,7 @@
 /* Per-row symmetric int8 quantisation and an int8 x int8 -> int32 inference path. */
 #include "ai/bnn_quant.h"
 
+#include "ai/ai_fastmath.h"
 #include "ai/q8_gemm.h"
 
 #include <errno.h>
@@ -152,13 +153,19 @@ int bnn_quant_unpack_theta(const bnn_config_t *cfg, bnn_group_t g, const uint8_t
 }
 
 /* ---- int8 inference ----------------------------------------------------------------------
- * Chunks of up to BNN_QUANT_CHUNK points go through each layer together: the SIREN layer per
- * point (fp32, then the point's activations are quantised into column p of A), then per layer
- * one int8 GEMM C = A x W^T (ai/q8_gemm.h: the kernel chosen at run time, or the pure-C
- * reference), then the scaling, bias and ReLU per element and the next layer's per-point
- * quantisation back into A. Every float operation is the one the per-point path did, on the
- * same operands and in the same order (the int32 sums are exact whatever the kernel), so the
- * logits are bit-identical to it and across kernels. */
+ * Chunks of up to BNN_QUANT_CHUNK points go through each layer together: the SIREN layer row
+ * by row over the chunk's points (fp32, into Y, then each point's activations are quantised
+ * into column p of A), then per layer one int8 GEMM C = A x W^T (ai/q8_gemm.h: the kernel
+ * chosen at run time, or the pure-C reference), then the scaling, bias and ReLU per element
+ * into Y and the next layer's per-point quantisation back into A. Every loop over the chunk
+ * runs over all its QCH_ columns (whole vectors of points), padding points included. Every
+ * float operation is the one the per-point path does, on the same operands and in the same
+ * order (the int32 sums are exact whatever the kernel), so the logits are bit-identical to it
+ * and across kernels.
+ * Where the time went (perf, Zen 4): before, libm's sinf (one call per SIREN element) was
+ * ~55-70 % of the pass; the per-point maxima's scalar reductions and the byte-wise scatter of
+ * quads most of the rest outside the GEMM. Now (small) the GEMM ~37 %, the sine ~20 %, the
+ * requantisation passes the rest. */
 
 /* Where each tensor of the packed stream starts (scales pointer) for the inference path. */
 typedef struct qtensor {
@@ -177,10 +184,10 @@ typedef struct qtensor {
 #endif
 _Static_assert(QCH_ == Q8_PAD_POINTS(BNN_QUANT_CHUNK), "bnn_quant.h and q8_gemm.h disagree");
 _Static_assert(BNN_QUANT_CHUNK >= 1u, "BNN_QUANT_CHUNK must be >= 1");
-/* the arrays of bnn_quant_forward_mean (A, C, wsum, a, sa, sa_next), relu_requant (amax, inv,
- * bq, bt) and quantise_point (m, q), and 1 KB for the rest */
-_Static_assert(QQ_ * 4u * QCH_ + 4u * (QW_ * QCH_ + 4u * QCH_ + QWSUM_ + 3u * QW_) + QQ_ * 4u +
-                       64u + 1024u <=
+/* the arrays of bnn_quant_forward_mean (A, C, Y, wsum, a, wx, wy, bq0, sa, sa_next),
+ * relu_requant (amax, inv, word, bq, bt, sw) and quantise_point (m, q), and 1 KB for the rest */
+_Static_assert(QQ_ * 4u * QCH_ + 4u * (2u * QW_ * QCH_ + 5u * QCH_ + QWSUM_ + 7u * QW_) +
+                       QQ_ * 4u + 64u + 1024u <=
                    BNN_QUANT_STACK_BYTES,
                "BNN_QUANT_STACK_BYTES understates the stack of bnn_quant_forward_mean");
 
@@ -197,29 +204,12 @@ static inline int8_t round_q8(float v)
     return (int8_t)(i + (d >= 0.5f) - (d <= -0.5f));
 }
 
-/* Quantise one point's activations a[0..in) into column p of A (symmetric, per point: scale
- * max |a| / 127); returns the scale. The maximum is taken over 16 running maxima so that it
- * vectorises: the same value, as max is exact and `x > m ? x : m` skips a NaN in any order. */
-static float quantise_point(const float *a, size_t in, int8_t *A, size_t p)
+/* round_q8 of v >= 0 (a ReLU output times a positive scale): the same value, d >= 0. */
+static inline int8_t round_q8_pos(float v)
 {
-    float m[16] = {0.0f}, amax = 0.0f;
-    size_t k = 0;
-    for (; k + 16 <= in; k += 16)
-        for (size_t l = 0; l < 16; l++)
-            m[l] = fabsf(a[k + l]) > m[l] ? fabsf(a[k + l]) : m[l];
-    for (; k < in; k++)
-        amax = fabsf(a[k]) > amax ? fabsf(a[k]) : amax;
-    for (size_t l = 0; l < 16; l++)
-        amax = m[l] > amax ? m[l] : amax;
-    const float sa = amax / 127.0f, inv = sa > 0.0f ? 1.0f / sa : 0.0f;
-    int8_t q[QQ_ * 4u];
-    for (k = 0; k < in; k++)
-        q[k] = round_q8(a[k] * inv);
-    for (k = 0; k + 4 <= in; k += 4) /* quad by quad into the column */
-        memcpy(A + k * QCH_ + 4 * p, q + k, 4);
-    if (k < in) /* the last, partial quad */
-        memcpy(A + k * QCH_ + 4 * p, q + k, in - k);
-    return sa;
+    const int32_t i = (int32_t)v;
+    const float d = v - (float)i;
+    return (int8_t)(i + (d >= 0.5f));
 }
 
 /* y = scale_a * scale_w * acc + scale_b * bq, the output of a layer before the ReLU, contracted
@@ -248,61 +238,110 @@ static inline float affine(float t, float sb, float bq, float bt)
 #endif
 }
 
-/* The hidden layer's outputs y(p, j) = sa[p] * scale_w[j] * C[j, p] + b_j, ReLU, quantised per
- * point into A as the next layer's input: sa_next[p] = max_j relu(y) / 127. The floats are not
- * kept: the second pass computes them again, the same operations on the same operands. */
-static void relu_requant(const qtensor_t *W, const qtensor_t *b, const int32_t *C, size_t out,
-                         size_t np, const float *sa, float *sa_next, int8_t *A)
+/* Rows Y[j * QCH_ + p] (j < out) of a layer's outputs quantised per point into A as the next
+ * layer's input: sa[p] = amax[p] / 127 (amax: max_j |Y(j, p)|), q = round(Y / sa); each quad
+ * of rows of a point is packed into one 32-bit word of A (the byte of row j0 + r at bit 8r,
+ * little-endian: A's layout), so all of it runs on whole vectors of points, the QCH_ columns
+ * of the chunk (the padding points' values are finite: the kernels never read more of A than
+ * its padding, and those columns' logits are not written). nonneg: Y >= 0 (ReLU outputs). */
+static inline void requant_rows(const float *Y, size_t out, const float *amax, float *sa,
+                                int8_t *A, const int nonneg)
 {
-    float amax[QCH_], inv[QCH_], bq[QW_], bt[QW_];
+    float inv[QCH_];
+    for (size_t p = 0; p < QCH_; p++) {
+        sa[p] = amax[p] / 127.0f;
+        inv[p] = sa[p] > 0.0f ? 1.0f / sa[p] : 0.0f;
+    }
+#define Q8_RQ_(v) ((uint32_t)(uint8_t)(nonneg ? round_q8_pos(v) : round_q8(v)))
+    for (size_t j0 = 0; j0 < out; j0 += 4) {
+        uint32_t word[QCH_];
+        const float *y = Y + j0 * QCH_;
+        if (j0 + 4 <= out) {
+            for (size_t p = 0; p < QCH_; p++)
+                word[p] = Q8_RQ_(y[p] * inv[p]) | Q8_RQ_(y[QCH_ + p] * inv[p]) << 8 |
+                          Q8_RQ_(y[2 * QCH_ + p] * inv[p]) << 16 |
+                          Q8_RQ_(y[3 * QCH_ + p] * inv[p]) << 24;
+        } else { /* the last, partial quad: zero bytes past the last row */
+            for (size_t p = 0; p < QCH_; p++)
+                word[p] = 0;
+            for (size_t r = 0; j0 + r < out; r++)
+                for (size_t p = 0; p < QCH_; p++)
+                    word[p] |= Q8_RQ_(y[r * QCH_ + p] * inv[p]) << (8 * r);
+        }
+#if defined(__BYTE_ORDER__) && __BYTE_ORDER__ == __ORDER_LITTLE_ENDIAN__
+        memcpy(A + j0 * QCH_, word, sizeof word);
+#else
+        for (size_t p = 0; p < QCH_; p++) /* the bytes in A's order, whatever the host's */
+            for (size_t r = 0; r < 4; r++)
+                A[j0 * QCH_ + 4 * p + r] = (int8_t)(uint8_t)(word[p] >> (8 * r));
+#endif
+    }
+#undef Q8_RQ_
+}
+
+/* The chunk's passes in a build for an older baseline (ARCH=portable: x86-64-v2) also as an
+ * AVX2 clone, chosen at load time like AI_WIDE's (ai/ai_fastmath.h), 8 points per vector
+ * instead of 4: measured 1.0x fp32 for `small` without. AI_WIDE's clones would not do: they
+ * have FMA, so the compilers would contract there and not in the baseline, and the logits
+ * would depend on the CPU; "avx2" has no FMA, so every clone rounds alike. */
+#if defined(__x86_64__) && defined(__linux__) && !defined(__AVX2__) &&                           \
+    (defined(__GNUC__) || defined(__clang__)) && !defined(AI_TSAN_) && !defined(Q8_NO_SIMD)
+#define Q8_WIDE __attribute__((target_clones("avx2", "default")))
+#else
+#define Q8_WIDE
+#endif
+
+/* The SIREN layer of the chunk's points (xs, ys: QCH_ of them, padding points at 0) into Y,
+ * quantised into A; sa: the points' scales. Per element the statement of the per-point path,
+ * z = (s q_x) x + ((s q_y) y + s_b q_b), each product in parentheses a float taken once per
+ * call (so no product is loop-invariant here: the compilers contract this loop as they do
+ * the per-point one, fma(sx, x, fma(sy, y, bb)) with FMA, as tested), then ai_fm_sinf (libm's
+ * sinf, one call per element, was most of the int8 pass). Rows outer, points inner: the
+ * maxima per point are vector maxima, no reduction across lanes. */
+Q8_WIDE static void siren_chunk(const float *xs, const float *ys, const float *sx, const float *sy,
+                        const float *bb, float w0, size_t S, float *Y, float *sa, int8_t *A)
+{
+    float amax[QCH_];
+    for (size_t p = 0; p < QCH_; p++)
+        amax[p] = 0.0f;
+    for (size_t j = 0; j < S; j++) {
+        const float sxj = sx[j], syj = sy[j], bbj = bb[j];
+        float *y = Y + j * QCH_;
+        for (size_t p = 0; p < QCH_; p++) {
+            const float v = ai_fm_sinf(w0 * (sxj * xs[p] + (syj * ys[p] + bbj)));
+            y[p] = v;
+            amax[p] = fabsf(v) > amax[p] ? fabsf(v) : amax[p];
+        }
+    }
+    requant_rows(Y, S, amax, sa, A, 0);
+}
+
+/* A hidden layer's outputs y(p, j) = relu(sa[p] * scale_w[j] * C[j, p] + b_j) into Y, then
+ * quantised into A as the next layer's input (sa_next: the points' new scales). */
+Q8_WIDE static void relu_layer(const qtensor_t *W, const qtensor_t *b, const int32_t *C, size_t out,
+                       const float *sa, float *sa_next, float *Y, int8_t *A)
+{
+    float amax[QCH_], bq[QW_], bt[QW_], sw[QW_];
     const float sb = getf(b->scales);
     for (size_t j = 0; j < out; j++) {
         bq[j] = (float)b->q[j];
         bt[j] = sb * bq[j];
+        sw[j] = getf(W->scales + 4 * j);
     }
-    for (size_t p = 0; p < np; p++)
+    for (size_t p = 0; p < QCH_; p++)
         amax[p] = 0.0f;
     for (size_t j = 0; j < out; j++) {
-        const float sw = getf(W->scales + 4 * j), bqj = bq[j], btj = bt[j];
+        const float swj = sw[j], bqj = bq[j], btj = bt[j];
         const int32_t *c = C + j * QCH_;
-        for (size_t p = 0; p < np; p++) {
-            float y = affine(sa[p] * sw * (float)c[p], sb, bqj, btj);
-            y = y > 0.0f ? y : 0.0f;
-            amax[p] = fabsf(y) > amax[p] ? fabsf(y) : amax[p];
+        float *y = Y + j * QCH_;
+        for (size_t p = 0; p < QCH_; p++) {
+            float v = affine(sa[p] * swj * (float)c[p], sb, bqj, btj);
+            v = v > 0.0f ? v : 0.0f;
+            y[p] = v;
+            amax[p] = v > amax[p] ? v : amax[p]; /* v >= 0: |v| */
         }
     }
-    for (size_t p = 0; p < np; p++) {
-        sa_next[p] = amax[p] / 127.0f;
-        inv[p] = sa_next[p] > 0.0f ? 1.0f / sa_next[p] : 0.0f;
-    }
-    for (size_t j0 = 0; j0 < out; j0 += 4) {
-        int8_t *dst = A + j0 * QCH_;
-        if (j0 + 4 <= out) {
-            float sw[4];
-            const int32_t *c[4];
-            for (size_t r = 0; r < 4; r++) {
-                sw[r] = getf(W->scales + 4 * (j0 + r));
-                c[r] = C + (j0 + r) * QCH_;
-            }
-            for (size_t p = 0; p < np; p++) {
-                for (size_t r = 0; r < 4; r++) {
-                    float y = affine(sa[p] * sw[r] * (float)c[r][p], sb, bq[j0 + r], bt[j0 + r]);
-                    y = y > 0.0f ? y : 0.0f;
-                    dst[4 * p + r] = round_q8(y * inv[p]);
-                }
-            }
-        } else {
-            for (size_t j = j0; j < out; j++) {
-                const float sw = getf(W->scales + 4 * j), bqj = bq[j], btj = bt[j];
-                const int32_t *c = C + j * QCH_;
-                for (size_t p = 0; p < np; p++) {
-                    float y = affine(sa[p] * sw * (float)c[p], sb, bqj, btj);
-                    y = y > 0.0f ? y : 0.0f;
-                    dst[4 * p + (j - j0)] = round_q8(y * inv[p]);
-                }
-            }
-        }
-    }
+    requant_rows(Y, out, amax, sa_next, A, 1);
 }
 
 int bnn_quant_forward_mean(const bnn_config_t *cfg, bnn_group_t g, const uint8_t *packed,
@@ -350,11 +389,21 @@ int bnn_quant_forward_mean(const bnn_config_t *cfg, bnn_group_t g, const uint8_t
             q8_row_sums(Q[2 + 2 * l].q, l < L ? H : 1, l == 0 ? S : H, wsum + l * QW_);
     int8_t A[QQ_ * 4u * QCH_]; /* the chunk's activations, A(p, k) = A[k/4 * 4 QCH_ + 4p + k%4] */
     int32_t C[QW_ * QCH_];     /* a layer's int32 sums, C[j * QCH_ + p] */
-    float a[QW_], sa[QCH_], sa_next[QCH_];
+    float Y[QW_ * QCH_];       /* a hidden layer's outputs, Y[j * QCH_ + p] */
+    float sa[QCH_], sa_next[QCH_];
     const float w0 = cfg->w0;
     /* Every byte a kernel may read is initialised (padding points, the last quad's tail). */
     memset(A, 0, sizeof A);
+    memset(C, 0, sizeof C); /* the padding points' sums where a kernel does not write them */
     const float sb0 = getf(Q[1].scales);
+    float sx[QW_], sy[QW_], bb[QW_]; /* the SIREN layer's products s q of W0 and b0 */
+    for (size_t j = 0; j < S; j++) {
+        const float s = getf(Q[0].scales + 4 * j);
+        sx[j] = s * (float)Q[0].q[2 * j];
+        sy[j] = s * (float)Q[0].q[2 * j + 1];
+        bb[j] = sb0 * (float)Q[1].q[j];
+    }
+    float xs[QCH_], ys[QCH_]; /* the chunk's points, the padding ones at the origin */
     /* the output layer's bias: sb * bq, apart (see affine) */
     const float sbo = getf(Q[3 + 2 * L].scales), bqo = (float)Q[3 + 2 * L].q[0], bto = sbo * bqo;
     for (size_t i0 = 0; i0 < n;) {
@@ -364,25 +413,17 @@ int bnn_quant_forward_mean(const bnn_config_t *cfg, bnn_group_t g, const uint8_t
             np++;
         if (np == 0)
             return -EINVAL;
-        for (size_t i = 0; i < np; i++) {
-            const float x = xy[2 * (i0 + i)], y = xy[2 * (i0 + i) + 1];
-            /* the statement of the per-point path, in a loop of its own so that it vectorises
-             * (the same operations: the compilers contract it the same way, as tested) */
-            for (size_t j = 0; j < S; j++) {
-                const float s = getf(Q[0].scales + 4 * j);
-                a[j] = s * (float)Q[0].q[2 * j] * x + s * (float)Q[0].q[2 * j + 1] * y +
-                       sb0 * (float)Q[1].q[j];
-            }
-            for (size_t j = 0; j < S; j++)
-                a[j] = sinf(w0 * a[j]);
-            sa[i] = quantise_point(a, S, A, i);
+        for (size_t i = 0; i < QCH_; i++) {
+            xs[i] = i < np ? xy[2 * (i0 + i)] : 0.0f;
+            ys[i] = i < np ? xy[2 * (i0 + i) + 1] : 0.0f;
         }
+        siren_chunk(xs, ys, sx, sy, bb, w0, S, Y, sa, A);
         size_t in = S;
         for (size_t l = 0; l < L; l++) {
             K->fn(np, H, in, A, QCH_, Q[2 + 2 * l].q, K->needs_wsum ? wsum + l * QW_ : NULL, C,
                   QCH_);
-            relu_requant(&Q[2 + 2 * l], &Q[3 + 2 * l], C, H, np, sa, sa_next, A);
-            memcpy(sa, sa_next, np * sizeof sa[0]);
+            relu_layer(&Q[2 + 2 * l], &Q[3 + 2 * l], C, H, sa, sa_next, Y, A);
+            memcpy(sa, sa_next, sizeof sa);
             in = H;
         }
         K->fn(np, 1, H, A, QCH_, Q[2 + 2 * L].q, K->needs_wsum ? wsum + L * QW_ : NULL, C, QCH_);

@@ -11,21 +11,25 @@
  * know the configuration (DiNNO peers share the preset).
  *
  * Int8 inference (bnn_quant_forward_mean): the mean-weight network computed from a packed
- * ALL-or-MU state: SIREN layer in fp32 from the dequantised W0, b0 (2 inputs: negligible);
- * every Bayesian layer (mean weights) and the output layer as int8 weights x int8 activations
- * with int32 accumulation: each point's input activation row is quantised symmetrically
- * (scale_a = max |a| / 127, qa_k = roundf(a_k / scale_a)), y_j = scale_a * scale_w[j] *
- * sum_k qa_k qw_jk + b_j (bias dequantised to fp32), ReLU between the Bayesian layers.
+ * ALL-or-MU state: SIREN layer in fp32 from the dequantised W0, b0 (2 inputs: negligible
+ * products), z_j = (s_j qx_j) x + ((s_j qy_j) y + s_b qb_j) with each parenthesised product one
+ * float, a_j = ai_fm_sinf(w0 z_j) (ai/ai_fastmath.h: max abs error 1.3e-7); every Bayesian layer
+ * (mean weights) and the output layer as int8 weights x int8 activations with int32
+ * accumulation: each point's input activation row is quantised symmetrically (scale_a = max
+ * |a| / 127, qa_k = roundf(a_k / scale_a)), y_j = scale_a * scale_w[j] * sum_k qa_k qw_jk + b_j
+ * (bias dequantised to fp32), ReLU between the Bayesian layers.
  *
  * Chunked path: the points go through the network BNN_QUANT_CHUNK at a time (32 on x86-64, 1
- * elsewhere; a board may define it). Per chunk, the SIREN layer runs point by point and
- * quantises each point's activations into the chunk's activation matrix A [points x in]; each
- * following layer is then one int8 GEMM, A x W^T -> int32 [points x out] (ai/q8_gemm.h), and
- * one pass of scaling, bias, ReLU and per-point requantisation of the result back into A.
- * The int32 sums are exact, and every float operation is the per-point one on the same
- * operands (roundf by an exact equivalent that vectorises; the one FMA the compiler fused into
- * y_j under the firmware's -ffp-contract=fast made explicit, bnn_quant.c), so the logits are
- * bit-identical to the per-point computation for every n, and across kernels.
+ * elsewhere; a board may define it). Per chunk, the SIREN layer runs row by row over the
+ * chunk's points (vectors of points: the per-point maxima are vector maxima) into a float
+ * matrix Y [rows x points], quantised per point into the chunk's activation matrix A, four
+ * rows of a point packed per 32-bit word (A's layout, ai/q8_gemm.h); each following layer is
+ * then one int8 GEMM, A x W^T -> int32 [points x out] (ai/q8_gemm.h), and one pass of
+ * scaling, bias and ReLU into Y and the same requantisation back into A. The int32 sums are
+ * exact, and every float operation is the per-point one on the same operands (roundf by an
+ * exact equivalent that vectorises; the one FMA the compiler fused into y_j under the
+ * firmware's -ffp-contract=fast made explicit, bnn_quant.c), so the logits are bit-identical
+ * to the per-point computation for every n, and across kernels (tests/ai/test_q8.c).
  *
  * GEMM kernels (ai/q8_gemm.h), chosen once at run time from what the CPU has (q8_active):
  * AVX-512 VNNI on zmm (vpdpbusd, 16 points per vector), AVX-512 VNNI on ymm, AVX-VNNI (ymm),
@@ -35,10 +39,10 @@
  * A chunk that meets a non-finite point stops before it: the logits of the points before it
  * are written and the call returns -EINVAL, as the per-point path did.
  *
- * Stack: A (the chunk's activations, int8), one layer's int32 sums [out x chunk], the VNNI
- * kernels' per-row weight sums of every layer and a few vectors: at most BNN_QUANT_STACK_BYTES
- * (x86-64, chunk 32: ~51 KB for the paper preset, ~26 KB for small, ~14 KB for mcu; chunk 1
- * off x86: < 4 KB for mcu). Thread-safe, no allocation. */
+ * Stack: A (the chunk's activations, int8), one layer's int32 sums and float outputs [out x
+ * chunk], the VNNI kernels' per-row weight sums of every layer and a few vectors: at most
+ * BNN_QUANT_STACK_BYTES (x86-64, chunk 32: ~87 KB for the paper preset, ~44 KB for small,
+ * ~23 KB for mcu; chunk 1 off x86: < 5 KB for mcu). Thread-safe, no allocation. */
 #ifndef AI_BNN_QUANT_H
 #define AI_BNN_QUANT_H
 
@@ -64,8 +68,8 @@
 #define BNN_QUANT_WMAX_ (BNN_SIREN_MAX > BNN_HIDDEN_MAX ? BNN_SIREN_MAX : BNN_HIDDEN_MAX)
 /* Largest stack of one bnn_quant_forward_mean call (its buffers, with margin for the rest). */
 #define BNN_QUANT_STACK_BYTES                                                                  \
-    (BNN_QUANT_CHUNK_PADDED * (5u * BNN_QUANT_WMAX_ + 19u) +                                   \
-     4u * (BNN_LAYERS_MAX + 5u) * BNN_QUANT_WMAX_ + 1024u)
+    (BNN_QUANT_CHUNK_PADDED * (9u * BNN_QUANT_WMAX_ + 24u) +                                   \
+     4u * (BNN_LAYERS_MAX + 9u) * BNN_QUANT_WMAX_ + 1088u)
 
 /* Packed bytes of group g of this model. */
 size_t bnn_quant_packed_size(const bnn_model_t *m, bnn_group_t g);

@@ -3,10 +3,12 @@
  *   - every kernel against a plain triple loop (int32 sums are exact, so bit for bit), on
  *     shapes at the edges of the tiles: 1 point, point counts around the 8/16/32 vectors,
  *     1 or odd rows, inputs that leave a partial quad (1, 2, 3, 37, 45), extreme bytes;
- *   - bnn_quant_forward_mean on each kernel (q8_force) against a copy of the per-point int8
- *     path it replaced (the oracle, at the end): logits bit-identical on the preset network and on
- *     small odd configurations (37/45 widths, one layer), for n = 1, n around the chunk and
- *     n not a multiple of it, with all-zero weight rows and an all-zero (ReLU-dead) layer;
+ *   - bnn_quant_forward_mean on each kernel (q8_force) against the per-point int8 path it
+ *     replaced (the oracle, at the end: the definition of the int8 network, with its own copy
+ *     of the SIREN layer's sine, ai_fm_sinf): logits bit-identical on the preset network and on
+ *     small odd configurations (37/45 widths, one layer), for n = 1, n around the vectors of
+ *     16 points and the chunk and n not a multiple of them, points near and far (the sine's
+ *     range reduction), with all-zero weight rows and an all-zero (ReLU-dead) layer;
  *   - a non-finite point stops the call after the logits before it, as before;
  *   - the rounding the path uses in place of roundf, over every float of 0.25 <= |v| < 128;
  *   - nothing allocates.
@@ -211,11 +213,13 @@ static size_t make_state(const bnn_config_t *c, uint64_t seed, int kind)
     return n;
 }
 
+/* n points in [-1.2, 1.2]^2, every 7th of them (from the 4th on) far out in [-60, 60]^2, so that
+ * the sine's range reduction meets large multiples of pi (w0 * z up to a few thousand) */
 static void fill_points(size_t n, uint64_t s)
 {
     ai_rng_uniform_fill(77, s, 0, xy, 2 * n);
     for (size_t i = 0; i < 2 * n; i++)
-        xy[i] = 2.4f * xy[i] - 1.2f;
+        xy[i] = (i / 2 % 7 == 3 ? 120.0f : 2.4f) * xy[i] - (i / 2 % 7 == 3 ? 60.0f : 1.2f);
     xy[0] = 0.0f; /* the origin, and a point on an axis */
     if (n > 1)
         xy[2] = 0.0f;
@@ -273,7 +277,7 @@ static void test_forward(void **state)
         bnn_default_config(),  odd_config(37, 45, 2), odd_config(45, 37, BNN_LAYERS_MAX),
         odd_config(5, 3, 1),   odd_config(1, 1, 1),   odd_config(BNN_SIREN_MAX, 17, 3),
     };
-    static const size_t ns[] = {1,   2, BNN_QUANT_CHUNK - 1 ? BNN_QUANT_CHUNK - 1 : 1,
+    static const size_t ns[] = {1,   2, 15, 16, 17, BNN_QUANT_CHUNK - 1 ? BNN_QUANT_CHUNK - 1 : 1,
                                 BNN_QUANT_CHUNK, BNN_QUANT_CHUNK + 1, 3 * BNN_QUANT_CHUNK + 5,
                                 257, NMAX};
     size_t runs = 0;
@@ -289,7 +293,8 @@ static void test_forward(void **state)
             }
         }
     assert_int_equal(q8_force(Q8_AUTO), 0);
-    print_message("%s: %zu runs (6 configurations x 3 weight sets x n = 1..%d) bit-identical to "
+    print_message("%s: %zu runs (6 configurations x 3 weight sets x n = 1..%d, near and far "
+                  "points) bit-identical to "
                   "the per-point path (%s)\n",
                   q8_kernels[id].name, runs, NMAX,
                   g_contracted == 1   ? "as compiled with FMA contraction"
@@ -392,6 +397,26 @@ int main(void)
 
 #else /* Q8_ORACLE: the per-point path, included twice by the program above --------------- */
 
+/* ai_fm_sinf (ai/ai_fastmath.h), the sine of the SIREN layer, copied here (with plain
+ * selects: the same values) so that it is compiled with the oracle's contraction (the
+ * header's copy would take the file's). */
+static float Q8_ORACLE(sin)(float x)
+{
+    const float ax = x < 0.0f ? -x : x;
+    const int32_t k = ((int32_t)(ax * 0.636619772367581343076f) + 1) >> 1;
+    const float kf = (float)k;
+    const float r = ((ax - kf * 3.140625f) - kf * 9.67502593994140625e-4f) -
+                    kf * 1.509957990978376432e-7f;
+    const float z = r * r;
+    float u = 2.6083159809786593541503e-06f;
+    u = u * z + -0.0001981069071916863322258f;
+    u = u * z + 0.00833307858556509017944336f;
+    u = u * z + -0.166666597127914428710938f;
+    const float s = z * (u * r) + r;
+    const float sk = (k & 1) ? -s : s;
+    return x < 0.0f ? -sk : sk;
+}
+
 static void Q8_ORACLE(int8_layer)(const qtensor_t *W, const qtensor_t *b, const float *a,
                                    size_t in, float *y)
 {
@@ -439,17 +464,21 @@ static int Q8_ORACLE(oracle_forward)(const bnn_config_t *cfg, const uint8_t *pac
         p += 4 * R + R * C;
     }
     float a[WMAX], b[WMAX];
+    /* the SIREN layer's products s q, each one float (rounded once, fused into nothing) */
+    float sx[WMAX], sy[WMAX], bb[WMAX];
     const float sb0 = getf(Q[1].scales);
+    for (size_t j = 0; j < S; j++) {
+        const float s = getf(Q[0].scales + 4 * j);
+        sx[j] = s * (float)Q[0].q[2 * j];
+        sy[j] = s * (float)Q[0].q[2 * j + 1];
+        bb[j] = sb0 * (float)Q[1].q[j];
+    }
     for (size_t i = 0; i < n; i++) {
         const float x = xy[2 * i], y = xy[2 * i + 1];
         if (!isfinite(x) || !isfinite(y))
             return -EINVAL;
-        for (size_t j = 0; j < S; j++) {
-            const float s = getf(Q[0].scales + 4 * j);
-            const float z = s * (float)Q[0].q[2 * j] * x + s * (float)Q[0].q[2 * j + 1] * y +
-                            sb0 * (float)Q[1].q[j];
-            a[j] = sinf(cfg->w0 * z);
-        }
+        for (size_t j = 0; j < S; j++)
+            a[j] = Q8_ORACLE(sin)(cfg->w0 * (sx[j] * x + (sy[j] * y + bb[j])));
         size_t in = S;
         for (size_t l = 0; l < L; l++) {
             Q8_ORACLE(int8_layer)(&Q[2 + 2 * l], &Q[3 + 2 * l], a, in, b);

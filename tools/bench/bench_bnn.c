@@ -28,6 +28,8 @@
  *   bnn_int8_points_per_s_<preset>       the same with the int8 state (bnn_quant_forward_mean), on
  *                                         the int8 kernel the CPU takes (int8_kernel <name>);
  *                                         bnn_int8_ref_points_per_s_<preset> on the pure-C one
+ *   q8_over_fp32_<preset>                bnn_int8 / bnn_mean points/s, the two passes
+ *                                         alternating in the same run
  *   sgemm_shape_gflops_<kernel>_<op>_<M>x<N>x<K>  (--shapes) each GEMM shape of the step alone,
  *                                         on every kernel this CPU runs and on Eigen alone:
  *                                         fwd = X W^T (N,T), dx = dY W (N,N), dw = dY^T X (T,N);
@@ -84,12 +86,13 @@ static void die(const char *what, int rc)
 
 static void usage(FILE *f)
 {
-    fprintf(f, "usage: bench_bnn [--reps N] [--steps-only] [--shapes]\n"
+    fprintf(f, "usage: bench_bnn [--reps N] [--steps-only] [--shapes] [--infer-only]\n"
                "  Times the BNN training step, GEMM rate, MC inference of the compiled preset\n"
                "  and prints `BENCH <name> <value> <unit>` lines. --reps: timed repetitions\n"
                "  (default 30 for paper, 100 otherwise; 3..%d). --steps-only: only the Eigen\n"
                "  training step (for profiling). --shapes: only the step's GEMM shapes, each\n"
-               "  alone (la_sgemm on the board's back end).\n",
+               "  alone (la_sgemm on the board's back end). --infer-only: only the mean-weight\n"
+               "  pass, fp32 against int8 (N alternating repetitions).\n",
             MAX_REPS);
 }
 
@@ -190,16 +193,70 @@ void __wrap_la_sgemm_ep(la_trans_t ta, la_trans_t tb, int M, int N, int K, float
     gemm_seconds += now_s() - t0;
 }
 
+/* One mean-weight pass over the preset's batch of points, fp32 (bnn_forward_logits) and int8
+ * (bnn_quant_forward_mean on the kernel the CPU takes, then on the pure-C reference). The fp32
+ * and int8 passes alternate within every repetition, so that both see the same machine (it is
+ * shared: the rate of either moves by 5-10 % between runs) and their ratio is of one run. */
+static void bench_mean_pass(const char *P, int nrep)
+{
+    const size_t n = BNN_MAX_BATCH;
+    size_t len = 0;
+    int rc;
+    ai_rng_uniform_fill(2, 2, 0, xy, 2 * n);
+    for (size_t i = 0; i < 2 * n; i++)
+        xy[i] = 2 * xy[i] - 1;
+    if ((rc = bnn_quant_pack(&model, BNN_GROUP_ALL, qstate, sizeof qstate, &len)))
+        die("bnn_quant_pack", rc);
+    printf("BENCH int8_kernel %s -\n", q8_kernel_name());
+    static double t_fp[MAX_REPS], t_q8[MAX_REPS];
+    if (nrep > MAX_REPS)
+        nrep = MAX_REPS;
+    for (int r = -1; r < nrep; r++) {
+        for (int q = 0; q < 2; q++) {
+            const double t0 = now_s();
+            rc = q ? bnn_quant_forward_mean(&model.cfg, BNN_GROUP_ALL, qstate, len, xy, n, mean)
+                   : bnn_forward_logits(&model, xy, n, 1, 0, mean);
+            const double t = now_s() - t0;
+            if (rc)
+                die(q ? "bnn_quant_forward_mean" : "bnn_forward_logits", rc);
+            if (r >= 0)
+                (q ? t_q8 : t_fp)[r] = t;
+        }
+    }
+    memcpy(samples_, t_fp, (size_t)nrep * sizeof(double));
+    const double fp = (double)n / median(nrep);
+    memcpy(samples_, t_q8, (size_t)nrep * sizeof(double));
+    const double q8 = (double)n / median(nrep);
+    printf("BENCH bnn_mean_points_per_s_%s %.0f points/s\n", P, fp);
+    printf("BENCH bnn_int8_points_per_s_%s %.0f points/s\n", P, q8);
+    printf("BENCH q8_over_fp32_%s %.2f x\n", P, q8 / fp);
+    if (q8_active() != &q8_kernels[Q8_REF] && q8_force(Q8_REF) == 0) {
+        const int nr = nrep / 3 > 3 ? nrep / 3 : 3;
+        for (int r = -1; r < nr; r++) {
+            const double t0 = now_s();
+            rc = bnn_quant_forward_mean(&model.cfg, BNN_GROUP_ALL, qstate, len, xy, n, mean);
+            if (r >= 0)
+                samples_[r] = now_s() - t0;
+            if (rc)
+                die("bnn_quant_forward_mean", rc);
+        }
+        printf("BENCH bnn_int8_ref_points_per_s_%s %.0f points/s\n", P, (double)n / median(nr));
+    }
+    (void)q8_force(Q8_AUTO);
+}
+
 int main(int argc, char **argv)
 {
     int reps = BNN_MAX_BATCH >= 1024 && BNN_HIDDEN_MAX >= 256 ? 30 : 100;
-    int steps_only = 0, shapes_only = 0;
+    int steps_only = 0, shapes_only = 0, infer_only = 0;
     for (int i = 1; i < argc; i++) {
         if (!strcmp(argv[i], "--help") || !strcmp(argv[i], "-h")) {
             usage(stdout);
             return 0;
         } else if (!strcmp(argv[i], "--steps-only")) {
             steps_only = 1;
+        } else if (!strcmp(argv[i], "--infer-only")) {
+            infer_only = 1;
         } else if (!strcmp(argv[i], "--shapes")) {
             shapes_only = 1;
         } else if (!strcmp(argv[i], "--reps") && i + 1 < argc) {
@@ -231,6 +288,13 @@ int main(int argc, char **argv)
     ai_rng_uniform_fill(9, 9, 0, u, 3 * B);
     for (unsigned i = 0; i < B; i++)
         batch[i] = (ai_sample_t){2 * u[3 * i] - 1, 2 * u[3 * i + 1] - 1, u[3 * i + 2] > 0.8f};
+    if (infer_only) { /* a few steps first, so that the weights are not the initial ones */
+        for (int w = 0; w < 3; w++)
+            if ((rc = bnn_train_step(&model, batch, B, 1e-4f, (uint64_t)w, 1e-4f, NULL)))
+                die("bnn_train_step", rc);
+        bench_mean_pass(P, reps);
+        return 0;
+    }
 
     /* GEMM FLOPs of one step: per Bayesian layer forward, dW and dX (3 GEMMs of 2*B*in*H),
      * plus the output layer's forward and dW (2 x 2*B*H). */
@@ -381,32 +445,7 @@ int main(int argc, char **argv)
         }
     }
 
-    /* one mean-weight pass, fp32 and int8 */
-    {
-        const size_t n = B;
-        size_t len = 0;
-        if ((rc = bnn_quant_pack(&model, BNN_GROUP_ALL, qstate, sizeof qstate, &len)))
-            die("bnn_quant_pack", rc);
-        printf("BENCH int8_kernel %s -\n", q8_kernel_name());
-        /* q = 0: fp32; 1: int8 on the kernel the CPU takes; 2: int8 on the pure-C reference */
-        for (int q = 0; q < 3; q++) {
-            const int nrep = 10;
-            if (q == 2 && (q8_active() == &q8_kernels[Q8_REF] || q8_force(Q8_REF)))
-                break;
-            for (int r = -1; r < nrep; r++) {
-                double t0 = now_s();
-                rc = q ? bnn_quant_forward_mean(&model.cfg, BNN_GROUP_ALL, qstate, len, xy, n, mean)
-                       : bnn_forward_logits(&model, xy, n, 1, 0, mean);
-                if (r >= 0)
-                    samples_[r] = now_s() - t0;
-                if (rc)
-                    die(q ? "bnn_quant_forward_mean" : "bnn_forward_logits", rc);
-            }
-            printf("BENCH bnn_%s_points_per_s_%s %.0f points/s\n",
-                   q == 0 ? "mean" : q == 1 ? "int8" : "int8_ref", P, (double)n / median(nrep));
-        }
-        (void)q8_force(Q8_AUTO);
-    }
+    bench_mean_pass(P, 30);
     printf("BENCH bnn_arena_bytes_%s %zu bytes\n", P, bnn_get_buffer_size());
     printf("BENCH bnn_params_%s %zu params\n", P, bnn_n_params(&model));
     return 0;
