@@ -230,6 +230,11 @@ static int g_have_ref;
 
 void fp_inproc_reference(int n, const char *rounds, int deadline_s)
 {
+    fp_inproc_reference_radius(n, rounds, "6", deadline_s);
+}
+
+void fp_inproc_reference_radius(int n, const char *rounds, const char *radius, int deadline_s)
+{
     if (g_have_ref)
         return;
     char out[PATH_MAX + 16], log[PATH_MAX + 16], robots[16];
@@ -237,7 +242,7 @@ void fp_inproc_reference(int n, const char *rounds, int deadline_s)
     snprintf(log, sizeof log, "%s/inproc.txt", fp_env.dir);
     snprintf(robots, sizeof robots, "%d", n);
     const char *argv[] = {fp_env.bin, "fleet", "--inproc", "--plan", fp_env.plan, "--paths", fp_env.paths,
-                          "--robots", robots, "--rounds", rounds, "--strategy", "kl", "--graph", "disk", "--radius", "6",
+                          "--robots", robots, "--rounds", rounds, "--strategy", "kl", "--graph", "disk", "--radius", radius,
                           "--seed", "3", "--out", out, "--val-poses", "5", "--mc", "1", "--map-res", "0.5", NULL};
     const pid_t pid = fp_spawn(argv, log, NULL, NULL);
     const int rc = fp_wait(pid, fp_now() + deadline_s);

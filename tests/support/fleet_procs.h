@@ -13,8 +13,8 @@
 #include <sys/types.h>
 
 #define FP_SHORT_PATH 1024 /* the environment's paths; PATH_MAX-sized buffers hold them with a name added */
-#define FP_MAX_ROBOTS 8
-#define FP_MAX_KIDS 32
+#define FP_MAX_ROBOTS 40 /* a fleet beyond the host board's 32 neighbour slots */
+#define FP_MAX_KIDS 64
 #define FP_MAX_ARGS 72
 #ifndef FP_CMD_DEADLINE_S
 #define FP_CMD_DEADLINE_S 15 /* fp_run_cmd: a short command (ip, iptables) */
@@ -110,6 +110,8 @@ void fp_wait_for_file(const fp_robot_t *r, const char *prefix, const char *suffi
  * `rounds`, into fp_env.dir/inproc (made once per program: later calls return at once).
  * Fails the test when it fails or is not done within deadline_s. */
 void fp_inproc_reference(int n, const char *rounds, int deadline_s);
+/* The same with a disk radius of its own (fp_inproc_reference's is "6"). */
+void fp_inproc_reference_radius(int n, const char *rounds, const char *radius, int deadline_s);
 /* Every robot's DIR/<tag>/robot_<i>/final.bnn equals the reference's model bit for bit;
  * fails the test naming the first robot that differs. */
 void fp_expect_reference_models(const char *tag, int n);

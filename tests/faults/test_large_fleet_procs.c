@@ -1,0 +1,76 @@
+/* A fleet larger than the board's neighbour slots, as real processes: 40 `host_sim run`
+ * processes over LCM multicast on this host, every robot within reach of every other (a 1 km
+ * radius), so each keeps the states of its 32 nearest (ties by id) out of 39. Their tours come
+ * from `host_sim paths gen --robots 40` (five robots per room of the default plan). The final
+ * models must equal `host_sim fleet --inproc`'s bit for bit: the protocol engine and the
+ * in-process graph choose the same nearest, and the DiNNO slots sum them in the same order.
+ * Bounded like every fleet test (tests/support/fleet_procs.h): a hang is a failure. About a
+ * minute on 2 cores; 40 processes of ~90 MB each. */
+#define _XOPEN_SOURCE 700
+#include <limits.h>
+#include <setjmp.h>
+#include <stdarg.h>
+#include <stddef.h>
+#include <stdint.h>
+#include <stdio.h>
+#include <stdlib.h>
+#include <string.h>
+
+#include <cmocka.h>
+
+#include "fleet_procs.h"
+#include "gp/gp_pse.h"
+
+#define NPROC 40
+#define ROUNDS "3"
+#define RADIUS "1000"
+#define DEADLINE_S 600
+
+_Static_assert(NPROC <= FP_MAX_ROBOTS && NPROC - 1 > GP_PSE_MAX_NEIGHBOURS,
+               "more robots in reach than neighbour slots");
+
+static void test_nearest_of_forty_equal_inproc(void **st)
+{
+    (void)st;
+    /* Tours of its own for each robot: the default plan's 7 do not go round 40. */
+    char tours[FP_SHORT_PATH + 8], robots[8], out[4096];
+    snprintf(tours, sizeof tours, "%s/tours", fp_env.dir);
+    assert_true(strlen(tours) < sizeof fp_env.paths);
+    snprintf(robots, sizeof robots, "%d", NPROC);
+    const char *gen[] = {fp_env.bin, "paths", "gen", "--plan", fp_env.plan, "--robots", robots, "--seed", "3",
+                         "--out", tours, NULL};
+    if (fp_run_cmd(gen, out, sizeof out) != 0)
+        fail_msg("host_sim paths gen --robots %d failed:\n%s", NPROC, out);
+    memcpy(fp_env.paths, tours, strlen(tours) + 1u);
+
+    static fp_fleet_t f;
+    const char *args[] = {"--rounds", ROUNDS, "--radius", RADIUS, "--peer-timeout", "60", "--resend-ms", "200",
+                          NULL};
+    fp_fleet_init(&f, "forty", NPROC, NULL, args);
+    fp_fleet_start(&f, NULL, NULL);
+    const double wall = fp_fleet_wait_ok(&f, DEADLINE_S);
+    fp_inproc_reference_radius(NPROC, ROUNDS, RADIUS, DEADLINE_S);
+    fp_expect_reference_models("forty", NPROC);
+    print_message("%d processes, %s rounds, each keeping its %u nearest of %d: %.1f s, models equal to the "
+                  "in-process reference\n", NPROC, ROUNDS, (unsigned)GP_PSE_MAX_NEIGHBOURS, NPROC - 1, wall);
+}
+
+static int setup(void **st)
+{
+    (void)st;
+    return fp_setup("fleetsim_large", 500000u, NULL);
+}
+
+static int teardown(void **st)
+{
+    (void)st;
+    return fp_teardown();
+}
+
+int main(void)
+{
+    const struct CMUnitTest tests[] = {
+        cmocka_unit_test(test_nearest_of_forty_equal_inproc),
+    };
+    return cmocka_run_group_tests_name("faults/large_fleet", tests, setup, teardown);
+}
