@@ -258,7 +258,8 @@ void la_bf16_gemm_avx512(la_trans_t ta, la_trans_t tb, int M, int N, int K, cons
                         la_epilogue_t e;
                         if (ep && last)
                             e = (la_epilogue_t){ep->bias ? ep->bias + j : NULL, ep->relu,
-                                                ep->gate ? ep->gate + (size_t)i * ep->ldg + j : NULL,
+                                                ep->gate ? ep->gate + (size_t)i * ep->ldg + j
+                                                         : NULL,
                                                 ep->ldg, ep->colsum ? ep->colsum + j : NULL};
                         micro(kp, Ap + (size_t)is * kp, Bp + (size_t)js * kp,
                               C + (size_t)i * ldc + j, ldc, mc - is < MR ? mc - is : MR,

@@ -436,7 +436,8 @@ int main(int argc, char **argv)
             int n = backend ? 3 : 50;
             for (int r = 0; r < n; r++) {
                 double t0 = now_s();
-                la_bf16_gemm(LA_NO_TRANS, LA_TRANS, 1024, 256, 256, ga, 256, gb, 256, gc, 256, NULL);
+                la_bf16_gemm(LA_NO_TRANS, LA_TRANS, 1024, 256, 256, ga, 256, gb, 256, gc, 256,
+                             NULL);
                 samples_[r] = now_s() - t0;
             }
             printf("BENCH %s_256x256x1024 %.2f GFLOP/s\n",
