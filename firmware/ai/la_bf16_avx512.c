@@ -67,11 +67,27 @@ static inline __m512i interleave_pairs(__m512 e, __m512 o)
 static void pack_b(la_trans_t tb, const float *B, int ldb, int j0, int nc, int k0, int kc,
                    uint32_t *restrict Bp)
 {
-    const int kp = (kc + 1) / 2;
+    const int kp = (kc + 1) / 2, kfull = kc / 2;
     for (int s = 0; s < nc; s += NR) {
         const int nr = nc - s < NR ? nc - s : NR;
         uint32_t *restrict dst = Bp + (size_t)s * kp;
-        for (int p = 0; p < kp; p++) {
+        int p = 0;
+        if (tb == LA_TRANS && nr == NR) {
+            /* a pair is two neighbours in a row of B (= a column of op(B)): each of the 32
+             * rows converted 16 pairs at a time into t, then transposed (as op(A) below) */
+            _Alignas(64) uint32_t t[NR][16];
+            for (; p + 16 <= kfull; p += 16) {
+                for (int j = 0; j < NR; j++) {
+                    const float *src = B + (size_t)(j0 + s + j) * ldb + k0 + 2 * p;
+                    _mm512_store_si512(t[j], (__m512i)_mm512_cvtne2ps_pbh(
+                                                 _mm512_loadu_ps(src + 16), _mm512_loadu_ps(src)));
+                }
+                for (int q = 0; q < 16; q++)
+                    for (int j = 0; j < NR; j++)
+                        dst[(p + q) * NR + j] = t[j][q];
+            }
+        }
+        for (; p < kp; p++) {
             const int k = k0 + 2 * p, odd = 2 * p + 1 < kc;
             if (tb == LA_NO_TRANS && nr == NR && odd) {
                 const float *re = B + (size_t)k * ldb + j0 + s, *ro = re + ldb;

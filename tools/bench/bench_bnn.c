@@ -7,7 +7,8 @@
  *   bnn_train_step_ms_<preset>_b<B>_bf16 the step with its large GEMMs as bf16 products with
  *                                         fp32 sums (bnn_config_t.precision, ai/la_bf16.h), timed
  *                                         alternating with the fp32 step in the same loop
- *                                         (bnn_train_step_ms_<preset>_b<B>_fp32_alt); its speed-up
+ *                                         (bnn_train_step_ms_<preset>_b<B>_fp32_alt, and _best_
+ *                                         of both); its speed-up (of the medians)
  *                                         bnn_train_step_bf16_speedup_<preset>, its GEMM share
  *                                         bnn_step_share_gemm_<preset>_bf16, the kernel bf16_kernel
  *   bf16gemm_gflops_256x256x1024         la_bf16_gemm alone at the step's shape (and _ref_: the
@@ -344,12 +345,13 @@ int main(int argc, char **argv)
             }
         model.cfg.precision = BNN_PRECISION_FP32;
         memcpy(samples_, t32, sizeof(double) * (size_t)reps);
-        const double m32 = median(reps);
+        const double m32 = median(reps), b32 = samples_[0];
         memcpy(samples_, t16, sizeof(double) * (size_t)reps);
         const double m16 = median(reps);
         printf("BENCH bnn_train_step_ms_%s_b%u_bf16 %.3f ms\n", P, B, 1e3 * m16);
         printf("BENCH bnn_train_step_ms_best_%s_b%u_bf16 %.3f ms\n", P, B, 1e3 * samples_[0]);
         printf("BENCH bnn_train_step_ms_%s_b%u_fp32_alt %.3f ms\n", P, B, 1e3 * m32);
+        printf("BENCH bnn_train_step_ms_best_%s_b%u_fp32_alt %.3f ms\n", P, B, 1e3 * b32);
         printf("BENCH bnn_train_step_bf16_speedup_%s %.2f x\n", P, m32 / m16);
         printf("BENCH bnn_step_share_gemm_%s_bf16 %.1f %%\n", P, 100.0 * g16 / all16);
     }
