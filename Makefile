@@ -36,8 +36,10 @@
 #   (cross boards: BOARD=mps2-an386|mps2-an500|rpi3 with cross, run-board, profile-board)
 #   LA_BACKEND=eigen|ref            ARCH=native|portable (release code for this CPU, or a
 #   CC=gcc|clang, CXX=g++|clang++   baseline that runs on any CPU of its family)
+#   PRECISION=fp32|bf16             the training step's large GEMMs in fp32, or as bf16
+#                                   products with fp32 sums (firmware/ai/README.md)
 #   V=1 (print whole commands)
-# Objects and programs go to build/<BUILD>-<BOARD>-<PRESET>[-<LA_BACKEND>][-<ARCH>][-clang]/;
+# Objects and programs go to build/<BUILD>-<BOARD>-<PRESET>[-<LA_BACKEND>][-<ARCH>][-bf16][-clang]/;
 # build/bin points at the programs of the last release build.
 
 .DEFAULT_GOAL := all
@@ -78,6 +80,13 @@ ifeq ($(filter $(LA_BACKEND),ref eigen),)
 $(error unknown LA_BACKEND '$(LA_BACKEND)' (ref or eigen))
 endif
 
+# The default precision of the training step's large GEMMs (bnn_config_t.precision; a program
+# may still choose per model, as bench_bnn does).
+PRECISION ?= fp32
+ifeq ($(filter $(PRECISION),fp32 bf16),)
+$(error unknown PRECISION '$(PRECISION)' (fp32 or bf16))
+endif
+
 ARCH ?= $(firstword $(BOARD_ARCHES))
 ifeq ($(filter $(ARCH),$(BOARD_ARCHES)),)
 $(error unknown ARCH '$(ARCH)' (board $(BOARD): $(BOARD_ARCHES)))
@@ -92,7 +101,7 @@ CXX     := g++
 BUILD_ROOT ?= build
 # Anything that changes the generated code gets its own objects (no mixing on a switch): a
 # math back end, an ARCH other than the board default, another compiler.
-config_for = $(1)-$(BOARD)-$(2)$(if $(filter-out $(BOARD_LA_BACKEND),$(LA_BACKEND)),-$(LA_BACKEND))$(if $(filter-out $(firstword $(BOARD_ARCHES)),$(ARCH)),-$(ARCH))$(if $(findstring clang,$(CC)),-clang)
+config_for = $(1)-$(BOARD)-$(2)$(if $(filter-out $(BOARD_LA_BACKEND),$(LA_BACKEND)),-$(LA_BACKEND))$(if $(filter-out $(firstword $(BOARD_ARCHES)),$(ARCH)),-$(ARCH))$(if $(filter bf16,$(PRECISION)),-bf16)$(if $(findstring clang,$(CC)),-clang)
 CONFIG := $(call config_for,$(BUILD),$(PRESET))
 O   := $(BUILD_ROOT)/$(CONFIG)
 BIN := $(O)/bin
@@ -122,7 +131,8 @@ $(error unknown BUILD '$(BUILD)' (release, debug, asan, tsan or fuzz))
 endif
 
 WARN     := -Wall -Wextra -Werror
-DEFS     := -DBNN_PRESET_$(call uc,$(PRESET))=1 -DLA_BACKEND_$(call uc,$(LA_BACKEND))=1
+DEFS     := -DBNN_PRESET_$(call uc,$(PRESET))=1 -DLA_BACKEND_$(call uc,$(LA_BACKEND))=1 \
+            $(if $(filter bf16,$(PRECISION)),-DBNN_PRECISION_DEFAULT_BF16=1)
 CFLAGS   := -std=c11 $(WARN) $(OPT) $(DEFS) -MMD -MP
 CXXFLAGS := -std=c++17 $(WARN) $(OPT) $(DEFS) -MMD -MP -fno-exceptions -fno-rtti
 
@@ -189,6 +199,8 @@ endif
 # vector width), so the compiler may fuse nothing there.
 FW_FP := -ffp-contract=fast
 $(O)/obj/firmware/ai/la_packed_%.c.o: FW_FP := -ffp-contract=off
+# The bf16 kernels' roundings are their contract (la_bf16.h): none may be fused away either.
+$(O)/obj/firmware/ai/la_bf16%.c.o: FW_FP := -ffp-contract=off
 $(O)/obj/firmware/%.c.o: firmware/%.c
 	@mkdir -p $(@D)
 	$(call say,CC,$<)$(CC) $(CFLAGS) $(FW_FP) $(FW_INC) -c $< -o $@
@@ -253,7 +265,7 @@ $(BIN)/host_sim: $(APP_OBJ) $(LIBS)
 
 # bench_bnn times the GEMMs inside the training step: its la_sgemm calls pass through a timer
 # (--wrap), the firmware itself unchanged.
-BENCH_LDFLAGS_bnn := -Wl,--wrap=la_sgemm,--wrap=la_sgemm_ep
+BENCH_LDFLAGS_bnn := -Wl,--wrap=la_sgemm,--wrap=la_sgemm_ep,--wrap=la_bf16_gemm
 $(BIN)/bench_%: $(O)/obj/tools/bench/bench_%.c.o $(BENCH_SUPPORT_OBJ) $(LIBS)
 	@mkdir -p $(@D)
 	$(call say,LD,$@)$(CXX) $(OPT) $< $(BENCH_SUPPORT_OBJ) $(LINK_LIBS) $(BENCH_LDFLAGS_$*) -o $@

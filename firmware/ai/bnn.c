@@ -22,6 +22,7 @@
 #include "ai/ai_fastmath.h"
 #include "ai/ai_rng.h"
 #include "ai/la.h"
+#include "ai/la_bf16.h"
 
 _Static_assert(BNN_SIREN_MAX >= 1 && BNN_HIDDEN_MAX >= 1 && BNN_LAYERS_MAX >= 1, "preset dims");
 _Static_assert(BNN_MAX_BATCH >= 1 && BNN_MAX_BATCH <= (1u << 20), "preset batch");
@@ -87,6 +88,7 @@ bnn_config_t bnn_default_config(void)
         .w0 = BNN_W0,
         .rho_init = BNN_RHO_INIT,
         .prior_sigma = BNN_PRIOR_SIGMA,
+        .precision = BNN_PRECISION_DEFAULT,
     };
     return c;
 }
@@ -101,7 +103,8 @@ static int config_ok(const bnn_config_t *c)
     return c->siren_width >= 1 && c->siren_width <= BNN_SIREN_MAX && c->hidden_width >= 1 &&
            c->hidden_width <= BNN_HIDDEN_MAX && c->n_bayes >= 1 && c->n_bayes <= BNN_LAYERS_MAX &&
            c->max_batch >= 1 && c->max_batch <= BNN_MAX_BATCH && isfinite(c->w0) && c->w0 > 0.0f &&
-           isfinite(c->rho_init) && isfinite(c->prior_sigma) && c->prior_sigma > 0.0f;
+           isfinite(c->rho_init) && isfinite(c->prior_sigma) && c->prior_sigma > 0.0f &&
+           (c->precision == BNN_PRECISION_FP32 || c->precision == BNN_PRECISION_BF16);
 }
 
 static uint64_t philox_key(const bnn_model_t *m)
@@ -306,9 +309,25 @@ AI_WIDE static void sample_weights(bnn_model_t *m, const layout_t *y, uint64_t n
     }
 }
 
+/* The large products of the training step (a Bayesian layer's forward, dX, dW): bf16 products
+ * with fp32 sums when the model asks for them and `step` says this is the step, not an
+ * inference pass (la_bf16.h); else la_sgemm_ep. alpha 1, beta 0 both ways. */
+static void step_gemm(const bnn_model_t *m, int step, la_trans_t ta, la_trans_t tb, size_t M,
+                      size_t N, size_t K, const float *A, size_t lda, const float *B, size_t ldb,
+                      float *C, size_t ldc, const la_epilogue_t *ep)
+{
+    if (step && m->cfg.precision == BNN_PRECISION_BF16)
+        la_bf16_gemm(ta, tb, (int)M, (int)N, (int)K, A, (int)lda, B, (int)ldb, C, (int)ldc, ep);
+    else
+        la_sgemm_ep(ta, tb, (int)M, (int)N, (int)K, 1.0f, A, (int)lda, B, (int)ldb, 0.0f, C,
+                    (int)ldc, ep);
+}
+
 /* Forward of n points whose inputs are in the arena's xy buffer; wb = Bayesian block of the
- * weights to use (sampled or mu). Leaves cos0, h0, h_l and logits in the arena. */
-AI_WIDE static void forward(bnn_model_t *m, const layout_t *y, const float *wb, size_t n)
+ * weights to use (sampled or mu); step: a training step's forward (its precision applies).
+ * Leaves cos0, h0, h_l and logits in the arena. */
+AI_WIDE static void forward(bnn_model_t *m, const layout_t *y, const float *wb, size_t n,
+                            int step)
 {
     float *a = m->arena;
     const size_t S = y->S, H = y->H;
@@ -338,11 +357,9 @@ AI_WIDE static void forward(bnn_model_t *m, const layout_t *y, const float *wb, 
         float *restrict hl = a + y->h + l * BNN_MAX_BATCH * H;
         if (l + 1 < y->L) { /* h_l = relu(h_{l-1} W^T + b), bias and ReLU on the tiles */
             const la_epilogue_t ep = {.bias = bl, .relu = 1};
-            la_sgemm_ep(LA_NO_TRANS, LA_TRANS, (int)n, (int)H, (int)in, 1.0f, prev, (int)in, Wl,
-                        (int)in, 0.0f, hl, (int)H, &ep);
+            step_gemm(m, step, LA_NO_TRANS, LA_TRANS, n, H, in, prev, in, Wl, in, hl, H, &ep);
         } else {
-            la_sgemm(LA_NO_TRANS, LA_TRANS, (int)n, (int)H, (int)in, 1.0f, prev, (int)in, Wl,
-                     (int)in, 0.0f, hl, (int)H);
+            step_gemm(m, step, LA_NO_TRANS, LA_TRANS, n, H, in, prev, in, Wl, in, hl, H, NULL);
             /* the last layer's bias + ReLU pass also computes the output layer, logit =
              * h_L . w_out + b_out, in OUT_LANES partial sums (so it vectorises) */
             for (size_t i = 0; i < n; i++) {
@@ -428,8 +445,7 @@ AI_WIDE static void backward(bnn_model_t *m, const layout_t *y, size_t n)
         const float *prev = l == 0 ? a + y->h0 : a + y->h + (l - 1) * BNN_MAX_BATCH * H;
         const float *Wl = a + y->wsamp + y->lay_off[l];
         float *gW = g + y->bay + y->lay_off[l];
-        la_sgemm(LA_TRANS, LA_NO_TRANS, (int)H, (int)in, (int)n, 1.0f, cur, (int)H, prev, (int)in,
-                 0.0f, gW, (int)in);
+        step_gemm(m, 1, LA_TRANS, LA_NO_TRANS, H, in, n, cur, H, prev, in, gW, in, NULL);
         /* bias gradient of the layer below: layer l-1's b, or the SIREN b0 */
         float *restrict gbp = l > 0 ? g + y->bay + y->lay_off[l - 1] + H * y->lay_in[l - 1]
                                     : g + 2 * S;
@@ -439,11 +455,9 @@ AI_WIDE static void backward(bnn_model_t *m, const layout_t *y, size_t n)
             /* the delta of layer l-1: (da W) gated by its ReLU (h_{l-1} > 0), its columns
              * summed into the bias gradient, on the tiles */
             const la_epilogue_t ep = {.gate = prev, .ldg = (int)in, .colsum = gbp};
-            la_sgemm_ep(LA_NO_TRANS, LA_NO_TRANS, (int)n, (int)in, (int)H, 1.0f, cur, (int)H, Wl,
-                        (int)in, 0.0f, oth, (int)in, &ep);
+            step_gemm(m, 1, LA_NO_TRANS, LA_NO_TRANS, n, in, H, cur, H, Wl, in, oth, in, &ep);
         } else {
-            la_sgemm(LA_NO_TRANS, LA_NO_TRANS, (int)n, (int)in, (int)H, 1.0f, cur, (int)H, Wl,
-                     (int)in, 0.0f, oth, (int)in);
+            step_gemm(m, 1, LA_NO_TRANS, LA_NO_TRANS, n, in, H, cur, H, Wl, in, oth, in, NULL);
             /* SIREN: dz = dh0 * w0 cos(z) is the bias gradient's summand, and dW0 [S x 2] =
              * dz^T xy is summed in the same pass, per input coordinate (gx, gy, so the loop
              * stays unit-stride) */
@@ -535,7 +549,7 @@ int bnn_loss_grad(bnn_model_t *m, const ai_sample_t *batch, size_t n, float kl_w
         xy[2 * i + 1] = batch[i].y;
     }
     sample_weights(m, &y, noise_key, 0);
-    forward(m, &y, a + y.wsamp, n);
+    forward(m, &y, a + y.wsamp, n, 1);
     const float *logit = a + y.logit;
     float *dl = a + y.dlogit;
     double bce = 0.0;
@@ -645,7 +659,7 @@ int bnn_forward_logits(bnn_model_t *m, const float *xy, size_t n, int use_mean, 
     memcpy(m->arena + y.xy, xy, 2 * n * sizeof(float));
     if (!use_mean)
         sample_weights(m, &y, noise_key, 0);
-    forward(m, &y, use_mean ? m->arena + y.bay : m->arena + y.wsamp, n);
+    forward(m, &y, use_mean ? m->arena + y.bay : m->arena + y.wsamp, n, 0);
     memcpy(logits, m->arena + y.logit, n * sizeof(float));
     return 0;
 }
@@ -670,7 +684,7 @@ int bnn_predict_mc(bnn_model_t *m, const float *xy, size_t n, uint32_t K,
         for (size_t c0 = 0; c0 < n; c0 += B) {
             const size_t nc = n - c0 < B ? n - c0 : B;
             memcpy(a + y.xy, xy + 2 * c0, 2 * nc * sizeof(float));
-            forward(m, &y, a + y.wsamp, nc);
+            forward(m, &y, a + y.wsamp, nc, 0);
             const float *restrict lg = a + y.logit;
             float *restrict mu = mean + c0;
             float *restrict m2 = std ? std + c0 : a + y.dlogit; /* scratch when std == NULL */
@@ -708,7 +722,7 @@ int bnn_eval_bce(bnn_model_t *m, const ai_sample_t *samples, size_t n, uint32_t 
             a[y.xy + 2 * i + 1] = samples[c0 + i].y;
         }
         if (K == 0) {
-            forward(m, &y, a + y.bay, nc);
+            forward(m, &y, a + y.bay, nc, 0);
             for (size_t i = 0; i < nc; i++)
                 sum += bce_logit(a[y.logit + i], samples[c0 + i].occ);
             continue;
@@ -718,7 +732,7 @@ int bnn_eval_bce(bnn_model_t *m, const ai_sample_t *samples, size_t n, uint32_t 
             pm[i] = 0.0f;
         for (uint32_t k = 0; k < K; k++) {
             sample_weights(m, &y, mc_key(seed, k), k > 0 || c0 > 0);
-            forward(m, &y, a + y.wsamp, nc);
+            forward(m, &y, a + y.wsamp, nc, 0);
             for (size_t i = 0; i < nc; i++)
                 pm[i] += (float)(1.0 / (1.0 + exp(-(double)a[y.logit + i])));
         }

@@ -110,6 +110,23 @@ typedef enum bnn_group {
     BNN_GROUP_ALL = 2, /* whole vector (offset 0, length n_params); not an Adam group */
 } bnn_group_t;
 
+/* Arithmetic of the training step's large GEMMs (each Bayesian layer's forward, dX and dW;
+ * firmware/ai/README.md): fp32, or bf16 products with fp32 sums (ai/la_bf16.h). Master
+ * weights, Adam, KL, the element-wise passes and every inference pass (validation, MC) stay
+ * fp32 either way. The build's default is PRECISION= in the Makefile. */
+typedef enum bnn_precision {
+    BNN_PRECISION_FP32 = 0,
+    BNN_PRECISION_BF16 = 1,
+} bnn_precision_t;
+
+#if defined(BNN_PRECISION_DEFAULT_BF16)
+#define BNN_PRECISION_DEFAULT BNN_PRECISION_BF16
+#define BNN_PRECISION_NAME "bf16"
+#else
+#define BNN_PRECISION_DEFAULT BNN_PRECISION_FP32
+#define BNN_PRECISION_NAME "fp32"
+#endif
+
 /* Runtime dimensions, each bounded by the preset maxima. bnn_default_config() = the preset. */
 typedef struct bnn_config {
     uint32_t siren_width;  /* S, 1..BNN_SIREN_MAX */
@@ -119,6 +136,8 @@ typedef struct bnn_config {
     float w0;              /* SIREN frequency, default 30 */
     float rho_init;        /* default -3 */
     float prior_sigma;     /* sigma_p of the KL term, default 1 */
+    uint32_t precision;    /* bnn_precision_t of the training step, default BNN_PRECISION_DEFAULT;
+                              not part of a checkpoint's fingerprint (the weights are fp32) */
 } bnn_config_t;
 
 typedef struct bnn_loss {

@@ -94,6 +94,15 @@ def test_parse_bench_output():
             check(False, f"{preset} b{batch}: no mismatch raised")
         except torch_ref.BenchMismatch as e:
             check("preset paper at batch 1024" in str(e), f"message: {e}")
+    # --bf16 compares bench_bnn's bf16 step; a binary without one is a failure, not a mismatch
+    bf = C_OUT + "\nBENCH bnn_train_step_ms_paper_b1024_bf16 12.5 ms\nBENCH bnn_train_step_ms_best_paper_b1024_bf16 11.0 ms\n"
+    v = torch_ref.parse_bench_output(bf, "paper", 1024, bf16=True)
+    check(v["step_ms"] == 12.5 and v["step_best_ms"] == 11.0, f"bf16 step {v}")
+    try:
+        torch_ref.parse_bench_output(C_OUT, "paper", 1024, bf16=True)
+        check(False, "missing bf16 step accepted")
+    except torch_ref.BenchFailed as e:
+        check("bnn_train_step_ms_paper_b1024_bf16" in str(e), f"message: {e}")
     no_mc = "\n".join(l for l in C_OUT.splitlines() if "mc50_points" not in l)
     try:
         torch_ref.parse_bench_output(no_mc, "paper", 1024)
@@ -142,7 +151,7 @@ def test_run_bench_bnn():
 class FakeNet:
     """Stands in for TorchBnn: fixed torch figures, nothing timed."""
 
-    def __init__(self, torch, preset, batch):
+    def __init__(self, torch, preset, batch, bf16=False):
         pass
 
     def time_steps(self, reps):

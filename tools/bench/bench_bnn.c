@@ -4,6 +4,15 @@
  *                                         sampling, forward, BCE+KL, backward, Adam on both groups
  *   bnn_train_gflops_<preset>_b<B>       GEMM FLOPs of that step / its time
  *   bnn_train_step_ms_ref_<preset>_b<B>  the same step with the pure-C reference GEMM
+ *   bnn_train_step_ms_<preset>_b<B>_bf16 the step with its large GEMMs as bf16 products with
+ *                                         fp32 sums (bnn_config_t.precision, ai/la_bf16.h), timed
+ *                                         alternating with the fp32 step in the same loop
+ *                                         (bnn_train_step_ms_<preset>_b<B>_fp32_alt, and _best_
+ *                                         of both); its speed-up (of the medians)
+ *                                         bnn_train_step_bf16_speedup_<preset>, its GEMM share
+ *                                         bnn_step_share_gemm_<preset>_bf16, the kernel bf16_kernel
+ *   bf16gemm_gflops_256x256x1024         la_bf16_gemm alone at the step's shape (and _ref_: the
+ *                                         pure-C reference); --shapes: every step shape on it
  *   sgemm_gflops_256x256x1024            single-thread la_sgemm rate (the packed kernel the CPU
  *                                         runs, see gemm_kernel), [1024x256] x [256x256]^T
  *   sgemm_ref_gflops_256x256x1024        the same product with la_ref_sgemm
@@ -45,6 +54,7 @@
 #include "ai/bnn.h"
 #include "ai/bnn_quant.h"
 #include "ai/la.h"
+#include "ai/la_bf16.h"
 #include "ai/la_packed.h"
 #include "ai/q8_gemm.h"
 #include "fma_probe.h"
@@ -98,7 +108,7 @@ static void usage(FILE *f)
 
 /* The step's three big GEMM shapes (layer 2 of the preset: in = out = H), each alone, on the
  * kernel la_sgemm takes now; tag names it in the BENCH lines. */
-static void bench_shapes_on(int reps, const char *tag)
+static void bench_shapes_on(int reps, const char *tag, int bf16)
 {
     const int n = (int)BNN_MAX_BATCH, H = (int)BNN_HIDDEN_MAX, I = (int)BNN_HIDDEN_MAX;
     static float out[1024 * 256];
@@ -108,13 +118,22 @@ static void bench_shapes_on(int reps, const char *tag)
             double t0 = now_s();
             switch (op) {
             case 0: /* forward: Y[n x H] = X[n x I] W[H x I]^T */
-                la_sgemm(LA_NO_TRANS, LA_TRANS, n, H, I, 1.0f, ga, I, gb, I, 0.0f, out, H);
+                if (bf16)
+                    la_bf16_gemm(LA_NO_TRANS, LA_TRANS, n, H, I, ga, I, gb, I, out, H, NULL);
+                else
+                    la_sgemm(LA_NO_TRANS, LA_TRANS, n, H, I, 1.0f, ga, I, gb, I, 0.0f, out, H);
                 break;
             case 1: /* dX[n x I] = dY[n x H] W[H x I] */
-                la_sgemm(LA_NO_TRANS, LA_NO_TRANS, n, I, H, 1.0f, gc, H, gb, I, 0.0f, out, I);
+                if (bf16)
+                    la_bf16_gemm(LA_NO_TRANS, LA_NO_TRANS, n, I, H, gc, H, gb, I, out, I, NULL);
+                else
+                    la_sgemm(LA_NO_TRANS, LA_NO_TRANS, n, I, H, 1.0f, gc, H, gb, I, 0.0f, out, I);
                 break;
             default: /* dW[H x I] = dY[n x H]^T X[n x I] */
-                la_sgemm(LA_TRANS, LA_NO_TRANS, H, I, n, 1.0f, gc, H, ga, I, 0.0f, out, I);
+                if (bf16)
+                    la_bf16_gemm(LA_TRANS, LA_NO_TRANS, H, I, n, gc, H, ga, I, out, I, NULL);
+                else
+                    la_sgemm(LA_TRANS, LA_NO_TRANS, H, I, n, 1.0f, gc, H, ga, I, 0.0f, out, I);
                 break;
             }
             if (r >= 0)
@@ -147,11 +166,13 @@ static int bench_shapes(int reps)
             continue;
         }
         (void)la_packed_force(id);
-        bench_shapes_on(reps, la_packed_kernels[id].name);
+        bench_shapes_on(reps, la_packed_kernels[id].name, 0);
     }
+    if (la_bf16_cpu_has(LA_BF16_AVX512))
+        bench_shapes_on(reps, la_bf16_kernel_name(), 1);
 #if defined(LA_BACKEND_EIGEN)
     (void)la_packed_force(-1);
-    bench_shapes_on(reps, la_eigen_kernel_name());
+    bench_shapes_on(reps, la_eigen_kernel_name(), 0);
 #endif
     (void)la_packed_force(-2);
     return 0;
@@ -173,7 +194,22 @@ void __real_la_sgemm(la_trans_t ta, la_trans_t tb, int M, int N, int K, float al
 void __wrap_la_sgemm(la_trans_t ta, la_trans_t tb, int M, int N, int K, float alpha,
                      const float *A, int lda, const float *B, int ldb, float beta, float *C,
                      int ldc);
+void __real_la_bf16_gemm(la_trans_t ta, la_trans_t tb, int M, int N, int K, const float *A,
+                         int lda, const float *B, int ldb, float *C, int ldc,
+                         const la_epilogue_t *ep);
+void __wrap_la_bf16_gemm(la_trans_t ta, la_trans_t tb, int M, int N, int K, const float *A,
+                         int lda, const float *B, int ldb, float *C, int ldc,
+                         const la_epilogue_t *ep);
 static double gemm_seconds; /* accumulated by the wrapper */
+
+void __wrap_la_bf16_gemm(la_trans_t ta, la_trans_t tb, int M, int N, int K, const float *A,
+                         int lda, const float *B, int ldb, float *C, int ldc,
+                         const la_epilogue_t *ep)
+{
+    const double t0 = now_s();
+    __real_la_bf16_gemm(ta, tb, M, N, K, A, lda, B, ldb, C, ldc, ep);
+    gemm_seconds += now_s() - t0;
+}
 
 void __wrap_la_sgemm(la_trans_t ta, la_trans_t tb, int M, int N, int K, float alpha,
                      const float *A, int lda, const float *B, int ldb, float beta, float *C,
@@ -281,7 +317,10 @@ int main(int argc, char **argv)
         return bench_shapes(reps);
     const char *P = BNN_PRESET_NAME;
     const unsigned B = BNN_MAX_BATCH;
-    int rc = bnn_init(&model, NULL, 1);
+    /* fp32 unless a figure says bf16, whatever the build's PRECISION */
+    bnn_config_t cfg = bnn_default_config();
+    cfg.precision = BNN_PRECISION_FP32;
+    int rc = bnn_init(&model, &cfg, 1);
     if (rc)
         die("bnn_init", rc);
     float u[3 * BNN_MAX_BATCH];
@@ -344,6 +383,42 @@ int main(int argc, char **argv)
     la_force_ref(0);
     if (steps_only)
         return 0;
+
+    /* the bf16 step beside the fp32 one: alternating in one loop, so that both see the same
+     * machine (it is shared) */
+    {
+        static double t32[MAX_REPS], t16[MAX_REPS];
+        double g16 = 0.0, all16 = 0.0;
+        printf("BENCH bf16_kernel %s -\n", la_bf16_kernel_name());
+        for (int r = -3; r < reps; r++)
+            for (int p = 0; p < 2; p++) {
+                model.cfg.precision = p ? BNN_PRECISION_BF16 : BNN_PRECISION_FP32;
+                gemm_seconds = 0.0;
+                const double t0 = now_s();
+                rc = bnn_train_step(&model, batch, B, 1e-4f, 200 + (uint64_t)r, 1e-4f, NULL);
+                const double dt = now_s() - t0;
+                if (rc)
+                    die("bnn_train_step", rc);
+                if (r < 0)
+                    continue;
+                (p ? t16 : t32)[r] = dt;
+                if (p) {
+                    g16 += gemm_seconds;
+                    all16 += dt;
+                }
+            }
+        model.cfg.precision = BNN_PRECISION_FP32;
+        memcpy(samples_, t32, sizeof(double) * (size_t)reps);
+        const double m32 = median(reps), b32 = samples_[0];
+        memcpy(samples_, t16, sizeof(double) * (size_t)reps);
+        const double m16 = median(reps);
+        printf("BENCH bnn_train_step_ms_%s_b%u_bf16 %.3f ms\n", P, B, 1e3 * m16);
+        printf("BENCH bnn_train_step_ms_best_%s_b%u_bf16 %.3f ms\n", P, B, 1e3 * samples_[0]);
+        printf("BENCH bnn_train_step_ms_%s_b%u_fp32_alt %.3f ms\n", P, B, 1e3 * m32);
+        printf("BENCH bnn_train_step_ms_best_%s_b%u_fp32_alt %.3f ms\n", P, B, 1e3 * b32);
+        printf("BENCH bnn_train_step_bf16_speedup_%s %.2f x\n", P, m32 / m16);
+        printf("BENCH bnn_step_share_gemm_%s_bf16 %.1f %%\n", P, 100.0 * g16 / all16);
+    }
 
     /* where the step's time goes (Eigen back end) */
     {
@@ -418,6 +493,23 @@ int main(int argc, char **argv)
             printf("BENCH %s_256x256x1024_best %.2f GFLOP/s\n",
                    backend ? "sgemm_ref_gflops" : "sgemm_gflops", gf / samples_[0] * 1e-9);
         }
+        /* the same product as bf16 products with fp32 sums: the kernel the CPU runs, then the
+         * pure-C reference */
+        for (int backend = 0; backend < 2; backend++) {
+            if (backend == 0 && !la_bf16_cpu_has(LA_BF16_AVX512))
+                continue;
+            (void)la_bf16_force(backend ? LA_BF16_REF : LA_BF16_AUTO);
+            int n = backend ? 3 : 50;
+            for (int r = 0; r < n; r++) {
+                double t0 = now_s();
+                la_bf16_gemm(LA_NO_TRANS, LA_TRANS, 1024, 256, 256, ga, 256, gb, 256, gc, 256,
+                             NULL);
+                samples_[r] = now_s() - t0;
+            }
+            printf("BENCH %s_256x256x1024 %.2f GFLOP/s\n",
+                   backend ? "bf16gemm_ref_gflops" : "bf16gemm_gflops", gf / median(n) * 1e-9);
+        }
+        (void)la_bf16_force(LA_BF16_AUTO);
     }
 
     /* MC inference, K = 50 */

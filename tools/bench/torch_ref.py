@@ -23,6 +23,13 @@ What it times, in PyTorch on the CPU (`torch.set_num_threads(--threads)`, intero
 
 Presets: paper = SIREN 256 -> 4 x 256, small = SIREN 128 -> 3 x 64 (firmware/ai/bnn.h).
 
+--bf16: the step's forward and loss run under torch.autocast("cpu", dtype=torch.bfloat16)
+(every F.linear in bf16, SIREN and output layer included; parameters, Adam and the backward's
+accumulation in fp32 as autocast does it), and the step figures compared are bench_bnn's bf16
+step, `bnn_train_step_ms_<preset>_b<B>_bf16` (and its best); every step figure printed gets the
+suffix _bf16. MC-50 stays fp32 in both (fleetsim's inference is fp32 whatever the step's
+precision).
+
 With --bench-bnn PATH the same invocation also runs that bench_bnn binary (built with the same
 PRESET, e.g. `make PRESET=paper` -> build/release-host-paper/bin/bench_bnn) as `PATH --reps
 --reps`, with OMP_NUM_THREADS = MKL_NUM_THREADS = 1 in its environment, alternating with the
@@ -57,6 +64,7 @@ needs; 2 on a bad argument, when torch cannot be imported, or when bench_bnn was
 another preset or batch.
 """
 import argparse
+import contextlib
 import os
 import platform
 import re
@@ -103,19 +111,21 @@ def cpu_model(path="/proc/cpuinfo"):
     return platform.processor() or platform.machine() or "unknown"
 
 
-def parse_bench_output(text, preset, batch):
+def parse_bench_output(text, preset, batch, bf16=False):
     """The figures the comparison needs from bench_bnn's stdout: {'step_ms', 'step_best_ms',
-    'mc50_pps', 'gemm_kernel'}. Raises BenchMismatch when the binary measured another preset or
-    batch, BenchFailed when a figure is missing or not a number."""
+    'mc50_pps', 'gemm_kernel'} (with bf16, the step figures of the bf16 step). Raises
+    BenchMismatch when the binary measured another preset or batch, BenchFailed when a figure is
+    missing or not a number."""
     vals = {}
     for line in text.splitlines():
         m = BENCH_RE.match(line.strip())
         if m:
             vals[m.group(1)] = m.group(2)
-    step = f"bnn_train_step_ms_{preset}_b{batch}"
-    best = f"bnn_train_step_ms_best_{preset}_b{batch}"
+    sfx = "_bf16" if bf16 else ""
+    step = f"bnn_train_step_ms_{preset}_b{batch}{sfx}"
+    best = f"bnn_train_step_ms_best_{preset}_b{batch}{sfx}"
     mc = f"bnn_mc50_points_per_s_{preset}"
-    if step not in vals:
+    if f"bnn_train_step_ms_{preset}_b{batch}" not in vals:
         built = [m.groups() for n in vals for m in [re.fullmatch(r"bnn_train_step_ms_([a-z0-9]+)_b(\d+)", n)] if m]
         if built:
             p, b = built[0]
@@ -134,7 +144,7 @@ def parse_bench_output(text, preset, batch):
     return out
 
 
-def run_bench_bnn(path, reps, preset, batch):
+def run_bench_bnn(path, reps, preset, batch, bf16=False):
     """Runs `path --reps reps` single-threaded (OMP/MKL_NUM_THREADS = 1) and parses its output;
     raises BenchFailed (with its stderr) when it cannot run or exits non-zero."""
     env = dict(os.environ, OMP_NUM_THREADS="1", MKL_NUM_THREADS="1")
@@ -147,7 +157,7 @@ def run_bench_bnn(path, reps, preset, batch):
         how = f"signal {-p.returncode}" if p.returncode < 0 else f"exit status {p.returncode}"
         err = p.stderr.strip() or "(no stderr)"
         raise BenchFailed(f"{' '.join(cmd)} failed ({how}); its stderr:\n{err}")
-    return parse_bench_output(p.stdout, preset, batch)
+    return parse_bench_output(p.stdout, preset, batch, bf16)
 
 
 def parse_args(argv):
@@ -165,6 +175,8 @@ def parse_args(argv):
                     help="also run this bench_bnn binary (same preset) and print the ratios")
     ap.add_argument("--rounds", type=int, default=None,
                     help="measurement rounds (default 2 with --bench-bnn, else 1)")
+    ap.add_argument("--bf16", action="store_true",
+                    help="torch's step under bf16 autocast, against bench_bnn's bf16 step")
     a = ap.parse_args(argv)
     if a.batch < 1 or a.reps < 3 or a.threads < 1 or a.mc_reps < 1:
         ap.error("need --batch >= 1, --reps >= 3, --threads >= 1, --mc-reps >= 1")
@@ -198,9 +210,9 @@ def import_torch():
 class TorchBnn:
     """The network, its two Adam optimisers and the timed workloads."""
 
-    def __init__(self, torch, preset, batch):
+    def __init__(self, torch, preset, batch, bf16=False):
         import torch.nn.functional as F
-        self.torch, self.F = torch, F
+        self.torch, self.F, self.bf16 = torch, F, bf16
         torch.manual_seed(0)
         S, H, L = PRESETS[preset]
         self.L, self.B = L, batch
@@ -229,6 +241,14 @@ class TorchBnn:
         F, torch = self.F, self.torch
         self.opt_mu.zero_grad(set_to_none=True)
         self.opt_rho.zero_grad(set_to_none=True)
+        with (torch.autocast("cpu", dtype=torch.bfloat16) if self.bf16 else contextlib.nullcontext()):
+            loss = self.loss()
+        loss.backward()
+        self.opt_mu.step()
+        self.opt_rho.step()
+
+    def loss(self):
+        F, torch = self.F, self.torch
         h = torch.sin(30.0 * F.linear(self.xy, self.w0, self.b0))
         kl = 0.0
         for l in range(self.L):
@@ -240,10 +260,7 @@ class TorchBnn:
             for m, s in ((wm, ws), (bm, bs)):
                 kl = kl + (-torch.log(s) + 0.5 * (s * s + m * m) - 0.5).mean()
         logit = F.linear(h, self.wo, self.bo).squeeze(1)
-        loss = F.binary_cross_entropy_with_logits(logit, self.y) + KL_WEIGHT * kl
-        loss.backward()
-        self.opt_mu.step()
-        self.opt_rho.step()
+        return F.binary_cross_entropy_with_logits(logit.float(), self.y) + KL_WEIGHT * kl
 
     def predict_mc(self, K=MC_K, n=MC_POINTS):
         """bnn_predict_mc: K passes, one weight sample per pass shared by every point, chunks of
@@ -304,7 +321,7 @@ def main(argv=None):
           f"oneDNN {'yes' if torch.backends.mkldnn.is_available() else 'no'}, "
           f"CPU capability {getattr(torch.backends.cpu, 'get_cpu_capability', lambda: '?')()}; "
           f"threads {torch.get_num_threads()}, interop {torch.get_num_interop_threads()}")
-    print(f"# preset {P}: SIREN {S} -> {L} x {H}; step batch {B}, {a.reps} reps; "
+    print(f"# preset {P}: SIREN {S} -> {L} x {H}; step batch {B}{' under bf16 autocast' if a.bf16 else ''}, {a.reps} reps; "
           f"MC-{MC_K} on {MC_POINTS} points in chunks of {B}, {a.mc_reps} reps; {R} round(s)")
     if a.bench_bnn:
         print(f"# fleetsim: {a.bench_bnn} --reps {a.reps} (OMP_NUM_THREADS=MKL_NUM_THREADS=1)")
@@ -312,7 +329,8 @@ def main(argv=None):
             print(f"# note: torch runs {a.threads} threads, bench_bnn one: the ratios compare unequal set-ups")
     sys.stdout.flush()
 
-    net = TorchBnn(torch, P, B)
+    net = TorchBnn(torch, P, B, a.bf16)
+    X = "_bf16" if a.bf16 else ""  # suffix of the step figures
     t_step, t_best, t_mc, c_step, c_best, c_mc = [], [], [], [], [], []
     r_step, r_best, r_mc = [], [], []
 
@@ -325,7 +343,7 @@ def main(argv=None):
             print(f"# round {r}/{R}")
         if a.bench_bnn:
             try:
-                c = run_bench_bnn(a.bench_bnn, a.reps, P, B)
+                c = run_bench_bnn(a.bench_bnn, a.reps, P, B, a.bf16)
             except BenchMismatch as e:
                 print(f"torch_ref: {e}", file=sys.stderr)
                 return 2
@@ -346,30 +364,30 @@ def main(argv=None):
             r_best.append(t_best[-1] / c_best[-1])
             r_mc.append(c_mc[-1] / t_mc[-1])
         if rnd is not None:
-            emit(f"torch_bnn_train_step_ms_{P}_b{B}", t_step[-1], "ms", rnd)
-            emit(f"torch_bnn_train_step_ms_best_{P}_b{B}", t_best[-1], "ms", rnd)
+            emit(f"torch_bnn_train_step_ms_{P}_b{B}{X}", t_step[-1], "ms", rnd)
+            emit(f"torch_bnn_train_step_ms_best_{P}_b{B}{X}", t_best[-1], "ms", rnd)
             emit(f"torch_bnn_mc50_points_per_s_{P}", t_mc[-1], "points/s", rnd, ".0f")
             if a.bench_bnn:
-                emit(f"fleetsim_bnn_train_step_ms_{P}_b{B}", c_step[-1], "ms", rnd)
-                emit(f"fleetsim_bnn_train_step_ms_best_{P}_b{B}", c_best[-1], "ms", rnd)
+                emit(f"fleetsim_bnn_train_step_ms_{P}_b{B}{X}", c_step[-1], "ms", rnd)
+                emit(f"fleetsim_bnn_train_step_ms_best_{P}_b{B}{X}", c_best[-1], "ms", rnd)
                 emit(f"fleetsim_bnn_mc50_points_per_s_{P}", c_mc[-1], "points/s", rnd, ".0f")
-                emit(f"torch_over_fleetsim_step_{P}", r_step[-1], "x", rnd, ".2f")
-                emit(f"torch_over_fleetsim_step_best_{P}", r_best[-1], "x", rnd, ".2f")
+                emit(f"torch_over_fleetsim_step_{P}{X}", r_step[-1], "x", rnd, ".2f")
+                emit(f"torch_over_fleetsim_step_best_{P}{X}", r_best[-1], "x", rnd, ".2f")
                 emit(f"fleetsim_over_torch_mc50_{P}", r_mc[-1], "x", rnd, ".2f")
         sys.stdout.flush()
 
     if R > 1:
         print(f"# over the {R} rounds: medians (best: the best repetition)")
     med = statistics.median
-    emit(f"torch_bnn_train_step_ms_{P}_b{B}", med(t_step), "ms")
-    emit(f"torch_bnn_train_step_ms_best_{P}_b{B}", min(t_best), "ms")
+    emit(f"torch_bnn_train_step_ms_{P}_b{B}{X}", med(t_step), "ms")
+    emit(f"torch_bnn_train_step_ms_best_{P}_b{B}{X}", min(t_best), "ms")
     emit(f"torch_bnn_mc50_points_per_s_{P}", med(t_mc), "points/s", fmt=".0f")
     if a.bench_bnn:
-        emit(f"fleetsim_bnn_train_step_ms_{P}_b{B}", med(c_step), "ms")
-        emit(f"fleetsim_bnn_train_step_ms_best_{P}_b{B}", min(c_best), "ms")
+        emit(f"fleetsim_bnn_train_step_ms_{P}_b{B}{X}", med(c_step), "ms")
+        emit(f"fleetsim_bnn_train_step_ms_best_{P}_b{B}{X}", min(c_best), "ms")
         emit(f"fleetsim_bnn_mc50_points_per_s_{P}", med(c_mc), "points/s", fmt=".0f")
-        emit(f"torch_over_fleetsim_step_{P}", med(r_step), "x", fmt=".2f")
-        emit(f"torch_over_fleetsim_step_best_{P}", min(t_best) / min(c_best), "x", fmt=".2f")
+        emit(f"torch_over_fleetsim_step_{P}{X}", med(r_step), "x", fmt=".2f")
+        emit(f"torch_over_fleetsim_step_best_{P}{X}", min(t_best) / min(c_best), "x", fmt=".2f")
         emit(f"fleetsim_over_torch_mc50_{P}", med(r_mc), "x", fmt=".2f")
     return 0
 
