@@ -104,34 +104,38 @@ static void lap_pack_b(la_trans_t tb, const float *B, int ldb, int j0, int nc, i
 /* The row loops below are unrolled explicitly: GCC does not do it at -O2 (the cross builds),
  * and then keeps the accumulators in memory. */
 
-/* C[mr x nr] = alpha * Ap Bp (+ beta C) on the first k block, += alpha * Ap Bp after it; the
+/* C[rows x nr] = alpha * Ap Bp (+ beta C) on the first k block, += alpha * Ap Bp after it; the
  * epilogue e (or NULL) on the last block, its pointers already offset to the tile's first row
- * and column. */
-static void lap_micro(int kc, const float *restrict Ap, const float *restrict Bp, float *C, int ldc,
-                      int mr, int nr, float alpha, float beta, int first,
-                      const la_epilogue_t *e)
+ * and column. `rows` is a constant in every call (lap_micro below): the loops over it unroll
+ * and the accumulators of the rows beyond it vanish, so a strip of fewer than MR rows (the last
+ * one of M = 64 or 1024 for MR = 12) costs its own rows' FMAs, not a whole tile's, and is stored
+ * from the vectors. Each element's FMAs and its scaling into C are the same whatever `rows`. */
+static inline __attribute__((always_inline)) void
+lap_micro_rows(const int rows, int kc, const float *restrict Ap, const float *restrict Bp,
+               float *C, int ldc, int nr, float alpha, float beta, int first,
+               const la_epilogue_t *e)
 {
     lap_vec c[LAP_MR][2];
 #pragma GCC unroll 16
-    for (int r = 0; r < LAP_MR; r++)
+    for (int r = 0; r < rows; r++)
         c[r][0] = c[r][1] = lap_zero();
     for (int k = 0; k < kc; k++) {
         const lap_vec b0 = lap_load(Bp + k * LAP_NR), b1 = lap_load(Bp + k * LAP_NR + LAP_VL);
 #pragma GCC unroll 16
-        for (int r = 0; r < LAP_MR; r++) {
+        for (int r = 0; r < rows; r++) {
             const lap_vec a = lap_bcast(Ap + k * LAP_MR + r);
             c[r][0] = lap_fma(a, b0, c[r][0]);
             c[r][1] = lap_fma(a, b1, c[r][1]);
         }
     }
     const lap_vec va = lap_set1(alpha), vb = lap_set1(beta);
-    if (mr == LAP_MR && nr == LAP_NR) {
+    if (nr == LAP_NR) {
         lap_vec cs[2] = {lap_zero(), lap_zero()};
         if (e && e->colsum)
             for (int h = 0; h < 2; h++)
                 cs[h] = lap_loadu(e->colsum + LAP_VL * h);
 #pragma GCC unroll 16
-        for (int r = 0; r < LAP_MR; r++) {
+        for (int r = 0; r < rows; r++) {
             float *cr = C + (size_t)r * ldc;
 #pragma GCC unroll 2
             for (int h = 0; h < 2; h++) {
@@ -160,14 +164,15 @@ static void lap_micro(int kc, const float *restrict Ap, const float *restrict Bp
                 lap_storeu(e->colsum + LAP_VL * h, cs[h]);
         return;
     }
-    /* edge tile: through a stack copy of the accumulators */
+    /* fewer columns than NR: through a stack copy of the accumulators, element by element
+     * (fmaf, one instruction on these instruction sets, rounds as the vector FMA does) */
     _Alignas(64) float t[LAP_MR * LAP_NR];
 #pragma GCC unroll 16
-    for (int r = 0; r < LAP_MR; r++) {
+    for (int r = 0; r < rows; r++) {
         lap_store(&t[r * LAP_NR], c[r][0]);
         lap_store(&t[r * LAP_NR + LAP_VL], c[r][1]);
     }
-    for (int r = 0; r < mr; r++)
+    for (int r = 0; r < rows; r++)
         for (int j = 0; j < nr; j++) {
             float *cv = C + (size_t)r * ldc + j;
             const float acc = t[r * LAP_NR + j];
@@ -180,6 +185,29 @@ static void lap_micro(int kc, const float *restrict Ap, const float *restrict Bp
                 o = alpha * acc;
             *cv = e ? la_epilogue_elem(e, (size_t)r, j, o) : o;
         }
+}
+
+/* One instantiation of lap_micro_rows per row count 1..MR (MR <= 16 on every instruction set
+ * here; the counts above MR are clamped so that they compile, and never taken). */
+static void lap_micro(int kc, const float *restrict Ap, const float *restrict Bp, float *C, int ldc,
+                      int mr, int nr, float alpha, float beta, int first,
+                      const la_epilogue_t *e)
+{
+#define LAP_ROWS_CASE(n)                                                                       \
+    case n:                                                                                    \
+        lap_micro_rows((n) <= LAP_MR ? (n) : LAP_MR, kc, Ap, Bp, C, ldc, nr, alpha, beta,      \
+                       first, e);                                                              \
+        return;
+    _Static_assert(LAP_MR <= 16, "lap_micro instantiates row counts up to 16");
+    switch (mr) {
+    LAP_ROWS_CASE(1) LAP_ROWS_CASE(2) LAP_ROWS_CASE(3) LAP_ROWS_CASE(4)
+    LAP_ROWS_CASE(5) LAP_ROWS_CASE(6) LAP_ROWS_CASE(7) LAP_ROWS_CASE(8)
+    LAP_ROWS_CASE(9) LAP_ROWS_CASE(10) LAP_ROWS_CASE(11) LAP_ROWS_CASE(12)
+    LAP_ROWS_CASE(13) LAP_ROWS_CASE(14) LAP_ROWS_CASE(15) LAP_ROWS_CASE(16)
+    default:
+        return;
+    }
+#undef LAP_ROWS_CASE
 }
 
 void LAP_FN(la_trans_t ta, la_trans_t tb, int M, int N, int K, float alpha, const float *A,
