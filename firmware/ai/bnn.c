@@ -563,16 +563,21 @@ static inline __attribute__((always_inline)) double kl_pass(size_t cnt, KL_STREA
 }
 
 /* Not inlined: the restrict parameters are what lets GCC vectorise 10 streams without a
- * run-time alias check per pair (inlined, it gave up on the fused one). */
-AI_WIDE __attribute__((noinline)) static double kl_pass_plain(size_t cnt, KL_STREAMS, float c,
-                                                              float ip2, float logp)
+ * run-time alias check per pair (inlined, it gave up on the fused one). Clones are never
+ * inlined, and clang refuses noinline beside target_clones. */
+#if defined(AI_WIDE_CLONES) || !defined(__GNUC__)
+#define KL_NOINLINE
+#else
+#define KL_NOINLINE __attribute__((noinline))
+#endif
+AI_WIDE KL_NOINLINE static double kl_pass_plain(size_t cnt, KL_STREAMS, float c, float ip2,
+                                                float logp)
 {
     return kl_pass(cnt, KL_STREAM_ARGS, c, ip2, logp, 0, NULL);
 }
 
-AI_WIDE __attribute__((noinline)) static double kl_pass_adam(size_t cnt, KL_STREAMS, float c,
-                                                             float ip2, float logp,
-                                                             const adam_fused_t *af)
+AI_WIDE KL_NOINLINE static double kl_pass_adam(size_t cnt, KL_STREAMS, float c, float ip2,
+                                               float logp, const adam_fused_t *af)
 {
     return kl_pass(cnt, KL_STREAM_ARGS, c, ip2, logp, 1, af);
 }
