@@ -7,8 +7,9 @@
  * it); op(A) packed per MC rows; an MR x NR register tile per micro-kernel call (two vectors
  * wide). beta is applied in the first k block, so C is never zeroed first and beta == 0 never
  * reads C. Each output element gets one FMA per k, k ascending within a block and blocks in
- * order, and the same explicit FMAs when a block is scaled into C (full tiles in vectors, edge
- * tiles in scalars: fmaf, which the kernel's instruction set makes one instruction), so the
+ * order, and the same explicit FMAs when a block is scaled into C (tiles of full width in
+ * vectors, whatever their row count; tiles of fewer columns in scalars: fmaf, which the
+ * kernel's instruction set makes one instruction), so the
  * result depends on the shape only, not on the vector width, nor on what the compiler
  * contracts.
  *
