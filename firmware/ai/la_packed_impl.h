@@ -209,23 +209,64 @@ lap_micro_rows(const int rows, int kc, const float *restrict Ap, const float *re
         }
 }
 
-/* One instantiation of lap_micro_rows per row count 1..MR (MR <= 16 on every instruction set
- * here; the counts above MR are clamped so that they compile, and never taken). */
+/* One instantiation of lap_micro_rows per row count 1..MR (the #if keeps counts above MR from
+ * being compiled at all: each is a whole unrolled kernel). */
 static void lap_micro(int kc, const float *restrict Ap, const float *restrict Bp, float *C, int ldc,
                       int mr, int nr, float alpha, float beta, int first,
                       const la_epilogue_t *e)
 {
 #define LAP_ROWS_CASE(n)                                                                       \
     case n:                                                                                    \
-        lap_micro_rows((n) <= LAP_MR ? (n) : LAP_MR, kc, Ap, Bp, C, ldc, nr, alpha, beta,      \
-                       first, e);                                                              \
+        lap_micro_rows(n, kc, Ap, Bp, C, ldc, nr, alpha, beta, first, e);                      \
         return;
-    _Static_assert(LAP_MR <= 16, "lap_micro instantiates row counts up to 16");
+    _Static_assert(LAP_MR >= 1 && LAP_MR <= 16, "lap_micro instantiates row counts 1..16");
     switch (mr) {
-    LAP_ROWS_CASE(1) LAP_ROWS_CASE(2) LAP_ROWS_CASE(3) LAP_ROWS_CASE(4)
-    LAP_ROWS_CASE(5) LAP_ROWS_CASE(6) LAP_ROWS_CASE(7) LAP_ROWS_CASE(8)
-    LAP_ROWS_CASE(9) LAP_ROWS_CASE(10) LAP_ROWS_CASE(11) LAP_ROWS_CASE(12)
-    LAP_ROWS_CASE(13) LAP_ROWS_CASE(14) LAP_ROWS_CASE(15) LAP_ROWS_CASE(16)
+    LAP_ROWS_CASE(1)
+#if LAP_MR >= 2
+    LAP_ROWS_CASE(2)
+#endif
+#if LAP_MR >= 3
+    LAP_ROWS_CASE(3)
+#endif
+#if LAP_MR >= 4
+    LAP_ROWS_CASE(4)
+#endif
+#if LAP_MR >= 5
+    LAP_ROWS_CASE(5)
+#endif
+#if LAP_MR >= 6
+    LAP_ROWS_CASE(6)
+#endif
+#if LAP_MR >= 7
+    LAP_ROWS_CASE(7)
+#endif
+#if LAP_MR >= 8
+    LAP_ROWS_CASE(8)
+#endif
+#if LAP_MR >= 9
+    LAP_ROWS_CASE(9)
+#endif
+#if LAP_MR >= 10
+    LAP_ROWS_CASE(10)
+#endif
+#if LAP_MR >= 11
+    LAP_ROWS_CASE(11)
+#endif
+#if LAP_MR >= 12
+    LAP_ROWS_CASE(12)
+#endif
+#if LAP_MR >= 13
+    LAP_ROWS_CASE(13)
+#endif
+#if LAP_MR >= 14
+    LAP_ROWS_CASE(14)
+#endif
+#if LAP_MR >= 15
+    LAP_ROWS_CASE(15)
+#endif
+#if LAP_MR >= 16
+    LAP_ROWS_CASE(16)
+#endif
     default:
         return;
     }
