@@ -264,8 +264,9 @@ $(BIN)/host_sim: $(APP_OBJ) $(LIBS)
 	$(call say,LD,$@)$(CXX) $(OPT) $(APP_OBJ) $(LINK_LIBS) -o $@
 
 # bench_bnn times the GEMMs inside the training step: its la_sgemm calls pass through a timer
-# (--wrap), the firmware itself unchanged.
-BENCH_LDFLAGS_bnn := -Wl,--wrap=la_sgemm,--wrap=la_sgemm_ep,--wrap=la_bf16_gemm
+# (--wrap), the firmware itself unchanged. It also runs every GEMM shape of the step on
+# OpenBLAS in the same run, for comparison: only the benchmark links it, never the firmware.
+BENCH_LDFLAGS_bnn := -Wl,--wrap=la_sgemm,--wrap=la_sgemm_ep,--wrap=la_bf16_gemm -lopenblas
 $(BIN)/bench_%: $(O)/obj/tools/bench/bench_%.c.o $(BENCH_SUPPORT_OBJ) $(LIBS)
 	@mkdir -p $(@D)
 	$(call say,LD,$@)$(CXX) $(OPT) $< $(BENCH_SUPPORT_OBJ) $(LINK_LIBS) $(BENCH_LDFLAGS_$*) -o $@
@@ -321,6 +322,7 @@ test-tsan:
 # named in BENCH_PRESETS, the rest once.
 BENCH_PRESETS ?= small paper
 bench:
+	@tools/bench/cpu_info.sh
 	@for p in $(BENCH_PRESETS); do \
 	    $(MAKE) --no-print-directory BUILD=release PRESET=$$p bench-one \
 	        BENCH_ONLY=$$( [ $$p = $(firstword $(BENCH_PRESETS)) ] && echo all || echo bnn ) || exit 1; \

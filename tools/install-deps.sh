@@ -34,6 +34,8 @@ deps=(
     "libosmesa6-dev       /usr/include/GL/osmesa.h"
     "libcmocka-dev        /usr/include/cmocka.h"
     "libpng-dev           /usr/include/png.h"
+    # bench_bnn's GEMM comparison only (`make bench`); the firmware never links it
+    "libopenblas-dev      /usr/include/$(uname -m)-linux-gnu/cblas-openblas.h"
     "python3-numpy        /usr/lib/python3/dist-packages/numpy/__init__.py"
     "python3-scipy        /usr/lib/python3/dist-packages/scipy/__init__.py"
     "python3-matplotlib   /usr/lib/python3/dist-packages/matplotlib/__init__.py"

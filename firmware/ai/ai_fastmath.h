@@ -31,6 +31,7 @@
 #if defined(__x86_64__) && defined(__linux__) && !defined(__AVX2__) &&                           \
     (defined(__GNUC__) || defined(__clang__)) && !defined(AI_TSAN_)
 #define AI_WIDE __attribute__((target_clones("arch=x86-64-v4", "arch=x86-64-v3", "default")))
+#define AI_WIDE_CLONES 1 /* AI_WIDE functions are reached through an ifunc: never inlined */
 #else
 #define AI_WIDE
 #endif

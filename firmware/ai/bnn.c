@@ -488,53 +488,134 @@ AI_WIDE static void backward(bnn_model_t *m, const layout_t *y, size_t n)
     }
 }
 
-/* Reparameterisation and KL over one Bayesian tensor [j0, j0+cnt): turns dL/dw (in the mu
- * gradient) into mu and rho gradients with the KL term. Returns the tensor's KL sum. */
-AI_WIDE static double bayes_tensor_grad(bnn_model_t *m, const layout_t *y, size_t j0, size_t cnt,
-                                float kl_weight)
+/* Adam on both groups (bnn_adam_step), done inside the KL pass by bnn_train_step: the pass
+ * already holds each Bayesian element's mu, rho and both gradients in registers, so the
+ * separate Adam passes' reads of theta and the gradients over the block (2 x 4 streams of the
+ * block's length) go. Pointers are at the block's element 0. */
+typedef struct adam_fused {
+    float *am_mu, *av_mu, *am_rho, *av_rho;
+    float b1, b2, ep, step_mu, isb2_mu, step_rho, isb2_rho;
+} adam_fused_t;
+
+/* One Adam update, the same arithmetic as adam_update's loop body (so the same bits). */
+static inline __attribute__((always_inline)) void adam_elem(float *th, float gi, float *am,
+                                                            float *av, float b1, float b2,
+                                                            float ep, float step, float isb2)
 {
-    float *a = m->arena;
-    const float *restrict mu = a + y->bay + j0;
-    const float *restrict rho = a + y->n_mu + j0;
-    const float *restrict eps = a + y->eps + j0;
-    const float *restrict sig = a + y->sigma + j0;
-    float *restrict gmu = a + y->grads + y->bay + j0;
-    float *restrict grho = a + y->grads + y->n_mu + j0;
-    const float p = m->cfg.prior_sigma, ip2 = 1.0f / (p * p), logp = logf(p);
-    const float c = kl_weight / (float)cnt;
+    const float c1 = 1.0f - b1, c2 = 1.0f - b2;
+    const float mi = b1 * *am + c1 * gi;
+    const float vi = b2 * *av + c2 * gi * gi;
+    *am = mi;
+    *av = vi;
+    *th -= step * mi / (ai_fm_sqrtf(vi) * isb2 + ep);
+}
+
+/* Element k of the pass below: its mu and rho gradients (from dL/dw in gmu), Adam on both with
+ * af's constants when fuse (a constant in every caller, so the loops stay branch-free), and its
+ * KL term. */
+/* Element k of the pass below: its mu and rho gradients (from dL/dw in gmu), Adam on both with
+ * af's constants when fuse (a constant in every caller, so the loops stay branch-free), and its
+ * KL term. */
+#define KL_STREAMS                                                                             \
+    float *restrict mu, float *restrict rho, float *restrict gmu, float *restrict grho,       \
+        const float *restrict eps, const float *restrict sig, float *restrict am_mu,          \
+        float *restrict av_mu, float *restrict am_rho, float *restrict av_rho
+#define KL_STREAM_ARGS mu, rho, gmu, grho, eps, sig, am_mu, av_mu, am_rho, av_rho
+static inline __attribute__((always_inline)) float kl_elem(size_t k, KL_STREAMS, float c,
+                                                           float ip2, float logp, const int fuse,
+                                                           const adam_fused_t *af)
+{
+    const float r = rho[k], s = sig[k], u = mu[k];
+    const float e = ai_fm_expf(-fabsf(r));
+    const float iv = 1.0f / ((1.0f + e) * s); /* one division for 1/s and sigmoid */
+    const float sg = ai_fm_sel(r >= 0.0f, 1.0f, e) * (iv * s);
+    const float gw = gmu[k];
+    const float gr = (gw * eps[k] + c * (s * ip2 - iv * (1.0f + e))) * sg;
+    const float gm = gw + c * u * ip2;
+    grho[k] = gr;
+    gmu[k] = gm;
+    if (fuse) {
+        adam_elem(&mu[k], gm, &am_mu[k], &av_mu[k], af->b1, af->b2, af->ep, af->step_mu,
+                  af->isb2_mu);
+        adam_elem(&rho[k], gr, &am_rho[k], &av_rho[k], af->b1, af->b2, af->ep, af->step_rho,
+                  af->isb2_rho);
+    }
+    return logp - ai_fm_logf(s) + 0.5f * (s * s + u * u) * ip2 - 0.5f;
+}
+
+/* Reparameterisation and KL over one Bayesian tensor of cnt elements (the streams at its first
+ * one): turns dL/dw (in the mu gradient) into mu and rho gradients with the KL term, and with
+ * fuse (bnn_train_step) applies Adam to the tensor's mu and rho at once. Returns the tensor's
+ * KL sum. */
+static inline __attribute__((always_inline)) double kl_pass(size_t cnt, KL_STREAMS, float c,
+                                                            float ip2, float logp, const int fuse,
+                                                            const adam_fused_t *af)
+{
     float acc[8] = {0};
     size_t j = 0;
-    for (; j + 8 <= cnt; j += 8) {
-        for (size_t q = 0; q < 8; q++) {
-            const size_t k = j + q;
-            const float r = rho[k], s = sig[k], u = mu[k];
-            const float e = ai_fm_expf(-fabsf(r));
-            const float iv = 1.0f / ((1.0f + e) * s); /* one division for 1/s and sigmoid */
-            const float sg = ai_fm_sel(r >= 0.0f, 1.0f, e) * (iv * s);
-            const float gw = gmu[k];
-            grho[k] = (gw * eps[k] + c * (s * ip2 - iv * (1.0f + e))) * sg;
-            gmu[k] = gw + c * u * ip2;
-            acc[q] += logp - ai_fm_logf(s) + 0.5f * (s * s + u * u) * ip2 - 0.5f;
-        }
+    /* 16 elements per iteration so the pass runs in 512-bit vectors where there are some (at 8
+     * GCC took ymm and spilled); the KL terms still go into the 8 partial sums in the order of
+     * the 8-wide loop below, so the KL figure keeps its bits */
+    for (; j + 16 <= cnt; j += 16) {
+        float t[16];
+        for (size_t q = 0; q < 16; q++)
+            t[q] = kl_elem(j + q, KL_STREAM_ARGS, c, ip2, logp, fuse, af);
+        for (size_t q = 0; q < 8; q++)
+            acc[q] += t[q];
+        for (size_t q = 0; q < 8; q++)
+            acc[q] += t[8 + q];
     }
+    for (; j + 8 <= cnt; j += 8)
+        for (size_t q = 0; q < 8; q++)
+            acc[q] += kl_elem(j + q, KL_STREAM_ARGS, c, ip2, logp, fuse, af);
     double kl = 0.0;
-    for (; j < cnt; j++) {
-        const float r = rho[j], s = sig[j], u = mu[j];
-        const float e = ai_fm_expf(-fabsf(r));
-        const float iv = 1.0f / ((1.0f + e) * s);
-        const float sg = ai_fm_sel(r >= 0.0f, 1.0f, e) * (iv * s);
-        const float gw = gmu[j];
-        grho[j] = (gw * eps[j] + c * (s * ip2 - iv * (1.0f + e))) * sg;
-        gmu[j] = gw + c * u * ip2;
-        kl += logp - ai_fm_logf(s) + 0.5f * (s * s + u * u) * ip2 - 0.5f;
-    }
+    for (; j < cnt; j++)
+        kl += kl_elem(j, KL_STREAM_ARGS, c, ip2, logp, fuse, af);
     for (int q = 0; q < 8; q++)
         kl += acc[q];
     return kl;
 }
 
-int bnn_loss_grad(bnn_model_t *m, const ai_sample_t *batch, size_t n, float kl_weight,
-                  uint64_t noise_key, bnn_loss_t *out)
+/* Not inlined: the restrict parameters are what lets GCC vectorise 10 streams without a
+ * run-time alias check per pair (inlined, it gave up on the fused one). Clones are never
+ * inlined, and clang refuses noinline beside target_clones. */
+#if defined(AI_WIDE_CLONES) || !defined(__GNUC__)
+#define KL_NOINLINE
+#else
+#define KL_NOINLINE __attribute__((noinline))
+#endif
+AI_WIDE KL_NOINLINE static double kl_pass_plain(size_t cnt, KL_STREAMS, float c, float ip2,
+                                                float logp)
+{
+    return kl_pass(cnt, KL_STREAM_ARGS, c, ip2, logp, 0, NULL);
+}
+
+AI_WIDE KL_NOINLINE static double kl_pass_adam(size_t cnt, KL_STREAMS, float c, float ip2,
+                                               float logp, const adam_fused_t *af)
+{
+    return kl_pass(cnt, KL_STREAM_ARGS, c, ip2, logp, 1, af);
+}
+
+/* The pass over the tensor [j0, j0 + cnt) of the Bayesian block; af: Adam fused (or NULL). */
+static double bayes_tensor_grad(bnn_model_t *m, const layout_t *y, size_t j0, size_t cnt,
+                                float kl_weight, const adam_fused_t *af)
+{
+    float *a = m->arena;
+    const float p = m->cfg.prior_sigma, ip2 = 1.0f / (p * p), logp = logf(p);
+    const float c = kl_weight / (float)cnt;
+    float *mu = a + y->bay + j0, *rho = a + y->n_mu + j0;
+    float *gmu = a + y->grads + y->bay + j0, *grho = a + y->grads + y->n_mu + j0;
+    const float *eps = a + y->eps + j0, *sig = a + y->sigma + j0;
+    if (!af)
+        return kl_pass_plain(cnt, mu, rho, gmu, grho, eps, sig, NULL, NULL, NULL, NULL, c, ip2,
+                             logp);
+    return kl_pass_adam(cnt, mu, rho, gmu, grho, eps, sig, af->am_mu + j0, af->av_mu + j0,
+                        af->am_rho + j0, af->av_rho + j0, c, ip2, logp, af);
+}
+
+/* bnn_loss_grad; with af, Adam on the Bayesian block inside the KL pass (bnn_train_step). */
+static int loss_grad(bnn_model_t *m, const ai_sample_t *batch, size_t n, float kl_weight,
+                     uint64_t noise_key, bnn_loss_t *out, const adam_fused_t *af)
 {
     if (!m || !batch || n == 0 || n > m->cfg.max_batch || !isfinite(kl_weight) || kl_weight < 0.0f)
         return -EINVAL;
@@ -566,8 +647,8 @@ int bnn_loss_grad(bnn_model_t *m, const ai_sample_t *batch, size_t n, float kl_w
     double kl = 0.0;
     for (size_t l = 0; l < y.L; l++) {
         const size_t nw = y.H * y.lay_in[l];
-        const double klw = bayes_tensor_grad(m, &y, y.lay_off[l], nw, kl_weight);
-        const double klb = bayes_tensor_grad(m, &y, y.lay_off[l] + nw, y.H, kl_weight);
+        const double klw = bayes_tensor_grad(m, &y, y.lay_off[l], nw, kl_weight, af);
+        const double klb = bayes_tensor_grad(m, &y, y.lay_off[l] + nw, y.H, kl_weight, af);
         kl += klw / (double)nw + klb / (double)y.H;
     }
     if (out) {
@@ -576,6 +657,12 @@ int bnn_loss_grad(bnn_model_t *m, const ai_sample_t *batch, size_t n, float kl_w
         out->total = (float)(bce + (double)kl_weight * kl);
     }
     return 0;
+}
+
+int bnn_loss_grad(bnn_model_t *m, const ai_sample_t *batch, size_t n, float kl_weight,
+                  uint64_t noise_key, bnn_loss_t *out)
+{
+    return loss_grad(m, batch, n, kl_weight, noise_key, out, NULL);
 }
 
 AI_WIDE static void adam_update(float *restrict th, const float *restrict gr, float *restrict am,
@@ -593,23 +680,31 @@ AI_WIDE static void adam_update(float *restrict th, const float *restrict gr, fl
     }
 }
 
+/* The next Adam step of group g: its counter advanced, the bias-corrected step and
+ * 1/sqrt(1 - beta2^t). */
+static void adam_next(bnn_model_t *m, bnn_group_t g, float lr, float *step, float *isb2)
+{
+    bnn_adam_t *st = &m->adam[g];
+    st->t++;
+    const double bc1 = 1.0 - pow((double)st->beta1, (double)st->t);
+    const double bc2 = 1.0 - pow((double)st->beta2, (double)st->t);
+    *step = (float)((double)lr / bc1);
+    *isb2 = (float)(1.0 / sqrt(bc2));
+}
+
 int bnn_adam_step(bnn_model_t *m, bnn_group_t g, float lr)
 {
     if (!m || (g != BNN_GROUP_MU && g != BNN_GROUP_RHO) || !isfinite(lr) || lr < 0.0f)
         return -EINVAL;
-    bnn_adam_t *st = &m->adam[g];
-    st->t++;
+    const bnn_adam_t *st = &m->adam[g];
     const size_t off = bnn_group_offset(m, g), len = bnn_group_len(m, g), P = m->n_params;
     float *restrict th = m->arena + off;
     const float *restrict gr = m->arena + P + off;
     float *restrict am = m->arena + 2 * P + off;
     float *restrict av = m->arena + 3 * P + off;
-    const float b1 = st->beta1, b2 = st->beta2, ep = st->eps;
-    const double bc1 = 1.0 - pow((double)b1, (double)st->t);
-    const double bc2 = 1.0 - pow((double)b2, (double)st->t);
-    const float step = (float)((double)lr / bc1);
-    const float isb2 = (float)(1.0 / sqrt(bc2));
-    adam_update(th, gr, am, av, len, b1, b2, ep, step, isb2);
+    float step, isb2;
+    adam_next(m, g, lr, &step, &isb2);
+    adam_update(th, gr, am, av, len, st->beta1, st->beta2, st->eps, step, isb2);
     return 0;
 }
 
@@ -626,6 +721,34 @@ void bnn_adam_reset(bnn_model_t *m, bnn_group_t g)
 int bnn_train_step(bnn_model_t *m, const ai_sample_t *batch, size_t n, float kl_weight,
                    uint64_t noise_key, float lr, bnn_loss_t *out)
 {
+    /* Adam inside the KL pass when both groups share their hyper-parameters (always, unless a
+     * caller changed one group's): the same arithmetic per element, so the same bits as
+     * bnn_loss_grad and two bnn_adam_step; the mu entries outside the Bayesian block (SIREN,
+     * output layer) after it. Anything invalid takes the plain path and its error codes. */
+    const bnn_adam_t *s0 = m ? &m->adam[BNN_GROUP_MU] : NULL, *s1 = m ? &m->adam[BNN_GROUP_RHO] : NULL;
+    if (m && isfinite(lr) && lr >= 0.0f && s0->beta1 == s1->beta1 && s0->beta2 == s1->beta2 &&
+        s0->eps == s1->eps) {
+        const size_t P = m->n_params, nmu = m->n_mu, bay = 3u * (size_t)m->cfg.siren_width;
+        const bnn_adam_t st0 = *s0, st1 = *s1;
+        adam_fused_t af = {m->arena + 2 * P + bay, m->arena + 3 * P + bay, m->arena + 2 * P + nmu,
+                           m->arena + 3 * P + nmu, s0->beta1, s0->beta2, s0->eps, 0, 0, 0, 0};
+        adam_next(m, BNN_GROUP_MU, lr, &af.step_mu, &af.isb2_mu);
+        adam_next(m, BNN_GROUP_RHO, lr, &af.step_rho, &af.isb2_rho);
+        int rc = loss_grad(m, batch, n, kl_weight, noise_key, out, &af);
+        if (rc) { /* nothing was changed but the counters */
+            m->adam[BNN_GROUP_MU] = st0;
+            m->adam[BNN_GROUP_RHO] = st1;
+            return rc;
+        }
+        /* the mu group around the Bayesian block: SIREN [0, bay), output layer [bay + R, n_mu) */
+        const size_t rest = bay + m->n_rho;
+        float *a = m->arena;
+        adam_update(a, a + P, a + 2 * P, a + 3 * P, bay, af.b1, af.b2, af.ep, af.step_mu,
+                    af.isb2_mu);
+        adam_update(a + rest, a + P + rest, a + 2 * P + rest, a + 3 * P + rest, nmu - rest, af.b1,
+                    af.b2, af.ep, af.step_mu, af.isb2_mu);
+        return 0;
+    }
     int rc = bnn_loss_grad(m, batch, n, kl_weight, noise_key, out);
     if (rc)
         return rc;

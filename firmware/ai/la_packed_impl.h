@@ -7,8 +7,9 @@
  * it); op(A) packed per MC rows; an MR x NR register tile per micro-kernel call (two vectors
  * wide). beta is applied in the first k block, so C is never zeroed first and beta == 0 never
  * reads C. Each output element gets one FMA per k, k ascending within a block and blocks in
- * order, and the same explicit FMAs when a block is scaled into C (full tiles in vectors, edge
- * tiles in scalars: fmaf, which the kernel's instruction set makes one instruction), so the
+ * order, and the same explicit FMAs when a block is scaled into C (tiles of full width in
+ * vectors, whatever their row count; tiles of fewer columns in scalars: fmaf, which the
+ * kernel's instruction set makes one instruction), so the
  * result depends on the shape only, not on the vector width, nor on what the compiler
  * contracts.
  *
@@ -19,7 +20,9 @@
  *   lap_vec       the vector type, and static inline functions
  *   lap_zero(), lap_load(p) (aligned), lap_loadu(p), lap_store(p, v) (aligned), lap_storeu(p, v),
  *   lap_bcast(p) (all lanes = *p), lap_set1(x), lap_fma(a, b, c) (a * b + c), lap_mul, lap_add,
- *   lap_relu(v) (v > 0 ? v : 0, NaN gives 0), lap_gate(g, v) (g > 0 ? v : 0 per lane).
+ *   lap_relu(v) (v > 0 ? v : 0, NaN gives 0), lap_gate(g, v) (g > 0 ? v : 0 per lane),
+ *   lap_t4(src, ld, dst, ldd): dst[c * ldd + r] = src[r * ld + c] for r, c < 4 (a 4 x 4
+ *   transpose in 128-bit registers, for the packing of the operands read across their rows).
  *
  * The epilogue (la.h) is applied on the last k block, to the tile in registers: bias, ReLU,
  * gate, then the tile's rows are added to colsum one after the other, in ascending row order
@@ -43,6 +46,26 @@ static inline float lap_op_a(la_trans_t ta, const float *A, int lda, int i, int 
     return ta == LA_NO_TRANS ? A[(size_t)i * lda + k] : A[(size_t)k * lda + i];
 }
 
+/* dst[k * ldd + r] = src[r * ld + k] for r < rows, k < kc: `rows` lines of a row-major
+ * operand turned k-major, in 4 x 4 transposes where whole ones fit. A scalar gather of one
+ * float per line and k took 3-5 % of the forward and dX products (scalar loads and stores
+ * from 12 lines at once). */
+static void lap_pack_across(const float *src, int ld, int rows, int kc, float *restrict dst,
+                            int ldd)
+{
+    const int k4 = kc & ~3, r4 = rows & ~3;
+    for (int k = 0; k < k4; k += 4) {
+        for (int r = 0; r < r4; r += 4)
+            lap_t4(src + (size_t)r * ld + k, ld, dst + (size_t)k * ldd + r, ldd);
+        for (int r = r4; r < rows; r++)
+            for (int q = 0; q < 4; q++)
+                dst[(size_t)(k + q) * ldd + r] = src[(size_t)r * ld + k + q];
+    }
+    for (int k = k4; k < kc; k++)
+        for (int r = 0; r < rows; r++)
+            dst[(size_t)k * ldd + r] = src[(size_t)r * ld + k];
+}
+
 /* Ap[strip][k][r]: rows i0.., k from p0, zero padded to MR rows. */
 static void lap_pack_a(la_trans_t ta, const float *A, int lda, int i0, int mc, int p0, int kc,
                        float *restrict Ap)
@@ -57,10 +80,7 @@ static void lap_pack_a(la_trans_t ta, const float *A, int lda, int i0, int mc, i
                     dst[k * LAP_MR + r] = src[r];
             }
         } else if (mr == LAP_MR) {
-            const float *src = A + (size_t)(i0 + s) * lda + p0;
-            for (int k = 0; k < kc; k++)
-                for (int r = 0; r < LAP_MR; r++)
-                    dst[k * LAP_MR + r] = src[(size_t)r * lda + k];
+            lap_pack_across(A + (size_t)(i0 + s) * lda + p0, lda, LAP_MR, kc, dst, LAP_MR);
         } else {
             for (int r = 0; r < LAP_MR; r++)
                 for (int k = 0; k < kc; k++)
@@ -86,6 +106,8 @@ static void lap_pack_b(la_trans_t tb, const float *B, int ldb, int j0, int nc, i
             for (int k = 0; k < kc; k++)
                 for (int j = 0; j < LAP_NR; j++)
                     dst[k * LAP_NR + j] = j < nr ? B[(size_t)(p0 + k) * ldb + j0 + s + j] : 0.0f;
+        } else if (nr == LAP_NR) {
+            lap_pack_across(B + (size_t)(j0 + s) * ldb + p0, ldb, LAP_NR, kc, dst, LAP_NR);
         } else {
             for (int j = 0; j < LAP_NR; j++) {
                 if (j < nr) {
@@ -104,34 +126,38 @@ static void lap_pack_b(la_trans_t tb, const float *B, int ldb, int j0, int nc, i
 /* The row loops below are unrolled explicitly: GCC does not do it at -O2 (the cross builds),
  * and then keeps the accumulators in memory. */
 
-/* C[mr x nr] = alpha * Ap Bp (+ beta C) on the first k block, += alpha * Ap Bp after it; the
+/* C[rows x nr] = alpha * Ap Bp (+ beta C) on the first k block, += alpha * Ap Bp after it; the
  * epilogue e (or NULL) on the last block, its pointers already offset to the tile's first row
- * and column. */
-static void lap_micro(int kc, const float *restrict Ap, const float *restrict Bp, float *C, int ldc,
-                      int mr, int nr, float alpha, float beta, int first,
-                      const la_epilogue_t *e)
+ * and column. `rows` is a constant in every call (lap_micro below): the loops over it unroll
+ * and the accumulators of the rows beyond it vanish, so a strip of fewer than MR rows (the last
+ * one of M = 64 or 1024 for MR = 12) costs its own rows' FMAs, not a whole tile's, and is stored
+ * from the vectors. Each element's FMAs and its scaling into C are the same whatever `rows`. */
+static inline __attribute__((always_inline)) void
+lap_micro_rows(const int rows, int kc, const float *restrict Ap, const float *restrict Bp,
+               float *C, int ldc, int nr, float alpha, float beta, int first,
+               const la_epilogue_t *e)
 {
     lap_vec c[LAP_MR][2];
 #pragma GCC unroll 16
-    for (int r = 0; r < LAP_MR; r++)
+    for (int r = 0; r < rows; r++)
         c[r][0] = c[r][1] = lap_zero();
     for (int k = 0; k < kc; k++) {
         const lap_vec b0 = lap_load(Bp + k * LAP_NR), b1 = lap_load(Bp + k * LAP_NR + LAP_VL);
 #pragma GCC unroll 16
-        for (int r = 0; r < LAP_MR; r++) {
+        for (int r = 0; r < rows; r++) {
             const lap_vec a = lap_bcast(Ap + k * LAP_MR + r);
             c[r][0] = lap_fma(a, b0, c[r][0]);
             c[r][1] = lap_fma(a, b1, c[r][1]);
         }
     }
     const lap_vec va = lap_set1(alpha), vb = lap_set1(beta);
-    if (mr == LAP_MR && nr == LAP_NR) {
+    if (nr == LAP_NR) {
         lap_vec cs[2] = {lap_zero(), lap_zero()};
         if (e && e->colsum)
             for (int h = 0; h < 2; h++)
                 cs[h] = lap_loadu(e->colsum + LAP_VL * h);
 #pragma GCC unroll 16
-        for (int r = 0; r < LAP_MR; r++) {
+        for (int r = 0; r < rows; r++) {
             float *cr = C + (size_t)r * ldc;
 #pragma GCC unroll 2
             for (int h = 0; h < 2; h++) {
@@ -160,14 +186,15 @@ static void lap_micro(int kc, const float *restrict Ap, const float *restrict Bp
                 lap_storeu(e->colsum + LAP_VL * h, cs[h]);
         return;
     }
-    /* edge tile: through a stack copy of the accumulators */
+    /* fewer columns than NR: through a stack copy of the accumulators, element by element
+     * (fmaf, one instruction on these instruction sets, rounds as the vector FMA does) */
     _Alignas(64) float t[LAP_MR * LAP_NR];
 #pragma GCC unroll 16
-    for (int r = 0; r < LAP_MR; r++) {
+    for (int r = 0; r < rows; r++) {
         lap_store(&t[r * LAP_NR], c[r][0]);
         lap_store(&t[r * LAP_NR + LAP_VL], c[r][1]);
     }
-    for (int r = 0; r < mr; r++)
+    for (int r = 0; r < rows; r++)
         for (int j = 0; j < nr; j++) {
             float *cv = C + (size_t)r * ldc + j;
             const float acc = t[r * LAP_NR + j];
@@ -180,6 +207,70 @@ static void lap_micro(int kc, const float *restrict Ap, const float *restrict Bp
                 o = alpha * acc;
             *cv = e ? la_epilogue_elem(e, (size_t)r, j, o) : o;
         }
+}
+
+/* One instantiation of lap_micro_rows per row count 1..MR (the #if keeps counts above MR from
+ * being compiled at all: each is a whole unrolled kernel). */
+static void lap_micro(int kc, const float *restrict Ap, const float *restrict Bp, float *C, int ldc,
+                      int mr, int nr, float alpha, float beta, int first,
+                      const la_epilogue_t *e)
+{
+#define LAP_ROWS_CASE(n)                                                                       \
+    case n:                                                                                    \
+        lap_micro_rows(n, kc, Ap, Bp, C, ldc, nr, alpha, beta, first, e);                      \
+        return;
+    _Static_assert(LAP_MR >= 1 && LAP_MR <= 16, "lap_micro instantiates row counts 1..16");
+    switch (mr) {
+    LAP_ROWS_CASE(1)
+#if LAP_MR >= 2
+    LAP_ROWS_CASE(2)
+#endif
+#if LAP_MR >= 3
+    LAP_ROWS_CASE(3)
+#endif
+#if LAP_MR >= 4
+    LAP_ROWS_CASE(4)
+#endif
+#if LAP_MR >= 5
+    LAP_ROWS_CASE(5)
+#endif
+#if LAP_MR >= 6
+    LAP_ROWS_CASE(6)
+#endif
+#if LAP_MR >= 7
+    LAP_ROWS_CASE(7)
+#endif
+#if LAP_MR >= 8
+    LAP_ROWS_CASE(8)
+#endif
+#if LAP_MR >= 9
+    LAP_ROWS_CASE(9)
+#endif
+#if LAP_MR >= 10
+    LAP_ROWS_CASE(10)
+#endif
+#if LAP_MR >= 11
+    LAP_ROWS_CASE(11)
+#endif
+#if LAP_MR >= 12
+    LAP_ROWS_CASE(12)
+#endif
+#if LAP_MR >= 13
+    LAP_ROWS_CASE(13)
+#endif
+#if LAP_MR >= 14
+    LAP_ROWS_CASE(14)
+#endif
+#if LAP_MR >= 15
+    LAP_ROWS_CASE(15)
+#endif
+#if LAP_MR >= 16
+    LAP_ROWS_CASE(16)
+#endif
+    default:
+        return;
+    }
+#undef LAP_ROWS_CASE
 }
 
 void LAP_FN(la_trans_t ta, la_trans_t tb, int M, int N, int K, float alpha, const float *A,

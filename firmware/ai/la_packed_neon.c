@@ -33,5 +33,15 @@ static inline lap_vec lap_gate(lap_vec g, lap_vec v)
 {
     return vreinterpretq_f32_u32(vandq_u32(vcgtq_f32(g, vdupq_n_f32(0.0f)), vreinterpretq_u32_f32(v)));
 }
+/* 4 x 4 transpose in q registers: vtrn on pairs of rows, then the 64-bit halves swapped */
+static inline void lap_t4(const float *src, int ld, float *dst, int ldd)
+{
+    const float32x4x2_t t01 = vtrnq_f32(vld1q_f32(src), vld1q_f32(src + ld));
+    const float32x4x2_t t23 = vtrnq_f32(vld1q_f32(src + 2 * (size_t)ld), vld1q_f32(src + 3 * (size_t)ld));
+    vst1q_f32(dst, vcombine_f32(vget_low_f32(t01.val[0]), vget_low_f32(t23.val[0])));
+    vst1q_f32(dst + ldd, vcombine_f32(vget_low_f32(t01.val[1]), vget_low_f32(t23.val[1])));
+    vst1q_f32(dst + 2 * (size_t)ldd, vcombine_f32(vget_high_f32(t01.val[0]), vget_high_f32(t23.val[0])));
+    vst1q_f32(dst + 3 * (size_t)ldd, vcombine_f32(vget_high_f32(t01.val[1]), vget_high_f32(t23.val[1])));
+}
 #include "ai/la_packed_impl.h"
 #endif

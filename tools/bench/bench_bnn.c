@@ -29,9 +29,24 @@
  *   gemm_kernel <name>                   the kernel the large products take (la_kernel_name)
  *   fma_peak_gflops_<isa>                the core's FMA peak for that kernel's instruction set
  *                                         (tools/bench/fma_probe.c)
- *   bnn_train_gemm_limit_ms_<preset>_b<B>  the step's GEMM FLOPs at that peak: the bound a
- *                                         GEMM-bound step cannot beat
- *   bnn_train_step_of_limit_<preset>_b<B>  that bound / the step's median time
+ *   bnn_train_fma_limit_ms_<preset>_b<B>  the step's GEMM FLOPs at that peak: the bound no
+ *                                         step can beat
+ *   bnn_train_step_of_fma_peak_<preset>_b<B>  that bound / the step's median time
+ *   sgemm_gflops_<op>_<M>x<N>x<K>        every GEMM shape the step calls la_sgemm with (recorded
+ *                                         in the step itself), timed alone, bare (beta 0, no
+ *                                         epilogue), alternating with the steps below; op: fwd =
+ *                                         X W^T (N,T), dx = dY W (N,N), dw = dY^T X (T,N)
+ *   sgemm_openblas_gflops_<op>_<M>x<N>x<K>  the same shape on OpenBLAS (cblas_sgemm, 1 thread),
+ *                                         in the same loop; openblas_core <name> says which of
+ *                                         its kernels ran (OPENBLAS_CORETYPE changes it);
+ *                                         sgemm_ours_over_openblas_<op>_<shape> the ratio
+ *   bnn_train_gemm_limit_ms_<preset>     the GEMM-bound limit: the step's la_sgemm calls at
+ *                                         the rates measured for their shapes (sum of the
+ *                                         calls' median bare times)
+ *   bnn_train_step_of_limit_<preset>     that limit / the median step of the same loop;
+ *                                         _best_: the fastest bare calls over the fastest step
+ *   bnn_step_share_gemm_over_bare_<preset>  the GEMM calls' time inside the step beyond their
+ *                                         bare time: fused epilogues, colder caches
  *   bnn_mc50_of_limit_<preset>           MC-50's points/s / the points/s of its GEMMs at peak
  *   bnn_mean_points_per_s_<preset>       one forward pass with the mean weights, fp32
  *   bnn_int8_points_per_s_<preset>       the same with the int8 state (bnn_quant_forward_mean), on
@@ -202,6 +217,28 @@ void __wrap_la_bf16_gemm(la_trans_t ta, la_trans_t tb, int M, int N, int K, cons
                          const la_epilogue_t *ep);
 static double gemm_seconds; /* accumulated by the wrapper */
 
+/* The GEMM shapes of one step, recorded by the wrapper while `recording` is set: what the
+ * GEMM-bound limit sums, and what OpenBLAS is compared on. */
+typedef struct gemm_shape {
+    la_trans_t ta, tb;
+    int M, N, K, calls;
+} gemm_shape_t;
+#define MAX_SHAPES 16
+static gemm_shape_t shapes[MAX_SHAPES];
+static int n_shapes, recording;
+
+static void note_shape(la_trans_t ta, la_trans_t tb, int M, int N, int K)
+{
+    for (int i = 0; i < n_shapes; i++)
+        if (shapes[i].ta == ta && shapes[i].tb == tb && shapes[i].M == M && shapes[i].N == N &&
+            shapes[i].K == K) {
+            shapes[i].calls++;
+            return;
+        }
+    if (n_shapes < MAX_SHAPES)
+        shapes[n_shapes++] = (gemm_shape_t){ta, tb, M, N, K, 1};
+}
+
 void __wrap_la_bf16_gemm(la_trans_t ta, la_trans_t tb, int M, int N, int K, const float *A,
                          int lda, const float *B, int ldb, float *C, int ldc,
                          const la_epilogue_t *ep)
@@ -215,6 +252,8 @@ void __wrap_la_sgemm(la_trans_t ta, la_trans_t tb, int M, int N, int K, float al
                      const float *A, int lda, const float *B, int ldb, float beta, float *C,
                      int ldc)
 {
+    if (recording)
+        note_shape(ta, tb, M, N, K);
     const double t0 = now_s();
     __real_la_sgemm(ta, tb, M, N, K, alpha, A, lda, B, ldb, beta, C, ldc);
     gemm_seconds += now_s() - t0;
@@ -224,6 +263,8 @@ void __wrap_la_sgemm_ep(la_trans_t ta, la_trans_t tb, int M, int N, int K, float
                         const float *A, int lda, const float *B, int ldb, float beta, float *C,
                         int ldc, const la_epilogue_t *ep)
 {
+    if (recording)
+        note_shape(ta, tb, M, N, K);
     const double t0 = now_s();
     __real_la_sgemm_ep(ta, tb, M, N, K, alpha, A, lda, B, ldb, beta, C, ldc, ep);
     gemm_seconds += now_s() - t0;
@@ -279,6 +320,117 @@ static void bench_mean_pass(const char *P, int nrep)
         printf("BENCH bnn_int8_ref_points_per_s_%s %.0f points/s\n", P, (double)n / median(nr));
     }
     (void)q8_force(Q8_AUTO);
+}
+
+/* OpenBLAS (Debian's libopenblas-dev), the same shapes in the same run. Declared here rather
+ * than through cblas.h: Debian's cblas.h is whichever BLAS its alternatives point at, and the
+ * openblas_* calls are OpenBLAS's own. Only this benchmark links it, never the firmware. */
+enum { CBLAS_ROW_MAJOR = 101, CBLAS_NO_TRANS = 111, CBLAS_TRANS = 112 };
+void cblas_sgemm(int order, int ta, int tb, int M, int N, int K, float alpha, const float *A,
+                 int lda, const float *B, int ldb, float beta, float *C, int ldc);
+void openblas_set_num_threads(int n);
+char *openblas_get_corename(void);
+
+static const char *shape_op(const gemm_shape_t *g)
+{
+    return g->ta == LA_NO_TRANS ? (g->tb == LA_TRANS ? "fwd" : "dx")
+                                : (g->tb == LA_NO_TRANS ? "dw" : "tt");
+}
+
+#define LIM_BUF ((size_t)BNN_MAX_BATCH * (BNN_SIREN_MAX > BNN_HIDDEN_MAX ? BNN_SIREN_MAX : BNN_HIDDEN_MAX))
+static float lim_a[LIM_BUF], lim_b[LIM_BUF], lim_c[LIM_BUF];
+static double lim_t[2][MAX_SHAPES][MAX_REPS], lim_step[MAX_REPS];
+
+static double median_of(double *v, int n)
+{
+    memcpy(samples_, v, (size_t)n * sizeof(double));
+    return median(n);
+}
+
+/* The step against its GEMM-bound limit: one step, then every GEMM shape of the step alone on
+ * our la_sgemm, then on OpenBLAS, in turn, reps times, so that all three see the same state of
+ * a shared machine. The limit is the step's calls at the median bare time of their shapes. */
+static void bench_limit(int reps, double gemm_in_step_share)
+{
+    const char *P = BNN_PRESET_NAME;
+    const unsigned B = BNN_MAX_BATCH;
+    n_shapes = 0;
+    recording = 1;
+    int rc = bnn_train_step(&model, batch, B, 1e-4f, 99, 1e-4f, NULL);
+    recording = 0;
+    if (rc)
+        die("bnn_train_step", rc);
+    for (int s = 0; s < n_shapes; s++) {
+        const gemm_shape_t *g = &shapes[s];
+        if ((size_t)g->M * g->K > LIM_BUF || (size_t)g->K * g->N > LIM_BUF ||
+            (size_t)g->M * g->N > LIM_BUF) {
+            fprintf(stderr, "bench_bnn: GEMM shape %dx%dx%d exceeds the buffers\n", g->M, g->N, g->K);
+            exit(1);
+        }
+    }
+    ai_rng_uniform_fill(3, 1, 0, lim_a, LIM_BUF);
+    ai_rng_uniform_fill(3, 2, 0, lim_b, LIM_BUF);
+    openblas_set_num_threads(1);
+    printf("BENCH openblas_core %s -\n", openblas_get_corename());
+    for (int r = -2; r < reps; r++) {
+        double t0 = now_s();
+        rc = bnn_train_step(&model, batch, B, 1e-4f, 200 + (uint64_t)(r + 2), 1e-4f, NULL);
+        const double ts = now_s() - t0;
+        if (rc)
+            die("bnn_train_step", rc);
+        if (r >= 0)
+            lim_step[r] = ts;
+        /* each shape once untimed first (the step left other data in the caches), then ours
+         * and OpenBLAS, which of them first alternating from one repetition to the next */
+        for (int s = 0; s < n_shapes; s++)
+            for (int q = -1; q < 2; q++) {
+                const gemm_shape_t *g = &shapes[s];
+                const int lib = q < 0 ? 0 : (q + r) & 1;
+                const int lda = g->ta == LA_NO_TRANS ? g->K : g->M;
+                const int ldb = g->tb == LA_NO_TRANS ? g->N : g->K;
+                t0 = now_s();
+                if (lib == 0)
+                    la_sgemm(g->ta, g->tb, g->M, g->N, g->K, 1.0f, lim_a, lda, lim_b, ldb, 0.0f,
+                             lim_c, g->N);
+                else
+                    cblas_sgemm(CBLAS_ROW_MAJOR, g->ta == LA_NO_TRANS ? CBLAS_NO_TRANS : CBLAS_TRANS,
+                                g->tb == LA_NO_TRANS ? CBLAS_NO_TRANS : CBLAS_TRANS, g->M, g->N,
+                                g->K, 1.0f, lim_a, lda, lim_b, ldb, 0.0f, lim_c, g->N);
+                if (r >= 0 && q >= 0)
+                    lim_t[lib][s][r] = now_s() - t0;
+            }
+    }
+    double limit = 0.0, limit_best = 0.0;
+    for (int s = 0; s < n_shapes; s++) {
+        const gemm_shape_t *g = &shapes[s];
+        const double gf = 2.0 * g->M * g->N * g->K * 1e-9;
+        double med[2], best[2];
+        for (int lib = 0; lib < 2; lib++) {
+            med[lib] = median_of(lim_t[lib][s], reps);
+            best[lib] = samples_[0];
+        }
+        limit += g->calls * med[0];
+        limit_best += g->calls * best[0];
+        for (int lib = 0; lib < 2; lib++) {
+            const char *who = lib ? "_openblas" : "";
+            printf("BENCH sgemm%s_gflops_%s_%dx%dx%d %.2f GFLOP/s\n", who, shape_op(g), g->M,
+                   g->N, g->K, gf / med[lib]);
+            printf("BENCH sgemm%s_gflops_best_%s_%dx%dx%d %.2f GFLOP/s\n", who, shape_op(g), g->M,
+                   g->N, g->K, gf / best[lib]);
+        }
+        printf("BENCH sgemm_calls_per_step_%s_%dx%dx%d %d calls\n", shape_op(g), g->M, g->N,
+               g->K, g->calls);
+        printf("BENCH sgemm_ours_over_openblas_%s_%dx%dx%d %.3f x\n", shape_op(g), g->M, g->N,
+               g->K, med[1] / med[0]);
+    }
+    const double step = median_of(lim_step, reps);
+    printf("BENCH bnn_train_step_ms_of_limit_loop_%s %.3f ms\n", P, 1e3 * step);
+    printf("BENCH bnn_train_gemm_limit_ms_%s %.3f ms\n", P, 1e3 * limit);
+    printf("BENCH bnn_train_step_of_limit_%s %.1f %%\n", P, 100.0 * limit / step);
+    /* the same from the fastest repetitions: what a busy shared machine disturbs least */
+    printf("BENCH bnn_train_step_of_limit_best_%s %.1f %%\n", P, 100.0 * limit_best / samples_[0]);
+    printf("BENCH bnn_step_share_gemm_over_bare_%s %.1f %%\n", P,
+           100.0 * (gemm_in_step_share - limit / step));
 }
 
 int main(int argc, char **argv)
@@ -373,8 +525,8 @@ int main(int argc, char **argv)
             step_med = t;
             if (peak > 0.0) {
                 const double lim = flops / (peak * 1e9);
-                printf("BENCH bnn_train_gemm_limit_ms_%s_b%u %.3f ms\n", P, B, 1e3 * lim);
-                printf("BENCH bnn_train_step_of_limit_%s_b%u %.1f %%\n", P, B, 100.0 * lim / t);
+                printf("BENCH bnn_train_fma_limit_ms_%s_b%u %.3f ms\n", P, B, 1e3 * lim);
+                printf("BENCH bnn_train_step_of_fma_peak_%s_b%u %.1f %%\n", P, B, 100.0 * lim / t);
             }
         } else {
             printf("BENCH bnn_train_step_ms_ref_%s_b%u %.3f ms\n", P, B, 1e3 * t);
@@ -383,6 +535,7 @@ int main(int argc, char **argv)
     la_force_ref(0);
     if (steps_only)
         return 0;
+    bench_limit(reps, gemm_share);
 
     /* the bf16 step beside the fp32 one: alternating in one loop, so that both see the same
      * machine (it is shared) */

@@ -4,8 +4,13 @@
  * threads, per tick and as a real-time factor (simulated seconds per wall second).
  *
  *   bench_lockstep [--seconds N] [--help]      (N: 1 .. 100000, default 600)
- * Prints `BENCH <name> <value> <unit>` lines. */
+ * Prints `BENCH <name> <value> <unit>` lines. The cost depends on where the threads may run:
+ * pinned to one core (`taskset -c 1`) every hand-off is a context switch on that core, across
+ * cores it is a wake-up on another one. So the first line says which (from the process's CPU
+ * affinity), and every figure's name ends in `_pinned` (one CPU allowed) or `_across_<N>cpus`. */
+#define _GNU_SOURCE /* sched_getaffinity, CPU_COUNT */
 #include <errno.h>
+#include <sched.h>
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
@@ -90,13 +95,33 @@ int main(int argc, char **argv)
         fprintf(stderr, "bench_lockstep: unknown argument '%s' (see --help)\n", argv[i]);
         return 2;
     }
+    /* where the threads may run: the suffix of every figure's name */
+    char where[32] = "_across_?cpus";
+    cpu_set_t set;
+    CPU_ZERO(&set);
+    if (sched_getaffinity(0, sizeof set, &set) == 0) {
+        const int ncpu = CPU_COUNT(&set);
+        if (ncpu == 1) {
+            int cpu = 0;
+            while (!CPU_ISSET(cpu, &set))
+                cpu++;
+            printf("# bench_lockstep: pinned to one core (cpu %d): hand-offs are context switches\n", cpu);
+            snprintf(where, sizeof where, "_pinned");
+        } else {
+            printf("# bench_lockstep: across %d cpus (not pinned): hand-offs wake threads on other cores\n",
+                   ncpu);
+            snprintf(where, sizeof where, "_across_%dcpus", ncpu);
+        }
+    }
     const struct { hal_host_sched_t s; const char *name; } modes[] = {
         {HAL_HOST_SCHED_SERIAL, "serial"}, {HAL_HOST_SCHED_PARALLEL, "parallel"}};
     for (size_t m = 0; m < 2; m++) {
         uint64_t ticks = 0;
         double wall = run(modes[m].s, seconds, &ticks);
-        printf("BENCH lockstep_%s_tick_cost %.2f us\n", modes[m].name, 1e6 * wall / (double)ticks);
-        printf("BENCH lockstep_%s_realtime_factor %.0f x\n", modes[m].name, (double)seconds / wall);
+        printf("BENCH lockstep_%s_tick_cost%s %.2f us\n", modes[m].name, where,
+               1e6 * wall / (double)ticks);
+        printf("BENCH lockstep_%s_realtime_factor%s %.0f x\n", modes[m].name, where,
+               (double)seconds / wall);
     }
     return 0;
 }
