@@ -10,8 +10,9 @@
 #include <sys/stat.h>
 #include <unistd.h>
 
-_Static_assert(crypto_auth_hmacsha512256_BYTES == HAL_HOST_AUTH_TAG_BYTES, "tag size");
-_Static_assert(crypto_auth_hmacsha512256_KEYBYTES == HAL_HOST_AUTH_KEY_BYTES, "key size");
+_Static_assert(HAL_HOST_AUTH_TAG_BYTES >= crypto_generichash_BYTES_MIN &&
+                   HAL_HOST_AUTH_TAG_BYTES <= crypto_generichash_BYTES_MAX, "tag size");
+_Static_assert(crypto_generichash_KEYBYTES == HAL_HOST_AUTH_KEY_BYTES, "key size");
 
 #define KEY_HEX (2u * HAL_HOST_AUTH_KEY_BYTES)
 
@@ -79,7 +80,7 @@ int hal_host_auth_key_new(const char *path, char *why, size_t why_cap)
         return fail(why, why_cap, "libsodium cannot start");
     uint8_t key[HAL_HOST_AUTH_KEY_BYTES];
     char text[KEY_HEX + 2u];
-    crypto_auth_hmacsha512256_keygen(key);
+    crypto_generichash_keygen(key);
     sodium_bin2hex(text, sizeof text, key, sizeof key);
     sodium_memzero(key, sizeof key);
     text[KEY_HEX] = '\n';
@@ -114,17 +115,17 @@ static uint64_t get_be64(const uint8_t *p)
     return v;
 }
 
-/* tag = HMAC(key, channel | 0 | message | run id bytes) */
+/* tag = BLAKE2b-256 keyed (key, channel | 0 | message | run id bytes) */
 static void tag_of(const uint8_t *key, const char *channel, const void *msg, size_t len, const uint8_t *run_id,
                    uint8_t *tag)
 {
-    crypto_auth_hmacsha512256_state st;
-    crypto_auth_hmacsha512256_init(&st, key, HAL_HOST_AUTH_KEY_BYTES);
-    crypto_auth_hmacsha512256_update(&st, (const unsigned char *)channel, strlen(channel) + 1u);
+    crypto_generichash_state st;
+    (void)crypto_generichash_init(&st, key, HAL_HOST_AUTH_KEY_BYTES, HAL_HOST_AUTH_TAG_BYTES);
+    (void)crypto_generichash_update(&st, (const unsigned char *)channel, strlen(channel) + 1u);
     if (len > 0)
-        crypto_auth_hmacsha512256_update(&st, msg, len);
-    crypto_auth_hmacsha512256_update(&st, run_id, HAL_HOST_AUTH_RUN_ID_BYTES);
-    crypto_auth_hmacsha512256_final(&st, tag);
+        (void)crypto_generichash_update(&st, msg, len);
+    (void)crypto_generichash_update(&st, run_id, HAL_HOST_AUTH_RUN_ID_BYTES);
+    (void)crypto_generichash_final(&st, tag, HAL_HOST_AUTH_TAG_BYTES);
     sodium_memzero(&st, sizeof st);
 }
 

@@ -1,5 +1,8 @@
-/* Fleet membership on the host network: a MAC on every datagram (libsodium's crypto_auth,
- * HMAC-SHA-512-256), checked before the bounds check and before anything decodes the bytes.
+/* Fleet membership on the host network: a MAC on every datagram (libsodium's keyed BLAKE2b,
+ * crypto_generichash with a key, 256-bit tag), checked before the bounds check and before
+ * anything decodes the bytes. BLAKE2b rather than HMAC-SHA-512-256: the same security as a
+ * MAC, twice the speed (1.0 against 0.55 GB/s on Zen 4), and every robot checks every
+ * datagram of the fleet.
  *
  * Why a MAC and not an AEAD: what the fleet must protect is who may speak (membership) and
  * that what arrives is what a member sent (integrity, replays); a floor plan's occupancy is
@@ -8,7 +11,7 @@
  *
  * Wire: the message as the firmware wrote it, then a 40-byte trailer
  *     run id (8 bytes, big-endian) | tag (32 bytes)
- *     tag = HMAC-SHA-512-256(key, channel | 0x00 | message | run id)
+ *     tag = BLAKE2b-256(key; channel | 0x00 | message | run id)
  * The channel is inside the tag, so a message cannot be moved to another channel (another
  * fleet id). The run id names one launch of a fleet (tools/fleet draws a random one per
  * run): a recording of an earlier run with the same key carries a valid tag but another run

@@ -1,4 +1,4 @@
-/* Cost of a keyed fleet's datagram MAC (hal/host/hal_host_auth.h, HMAC-SHA-512-256 from
+/* Cost of a keyed fleet's datagram MAC (hal/host/hal_host_auth.h, keyed BLAKE2b from
  * libsodium) on this CPU: sealing and checking full-size state chunks and 20-byte
  * RoundCompletes, and what that makes per DiNNO round for one robot of a 7-robot fleet of the
  * build's preset (its own state sealed once, six neighbours' states checked; fp32 and int8).
