@@ -114,22 +114,8 @@ static int one_band(FILE *f, sim_rng_seq_t *rng, unsigned long seed, int rooms)
     }
 
     /* Partitions between neighbours, some with a door. */
-    for (int row = 0; row < 2; row++) {
-        const pg_room_t *rr = row ? bot : top;
-        int n = row ? n_bot : n_top, y0 = row ? y_b0 : EXT, y1 = row ? y_b1 : y_cw1;
-        for (int i = 0; i + 1 < n; i++) {
-            int x0 = rr[i].x1;
-            fprintf(f, "  <g id=\"Wall\" class=\"Wall\">");
-            pg_rect(f, x0, y0, x0 + INT, y1);
-            fprintf(f, "\n");
-            if (rr[i].door) {
-                int dw = pg_range(rng, 80, 100);
-                int dy = pg_range(rng, y0 + JAMB, y1 - JAMB - dw);
-                pg_opening(f, "Door Swing Beside", x0, dy, x0 + INT, dy + dw);
-            }
-            fprintf(f, "  </g>\n");
-        }
-    }
+    pg_partitions(f, rng, top, n_top, EXT, y_cw1);
+    pg_partitions(f, rng, bot, n_bot, y_b0, y_b1);
     fprintf(f, "</g>\n</svg>\n");
     return 0;
 }

@@ -54,6 +54,24 @@ static inline void pg_place_row(pg_room_t *row, const int *widths, int n, int x_
     }
 }
 
+/* The walls between neighbouring rooms of a row spanning y0..y1, each with a door when the
+ * room on its left says so (drawn from rng in row order). */
+static inline void pg_partitions(FILE *f, sim_rng_seq_t *rng, const pg_room_t *row, int n, int y0, int y1)
+{
+    for (int i = 0; i + 1 < n; i++) {
+        const int x0 = row[i].x1;
+        fprintf(f, "  <g id=\"Wall\" class=\"Wall\">");
+        pg_rect(f, x0, y0, x0 + PG_INT, y1);
+        fprintf(f, "\n");
+        if (row[i].door) {
+            const int dw = pg_range(rng, 80, 100);
+            const int dy = pg_range(rng, y0 + PG_JAMB, y1 - PG_JAMB - dw);
+            pg_opening(f, "Door Swing Beside", x0, dy, x0 + PG_INT, dy + dw);
+        }
+        fprintf(f, "  </g>\n");
+    }
+}
+
 /* The layout of more than SIM_PLANGEN_BAND_ROOMS rooms (sim_plangen_wings.c): the SVG text
  * into the open stream f, drawn from rng. 0, or -EINVAL. */
 int sim_plangen_wings(FILE *f, sim_rng_seq_t *rng, unsigned long seed, int rooms);

@@ -173,22 +173,8 @@ int sim_plangen_wings(FILE *f, sim_rng_seq_t *rng, unsigned long seed, int rooms
             fprintf(f, "  </g>\n");
         }
         /* Partitions between neighbours, some with a door. */
-        for (int row = 0; row < 2; row++) {
-            const pg_room_t *rr = row ? wb->bot : wb->top;
-            int n = row ? wb->n_bot : wb->n_top, y0 = row ? wb->y_b0 : wb->y0 + EXT, y1 = row ? wb->y_b1 : wb->y_cw1;
-            for (int i = 0; i + 1 < n; i++) {
-                int x0 = rr[i].x1;
-                fprintf(f, "  <g id=\"Wall\" class=\"Wall\">");
-                pg_rect(f, x0, y0, x0 + INT, y1);
-                fprintf(f, "\n");
-                if (rr[i].door) {
-                    int dw = pg_range(rng, 80, 100);
-                    int dy = pg_range(rng, y0 + JAMB, y1 - JAMB - dw);
-                    pg_opening(f, "Door Swing Beside", x0, dy, x0 + INT, dy + dw);
-                }
-                fprintf(f, "  </g>\n");
-            }
-        }
+        pg_partitions(f, rng, wb->top, wb->n_top, wb->y0 + EXT, wb->y_cw1);
+        pg_partitions(f, rng, wb->bot, wb->n_bot, wb->y_b0, wb->y_b1);
     }
     fprintf(f, "</g>\n</svg>\n");
     return 0;
