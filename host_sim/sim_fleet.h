@@ -6,7 +6,8 @@
  *
  * Modes:
  *   SIM_FLEET_DINNO    N nodes, each round every node receives the round-start states of its
- *                      graph neighbours in slot j = neighbour id, then runs dinno_node_round.
+ *                      graph neighbours in its slots, ascending neighbour id (at most the board's
+ *                      DINNO_MAX_PEERS nearest, dinno_graph.h), then runs dinno_node_round.
  *   SIM_FLEET_CENTRAL  one node on the pooled data of all agents, no neighbours.
  *   SIM_FLEET_ISOLATED N nodes on their own data, never any neighbour.
  * Every model makes rounds x primal_steps optimiser steps of `batch` samples with the same

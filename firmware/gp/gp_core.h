@@ -5,7 +5,7 @@
  *   - takes the latest RT and AI status (mailboxes);
  *   - round coordination (fw_link.h protocol): when the AI core published its state of
  *     round k, the GP core obtains the neighbours' states of round k into the fixed slots
- *     (fw_link_t.slots, one per possible peer) and publishes ready(k). Who the neighbours are
+ *     (fw_link_t.slots, one per neighbour, ascending id) and publishes ready(k). Who the neighbours are
  *     and how their states arrive is the `exchange` hook: NULL (no peers configured) means
  *     no neighbour, so the round completes locally at once; the multi-process fleet plugs in
  *     a hook that sends this robot's state over hal_net (Algorithm 1) and fills the slots
