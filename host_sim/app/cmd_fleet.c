@@ -166,6 +166,13 @@ static int parse(int argc, char **argv, opts_t *o)
                                                           : SIM_FLEET_DINNO;
     if (o->mode == SIM_FLEET_DINNO && dinno_strategy_parse(o->strategy_name, &o->d.strategy) != 0)
         return -1;
+    if (o->mode == SIM_FLEET_DINNO && o->graph == DINNO_GRAPH_FULL && o->robots - 1 > (long long)DINNO_GRAPH_MAX_DEGREE) {
+        /* Said before the robots' tours are scanned, not after (sim_fleet_create says it too). */
+        fprintf(stderr, "host_sim fleet: --graph full of %d robots needs %d neighbour slots, the board has %u: "
+                        "use --graph disk (each robot takes its %u nearest in reach)\n",
+                (int)o->robots, (int)o->robots - 1, (unsigned)DINNO_GRAPH_MAX_DEGREE, (unsigned)DINNO_GRAPH_MAX_DEGREE);
+        return -1;
+    }
     if (o->metrics_every == 0)
         o->metrics_every = o->rounds >= 20 ? o->rounds / 20 : 1;
     return 0;

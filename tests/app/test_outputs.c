@@ -273,6 +273,12 @@ static void test_inputs_and_options(void **st)
                         "1", "--strategy", "kl", "--graph", "full", "--seed", "1", "--out", p, "--valset", q),
                      1);
     expect_err(q, "its bounding box is not the plan's");
+    /* A full graph beyond the neighbour slots: refused before any tour is read. */
+    path_in(p, "f3");
+    assert_int_equal(HS(-1, "fleet", "--inproc", "--plan", g_plan, "--paths", g_paths, "--robots", "40", "--rounds",
+                        "1", "--graph", "full", "--seed", "1", "--out", p),
+                     2);
+    expect_err("--graph full of 40 robots needs 39 neighbour slots", NULL);
 }
 
 static void test_out_parents_and_stale_temporaries(void **st)
