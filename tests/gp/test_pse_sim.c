@@ -470,8 +470,9 @@ static void run(const schedule_t *s, uint8_t out[MAXN][STATE_BYTES], uint64_t *t
         r->wake_us = rnd_below(50000u); /* the tours take different times */
     }
     /* Liveness bound per round (the rule in gp_pse.h): one peer timeout (the join timeout in a
-       robot's first round), with slack for compute, latency and resends. */
-    slack_us = 30000u + 4u * s->delay_us + 20u * RESEND_US;
+       robot's first round), with slack for compute, latency and resends: 20 request periods,
+       each up to 2^GP_PSE_BACKOFF_MAX resend periods once requests go unanswered. */
+    slack_us = 30000u + 4u * s->delay_us + 20u * (RESEND_US << GP_PSE_BACKOFF_MAX);
     const uint64_t bound = JOIN_US + TIMEOUT_US + slack_us;
     const uint64_t deadline = (uint64_t)s->rounds * bound + s->pause_len + s->restart_after + 5000000u;
     int crashed = 0, restarted = 0;
