@@ -215,6 +215,13 @@ static void test_more_robots_than_rooms(void **state)
 static void test_committed_paths_regenerate(void **state)
 {
     (void)state;
+#if defined(__clang__) || !defined(__GNUC__)
+    /* The committed tours come from the GCC build: another compiler contracts other products
+       into FMAs (GCC's default -ffp-contract=fast, clang's =on), and a last bit moves a
+       waypoint. The same build always gives the same tours; this checks GCC's against the files. */
+    print_message("the committed tours were made by the GCC build; this compiler rounds differently\n");
+    skip();
+#endif
     sim_paths_cfg_t cfg;
     sim_paths_cfg_default(&cfg);
     sim_path_t a[N_ROBOTS];
