@@ -72,17 +72,7 @@ static int one_band(FILE *f, sim_rng_seq_t *rng, unsigned long seed, int rooms)
     /* Exterior walls with a window per room on the outer side, entrance at a corridor end. */
     for (int row = 0; row < 2; row++) {
         const pg_room_t *rr = row ? bot : top;
-        int n = row ? n_bot : n_top, y0 = row ? height - EXT : 0;
-        fprintf(f, "  <g id=\"Wall\" class=\"Wall External\">");
-        pg_rect(f, 0, y0, width, y0 + EXT);
-        fprintf(f, "\n");
-        for (int i = 0; i < n; i++) {
-            int rw = rr[i].x1 - rr[i].x0;
-            int ww = pg_range(rng, 80, rw - 2 * JAMB < 200 ? rw - 2 * JAMB : 200);
-            int wx = pg_range(rng, rr[i].x0 + JAMB, rr[i].x1 - JAMB - ww);
-            pg_opening(f, "Window Regular", wx, y0, wx + ww, y0 + EXT);
-        }
-        fprintf(f, "  </g>\n");
+        pg_outer_wall(f, rng, rr, row ? n_bot : n_top, 0, width, row ? height - EXT : 0);
     }
     int entrance_right = pg_range(rng, 0, 1);
     for (int side = 0; side < 2; side++) {

@@ -54,6 +54,22 @@ static inline void pg_place_row(pg_room_t *row, const int *widths, int n, int x_
     }
 }
 
+/* An outer wall over [x0, x1] at y0 (PG_EXT thick) with one window in front of each room of
+ * the row (drawn from rng in row order). */
+static inline void pg_outer_wall(FILE *f, sim_rng_seq_t *rng, const pg_room_t *row, int n, int x0, int x1, int y0)
+{
+    fprintf(f, "  <g id=\"Wall\" class=\"Wall External\">");
+    pg_rect(f, x0, y0, x1, y0 + PG_EXT);
+    fprintf(f, "\n");
+    for (int i = 0; i < n; i++) {
+        const int rw = row[i].x1 - row[i].x0;
+        const int ww = pg_range(rng, 80, rw - 2 * PG_JAMB < 200 ? rw - 2 * PG_JAMB : 200);
+        const int wx = pg_range(rng, row[i].x0 + PG_JAMB, row[i].x1 - PG_JAMB - ww);
+        pg_opening(f, "Window Regular", wx, y0, wx + ww, y0 + PG_EXT);
+    }
+    fprintf(f, "  </g>\n");
+}
+
 /* The walls between neighbouring rooms of a row spanning y0..y1, each with a door when the
  * room on its left says so (drawn from rng in row order). */
 static inline void pg_partitions(FILE *f, sim_rng_seq_t *rng, const pg_room_t *row, int n, int y0, int y1)

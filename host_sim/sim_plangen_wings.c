@@ -129,18 +129,8 @@ int sim_plangen_wings(FILE *f, sim_rng_seq_t *rng, unsigned long seed, int rooms
          * last wing: the building's top and bottom), a window per room. */
         for (int row = 0; row < 2; row++) {
             const pg_room_t *rr = row ? wb->bot : wb->top;
-            int n = row ? wb->n_bot : wb->n_top, y0 = row ? wb->y_b1 : wb->y0;
-            int x0 = (row == 0 && b == 0) || (row == 1 && b == nw - 1) ? 0 : x_sp;
-            fprintf(f, "  <g id=\"Wall\" class=\"Wall External\">");
-            pg_rect(f, x0, y0, wb->x_in1 + EXT, y0 + EXT);
-            fprintf(f, "\n");
-            for (int i = 0; i < n; i++) {
-                int rw = rr[i].x1 - rr[i].x0;
-                int ww = pg_range(rng, 80, rw - 2 * JAMB < 200 ? rw - 2 * JAMB : 200);
-                int wx = pg_range(rng, rr[i].x0 + JAMB, rr[i].x1 - JAMB - ww);
-                pg_opening(f, "Window Regular", wx, y0, wx + ww, y0 + EXT);
-            }
-            fprintf(f, "  </g>\n");
+            const int x0 = (row == 0 && b == 0) || (row == 1 && b == nw - 1) ? 0 : x_sp;
+            pg_outer_wall(f, rng, rr, row ? wb->n_bot : wb->n_top, x0, wb->x_in1 + EXT, row ? wb->y_b1 : wb->y0);
         }
         /* The end wall, with the entrance in one wing. */
         fprintf(f, "  <g id=\"Wall\" class=\"Wall External\">");
