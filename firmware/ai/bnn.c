@@ -403,6 +403,62 @@ static int samples_ok(const ai_sample_t *s, size_t n)
     return 1;
 }
 
+/* The two column-sum passes of the backward go over the batch COL_BLOCK columns at a time, so
+ * that the sums stay in registers instead of being loaded and stored for every row; each
+ * column still sums its rows in ascending order, the same bits as row by row. */
+#define COL_BLOCK 64u
+
+/* Columns [k0, k0 + kn) of the output layer's delta, cur = (h_L > 0) dl w_out, its column sums
+ * into gb (the last Bayesian layer's bias gradient) and dL/dw_out = sum_i dl_i h_L,i into gwo. */
+static inline __attribute__((always_inline)) void
+out_delta_cols(const size_t kn, size_t k0, size_t n, size_t H, const float *hL, const float *dl,
+               const float *wout, float *cur, float *gb, float *gwo)
+{
+    float sb[COL_BLOCK] = {0}, sw[COL_BLOCK] = {0};
+    const float *restrict wo = wout + k0;
+    for (size_t i = 0; i < n; i++) {
+        const float *restrict hr = hL + i * H + k0;
+        float *restrict cr = cur + i * H + k0;
+        const float d = dl[i];
+        for (size_t k = 0; k < kn; k++) {
+            const float v = ai_fm_sel(hr[k] > 0.0f, d * wo[k], 0.0f);
+            cr[k] = v;
+            sb[k] += v;
+            sw[k] += d * hr[k];
+        }
+    }
+    for (size_t k = 0; k < kn; k++) {
+        gb[k0 + k] = sb[k];
+        gwo[k0 + k] = sw[k];
+    }
+}
+
+/* Columns [k0, k0 + kn) of the SIREN layer's gradients: dz = dh0 w0 cos(z) summed into the
+ * bias gradient gb0, and dW0 = dz^T xy into g[2k], g[2k + 1] (per input coordinate, so the loop
+ * stays unit-stride). */
+static inline __attribute__((always_inline)) void
+siren_grad_cols(const size_t kn, size_t k0, size_t n, size_t S, float w0, const float *xy,
+                const float *cos0, const float *dh0, float *gb0, float *g)
+{
+    float sb[COL_BLOCK] = {0}, gx[COL_BLOCK] = {0}, gy[COL_BLOCK] = {0};
+    for (size_t i = 0; i < n; i++) {
+        const float *restrict cr0 = cos0 + i * S + k0;
+        const float *restrict orow = dh0 + i * S + k0;
+        const float px = xy[2 * i], py = xy[2 * i + 1];
+        for (size_t k = 0; k < kn; k++) {
+            const float v = orow[k] * (w0 * cr0[k]);
+            sb[k] += v;
+            gx[k] += v * px;
+            gy[k] += v * py;
+        }
+    }
+    for (size_t k = 0; k < kn; k++) {
+        gb0[k0 + k] = sb[k];
+        g[2 * (k0 + k)] = gx[k];
+        g[2 * (k0 + k) + 1] = gy[k];
+    }
+}
+
 /* Backward of the last forward (sampled weights), data term only: fills every gradient of
  * the mu group (the Bayesian entries hold dL/dw) from dlogit. */
 AI_WIDE static void backward(bnn_model_t *m, const layout_t *y, size_t n)
@@ -424,21 +480,12 @@ AI_WIDE static void backward(bnn_model_t *m, const layout_t *y, size_t n)
     float *cur = a + y->g1, *oth = a + y->g2;
     {
         /* also the output layer's weight gradient, dL/dw_out = sum_i dl_i h_L,i */
-        float *restrict gb = g + y->bay + y->lay_off[y->L - 1] + H * y->lay_in[y->L - 1];
-        float *restrict gwo = g + y->wout;
-        for (size_t k = 0; k < H; k++)
-            gb[k] = gwo[k] = 0.0f;
-        for (size_t i = 0; i < n; i++) {
-            const float *restrict hr = hL + i * H;
-            float *restrict cr = cur + i * H;
-            const float d = dl[i];
-            for (size_t k = 0; k < H; k++) {
-                const float v = ai_fm_sel(hr[k] > 0.0f, d * wout[k], 0.0f);
-                cr[k] = v;
-                gb[k] += v;
-                gwo[k] += d * hr[k];
-            }
-        }
+        float *gb = g + y->bay + y->lay_off[y->L - 1] + H * y->lay_in[y->L - 1];
+        size_t k0 = 0;
+        for (; k0 + COL_BLOCK <= H; k0 += COL_BLOCK)
+            out_delta_cols(COL_BLOCK, k0, n, H, hL, dl, wout, cur, gb, g + y->wout);
+        if (k0 < H)
+            out_delta_cols(H - k0, k0, n, H, hL, dl, wout, cur, gb, g + y->wout);
     }
     for (size_t l = y->L; l-- > 0;) {
         const size_t in = y->lay_in[l];
@@ -462,25 +509,11 @@ AI_WIDE static void backward(bnn_model_t *m, const layout_t *y, size_t n)
              * dz^T xy is summed in the same pass, per input coordinate (gx, gy, so the loop
              * stays unit-stride) */
             const float w0 = m->cfg.w0;
-            const float *restrict xy = a + y->xy;
-            float gx[BNN_SIREN_MAX], gy[BNN_SIREN_MAX];
-            for (size_t k = 0; k < in; k++)
-                gx[k] = gy[k] = 0.0f;
-            for (size_t i = 0; i < n; i++) {
-                const float *restrict cr0 = a + y->cos0 + i * in;
-                const float *restrict orow = oth + i * in;
-                const float px = xy[2 * i], py = xy[2 * i + 1];
-                for (size_t k = 0; k < in; k++) {
-                    const float v = orow[k] * (w0 * cr0[k]);
-                    gbp[k] += v;
-                    gx[k] += v * px;
-                    gy[k] += v * py;
-                }
-            }
-            for (size_t k = 0; k < in; k++) {
-                g[2 * k] = gx[k];
-                g[2 * k + 1] = gy[k];
-            }
+            size_t k0 = 0;
+            for (; k0 + COL_BLOCK <= in; k0 += COL_BLOCK)
+                siren_grad_cols(COL_BLOCK, k0, n, in, w0, a + y->xy, a + y->cos0, oth, gbp, g);
+            if (k0 < in)
+                siren_grad_cols(in - k0, k0, n, in, w0, a + y->xy, a + y->cos0, oth, gbp, g);
         }
         float *t = cur;
         cur = oth;

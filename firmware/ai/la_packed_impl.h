@@ -31,6 +31,7 @@
  */
 #include <math.h>
 #include <stddef.h>
+#include <string.h>
 
 #include "ai/la.h"
 #include "ai/la_packed.h"
@@ -74,11 +75,10 @@ static void lap_pack_a(la_trans_t ta, const float *A, int lda, int i0, int mc, i
         const int mr = mc - s < LAP_MR ? mc - s : LAP_MR;
         float *restrict dst = Ap + (size_t)s * kc;
         if (ta == LA_TRANS && mr == LAP_MR) {
-            for (int k = 0; k < kc; k++) {
-                const float *src = A + (size_t)(p0 + k) * lda + i0 + s;
-                for (int r = 0; r < LAP_MR; r++)
-                    dst[k * LAP_MR + r] = src[r];
-            }
+            /* a fixed-size copy: vector moves (the loop of floats became MR scalar inserts) */
+            for (int k = 0; k < kc; k++)
+                memcpy(dst + k * LAP_MR, A + (size_t)(p0 + k) * lda + i0 + s,
+                       LAP_MR * sizeof(float));
         } else if (mr == LAP_MR) {
             lap_pack_across(A + (size_t)(i0 + s) * lda + p0, lda, LAP_MR, kc, dst, LAP_MR);
         } else {
@@ -93,16 +93,21 @@ static void lap_pack_a(la_trans_t ta, const float *A, int lda, int i0, int mc, i
 static void lap_pack_b(la_trans_t tb, const float *B, int ldb, int j0, int nc, int p0, int kc,
                        float *restrict Bp)
 {
-    for (int s = 0; s < nc; s += LAP_NR) {
+    const int full = tb == LA_NO_TRANS ? nc / LAP_NR * LAP_NR : 0;
+    /* the whole micro-panels of a row-major op(B): row by row, so that B is read in order (a
+     * panel at a time strode through it and missed the cache on every row) */
+    for (int k = 0; k < kc; k++) {
+        const float *src = B + (size_t)(p0 + k) * ldb + j0;
+        for (int s = 0; s < full; s += LAP_NR) {
+            float *restrict dst = Bp + (size_t)s * kc + k * LAP_NR;
+            lap_store(dst, lap_loadu(src + s));
+            lap_store(dst + LAP_VL, lap_loadu(src + s + LAP_VL));
+        }
+    }
+    for (int s = full; s < nc; s += LAP_NR) {
         const int nr = nc - s < LAP_NR ? nc - s : LAP_NR;
         float *restrict dst = Bp + (size_t)s * kc;
-        if (tb == LA_NO_TRANS && nr == LAP_NR) {
-            for (int k = 0; k < kc; k++) {
-                const float *src = B + (size_t)(p0 + k) * ldb + j0 + s;
-                lap_store(dst + k * LAP_NR, lap_loadu(src));
-                lap_store(dst + k * LAP_NR + LAP_VL, lap_loadu(src + LAP_VL));
-            }
-        } else if (tb == LA_NO_TRANS) {
+        if (tb == LA_NO_TRANS) {
             for (int k = 0; k < kc; k++)
                 for (int j = 0; j < LAP_NR; j++)
                     dst[k * LAP_NR + j] = j < nr ? B[(size_t)(p0 + k) * ldb + j0 + s + j] : 0.0f;
@@ -141,6 +146,18 @@ lap_micro_rows(const int rows, int kc, const float *restrict Ap, const float *re
 #pragma GCC unroll 16
     for (int r = 0; r < rows; r++)
         c[r][0] = c[r][1] = lap_zero();
+    if (nr == LAP_NR)
+#pragma GCC unroll 16
+        for (int r = 0; r < rows; r++) {
+            __builtin_prefetch(C + (size_t)r * ldc, 1, 2);
+            __builtin_prefetch(C + (size_t)r * ldc + LAP_NR - 1, 1, 2);
+        }
+    if (e && e->gate && nr == LAP_NR)
+#pragma GCC unroll 16
+        for (int r = 0; r < rows; r++) {
+            __builtin_prefetch(e->gate + (size_t)r * e->ldg, 0, 2);
+            __builtin_prefetch(e->gate + (size_t)r * e->ldg + LAP_NR - 1, 0, 2);
+        }
     for (int k = 0; k < kc; k++) {
         const lap_vec b0 = lap_load(Bp + k * LAP_NR), b1 = lap_load(Bp + k * LAP_NR + LAP_VL);
 #pragma GCC unroll 16

@@ -46,7 +46,9 @@
  *   bnn_train_step_of_limit_<preset>     that limit / the median step of the same loop;
  *                                         _best_: the fastest bare calls over the fastest step
  *   bnn_step_share_gemm_over_bare_<preset>  the GEMM calls' time inside the step beyond their
- *                                         bare time: fused epilogues, colder caches
+ *                                         bare time: fused epilogues, colder caches;
+ *                                         sgemm_in_step_over_bare_<op>_<shape> the same per shape
+ *                                         (mean in-step time over calls x median bare time)
  *   bnn_mc50_of_limit_<preset>           MC-50's points/s / the points/s of its GEMMs at peak
  *   bnn_mean_points_per_s_<preset>       one forward pass with the mean weights, fp32
  *   bnn_int8_points_per_s_<preset>       the same with the int8 state (bnn_quant_forward_mean), on
@@ -226,6 +228,19 @@ typedef struct gemm_shape {
 #define MAX_SHAPES 16
 static gemm_shape_t shapes[MAX_SHAPES];
 static int n_shapes, recording;
+/* while `per_shape` is set, the wrapper also adds each call's time to its shape's entry */
+static double shape_in_step[MAX_SHAPES];
+static int per_shape;
+
+static void add_shape_time(la_trans_t ta, la_trans_t tb, int M, int N, int K, double t)
+{
+    for (int i = 0; i < n_shapes; i++)
+        if (shapes[i].ta == ta && shapes[i].tb == tb && shapes[i].M == M && shapes[i].N == N &&
+            shapes[i].K == K) {
+            shape_in_step[i] += t;
+            return;
+        }
+}
 
 static void note_shape(la_trans_t ta, la_trans_t tb, int M, int N, int K)
 {
@@ -256,7 +271,10 @@ void __wrap_la_sgemm(la_trans_t ta, la_trans_t tb, int M, int N, int K, float al
         note_shape(ta, tb, M, N, K);
     const double t0 = now_s();
     __real_la_sgemm(ta, tb, M, N, K, alpha, A, lda, B, ldb, beta, C, ldc);
-    gemm_seconds += now_s() - t0;
+    const double t = now_s() - t0;
+    gemm_seconds += t;
+    if (per_shape)
+        add_shape_time(ta, tb, M, N, K, t);
 }
 
 void __wrap_la_sgemm_ep(la_trans_t ta, la_trans_t tb, int M, int N, int K, float alpha,
@@ -267,7 +285,10 @@ void __wrap_la_sgemm_ep(la_trans_t ta, la_trans_t tb, int M, int N, int K, float
         note_shape(ta, tb, M, N, K);
     const double t0 = now_s();
     __real_la_sgemm_ep(ta, tb, M, N, K, alpha, A, lda, B, ldb, beta, C, ldc, ep);
-    gemm_seconds += now_s() - t0;
+    const double t = now_s() - t0;
+    gemm_seconds += t;
+    if (per_shape)
+        add_shape_time(ta, tb, M, N, K, t);
 }
 
 /* One mean-weight pass over the preset's batch of points, fp32 (bnn_forward_logits) and int8
@@ -372,10 +393,13 @@ static void bench_limit(int reps, double gemm_in_step_share)
     ai_rng_uniform_fill(3, 2, 0, lim_b, LIM_BUF);
     openblas_set_num_threads(1);
     printf("BENCH openblas_core %s -\n", openblas_get_corename());
+    memset(shape_in_step, 0, sizeof shape_in_step);
     for (int r = -2; r < reps; r++) {
+        per_shape = r >= 0;
         double t0 = now_s();
         rc = bnn_train_step(&model, batch, B, 1e-4f, 200 + (uint64_t)(r + 2), 1e-4f, NULL);
         const double ts = now_s() - t0;
+        per_shape = 0;
         if (rc)
             die("bnn_train_step", rc);
         if (r >= 0)
@@ -422,6 +446,8 @@ static void bench_limit(int reps, double gemm_in_step_share)
                g->K, g->calls);
         printf("BENCH sgemm_ours_over_openblas_%s_%dx%dx%d %.3f x\n", shape_op(g), g->M, g->N,
                g->K, med[1] / med[0]);
+        printf("BENCH sgemm_in_step_over_bare_%s_%dx%dx%d %.1f %%\n", shape_op(g), g->M, g->N,
+               g->K, 100.0 * (shape_in_step[s] / reps / (g->calls * med[0]) - 1.0));
     }
     const double step = median_of(lim_step, reps);
     printf("BENCH bnn_train_step_ms_of_limit_loop_%s %.3f ms\n", P, 1e3 * step);
