@@ -1,10 +1,12 @@
-/* Philox4x32-10 and Box-Muller, written as plain loops over tiles of blocks so GCC can
- * vectorise both the 32x32->64 multiplies and the transcendental functions (ai_fastmath.h). */
+/* Philox4x32-10 and Box-Muller over tiles of blocks: the raw lanes from the widest kernel the
+ * CPU has (ai_rng_lanes.h), the transcendental functions as plain loops GCC vectorises
+ * (ai_fastmath.h). */
 #include "ai/ai_rng.h"
 
 #include <string.h>
 
 #include "ai/ai_fastmath.h"
+#include "ai/ai_rng_lanes.h"
 
 #define PHILOX_M0 0xD2511F53u
 #define PHILOX_M1 0xCD9E8D57u
@@ -56,9 +58,10 @@ uint64_t ai_rng_mix64(uint64_t x)
     return x ^ (x >> 31);
 }
 
-/* Raw lanes of blocks [b0, b0 + nb), nb <= TILE_BLOCKS, de-interleaved per lane. */
-static void gen_tile(uint64_t key, uint64_t stream, uint64_t b0, uint32_t nb, uint32_t l0[],
-                     uint32_t l1[], uint32_t l2[], uint32_t l3[])
+/* Raw lanes of blocks [b0, b0 + nb), de-interleaved per lane: the pure-C reference of the
+ * kernels in ai_rng_lanes.h. */
+void ai_rng_lanes_ref(uint64_t key, uint64_t stream, uint64_t b0, uint32_t nb, uint32_t *l0,
+                      uint32_t *l1, uint32_t *l2, uint32_t *l3)
 {
     uint32_t k0 = (uint32_t)key, k1 = (uint32_t)(key >> 32);
     uint32_t s0 = (uint32_t)stream, s1 = (uint32_t)(stream >> 32);
@@ -73,6 +76,26 @@ static void gen_tile(uint64_t key, uint64_t stream, uint64_t b0, uint32_t nb, ui
     }
 }
 
+ai_rng_lanes_fn ai_rng_lanes_active(const char **name)
+{
+#if defined(AI_RNG_X86)
+    __builtin_cpu_init();
+    if (__builtin_cpu_supports("avx512f")) {
+        if (name)
+            *name = "avx512f";
+        return ai_rng_lanes_avx512;
+    }
+    if (__builtin_cpu_supports("avx2")) {
+        if (name)
+            *name = "avx2";
+        return ai_rng_lanes_avx2;
+    }
+#endif
+    if (name)
+        *name = "c";
+    return ai_rng_lanes_ref;
+}
+
 static inline float u01(uint32_t u)
 {
     return (float)(u >> 8) * (1.0f / 16777216.0f) + (1.0f / 33554432.0f);
@@ -80,7 +103,9 @@ static inline float u01(uint32_t u)
 
 AI_WIDE static void fill(uint64_t key, uint64_t stream, uint64_t first, float *out, size_t n, int normal)
 {
+    _Static_assert(TILE_BLOCKS % AI_RNG_LANES_PAD == 0, "the wide kernels fill whole vectors");
     uint32_t l0[TILE_BLOCKS], l1[TILE_BLOCKS], l2[TILE_BLOCKS], l3[TILE_BLOCKS];
+    const ai_rng_lanes_fn lanes = ai_rng_lanes_active(NULL);
     float z[4 * TILE_BLOCKS];
     uint64_t pos = first;
     const uint64_t end = first + n;
@@ -88,7 +113,7 @@ AI_WIDE static void fill(uint64_t key, uint64_t stream, uint64_t first, float *o
         uint64_t b0 = pos / 4u;
         uint64_t bend = (end + 3u) / 4u;
         uint32_t nb = (uint32_t)(bend - b0 > TILE_BLOCKS ? TILE_BLOCKS : bend - b0);
-        gen_tile(key, stream, b0, nb, l0, l1, l2, l3);
+        lanes(key, stream, b0, nb, l0, l1, l2, l3);
         if (normal) {
             for (uint32_t i = 0; i < nb; i++) {
                 float ua = u01(l0[i]), ub = u01(l1[i]);

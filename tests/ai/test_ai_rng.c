@@ -5,10 +5,12 @@
 #include <stddef.h>
 #include <stdint.h>
 #include <math.h>
+#include <string.h>
 #include <cmocka.h>
 
 #include "ai/ai_fastmath.h"
 #include "ai/ai_rng.h"
+#include "ai/ai_rng_lanes.h"
 
 static void test_philox_kat(void **state)
 {
@@ -129,10 +131,72 @@ static void test_fastmath(void **state)
     assert_true(smax < 5e-7);
 }
 
+/* Every wide Philox kernel this CPU runs gives the reference's lanes: keys and streams of all
+ * bits, counters whose low word wraps inside a vector (the carry into the high word), block
+ * counts that are not whole vectors; and no entry beyond nb rounded up to AI_RNG_LANES_PAD is
+ * written. */
+static void test_lanes_kernels_equal_reference(void **state)
+{
+    (void)state;
+    const char *name = NULL;
+    const ai_rng_lanes_fn active = ai_rng_lanes_active(&name);
+    assert_non_null(active);
+    assert_non_null(name);
+    ai_rng_lanes_fn kern[3] = {ai_rng_lanes_ref, NULL, NULL};
+#if defined(AI_RNG_X86)
+    __builtin_cpu_init();
+    if (__builtin_cpu_supports("avx512f"))
+        kern[1] = ai_rng_lanes_avx512;
+    if (__builtin_cpu_supports("avx2"))
+        kern[2] = ai_rng_lanes_avx2;
+#endif
+    const uint64_t keys[] = {0, 0xffffffffffffffffull, 0x299f31d0a4093822ull, 42};
+    const uint64_t streams[] = {0, 7, 0xffffffff00000001ull, 0x0123456789abcdefull};
+    const uint64_t firsts[] = {0, 5, 0xfffffff7ull, 0x1fffffffaull, 0xfffffffffffffff0ull};
+    const uint32_t counts[] = {1, 7, 8, 15, 16, 17, 33, 64};
+    enum { CAP = 64 + AI_RNG_LANES_PAD };
+    for (size_t ki = 0; ki < 4; ki++)
+        for (size_t si = 0; si < 4; si++)
+            for (size_t fi = 0; fi < 5; fi++)
+                for (size_t ci = 0; ci < 8; ci++) {
+                    uint32_t ref[4][CAP], got[4][CAP];
+                    const uint32_t nb = counts[ci];
+                    ai_rng_lanes_ref(keys[ki], streams[si], firsts[fi], nb, ref[0], ref[1],
+                                     ref[2], ref[3]);
+                    for (int k = 1; k < 3; k++) {
+                        if (!kern[k])
+                            continue;
+                        memset(got, 0xA5, sizeof got);
+                        kern[k](keys[ki], streams[si], firsts[fi], nb, got[0], got[1], got[2],
+                                got[3]);
+                        const uint32_t pad = (nb + AI_RNG_LANES_PAD - 1) / AI_RNG_LANES_PAD *
+                                             AI_RNG_LANES_PAD;
+                        for (int l = 0; l < 4; l++) {
+                            assert_memory_equal(got[l], ref[l], nb * sizeof(uint32_t));
+                            for (uint32_t i = pad; i < CAP; i++)
+                                assert_int_equal(got[l][i], 0xA5A5A5A5u);
+                        }
+                    }
+                }
+    /* the block {b lo, b hi, s lo, s hi} of the known-answer vector, through the kernels */
+    uint32_t l[4][AI_RNG_LANES_PAD];
+    for (int k = 0; k < 3; k++) {
+        if (!kern[k])
+            continue;
+        kern[k](0x299f31d0a4093822ull, 0x0370734413198a2eull, 0x85a308d3243f6a88ull, 1, l[0], l[1],
+                l[2], l[3]);
+        assert_int_equal(l[0][0], 0xd16cfe09u);
+        assert_int_equal(l[1][0], 0x94fdccebu);
+        assert_int_equal(l[2][0], 0x5001e420u);
+        assert_int_equal(l[3][0], 0x24126ea1u);
+    }
+}
+
 int main(void)
 {
     const struct CMUnitTest tests[] = {
         cmocka_unit_test(test_philox_kat),
+        cmocka_unit_test(test_lanes_kernels_equal_reference),
         cmocka_unit_test(test_normals),
         cmocka_unit_test(test_uniforms),
         cmocka_unit_test(test_fastmath),
