@@ -544,11 +544,10 @@ static inline __attribute__((always_inline)) void adam_elem(float *th, float gi,
 }
 
 /* Element k of the pass below: its mu and rho gradients (from dL/dw in gmu), Adam on both with
- * af's constants when fuse (a constant in every caller, so the loops stay branch-free), and its
- * KL term. */
-/* Element k of the pass below: its mu and rho gradients (from dL/dw in gmu), Adam on both with
- * af's constants when fuse (a constant in every caller, so the loops stay branch-free), and its
- * KL term. */
+ * af's constants when fuse (a constant in every caller, so the loops stay branch-free: 0, or
+ * KL_ADAM, or KL_ADAM_QUIET), and its KL term (0 with KL_ADAM_QUIET: no caller wants the
+ * figure, and its logarithm is the pass's costliest function). */
+enum { KL_ADAM = 1, KL_ADAM_QUIET = 2 };
 #define KL_STREAMS                                                                             \
     float *restrict mu, float *restrict rho, float *restrict gmu, float *restrict grho,       \
         const float *restrict eps, const float *restrict sig, float *restrict am_mu,          \
@@ -573,6 +572,8 @@ static inline __attribute__((always_inline)) float kl_elem(size_t k, KL_STREAMS,
         adam_elem(&rho[k], gr, &am_rho[k], &av_rho[k], af->b1, af->b2, af->ep, af->step_rho,
                   af->isb2_rho);
     }
+    if (fuse == KL_ADAM_QUIET)
+        return 0.0f;
     return logp - ai_fm_logf(s) + 0.5f * (s * s + u * u) * ip2 - 0.5f;
 }
 
@@ -584,8 +585,16 @@ static inline __attribute__((always_inline)) double kl_pass(size_t cnt, KL_STREA
                                                             float ip2, float logp, const int fuse,
                                                             const adam_fused_t *af)
 {
-    float acc[8] = {0};
     size_t j = 0;
+    if (fuse == KL_ADAM_QUIET) { /* the same elements, no sums (16 a time: see below) */
+        for (; j + 16 <= cnt; j += 16)
+            for (size_t q = 0; q < 16; q++)
+                (void)kl_elem(j + q, KL_STREAM_ARGS, c, ip2, logp, fuse, af);
+        for (; j < cnt; j++)
+            (void)kl_elem(j, KL_STREAM_ARGS, c, ip2, logp, fuse, af);
+        return 0.0;
+    }
+    float acc[8] = {0};
     /* 16 elements per iteration so the pass runs in 512-bit vectors where there are some (at 8
      * GCC took ymm and spilled); the KL terms still go into the 8 partial sums in the order of
      * the 8-wide loop below, so the KL figure keeps its bits */
@@ -626,12 +635,19 @@ AI_WIDE KL_NOINLINE static double kl_pass_plain(size_t cnt, KL_STREAMS, float c,
 AI_WIDE KL_NOINLINE static double kl_pass_adam(size_t cnt, KL_STREAMS, float c, float ip2,
                                                float logp, const adam_fused_t *af)
 {
-    return kl_pass(cnt, KL_STREAM_ARGS, c, ip2, logp, 1, af);
+    return kl_pass(cnt, KL_STREAM_ARGS, c, ip2, logp, KL_ADAM, af);
 }
 
-/* The pass over the tensor [j0, j0 + cnt) of the Bayesian block; af: Adam fused (or NULL). */
+AI_WIDE KL_NOINLINE static double kl_pass_adam_quiet(size_t cnt, KL_STREAMS, float c, float ip2,
+                                                     float logp, const adam_fused_t *af)
+{
+    return kl_pass(cnt, KL_STREAM_ARGS, c, ip2, logp, KL_ADAM_QUIET, af);
+}
+
+/* The pass over the tensor [j0, j0 + cnt) of the Bayesian block; af: Adam fused (or NULL);
+ * want_kl: the KL sum is wanted (else 0 is returned; only with af). */
 static double bayes_tensor_grad(bnn_model_t *m, const layout_t *y, size_t j0, size_t cnt,
-                                float kl_weight, const adam_fused_t *af)
+                                float kl_weight, const adam_fused_t *af, int want_kl)
 {
     float *a = m->arena;
     const float p = m->cfg.prior_sigma, ip2 = 1.0f / (p * p), logp = logf(p);
@@ -642,11 +658,17 @@ static double bayes_tensor_grad(bnn_model_t *m, const layout_t *y, size_t j0, si
     if (!af)
         return kl_pass_plain(cnt, mu, rho, gmu, grho, eps, sig, NULL, NULL, NULL, NULL, c, ip2,
                              logp);
+    if (!want_kl)
+        return kl_pass_adam_quiet(cnt, mu, rho, gmu, grho, eps, sig, af->am_mu + j0,
+                                  af->av_mu + j0, af->am_rho + j0, af->av_rho + j0, c, ip2, logp,
+                                  af);
     return kl_pass_adam(cnt, mu, rho, gmu, grho, eps, sig, af->am_mu + j0, af->av_mu + j0,
                         af->am_rho + j0, af->av_rho + j0, c, ip2, logp, af);
 }
 
-/* bnn_loss_grad; with af, Adam on the Bayesian block inside the KL pass (bnn_train_step). */
+/* bnn_loss_grad; with af, Adam on the Bayesian block inside the KL pass (bnn_train_step).
+ * Without out (and with af) the loss figures are not computed: the gradients do not need the
+ * BCE and KL sums, only their derivatives. */
 static int loss_grad(bnn_model_t *m, const ai_sample_t *batch, size_t n, float kl_weight,
                      uint64_t noise_key, bnn_loss_t *out, const adam_fused_t *af)
 {
@@ -670,7 +692,8 @@ static int loss_grad(bnn_model_t *m, const ai_sample_t *batch, size_t n, float k
     const float inv_n = 1.0f / (float)n;
     for (size_t i = 0; i < n; i++) {
         const double l = logit[i], t = batch[i].occ;
-        bce += bce_logit(l, t);
+        if (out)
+            bce += bce_logit(l, t);
         const double p = 1.0 / (1.0 + exp(-l));
         dl[i] = (float)(p - t) * inv_n;
     }
@@ -680,8 +703,9 @@ static int loss_grad(bnn_model_t *m, const ai_sample_t *batch, size_t n, float k
     double kl = 0.0;
     for (size_t l = 0; l < y.L; l++) {
         const size_t nw = y.H * y.lay_in[l];
-        const double klw = bayes_tensor_grad(m, &y, y.lay_off[l], nw, kl_weight, af);
-        const double klb = bayes_tensor_grad(m, &y, y.lay_off[l] + nw, y.H, kl_weight, af);
+        const double klw = bayes_tensor_grad(m, &y, y.lay_off[l], nw, kl_weight, af, out != NULL);
+        const double klb = bayes_tensor_grad(m, &y, y.lay_off[l] + nw, y.H, kl_weight, af,
+                                             out != NULL);
         kl += klw / (double)nw + klb / (double)y.H;
     }
     if (out) {
