@@ -42,11 +42,6 @@ _Static_assert((LAP_KC * LAP_NC + LAP_MC * LAP_KC) * sizeof(float) + 64 * LAP_MR
                    LA_PACKED_STACK_BYTES,
                "the packed panels exceed LA_PACKED_STACK_BYTES");
 
-static inline float lap_op_a(la_trans_t ta, const float *A, int lda, int i, int k)
-{
-    return ta == LA_NO_TRANS ? A[(size_t)i * lda + k] : A[(size_t)k * lda + i];
-}
-
 /* dst[k * ldd + r] = src[r * ld + k] for r < rows, k < kc: `rows` lines of a row-major
  * operand turned k-major, in 4 x 4 transposes where whole ones fit. A scalar gather of one
  * float per line and k took 3-5 % of the forward and dX products (scalar loads and stores
@@ -71,21 +66,32 @@ static void lap_pack_across(const float *src, int ld, int rows, int kc, float *r
 static void lap_pack_a(la_trans_t ta, const float *A, int lda, int i0, int mc, int p0, int kc,
                        float *restrict Ap)
 {
-    for (int s = 0; s < mc; s += LAP_MR) {
-        const int mr = mc - s < LAP_MR ? mc - s : LAP_MR;
-        float *restrict dst = Ap + (size_t)s * kc;
-        if (ta == LA_TRANS && mr == LAP_MR) {
-            /* a fixed-size copy: vector moves (the loop of floats became MR scalar inserts) */
-            for (int k = 0; k < kc; k++)
-                memcpy(dst + k * LAP_MR, A + (size_t)(p0 + k) * lda + i0 + s,
-                       LAP_MR * sizeof(float));
-        } else if (mr == LAP_MR) {
-            lap_pack_across(A + (size_t)(i0 + s) * lda + p0, lda, LAP_MR, kc, dst, LAP_MR);
-        } else {
-            for (int r = 0; r < LAP_MR; r++)
-                for (int k = 0; k < kc; k++)
-                    dst[k * LAP_MR + r] = r < mr ? lap_op_a(ta, A, lda, i0 + s + r, p0 + k) : 0.0f;
+    const int full = mc / LAP_MR * LAP_MR, mr = mc - full;
+    if (ta == LA_TRANS) {
+        /* op(A)'s columns are A's rows: each row of A read once, in order, its MR-float runs
+         * copied into every strip (fixed-size copies: vector moves), the last strip's rows
+         * beyond mc zeroed */
+        for (int k = 0; k < kc; k++) {
+            const float *src = A + (size_t)(p0 + k) * lda + i0;
+            for (int s = 0; s < full; s += LAP_MR)
+                memcpy(Ap + (size_t)s * kc + k * LAP_MR, src + s, LAP_MR * sizeof(float));
+            if (mr) {
+                float *restrict dst = Ap + (size_t)full * kc + k * LAP_MR;
+                for (int r = 0; r < LAP_MR; r++)
+                    dst[r] = r < mr ? src[full + r] : 0.0f;
+            }
         }
+        return;
+    }
+    for (int s = 0; s < full; s += LAP_MR)
+        lap_pack_across(A + (size_t)(i0 + s) * lda + p0, lda, LAP_MR, kc, Ap + (size_t)s * kc,
+                        LAP_MR);
+    if (mr) {
+        float *restrict dst = Ap + (size_t)full * kc;
+        lap_pack_across(A + (size_t)(i0 + full) * lda + p0, lda, mr, kc, dst, LAP_MR);
+        for (int k = 0; k < kc; k++)
+            for (int r = mr; r < LAP_MR; r++)
+                dst[k * LAP_MR + r] = 0.0f;
     }
 }
 
