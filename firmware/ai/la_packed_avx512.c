@@ -39,17 +39,7 @@ static inline lap_vec lap_gate(lap_vec g, lap_vec v)
 {
     return _mm512_maskz_mov_ps(_mm512_cmp_ps_mask(g, _mm512_setzero_ps(), _CMP_GT_OQ), v);
 }
-/* 4 x 4 transpose in xmm registers (SSE, part of every x86-64) */
-static inline void lap_t4(const float *src, int ld, float *dst, int ldd)
-{
-    __m128 r0 = _mm_loadu_ps(src), r1 = _mm_loadu_ps(src + ld);
-    __m128 r2 = _mm_loadu_ps(src + 2 * (size_t)ld), r3 = _mm_loadu_ps(src + 3 * (size_t)ld);
-    _MM_TRANSPOSE4_PS(r0, r1, r2, r3);
-    _mm_storeu_ps(dst, r0);
-    _mm_storeu_ps(dst + ldd, r1);
-    _mm_storeu_ps(dst + 2 * (size_t)ldd, r2);
-    _mm_storeu_ps(dst + 3 * (size_t)ldd, r3);
-}
+#include "ai/la_packed_t4_sse.h"
 #include "ai/la_packed_impl.h"
 LA_ISA_END
 #endif
