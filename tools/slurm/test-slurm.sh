@@ -11,10 +11,12 @@
 #      tools/slurm/fleet.sbatch`, waiting at most SLURM_TEST_DEADLINE_S (default 600 s; a hang
 #      is a failure: the job is cancelled). SLURM_TEST_NODES=K (1 .. 4, default 1) makes the
 #      one machine K nodes (K slurmd, each its own node name and port) and the job -N K, so the
-#      peers list spans nodes (tasks in blocks, 2(x2) for K = 2);
+#      peers list spans nodes (tasks in blocks, 2(x2) for K = 2). SLURM_TEST_ROBOTS=N (2 .. 16,
+#      default 4) sets the fleet's size; beyond the default plan's 7 tours the job makes its own
+#      (host_sim paths gen into RESULTS/tours);
 #   4. checks it: the job succeeded, every robot_<i>/final.bnn exists, every summary.txt says it
-#      was robot i of a keyed fleet of 4 with the job's run id, and the 4 final models equal
-#      `host_sim fleet --inproc`'s of the same settings bit for bit;
+#      was robot i of a keyed fleet of N with the job's run id, and the N final models equal
+#      `host_sim fleet --inproc`'s of the same settings (and tours) bit for bit;
 #   5. always stops the daemons it started (by their pids) and removes the scratch folder (kept
 #      with --keep); on a failure it prints the tails of the daemons' logs and the robots' logs.
 # Prints one line per check and "test-slurm: N passed, N failed"; exits 1 on a failure, 2 on bad
@@ -25,14 +27,16 @@ ROOT=$(cd "$(dirname "$0")/../.." && pwd)
 HOST_SIM=${1:-}
 KEEP=0
 [ "${2:-}" = "--keep" ] && KEEP=1
-N=4 ROUNDS=10 SEED=3
+N=${SLURM_TEST_ROBOTS:-4} ROUNDS=10 SEED=3
 DEADLINE=${SLURM_TEST_DEADLINE_S:-600}
 NODES=${SLURM_TEST_NODES:-1}
 case "$NODES" in 1|2|3|4) ;; *) echo "test-slurm: SLURM_TEST_NODES must be 1 .. 4" >&2; exit 2 ;; esac
+case "$N" in [2-9]|1[0-6]) ;; *) echo "test-slurm: SLURM_TEST_ROBOTS must be 2 .. 16" >&2; exit 2 ;; esac
+[ "$N" -ge "$NODES" ] || { echo "test-slurm: SLURM_TEST_ROBOTS must be at least SLURM_TEST_NODES" >&2; exit 2; }
 
 say() { echo "test-slurm: $*"; }
 case "$HOST_SIM" in
-    -h|--help) sed -n '2,21p' "$0" | sed 's/^# \{0,1\}//'; exit 0 ;;
+    -h|--help) sed -n '2,23p' "$0" | sed 's/^# \{0,1\}//'; exit 0 ;;
     ""|-*) echo "usage: tools/slurm/test-slurm.sh HOST_SIM [--keep]  (--help)" >&2; exit 2 ;;
 esac
 case "$HOST_SIM" in /*) ;; *) HOST_SIM=$PWD/$HOST_SIM ;; esac
@@ -277,8 +281,13 @@ fi
 
 # ---- the in-process reference: the same models bit for bit --------------------------------
 ref_log=$S/inproc.txt
+tours=$ROOT/host_sim/plans/apartment
+if [ "$N" -gt 7 ]; then # the job made its own tours
+    tours=$S/results/tours
+    if [ -f "$tours/robot_$((N - 1)).csv" ]; then ok "the job made $N tours in RESULTS/tours"; else bad "the job made no tours for robots 7 .. $((N - 1)) in $tours"; fi
+fi
 if timeout "$DEADLINE" "$HOST_SIM" fleet --inproc --plan "$ROOT/host_sim/plans/apartment.svg" \
-        --paths "$ROOT/host_sim/plans/apartment" --robots $N --rounds $ROUNDS --strategy kl --graph disk \
+        --paths "$tours" --robots $N --rounds $ROUNDS --strategy kl --graph disk \
         --radius 6 --seed $SEED --out "$S/inproc" --val-poses 5 --mc 1 --map-res 0.5 >"$ref_log" 2>&1; then
     diff=()
     for i in $(seq 0 $((N - 1))); do
