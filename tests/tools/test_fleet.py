@@ -15,7 +15,8 @@ that prints host_sim's round lines, and dies by SIGKILL at a chosen round unless
   - bad set-ups refused at once with exit 2 and one line, no traceback: --plan of another plan
     without --paths, --results that cannot be written, more robots than tours in --paths;
   - more robots than the default tours without --paths: `host_sim paths gen` makes them in the
-    run's folder (one line says so) and robot i drives RUN/tours/robot_<i>.csv; up to 1024.
+    run's folder (one line says so) and robot i drives RUN/tours/robot_<i>.csv; up to 1024;
+  - a ZeroMQ fleet's ports skip a port another process listens on (the next free block).
 Every launcher runs under a timeout: a hang is a failure.
 
     python3 tests/tools/test_fleet.py      prints "N passed, M failed", exit 1 on failure
@@ -318,6 +319,35 @@ def more_robots_than_default_tours_made():
               "--path " + os.path.join(ROOT, "host_sim/plans/apartment/robot_6.csv") in starts(run_dir, 6)[0],
               f"exit {rc}:\n{out}")
     finally:
+        shutil.rmtree(tmp, ignore_errors=True)
+
+
+@test
+def zmq_ports_skip_a_busy_block():
+    """A ZeroMQ fleet takes the first block of --robots ports nobody listens on: with a port of its
+    default block held by another listener (as another fleet's robot would), the block starts
+    after it; robot i binds the i-th port of the --peers list every robot gets."""
+    import socket
+    tmp = tempfile.mkdtemp()
+    fid = 60000 + os.getpid() % 5000
+    start = 7700 + 32 * (fid % 500)
+    held = socket.socket(socket.AF_INET, socket.SOCK_STREAM)
+    try:
+        held.setsockopt(socket.SOL_SOCKET, socket.SO_REUSEADDR, 1)
+        held.bind(("127.0.0.1", start + 2))
+        held.listen()
+        rc, out, run_dir = launch(tmp, ["--no-report", "--transport", "zmq"], {}, "zmq", robots=4)
+        check(rc == 0, f"exit {rc}:\n{out}")
+        s = starts(run_dir, 0)[0].split()
+        peers = s[s.index("--peers") + 1].split(",")
+        ports = [int(p.rsplit(":", 1)[1]) for p in peers]
+        check(ports == list(range(start + 3, start + 7)), f"peers {peers}: not the block after the held port "
+              f"{start + 2}")
+        for i in range(1, 4):
+            t = starts(run_dir, i)[0].split()
+            check(t[t.index("--peers") + 1] == ",".join(peers), f"robot {i} got another peers list: {t}")
+    finally:
+        held.close()
         shutil.rmtree(tmp, ignore_errors=True)
 
 
