@@ -236,6 +236,8 @@ int hal_host_create(const hal_host_config_t *cfg, hal_host_t **out)
             h->net, &faults,
             hal_host_netfault_seed(faults.has_seed ? faults.seed : cfg->net_faults_seed, cfg->robot_id),
             cfg->robot_id);
+    if (r == 0 && h->net != NULL)
+        r = hal_host_net_set_self(h->net, cfg->robot_id);
     if (r == 0 && h->net != NULL && cfg->net_auth != NULL)
         r = hal_host_net_set_auth(h->net, cfg->net_auth);
     if (r == 0 && cfg->storage_dir != NULL)

@@ -200,6 +200,11 @@ void hal_host_net_get_stats(const hal_host_net_t *n, hal_net_stats_t *stats);
  * 0, -EINVAL, -EBUSY (subscribed already, or faults set before), -ENOMEM. */
 FS_MUST_CHECK int hal_host_net_set_faults(hal_host_net_t *n, const hal_host_netfault_cfg_t *cfg,
                                           uint64_t seed, uint32_t self);
+/* Tells n its fleet id: a datagram on a typed (fleet) channel whose sender field is `self` is
+ * this node's own publish come back (LCM multicast delivers those) and is dropped before its
+ * tag is checked, which saves 1/N of a keyed member's verifications (rx_own). A forged datagram
+ * claiming this id is dropped the same way. Before the first subscribe: 0, -EINVAL, -EBUSY. */
+FS_MUST_CHECK int hal_host_net_set_self(hal_host_net_t *n, uint32_t self);
 /* Makes n a member of a keyed fleet (hal_host_auth.h): every datagram it publishes carries
  * the trailer, and one it receives without a valid tag of this key and run is dropped before
  * the bounds check (rx_dropped_unauth, rx_dropped_replay). Before the first subscribe; a

@@ -61,6 +61,8 @@ struct hal_host_net {
     uint32_t fault_self;
     uint64_t fault_seq;    /* datagrams decided on so far */
     hal_host_netfault_hold_t hold; /* cap 0 without delay or reorder */
+    int has_self;          /* hal_host_net_set_self: own datagrams dropped on arrival */
+    uint32_t self;
     int keyed;             /* hal_host_net_set_auth: every datagram sealed and checked */
     hal_host_auth_t auth;
     uint8_t *tx_wire;      /* keyed: message + trailer, HAL_NET_MTU_BYTES + trailer (under tx_mu) */
@@ -121,17 +123,25 @@ static void release_due(hal_host_net_t *n, uint64_t now_us)
         release_held(n, e);
 }
 
-/* mu held: a checked datagram meets the injector. The sender of a typed (fleet) channel is
- * its first field, after the 8-byte fingerprint; untyped channels have none (-1). */
+/* The sender of a datagram on a typed (fleet) channel: its first field, a big-endian 32-bit
+ * id after the 8-byte fingerprint (a keyed fleet's trailer rides at the end); -1 for untyped
+ * channels and datagrams too short to have one. Not checked: a hint until the tag is. */
+static int64_t typed_sender(hal_host_msg_type_t type, const void *data, size_t len)
+{
+    const uint8_t *d = data;
+    if (type == HAL_HOST_MSG_ANY || len < 12u)
+        return -1;
+    return (int64_t)((uint32_t)d[8] << 24 | (uint32_t)d[9] << 16 | (uint32_t)d[10] << 8 | (uint32_t)d[11]);
+}
+
+/* mu held: a checked datagram meets the injector, which decides by its sender (typed_sender;
+ * signed like the injector's ids). */
 static void inject(hal_host_net_t *n, hal_host_msg_type_t type, const char *channel, const uint8_t *data,
                    uint32_t len)
 {
     const uint64_t now = mono_us();
     release_due(n, now);
-    int32_t sender = -1;
-    if (type != HAL_HOST_MSG_ANY && len >= 12u)
-        sender = (int32_t)((uint32_t)data[8] << 24 | (uint32_t)data[9] << 16 | (uint32_t)data[10] << 8 |
-                           (uint32_t)data[11]);
+    const int32_t sender = (int32_t)typed_sender(type, data, len);
     hal_host_netfault_decision_t d;
     hal_host_netfault_decide(&n->fault, n->fault_seed, n->fault_seq++, sender, n->fault_self, now - n->t0_us, &d);
     if (d.partitioned) {
@@ -319,6 +329,20 @@ int hal_host_net_set_faults(hal_host_net_t *n, const hal_host_netfault_cfg_t *cf
     return 0;
 }
 
+int hal_host_net_set_self(hal_host_net_t *n, uint32_t self)
+{
+    if (n == NULL)
+        return -EINVAL;
+    pthread_mutex_lock(&n->mu);
+    const int busy = n->rx_started;
+    if (!busy) {
+        n->self = self;
+        n->has_self = 1;
+    }
+    pthread_mutex_unlock(&n->mu);
+    return busy ? -EBUSY : 0;
+}
+
 int hal_host_net_set_auth(hal_host_net_t *n, const hal_host_auth_t *auth)
 {
     if (n == NULL || auth == NULL)
@@ -396,6 +420,11 @@ void hal_host_net_on_datagram(hal_host_net_t *n, const char *channel, const void
     while (i < n->n_subs && strcmp(n->sub_channel[i], channel) != 0)
         i++;
     if (i == n->n_subs) {
+        pthread_mutex_unlock(&n->mu);
+        return;
+    }
+    if (n->has_self && typed_sender(channel_type(n, channel), data, len) == (int64_t)n->self) {
+        n->stats.rx_own++;
         pthread_mutex_unlock(&n->mu);
         return;
     }

@@ -609,8 +609,8 @@ static int report(job_t *j)
             fprintf(f, "traffic: %.0f B sent and %.0f B received per round; %llu chunks sent, %llu received\n",
                     (double)p->bytes_sent / R, (double)p->bytes_received / R, (unsigned long long)p->chunks_sent,
                     (unsigned long long)p->chunks_received);
-            fprintf(f, "network: %.0f B received per round in %.1f datagrams (every member's, own echoes included, "
-                       "before the protocol keeps the nearest)\n",
+            fprintf(f, "network: %.0f B received per round in %.1f datagrams (every other member's, before the "
+                       "protocol keeps the nearest)\n",
                     (double)res->net.rx_bytes / R, (double)res->net.rx_messages / R);
             fprintf(f, "nearest: at most %u neighbour states per round; %llu chunks of peers beyond the radius or the "
                        "nearest only placed their sender, %llu states given up for a nearer peer's\n",
@@ -621,7 +621,8 @@ static int report(job_t *j)
                     (unsigned long long)p->chunks_requested, (unsigned long long)p->chunks_resent,
                     (unsigned long long)p->duplicates, (unsigned long long)p->stale, (unsigned long long)p->invalid,
                     (unsigned long long)p->crc_failures, (unsigned long long)p->timeouts,
-                    (unsigned long long)p->rejoins, (unsigned long long)res->fleet.own_echoes);
+                    (unsigned long long)p->rejoins,
+                    (unsigned long long)(res->fleet.own_echoes + res->net.rx_own));
             fprintf(f, "faults survived: %llu chunks lost (never received), %llu recovered by a request; %llu peer "
                        "states gone without, %llu rounds cut short by a later round, %llu rounds skipped to catch "
                        "up; %llu peer restarts seen, %llu messages of an earlier incarnation dropped\n",

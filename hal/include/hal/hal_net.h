@@ -54,6 +54,8 @@ typedef struct hal_net_stats {
     /* A keyed fleet (the host's --key-file): refused before the bounds check. */
     uint64_t rx_dropped_unauth; /* no valid tag: forged, damaged, another key (not a member) */
     uint64_t rx_dropped_replay; /* a member's tag of another run: a recording played back */
+    uint64_t rx_own;            /* the node's own publishes delivered back (LCM multicast loops
+                                   them), dropped before the tag check (a host told its id) */
     /* Faults a board injected on purpose (the host's --net-faults; 0 elsewhere). */
     uint64_t fault_dropped;     /* lost at random */
     uint64_t fault_duplicated;  /* delivered twice */
