@@ -26,6 +26,7 @@
 
 #define MR 12
 #define NR 32
+_Static_assert(MR <= NR, "pairs_across holds up to NR rows");
 #ifndef LA_BF16_KC /* k elements per block (even): -D for measurements only */
 #define LA_BF16_KC 256
 #endif
@@ -62,6 +63,22 @@ static inline __m512i interleave_pairs(__m512 e, __m512 o)
     return _mm512_permutexvar_epi16(idx, (__m512i)_mm512_cvtne2ps_pbh(o, e));
 }
 
+/* 16 pairs of each of `lines` (<= NR) rows of an operand read across its rows, row l at
+ * src + l * ld: each row converted 16 pairs at a time (rounded in order, so its dwords are the
+ * pairs), then transposed: dst[q * lines + l] = pair q of row l. */
+static inline void pairs_across(const float *src, size_t ld, int lines, uint32_t *restrict dst)
+{
+    _Alignas(64) uint32_t t[NR][16];
+    for (int l = 0; l < lines; l++) {
+        const float *row = src + (size_t)l * ld;
+        _mm512_store_si512(t[l], (__m512i)_mm512_cvtne2ps_pbh(_mm512_loadu_ps(row + 16),
+                                                               _mm512_loadu_ps(row)));
+    }
+    for (int q = 0; q < 16; q++)
+        for (int l = 0; l < lines; l++)
+            dst[q * lines + l] = t[l][q];
+}
+
 /* Bp[strip][p][j]: columns j0.., k from k0 (even), kc of them (odd only in the last block),
  * zero padded to NR columns and to whole pairs. */
 static void pack_b(la_trans_t tb, const float *B, int ldb, int j0, int nc, int k0, int kc,
@@ -73,19 +90,11 @@ static void pack_b(la_trans_t tb, const float *B, int ldb, int j0, int nc, int k
         uint32_t *restrict dst = Bp + (size_t)s * kp;
         int p = 0;
         if (tb == LA_TRANS && nr == NR) {
-            /* a pair is two neighbours in a row of B (= a column of op(B)): each of the 32
-             * rows converted 16 pairs at a time into t, then transposed (as op(A) below) */
-            _Alignas(64) uint32_t t[NR][16];
-            for (; p + 16 <= kfull; p += 16) {
-                for (int j = 0; j < NR; j++) {
-                    const float *src = B + (size_t)(j0 + s + j) * ldb + k0 + 2 * p;
-                    _mm512_store_si512(t[j], (__m512i)_mm512_cvtne2ps_pbh(
-                                                 _mm512_loadu_ps(src + 16), _mm512_loadu_ps(src)));
-                }
-                for (int q = 0; q < 16; q++)
-                    for (int j = 0; j < NR; j++)
-                        dst[(p + q) * NR + j] = t[j][q];
-            }
+            /* a pair is two neighbours in a row of B (= a column of op(B)): the 32 rows 16
+             * pairs at a time */
+            for (; p + 16 <= kfull; p += 16)
+                pairs_across(B + (size_t)(j0 + s) * ldb + k0 + 2 * p, (size_t)ldb, NR,
+                             dst + p * NR);
         }
         for (; p < kp; p++) {
             const int k = k0 + 2 * p, odd = 2 * p + 1 < kc;
@@ -136,19 +145,10 @@ static void pack_a(la_trans_t ta, const float *A, int lda, int i0, int mc, int k
                                                           _mm512_maskz_loadu_ps(m12, ro)));
             }
         } else {
-            /* a pair is two neighbours in a row of A: each row converted 16 pairs at a time
-             * into t (rounded in order, so its dwords are the pairs), then transposed */
-            _Alignas(64) uint32_t t[MR][16];
-            for (; p + 16 <= kfull; p += 16) {
-                for (int r = 0; r < MR; r++) {
-                    const float *src = A + (size_t)(i0 + s + r) * lda + k0 + 2 * p;
-                    _mm512_store_si512(t[r], (__m512i)_mm512_cvtne2ps_pbh(
-                                                 _mm512_loadu_ps(src + 16), _mm512_loadu_ps(src)));
-                }
-                for (int q = 0; q < 16; q++)
-                    for (int r = 0; r < MR; r++)
-                        dst[(p + q) * MR + r] = t[r][q];
-            }
+            /* a pair is two neighbours in a row of A: the 12 rows 16 pairs at a time */
+            for (; p + 16 <= kfull; p += 16)
+                pairs_across(A + (size_t)(i0 + s) * lda + k0 + 2 * p, (size_t)lda, MR,
+                             dst + p * MR);
         }
         for (; p < kp; p++)
             for (int r = 0; r < MR; r++) {
@@ -273,10 +273,7 @@ void la_bf16_gemm_avx512(la_trans_t ta, la_trans_t tb, int M, int N, int K, cons
                         const int j = j0 + js, i = i0 + is;
                         la_epilogue_t e;
                         if (ep && last)
-                            e = (la_epilogue_t){ep->bias ? ep->bias + j : NULL, ep->relu,
-                                                ep->gate ? ep->gate + (size_t)i * ep->ldg + j
-                                                         : NULL,
-                                                ep->ldg, ep->colsum ? ep->colsum + j : NULL};
+                            e = la_epilogue_at(ep, (size_t)i, j);
                         micro(kp, Ap + (size_t)is * kp, Bp + (size_t)js * kp,
                               C + (size_t)i * ldc + j, ldc, mc - is < MR ? mc - is : MR,
                               nc - js < NR ? nc - js : NR, k0 == 0, last,

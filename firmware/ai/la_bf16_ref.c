@@ -6,14 +6,13 @@
 #include <float.h>
 #include <math.h>
 #include <stddef.h>
-#include <string.h>
 
+#include "ai/ai_fastmath.h"
 #include "ai/la_packed.h"
 
 uint16_t la_bf16_round(float x)
 {
-    uint32_t u;
-    memcpy(&u, &x, sizeof u);
+    uint32_t u = ai_fm_f2bits(x);
     if ((u & 0x7F800000u) == 0)
         return (uint16_t)((u >> 16) & 0x8000u); /* zero or subnormal: a zero of its sign */
     if ((u & 0x7FFFFFFFu) > 0x7F800000u)
@@ -24,21 +23,15 @@ uint16_t la_bf16_round(float x)
 
 float la_bf16_widen(uint16_t h)
 {
-    const uint32_t u = (uint32_t)h << 16;
-    float f;
-    memcpy(&f, &u, sizeof f);
-    return f;
+    return ai_fm_bits2f((uint32_t)h << 16);
 }
 
 /* A subnormal result becomes a zero of its sign; in bits, so that the loop below vectorises
  * (a float comparison there would keep GCC from if-converting it under -ftrapping-math). */
 static inline float ftz(float v)
 {
-    uint32_t u;
-    memcpy(&u, &v, sizeof u);
-    u = (u & 0x7F800000u) ? u : (u & 0x80000000u);
-    memcpy(&v, &u, sizeof v);
-    return v;
+    const uint32_t u = ai_fm_f2bits(v);
+    return ai_fm_bits2f((u & 0x7F800000u) ? u : (u & 0x80000000u));
 }
 
 static inline float rounded(float x)

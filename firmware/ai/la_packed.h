@@ -57,6 +57,15 @@ static inline float la_epilogue_elem(const la_epilogue_t *ep, size_t i, int j, f
     return v;
 }
 
+/* The epilogue of the tile whose first element is row i, column j: ep's pointers moved there
+ * (what a kernel's micro-tile applies; the fp32 and bf16 drivers both take it). */
+static inline la_epilogue_t la_epilogue_at(const la_epilogue_t *ep, size_t i, int j)
+{
+    return (la_epilogue_t){ep->bias ? ep->bias + j : NULL, ep->relu,
+                           ep->gate ? ep->gate + i * (size_t)ep->ldg + (size_t)j : NULL, ep->ldg,
+                           ep->colsum ? ep->colsum + j : NULL};
+}
+
 /* Largest stack use of one call (packed panels). */
 #define LA_PACKED_STACK_BYTES (400u * 1024u)
 

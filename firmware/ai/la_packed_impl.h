@@ -327,9 +327,7 @@ void LAP_FN(la_trans_t ta, la_trans_t tb, int M, int N, int K, float alpha, cons
                         const int j = j0 + js, i = i0 + is;
                         la_epilogue_t e;
                         if (ep && last)
-                            e = (la_epilogue_t){ep->bias ? ep->bias + j : NULL, ep->relu,
-                                                ep->gate ? ep->gate + (size_t)i * ep->ldg + j : NULL,
-                                                ep->ldg, ep->colsum ? ep->colsum + j : NULL};
+                            e = la_epilogue_at(ep, (size_t)i, j);
                         lap_micro(kc, Ap + (size_t)is * kc, Bp + (size_t)js * kc,
                                   C + (size_t)i * ldc + j, ldc, mc - is < LAP_MR ? mc - is : LAP_MR,
                                   nc - js < LAP_NR ? nc - js : LAP_NR, alpha, beta, p0 == 0,
