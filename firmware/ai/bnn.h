@@ -87,7 +87,7 @@
 _Static_assert(BNN_N_PARAMS == 527361u, "paper preset must have exactly 527,361 parameters");
 #endif
 
-/* Arena layout, in floats (see bnn.c): params, grads, Adam m and v (4 x N_PARAMS); sampled
+/* Arena layout, in floats (see bnn_int.h): params, grads, Adam m and v (4 x N_PARAMS); sampled
  * Bayesian weights, eps, sigma (3 x N_RHO); activations per batch point: SIREN pre-activation
  * and output (2S), every Bayesian layer's output (L*H), two back-propagation buffers
  * (2*max(S,H)), the input and logit/dlogit (4). */

@@ -72,7 +72,7 @@ int bnn_ckpt_save(const bnn_model_t *m, int with_adam, uint8_t *buf, size_t cap,
     const float *th = bnn_params_const(m);
     put_floats(pl, th, P);
     if (with_adam) {
-        put_floats(pl + 4 * P, th + 2 * P, P); /* arena: theta, grads, m, v (bnn.c layout) */
+        put_floats(pl + 4 * P, th + 2 * P, P); /* arena: theta, grads, m, v (bnn_int.h layout) */
         put_floats(pl + 8 * P, th + 3 * P, P);
     }
     uint32_t crc = crc32_ieee_update(0u, buf, 56);

@@ -1,5 +1,6 @@
-/* bf16 products with fp32 sums for the large GEMMs of the training step (bnn.c, when the
- * model's config asks for BNN_PRECISION_BF16; firmware/ai/README.md, "bf16 training step").
+/* bf16 products with fp32 sums for the large GEMMs of the training step (bnn_forward.c and
+ * bnn_train.c, when the model's config asks for BNN_PRECISION_BF16; firmware/ai/README.md,
+ * "bf16 training step").
  *
  *   C[M x N] = epilogue( sum_k bf16(op(A)[i][k]) * bf16(op(B)[k][j]) )
  *

@@ -9,7 +9,7 @@ output and the lines it prints, with stand-ins for torch and bench_bnn; it times
 
 What it times, in PyTorch on the CPU (`torch.set_num_threads(--threads)`, interop 1):
 
-* one training step, the same as bnn_train_step() of firmware/ai/bnn.c: SIREN (w0 = 30) ->
+* one training step, the same as bnn_train_step() of firmware/ai/bnn_train.c: SIREN (w0 = 30) ->
   L Bayesian linear layers with ReLU (w = mu + softplus(rho) * eps, ONE eps draw per step shared
   by the batch) -> linear -> logit; BCE (from logits, mean) + kl_weight (1e-4) * sum over the
   Bayesian tensors of the mean closed-form KL to N(0, 1); backward; Adam (lr 1e-4) on the mu
