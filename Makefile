@@ -198,9 +198,9 @@ endif
 # The packed GEMM kernels spell out every FMA (their kernels must agree bit for bit whatever the
 # vector width), so the compiler may fuse nothing there.
 FW_FP := -ffp-contract=fast
-$(O)/obj/firmware/ai/la_packed_%.c.o: FW_FP := -ffp-contract=off
+$(O)/obj/firmware/ai/kernels/la_packed_%.c.o: FW_FP := -ffp-contract=off
 # The bf16 kernels' roundings are their contract (la_bf16.h): none may be fused away either.
-$(O)/obj/firmware/ai/la_bf16%.c.o: FW_FP := -ffp-contract=off
+$(O)/obj/firmware/ai/kernels/la_bf16%.c.o: FW_FP := -ffp-contract=off
 $(O)/obj/firmware/%.c.o: firmware/%.c
 	@mkdir -p $(@D)
 	$(call say,CC,$<)$(CC) $(CFLAGS) $(FW_FP) $(FW_INC) -c $< -o $@

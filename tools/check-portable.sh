@@ -13,8 +13,9 @@ usage() {
     cat <<'EOF'
 usage: tools/check-portable.sh "<preprocessor flags of the build>"
 
-Compiles the AI core's math (firmware/ai/*.c, *.cpp) with -Wall -Wextra -Werror, compile only,
-for x86-64-v2, -v3 and -v4 with GCC and clang and for aarch64 (armv8-a) with the cross g++
+Compiles the AI core's math (firmware/ai/*.c, firmware/ai/kernels/*.c, *.cpp) with -Wall
+-Wextra -Werror, compile only, for x86-64-v2, -v3 and -v4 with GCC and clang and for aarch64
+(armv8-a) with the cross g++
 (on an aarch64 host: armv8-a with GCC and clang). The one argument is the build's -D/-I flags,
 quoted as one word; `make check-portable` passes them and then builds and tests the whole tree
 with clang. Exit 0 when every file compiles, 1 on the first that does not (naming the compiler
@@ -31,7 +32,7 @@ cd "$(dirname "$0")/.."
 
 flags=$1
 read -r -a pp <<<"$flags"
-srcs=(firmware/ai/*.c firmware/ai/*.cpp)
+srcs=(firmware/ai/*.c firmware/ai/kernels/*.c firmware/ai/kernels/*.cpp)
 warn=(-Wall -Wextra -Werror)
 
 compile() { # compile CC CXX MARCH_FLAG...

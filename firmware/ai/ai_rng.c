@@ -6,7 +6,7 @@
 #include <string.h>
 
 #include "ai/ai_fastmath.h"
-#include "ai/ai_rng_lanes.h"
+#include "ai/kernels/ai_rng_lanes.h"
 
 #define PHILOX_M0 0xD2511F53u
 #define PHILOX_M1 0xCD9E8D57u

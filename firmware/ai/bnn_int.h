@@ -33,8 +33,8 @@
 #include "ai/ai_rng.h"
 #include "ai/ai_sample.h"
 #include "ai/bnn.h"
-#include "ai/la.h"
-#include "ai/la_bf16.h"
+#include "ai/kernels/la.h"
+#include "ai/kernels/la_bf16.h"
 
 #define BNN_SEED_SALT 0xB4B1ull /* model seed -> Philox key */
 

@@ -2,7 +2,7 @@
 #include "ai/bnn_quant.h"
 
 #include "ai/ai_fastmath.h"
-#include "ai/q8_gemm.h"
+#include "ai/kernels/q8_gemm.h"
 
 #include <errno.h>
 #include <math.h>

@@ -10,7 +10,7 @@
 
 #include "ai/ai_fastmath.h"
 #include "ai/ai_rng.h"
-#include "ai/ai_rng_lanes.h"
+#include "ai/kernels/ai_rng_lanes.h"
 
 static void test_philox_kat(void **state)
 {

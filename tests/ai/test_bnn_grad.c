@@ -13,7 +13,7 @@
 
 #include "ai/ai_rng.h"
 #include "ai/bnn.h"
-#include "ai/la.h"
+#include "ai/kernels/la.h"
 
 static bnn_model_t model;
 

@@ -13,9 +13,9 @@
 #include "ai/ai_rng.h"
 #include "ai/bnn.h"
 #include "ai/bnn_quant.h"
-#include "ai/la.h"
-#include "ai/la_packed.h"
-#include "ai/q8_gemm.h"
+#include "ai/kernels/la.h"
+#include "ai/kernels/la_packed.h"
+#include "ai/kernels/q8_gemm.h"
 
 static bnn_model_t model;
 static ai_sample_t batch[BNN_MAX_BATCH];

@@ -12,7 +12,7 @@
 
 #include "alloc_count.h"
 #include "ai/ai_rng.h"
-#include "ai/la.h"
+#include "ai/kernels/la.h"
 
 #define MAXD 300
 static float A[MAXD * (MAXD + 3)], B[MAXD * (MAXD + 3)], C0[MAXD * (MAXD + 5)];

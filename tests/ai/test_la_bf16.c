@@ -24,8 +24,8 @@
 #include "alloc_count.h"
 #include "ai/ai_rng.h"
 #include "ai/bnn.h"
-#include "ai/la.h"
-#include "ai/la_bf16.h"
+#include "ai/kernels/la.h"
+#include "ai/kernels/la_bf16.h"
 
 static uint32_t bits(float f)
 {

@@ -20,8 +20,8 @@
 
 #include "alloc_count.h"
 #include "ai/ai_rng.h"
-#include "ai/la.h"
-#include "ai/la_packed.h"
+#include "ai/kernels/la.h"
+#include "ai/kernels/la_packed.h"
 
 /* floats per operand: the largest case is 512 x 64 x 1024 (A is 512 x 1026 with its padding) */
 #define MAXE (1100 * 600)

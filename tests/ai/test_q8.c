@@ -26,7 +26,7 @@
 #include "alloc_count.h"
 #include "ai/ai_rng.h"
 #include "ai/bnn_quant.h"
-#include "ai/q8_gemm.h"
+#include "ai/kernels/q8_gemm.h"
 
 /* ---- the per-point int8 path as it was (the oracle), compiled twice ----------------------
  * The firmware is compiled with -ffp-contract=fast by the Makefile (FW_FP) and with the ISO

@@ -70,10 +70,10 @@
 #include "ai/ai_rng.h"
 #include "ai/bnn.h"
 #include "ai/bnn_quant.h"
-#include "ai/la.h"
-#include "ai/la_bf16.h"
-#include "ai/la_packed.h"
-#include "ai/q8_gemm.h"
+#include "ai/kernels/la.h"
+#include "ai/kernels/la_bf16.h"
+#include "ai/kernels/la_packed.h"
+#include "ai/kernels/q8_gemm.h"
 #include "fma_probe.h"
 
 static bnn_model_t model;

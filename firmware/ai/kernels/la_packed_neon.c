@@ -3,7 +3,7 @@
  * Eight rows divide the board's batch of 64 and the widths 64 and 256 (no edge tiles); with
  * the row loops unrolled it takes as few instructions per step as Eigen's NEON path under
  * qemu-aarch64 (docs/boards.md). */
-#include "ai/la_packed.h"
+#include "ai/kernels/la_packed.h"
 
 #if defined(__aarch64__) && defined(__ARM_NEON)
 #include <arm_neon.h>
@@ -43,5 +43,5 @@ static inline void lap_t4(const float *src, int ld, float *dst, int ldd)
     vst1q_f32(dst + 2 * (size_t)ldd, vcombine_f32(vget_high_f32(t01.val[0]), vget_high_f32(t23.val[0])));
     vst1q_f32(dst + 3 * (size_t)ldd, vcombine_f32(vget_high_f32(t01.val[1]), vget_high_f32(t23.val[1])));
 }
-#include "ai/la_packed_impl.h"
+#include "ai/kernels/la_packed_impl.h"
 #endif

@@ -1,6 +1,6 @@
 /* The int8 GEMM of the int8 inference path: the pure-C reference kernel and the run-time
  * choice among the kernels (the x86 ones live in ai/q8_x86.c). See ai/q8_gemm.h. */
-#include "ai/q8_gemm.h"
+#include "ai/kernels/q8_gemm.h"
 
 #include <errno.h>
 #include <stdatomic.h>

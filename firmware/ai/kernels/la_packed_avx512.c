@@ -1,12 +1,12 @@
 /* The packed GEMM for AVX-512F: a 12 x 32 tile in 24 of the 32 zmm registers (the shape BLIS and
  * OpenBLAS use on AVX-512 cores). Compiled on every x86-64 build whatever its baseline; called
  * only when the CPU has AVX-512F (la_packed.c). Blocking measured in firmware/ai/README.md. */
-#include "ai/la_packed.h"
+#include "ai/kernels/la_packed.h"
 
 #if defined(__x86_64__) && (defined(__GNUC__) || defined(__clang__))
 #include <immintrin.h>
 
-#include "ai/la_packed_isa.h"
+#include "ai/kernels/la_packed_isa.h"
 
 LA_ISA_BEGIN("avx512f,avx2,fma")
 typedef __m512 lap_vec;
@@ -39,7 +39,7 @@ static inline lap_vec lap_gate(lap_vec g, lap_vec v)
 {
     return _mm512_maskz_mov_ps(_mm512_cmp_ps_mask(g, _mm512_setzero_ps(), _CMP_GT_OQ), v);
 }
-#include "ai/la_packed_t4_sse.h"
-#include "ai/la_packed_impl.h"
+#include "ai/kernels/la_packed_t4_sse.h"
+#include "ai/kernels/la_packed_impl.h"
 LA_ISA_END
 #endif

@@ -1,7 +1,7 @@
 /* Which kernel la_bf16_gemm runs: the AVX512_BF16 one when this is an x86-64 build of the fast
  * back end and the CPU has the instruction (cpuid with the OS's zmm-state check, through
  * __builtin_cpu_supports), else the pure-C reference. Chosen once, like la_packed.c. */
-#include "ai/la_bf16.h"
+#include "ai/kernels/la_bf16.h"
 
 #include <errno.h>
 #include <stdatomic.h>

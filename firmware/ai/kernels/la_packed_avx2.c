@@ -1,12 +1,12 @@
 /* The packed GEMM for AVX2 + FMA: a 6 x 16 tile in 12 of the 16 ymm registers (Zen 2/3,
  * Haswell .. Alder Lake; on Zen 3 it measured ~75-80 GFLOP/s where Eigen 3.4 reached ~65).
  * Compiled on every x86-64 build; called only when the CPU has AVX2 and FMA (la_packed.c). */
-#include "ai/la_packed.h"
+#include "ai/kernels/la_packed.h"
 
 #if defined(__x86_64__) && (defined(__GNUC__) || defined(__clang__))
 #include <immintrin.h>
 
-#include "ai/la_packed_isa.h"
+#include "ai/kernels/la_packed_isa.h"
 
 LA_ISA_BEGIN("avx2,fma")
 typedef __m256 lap_vec;
@@ -32,7 +32,7 @@ static inline lap_vec lap_gate(lap_vec g, lap_vec v)
 {
     return _mm256_and_ps(_mm256_cmp_ps(g, _mm256_setzero_ps(), _CMP_GT_OQ), v);
 }
-#include "ai/la_packed_t4_sse.h"
-#include "ai/la_packed_impl.h"
+#include "ai/kernels/la_packed_t4_sse.h"
+#include "ai/kernels/la_packed_impl.h"
 LA_ISA_END
 #endif

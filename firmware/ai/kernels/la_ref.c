@@ -10,7 +10,7 @@
  * build settings (LA_REF_KC, LA_REF_MC, LA_REF_NC in common/fw_config.h), so a board with small
  * stacks takes smaller ones. The blocking fixes the order of the sums: one blocking, one result
  * bit for bit. */
-#include "ai/la.h"
+#include "ai/kernels/la.h"
 
 #include <stddef.h>
 

@@ -14,15 +14,15 @@
  * roundings. The epilogue runs on the last k block, on the tile in registers, as in the fp32
  * driver (rows ascending for the column sums). Edge tiles and edge packing go through the
  * reference's scalar rounding (la_bf16_round). */
-#include "ai/la_bf16.h"
+#include "ai/kernels/la_bf16.h"
 
 #if defined(__x86_64__) && (defined(__GNUC__) || defined(__clang__))
 #include <immintrin.h>
 #include <stddef.h>
 #include <stdint.h>
 
-#include "ai/la_packed.h"
-#include "ai/la_packed_isa.h"
+#include "ai/kernels/la_packed.h"
+#include "ai/kernels/la_packed_isa.h"
 
 #define MR 12
 #define NR 32

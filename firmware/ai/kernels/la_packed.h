@@ -12,7 +12,7 @@
 
 #include <stddef.h>
 
-#include "ai/la.h"
+#include "ai/kernels/la.h"
 
 typedef void (*la_packed_fn)(la_trans_t ta, la_trans_t tb, int M, int N, int K, float alpha,
                              const float *A, int lda, const float *B, int ldb, float beta,

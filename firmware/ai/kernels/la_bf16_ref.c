@@ -1,14 +1,14 @@
 /* The pure-C reference of la_bf16.h: the rounding written out one step at a time. Compiled
  * without FMA contraction (Makefile), so every rounding below is the one written: fmaf is the
  * one rounding of acc + a * b (exact for bf16 factors), whatever the target. */
-#include "ai/la_bf16.h"
+#include "ai/kernels/la_bf16.h"
 
 #include <float.h>
 #include <math.h>
 #include <stddef.h>
 
 #include "ai/ai_fastmath.h"
-#include "ai/la_packed.h"
+#include "ai/kernels/la_packed.h"
 
 uint16_t la_bf16_round(float x)
 {

@@ -10,12 +10,12 @@
  * on the 16-register AVX2/AVX-VNNI, 8 x 2 with AVX512VL). W's last, partial quad of a row is
  * read byte by byte and zero-padded, so no byte past a row is read and A's padding bytes do
  * not count. */
-#include "ai/q8_gemm.h"
+#include "ai/kernels/q8_gemm.h"
 
 #if defined(Q8_X86)
 #include <immintrin.h>
 
-#include "ai/la_packed_isa.h"
+#include "ai/kernels/la_packed_isa.h"
 
 #define Q8_INLINE static inline __attribute__((always_inline))
 
@@ -50,7 +50,7 @@ LA_ISA_BEGIN("avx512f,avx512bw,avx512vnni")
 #define Q8_DOT(c, a, wb, wp) _mm512_dpbusd_epi32((c), (a), (wb))
 #define Q8_FIX(c, ws) _mm512_sub_epi32((c), _mm512_set1_epi32((ws) * 128))
 #define Q8_STORE(p, v) _mm512_storeu_si512((void *)(p), (v))
-#include "ai/q8_x86_impl.h"
+#include "ai/kernels/q8_x86_impl.h"
 LA_ISA_END
 
 /* ---- AVX-512 VNNI on ymm (the AVX512VL encoding): 8 points per vector, 8 x 2 tile ---------- */
@@ -67,7 +67,7 @@ LA_ISA_BEGIN("avx512f,avx512vl,avx512bw,avx512vnni,avx2")
 #define Q8_DOT(c, a, wb, wp) _mm256_dpbusd_epi32((c), (a), (wb))
 #define Q8_FIX(c, ws) _mm256_sub_epi32((c), _mm256_set1_epi32((ws) * 128))
 #define Q8_STORE(p, v) _mm256_storeu_si256((__m256i *)(void *)(p), (v))
-#include "ai/q8_x86_impl.h"
+#include "ai/kernels/q8_x86_impl.h"
 LA_ISA_END
 
 /* ---- AVX-VNNI (VEX, no AVX-512): 8 points per vector, 4 x 2 tile (16 registers) ------------ */
@@ -84,7 +84,7 @@ LA_ISA_BEGIN("avxvnni,avx2")
 #define Q8_DOT(c, a, wb, wp) _mm256_dpbusd_avx_epi32((c), (a), (wb))
 #define Q8_FIX(c, ws) _mm256_sub_epi32((c), _mm256_set1_epi32((ws) * 128))
 #define Q8_STORE(p, v) _mm256_storeu_si256((__m256i *)(void *)(p), (v))
-#include "ai/q8_x86_impl.h"
+#include "ai/kernels/q8_x86_impl.h"
 LA_ISA_END
 
 /* ---- AVX2: 8 points per vector, 4 x 2 tile -------------------------------------------------
@@ -106,7 +106,7 @@ LA_ISA_BEGIN("avx2")
                               _mm256_set1_epi16(1)))
 #define Q8_FIX(c, ws) ((void)(ws), (c))
 #define Q8_STORE(p, v) _mm256_storeu_si256((__m256i *)(void *)(p), (v))
-#include "ai/q8_x86_impl.h"
+#include "ai/kernels/q8_x86_impl.h"
 LA_ISA_END
 
 #endif /* Q8_X86 */

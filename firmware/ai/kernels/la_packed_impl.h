@@ -33,8 +33,8 @@
 #include <stddef.h>
 #include <string.h>
 
-#include "ai/la.h"
-#include "ai/la_packed.h"
+#include "ai/kernels/la.h"
+#include "ai/kernels/la_packed.h"
 
 #define LAP_NR (2 * LAP_VL)
 _Static_assert(LAP_MC % LAP_MR == 0 && LAP_NC % LAP_NR == 0, "blocks hold whole micro-panels");

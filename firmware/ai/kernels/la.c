@@ -2,7 +2,7 @@
  * packed kernel the CPU runs fastest (la_packed.c) and the thin ones, or all of them when there
  * is none, to Eigen. With LA_BACKEND=ref the Eigen shim is not compiled, so nothing here may
  * name la_eigen_* in that configuration. */
-#include "ai/la.h"
+#include "ai/kernels/la.h"
 
 #if defined(LA_BACKEND_EIGEN) && defined(LA_BACKEND_REF)
 #error "define only one of LA_BACKEND_EIGEN, LA_BACKEND_REF"
@@ -11,7 +11,7 @@
 #include <stdatomic.h>
 #include <stddef.h>
 
-#include "ai/la_packed.h"
+#include "ai/kernels/la_packed.h"
 
 static _Atomic int g_force_ref; /* relaxed: a benchmark switch, not a synchronisation point */
 

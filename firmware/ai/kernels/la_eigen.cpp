@@ -24,7 +24,7 @@
 #pragma GCC diagnostic pop
 
 extern "C" {
-#include "ai/la.h"
+#include "ai/kernels/la.h"
 }
 
 static_assert(EIGEN_STACK_ALLOCATION_LIMIT == LA_EIGEN_STACK_BYTES, "keep la.h in sync");

@@ -34,7 +34,7 @@
 
 #include <stdint.h>
 
-#include "ai/la.h"
+#include "ai/kernels/la.h"
 
 #ifdef __cplusplus
 extern "C" {

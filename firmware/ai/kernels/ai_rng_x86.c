@@ -2,12 +2,12 @@
  * (16 blocks per zmm) and on AVX2 (8 per ymm). Compiled on every x86-64 build whatever its
  * baseline (LA_ISA_BEGIN regions); ai_rng.c calls one only when the CPU has its instruction
  * set. */
-#include "ai/ai_rng_lanes.h"
+#include "ai/kernels/ai_rng_lanes.h"
 
 #if defined(AI_RNG_X86)
 #include <immintrin.h>
 
-#include "ai/la_packed_isa.h"
+#include "ai/kernels/la_packed_isa.h"
 
 LA_ISA_BEGIN("avx512f,avx2")
 typedef __m512i rv;
@@ -29,7 +29,7 @@ static inline rv rv_srl64(rv a) { return _mm512_srli_epi64(a, 32); }
 static inline rv rv_sll64(rv a) { return _mm512_slli_epi64(a, 32); }
 static inline rv rv_blend_odd(rv a, rv b) { return _mm512_mask_blend_epi32(0xAAAA, a, b); }
 static inline void rv_storeu(uint32_t *p, rv v) { _mm512_storeu_si512((void *)p, v); }
-#include "ai/ai_rng_x86_impl.h"
+#include "ai/kernels/ai_rng_x86_impl.h"
 LA_ISA_END
 #undef RV_W
 #undef RV_FN
@@ -66,6 +66,6 @@ static inline rv rv_srl64(rv a) { return _mm256_srli_epi64(a, 32); }
 static inline rv rv_sll64(rv a) { return _mm256_slli_epi64(a, 32); }
 static inline rv rv_blend_odd(rv a, rv b) { return _mm256_blend_epi32(a, b, 0xAA); }
 static inline void rv_storeu(uint32_t *p, rv v) { _mm256_storeu_si256((void *)p, v); }
-#include "ai/ai_rng_x86_impl.h"
+#include "ai/kernels/ai_rng_x86_impl.h"
 LA_ISA_END
 #endif

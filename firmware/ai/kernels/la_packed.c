@@ -3,7 +3,7 @@
  * kernels whatever their baseline and ask the CPU (cpuid, with the OS's register-state check,
  * through __builtin_cpu_supports); aarch64 builds carry the NEON kernel; other targets (the
  * Cortex-M boards) none, and la_sgemm stays on Eigen or the pure-C reference. */
-#include "ai/la_packed.h"
+#include "ai/kernels/la_packed.h"
 
 #include <errno.h>
 #include <stdatomic.h>
