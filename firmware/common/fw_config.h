@@ -66,8 +66,9 @@
 #ifndef CRC32_SLICE8
 #define CRC32_SLICE8 1
 #endif
-/* Blocks of the pure-C GEMM (ai/la_ref.c): its packed panels, (MC + NC) x KC floats, live on
- * the calling core's stack (32 KB with these); boards with small stacks take smaller blocks. */
+/* Blocks of the pure-C GEMM (ai/kernels/la_ref.c): its packed panels, (MC + NC) x KC floats,
+ * live on the calling core's stack (32 KB with these); boards with small stacks take smaller
+ * blocks. */
 #ifndef LA_REF_KC
 #define LA_REF_KC 128
 #endif

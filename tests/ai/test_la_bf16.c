@@ -1,4 +1,4 @@
-/* The bf16 product (firmware/ai/la_bf16.h) and the bf16 training step.
+/* The bf16 product (firmware/ai/kernels/la_bf16.h) and the bf16 training step.
  *
  * - la_bf16_round: nearest-even, subnormals to signed zero, NaN quiet, overflow to inf.
  * - the reference's rounding chain on hand-made cases whose result tells the orders apart

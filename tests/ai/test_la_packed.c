@@ -1,4 +1,4 @@
-/* The packed GEMM kernels (firmware/ai/la_packed.h), each against a double-precision product
+/* The packed GEMM kernels (firmware/ai/kernels/la_packed.h), each against a double-precision product
  * with the worst-case rounding bound of its summation: per element
  *   |C - C_exact| <= (K + 2) * u * (|alpha| * sum_k |a_ik b_kj| + |beta c_ij|),  u = 2^-24
  * (K FMAs in sequence, then the alpha scale and the beta term: Higham's gamma_n bound with

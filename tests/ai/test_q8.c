@@ -1,4 +1,4 @@
-/* The int8 GEMM kernels (firmware/ai/q8_gemm.h) and the chunked int8 inference path
+/* The int8 GEMM kernels (firmware/ai/kernels/q8_gemm.h) and the chunked int8 inference path
  * (bnn_quant_forward_mean) that runs on them.
  *   - every kernel against a plain triple loop (int32 sums are exact, so bit for bit), on
  *     shapes at the edges of the tiles: 1 point, point counts around the 8/16/32 vectors,

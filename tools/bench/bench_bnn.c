@@ -5,7 +5,8 @@
  *   bnn_train_gflops_<preset>_b<B>       GEMM FLOPs of that step / its time
  *   bnn_train_step_ms_ref_<preset>_b<B>  the same step with the pure-C reference GEMM
  *   bnn_train_step_ms_<preset>_b<B>_bf16 the step with its large GEMMs as bf16 products with
- *                                         fp32 sums (bnn_config_t.precision, ai/la_bf16.h), timed
+ *                                         fp32 sums (bnn_config_t.precision,
+ *                                         ai/kernels/la_bf16.h), timed
  *                                         alternating with the fp32 step in the same loop
  *                                         (bnn_train_step_ms_<preset>_b<B>_fp32_alt, and _best_
  *                                         of both); its speed-up (of the medians)
