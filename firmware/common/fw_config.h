@@ -6,8 +6,13 @@
  *
  * Order: the board's own boards/<BOARD>/board.h first (required settings, and any default
  * below it wants to change), then the defaults for what it left out, then the checks. Only
- * macros survive -imacros, so every check here is a preprocessor #if / #error; the few
- * _Static_assert checks on types live in firmware/common/fw_config.c.
+ * macros survive -imacros, so every check here is a preprocessor #if / #error. The checks that
+ * need types are _Static_asserts elsewhere: that the firmware's own constants follow the board
+ * (DINNO_MAX_PEERS, HAL_NET_MTU_BYTES) in firmware/fw_config_sizes.c, each core's state
+ * against its RAM in its core file (rt/rt_core.c, gp/gp_core.c, ai/ai_core.c, fw_link.c;
+ * ai/bnn.h, ai/dinno.h), the GEMM panels against the AI stack in ai/kernels/la_ref.c and
+ * ai/kernels/la_bf16_ref.c; tests/common/test_config.c checks that every file saw one
+ * configuration (`make check-config`).
  * Units: bytes unless the name says otherwise. Do not include this file; the build does. */
 #ifndef COMMON_FW_CONFIG_H
 #define COMMON_FW_CONFIG_H
