@@ -142,7 +142,10 @@ CXXFLAGS := -std=c++17 $(WARN) $(OPT) $(DEFS) -MMD -MP -fno-exceptions -fno-rtti
 # Every file, C or C++, of every layer sees the same build configuration (board settings and
 # the defaults for what the board leaves out): firmware/common/fw_config.h, with -imacros.
 FW_INC   := -Ifirmware -Ihal/include -Iboards/$(BOARD) -imacros firmware/common/fw_config.h
-HOST_INC := $(FW_INC) -Ihal/host -Ihost_sim -I$(GEN) -D_POSIX_C_SOURCE=200809L
+# host_sim/ keeps one folder per family (floorplan, plangen, paths, world, fleet, maps) and its
+# shared helpers at the top; the sim_ prefix keeps its header names unique across them.
+SIM_DIRS := host_sim $(addprefix host_sim/,floorplan plangen paths world fleet maps)
+HOST_INC := $(FW_INC) -Ihal/host $(addprefix -I,$(SIM_DIRS)) -I$(GEN) -D_POSIX_C_SOURCE=200809L
 TEST_INC := $(HOST_INC) -Ihal/stdc -Itests/support -Itests
 
 SYS_LIBS := -lode -llcm -lzmq -lsodium -lOSMesa -lpng -lm -lpthread

@@ -23,7 +23,7 @@ import palette  # noqa: E402
 
 def c_palette():
     """The rows between the palette-begin and palette-end markers of sim_palette.h."""
-    with open(os.path.join(ROOT, "host_sim", "sim_palette.h")) as f:
+    with open(os.path.join(ROOT, "host_sim", "maps", "sim_palette.h")) as f:
         text = f.read()
     m = re.search(r"palette-begin(.*?)palette-end", text, re.S)
     check(m is not None, "sim_palette.h: no palette-begin/palette-end markers")
