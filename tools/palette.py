@@ -1,4 +1,4 @@
-"""One colour per robot, the same in every figure (the C side is host_sim/sim_palette.h;
+"""One colour per robot, the same in every figure (the C side is host_sim/maps/sim_palette.h;
 tests/tools/test_palette.py checks that the two tables agree).
 
 Robot i has ROBOT_RGB[i % len(ROBOT_RGB)]: matplotlib's "tab10" in its order.

@@ -418,7 +418,7 @@ static void test_map_files_agree(void **st)
     assert_non_null(strstr(yaml, "\nnegate: 0\n"));
     assert_non_null(strstr(yaml, "\noccupied_thresh: 0.65\n"));
     assert_non_null(strstr(yaml, "\nfree_thresh: 0.196\n"));
-    /* The pictures: y up like map.pgm (host_sim/sim_figure.h); at 0.2 m one pixel per cell, so
+    /* The pictures: y up like map.pgm (host_sim/maps/sim_figure.h); at 0.2 m one pixel per cell, so
        map_mean.png is map.pgm's picture pixel for pixel. */
     struct stat sb;
     path_at(p, out, "map_mean.png");
@@ -442,7 +442,7 @@ static void test_map_files_agree(void **st)
     free(json);
 }
 
-/* The picture convention (host_sim/sim_figure.h): a dark cell near the plan's top-left in
+/* The picture convention (host_sim/maps/sim_figure.h): a dark cell near the plan's top-left in
  * metres (small x, large y) is drawn top-left in both map PNGs, and each tour in its robot's
  * sim_palette.h colour: robot 0's near (small x, large y) top-left, robot 1's bottom-right. */
 static void test_map_png_y_up(void **st)

@@ -1,4 +1,4 @@
-/* Fuzz target: the tour CSV parser (host_sim/sim_paths_csv.c) through sim_path_parse_csv, its
+/* Fuzz target: the tour CSV parser (host_sim/paths/sim_paths_csv.c) through sim_path_parse_csv, its
  * from-memory entry point (sim_path_read_csv reads the file, refuses a NUL byte or more than
  * 16 MB, and calls it), against the default plan (host_sim/plans/apartment.svg, or
  * $FLEETSIM_FUZZ_PLAN), loaded once. Beyond memory safety it checks the contract of

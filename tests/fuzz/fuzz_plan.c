@@ -1,6 +1,6 @@
-/* Fuzz target: the SVG floor-plan parser (host_sim/sim_plan*.c) through sim_plan_parse, its
- * from-memory entry point (sim_plan_load reads the file into memory, refuses a NUL byte, and
- * calls it). Beyond memory safety it checks the contract of sim_plan.h:
+/* Fuzz target: the SVG floor-plan parser (host_sim/floorplan/sim_plan*.c) through
+ * sim_plan_parse, its from-memory entry point (sim_plan_load reads the file into memory,
+ * refuses a NUL byte, and calls it). Beyond memory safety it checks the contract of sim_plan.h:
  *   - a refused plan says "NAME:LINE:COL: reason" (or "NAME: reason") and leaves the plan
  *     empty;
  *   - a loaded one has walls, every polygon 3 .. SIM_POLY_MAX_POINTS finite points within the

@@ -1,5 +1,5 @@
-/* The picture convention (host_sim/sim_figure.h): every figure in metres with y up, and one
- * colour per robot (host_sim/sim_palette.h). An asymmetric plan with a pillar near the plan's
+/* The picture convention (host_sim/maps/sim_figure.h): every figure in metres with y up, and one
+ * colour per robot (host_sim/maps/sim_palette.h). An asymmetric plan with a pillar near the plan's
  * top-left in metres (small x, LARGE y: the bottom of the SVG drawing) must show the pillar in
  * the top-left of the grid PNG, and a tour there must land top-left in the paths PNG, in robot
  * 0's colour, while robot 1's tour near (large x, small y) lands bottom-right. A writer that

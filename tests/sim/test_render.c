@@ -73,7 +73,7 @@ static void test_render_image(void **st)
     free(rgb);
 }
 
-/* The picture convention (host_sim/sim_figure.h): the scene is viewed with the plan's +y up
+/* The picture convention (host_sim/maps/sim_figure.h): the scene is viewed with the plan's +y up
  * the image and +x to the right, like the maps, whatever the elevation: robot 0's tour near
  * (small x, large y) lands top-left, robot 1's near (large x, small y) bottom-right, each in
  * its sim_palette.h colour (the tours are drawn unlit, so the colour is exact). */

@@ -1,6 +1,6 @@
 /* Picture tests: read a PNG back as 8-bit RGB (libpng's simplified API) and find where a
- * colour landed, to check the picture convention (host_sim/sim_figure.h: y up) and the robot
- * colours (host_sim/sim_palette.h) of the PNG writers. Header-only: the tests that include it
+ * colour landed, to check the picture convention (host_sim/maps/sim_figure.h: y up) and the robot
+ * colours (host_sim/maps/sim_palette.h) of the PNG writers. Header-only: the tests that include it
  * link libpng already (host_sim's libraries need it). */
 #ifndef TESTS_PNG_READ_H
 #define TESTS_PNG_READ_H

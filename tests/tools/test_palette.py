@@ -1,5 +1,5 @@
 #!/usr/bin/python3
-"""One colour per robot in every figure: the C palette (host_sim/sim_palette.h, used by the
+"""One colour per robot in every figure: the C palette (host_sim/maps/sim_palette.h, used by the
 paths PNG, the map PNGs and the 3D scene) and the Python one (tools/palette.py, used by
 tools/fleet_report.py, tools/plot_partition.py, tools/paper_report.py) must be the same table,
 and the Python plots must take their robot colours from it.
