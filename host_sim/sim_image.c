@@ -207,7 +207,7 @@ int sim_image_run(const sim_plan_t *plan, const sim_path_t *path, const sim_imag
     fw_robot_memory(&res->mem);
     if (cfg->fleet != NULL) {
         res->fleet = image_fleet.stats;
-        res->pse = image_fleet.pse.stats;
+        res->pse = image_fleet.drv.pse.stats;
         const hal_board_t *b = hal_host_board(h);
         if (b != NULL && b->net != NULL && b->net->stats != NULL)
             (void)b->net->stats(b->ctx, &res->net);

@@ -115,7 +115,7 @@ int gp_fleet_init(gp_fleet_t *f, const gp_fleet_cfg_t *cfg)
         .incarnation = cfg->incarnation,
         .burst = GP_FLEET_SEND_BURST,
     };
-    int r = gp_pse_init(&f->pse, &pc);
+    int r = gp_round_init(&f->drv, &pc, cfg->rounds);
     if (r != 0)
         return r;
     memset(&f->mark, 0, sizeof f->mark);
@@ -155,7 +155,7 @@ static void drain(gp_fleet_t *f)
             else if (c.sender == f->cfg.self)
                 f->stats.own_echoes++;
             else
-                (void)gp_pse_on_chunk(&f->pse, &c, now);
+                (void)gp_pse_on_chunk(&f->drv.pse, &c, now);
         } else if (strcmp(info.channel, f->channel[GP_FLEET_CH_DONE]) == 0) {
             gp_pse_done_t d;
             if (gp_wire_decode_done(f->rx, info.len, &d) != 0)
@@ -163,7 +163,7 @@ static void drain(gp_fleet_t *f)
             else if (d.sender == f->cfg.self)
                 f->stats.own_echoes++;
             else
-                (void)gp_pse_on_done(&f->pse, &d, now);
+                (void)gp_pse_on_done(&f->drv.pse, &d, now);
         } else if (strcmp(info.channel, f->channel[GP_FLEET_CH_REQUEST]) == 0) {
             gp_pse_request_t q;
             if (gp_wire_decode_request(f->rx, info.len, &q) != 0)
@@ -171,23 +171,22 @@ static void drain(gp_fleet_t *f)
             else if (q.requester == f->cfg.self)
                 f->stats.own_echoes++;
             else /* a request to another peer still tells where its sender is */
-                (void)gp_pse_on_request(&f->pse, &q, now);
+                (void)gp_pse_on_request(&f->drv.pse, &q, now);
         } else {
             f->stats.rx_undecodable++;
         }
     }
 }
 
-/* Receives and polls until cond holds. The protocol's timeouts end every wait; a board
- * without hal_net_wait gets -EAGAIN (the GP core asks again next tick). */
-static int wait_for(gp_fleet_t *f, int (*cond)(const gp_pse_t *))
+/* Receives and steps the driver until it has something to say. The protocol's timeouts end
+ * every wait; a board without hal_net_wait gets -EAGAIN (the GP core asks again next tick). */
+static int next_event(gp_fleet_t *f, gp_round_event_t *ev)
 {
     const uint64_t t0 = net_now();
     int rc = 0;
     for (;;) {
         drain(f);
-        gp_pse_poll(&f->pse, net_now());
-        if (cond(&f->pse))
+        if ((*ev = gp_round_step(&f->drv, net_now())) != GP_ROUND_WAIT)
             break;
         int r = hal_net_wait(f->cfg.poll_us);
         if (r != 0 && r != -EAGAIN) {
@@ -209,7 +208,7 @@ static void close_record(gp_fleet_t *f)
 {
     if (!f->have_cur)
         return;
-    const gp_pse_stats_t *s = &f->pse.stats;
+    const gp_pse_stats_t *s = &f->drv.pse.stats;
     gp_fleet_round_t *r = &f->cur;
     r->bytes_sent = DELTA(bytes_sent);
     r->bytes_received = DELTA(bytes_received);
@@ -293,46 +292,46 @@ static float disagreement(const float *theta, const dinno_slots_t *slots, uint32
     return den > 0.0 ? (float)sqrt(num / den) : 0.0f;
 }
 
-static int finished_cond(const gp_pse_t *p)
+/* Round k began for us: a new record, our state encoded (our buffer of round k - 1 is free now,
+   the driver said so) and sent with our position of round k. */
+static int begin(gp_fleet_t *f, const gp_exchange_req_t *req)
 {
-    return !p->in_round || gp_pse_round_finished(p);
+    close_record(f);
+    int r = encode_state(f, req->theta, req->n_params);
+    if (r != 0)
+        return r;
+    double x = req->x_m, y = req->y_m;
+    if (f->cfg.positions_from_tour &&
+        rt_path_point_frac(f->tour, f->cfg.n_tour, req->round, f->cfg.rounds, &x, &y) != 0)
+        return -EINVAL;
+    f->mark = f->drv.pse.stats;
+    memset(&f->cur, 0, sizeof f->cur);
+    f->cur.round = req->round;
+    f->cur.disagreement = NAN;
+    f->cur_started_us = net_now();
+    f->have_cur = 1;
+    return gp_round_begin(&f->drv, f->mine, x, y, net_now());
 }
 
 static int fleet_exchange(void *ctx, const gp_exchange_req_t *req, dinno_slots_t *slots)
 {
     gp_fleet_t *f = ctx;
-    gp_pse_t *p = &f->pse;
-    if (p->in_round && p->round >= req->round) {
-        if (p->round != req->round)
-            return -EINVAL;
-        /* Round k already begun: a previous call waited and came back (no hal_net_wait). */
-    } else {
-        if (p->in_round && !p->completed && gp_pse_complete(p, net_now()) != 0)
-            return -EINVAL;
-        if (wait_for(f, finished_cond) != 0)
+    int r = gp_round_want(&f->drv, req->round, net_now());
+    if (r != 0)
+        return r;
+    for (gp_round_event_t ev;;) {
+        if (next_event(f, &ev) != 0)
             return -EAGAIN;
-        close_record(f);
-        int r = encode_state(f, req->theta, req->n_params);
-        if (r != 0)
-            return r;
-        double x = req->x_m, y = req->y_m;
-        if (f->cfg.positions_from_tour &&
-            rt_path_point_frac(f->tour, f->cfg.n_tour, req->round, f->cfg.rounds, &x, &y) != 0)
+        if (ev == GP_ROUND_READY)
+            break;
+        if (ev != GP_ROUND_BEGIN)
             return -EINVAL;
-        f->mark = p->stats;
-        memset(&f->cur, 0, sizeof f->cur);
-        f->cur.round = req->round;
-        f->cur.disagreement = NAN;
-        f->cur_started_us = net_now();
-        f->have_cur = 1;
-        if ((r = gp_pse_begin_round(p, req->round, f->mine, x, y, net_now())) != 0)
+        if ((r = begin(f, req)) != 0)
             return r;
     }
-    if (wait_for(f, gp_pse_states_ready) != 0)
-        return -EAGAIN;
     uint32_t ids[GP_PSE_MAX_NEIGHBOURS];
     const uint8_t *states[GP_PSE_MAX_NEIGHBOURS];
-    const uint32_t n = gp_pse_neighbours(p, ids, states);
+    const uint32_t n = gp_pse_neighbours(&f->drv.pse, ids, states);
     memset(slots->valid, 0, sizeof slots->valid);
     /* Slots 0 .. k-1 in ascending robot id: the order the in-process fleet fills them in, so
        DiNNO's sums over them run in the same order. */
@@ -355,52 +354,28 @@ static int fleet_exchange(void *ctx, const gp_exchange_req_t *req, dinno_slots_t
 static void fleet_round_done(void *ctx, uint32_t round, int final)
 {
     gp_fleet_t *f = ctx;
-    gp_pse_t *p = &f->pse;
-    if (!p->in_round || p->round != round || p->completed)
+    if (gp_round_node_done(&f->drv, round, final, net_now()) != 0 || !final)
         return;
-    if (gp_pse_complete(p, net_now()) != 0)
-        return;
-    if (final) {
-        /* Stay until every peer finished the last round: one of them may still need our state.
-           Then linger as a leaver (gp_pse_leave: "I am past the last round", which ends the
-           wait of a peer that missed our RoundComplete), answering requests, until every peer
-           was heard leaving too and two resend periods passed, or a peer timeout at most. */
-        (void)wait_for(f, finished_cond);
-        const uint64_t t0 = net_now(), grace = t0 + 2u * (uint64_t)f->cfg.resend_after_us,
-                       cap = t0 + (uint64_t)f->cfg.peer_timeout_us;
-        gp_pse_leave(p, t0);
-        for (uint64_t now; (now = net_now()) < cap && (now < grace || !gp_pse_all_left(p));) {
-            drain(f);
-            gp_pse_poll(p, now);
-            int r = hal_net_wait(f->cfg.poll_us);
-            if (r != 0 && r != -EAGAIN)
-                break;
-        }
-        close_record(f);
-        f->final_done = 1;
+    /* The last round: stay until the fleet no longer needs us (gp_round.h), within the
+       protocol's timeouts. */
+    gp_round_event_t ev;
+    while (next_event(f, &ev) == 0 && ev != GP_ROUND_DONE) {
     }
+    close_record(f);
+    f->final_done = 1;
 }
 
 static uint32_t fleet_next_round(void *ctx, uint32_t round)
 {
     gp_fleet_t *f = ctx;
-    const uint32_t next = gp_pse_next_round(&f->pse, net_now());
-    const uint32_t last = f->cfg.rounds - 1u;
-    /* Behind the fleet (paused, restarted, cut off): skip to where the live peers are, never
-       past our last round. Never happens when nothing failed (a peer is then one round ahead
-       at most), so the models of a lossless run stay the reference's. */
-    if (next <= round + 1u || round >= last)
-        return round + 1u;
-    if (next > last)
-        return last;
-    return next;
+    return gp_round_next_round(&f->drv, round, net_now());
 }
 
 static void fleet_service(void *ctx)
 {
     gp_fleet_t *f = ctx;
     drain(f);
-    gp_pse_poll(&f->pse, net_now());
+    gp_pse_poll(&f->drv.pse, net_now());
 }
 
 const gp_peers_ops_t gp_fleet_peers_ops = {

@@ -10,15 +10,18 @@
  * inside one tick (hal_net_wait). So a round costs no simulated time for the network, and the
  * simulated timeline of every robot is the same however fast the other processes run.
  *
- * A round k as the GP core drives it:
- *   exchange(k)     (AI published state(k)) wait until round k-1 finished for everyone, encode
- *                   our state (fp32, or int8 with per-row scales: bnn_quant), send it with our
- *                   position of round k (offline: the point at fraction k / rounds of the tour,
- *                   as the in-process reference; online: the robot's pose), wait until every
- *                   peer's state of k arrived or the peer left, decode the neighbours' states
- *                   (disk radius on the carried positions, or every peer) into the slots;
- *   round_done(k)   (AI's checkpoint of k) RoundComplete(k); after the last round, wait until
- *                   everyone finished it (or left), so that no peer still needs our state;
+ * A round k as the GP core drives it: the round's logic (when to begin, when the states are
+ * there, the skip-ahead, leaving after the last round) is the I/O-free driver gp_round, the
+ * one the protocol simulation runs; this file only feeds it and waits:
+ *   exchange(k)     (AI published state(k)) gp_round_want(k), then receive and step the driver
+ *                   (waiting at most poll_us at a time) until it says BEGIN: encode our state
+ *                   (fp32, or int8 with per-row scales: bnn_quant) and begin with our position
+ *                   of round k (offline: the point at fraction k / rounds of the tour, as the
+ *                   in-process reference; online: the robot's pose); then until READY: decode
+ *                   the neighbours' states into the slots;
+ *   round_done(k)   (AI's checkpoint of k) gp_round_node_done; after the last round, receive
+ *                   and step until the driver says DONE (every peer finished, we left);
+ *   next_round(k)   the driver's skip-ahead;
  *   service()       every tick: receive, answer resend requests, resend ours.
  * The waits end by the protocol's timeouts: a peer silent too long leaves the round.
  *
@@ -38,6 +41,7 @@
 #include "ai/bnn.h"
 #include "gp/gp_core.h"
 #include "gp/gp_pse.h"
+#include "gp/gp_round.h"
 #include "hal/hal_net.h"
 #include "rt/rt_follow.h"
 
@@ -98,7 +102,7 @@ typedef struct gp_fleet_stats {
 typedef struct gp_fleet {
     gp_fleet_cfg_t cfg;
     bnn_config_t bnn;
-    gp_pse_t pse;
+    gp_round_t drv;                  /* the round driver and the protocol inside it */
     gp_fleet_stats_t stats;
     uint32_t state_bytes;
     int final_done;
