@@ -17,7 +17,7 @@
 
 /* The key list with what each means, for --help; defaults_print prints them in this order. */
 static const char *const keys_help =
-    "  seed              run seed (host_sim run, fleet --inproc's usual, maps, tools/fleet)\n"
+    "  seed              run seed (host_sim run, maps, the launchers; fleet --inproc requires --seed)\n"
     "  strategy          DiNNO regulariser (dinno_default_cfg)\n"
     "  rho0, rho_scaling, primal_steps, batch, lr_start, lr_end, kl_weight   DiNNO (dinno_default_cfg)\n"
     "  radius_m          disk graph radius (run, fleet --inproc, tools/fleet, tools/run-fleet.sh)\n"

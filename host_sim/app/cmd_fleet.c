@@ -130,6 +130,7 @@ static void fleet_usage(FILE *out)
             "(DIR/robot_<i>.csv, i = 0..N-1), in synchronous DiNNO rounds, in ONE process (--inproc, required):\n"
             "the reference of the multi-process fleet (tools/fleet: one `host_sim run --fleet N` per robot\n"
             "over LCM), which trains the same models bit for bit from the same seed (offline, no loss).\n"
+            "The options both take have the same defaults (`host_sim defaults`: radius_m, map_res_m, ...).\n"
             "Baselines with the same network and step budget: 'central' (one model on the\n"
             "pooled data) and 'isolated' (no communication).\n"
             "\n"
