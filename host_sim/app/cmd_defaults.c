@@ -50,9 +50,10 @@ static void defaults_usage(FILE *out)
 {
     fprintf(out, "usage: host_sim defaults\n"
                  "\n"
-                 "Prints the defaults of this build, one key=value per line (numbers in SI units as the\n"
-                 "key says, as the options take them): the launchers (tools/fleet, tools/run-fleet.sh) read\n"
-                 "them from the host_sim they start instead of restating them. Keys:\n%s",
+                 "Prints the defaults of this build, one key=value per line (numbers in the unit the key's\n"
+                 "ending names: _m metres, _s seconds, _ms milliseconds): the launchers (tools/fleet,\n"
+                 "tools/run-fleet.sh, tools/slurm/fleet.sbatch) read them from the host_sim they start\n"
+                 "instead of restating them. Keys:\n%s",
             keys_help);
 }
 
