@@ -54,7 +54,8 @@ typedef enum gp_fleet_encoding { GP_FLEET_FP32 = 0, GP_FLEET_INT8 = 1 } gp_fleet
 /* The protocol's defaults (gp_fleet_default_cfg), named once: host_sim run's options start from
  * them and `host_sim defaults` prints them for the launchers (tools/fleet). 10 s / 50 ms: a live
  * peer speaks at least once per resend period, so it is not timed out for a few lost datagrams;
- * 120 s before a peer is first heard: the others may still be driving or loading. */
+ * 120 s before a peer is first heard: the others may still be starting up (offline: driving
+ * their tours first). */
 #define GP_FLEET_ENCODING_DEFAULT GP_FLEET_FP32
 #define GP_FLEET_RESEND_AFTER_US_DEFAULT 50000u     /* 50 ms */
 #define GP_FLEET_PEER_TIMEOUT_US_DEFAULT 10000000u  /* 10 s */
