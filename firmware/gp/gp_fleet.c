@@ -26,11 +26,12 @@ gp_fleet_cfg_t gp_fleet_default_cfg(void)
     memset(&c, 0, sizeof c);
     c.n_peers = 1;
     c.rounds = 1;
-    c.encoding = GP_FLEET_FP32;
-    c.resend_after_us = 50000u;
-    c.peer_timeout_us = 10000000u;
-    c.join_timeout_us = 120000000u;
-    c.poll_us = 2000u;
+    c.encoding = GP_FLEET_ENCODING_DEFAULT;
+    c.chunk_bytes = GP_FLEET_CHUNK_BYTES_DEFAULT;
+    c.resend_after_us = GP_FLEET_RESEND_AFTER_US_DEFAULT;
+    c.peer_timeout_us = GP_FLEET_PEER_TIMEOUT_US_DEFAULT;
+    c.join_timeout_us = GP_FLEET_JOIN_TIMEOUT_US_DEFAULT;
+    c.poll_us = GP_FLEET_POLL_US_DEFAULT;
     return c;
 }
 

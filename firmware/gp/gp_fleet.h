@@ -28,8 +28,8 @@
  * Per-round records (traffic, waiting time, neighbours, disagreement) go into a ring the host
  * reads between lockstep slices, like the GP core's round log.
  *
- * Storage: gp_fleet_t is static (the image declares it); sized from BOARD_MAX_FLEET,
- * BOARD_MAX_PEERS, the preset
+ * Storage: gp_fleet_t is static (the image declares it); sized from BOARD_MAX_FLEET (the
+ * largest fleet), BOARD_MAX_PEERS (the neighbours one round takes in), the preset
  * and the board's datagram. No allocation. Little-endian boards (fp32 states travel as raw
  * IEEE-754 little-endian words). */
 #ifndef GP_GP_FLEET_H
@@ -54,6 +54,21 @@
 #define GP_FLEET_MAX_TOUR RT_CORE_MAX_WAYPOINTS
 
 typedef enum gp_fleet_encoding { GP_FLEET_FP32 = 0, GP_FLEET_INT8 = 1 } gp_fleet_encoding_t;
+
+/* The protocol's defaults (gp_fleet_default_cfg), named once: host_sim run's options start from
+ * them and `host_sim defaults` prints them for the launchers (tools/fleet). 10 s / 50 ms: a live
+ * peer speaks at least once per resend period, so it is not timed out for a few lost datagrams;
+ * 120 s before a peer is first heard: the others may still be starting up (offline: driving
+ * their tours first). */
+#define GP_FLEET_ENCODING_DEFAULT GP_FLEET_FP32
+#define GP_FLEET_RESEND_AFTER_US_DEFAULT 50000u     /* 50 ms */
+#define GP_FLEET_PEER_TIMEOUT_US_DEFAULT 10000000u  /* 10 s */
+#define GP_FLEET_JOIN_TIMEOUT_US_DEFAULT 120000000u /* 120 s */
+#define GP_FLEET_POLL_US_DEFAULT 2000u              /* 2 ms */
+#define GP_FLEET_CHUNK_BYTES_DEFAULT 0u             /* 0: GP_PSE_MAX_CHUNK_BYTES */
+_Static_assert(GP_FLEET_PEER_TIMEOUT_US_DEFAULT > 2u * GP_FLEET_RESEND_AFTER_US_DEFAULT,
+               "a live peer speaks once per resend period: the timeout must exceed two");
+_Static_assert(GP_FLEET_JOIN_TIMEOUT_US_DEFAULT >= GP_FLEET_PEER_TIMEOUT_US_DEFAULT, "gp_pse's check");
 typedef enum gp_fleet_channel { GP_FLEET_CH_STATE = 0, GP_FLEET_CH_DONE = 1, GP_FLEET_CH_REQUEST = 2 } gp_fleet_channel_t;
 
 typedef struct gp_fleet_cfg {
@@ -64,10 +79,10 @@ typedef struct gp_fleet_cfg {
     gp_fleet_encoding_t encoding;
     uint32_t incarnation;
     uint32_t chunk_bytes;            /* 0: GP_PSE_MAX_CHUNK_BYTES */
-    uint32_t resend_after_us;        /* ask again for missing chunks (default 50 ms) */
-    uint32_t peer_timeout_us;        /* a silent peer leaves the round (default 10 s) */
-    uint32_t join_timeout_us;        /* the same before a peer was ever heard (default 120 s) */
-    uint32_t poll_us;                /* longest single hal_net_wait (default 2 ms) */
+    uint32_t resend_after_us;        /* ask again for missing chunks (GP_FLEET_RESEND_AFTER_US_DEFAULT) */
+    uint32_t peer_timeout_us;        /* a silent peer leaves the round (GP_FLEET_PEER_TIMEOUT_US_DEFAULT) */
+    uint32_t join_timeout_us;        /* the same before a peer was ever heard (..._JOIN_TIMEOUT_...) */
+    uint32_t poll_us;                /* longest single hal_net_wait (GP_FLEET_POLL_US_DEFAULT) */
     int positions_from_tour;         /* 1: round k at fraction k / rounds of the tour (offline);
                                         0: the robot's pose when the round starts (online) */
     const rt_waypoint_t *tour;       /* copied; needed with positions_from_tour */
@@ -119,6 +134,7 @@ typedef struct gp_fleet {
     _Alignas(64) uint8_t rx[HAL_NET_MTU_BYTES];
 } gp_fleet_t;
 
+/* One robot alone, round 1, the GP_FLEET_*_DEFAULT encoding and timings. */
 gp_fleet_cfg_t gp_fleet_default_cfg(void);
 
 /* The channel name of `which` for fleet `fleet_id` into buf. 0 or -EINVAL. */

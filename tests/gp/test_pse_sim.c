@@ -47,7 +47,7 @@
 #define N_CHUNKS 3u
 #define HDR 12u           /* oracle header: sender, round, hash of the rest */
 #define TICK_US 1000u
-#define RESEND_US 5000u  /* peer_timeout / resend_after = 50, as the defaults (10 s / 200 ms) */
+#define RESEND_US 5000u  /* peer_timeout / resend_after = 50: tighter than the defaults' 200 (gp_fleet.h: 10 s / 50 ms) */
 #define TIMEOUT_US 250000u
 #define JOIN_US 500000u
 #define LATE_MAX_US (2u * TIMEOUT_US) /* a late datagram arrives up to this much later */
