@@ -1,7 +1,7 @@
 /* The fleet's messages in LCM's wire format: see gp_wire.h. One walker per direction over a
  * field table per message; the tables are built here from the generated layouts
- * (msg/msg_layout.h, from the .lcm files of firmware/msg) and the gp_pse structs' members, and checked
- * against both at compile time. What each message requires of its values beyond its layout
+ * (msg/msg_layout.h, from the .lcm files of firmware/msg) and the gp_pse structs' members,
+ * and checked against both at compile time. What each message requires of its values beyond its layout
  * (ranges, chunk < n_chunks) is its own check below. */
 #include "gp/gp_wire.h"
 
@@ -43,7 +43,8 @@ typedef struct wire_msg {
     _Static_assert(HOW(T, member) == W_POINTER ? (size) == 1 && (count) == 0                             \
                    : (count) != 0             ? sizeof(((T *)0)->member) == (size) * (count)             \
                                               : sizeof(((T *)0)->member) % (size) == 0,                  \
-                   #T "." #member " does not fit the .lcm field " #name);
+                   #T "." #member " does not fit the .lcm field " #name);                                  \
+    _Static_assert(offsetof(T, member) <= 0xFFFFu, #T "." #member ": its offset fits wire_field_t.at");
 
 #define CHUNK_FIELD(...) FIELD(gp_pse_chunk_t, __VA_ARGS__)
 #define DONE_FIELD(...) FIELD(gp_pse_done_t, __VA_ARGS__)
