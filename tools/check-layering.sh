@@ -8,6 +8,8 @@
 #   - host services named by symbol even though their header is standard C (files, console,
 #     wall-clock time, signals, process exit, environment, threads): on a board those go
 #     through the HAL (storage, log, clock, core operations).
+# The one generated header firmware/ includes, msg/msg_layout.h (tools/lcmgen.py, in the build
+# folder), is macros and <stdint.h> only: tests/tools/test_lcmgen.py checks it, not this script.
 # Exits 1 and lists every violation.
 #
 #   tools/check-layering.sh        (`make layering`; --help: this text)
