@@ -321,7 +321,7 @@ static int prepare(job_t *j)
                o->fleet, o->transport == RUN_TRANSPORT_ZMQ ? "ZeroMQ" : "LCM", o->net[0] ? o->net : HAL_HOST_NET_URL_DEFAULT, o->encoding == GP_FLEET_INT8 ? "int8" : "fp32",
                o->radius > 0 ? "within " : "all (radius ", o->radius);
     if (o->key_file != NULL)
-        printf("keyed fleet: every datagram authenticated (keyed BLAKE2b-256, key %s, run id %016llx)\n", o->key_file,
+        printf("keyed fleet: every datagram authenticated (XChaCha20-Poly1305, key %s, run id %016llx)\n", o->key_file,
                (unsigned long long)o->run_id);
     printf("incarnation %u (%s/incarnation)\n", j->incarnation, o->out);
     if (o->resume && j->resume.start_round > 0)

@@ -111,7 +111,7 @@ static const cli_opt_t run_opts[] = {
      .def = "the most, 60 KB or less on a small MTU", .help = "fleet: state bytes per datagram"},
     {.names = "--key-file", .meta = "F", CLI_STRING(run_opts_t, key_file),
      .help = "fleet: a keyed fleet (F from `host_sim key new`, mode 0600): every datagram carries an "
-             "BLAKE2b tag under the key; others are dropped and counted"},
+             "XChaCha20-Poly1305 tag under the key; others are dropped and counted"},
     {.names = "--run-id", .meta = "X", CLI_HEX64(run_opts_t, run_id), CLI_GIVEN(run_opts_t, run_id_given),
      .help = "keyed fleet: this launch's id, 1-16 hex digits, the same for every member (tools/fleet draws one per "
              "run): recordings of other runs are refused"},

@@ -161,7 +161,7 @@ static void mac_check(unsigned what, const uint8_t *d, size_t len)
     if (len > HAL_NET_MTU_BYTES)
         return;
     memcpy(sealed, d, len);
-    hal_host_auth_seal(&member, channel_name[what], sealed, len, sealed + len);
+    hal_host_auth_seal(&member, channel_name[what], sealed, len);
     const size_t wire = len + HAL_HOST_AUTH_TRAILER_BYTES;
     CHECK(hal_host_auth_open(&member, channel_name[what], sealed, wire, &n) == HAL_HOST_AUTH_OK && n == len);
     const size_t at = (len > 0 ? d[0] : 0u) * 131u % wire; /* one byte the input chooses */
