@@ -10,8 +10,7 @@ MBOX_DEFINE(fw_ai_status, sizeof(ai_status_t));
 MBOX_DEFINE(fw_ai_state, sizeof(ai_state_msg_t));
 MBOX_DEFINE(fw_ai_ckpt, sizeof(ai_ckpt_msg_t));
 MBOX_DEFINE(fw_gp_ready, sizeof(gp_ready_t));
-static dinno_slots_t fw_slots;
-
+static dinno_nbrs_t fw_nbrs;
 
 _Static_assert(FW_LINK_RT_BYTES <= BOARD_RAM_RT_BYTES, "RT links exceed the board's RT RAM");
 _Static_assert(FW_LINK_GP_BYTES <= BOARD_RAM_GP_BYTES, "GP links exceed the board's GP RAM");
@@ -25,7 +24,7 @@ static const fw_link_t fw_link = {
     .ai_state = &fw_ai_state,
     .ai_ckpt = &fw_ai_ckpt,
     .gp_ready = &fw_gp_ready,
-    .slots = &fw_slots,
+    .nbrs = &fw_nbrs,
 };
 
 const fw_link_t *fw_link_get(void)
@@ -42,9 +41,7 @@ void fw_link_reset(void)
     mbox_reset(&fw_ai_state);
     mbox_reset(&fw_ai_ckpt);
     mbox_reset(&fw_gp_ready);
-    memset(fw_slots.valid, 0, sizeof fw_slots.valid);
-    memset(fw_slots.round, 0, sizeof fw_slots.round);
-    memset(fw_slots.id, 0, sizeof fw_slots.id);
+    memset(&fw_nbrs, 0, sizeof fw_nbrs);
 }
 
 size_t fw_link_bytes_rt(void)

@@ -10,18 +10,24 @@
  *                       the peers (theta, n_params floats)
  *   AI -> GP  ckpt      mbox of ai_ckpt_msg_t: the checkpoint (bnn_ckpt format, no Adam)
  *                       after round k, with the round's statistics
- *   GP -> AI  ready     mbox of gp_ready_t: "the neighbour slots of round k are filled"
- *   GP -> AI  slots     dinno_slots_t in fixed storage (one slot per neighbour), OWNED BY
- *                       GP from the AI's state publish of round k until GP's ready(k), and
- *                       by AI from ready(k) until AI's next state publish. The ownership
- *                       passes with the mailboxes' acquire/release exchanges, so the bytes
- *                       are never written and read at the same time.
+ *   GP -> AI  ready     mbox of gp_ready_t: "the neighbour view of round k is filled"
+ *   GP -> AI  nbrs      dinno_nbrs_t in fixed storage: the view of round k's neighbour states
+ *                       (round, count, ids ascending, one pointer per state). The states are
+ *                       not copied: they stay where the GP core reassembled them (gp_pse's
+ *                       buffers inside the image's gp_fleet_t; fp32 read as they arrived, int8
+ *                       expanded once in place), and gp_pse does not write them until the GP
+ *                       core begins round k+1 (gp_pse.h). The view and the states it points
+ *                       to are OWNED BY GP from the AI's state publish of round k until GP's
+ *                       ready(k), and by AI from ready(k) until AI's next state publish; the
+ *                       GP core begins round k+1 only after it took that publish. The
+ *                       ownership passes with the mailboxes' acquire/release exchanges, so the
+ *                       bytes are never written and read at the same time.
  *
  * Round protocol (one communication round k, 0 <= k < C):
  *   1. AI: the path progress reached boundary k: publish state(k) = theta.
- *   2. GP: sees state(k): exchanges it with the peers (none configured: nothing to do), fills
- *      the slots with the neighbours' states of round k, publishes ready(k).
- *   3. AI: sees ready(k): copies the valid slots into its DiNNO node, runs the node update
+ *   2. GP: sees state(k): exchanges it with the peers (none configured: nothing to do), points
+ *      the view at the neighbours' states of round k, publishes ready(k).
+ *   3. AI: sees ready(k): hands the view to its DiNNO node, runs the node update
  *      (B optimiser steps on the sample pool), publishes ckpt(k) (FINAL flag for k = C-1),
  *      applies the pool policy (DR clears). The next state(k+1) comes only after this.
  *   4. GP: fetches ckpt(k) at the start of each tick and, at the latest, right after taking
@@ -82,7 +88,7 @@ typedef struct ai_status {
 
 typedef struct ai_round_info {
     uint32_t round;          /* k */
-    uint32_t neighbours;     /* valid slots used */
+    uint32_t neighbours;     /* neighbour states used */
     uint32_t excluded;       /* neighbour states the screen left out (dinno.h) */
     uint64_t stamp_us;       /* simulated time of the boundary */
     float progress_m;        /* path progress at the boundary */
@@ -114,8 +120,8 @@ typedef struct ai_state_msg {
 } ai_state_msg_t;
 
 typedef struct gp_ready {
-    uint32_t round;          /* k: the slots hold neighbour states of round k */
-    uint32_t neighbours;     /* valid slots */
+    uint32_t round;          /* k: the view holds neighbour states of round k */
+    uint32_t neighbours;     /* states in the view */
     uint32_t next_round;     /* the round to run after k: k + 1, or further when the robot fell
                                 behind its fleet and skips ahead (<= k + 1 or >= C: k + 1) */
 } gp_ready_t;
@@ -125,7 +131,7 @@ typedef struct fw_link {
     mbox_t *rt_to_ai, *rt_to_gp;
     mbox_t *ai_status, *ai_state, *ai_ckpt;
     mbox_t *gp_ready;
-    dinno_slots_t *slots;
+    dinno_nbrs_t *nbrs;
 } fw_link_t;
 
 /* Static bytes of the links, by the core that writes them (compile-time, for budgets). */
@@ -135,17 +141,17 @@ typedef struct fw_link {
 #define FW_LINK_AI_BYTES                                                                      \
     (MBOX_STORAGE_BYTES(sizeof(ai_status_t)) + MBOX_STORAGE_BYTES(sizeof(ai_state_msg_t)) +    \
      MBOX_STORAGE_BYTES(sizeof(ai_ckpt_msg_t)))
-#define FW_LINK_GP_BYTES (MBOX_STORAGE_BYTES(sizeof(gp_ready_t)) + sizeof(dinno_slots_t))
+#define FW_LINK_GP_BYTES (MBOX_STORAGE_BYTES(sizeof(gp_ready_t)) + sizeof(dinno_nbrs_t))
 
 /* The image's links (static storage). */
 const fw_link_t *fw_link_get(void);
 
-/* Empties every link (rings, mailboxes back to "never published", slots invalid). */
+/* Empties every link (rings, mailboxes back to "never published", an empty view). */
 void fw_link_reset(void);
 
 /* Static bytes of the links, by the core that owns (writes) them. */
 size_t fw_link_bytes_rt(void);  /* sample ring + both RT status mailboxes */
 size_t fw_link_bytes_ai(void);  /* AI status, state and ckpt mailboxes */
-size_t fw_link_bytes_gp(void);  /* ready mailbox + neighbour slots */
+size_t fw_link_bytes_gp(void);  /* ready mailbox + neighbour view */
 
 #endif /* FW_LINK_H */

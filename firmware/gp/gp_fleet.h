@@ -15,8 +15,10 @@
  *                   our state (fp32, or int8 with per-row scales: bnn_quant), send it with our
  *                   position of round k (offline: the point at fraction k / rounds of the tour,
  *                   as the in-process reference; online: the robot's pose), wait until every
- *                   peer's state of k arrived or the peer left, decode the neighbours' states
- *                   (disk radius on the carried positions, or every peer) into the slots;
+ *                   peer's state of k arrived or the peer left, point the view at the
+ *                   neighbours' states (disk radius on the carried positions, or every peer)
+ *                   where gp_pse reassembled them: fp32 read in place, int8 expanded in place
+ *                   once (only the row scales need room of their own: qscales);
  *   round_done(k)   (AI's checkpoint of k) RoundComplete(k); after the last round, wait until
  *                   everyone finished it (or left), so that no peer still needs our state;
  *   service()       every tick: receive, answer resend requests, resend ours.
@@ -36,6 +38,7 @@
 #include <stdint.h>
 
 #include "ai/bnn.h"
+#include "ai/bnn_quant.h"
 #include "gp/gp_core.h"
 #include "gp/gp_pse.h"
 #include "hal/hal_net.h"
@@ -110,6 +113,7 @@ typedef struct gp_fleet {
     _Atomic uint32_t n_log;
     gp_fleet_round_t log[GP_FLEET_LOG_ROUNDS];
     rt_waypoint_t tour[GP_FLEET_MAX_TOUR];
+    float qscales[BNN_QUANT_MAX_ROWS]; /* an int8 state's row scales while it expands in place */
     _Alignas(64) uint8_t mine[GP_PSE_MAX_STATE_BYTES];
     _Alignas(64) uint8_t tx[HAL_NET_MTU_BYTES];
     _Alignas(64) uint8_t rx[HAL_NET_MTU_BYTES];

@@ -221,7 +221,10 @@ int main(int argc, char **argv)
     uint64_t train_insns = 0, round_max = 0;
     dinno_round_stats_t st = {0};
     for (uint32_t k = 0; k < o.rounds; k++) {
-        if ((r = dinno_slot_put(&ai->node, 0, 0, k, bnn_params(m), n_params)) != 0)
+        /* One neighbour: the model itself, read in place (the screen, the dual update and the
+           neighbour sums all read it before the round's first step changes it). */
+        const dinno_nbrs_t self_view = {.round = k, .count = 1, .id = {0}, .theta = {bnn_params_const(m)}};
+        if ((r = dinno_node_set_nbrs(&ai->node, &self_view)) != 0)
             break;
         uint64_t t0 = insns();
         hal_stdc_target_mark(MARK_ROUND_BEGIN);
