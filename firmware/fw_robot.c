@@ -6,7 +6,12 @@
 static rt_core_t fw_rt;
 static ai_core_t fw_ai;
 static gp_core_t fw_gp;
+static gp_fleet_t fw_fleet; /* the GP core's fleet exchange: its reassembly buffers hold the
+                               neighbour states the AI core reads in place */
 static fw_image_t fw_img;
+
+_Static_assert(sizeof(gp_core_t) + sizeof(gp_fleet_t) + FW_LINK_GP_BYTES <= BOARD_RAM_GP_BYTES,
+               "GP core, its fleet exchange and its links exceed the board's GP RAM");
 
 fw_robot_cfg_t fw_robot_default_cfg(void)
 {
@@ -77,6 +82,11 @@ gp_core_t *fw_robot_gp(void)
     return &fw_gp;
 }
 
+gp_fleet_t *fw_robot_fleet(void)
+{
+    return &fw_fleet;
+}
+
 const fw_image_t *fw_robot_image(void)
 {
     return &fw_img;
@@ -96,5 +106,6 @@ void fw_robot_memory(fw_robot_memory_t *m)
     m->ai_links = FW_LINK_AI_BYTES;
     m->gp_state = sizeof(gp_core_t);
     m->gp_links = FW_LINK_GP_BYTES;
+    m->gp_fleet = sizeof(gp_fleet_t);
     m->image = sizeof(fw_image_t);
 }
