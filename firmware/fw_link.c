@@ -1,6 +1,10 @@
 /* Static storage of the links between the cores (see fw_link.h). */
 #include "fw_link.h"
 
+#include "ai/ai_link.h"
+#include "gp/gp_link.h"
+#include "rt/rt_link.h"
+
 #include <string.h>
 
 RING_DEFINE(fw_samples_ring, sizeof(ai_sample_t), FW_LINK_RING_CAPACITY);
@@ -12,9 +16,9 @@ MBOX_DEFINE(fw_ai_ckpt, sizeof(ai_ckpt_msg_t));
 MBOX_DEFINE(fw_gp_ready, sizeof(gp_ready_t));
 static dinno_nbrs_t fw_nbrs;
 
-_Static_assert(FW_LINK_RT_BYTES <= BOARD_RAM_RT_BYTES, "RT links exceed the board's RT RAM");
-_Static_assert(FW_LINK_GP_BYTES <= BOARD_RAM_GP_BYTES, "GP links exceed the board's GP RAM");
-_Static_assert(FW_LINK_AI_BYTES <= BOARD_RAM_AI_BYTES, "AI links exceed the board's AI RAM");
+_Static_assert(RT_LINK_BYTES <= BOARD_RAM_RT_BYTES, "RT links exceed the board's RT RAM");
+_Static_assert(GP_LINK_BYTES <= BOARD_RAM_GP_BYTES, "GP links exceed the board's GP RAM");
+_Static_assert(AI_LINK_BYTES <= BOARD_RAM_AI_BYTES, "AI links exceed the board's AI RAM");
 
 static const fw_link_t fw_link = {
     .samples = &fw_samples_ring,
@@ -46,15 +50,15 @@ void fw_link_reset(void)
 
 size_t fw_link_bytes_rt(void)
 {
-    return FW_LINK_RT_BYTES;
+    return RT_LINK_BYTES;
 }
 
 size_t fw_link_bytes_ai(void)
 {
-    return FW_LINK_AI_BYTES;
+    return AI_LINK_BYTES;
 }
 
 size_t fw_link_bytes_gp(void)
 {
-    return FW_LINK_GP_BYTES;
+    return GP_LINK_BYTES;
 }

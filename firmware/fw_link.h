@@ -1,5 +1,7 @@
-/* The fixed-size links between the three cores of the robot firmware image, and the
- * messages they carry. Every link is a firmware/common buffer with static storage:
+/* The fixed-size links between the three cores of the robot firmware image: the link table.
+ * The messages they carry are declared by the core that writes them: rt/rt_link.h (RT),
+ * ai/ai_link.h (AI), gp/gp_link.h (GP), each with its links' static bytes (RT_LINK_BYTES,
+ * AI_LINK_BYTES, GP_LINK_BYTES). Every link is a firmware/common buffer with static storage:
  *
  *   RT -> AI  samples   ring of ai_sample_t, FW_LINK_RING_CAPACITY records (never blocks:
  *                       a full ring drops and counts, ring_drops())
@@ -43,105 +45,21 @@
 #include <stddef.h>
 #include <stdint.h>
 
-#include "ai/ai_sample.h"
-#include "ai/bnn.h"
-#include "ai/bnn_ckpt.h"
-#include "ai/dinno.h"
 #include "common/mbox.h"
 #include "common/ring.h"
 
+struct dinno_nbrs; /* ai/dinno.h; the GP core's link (gp/gp_link.h) */
+
 /* FW_LINK_RING_CAPACITY, the RT -> AI sample ring in samples, comes from common/fw_config.h:
  * 16 scans by default, so it never holds more than a few unless the AI core falls behind. */
-
-/* Checkpoint bytes carried by a ckpt message: theta only (no Adam moments). */
-#define FW_LINK_CKPT_BYTES (BNN_CKPT_HEADER_BYTES + BNN_N_PARAMS * 4u)
-
-typedef struct rt_status {
-    uint64_t stamp_us;       /* simulated time of the RT tick that wrote it */
-    float x_m, y_m, heading_rad; /* latest GPS + compass fix */
-    float distance_m;        /* odometry: integral of |commanded v| dt since start */
-    float progress_m;        /* arc length of the path covered (monotone, <= path_length_m) */
-    float path_length_m;     /* total arc length of the waypoint path */
-    uint32_t waypoint;       /* index aimed at (== n when finished) */
-    uint32_t finished;       /* 1 once the last waypoint was reached */
-    uint32_t scans;          /* scans turned into samples */
-    uint32_t samples;        /* samples pushed into the ring (accepted) */
-    uint32_t ring_drops;     /* samples dropped because the ring was full */
-    uint32_t errors;         /* HAL calls that failed (pose, lidar, motor) */
-    uint32_t sample_errors;  /* scans rt_samples refused, and samples the ring refused for any
-                                reason but full (a contract broken: never expected) */
-} rt_status_t;
-
-typedef struct ai_status {
-    uint64_t stamp_us;
-    uint32_t round;          /* rounds completed */
-    uint32_t rounds_total;   /* C */
-    uint32_t pool_fill, pool_capacity;
-    uint64_t pool_offered;   /* samples offered to the pool since start */
-    uint64_t between_steps;  /* optimiser steps taken between boundaries */
-    float loss_train;        /* prediction loss of the last round (NaN before the first) */
-    uint32_t done;           /* 1 after the last round */
-    uint64_t states_excluded; /* neighbour states the screen left out so far (dinno.h) */
-} ai_status_t;
-
-#define AI_CKPT_FLAG_FINAL 1u
-
-typedef struct ai_round_info {
-    uint32_t round;          /* k */
-    uint32_t neighbours;     /* neighbour states used */
-    uint32_t excluded;       /* neighbour states the screen left out (dinno.h) */
-    uint64_t stamp_us;       /* simulated time of the boundary */
-    float progress_m;        /* path progress at the boundary */
-    float distance_m;        /* odometry distance at the boundary */
-    uint32_t pool_fill;      /* samples trained on */
-    uint32_t pool_capacity;
-    uint64_t pool_offered;   /* samples offered since start */
-    uint32_t ring_drops;     /* RT ring drops so far */
-    uint32_t steps;          /* optimiser steps of the node update */
-    float loss_train;        /* mean prediction loss (BCE + kl_weight * kl) over the steps */
-    float bce;
-    float kl;                /* BNN prior kl_loss, unweighted */
-    float lr, rho_k;
-    int32_t ckpt_status;     /* filled by the GP core in its round log: 0, or the storage
-                                error of this round's checkpoint (the AI core sends 0) */
-} ai_round_info_t;
-
-typedef struct ai_ckpt_msg {
-    ai_round_info_t info;
-    uint32_t flags;          /* AI_CKPT_FLAG_FINAL on the last round */
-    uint32_t n_bytes;        /* checkpoint bytes used */
-    uint8_t bytes[FW_LINK_CKPT_BYTES];
-} ai_ckpt_msg_t;
-
-typedef struct ai_state_msg {
-    uint32_t round;          /* k */
-    uint32_t n_params;
-    _Alignas(64) float theta[BNN_N_PARAMS];
-} ai_state_msg_t;
-
-typedef struct gp_ready {
-    uint32_t round;          /* k: the view holds neighbour states of round k */
-    uint32_t neighbours;     /* states in the view */
-    uint32_t next_round;     /* the round to run after k: k + 1, or further when the robot fell
-                                behind its fleet and skips ahead (<= k + 1 or >= C: k + 1) */
-} gp_ready_t;
 
 typedef struct fw_link {
     ring_t *samples;
     mbox_t *rt_to_ai, *rt_to_gp;
     mbox_t *ai_status, *ai_state, *ai_ckpt;
     mbox_t *gp_ready;
-    dinno_nbrs_t *nbrs;
+    struct dinno_nbrs *nbrs;
 } fw_link_t;
-
-/* Static bytes of the links, by the core that writes them (compile-time, for budgets). */
-#define FW_LINK_RT_BYTES                                                                      \
-    (RING_STORAGE_BYTES(sizeof(ai_sample_t), FW_LINK_RING_CAPACITY) +                          \
-     2u * MBOX_STORAGE_BYTES(sizeof(rt_status_t)))
-#define FW_LINK_AI_BYTES                                                                      \
-    (MBOX_STORAGE_BYTES(sizeof(ai_status_t)) + MBOX_STORAGE_BYTES(sizeof(ai_state_msg_t)) +    \
-     MBOX_STORAGE_BYTES(sizeof(ai_ckpt_msg_t)))
-#define FW_LINK_GP_BYTES (MBOX_STORAGE_BYTES(sizeof(gp_ready_t)) + sizeof(dinno_nbrs_t))
 
 /* The image's links (static storage). */
 const fw_link_t *fw_link_get(void);
@@ -150,8 +68,8 @@ const fw_link_t *fw_link_get(void);
 void fw_link_reset(void);
 
 /* Static bytes of the links, by the core that owns (writes) them. */
-size_t fw_link_bytes_rt(void);  /* sample ring + both RT status mailboxes */
-size_t fw_link_bytes_ai(void);  /* AI status, state and ckpt mailboxes */
-size_t fw_link_bytes_gp(void);  /* ready mailbox + neighbour view */
+size_t fw_link_bytes_rt(void);  /* sample ring + both RT status mailboxes (RT_LINK_BYTES) */
+size_t fw_link_bytes_ai(void);  /* AI status, state and ckpt mailboxes (AI_LINK_BYTES) */
+size_t fw_link_bytes_gp(void);  /* ready mailbox + neighbour view (GP_LINK_BYTES) */
 
 #endif /* FW_LINK_H */

@@ -9,7 +9,7 @@
 #include "ai/bnn_ckpt.h"
 #include "hal/hal.h"
 
-_Static_assert(AI_CORE_BYTES + FW_LINK_AI_BYTES <= BOARD_RAM_AI_BYTES,
+_Static_assert(AI_CORE_BYTES + AI_LINK_BYTES <= BOARD_RAM_AI_BYTES,
                "AI core (DiNNO node, pool, batch) and its links exceed the board's AI RAM");
 
 ai_core_cfg_t ai_core_default_cfg(void)

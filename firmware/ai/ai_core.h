@@ -39,10 +39,13 @@
 
 #include <stdint.h>
 
+#include "ai/ai_link.h"
 #include "ai/ai_pool.h"
 #include "ai/dinno.h"
 #include "common/fw_core.h"
 #include "fw_link.h"
+#include "gp/gp_link.h"
+#include "rt/rt_link.h"
 
 /* AI_POOL_CAPACITY (samples) comes from the build configuration, common/fw_config.h. */
 

@@ -8,7 +8,7 @@
 
 #include "hal/hal.h"
 
-_Static_assert(sizeof(gp_core_t) + FW_LINK_GP_BYTES <= BOARD_RAM_GP_BYTES,
+_Static_assert(sizeof(gp_core_t) + GP_LINK_BYTES <= BOARD_RAM_GP_BYTES,
                "GP core state and its links exceed the board's GP RAM");
 
 gp_core_cfg_t gp_core_default_cfg(void)

@@ -31,9 +31,12 @@
 #include <stdatomic.h>
 #include <stdint.h>
 
+#include "ai/ai_link.h"
 #include "common/fw_core.h"
 #include "fw_link.h"
+#include "gp/gp_link.h"
 #include "gp/gp_telemetry.h"
+#include "rt/rt_link.h"
 
 /* GP_CORE_LOG_ROUNDS (round records kept: a ring of the latest) comes from common/fw_config.h. */
 
