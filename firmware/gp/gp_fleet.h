@@ -27,7 +27,7 @@
  * Per-round records (traffic, waiting time, neighbours, disagreement) go into a ring the host
  * reads between lockstep slices, like the GP core's round log.
  *
- * Storage: gp_fleet_t is static (the image declares it); sized from BOARD_MAX_FLEET,
+ * Storage: gp_fleet_t is static (the image owns it: fw_robot_fleet()); sized from BOARD_MAX_FLEET,
  * BOARD_MAX_PEERS, the preset
  * and the board's datagram. No allocation. Little-endian boards (fp32 states travel as raw
  * IEEE-754 little-endian words). */
