@@ -2,6 +2,7 @@
 #include "gp/gp_fleet.h"
 
 #include <inttypes.h>
+#include <stdint.h>
 #include <errno.h>
 #include <math.h>
 #include <stdio.h>
@@ -263,34 +264,69 @@ static int encode_state(gp_fleet_t *f, const float *theta, uint32_t n_params)
     return r != 0 ? r : (written == f->state_bytes ? 0 : -EINVAL);
 }
 
-static int decode_state(gp_fleet_t *f, const uint8_t *bytes, float *theta)
+/* A neighbour's state of the round, in its reassembly buffer (handed out by gp_pse_neighbours,
+   so ours until the next round begins): fp32 is read where it arrived, int8 is expanded there
+   once, in place (the buffer holds a whole fp32 state; the row scales go to f->qscales). A
+   whole fp32 state in the buffer or none: -EBADMSG for a non-finite fp32 element or a bad
+   int8 scale (what the copy into the slots refused before). */
+static int decode_state(gp_fleet_t *f, const uint8_t *bytes, const float **theta)
 {
+    float *words = (float *)(uintptr_t)bytes; /* gp_pse_buf_t.words: the same storage */
     if (f->cfg.encoding == GP_FLEET_FP32) {
-        memcpy(theta, bytes, f->state_bytes);
         for (uint32_t i = 0; i < BNN_N_PARAMS; i++)
-            if (!isfinite(theta[i]))
+            if (!isfinite(words[i]))
                 return -EBADMSG;
-        return 0;
+    } else {
+        int r = bnn_quant_unpack_theta_inplace(&f->bnn, words, f->state_bytes, f->qscales, BNN_QUANT_MAX_ROWS);
+        if (r != 0)
+            return r;
     }
-    return bnn_quant_unpack_theta(&f->bnn, BNN_GROUP_ALL, bytes, f->state_bytes, theta);
+    *theta = words;
+    return 0;
 }
 
 /* ||theta - mean of the neighbours|| / ||mean||: how far this robot is from its neighbours. */
-static float disagreement(const float *theta, const dinno_slots_t *slots, uint32_t n)
+static float disagreement(const float *theta, const dinno_nbrs_t *nbrs)
 {
+    const uint32_t n = nbrs->count;
     if (n == 0)
         return NAN;
     double num = 0.0, den = 0.0;
     for (uint32_t p = 0; p < BNN_N_PARAMS; p++) {
         double m = 0.0;
         for (uint32_t j = 0; j < n; j++)
-            m += slots->theta[j][p];
+            m += nbrs->theta[j][p];
         m /= (double)n;
         const double d = (double)theta[p] - m;
         num += d * d;
         den += m * m;
     }
     return den > 0.0 ? (float)sqrt(num / den) : 0.0f;
+}
+
+/* Round k's neighbour states are all there: points the view at them, in ascending robot id
+   (the order the in-process fleet uses, so DiNNO's sums run in the same order), decoded once
+   and not copied. A state that does not decode is left out and counted, as before. Returns
+   the number of neighbours. */
+static int fill_slots(gp_fleet_t *f, uint32_t round, const float *own_theta, dinno_nbrs_t *out)
+{
+    uint32_t ids[GP_PSE_MAX_NEIGHBOURS];
+    const uint8_t *states[GP_PSE_MAX_NEIGHBOURS];
+    const uint32_t n = gp_pse_neighbours(&f->drv.pse, ids, states);
+    uint32_t k = 0;
+    for (uint32_t j = 0; j < n && k < DINNO_MAX_PEERS; j++) {
+        if (decode_state(f, states[j], &out->theta[k]) != 0) {
+            f->stats.decode_failures++;
+            continue;
+        }
+        out->id[k] = ids[j];
+        k++;
+    }
+    out->round = round;
+    out->count = k;
+    f->cur.neighbours = k;
+    f->cur.disagreement = disagreement(own_theta, out);
+    return (int)k;
 }
 
 /* Round k began for us: a new record, our state encoded (our buffer of round k - 1 is free now,
@@ -314,7 +350,7 @@ static int begin(gp_fleet_t *f, const gp_exchange_req_t *req)
     return gp_round_begin(&f->drv, f->mine, x, y, net_now());
 }
 
-static int fleet_exchange(void *ctx, const gp_exchange_req_t *req, dinno_slots_t *slots)
+static int fleet_exchange(void *ctx, const gp_exchange_req_t *req, dinno_nbrs_t *slots)
 {
     gp_fleet_t *f = ctx;
     int r = gp_round_want(&f->drv, req->round, net_now());
@@ -330,26 +366,7 @@ static int fleet_exchange(void *ctx, const gp_exchange_req_t *req, dinno_slots_t
         if ((r = begin(f, req)) != 0)
             return r;
     }
-    uint32_t ids[GP_PSE_MAX_NEIGHBOURS];
-    const uint8_t *states[GP_PSE_MAX_NEIGHBOURS];
-    const uint32_t n = gp_pse_neighbours(&f->drv.pse, ids, states);
-    memset(slots->valid, 0, sizeof slots->valid);
-    /* Slots 0 .. k-1 in ascending robot id: the order the in-process fleet fills them in, so
-       DiNNO's sums over them run in the same order. */
-    uint32_t k = 0;
-    for (uint32_t j = 0; j < n && k < DINNO_MAX_PEERS; j++) {
-        if (decode_state(f, states[j], slots->theta[k]) != 0) {
-            f->stats.decode_failures++;
-            continue;
-        }
-        slots->valid[k] = 1;
-        slots->round[k] = req->round;
-        slots->id[k] = ids[j];
-        k++;
-    }
-    f->cur.neighbours = k;
-    f->cur.disagreement = disagreement(req->theta, slots, k);
-    return (int)k;
+    return fill_slots(f, req->round, req->theta, slots);
 }
 
 static void fleet_round_done(void *ctx, uint32_t round, int final)

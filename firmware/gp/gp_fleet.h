@@ -17,8 +17,11 @@
  *                   (waiting at most poll_us at a time) until it says BEGIN: encode our state
  *                   (fp32, or int8 with per-row scales: bnn_quant) and begin with our position
  *                   of round k (offline: the point at fraction k / rounds of the tour, as the
- *                   in-process reference; online: the robot's pose); then until READY: decode
- *                   the neighbours' states into the slots;
+ *                   in-process reference; online: the robot's pose); then until READY: point
+ *                   the view at the neighbours' states (disk radius on the carried positions,
+ *                   or every peer) where gp_pse reassembled them: fp32 read in place, int8
+ *                   expanded in place once (only the row scales need room of their own:
+ *                   qscales);
  *   round_done(k)   (AI's checkpoint of k) gp_round_node_done; after the last round, receive
  *                   and step until the driver says DONE (every peer finished, we left);
  *   next_round(k)   the driver's skip-ahead;
@@ -28,8 +31,9 @@
  * Per-round records (traffic, waiting time, neighbours, disagreement) go into a ring the host
  * reads between lockstep slices, like the GP core's round log.
  *
- * Storage: gp_fleet_t is static (the image declares it); sized from BOARD_MAX_FLEET (the
- * largest fleet), BOARD_MAX_PEERS (the neighbours one round takes in), the preset
+ * Storage: gp_fleet_t is static (the image owns it: fw_robot_fleet()); sized from
+ * BOARD_MAX_FLEET (the largest fleet), BOARD_MAX_PEERS (the neighbours one round takes in), the
+ * preset
  * and the board's datagram. No allocation. Little-endian boards (fp32 states travel as raw
  * IEEE-754 little-endian words). */
 #ifndef GP_GP_FLEET_H
@@ -39,6 +43,7 @@
 #include <stdint.h>
 
 #include "ai/bnn.h"
+#include "ai/bnn_quant.h"
 #include "gp/gp_core.h"
 #include "gp/gp_pse.h"
 #include "gp/gp_round.h"
@@ -129,6 +134,7 @@ typedef struct gp_fleet {
     _Atomic uint32_t n_log;
     gp_fleet_round_t log[GP_FLEET_LOG_ROUNDS];
     rt_waypoint_t tour[GP_FLEET_MAX_TOUR];
+    float qscales[BNN_QUANT_MAX_ROWS]; /* an int8 state's row scales while it expands in place */
     _Alignas(64) uint8_t mine[GP_PSE_MAX_STATE_BYTES];
     _Alignas(64) uint8_t tx[HAL_NET_MTU_BYTES];
     _Alignas(64) uint8_t rx[HAL_NET_MTU_BYTES];

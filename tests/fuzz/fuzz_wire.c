@@ -101,7 +101,7 @@ static void fill_state(harness_t *h, uint32_t round)
 }
 
 /* Every neighbour state handed out is a whole one of this round: its CRC is its chunks'. */
-static void check_neighbours(const harness_t *h)
+static void check_neighbours(harness_t *h) /* takes the round's states, as the GP core does */
 {
     uint32_t ids[GP_PSE_MAX_NEIGHBOURS];
     const uint8_t *states[GP_PSE_MAX_NEIGHBOURS];
