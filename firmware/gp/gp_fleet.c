@@ -93,6 +93,7 @@ int gp_fleet_init(gp_fleet_t *f, const gp_fleet_cfg_t *cfg)
     f->state_bytes = gp_fleet_state_bytes(cfg->encoding);
     memset(&f->stats, 0, sizeof f->stats);
     f->final_done = 0;
+    f->view_filled = 0;
     f->have_cur = 0;
     atomic_store(&f->n_log, 0u);
     if (cfg->positions_from_tour) {
@@ -310,6 +311,11 @@ static float disagreement(const float *theta, const dinno_nbrs_t *nbrs)
    the number of neighbours. */
 static int fill_slots(gp_fleet_t *f, uint32_t round, const float *own_theta, dinno_nbrs_t *out)
 {
+    /* Asked again for the round whose view was filled (the GP core could not publish ready
+       and comes back): the view still points at the same states, and an int8 state must not
+       be expanded twice. */
+    if (f->view_filled && out->round == round)
+        return (int)out->count;
     uint32_t ids[GP_PSE_MAX_NEIGHBOURS];
     const uint8_t *states[GP_PSE_MAX_NEIGHBOURS];
     const uint32_t n = gp_pse_neighbours(&f->drv.pse, ids, states);
@@ -326,6 +332,7 @@ static int fill_slots(gp_fleet_t *f, uint32_t round, const float *own_theta, din
     out->count = k;
     f->cur.neighbours = k;
     f->cur.disagreement = disagreement(own_theta, out);
+    f->view_filled = 1;
     return (int)k;
 }
 
@@ -347,6 +354,7 @@ static int begin(gp_fleet_t *f, const gp_exchange_req_t *req)
     f->cur.disagreement = NAN;
     f->cur_started_us = net_now();
     f->have_cur = 1;
+    f->view_filled = 0;
     return gp_round_begin(&f->drv, f->mine, x, y, net_now());
 }
 

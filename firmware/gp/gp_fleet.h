@@ -126,6 +126,7 @@ typedef struct gp_fleet {
     gp_fleet_stats_t stats;
     uint32_t state_bytes;
     int final_done;
+    int view_filled;                 /* the neighbour view holds the states of the round begun */
     char channel[3][HAL_NET_CHANNEL_MAX];
     gp_pse_stats_t mark;             /* pse counters when the current record began */
     gp_fleet_round_t cur;            /* the record of the round in progress */
