@@ -141,7 +141,9 @@ CXXFLAGS := -std=c++17 $(WARN) $(OPT) $(DEFS) -MMD -MP -fno-exceptions -fno-rtti
 # generated LCM types and host_sim.
 # Every file, C or C++, of every layer sees the same build configuration (board settings and
 # the defaults for what the board leaves out): firmware/common/fw_config.h, with -imacros.
-FW_INC   := -Ifirmware -Ihal/include -Iboards/$(BOARD) -imacros firmware/common/fw_config.h
+# $(MSG_GEN) holds only what tools/lcmgen.py writes from firmware/msg (macros, <stdint.h>).
+MSG_GEN  := $(O)/gen-fw
+FW_INC   := -Ifirmware -Ihal/include -Iboards/$(BOARD) -I$(MSG_GEN) -imacros firmware/common/fw_config.h
 # host_sim/ keeps one folder per family (floorplan, plangen, paths, world, fleet, maps) and its
 # shared helpers at the top; the sim_ prefix keeps its header names unique across them.
 SIM_DIRS := host_sim $(addprefix host_sim/,floorplan plangen paths world fleet maps)
@@ -239,6 +241,14 @@ $(GEN)/.stamp: $(MSG_LCM)
 	@rm -rf $(GEN)/lcm && mkdir -p $(GEN)/lcm
 	$(call say,GEN,$(GEN)/lcm)$(if $(MSG_LCM),$(LCMGEN) -c --c-cpath $(GEN)/lcm --c-hpath $(GEN)/lcm --cinclude lcm $(MSG_LCM))
 	@touch $@
+
+# The messages' field layouts and fingerprints for the firmware and the bounds check
+# (msg/msg_layout.h; tools/lcmgen.py says how to add a field): from the same .lcm files, at build
+# time, never committed. Made before any object (the list at the end of this file); -MMD tracks
+# who includes it after.
+MSG_LAYOUT := $(MSG_GEN)/msg/msg_layout.h
+$(MSG_LAYOUT): tools/lcmgen.py $(MSG_LCM)
+	$(call say,GEN,$@)$(PYTHON) tools/lcmgen.py -o $@ $(MSG_LCM)
 
 # Generated code is not ours to keep warning-free beyond what lcm-gen emits.
 $(LIB)/libmsg.a: $(GEN)/.stamp
@@ -440,5 +450,11 @@ clean:
 
 help:
 	@sed -n '1,/^$$/p' Makefile | sed 's/^# \{0,1\}//'
+
+# Any object may include msg/msg_layout.h (through gp_wire.h): it is made before they compile.
+# On the objects themselves, not in their pattern rules or a stamp: with .SECONDARY a missing
+# header behind an up-to-date stamp would not be remade.
+$(call obj,$(FW_C) $(FW_CXX) $(HAL_COMMON_C) $(HAL_C) $(HAL_STDC_C) $(SIM_C) $(APP_C) $(SUPPORT_C) $(TEST_C) \
+    $(FAULTS_TEST_C) $(BENCH_C) $(BENCH_SUPPORT_C) $(FUZZ_C) tests/fuzz/gen_seeds.c): | $(MSG_LAYOUT)
 
 -include $(shell find $(O)/obj -name '*.d' 2>/dev/null)

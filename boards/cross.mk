@@ -61,7 +61,10 @@ WARN := -Wall -Wextra -Werror
 XFLAGS   := $(WARN) -O2 -g $(BOARD_CPU_FLAGS) -ffunction-sections -fdata-sections -fstack-usage -fcallgraph-info=su $(DEFS) -MMD -MP
 XCFLAGS  := -std=c11 $(XFLAGS)
 XCXXFLAGS := -std=c++17 $(XFLAGS) -fno-exceptions -fno-rtti
-FW_INC   := -Ifirmware -Ihal/include -Iboards/$(XBOARD) -imacros firmware/common/fw_config.h
+# The messages' field layouts (tools/lcmgen.py from firmware/msg/*.lcm), as in the host build.
+MSG_GEN  := $(X)/gen-fw
+PYTHON   ?= /usr/bin/python3
+FW_INC   := -Ifirmware -Ihal/include -Iboards/$(XBOARD) -I$(MSG_GEN) -imacros firmware/common/fw_config.h
 IMG_INC  := $(FW_INC) -Ihal/stdc -Itools/board
 
 FW_C    := $(sort $(shell find firmware -name '*.c'))
@@ -111,6 +114,10 @@ $(X)/obj/%.c.o: %.c $(FLAG_FILES)
 $(X)/obj/%.cpp.o: %.cpp $(FLAG_FILES)
 	@mkdir -p $(@D)
 	$(call say,CXX,$< [$(XBOARD)])$(XCXX) $(XCXXFLAGS) $(FW_INC) -isystem /usr/include/eigen3 -c $< -o $@
+
+$(MSG_GEN)/msg/msg_layout.h: tools/lcmgen.py $(wildcard firmware/msg/*.lcm)
+	$(call say,GEN,$@)$(PYTHON) tools/lcmgen.py -o $@ $(wildcard firmware/msg/*.lcm)
+$(FW_OBJ) $(IMG_OBJ) $(HOST_OBJ): | $(MSG_GEN)/msg/msg_layout.h
 
 $(X)/lib/libfirmware.a: $(FW_OBJ)
 	@mkdir -p $(@D)

@@ -1,6 +1,10 @@
 /* Static storage of the links between the cores (see fw_link.h). */
 #include "fw_link.h"
 
+#include "ai/ai_link.h"
+#include "gp/gp_link.h"
+#include "rt/rt_link.h"
+
 #include <string.h>
 
 RING_DEFINE(fw_samples_ring, sizeof(ai_sample_t), FW_LINK_RING_CAPACITY);
@@ -10,12 +14,11 @@ MBOX_DEFINE(fw_ai_status, sizeof(ai_status_t));
 MBOX_DEFINE(fw_ai_state, sizeof(ai_state_msg_t));
 MBOX_DEFINE(fw_ai_ckpt, sizeof(ai_ckpt_msg_t));
 MBOX_DEFINE(fw_gp_ready, sizeof(gp_ready_t));
-static dinno_slots_t fw_slots;
+static dinno_nbrs_t fw_nbrs;
 
-
-_Static_assert(FW_LINK_RT_BYTES <= BOARD_RAM_RT_BYTES, "RT links exceed the board's RT RAM");
-_Static_assert(FW_LINK_GP_BYTES <= BOARD_RAM_GP_BYTES, "GP links exceed the board's GP RAM");
-_Static_assert(FW_LINK_AI_BYTES <= BOARD_RAM_AI_BYTES, "AI links exceed the board's AI RAM");
+_Static_assert(RT_LINK_BYTES <= BOARD_RAM_RT_BYTES, "RT links exceed the board's RT RAM");
+_Static_assert(GP_LINK_BYTES <= BOARD_RAM_GP_BYTES, "GP links exceed the board's GP RAM");
+_Static_assert(AI_LINK_BYTES <= BOARD_RAM_AI_BYTES, "AI links exceed the board's AI RAM");
 
 static const fw_link_t fw_link = {
     .samples = &fw_samples_ring,
@@ -25,7 +28,7 @@ static const fw_link_t fw_link = {
     .ai_state = &fw_ai_state,
     .ai_ckpt = &fw_ai_ckpt,
     .gp_ready = &fw_gp_ready,
-    .slots = &fw_slots,
+    .nbrs = &fw_nbrs,
 };
 
 const fw_link_t *fw_link_get(void)
@@ -42,22 +45,20 @@ void fw_link_reset(void)
     mbox_reset(&fw_ai_state);
     mbox_reset(&fw_ai_ckpt);
     mbox_reset(&fw_gp_ready);
-    memset(fw_slots.valid, 0, sizeof fw_slots.valid);
-    memset(fw_slots.round, 0, sizeof fw_slots.round);
-    memset(fw_slots.id, 0, sizeof fw_slots.id);
+    memset(&fw_nbrs, 0, sizeof fw_nbrs);
 }
 
 size_t fw_link_bytes_rt(void)
 {
-    return FW_LINK_RT_BYTES;
+    return RT_LINK_BYTES;
 }
 
 size_t fw_link_bytes_ai(void)
 {
-    return FW_LINK_AI_BYTES;
+    return AI_LINK_BYTES;
 }
 
 size_t fw_link_bytes_gp(void)
 {
-    return FW_LINK_GP_BYTES;
+    return GP_LINK_BYTES;
 }

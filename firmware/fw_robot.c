@@ -6,7 +6,12 @@
 static rt_core_t fw_rt;
 static ai_core_t fw_ai;
 static gp_core_t fw_gp;
+static gp_fleet_t fw_fleet; /* the GP core's fleet exchange: its reassembly buffers hold the
+                               neighbour states the AI core reads in place */
 static fw_image_t fw_img;
+
+_Static_assert(sizeof(gp_core_t) + sizeof(gp_fleet_t) + GP_LINK_BYTES <= BOARD_RAM_GP_BYTES,
+               "GP core, its fleet exchange and its links exceed the board's GP RAM");
 
 fw_robot_cfg_t fw_robot_default_cfg(void)
 {
@@ -77,6 +82,11 @@ gp_core_t *fw_robot_gp(void)
     return &fw_gp;
 }
 
+gp_fleet_t *fw_robot_fleet(void)
+{
+    return &fw_fleet;
+}
+
 const fw_image_t *fw_robot_image(void)
 {
     return &fw_img;
@@ -87,14 +97,15 @@ void fw_robot_memory(fw_robot_memory_t *m)
     if (m == NULL)
         return;
     m->rt_state = sizeof(rt_core_t);
-    m->rt_links = FW_LINK_RT_BYTES;
+    m->rt_links = RT_LINK_BYTES;
     m->ring = RING_STORAGE_BYTES(sizeof(ai_sample_t), FW_LINK_RING_CAPACITY);
     m->ai_state = sizeof(ai_core_t);
     m->ai_node = sizeof(dinno_node_t);
     m->ai_model_arena = BNN_ARENA_BYTES;
     m->ai_pool = sizeof(ai_sample_t) * (size_t)AI_POOL_CAPACITY;
-    m->ai_links = FW_LINK_AI_BYTES;
+    m->ai_links = AI_LINK_BYTES;
     m->gp_state = sizeof(gp_core_t);
-    m->gp_links = FW_LINK_GP_BYTES;
+    m->gp_links = GP_LINK_BYTES;
+    m->gp_fleet = sizeof(gp_fleet_t);
     m->image = sizeof(fw_image_t);
 }

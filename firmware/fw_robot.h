@@ -16,6 +16,7 @@
 #include "fw_image.h"
 #include "fw_link.h"
 #include "gp/gp_core.h"
+#include "gp/gp_fleet.h"
 #include "rt/rt_core.h"
 
 typedef struct fw_robot_cfg {
@@ -38,6 +39,10 @@ const ai_core_t *fw_robot_ai(void);
  * this core's own pool, so the image holds one model, not two. Not while the cores run. */
 ai_core_t *fw_robot_ai_work(void);
 gp_core_t *fw_robot_gp(void);
+/* The GP core's fleet exchange (static, in the image's GP RAM): the host joins it to a fleet
+ * (gp_fleet_init, then gp_core_cfg_t.peers = &gp_fleet_peers_ops, peers_ctx = it) before
+ * fw_robot_start(); left unused by a robot without peers. */
+gp_fleet_t *fw_robot_fleet(void);
 const fw_image_t *fw_robot_image(void);
 
 /* Static memory of the image, bytes (sizeof of each piece). */
@@ -46,12 +51,13 @@ typedef struct fw_robot_memory {
     size_t rt_links;        /* sample ring + RT status mailboxes */
     size_t ring;            /* of which: the sample ring */
     size_t ai_state;        /* ai_core_t total */
-    size_t ai_node;         /* of which: the DiNNO node (model arena, duals, slots, batch) */
+    size_t ai_node;         /* of which: the DiNNO node (model arena, duals, neighbour view, batch) */
     size_t ai_model_arena;  /* of which: the BNN arena */
     size_t ai_pool;         /* of which: the sample pool */
     size_t ai_links;        /* AI status, state and ckpt mailboxes */
     size_t gp_state;        /* gp_core_t (round log, telemetry buffer) */
-    size_t gp_links;        /* ready mailbox + neighbour slots */
+    size_t gp_links;        /* ready mailbox + neighbour view */
+    size_t gp_fleet;        /* gp_fleet_t: the fleet exchange (state buffers of two rounds) */
     size_t image;           /* fw_image_t */
 } fw_robot_memory_t;
 

@@ -36,6 +36,8 @@ deps=(
     "libpng-dev           /usr/include/png.h"
     # bench_bnn's GEMM comparison only (`make bench`); the firmware never links it
     "libopenblas-dev      /usr/include/$(uname -m)-linux-gnu/cblas-openblas.h"
+    # every build: tools/lcmgen.py makes the messages' layouts from firmware/msg/*.lcm
+    "python3              /usr/bin/python3"
     "python3-numpy        /usr/lib/python3/dist-packages/numpy/__init__.py"
     "python3-scipy        /usr/lib/python3/dist-packages/scipy/__init__.py"
     "python3-matplotlib   /usr/lib/python3/dist-packages/matplotlib/__init__.py"

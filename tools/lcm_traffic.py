@@ -5,8 +5,9 @@
 
 Reads the event log that `lcm-logger` writes (each event: u32 sync word 0xEDA1DA01, i64 event
 number, i64 utime in microseconds, i32 channel length, i32 data length, the channel name
-without NUL, the data; all big-endian) and decodes the fleet's three LCM messages
-(firmware/msg/*.lcm) by their 8-byte fingerprint:
+without NUL, the data; all big-endian) and decodes the fleet's three LCM messages by their
+8-byte fingerprint, with the field layouts and fingerprints read from the .lcm files of
+firmware/msg (through tools/lcmgen.py, as the firmware's are; today's values):
 
     state_chunk_t     0xdf65602b2d04bf15   on <prefix><fleet>/state
     round_complete_t  0x9ec25daeb3a35535   on <prefix><fleet>/done
@@ -42,16 +43,62 @@ EVENT_HEADER_SIZE = EVENT_HEADER_SIGNED.size  # 28
 CHANNEL_MAX = 1000          # what lcm's own log reader accepts (names are at most 63 bytes)
 DATA_MAX = 1 << 28          # LCM_MAX_MESSAGE_SIZE
 
-FP_STATE = 0xDF65602B2D04BF15
-FP_DONE = 0x9EC25DAEB3A35535
-FP_REQUEST = 0x2765123CB5B82F65
-FINGERPRINTS = {FP_STATE: "state", FP_DONE: "done", FP_REQUEST: "request"}
+# The messages' layouts and fingerprints, from the .lcm files themselves (tools/lcmgen.py).
+sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
+import lcmgen  # noqa: E402
 
-STATE_HEAD_SIGNED = struct.Struct(">Qiiiiibiddii")
-STATE_HEAD_SIZE = STATE_HEAD_SIGNED.size  # 57
+MESSAGES = lcmgen.parse(lcmgen.default_paths())
+KIND_TYPES = {"state": "state_chunk_t", "done": "round_complete_t", "request": "chunk_request_t"}
+FP_STATE = MESSAGES["state_chunk_t"].fingerprint
+FP_DONE = MESSAGES["round_complete_t"].fingerprint
+FP_REQUEST = MESSAGES["chunk_request_t"].fingerprint
+FINGERPRINTS = {MESSAGES[t].fingerprint: k for k, t in KIND_TYPES.items()}
 STATE_CHUNK_MAX = 61440      # firmware/msg/state_chunk.lcm: n_bytes <= 61440
-DONE = struct.Struct(">Qiii")  # 20: sender, round, incarnation
-REQUEST_HEAD = struct.Struct(">Qiiiii")  # 28: requester, target, round, incarnation, n_chunks
+
+
+def _prefix(msg):
+    """A struct.Struct of the fingerprint and the scalar fields before any array, and their names."""
+    names, fmt = [], ">Q"
+    for f in msg.fields:
+        if f.count != 1:
+            break
+        names.append(f.name)
+        fmt += lcmgen.PRIMITIVES[f.type][2]
+    return struct.Struct(fmt), names
+
+
+PREFIX = {t: _prefix(m) for t, m in MESSAGES.items()}
+
+
+def decode_fields(msg, buf, off, n):
+    """The fields of one message of type `msg` (an lcmgen.Message) in buf[off:off + n], after
+    its fingerprint: (dict name -> value, None), or (None, reason). A scalar is its value, an
+    array its elements as a tuple (a byte array as its length: the payload is not needed here).
+    Every count must be non-negative and the fields must end exactly at the message's end."""
+    if all(f.count for f in msg.fields) and n != msg.fixed_bytes:
+        return None, f"length is not {msg.fixed_bytes} bytes"
+    head, names = PREFIX[msg.name]
+    if n < head.size:
+        return None, "shorter than its header"
+    out = dict(zip(names, head.unpack_from(buf, off)[1:]))
+    at, end = off + head.size, off + n
+    for f in msg.fields[len(names):]:
+        fmt = lcmgen.PRIMITIVES[f.type][2]
+        count = f.count if f.count else out[f.dim]
+        if count < 0 or at + count * f.size > end:
+            return None, (f"{f.dim} disagrees with the data" if not f.count else "shorter than its fields")
+        if f.count == 1:
+            (out[f.name],) = struct.unpack_from(">" + fmt, buf, at)
+        elif fmt == "B":
+            out[f.name] = count
+        else:
+            out[f.name] = struct.unpack_from(f">{count}{fmt}", buf, at)
+        at += count * f.size
+    if at != end:
+        last = [f for f in msg.fields if not f.count][-1]
+        return None, f"{last.dim} disagrees with the data"
+    return out, None
+
 
 COLUMNS = ["fleet", "round", "agent", "chunks_sent", "state_bytes", "chunks_resent",
            "requests_sent", "chunks_requested", "done_sent"]
@@ -175,62 +222,49 @@ def decode(kind, fleet, buf, off, n, st):
     if got != kind:
         st.bad(f"{kind}: carries a {got} message (fingerprint does not match the channel)")
         return
+    m, why = decode_fields(MESSAGES[KIND_TYPES[kind]], buf, off, n)
+    if m is None:
+        st.bad(f"{kind}: {why}")
+        return
     if kind == "state":
-        if n < STATE_HEAD_SIZE:
-            st.bad("state: shorter than its header")
-            return
-        (_, sender, rnd, chunk, n_chunks, state_bytes, encoding, _crc, x_m, y_m, _inc,
-         n_bytes) = STATE_HEAD_SIGNED.unpack_from(buf, off)
-        if n_bytes < 0 or STATE_HEAD_SIZE + n_bytes != n:
-            st.bad("state: n_bytes disagrees with the data")
-            return
-        if n_bytes > STATE_CHUNK_MAX:
+        if m["n_bytes"] > STATE_CHUNK_MAX:
             st.bad("state: n_bytes above 61440")
             return
+        sender, rnd, chunk, n_chunks = m["sender"], m["round"], m["chunk"], m["n_chunks"]
         if sender < 0 or rnd < 0:
             st.bad("state: negative sender or round")
             return
-        if n_chunks < 1 or chunk < 0 or chunk >= n_chunks or state_bytes < 0:
+        if n_chunks < 1 or chunk < 0 or chunk >= n_chunks or m["state_bytes"] < 0:
             st.bad("state: chunk, n_chunks or state_bytes out of range")
             return
         st.kind_events["state"] += 1
         r = st.row(fleet, rnd, sender)
         r[0] += 1
-        r[1] += n_bytes
+        r[1] += m["n_bytes"]
         key = (fleet, sender, rnd, chunk)
         if key in st.seen_chunks:
             r[2] += 1
         else:
             st.seen_chunks.add(key)
     elif kind == "done":
-        if n != DONE.size:
-            st.bad(f"done: length is not {DONE.size} bytes")
-            return
-        _, sender, rnd, _inc = DONE.unpack_from(buf, off)
+        sender, rnd = m["sender"], m["round"]
         if sender < 0 or rnd < 0:
             st.bad("done: negative sender or round")
             return
         st.kind_events["done"] += 1
         st.row(fleet, rnd, sender)[5] += 1
     else:
-        if n < REQUEST_HEAD.size:
-            st.bad("request: shorter than its header")
-            return
-        _, requester, target, rnd, _inc, n_chunks = REQUEST_HEAD.unpack_from(buf, off)
-        if n_chunks < 0 or REQUEST_HEAD.size + 4 * n_chunks != n:
-            st.bad("request: n_chunks disagrees with the data")
-            return
+        requester, target, rnd = m["requester"], m["target"], m["round"]
         if requester < 0 or target < 0 or rnd < 0:
             st.bad("request: negative requester, target or round")
             return
-        chunks = struct.unpack_from(f">{n_chunks}i", buf, off + REQUEST_HEAD.size)
-        if any(c < 0 for c in chunks):
+        if any(c < 0 for c in m["chunks"]):
             st.bad("request: negative chunk index")
             return
         st.kind_events["request"] += 1
         r = st.row(fleet, rnd, requester)
         r[3] += 1
-        r[4] += n_chunks
+        r[4] += m["n_chunks"]
 
 
 def classify(chan, prefix):

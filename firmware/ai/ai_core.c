@@ -9,7 +9,7 @@
 #include "ai/bnn_ckpt.h"
 #include "hal/hal.h"
 
-_Static_assert(AI_CORE_BYTES + FW_LINK_AI_BYTES <= BOARD_RAM_AI_BYTES,
+_Static_assert(AI_CORE_BYTES + AI_LINK_BYTES <= BOARD_RAM_AI_BYTES,
                "AI core (DiNNO node, pool, batch) and its links exceed the board's AI RAM");
 
 ai_core_cfg_t ai_core_default_cfg(void)
@@ -146,15 +146,14 @@ static int run_round(ai_core_t *ai, const gp_ready_t *ready)
     const uint32_t k = ai->next_round;
     ai_round_info_t *p = &ai->pending;
     int rc = 0;
-    dinno_slots_clear(&ai->node);
-    const dinno_slots_t *slots = ai->link->slots;
-    const size_t np = bnn_n_params(&ai->node.model);
-    for (uint32_t s = 0; s < DINNO_MAX_PEERS && ready->neighbours > 0; s++) {
-        if (slots->valid[s] && slots->round[s] == k) {
-            int r = dinno_slot_put(&ai->node, s, slots->id[s], k, slots->theta[s], np);
-            if (r != 0)
-                rc = r;
-        }
+    /* The neighbour states are read where the GP core left them (fw_link.h: ours from ready(k)
+       until our next state publish), never copied. */
+    const dinno_nbrs_t *nbrs = ai->link->nbrs;
+    const int have_nbrs = ready->neighbours > 0 && nbrs->count > 0 && nbrs->round == k;
+    int r0 = dinno_node_set_nbrs(&ai->node, have_nbrs ? nbrs : NULL);
+    if (r0 != 0) { /* a malformed view: the round goes on alone, and says so */
+        rc = r0;
+        r0 = dinno_node_set_nbrs(&ai->node, NULL);
     }
     p->pool_fill = ai->pool.fill;
     p->pool_capacity = ai->pool.capacity;
@@ -164,10 +163,10 @@ static int run_round(ai_core_t *ai, const gp_ready_t *ready)
         int r = dinno_node_round(&ai->node, ai->pool.data, ai->pool.fill, &st);
         if (r == 0 && st.excluded > 0) {
             /* The screen left states out (dinno.h): say whose, each time; a bad member is news. */
-            for (uint32_t s = 0; s < DINNO_MAX_PEERS; s++)
-                if (slots->valid[s] && slots->round[s] == k && !ai->node.slots.valid[s])
+            for (uint32_t s = 0; have_nbrs && s < nbrs->count; s++)
+                if (!ai->node.use[s])
                     hal_log(HAL_LOG_WARN, "round %" PRIu32 ": robot %" PRIu32 "'s state left out (not finite, or "
-                            "beyond %g x ||own state||; largest distance %g)", k, slots->id[s],
+                            "beyond %g x ||own state||; largest distance %g)", k, nbrs->id[s],
                             (double)ai->cfg.dinno.screen_radius, (double)st.nb_dist_max);
             ai->status.states_excluded += st.excluded;
         }

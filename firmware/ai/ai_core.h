@@ -6,8 +6,8 @@
  * when the RT core reports the path finished (then every remaining round runs). At each
  * boundary the core takes part in DiNNO round k (fw_link.h protocol): it publishes its
  * state, waits (without blocking: a state machine over its ticks) for the GP core's
- * ready(k), copies the valid neighbour slots into its dinno_node_t and runs
- * dinno_node_round() on the pool: B = steps_per_round optimiser steps (a node without
+ * ready(k), hands the neighbour view (fw_link_t.nbrs: pointers into the GP core's buffers) to
+ * its dinno_node_t and runs dinno_node_round() on the pool: B = steps_per_round optimiser steps (a node without
  * neighbours trains locally, as DiNNO does). Then it publishes the checkpoint of round k and
  * applies the pool policy (ai_pool.h: CDR keeps, DR clears).
  * Rounds per boundary R (default 1): each boundary runs R DiNNO rounds in a row (the paper's
@@ -31,18 +31,21 @@
  * Option train_between: on every tick between boundaries with a non-empty pool, one more
  * optimiser step (bnn_train_step, lr of the coming round) on a minibatch drawn from the pool.
  *
- * Storage: ai_core_t is static (the image declares it): the DiNNO node (model, duals,
- * slots), the pool of AI_POOL_CAPACITY samples and a minibatch buffer, checked with the
+ * Storage: ai_core_t is static (the image declares it): the DiNNO node (model, duals, the
+ * view of the neighbours), the pool of AI_POOL_CAPACITY samples and a minibatch buffer, checked with the
  * AI core's links against BOARD_RAM_AI_BYTES. No allocation. One AI core per image. */
 #ifndef AI_AI_CORE_H
 #define AI_AI_CORE_H
 
 #include <stdint.h>
 
+#include "ai/ai_link.h"
 #include "ai/ai_pool.h"
 #include "ai/dinno.h"
 #include "common/fw_core.h"
 #include "fw_link.h"
+#include "gp/gp_link.h"
+#include "rt/rt_link.h"
 
 /* AI_POOL_CAPACITY (samples) comes from the build configuration, common/fw_config.h. */
 

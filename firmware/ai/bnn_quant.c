@@ -152,6 +152,56 @@ int bnn_quant_unpack_theta(const bnn_config_t *cfg, bnn_group_t g, const uint8_t
     return 0;
 }
 
+int bnn_quant_unpack_theta_inplace(const bnn_config_t *cfg, float *th, size_t len, float *scales, size_t n_scales)
+{
+    if (!cfg || !th || !scales)
+        return -EINVAL;
+    bnn_tensor_t T[BNN_MAX_TENSORS];
+    const size_t nt = bnn_tensors_cfg(cfg, T, BNN_MAX_TENSORS);
+    if (len != packed_size_of(T, nt, BNN_GROUP_ALL))
+        return -EBADMSG;
+    uint8_t *buf = (uint8_t *)th; /* character access: may alias the floats */
+    /* The scales, checked before anything moves; the tensors must tile theta in order (the
+       int8 values then move to their element's index). */
+    const uint8_t *p = buf;
+    size_t rows = 0, at = 0;
+    for (size_t t = 0; t < nt; t++) {
+        const size_t R = tensor_rows(&T[t]), C = tensor_cols(&T[t]);
+        if (T[t].offset != at || rows + R > n_scales)
+            return -EINVAL;
+        for (size_t r = 0; r < R; r++) {
+            const float s = getf(p + 4 * r);
+            if (!isfinite(s) || s < 0.0f)
+                return -EBADMSG;
+            scales[rows + r] = s;
+        }
+        rows += R;
+        at += R * C;
+        p += 4 * R + R * C;
+    }
+    /* q of element i to byte i: every destination is at or below its source. */
+    p = buf;
+    for (size_t t = 0; t < nt; t++) {
+        const size_t R = tensor_rows(&T[t]), C = tensor_cols(&T[t]);
+        memmove(buf + T[t].offset, p + 4 * R, R * C);
+        p += 4 * R + R * C;
+    }
+    /* Backwards: float i covers bytes 4i..4i+3, values of elements >= i, already read. */
+    for (size_t t = nt; t-- > 0;) {
+        const size_t R = tensor_rows(&T[t]), C = tensor_cols(&T[t]);
+        rows -= R;
+        for (size_t r = R; r-- > 0;) {
+            const float s = scales[rows + r];
+            for (size_t k = C; k-- > 0;) {
+                const size_t i = T[t].offset + r * C + k;
+                const int8_t q = (int8_t)buf[i];
+                th[i] = s * (float)q;
+            }
+        }
+    }
+    return 0;
+}
+
 /* ---- int8 inference ----------------------------------------------------------------------
  * Chunks of up to BNN_QUANT_CHUNK points go through each layer together: the SIREN layer row
  * by row over the chunk's points (fp32, into Y, then each point's activations are quantised

@@ -78,6 +78,8 @@ size_t bnn_quant_packed_size(const bnn_model_t *m, bnn_group_t g);
 #define BNN_QUANT_MAX_ROWS_                                                                    \
     (BNN_SIREN_MAX + 2u + BNN_LAYERS_MAX * 2u * (BNN_HIDDEN_MAX + 1u) + 2u)
 #define BNN_QUANT_MAX_BYTES (BNN_N_PARAMS + 4u * BNN_QUANT_MAX_ROWS_)
+/* Largest number of rows (scales) of a packed whole theta of the preset. */
+#define BNN_QUANT_MAX_ROWS (BNN_QUANT_MAX_ROWS_)
 
 /* Quantise group g of theta into buf. *written = bytes. Returns 0, -EINVAL or -ENOSPC. */
 FS_MUST_CHECK int bnn_quant_pack(const bnn_model_t *m, bnn_group_t g, uint8_t *buf, size_t cap,
@@ -101,5 +103,15 @@ FS_MUST_CHECK int bnn_quant_pack_theta(const bnn_config_t *cfg, bnn_group_t g, c
                                        size_t cap, size_t *written);
 FS_MUST_CHECK int bnn_quant_unpack_theta(const bnn_config_t *cfg, bnn_group_t g, const uint8_t *buf, size_t len,
                                          float *theta);
+/* The same for a whole theta (BNN_GROUP_ALL), in place: th holds the len packed bytes at its
+ * start and has room for n_params floats; they become theta. The row scales are first copied
+ * to scales (n_scales >= the rows; BNN_QUANT_MAX_ROWS is enough for the preset) and checked as
+ * bnn_quant_unpack_theta does, before anything moves; then the int8 values move to the front
+ * and expand backwards, element i (bytes 4i..4i+3) written after every value it overwrites
+ * was read. The values are bnn_quant_unpack_theta's, bit for bit. Used by the GP core, which
+ * decodes the peers' states in its reassembly buffers instead of a second copy. Returns 0,
+ * -EINVAL (NULL, or scales too small) or -EBADMSG (length, a scale). */
+FS_MUST_CHECK int bnn_quant_unpack_theta_inplace(const bnn_config_t *cfg, float *th, size_t len, float *scales,
+                                                 size_t n_scales);
 
 #endif /* AI_BNN_QUANT_H */

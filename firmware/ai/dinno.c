@@ -2,7 +2,7 @@
  *
  * Why it is organised this way:
  * - Every regulariser is separable per element and its per-neighbour sums can be collected
- *   once per round (theta_i and the slots do not change during the primal steps), so each
+ *   once per round (theta_i and the neighbour states do not change during the primal steps), so each
  *   primal step costs one pass over theta whatever the number of neighbours:
  *     L2:  sum_j ||t - mid_j||^2 = m ||t||^2 - 2 t . (sum_j mid_j) + sum_j ||mid_j||^2,
  *          gradient 2 (m t - sum_j mid_j);
@@ -15,7 +15,8 @@
  *     REVERSE/FULL: sum_j [log s - log r_j + q_j / (2 s^2) - 1/2], d/drho = c (m / s - Q / s^3);
  *     FULL's sum_j (m_j - mu)^2 = sum_j m_j^2 - 2 mu sum_j m_j + m mu^2, from aux3 (sum m_j^2)
  *     and the mu group's aux1 (sum m_j). aux1 then holds sum_j r_j^2 on the rho group.
- * - Sums are accumulated in slot order, so the result does not depend on timing.
+ * - Sums are accumulated in the view's order (ascending id), so the result does not depend
+ *   on timing. Neighbour states are only read (in place, where they arrived).
  * - Values use double accumulators (they are diagnostics and the finite-difference reference);
  *   gradients are float, elementwise.
  */
@@ -101,27 +102,29 @@ int dinno_node_init(dinno_node_t *n, const dinno_cfg_t *cfg, const bnn_config_t 
     memset(n->aux1, 0, P * sizeof(float));
     memset(n->aux2, 0, n->model.n_rho * sizeof(float));
     memset(n->aux3, 0, n->model.n_rho * sizeof(float));
-    dinno_slots_clear(n);
+    n->nb = NULL;
+    memset(n->use, 0, sizeof n->use);
     return 0;
 }
 
-void dinno_slots_clear(dinno_node_t *n)
+int dinno_node_set_nbrs(dinno_node_t *n, const dinno_nbrs_t *nb)
 {
-    if (!n)
-        return;
-    memset(n->slots.valid, 0, sizeof n->slots.valid);
-    memset(n->slots.round, 0, sizeof n->slots.round);
-}
-
-int dinno_slot_put(dinno_node_t *n, uint32_t s, uint32_t peer, uint32_t round, const float *theta, size_t n_params)
-{
-    if (!n || !theta || s >= DINNO_MAX_PEERS || n_params != bnn_n_params(&n->model))
+    if (!n || (nb && nb->count > DINNO_MAX_PEERS))
         return -EINVAL;
-    memcpy(n->slots.theta[s], theta, n_params * sizeof(float));
-    n->slots.round[s] = round;
-    n->slots.id[s] = peer;
-    n->slots.valid[s] = 1;
+    const uint32_t m = nb ? nb->count : 0u;
+    for (uint32_t s = 0; s < m; s++)
+        if (!nb->theta[s])
+            return -EINVAL;
+    n->nb = m > 0 ? nb : NULL;
+    memset(n->use, 0, sizeof n->use);
+    memset(n->use, 1, m);
     return 0;
+}
+
+/* Neighbour s's state when it takes part in the round, else NULL. */
+static const float *nb_in_use(const dinno_node_t *n, uint32_t s)
+{
+    return n->nb != NULL && s < n->nb->count && n->use[s] ? n->nb->theta[s] : NULL;
 }
 
 float dinno_rho_at(const dinno_cfg_t *cfg, uint32_t k)
@@ -145,10 +148,10 @@ uint32_t dinno_dual_update(dinno_node_t *n, float rho_k)
     memcpy(n->theta0, th, P * sizeof(float));
     uint32_t m = 0;
     for (uint32_t s = 0; s < DINNO_MAX_PEERS; s++) {
-        if (!n->slots.valid[s])
+        const float *tj = nb_in_use(n, s);
+        if (!tj)
             continue;
         m++;
-        const float *tj = n->slots.theta[s];
         for (size_t i = 0; i < P; i++)
             n->dual[i] += rho_k * (n->theta0[i] - tj[i]);
     }
@@ -175,9 +178,9 @@ void dinno_prepare(dinno_node_t *n)
     memset(n->aux3, 0, R * sizeof(float));
     double sq[2] = {0.0, 0.0};
     for (uint32_t s = 0; s < DINNO_MAX_PEERS; s++) {
-        if (!n->slots.valid[s])
+        const float *tj = nb_in_use(n, s);
+        if (!tj)
             continue;
-        const float *tj = n->slots.theta[s];
         /* One loop per group with its own accumulator: clang 14 vectorised the former
            single loop's `sq[i < M ? 0 : 1] +=` wrongly (AVX2 and AVX-512 builds lost terms).
            Same summation order as before, so GCC's results are unchanged. */
@@ -302,9 +305,9 @@ double dinno_reg_value(const dinno_node_t *n, float rho_k)
         dd += (double)th[i] * n->dual[i];
     /* Direct per-neighbour evaluation (independent of the aux sums), in double. */
     for (uint32_t s = 0; s < DINNO_MAX_PEERS; s++) {
-        if (!n->slots.valid[s])
+        const float *tj = nb_in_use(n, s);
+        if (!tj)
             continue;
-        const float *tj = n->slots.theta[s];
         for (size_t i = 0; i < P; i++) {
             const double mid = 0.5 * ((double)n->theta0[i] + tj[i]);
             const double d = (double)th[i] - mid;
@@ -350,9 +353,9 @@ uint32_t dinno_screen_slots(dinno_node_t *n, float *dist_max)
     uint32_t out = 0;
     double worst = 0.0;
     for (uint32_t s = 0; s < DINNO_MAX_PEERS; s++) {
-        if (!n->slots.valid[s])
+        const float *nb = nb_in_use(n, s);
+        if (!nb)
             continue;
-        const float *nb = n->slots.theta[s];
         double d2 = 0.0;
         for (size_t e = 0; e < P; e++) {
             const double d = (double)nb[e] - (double)th[e];
@@ -361,7 +364,7 @@ uint32_t dinno_screen_slots(dinno_node_t *n, float *dist_max)
         const double dist = isfinite(d2) ? sqrt(d2) / scale : INFINITY;
         worst = dist > worst ? dist : worst;
         if (!isfinite(d2) || (n->cfg.screen_radius > 0.0f && sqrt(d2) > radius)) {
-            n->slots.valid[s] = 0;
+            n->use[s] = 0; /* the node's own mask: the state itself is not ours to write */
             out++;
         }
     }
@@ -375,9 +378,8 @@ int dinno_node_round(dinno_node_t *n, const ai_sample_t *data, size_t n_data, di
     if (!n || !data || n_data == 0)
         return -EINVAL;
     const uint32_t k = n->round;
-    for (uint32_t s = 0; s < DINNO_MAX_PEERS; s++)
-        if (n->slots.valid[s] && n->slots.round[s] != k)
-            return -EINVAL;
+    if (n->nb != NULL && n->nb->count > 0 && n->nb->round != k)
+        return -EINVAL;
     const dinno_cfg_t *c = &n->cfg;
     const float rho_k = dinno_rho_at(c, k), lr = dinno_lr_at(c, k);
     float dist_max = 0.0f;

@@ -45,10 +45,10 @@
  *     Algorithm 2 literally: Loss_rho = <theta_rho, p_rho> + W_rho Reg_rho has no PredLoss, so
  *     the rho group moves only by its dual and its regulariser (SEPARATE and KL; UNIFORM is
  *     plain DiNNO with one loss and ignores it).
- *   A node with no valid slot skips steps 2 and the REG terms: pure local training.
+ *   A node with no neighbour state in use skips steps 2 and the REG terms: pure local training.
  *
  * The screen (a member that goes bad: a stolen key, a bug, a sensor fault). Before step 2 a
- * neighbour's state is left out of the round (its slot marked invalid, counted in
+ * neighbour's state is left out of the round (its entry of node->use cleared, counted in
  * stats->excluded) when it is not finite, or when
  *     ||theta_j - theta_i|| > screen_radius * max(||theta_i||, 1)          (L2, whole vector)
  * A neighbour left out is what a lost state is to the protocol: the node trains on with the
@@ -61,18 +61,22 @@
  * how far one round can drag a node, not whether it is dragged. When it never triggers, the
  * round is bit-identical to one without it.
  *
- * Neighbour states arrive in FIXED SLOTS: node->slots.theta[s] (s < DINNO_MAX_PEERS) with
- * node->slots.valid[s] != 0; the writer (GP core, or the in-process fleet driver) fills them
- * before dinno_node_round(), which reads them and nothing else. Slots must hold the states
- * of the same round k (the caller's job; the round is recorded for checking).
+ * Neighbour states are read IN PLACE, never copied: the caller hands the node a view
+ * (dinno_nbrs_t: count pointers to n_params floats, the robots' ids in ascending order, the
+ * round) with dinno_node_set_nbrs() before dinno_node_round(). The view and the states it
+ * points to must stay unchanged until the round returned (the GP core's reassembly buffers,
+ * gp/gp_pse.h, or the in-process fleet's round-start snapshots); the node keeps only the
+ * pointer and its own per-round use mask (node->use: the screen clears a neighbour's entry
+ * there, the shared states are never written). Every state must be of the same round k (the
+ * caller's job; the view's round is checked).
  *
  * Minibatches: step b of round k draws `batch` indices uniformly with replacement from the
  * node's data, keyed by (node seed, k, b) with Philox (a pure function), or uses the whole
  * data when it has at most `batch` samples. BNN noise keys are derived from (seed, k, b) too,
- * so a node's trajectory is a pure function of (seed, data, slots).
+ * so a node's trajectory is a pure function of (seed, data, neighbour states).
  *
  * Memory: a dinno_node_t holds everything inline (the bnn_model_t, duals, the round-start
- * snapshot, two auxiliary vectors, the neighbour slots, a batch buffer): DINNO_NODE_BYTES,
+ * snapshot, auxiliary vectors, the view of the neighbours, a batch buffer): DINNO_NODE_BYTES,
  * checked against the board's AI RAM. Declare it static. No function allocates.
  * Thread-safety: one thread per node at a time; nodes are independent. */
 #ifndef AI_DINNO_H
@@ -124,19 +128,20 @@ typedef struct dinno_cfg {
     float screen_radius;   /* >= 0, default DINNO_SCREEN_RADIUS_DEFAULT; 0: no distance screen */
 } dinno_cfg_t;
 
-/* Neighbour states of one round, in fixed slots: the round's neighbours in ascending robot id
- * (so every sum over them runs in the same order in every fleet). */
-typedef struct dinno_slots {
-    uint32_t valid[DINNO_MAX_PEERS];  /* != 0: theta[s] holds a neighbour's state */
-    uint32_t round[DINNO_MAX_PEERS];  /* the round that state belongs to */
-    uint32_t id[DINNO_MAX_PEERS];     /* whose state it is (the robot id) */
-    _Alignas(64) float theta[DINNO_MAX_PEERS][BNN_N_PARAMS]; /* first n_params floats used */
-} dinno_slots_t;
+/* The neighbour states of one round, read in place: entries 0 .. count-1, in ascending robot
+ * id (so every sum over them runs in the same order in every fleet). A few hundred bytes of
+ * pointers: the states stay where they arrived. */
+typedef struct dinno_nbrs {
+    uint32_t round;                        /* the round every state belongs to */
+    uint32_t count;                        /* entries used, <= DINNO_MAX_PEERS */
+    uint32_t id[DINNO_MAX_PEERS];          /* whose state it is (the robot id) */
+    const float *theta[DINNO_MAX_PEERS];   /* n_params floats each, unchanged during the round */
+} dinno_nbrs_t;
 
 /* What one round did (means over its B primal steps unless said otherwise). */
 typedef struct dinno_round_stats {
     uint32_t round;        /* k of the round just done */
-    uint32_t neighbours;   /* valid slots used */
+    uint32_t neighbours;   /* neighbour states used (after the screen) */
     float rho_k, lr;
     float pred_total;      /* BCE + kl_weight * kl_loss (the prediction loss) */
     float bce;
@@ -157,7 +162,8 @@ typedef struct dinno_node {
     uint32_t n_nb;         /* neighbours of the round being run (set by dinno_dual_update) */
     double mid_sq[2];      /* sum_j ||mid_j||^2 of the mu and the rho group (L2 values) */
     bnn_model_t model;
-    dinno_slots_t slots;
+    const dinno_nbrs_t *nb;              /* the view of the round (dinno_node_set_nbrs), or NULL */
+    uint8_t use[DINNO_MAX_PEERS];        /* 1: nb->theta[s] takes part in this round (screen) */
     _Alignas(64) float dual[BNN_N_PARAMS];  /* p_i: [mu-group duals | rho-group duals] */
     _Alignas(64) float theta0[BNN_N_PARAMS]; /* theta_i at the start of the round */
     _Alignas(64) float aux1[BNN_N_PARAMS];   /* L2: sum_j mid_j; KL rho part: sum_j 1/r_j^2 */
@@ -178,41 +184,38 @@ size_t dinno_get_buffer_size(void);
 
 /* Validates cfg (NULL = defaults) against bcfg (NULL = the preset), initialises the model
  * from model_seed (nodes of one fleet share model_seed for a common start, as the reference
- * does), zeroes duals and slots; `seed` keys this node's minibatches and BNN noise (give
+ * does), zeroes duals, no neighbours; `seed` keys this node's minibatches and BNN noise (give
  * each node its own). Returns 0 or -EINVAL. */
 FS_MUST_CHECK int dinno_node_init(dinno_node_t *n, const dinno_cfg_t *cfg, const bnn_config_t *bcfg,
                               uint64_t model_seed, uint64_t seed, uint32_t id);
 
-/* Marks every slot invalid. */
-void dinno_slots_clear(dinno_node_t *n);
-
-/* Copies the state (n_params floats) of robot `peer` of round `round` into slot s and marks
- * it valid. Returns 0 or -EINVAL (s out of range, NULL). */
-FS_MUST_CHECK int dinno_slot_put(dinno_node_t *n, uint32_t s, uint32_t peer, uint32_t round, const float *theta,
-                                 size_t n_params);
+/* Hands the node the neighbour states of its next round (NULL or count 0: none). Only the
+ * pointer is kept: *nb and the states stay unchanged until dinno_node_round() returned. Every
+ * entry starts in use. Returns 0 or -EINVAL (count > DINNO_MAX_PEERS, a NULL state). */
+FS_MUST_CHECK int dinno_node_set_nbrs(dinno_node_t *n, const dinno_nbrs_t *nb);
 
 /* rho_k and lr_k of round k under cfg. */
 float dinno_rho_at(const dinno_cfg_t *cfg, uint32_t k);
 float dinno_lr_at(const dinno_cfg_t *cfg, uint32_t k);
 
-/* One round (k = n->round): dual update from the valid slots, then B primal steps on
- * data[0..n_data). Valid slots must carry round k (else -EINVAL, nothing changed).
+/* One round (k = n->round): dual update from the neighbour states in use, then B primal steps
+ * on data[0..n_data). A view with states must carry round k (else -EINVAL, nothing changed).
  * Increments n->round. stats may be NULL. Returns 0 or -EINVAL (NULL, n_data == 0, bad
  * samples). Allocates nothing. */
 FS_MUST_CHECK int dinno_node_round(dinno_node_t *n, const ai_sample_t *data, size_t n_data,
                                dinno_round_stats_t *stats);
 
 /* Building blocks, exposed for tests ------------------------------------------------------- */
-/* The screen alone (see above): marks the slots to leave out invalid. Returns how many it
- * left out; *dist_max as nb_dist_max. dinno_node_round runs it first. */
+/* The screen alone (see above): clears node->use for the states to leave out. Returns how
+ * many it left out; *dist_max as nb_dist_max. dinno_node_round runs it first. */
 uint32_t dinno_screen_slots(dinno_node_t *n, float *dist_max);
 
-/* Dual update only: p += rho_k * sum_{valid s} (theta - slot_s); also snapshots theta0.
+/* Dual update only: p += rho_k * sum_{s in use} (theta - theta_s); also snapshots theta0.
  * Returns the number of neighbours used. */
 uint32_t dinno_dual_update(dinno_node_t *n, float rho_k);
 
 /* Adds the gradient of <theta, p> + REG(theta) (strategy terms, weight rho_k) to the model's
- * gradient buffer, using theta0 and the slots as prepared by dinno_prepare(). Writes the
+ * gradient buffer, using theta0 and the neighbour sums as prepared by dinno_prepare(). Writes the
  * unweighted term values to reg_mu/reg_rho/dual_dot when non-NULL. */
 void dinno_prepare(dinno_node_t *n);
 void dinno_add_reg_grad(dinno_node_t *n, float rho_k, float *reg_mu, float *reg_rho,

@@ -11,6 +11,10 @@
 #include "common/crc32_slice8.h"
 #endif
 
+/* A third on x86-64 built with PCLMULQDQ: common/crc32_x86.c (the intrinsics stay in that
+ * per-ISA file). */
+#include "common/crc32_x86.h"
+
 static const uint32_t crc_nibble[16] = {
     0x00000000u, 0x1DB71064u, 0x3B6E20C8u, 0x26D930ACu, 0x76DC4190u, 0x6B6B51F4u,
     0x4DB26158u, 0x5005713Cu, 0xEDB88320u, 0xF00F9344u, 0xD6D6A3E8u, 0xCB61B38Cu,
@@ -21,6 +25,14 @@ uint32_t crc32_ieee_update(uint32_t crc, const void *data, size_t len)
 {
     const uint8_t *p = data;
     crc = ~crc;
+#ifdef CRC32_FOLD
+    if (len >= 64) {
+        const size_t whole = len & ~(size_t)15;
+        crc = crc32_fold(crc, p, whole);
+        p += whole;
+        len -= whole;
+    }
+#endif
 #if CRC32_SLICE8
     /* Eight bytes at a time (assembled little-endian byte by byte: any alignment, any CPU). */
     for (; len >= 8; p += 8, len -= 8) {

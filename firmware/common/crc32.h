@@ -1,7 +1,8 @@
 /* CRC-32 (IEEE 802.3: reflected polynomial 0xEDB88320, init and final xor 0xFFFFFFFF),
  * as used by zlib, PNG and Ethernet. crc32_ieee("123456789") == 0xCBF43926.
  * Table-driven (a 64-byte nibble table, or slicing by 8 with 8 KB of tables where the board
- * sets CRC32_SLICE8), no state, no allocation, thread-safe. */
+ * sets CRC32_SLICE8; carry-less multiply folding on x86-64 built with PCLMULQDQ), no state,
+ * no allocation, thread-safe. */
 #ifndef COMMON_CRC32_H
 #define COMMON_CRC32_H
 

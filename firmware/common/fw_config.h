@@ -88,6 +88,30 @@
 #define GP_CORE_LOG_ROUNDS 1024u
 #endif
 
+/* The model state the peers exchange, from the network preset (BNN_PRESET_*, set by the
+ * Makefile): its fp32 parameters and bytes. The GP core sizes its state buffers with it without
+ * knowing the network; the AI core checks it against the network (ai/ai_link.h). The count is
+ * ai/bnn.h's BNN_N_PARAMS for SIREN width S, Bayesian width H and L Bayesian layers:
+ * 3S + 2 (SH + H + (L - 1)(H^2 + H)) + H + 1. */
+#if defined(BNN_PRESET_PAPER)
+#define FW_STATE_S_ 256u
+#define FW_STATE_H_ 256u
+#define FW_STATE_L_ 4u
+#elif defined(BNN_PRESET_MCU)
+#define FW_STATE_S_ 64u
+#define FW_STATE_H_ 48u
+#define FW_STATE_L_ 3u
+#else
+#define FW_STATE_S_ 128u
+#define FW_STATE_H_ 64u
+#define FW_STATE_L_ 3u
+#endif
+#define FW_STATE_MAX_PARAMS                                                                    \
+    (3u * FW_STATE_S_ +                                                                        \
+     2u * (FW_STATE_S_ * FW_STATE_H_ + FW_STATE_H_ + (FW_STATE_L_ - 1u) * (FW_STATE_H_ * FW_STATE_H_ + FW_STATE_H_)) + \
+     FW_STATE_H_ + 1u)
+#define FW_STATE_MAX_BYTES (FW_STATE_MAX_PARAMS * 4u)
+
 /* ---- toolchain --------------------------------------------------------------------------- */
 /* The one check-return marker: a function that can fail (0 or a negative errno) carries it,
  * and the compiler makes every caller look at the result. */

@@ -8,7 +8,7 @@
 
 #include "hal/hal.h"
 
-_Static_assert(sizeof(gp_core_t) + FW_LINK_GP_BYTES <= BOARD_RAM_GP_BYTES,
+_Static_assert(sizeof(gp_core_t) + GP_LINK_BYTES <= BOARD_RAM_GP_BYTES,
                "GP core state and its links exceed the board's GP RAM");
 
 gp_core_cfg_t gp_core_default_cfg(void)
@@ -86,13 +86,13 @@ static void coordinate(gp_core_t *gp, uint64_t now_us)
          * AI core publish ckpt(k) over it (a mailbox keeps only the latest). */
         handle_ckpt(gp, now_us);
     }
-    /* The slots are the GP core's until ready(k) is published. */
-    dinno_slots_t *slots = gp->link->slots;
+    /* The neighbour view is the GP core's until ready(k) is published. */
+    dinno_nbrs_t *nbrs = gp->link->nbrs;
     int n = 0;
     if (gp->cfg.peers != NULL && gp->cfg.peers->exchange != NULL) {
         const ai_state_msg_t *st = mbox_read_buffer(gp->link->ai_state, NULL);
         const gp_exchange_req_t req = {gp->exchange_round, st->theta, st->n_params, gp->rt.x_m, gp->rt.y_m};
-        n = gp->cfg.peers->exchange(gp->cfg.peers_ctx, &req, slots);
+        n = gp->cfg.peers->exchange(gp->cfg.peers_ctx, &req, nbrs);
         if (n == -EAGAIN)
             return;
         if (n < 0) {
@@ -102,8 +102,10 @@ static void coordinate(gp_core_t *gp, uint64_t now_us)
             n = 0;
         }
     }
-    if (n == 0)
-        memset(slots->valid, 0, sizeof slots->valid);
+    if (n == 0) {
+        nbrs->count = 0;
+        nbrs->round = gp->exchange_round;
+    }
     uint32_t next = gp->exchange_round + 1u;
     if (gp->cfg.peers != NULL && gp->cfg.peers->next_round != NULL) {
         next = gp->cfg.peers->next_round(gp->cfg.peers_ctx, gp->exchange_round);

@@ -4,11 +4,11 @@
  * Each tick (default 10 Hz):
  *   - takes the latest RT and AI status (mailboxes);
  *   - round coordination (fw_link.h protocol): when the AI core published its state of
- *     round k, the GP core obtains the neighbours' states of round k into the fixed slots
- *     (fw_link_t.slots, one per neighbour, ascending id) and publishes ready(k). Who the neighbours are
+ *     round k, the GP core obtains the neighbours' states of round k as a view (fw_link_t.nbrs:
+ *     pointers to the states where they arrived, ascending id) and publishes ready(k). Who the neighbours are
  *     and how their states arrive is the `exchange` hook: NULL (no peers configured) means
  *     no neighbour, so the round completes locally at once; the multi-process fleet plugs in
- *     a hook that sends this robot's state over hal_net (Algorithm 1) and fills the slots
+ *     a hook that sends this robot's state over hal_net (Algorithm 1) and fills the view
  *     when every neighbour's state arrived (-EAGAIN until then; the GP core asks again on
  *     its next tick, the AI core keeps waiting without blocking anything);
  *   - the other peers hooks (gp_peers_ops_t, all optional): `service` every tick (the
@@ -31,9 +31,12 @@
 #include <stdatomic.h>
 #include <stdint.h>
 
+#include "ai/ai_link.h"
 #include "common/fw_core.h"
 #include "fw_link.h"
+#include "gp/gp_link.h"
 #include "gp/gp_telemetry.h"
+#include "rt/rt_link.h"
 
 /* GP_CORE_LOG_ROUNDS (round records kept: a ring of the latest) comes from common/fw_config.h. */
 
@@ -47,11 +50,12 @@ typedef struct gp_exchange_req {
 
 /* How the GP core reaches its peers. Every hook is optional; ctx is gp_core_cfg_t.peers_ctx. */
 typedef struct gp_peers_ops {
-    /* Fills slots with neighbour states of req->round (valid/round/theta per slot). Returns the
-     * number of neighbours (>= 0), -EAGAIN when the states are not all there yet (called again
+    /* Fills the view with the neighbour states of req->round (round, count, ascending ids, and
+     * pointers to n_params floats each that stay unchanged until the hook is called for the
+     * next round). Returns the number of neighbours (>= 0, == nbrs->count), -EAGAIN when the states are not all there yet (called again
      * next tick), or another negative code (the round then completes without neighbours and
      * the error is counted). NULL: no peers, every round is local. */
-    int (*exchange)(void *ctx, const gp_exchange_req_t *req, dinno_slots_t *slots);
+    int (*exchange)(void *ctx, const gp_exchange_req_t *req, dinno_nbrs_t *nbrs);
     /* The node update of `round` is over (its checkpoint arrived); final: it was the last. */
     void (*round_done)(void *ctx, uint32_t round, int final);
     /* Every tick: receive, answer the peers, resend. */

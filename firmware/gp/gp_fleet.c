@@ -2,6 +2,7 @@
 #include "gp/gp_fleet.h"
 
 #include <inttypes.h>
+#include <stdint.h>
 #include <errno.h>
 #include <math.h>
 #include <stdio.h>
@@ -26,11 +27,12 @@ gp_fleet_cfg_t gp_fleet_default_cfg(void)
     memset(&c, 0, sizeof c);
     c.n_peers = 1;
     c.rounds = 1;
-    c.encoding = GP_FLEET_FP32;
-    c.resend_after_us = 50000u;
-    c.peer_timeout_us = 10000000u;
-    c.join_timeout_us = 120000000u;
-    c.poll_us = 2000u;
+    c.encoding = GP_FLEET_ENCODING_DEFAULT;
+    c.chunk_bytes = GP_FLEET_CHUNK_BYTES_DEFAULT;
+    c.resend_after_us = GP_FLEET_RESEND_AFTER_US_DEFAULT;
+    c.peer_timeout_us = GP_FLEET_PEER_TIMEOUT_US_DEFAULT;
+    c.join_timeout_us = GP_FLEET_JOIN_TIMEOUT_US_DEFAULT;
+    c.poll_us = GP_FLEET_POLL_US_DEFAULT;
     return c;
 }
 
@@ -91,6 +93,7 @@ int gp_fleet_init(gp_fleet_t *f, const gp_fleet_cfg_t *cfg)
     f->state_bytes = gp_fleet_state_bytes(cfg->encoding);
     memset(&f->stats, 0, sizeof f->stats);
     f->final_done = 0;
+    f->view_filled = 0;
     f->have_cur = 0;
     atomic_store(&f->n_log, 0u);
     if (cfg->positions_from_tour) {
@@ -115,7 +118,7 @@ int gp_fleet_init(gp_fleet_t *f, const gp_fleet_cfg_t *cfg)
         .incarnation = cfg->incarnation,
         .burst = GP_FLEET_SEND_BURST,
     };
-    int r = gp_pse_init(&f->pse, &pc);
+    int r = gp_round_init(&f->drv, &pc, cfg->rounds);
     if (r != 0)
         return r;
     memset(&f->mark, 0, sizeof f->mark);
@@ -155,7 +158,7 @@ static void drain(gp_fleet_t *f)
             else if (c.sender == f->cfg.self)
                 f->stats.own_echoes++;
             else
-                (void)gp_pse_on_chunk(&f->pse, &c, now);
+                (void)gp_pse_on_chunk(&f->drv.pse, &c, now);
         } else if (strcmp(info.channel, f->channel[GP_FLEET_CH_DONE]) == 0) {
             gp_pse_done_t d;
             if (gp_wire_decode_done(f->rx, info.len, &d) != 0)
@@ -163,7 +166,7 @@ static void drain(gp_fleet_t *f)
             else if (d.sender == f->cfg.self)
                 f->stats.own_echoes++;
             else
-                (void)gp_pse_on_done(&f->pse, &d, now);
+                (void)gp_pse_on_done(&f->drv.pse, &d, now);
         } else if (strcmp(info.channel, f->channel[GP_FLEET_CH_REQUEST]) == 0) {
             gp_pse_request_t q;
             if (gp_wire_decode_request(f->rx, info.len, &q) != 0)
@@ -171,23 +174,22 @@ static void drain(gp_fleet_t *f)
             else if (q.requester == f->cfg.self)
                 f->stats.own_echoes++;
             else /* a request to another peer still tells where its sender is */
-                (void)gp_pse_on_request(&f->pse, &q, now);
+                (void)gp_pse_on_request(&f->drv.pse, &q, now);
         } else {
             f->stats.rx_undecodable++;
         }
     }
 }
 
-/* Receives and polls until cond holds. The protocol's timeouts end every wait; a board
- * without hal_net_wait gets -EAGAIN (the GP core asks again next tick). */
-static int wait_for(gp_fleet_t *f, int (*cond)(const gp_pse_t *))
+/* Receives and steps the driver until it has something to say. The protocol's timeouts end
+ * every wait; a board without hal_net_wait gets -EAGAIN (the GP core asks again next tick). */
+static int next_event(gp_fleet_t *f, gp_round_event_t *ev)
 {
     const uint64_t t0 = net_now();
     int rc = 0;
     for (;;) {
         drain(f);
-        gp_pse_poll(&f->pse, net_now());
-        if (cond(&f->pse))
+        if ((*ev = gp_round_step(&f->drv, net_now())) != GP_ROUND_WAIT)
             break;
         int r = hal_net_wait(f->cfg.poll_us);
         if (r != 0 && r != -EAGAIN) {
@@ -209,7 +211,7 @@ static void close_record(gp_fleet_t *f)
 {
     if (!f->have_cur)
         return;
-    const gp_pse_stats_t *s = &f->pse.stats;
+    const gp_pse_stats_t *s = &f->drv.pse.stats;
     gp_fleet_round_t *r = &f->cur;
     r->bytes_sent = DELTA(bytes_sent);
     r->bytes_received = DELTA(bytes_received);
@@ -263,28 +265,38 @@ static int encode_state(gp_fleet_t *f, const float *theta, uint32_t n_params)
     return r != 0 ? r : (written == f->state_bytes ? 0 : -EINVAL);
 }
 
-static int decode_state(gp_fleet_t *f, const uint8_t *bytes, float *theta)
+/* A neighbour's state of the round, in its reassembly buffer (handed out by gp_pse_neighbours,
+   so ours until the next round begins): fp32 is read where it arrived, int8 is expanded there
+   once, in place (the buffer holds a whole fp32 state; the row scales go to f->qscales). A
+   whole fp32 state in the buffer or none: -EBADMSG for a non-finite fp32 element or a bad
+   int8 scale (what the copy into the slots refused before). */
+static int decode_state(gp_fleet_t *f, const uint8_t *bytes, const float **theta)
 {
+    float *words = (float *)(uintptr_t)bytes; /* gp_pse_buf_t.words: the same storage */
     if (f->cfg.encoding == GP_FLEET_FP32) {
-        memcpy(theta, bytes, f->state_bytes);
         for (uint32_t i = 0; i < BNN_N_PARAMS; i++)
-            if (!isfinite(theta[i]))
+            if (!isfinite(words[i]))
                 return -EBADMSG;
-        return 0;
+    } else {
+        int r = bnn_quant_unpack_theta_inplace(&f->bnn, words, f->state_bytes, f->qscales, BNN_QUANT_MAX_ROWS);
+        if (r != 0)
+            return r;
     }
-    return bnn_quant_unpack_theta(&f->bnn, BNN_GROUP_ALL, bytes, f->state_bytes, theta);
+    *theta = words;
+    return 0;
 }
 
 /* ||theta - mean of the neighbours|| / ||mean||: how far this robot is from its neighbours. */
-static float disagreement(const float *theta, const dinno_slots_t *slots, uint32_t n)
+static float disagreement(const float *theta, const dinno_nbrs_t *nbrs)
 {
+    const uint32_t n = nbrs->count;
     if (n == 0)
         return NAN;
     double num = 0.0, den = 0.0;
     for (uint32_t p = 0; p < BNN_N_PARAMS; p++) {
         double m = 0.0;
         for (uint32_t j = 0; j < n; j++)
-            m += slots->theta[j][p];
+            m += nbrs->theta[j][p];
         m /= (double)n;
         const double d = (double)theta[p] - m;
         num += d * d;
@@ -293,114 +305,103 @@ static float disagreement(const float *theta, const dinno_slots_t *slots, uint32
     return den > 0.0 ? (float)sqrt(num / den) : 0.0f;
 }
 
-static int finished_cond(const gp_pse_t *p)
+/* Round k's neighbour states are all there: points the view at them, in ascending robot id
+   (the order the in-process fleet uses, so DiNNO's sums run in the same order), decoded once
+   and not copied. A state that does not decode is left out and counted, as before. Returns
+   the number of neighbours. */
+static int fill_slots(gp_fleet_t *f, uint32_t round, const float *own_theta, dinno_nbrs_t *out)
 {
-    return !p->in_round || gp_pse_round_finished(p);
-}
-
-static int fleet_exchange(void *ctx, const gp_exchange_req_t *req, dinno_slots_t *slots)
-{
-    gp_fleet_t *f = ctx;
-    gp_pse_t *p = &f->pse;
-    if (p->in_round && p->round >= req->round) {
-        if (p->round != req->round)
-            return -EINVAL;
-        /* Round k already begun: a previous call waited and came back (no hal_net_wait). */
-    } else {
-        if (p->in_round && !p->completed && gp_pse_complete(p, net_now()) != 0)
-            return -EINVAL;
-        if (wait_for(f, finished_cond) != 0)
-            return -EAGAIN;
-        close_record(f);
-        int r = encode_state(f, req->theta, req->n_params);
-        if (r != 0)
-            return r;
-        double x = req->x_m, y = req->y_m;
-        if (f->cfg.positions_from_tour &&
-            rt_path_point_frac(f->tour, f->cfg.n_tour, req->round, f->cfg.rounds, &x, &y) != 0)
-            return -EINVAL;
-        f->mark = p->stats;
-        memset(&f->cur, 0, sizeof f->cur);
-        f->cur.round = req->round;
-        f->cur.disagreement = NAN;
-        f->cur_started_us = net_now();
-        f->have_cur = 1;
-        if ((r = gp_pse_begin_round(p, req->round, f->mine, x, y, net_now())) != 0)
-            return r;
-    }
-    if (wait_for(f, gp_pse_states_ready) != 0)
-        return -EAGAIN;
+    /* Asked again for the round whose view was filled (the GP core could not publish ready
+       and comes back): the view still points at the same states, and an int8 state must not
+       be expanded twice. */
+    if (f->view_filled && out->round == round)
+        return (int)out->count;
     uint32_t ids[GP_PSE_MAX_NEIGHBOURS];
     const uint8_t *states[GP_PSE_MAX_NEIGHBOURS];
-    const uint32_t n = gp_pse_neighbours(p, ids, states);
-    memset(slots->valid, 0, sizeof slots->valid);
-    /* Slots 0 .. k-1 in ascending robot id: the order the in-process fleet fills them in, so
-       DiNNO's sums over them run in the same order. */
+    const uint32_t n = gp_pse_neighbours(&f->drv.pse, ids, states);
     uint32_t k = 0;
     for (uint32_t j = 0; j < n && k < DINNO_MAX_PEERS; j++) {
-        if (decode_state(f, states[j], slots->theta[k]) != 0) {
+        if (decode_state(f, states[j], &out->theta[k]) != 0) {
             f->stats.decode_failures++;
             continue;
         }
-        slots->valid[k] = 1;
-        slots->round[k] = req->round;
-        slots->id[k] = ids[j];
+        out->id[k] = ids[j];
         k++;
     }
+    out->round = round;
+    out->count = k;
     f->cur.neighbours = k;
-    f->cur.disagreement = disagreement(req->theta, slots, k);
+    f->cur.disagreement = disagreement(own_theta, out);
+    f->view_filled = 1;
     return (int)k;
+}
+
+/* Round k began for us: a new record, our state encoded (our buffer of round k - 1 is free now,
+   the driver said so) and sent with our position of round k. */
+static int begin(gp_fleet_t *f, const gp_exchange_req_t *req)
+{
+    close_record(f);
+    int r = encode_state(f, req->theta, req->n_params);
+    if (r != 0)
+        return r;
+    double x = req->x_m, y = req->y_m;
+    if (f->cfg.positions_from_tour &&
+        rt_path_point_frac(f->tour, f->cfg.n_tour, req->round, f->cfg.rounds, &x, &y) != 0)
+        return -EINVAL;
+    f->mark = f->drv.pse.stats;
+    memset(&f->cur, 0, sizeof f->cur);
+    f->cur.round = req->round;
+    f->cur.disagreement = NAN;
+    f->cur_started_us = net_now();
+    f->have_cur = 1;
+    f->view_filled = 0;
+    return gp_round_begin(&f->drv, f->mine, x, y, net_now());
+}
+
+static int fleet_exchange(void *ctx, const gp_exchange_req_t *req, dinno_nbrs_t *slots)
+{
+    gp_fleet_t *f = ctx;
+    int r = gp_round_want(&f->drv, req->round, net_now());
+    if (r != 0)
+        return r;
+    for (gp_round_event_t ev;;) {
+        if (next_event(f, &ev) != 0)
+            return -EAGAIN;
+        if (ev == GP_ROUND_READY)
+            break;
+        if (ev != GP_ROUND_BEGIN)
+            return -EINVAL;
+        if ((r = begin(f, req)) != 0)
+            return r;
+    }
+    return fill_slots(f, req->round, req->theta, slots);
 }
 
 static void fleet_round_done(void *ctx, uint32_t round, int final)
 {
     gp_fleet_t *f = ctx;
-    gp_pse_t *p = &f->pse;
-    if (!p->in_round || p->round != round || p->completed)
+    if (gp_round_node_done(&f->drv, round, final, net_now()) != 0 || !final)
         return;
-    if (gp_pse_complete(p, net_now()) != 0)
-        return;
-    if (final) {
-        /* Stay until every peer finished the last round: one of them may still need our state.
-           Then linger as a leaver (gp_pse_leave: "I am past the last round", which ends the
-           wait of a peer that missed our RoundComplete), answering requests, until every peer
-           was heard leaving too and two resend periods passed, or a peer timeout at most. */
-        (void)wait_for(f, finished_cond);
-        const uint64_t t0 = net_now(), grace = t0 + 2u * (uint64_t)f->cfg.resend_after_us,
-                       cap = t0 + (uint64_t)f->cfg.peer_timeout_us;
-        gp_pse_leave(p, t0);
-        for (uint64_t now; (now = net_now()) < cap && (now < grace || !gp_pse_all_left(p));) {
-            drain(f);
-            gp_pse_poll(p, now);
-            int r = hal_net_wait(f->cfg.poll_us);
-            if (r != 0 && r != -EAGAIN)
-                break;
-        }
-        close_record(f);
-        f->final_done = 1;
+    /* The last round: stay until the fleet no longer needs us (gp_round.h), within the
+       protocol's timeouts. */
+    gp_round_event_t ev;
+    while (next_event(f, &ev) == 0 && ev != GP_ROUND_DONE) {
     }
+    close_record(f);
+    f->final_done = 1;
 }
 
 static uint32_t fleet_next_round(void *ctx, uint32_t round)
 {
     gp_fleet_t *f = ctx;
-    const uint32_t next = gp_pse_next_round(&f->pse, net_now());
-    const uint32_t last = f->cfg.rounds - 1u;
-    /* Behind the fleet (paused, restarted, cut off): skip to where the live peers are, never
-       past our last round. Never happens when nothing failed (a peer is then one round ahead
-       at most), so the models of a lossless run stay the reference's. */
-    if (next <= round + 1u || round >= last)
-        return round + 1u;
-    if (next > last)
-        return last;
-    return next;
+    return gp_round_next_round(&f->drv, round, net_now());
 }
 
 static void fleet_service(void *ctx)
 {
     gp_fleet_t *f = ctx;
     drain(f);
-    gp_pse_poll(&f->pse, net_now());
+    gp_pse_poll(&f->drv.pse, net_now());
 }
 
 const gp_peers_ops_t gp_fleet_peers_ops = {

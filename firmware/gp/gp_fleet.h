@@ -10,23 +10,30 @@
  * inside one tick (hal_net_wait). So a round costs no simulated time for the network, and the
  * simulated timeline of every robot is the same however fast the other processes run.
  *
- * A round k as the GP core drives it:
- *   exchange(k)     (AI published state(k)) wait until round k-1 finished for everyone, encode
- *                   our state (fp32, or int8 with per-row scales: bnn_quant), send it with our
- *                   position of round k (offline: the point at fraction k / rounds of the tour,
- *                   as the in-process reference; online: the robot's pose), wait until every
- *                   peer's state of k arrived or the peer left, decode the neighbours' states
- *                   (disk radius on the carried positions, or every peer) into the slots;
- *   round_done(k)   (AI's checkpoint of k) RoundComplete(k); after the last round, wait until
- *                   everyone finished it (or left), so that no peer still needs our state;
+ * A round k as the GP core drives it: the round's logic (when to begin, when the states are
+ * there, the skip-ahead, leaving after the last round) is the I/O-free driver gp_round, the
+ * one the protocol simulation runs; this file only feeds it and waits:
+ *   exchange(k)     (AI published state(k)) gp_round_want(k), then receive and step the driver
+ *                   (waiting at most poll_us at a time) until it says BEGIN: encode our state
+ *                   (fp32, or int8 with per-row scales: bnn_quant) and begin with our position
+ *                   of round k (offline: the point at fraction k / rounds of the tour, as the
+ *                   in-process reference; online: the robot's pose); then until READY: point
+ *                   the view at the neighbours' states (disk radius on the carried positions,
+ *                   or every peer) where gp_pse reassembled them: fp32 read in place, int8
+ *                   expanded in place once (only the row scales need room of their own:
+ *                   qscales);
+ *   round_done(k)   (AI's checkpoint of k) gp_round_node_done; after the last round, receive
+ *                   and step until the driver says DONE (every peer finished, we left);
+ *   next_round(k)   the driver's skip-ahead;
  *   service()       every tick: receive, answer resend requests, resend ours.
  * The waits end by the protocol's timeouts: a peer silent too long leaves the round.
  *
  * Per-round records (traffic, waiting time, neighbours, disagreement) go into a ring the host
  * reads between lockstep slices, like the GP core's round log.
  *
- * Storage: gp_fleet_t is static (the image declares it); sized from BOARD_MAX_FLEET,
- * BOARD_MAX_PEERS, the preset
+ * Storage: gp_fleet_t is static (the image owns it: fw_robot_fleet()); sized from
+ * BOARD_MAX_FLEET (the largest fleet), BOARD_MAX_PEERS (the neighbours one round takes in), the
+ * preset
  * and the board's datagram. No allocation. Little-endian boards (fp32 states travel as raw
  * IEEE-754 little-endian words). */
 #ifndef GP_GP_FLEET_H
@@ -36,8 +43,10 @@
 #include <stdint.h>
 
 #include "ai/bnn.h"
+#include "ai/bnn_quant.h"
 #include "gp/gp_core.h"
 #include "gp/gp_pse.h"
+#include "gp/gp_round.h"
 #include "hal/hal_net.h"
 #include "rt/rt_follow.h"
 
@@ -50,6 +59,21 @@
 #define GP_FLEET_MAX_TOUR RT_CORE_MAX_WAYPOINTS
 
 typedef enum gp_fleet_encoding { GP_FLEET_FP32 = 0, GP_FLEET_INT8 = 1 } gp_fleet_encoding_t;
+
+/* The protocol's defaults (gp_fleet_default_cfg), named once: host_sim run's options start from
+ * them and `host_sim defaults` prints them for the launchers (tools/fleet). 10 s / 50 ms: a live
+ * peer speaks at least once per resend period, so it is not timed out for a few lost datagrams;
+ * 120 s before a peer is first heard: the others may still be starting up (offline: driving
+ * their tours first). */
+#define GP_FLEET_ENCODING_DEFAULT GP_FLEET_FP32
+#define GP_FLEET_RESEND_AFTER_US_DEFAULT 50000u     /* 50 ms */
+#define GP_FLEET_PEER_TIMEOUT_US_DEFAULT 10000000u  /* 10 s */
+#define GP_FLEET_JOIN_TIMEOUT_US_DEFAULT 120000000u /* 120 s */
+#define GP_FLEET_POLL_US_DEFAULT 2000u              /* 2 ms */
+#define GP_FLEET_CHUNK_BYTES_DEFAULT 0u             /* 0: GP_PSE_MAX_CHUNK_BYTES */
+_Static_assert(GP_FLEET_PEER_TIMEOUT_US_DEFAULT > 2u * GP_FLEET_RESEND_AFTER_US_DEFAULT,
+               "a live peer speaks once per resend period: the timeout must exceed two");
+_Static_assert(GP_FLEET_JOIN_TIMEOUT_US_DEFAULT >= GP_FLEET_PEER_TIMEOUT_US_DEFAULT, "gp_pse's check");
 typedef enum gp_fleet_channel { GP_FLEET_CH_STATE = 0, GP_FLEET_CH_DONE = 1, GP_FLEET_CH_REQUEST = 2 } gp_fleet_channel_t;
 
 typedef struct gp_fleet_cfg {
@@ -60,10 +84,10 @@ typedef struct gp_fleet_cfg {
     gp_fleet_encoding_t encoding;
     uint32_t incarnation;
     uint32_t chunk_bytes;            /* 0: GP_PSE_MAX_CHUNK_BYTES */
-    uint32_t resend_after_us;        /* ask again for missing chunks (default 50 ms) */
-    uint32_t peer_timeout_us;        /* a silent peer leaves the round (default 10 s) */
-    uint32_t join_timeout_us;        /* the same before a peer was ever heard (default 120 s) */
-    uint32_t poll_us;                /* longest single hal_net_wait (default 2 ms) */
+    uint32_t resend_after_us;        /* ask again for missing chunks (GP_FLEET_RESEND_AFTER_US_DEFAULT) */
+    uint32_t peer_timeout_us;        /* a silent peer leaves the round (GP_FLEET_PEER_TIMEOUT_US_DEFAULT) */
+    uint32_t join_timeout_us;        /* the same before a peer was ever heard (..._JOIN_TIMEOUT_...) */
+    uint32_t poll_us;                /* longest single hal_net_wait (GP_FLEET_POLL_US_DEFAULT) */
     int positions_from_tour;         /* 1: round k at fraction k / rounds of the tour (offline);
                                         0: the robot's pose when the round starts (online) */
     const rt_waypoint_t *tour;       /* copied; needed with positions_from_tour */
@@ -98,10 +122,11 @@ typedef struct gp_fleet_stats {
 typedef struct gp_fleet {
     gp_fleet_cfg_t cfg;
     bnn_config_t bnn;
-    gp_pse_t pse;
+    gp_round_t drv;                  /* the round driver and the protocol inside it */
     gp_fleet_stats_t stats;
     uint32_t state_bytes;
     int final_done;
+    int view_filled;                 /* the neighbour view holds the states of the round begun */
     char channel[3][HAL_NET_CHANNEL_MAX];
     gp_pse_stats_t mark;             /* pse counters when the current record began */
     gp_fleet_round_t cur;            /* the record of the round in progress */
@@ -110,11 +135,13 @@ typedef struct gp_fleet {
     _Atomic uint32_t n_log;
     gp_fleet_round_t log[GP_FLEET_LOG_ROUNDS];
     rt_waypoint_t tour[GP_FLEET_MAX_TOUR];
+    float qscales[BNN_QUANT_MAX_ROWS]; /* an int8 state's row scales while it expands in place */
     _Alignas(64) uint8_t mine[GP_PSE_MAX_STATE_BYTES];
     _Alignas(64) uint8_t tx[HAL_NET_MTU_BYTES];
     _Alignas(64) uint8_t rx[HAL_NET_MTU_BYTES];
 } gp_fleet_t;
 
+/* One robot alone, round 1, the GP_FLEET_*_DEFAULT encoding and timings. */
 gp_fleet_cfg_t gp_fleet_default_cfg(void);
 
 /* The channel name of `which` for fleet `fleet_id` into buf. 0 or -EINVAL. */

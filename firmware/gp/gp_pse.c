@@ -57,7 +57,7 @@ int gp_pse_init(gp_pse_t *p, const gp_pse_cfg_t *c)
     p->cfg = *c;
     p->n_chunks = (c->state_bytes + c->chunk_bytes - 1u) / c->chunk_bytes;
     p->round = 0;
-    p->in_round = p->completed = p->later_heard = p->ready_noted = p->leaving = 0;
+    p->in_round = p->completed = p->later_heard = p->ready_noted = p->leaving = p->taken = 0;
     p->sent_us = 0;
     p->mine = NULL;
     p->x_m = p->y_m = 0.0;
@@ -278,6 +278,7 @@ int gp_pse_begin_round(gp_pse_t *p, uint32_t round, const uint8_t *state, double
     p->completed = 0;
     p->later_heard = 0;
     p->ready_noted = 0;
+    p->taken = 0; /* round k-1's buffers are free again (gp_pse.h, the handed-out buffers) */
     p->round_start_us = now_us;
     p->mine = state;
     p->my_crc32 = crc32_ieee(state, p->cfg.state_bytes);
@@ -322,8 +323,8 @@ static void peer_restarted(gp_pse_t *p, uint32_t i, uint64_t now_us)
     q->has_round = q->has_done = 0;
     q->has_pos[0] = q->has_pos[1] = 0;
     for (uint32_t par = 0; par < 2u; par++)
-        if (p->near[par].valid) /* the next nearest takes its place */
-            near_rank(p, p->near[par].round, now_us);
+        if (p->near[par].valid && !(p->taken && p->near[par].round == p->round)) /* the next nearest takes its place */
+            near_rank(p, p->near[par].round, now_us); /* (a handed-out round stays as it is) */
     p->stats.restarts++;
 }
 
@@ -410,6 +411,19 @@ int gp_pse_on_chunk(gp_pse_t *p, const gp_pse_chunk_t *c, uint64_t now_us)
     if (!p->near[par].valid || p->near[par].round != c->round)
         near_reset(p, c->round); /* the first of this round: the list of round - 2 is done */
     gp_pse_peer_t *q = &p->peer[c->sender];
+    if (p->taken && c->round == p->round) {
+        /* Round k's states were handed out (gp_pse.h): its buffers are the caller's until round
+           k + 1 begins. The chunk still places its sender (no request for its position goes
+           out), but neither ranks the round again nor reaches a buffer. */
+        if (!pos_known(q, c->round)) {
+            q->x_m[par] = c->x_m;
+            q->y_m[par] = c->y_m;
+            q->pos_round[par] = c->round;
+            q->has_pos[par] = 1;
+        }
+        p->stats.after_taken++;
+        return -EALREADY;
+    }
     int moved = 0;
     if (!pos_known(q, c->round)) {
         q->x_m[par] = c->x_m;
@@ -684,11 +698,12 @@ int gp_pse_states_ready(const gp_pse_t *p)
     return 1;
 }
 
-uint32_t gp_pse_neighbours(const gp_pse_t *p, uint32_t ids[GP_PSE_MAX_NEIGHBOURS],
+uint32_t gp_pse_neighbours(gp_pse_t *p, uint32_t ids[GP_PSE_MAX_NEIGHBOURS],
                            const uint8_t *states[GP_PSE_MAX_NEIGHBOURS])
 {
     if (!p->in_round)
         return 0;
+    p->taken = 1; /* from here until begin_round(k + 1), round k's buffers are frozen */
     /* The list is by distance; the caller gets ascending ids (DiNNO sums its slots in that
        order, as the in-process fleet does). */
     const gp_pse_nearest_t *nr = &p->near[p->round & 1u];

@@ -25,7 +25,9 @@
  *   gp_pse_neighbours()  the peers whose round-k position is within radius_m of ours (the same
  *                 test as dinno_graph_disk), or all of them with radius_m <= 0, the nearest
  *                 GP_PSE_MAX_NEIGHBOURS of them when there are more (ties by id): it depends on
- *                 the positions only, never on arrival times;
+ *                 the positions only, never on arrival times. It hands out the reassembly
+ *                 buffers themselves, and from then on round k's states are frozen (the
+ *                 contract below);
  *   gp_pse_complete(now)  after the node update: RoundComplete(k) goes out (and again every
  *                 resend_after_us until the next round begins);
  *   gp_pse_round_finished()  every peer in the round completed k, or a later round was heard;
@@ -57,6 +59,17 @@
  * ready when every live peer's position of the round is known and every listed peer
  * delivered. A peer never heard in the round is asked for its chunk 0 (its position).
  *
+ * The handed-out buffers (the contract the zero-copy path rests on): the state buffers
+ * gp_pse_neighbours() returns for round k are not written by gp_pse (no eviction by a nearer
+ * peer heard late, no re-ranking after a restart or a moved position, no duplicate or late
+ * chunk, no re-use for another round) until the caller begins round k + 1 with
+ * gp_pse_begin_round(). Until then chunks of round k are still validated and tell where and
+ * in which round their sender is (liveness is unchanged), but their bytes are dropped
+ * (stats.after_taken). In exchange the caller may rewrite a handed-out buffer in place (the
+ * GP core expands an int8 state to fp32 there: every buffer holds GP_PSE_MAX_STATE_BYTES and
+ * is 64-byte aligned, readable as floats) and must be done with it before it begins k + 1.
+ * Round k + 1's chunks go to the other pool meanwhile.
+ *
  * Memory: everything is inside gp_pse_t (static in the image): a table of GP_PSE_MAX_FLEET
  * peers (about 80 bytes each) and a pool of 2 x GP_PSE_MAX_NEIGHBOURS state buffers of the
  * preset's state size; no allocation. One thread (the GP core). */
@@ -66,13 +79,12 @@
 #include <stddef.h>
 #include <stdint.h>
 
-#include "ai/bnn.h"
 
 /* Fleet ids 0 .. GP_PSE_MAX_FLEET - 1; states kept per round: GP_PSE_MAX_NEIGHBOURS (the board's
  * neighbour slots, which DiNNO's slots match). */
 #define GP_PSE_MAX_FLEET BOARD_MAX_FLEET
 #define GP_PSE_MAX_NEIGHBOURS BOARD_MAX_PEERS
-#define GP_PSE_MAX_STATE_BYTES ((uint32_t)BNN_N_PARAMS * 4u) /* the fp32 parameters of the preset */
+#define GP_PSE_MAX_STATE_BYTES ((uint32_t)FW_STATE_MAX_BYTES) /* the fp32 state of the preset (fw_config.h) */
 #define GP_PSE_MIN_CHUNK_BYTES 1024u
 /* A chunk and its header (GP_PSE_CHUNK_HEADER_ROOM bytes at most) fit one datagram of the
  * board, and 60 KB at most (LCM's UDP multicast drops larger messages). */
@@ -158,6 +170,7 @@ typedef struct gp_pse_stats {
     uint64_t rounds_skipped;    /* rounds jumped over to catch up with the fleet */
     uint64_t not_nearest;       /* chunks of peers beyond the radius or the nearest: position noted */
     uint64_t evictions;         /* states given up for a nearer peer's (its chunks came later) */
+    uint64_t after_taken;       /* chunks of a round whose states were handed out: not stored */
 } gp_pse_stats_t;
 
 /* One state being reassembled: a slot of the buffer pool, owned by one of the nearest peers of
@@ -170,8 +183,12 @@ typedef struct gp_pse_buf {
     uint64_t progress_us;       /* last chunk or request: when to ask again */
     uint32_t backoff;           /* requests since its last chunk (the wait doubles, see below) */
     uint8_t have[GP_PSE_MAX_CHUNKS]; /* GP_PSE_HAVE, GP_PSE_ASKED (missing, asked for) or 0 */
-    _Alignas(64) uint8_t bytes[GP_PSE_MAX_STATE_BYTES];
+    union { /* the state as it arrived (bytes), or as fp32 words once handed out (see above) */
+        _Alignas(64) uint8_t bytes[GP_PSE_MAX_STATE_BYTES];
+        float words[GP_PSE_MAX_STATE_BYTES / 4u];
+    };
 } gp_pse_buf_t;
+_Static_assert(GP_PSE_MAX_STATE_BYTES % 4u == 0u, "a state buffer holds whole fp32 words");
 
 /* A request that brought nothing doubles the wait before the next one to the same peer, up to
  * 2^GP_PSE_BACKOFF_MAX resend periods (400 ms with the defaults, far inside a peer timeout):
@@ -215,6 +232,7 @@ typedef struct gp_pse {
     uint32_t n_chunks;          /* of every state */
     uint32_t round;             /* k */
     int in_round, completed, later_heard, ready_noted, leaving;
+    int taken;                  /* round k's states were handed out: frozen until round k + 1 */
     uint64_t round_start_us, completed_us, done_sent_us, sent_us;
     const uint8_t *mine;
     uint32_t next_send;         /* our next chunk not sent yet this round (the send window) */
@@ -249,8 +267,11 @@ void gp_pse_poll(gp_pse_t *pse, uint64_t now_us);
 int gp_pse_states_ready(const gp_pse_t *pse);
 
 /* The neighbours of round k (after states_ready): the nearest peers within the radius whose
- * states arrived, at most GP_PSE_MAX_NEIGHBOURS, in ascending id order. Returns the count. */
-uint32_t gp_pse_neighbours(const gp_pse_t *pse, uint32_t ids[GP_PSE_MAX_NEIGHBOURS],
+ * states arrived, at most GP_PSE_MAX_NEIGHBOURS, in ascending id order, with their reassembly
+ * buffers (state_bytes each). Returns the count. From this call until gp_pse_begin_round(k + 1)
+ * those buffers are the caller's: gp_pse writes none of round k's buffers (see above); a
+ * second call in the round returns the same buffers. */
+uint32_t gp_pse_neighbours(gp_pse_t *pse, uint32_t ids[GP_PSE_MAX_NEIGHBOURS],
                            const uint8_t *states[GP_PSE_MAX_NEIGHBOURS]);
 
 /* Our node update of round k is done: RoundComplete(k) goes out. 0 or -EINVAL. */

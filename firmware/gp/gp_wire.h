@@ -1,8 +1,11 @@
-/* The fleet's messages (the .lcm files of firmware/msg) in LCM's wire format, written and read
- * by hand so that the firmware never runs generated code on bytes from the network: an 8-byte
- * big-endian
- * type fingerprint (the one lcm-gen computes; tests/gp/test_gp_wire.c checks it), then the
- * fields big-endian in declaration order, arrays as their elements.
+/* The fleet's messages (the .lcm files of firmware/msg) in LCM's wire format, read and written
+ * by the firmware's own code so that it never runs generated code on bytes from the network: an
+ * 8-byte big-endian type fingerprint (the one lcm-gen computes; tests/gp/test_gp_wire.c checks
+ * it), then the fields big-endian in declaration order, arrays as their elements. The layouts
+ * and fingerprints come from the .lcm files themselves (tools/lcmgen.py writes them into the
+ * build folder as msg/msg_layout.h): gp_wire.c walks those field tables, so a field declared
+ * in a .lcm file is encoded and decoded with no edit here, given a member of the same name in
+ * the gp_pse struct (or a MSG_<TYPE>_MEMBER_<field> mapping below).
  *
  * Decoders validate everything against the datagram's own length and the compile-time maxima
  * before they write their output: the fingerprint, every length field (non-negative, within
@@ -18,14 +21,19 @@
 
 #include "gp/gp_pse.h"
 
-#define GP_WIRE_FP_STATE_CHUNK 0xdf65602b2d04bf15ull
-#define GP_WIRE_FP_ROUND_COMPLETE 0x9ec25daeb3a35535ull
-#define GP_WIRE_FP_CHUNK_REQUEST 0x2765123cb5b82f65ull
+/* gp_pse_request_t calls chunk_request_t's n_chunks `n`; every other field is its member's name. */
+#define MSG_CHUNK_REQUEST_MEMBER_n_chunks n
+#include "msg/msg_layout.h"
 
-/* Bytes of each message on the wire. */
-#define GP_WIRE_CHUNK_HEADER_BYTES (8u + 8u * 4u + 1u + 2u * 8u)
-#define GP_WIRE_DONE_BYTES (8u + 3u * 4u)
-#define GP_WIRE_REQUEST_BYTES(n) (8u + 5u * 4u + 4u * (uint32_t)(n))
+#define GP_WIRE_FP_STATE_CHUNK MSG_STATE_CHUNK_FINGERPRINT
+#define GP_WIRE_FP_ROUND_COMPLETE MSG_ROUND_COMPLETE_FINGERPRINT
+#define GP_WIRE_FP_CHUNK_REQUEST MSG_CHUNK_REQUEST_FINGERPRINT
+
+/* Bytes of each message on the wire: a chunk's header (its data follows), a RoundComplete, a
+ * request naming n chunks (4 bytes each: gp_wire.c checks the element size). */
+#define GP_WIRE_CHUNK_HEADER_BYTES MSG_STATE_CHUNK_FIXED_BYTES
+#define GP_WIRE_DONE_BYTES MSG_ROUND_COMPLETE_FIXED_BYTES
+#define GP_WIRE_REQUEST_BYTES(n) (MSG_CHUNK_REQUEST_FIXED_BYTES + 4u * (uint32_t)(n))
 
 /* Writes the message into buf: its length, or -EMSGSIZE when cap is too small. */
 int gp_wire_encode_chunk(const gp_pse_chunk_t *c, uint8_t *buf, size_t cap);

@@ -21,6 +21,7 @@
 
 #include "common/fw_core.h"
 #include "fw_link.h"
+#include "rt/rt_link.h"
 #include "hal/hal_lidar.h"
 #include "rt/rt_follow.h"
 #include "rt/rt_samples.h"

@@ -10,8 +10,10 @@
 #include <sys/stat.h>
 #include <unistd.h>
 
-_Static_assert(HAL_HOST_AUTH_TAG_BYTES >= crypto_generichash_BYTES_MIN &&
-                   HAL_HOST_AUTH_TAG_BYTES <= crypto_generichash_BYTES_MAX, "tag size");
+_Static_assert(HAL_HOST_AUTH_TAG_BYTES == crypto_aead_xchacha20poly1305_ietf_ABYTES, "tag size");
+_Static_assert(HAL_HOST_AUTH_NONCE_BYTES == crypto_aead_xchacha20poly1305_ietf_NPUBBYTES, "nonce size");
+_Static_assert(crypto_aead_xchacha20poly1305_ietf_KEYBYTES >= crypto_generichash_BYTES_MIN &&
+                   crypto_aead_xchacha20poly1305_ietf_KEYBYTES <= crypto_generichash_BYTES_MAX, "channel key size");
 _Static_assert(crypto_generichash_KEYBYTES == HAL_HOST_AUTH_KEY_BYTES, "key size");
 
 #define KEY_HEX (2u * HAL_HOST_AUTH_KEY_BYTES)
@@ -115,25 +117,36 @@ static uint64_t get_be64(const uint8_t *p)
     return v;
 }
 
-/* tag = BLAKE2b-256 keyed (key, channel | 0 | message | run id bytes) */
-static void tag_of(const uint8_t *key, const char *channel, const void *msg, size_t len, const uint8_t *run_id,
-                   uint8_t *tag)
+/* The channel's own key: BLAKE2b-256(key; channel | 0x00). A tag made under one channel's
+ * key says nothing under another's, so a message cannot move to another channel. */
+static void channel_key(const uint8_t *key, const char *channel, uint8_t *out)
 {
-    crypto_generichash_state st;
-    (void)crypto_generichash_init(&st, key, HAL_HOST_AUTH_KEY_BYTES, HAL_HOST_AUTH_TAG_BYTES);
-    (void)crypto_generichash_update(&st, (const unsigned char *)channel, strlen(channel) + 1u);
-    if (len > 0)
-        (void)crypto_generichash_update(&st, msg, len);
-    (void)crypto_generichash_update(&st, run_id, HAL_HOST_AUTH_RUN_ID_BYTES);
-    (void)crypto_generichash_final(&st, tag, HAL_HOST_AUTH_TAG_BYTES);
-    sodium_memzero(&st, sizeof st);
+    (void)crypto_generichash(out, crypto_aead_xchacha20poly1305_ietf_KEYBYTES, (const unsigned char *)channel,
+                             strlen(channel) + 1u, key, HAL_HOST_AUTH_KEY_BYTES);
 }
 
-void hal_host_auth_seal(const hal_host_auth_t *a, const char *channel, const void *msg, size_t len,
-                        uint8_t *trailer)
+/* tag = XChaCha20-Poly1305 (channel key, nonce) over no plaintext with `signed_part` (the
+ * message and the run id, contiguous on the wire) as its associated data. */
+static void tag_of(const uint8_t *key, const char *channel, const uint8_t *signed_part, size_t len,
+                   const uint8_t *nonce, uint8_t *tag)
 {
+    uint8_t ck[crypto_aead_xchacha20poly1305_ietf_KEYBYTES];
+    channel_key(key, channel, ck);
+    unsigned long long tag_len = 0;
+    uint8_t none[1] = {0}; /* the empty ciphertext's place (libsodium wants a pointer) */
+    (void)crypto_aead_xchacha20poly1305_ietf_encrypt_detached(none, tag, &tag_len, none, 0, signed_part, len, NULL,
+                                                              nonce, ck);
+    sodium_memzero(ck, sizeof ck);
+}
+
+void hal_host_auth_seal(const hal_host_auth_t *a, const char *channel, uint8_t *wire, size_t len)
+{
+    /* The run id continues the message, and the two are signed as one run of bytes. */
+    uint8_t *trailer = wire + len;
     put_be64(trailer, a->run_id);
-    tag_of(a->key, channel, msg, len, trailer, trailer + HAL_HOST_AUTH_RUN_ID_BYTES);
+    uint8_t *nonce = trailer + HAL_HOST_AUTH_RUN_ID_BYTES;
+    randombytes_buf(nonce, HAL_HOST_AUTH_NONCE_BYTES);
+    tag_of(a->key, channel, wire, len + HAL_HOST_AUTH_RUN_ID_BYTES, nonce, nonce + HAL_HOST_AUTH_NONCE_BYTES);
 }
 
 hal_host_auth_verdict_t hal_host_auth_open(const hal_host_auth_t *a, const char *channel, const void *wire,
@@ -143,9 +156,15 @@ hal_host_auth_verdict_t hal_host_auth_open(const hal_host_auth_t *a, const char 
         return HAL_HOST_AUTH_SHORT;
     const size_t len = wire_len - HAL_HOST_AUTH_TRAILER_BYTES;
     const uint8_t *trailer = (const uint8_t *)wire + len;
-    uint8_t tag[HAL_HOST_AUTH_TAG_BYTES];
-    tag_of(a->key, channel, wire, len, trailer, tag);
-    if (crypto_verify_32(tag, trailer + HAL_HOST_AUTH_RUN_ID_BYTES) != 0)
+    const uint8_t *nonce = trailer + HAL_HOST_AUTH_RUN_ID_BYTES;
+    uint8_t ck[crypto_aead_xchacha20poly1305_ietf_KEYBYTES];
+    channel_key(a->key, channel, ck);
+    /* Checks the tag in constant time; no plaintext, so nothing is written. */
+    uint8_t none[1] = {0}; /* the empty plaintext's and ciphertext's place */
+    const int bad = crypto_aead_xchacha20poly1305_ietf_decrypt_detached(
+        none, NULL, none, 0, nonce + HAL_HOST_AUTH_NONCE_BYTES, wire, len + HAL_HOST_AUTH_RUN_ID_BYTES, nonce, ck);
+    sodium_memzero(ck, sizeof ck);
+    if (bad != 0)
         return HAL_HOST_AUTH_BAD_TAG;
     /* Only a valid tag makes the run id worth reading: forged bytes say nothing. */
     if (get_be64(trailer) != a->run_id)

@@ -2,75 +2,51 @@
 #include "hal_host_msg.h"
 
 #include "hal/hal_net.h"
-#include "lcm/fleetsim_chunk_request_t.h"
-#include "lcm/fleetsim_round_complete_t.h"
-#include "lcm/fleetsim_state_chunk_t.h"
-
-enum field_kind { F_I8, F_I32, F_F64, F_BYTES, F_I32_ARRAY, F_END };
+#include "msg/msg_layout.h"
 
 typedef struct field {
-    enum field_kind kind;
-    int len_field; /* F_BYTES / F_I32_ARRAY: index of the int32 field holding the count */
-    int64_t max;   /* F_BYTES / F_I32_ARRAY: largest count accepted */
+    uint8_t size;      /* bytes of one element */
+    int8_t len_field;  /* a variable array: index of the int field holding its count; else -1 */
+    uint32_t count;    /* 1 a scalar, N a fixed array, 0 a variable array */
 } field_t;
 
+typedef struct layout {
+    uint64_t fingerprint;
+    uint32_t n_fields;
+    const field_t *fields;
+} layout_t;
+
 /* A datagram is at most one MTU, so no array may claim more elements than fit in it. */
-#define MAX_BYTES ((int64_t)HAL_NET_MTU_BYTES)
-#define MAX_I32S ((int64_t)HAL_NET_MTU_BYTES / 4)
+#define MAX_ELEMENTS(size) ((int64_t)HAL_NET_MTU_BYTES / (size))
+/* Length fields index the small array of counts below. */
+#define MAX_FIELDS 16
 
-/* The fields of the .lcm files in firmware/msg, in declaration order. */
-static const field_t STATE_CHUNK[] = {
-    {F_I32, 0, 0}, /* sender */
-    {F_I32, 0, 0}, /* round */
-    {F_I32, 0, 0}, /* chunk */
-    {F_I32, 0, 0}, /* n_chunks */
-    {F_I32, 0, 0}, /* state_bytes */
-    {F_I8, 0, 0},  /* encoding */
-    {F_I32, 0, 0}, /* crc32 */
-    {F_F64, 0, 0}, /* x_m */
-    {F_F64, 0, 0}, /* y_m */
-    {F_I32, 0, 0}, /* incarnation */
-    {F_I32, 0, 0}, /* n_bytes */
-    {F_BYTES, 10, MAX_BYTES}, /* data[n_bytes] */
-    {F_END, 0, 0},
-};
-static const field_t ROUND_COMPLETE[] = {
-    {F_I32, 0, 0}, /* sender */
-    {F_I32, 0, 0}, /* round */
-    {F_I32, 0, 0}, /* incarnation */
-    {F_END, 0, 0},
-};
-static const field_t CHUNK_REQUEST[] = {
-    {F_I32, 0, 0}, /* requester */
-    {F_I32, 0, 0}, /* target */
-    {F_I32, 0, 0}, /* round */
-    {F_I32, 0, 0}, /* incarnation */
-    {F_I32, 0, 0}, /* n_chunks */
-    {F_I32_ARRAY, 4, MAX_I32S}, /* chunks[n_chunks] */
-    {F_END, 0, 0},
-};
+/* The fields of the .lcm files in firmware/msg, in declaration order (tools/lcmgen.py). */
+#define FIELD(name, member, type, size, count, len_field, offset) {(size), (len_field), (count)},
+static const field_t STATE_CHUNK[] = {MSG_STATE_CHUNK_FIELDS(FIELD)};
+static const field_t ROUND_COMPLETE[] = {MSG_ROUND_COMPLETE_FIELDS(FIELD)};
+static const field_t CHUNK_REQUEST[] = {MSG_CHUNK_REQUEST_FIELDS(FIELD)};
+_Static_assert(MSG_STATE_CHUNK_N_FIELDS <= MAX_FIELDS && MSG_ROUND_COMPLETE_N_FIELDS <= MAX_FIELDS &&
+                   MSG_CHUNK_REQUEST_N_FIELDS <= MAX_FIELDS,
+               "a message has at most MAX_FIELDS fields");
 
-static int64_t get_i32(const uint8_t *p)
+/* A field's big-endian value as its signed integer (a count; only scalars are read). */
+static int64_t get_int(const uint8_t *p, unsigned size)
 {
-    return (int32_t)((uint32_t)p[0] << 24 | (uint32_t)p[1] << 16 | (uint32_t)p[2] << 8 | (uint32_t)p[3]);
-}
-
-static int64_t fingerprint(hal_host_msg_type_t type)
-{
-    switch (type) {
-    case HAL_HOST_MSG_STATE_CHUNK: return __fleetsim_state_chunk_t_get_hash();
-    case HAL_HOST_MSG_ROUND_COMPLETE: return __fleetsim_round_complete_t_get_hash();
-    case HAL_HOST_MSG_CHUNK_REQUEST: return __fleetsim_chunk_request_t_get_hash();
-    default: return 0;
-    }
+    uint64_t v = 0;
+    for (unsigned i = 0; i < size; i++)
+        v = v << 8 | p[i];
+    if (size < 8 && (v >> (8 * size - 1)) & 1)
+        return (int64_t)v - ((int64_t)1 << (8 * size));
+    return size == 8 && v >> 63 ? -1 : (int64_t)v;
 }
 
 hal_host_msg_reject_t hal_host_msg_check(hal_host_msg_type_t type, const void *data, size_t len)
 {
-    static const field_t *const layout[HAL_HOST_MSG_TYPE_COUNT] = {
-        [HAL_HOST_MSG_STATE_CHUNK] = STATE_CHUNK,
-        [HAL_HOST_MSG_ROUND_COMPLETE] = ROUND_COMPLETE,
-        [HAL_HOST_MSG_CHUNK_REQUEST] = CHUNK_REQUEST,
+    static const layout_t layout[HAL_HOST_MSG_TYPE_COUNT] = {
+        [HAL_HOST_MSG_STATE_CHUNK] = {MSG_STATE_CHUNK_FINGERPRINT, MSG_STATE_CHUNK_N_FIELDS, STATE_CHUNK},
+        [HAL_HOST_MSG_ROUND_COMPLETE] = {MSG_ROUND_COMPLETE_FINGERPRINT, MSG_ROUND_COMPLETE_N_FIELDS, ROUND_COMPLETE},
+        [HAL_HOST_MSG_CHUNK_REQUEST] = {MSG_CHUNK_REQUEST_FINGERPRINT, MSG_CHUNK_REQUEST_N_FIELDS, CHUNK_REQUEST},
     };
     if (type == HAL_HOST_MSG_ANY)
         return HAL_HOST_MSG_OK;
@@ -82,35 +58,24 @@ hal_host_msg_reject_t hal_host_msg_check(hal_host_msg_type_t type, const void *d
     uint64_t fp = 0;
     for (int i = 0; i < 8; i++)
         fp = fp << 8 | p[i];
-    if ((int64_t)fp != fingerprint(type))
+    const layout_t *m = &layout[type];
+    if (fp != m->fingerprint)
         return HAL_HOST_MSG_FINGERPRINT;
     size_t at = 8;
-    int64_t ints[16] = {0}; /* values of the scalar fields, by field index */
-    const field_t *f = layout[type];
-    for (int i = 0; f[i].kind != F_END; i++) {
-        size_t need;
-        switch (f[i].kind) {
-        case F_I8:
-            need = 1;
-            break;
-        case F_I32:
-            need = 4;
-            break;
-        case F_F64:
-            need = 8;
-            break;
-        default: {
-            const int64_t n = ints[f[i].len_field];
-            if (n < 0 || n > f[i].max)
+    int64_t ints[MAX_FIELDS] = {0}; /* values of the scalar fields, by field index */
+    for (uint32_t i = 0; i < m->n_fields; i++) {
+        const field_t *f = &m->fields[i];
+        int64_t n = f->count;
+        if (n == 0) {
+            n = ints[f->len_field];
+            if (n < 0 || n > MAX_ELEMENTS(f->size))
                 return HAL_HOST_MSG_BAD_LENGTH;
-            need = (size_t)n * (f[i].kind == F_BYTES ? 1u : 4u);
-            break;
         }
-        }
+        const size_t need = (size_t)n * f->size;
         if (len - at < need)
             return HAL_HOST_MSG_SHORT;
-        if (f[i].kind == F_I32 && i < 16)
-            ints[i] = get_i32(p + at);
+        if (f->count == 1)
+            ints[i] = get_int(p + at, f->size);
         at += need;
     }
     return at == len ? HAL_HOST_MSG_OK : HAL_HOST_MSG_TRAILING;

@@ -4,7 +4,8 @@
  * with n_bytes = -1 crashes them and n_chunks = INT_MAX reads past the buffer. So hal/host
  * walks the LCM encoding of the message types of firmware/msg/ itself (8-byte big-endian type
  * fingerprint, then the fields big-endian in declaration order, arrays as their elements)
- * from a small description per type, and accepts a datagram only when its fingerprint is the
+ * from the field tables tools/lcmgen.py derives from the .lcm files (msg/msg_layout.h, the
+ * ones gp_wire uses), and accepts a datagram only when its fingerprint is the
  * expected type's, every length field is within 0 .. the compile-time maximum, and the fields
  * end exactly at the end of the datagram. A channel declared typed
  * (hal_host_net_expect_type) drops and counts anything else (hal_net_stats_t

@@ -391,7 +391,7 @@ int hal_host_net_publish(hal_host_net_t *n, const char *channel, const void *dat
         pthread_mutex_lock(&n->tx_mu);
         if (len > 0)
             memcpy(n->tx_wire, data, len);
-        hal_host_auth_seal(&n->auth, channel, data, len, n->tx_wire + len);
+        hal_host_auth_seal(&n->auth, channel, n->tx_wire, len);
         const size_t wire = len + HAL_HOST_AUTH_TRAILER_BYTES;
         const int rc = n->tp->publish(n->tp_ctx, channel, n->tx_wire, wire);
         pthread_mutex_unlock(&n->tx_mu);

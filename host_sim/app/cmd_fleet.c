@@ -9,6 +9,7 @@
 #include "ai/bnn_ckpt.h"
 #include "cli.h"
 #include "commands.h"
+#include "sim_defaults.h"
 #include "sim_fleet.h"
 #include "sim_maps.h"
 #include "sim_paths.h"
@@ -36,21 +37,22 @@ typedef struct opts {
     double bad_scale;
 } opts_t;
 
+/* The same values as host_sim run's where the options overlap (sim_defaults.h), so that the
+ * in-process fleet with no options is the reference of a process fleet with none. */
 static void defaults(opts_t *o)
 {
     memset(o, 0, sizeof *o);
     o->robots = o->rounds = o->seed = -1;
     o->metrics_every = 0;
-    o->val_poses = 500;
-    o->mc = 50;
-    o->val_mc = 50;
+    o->val_poses = SIM_DEF_VAL_POSES;
+    o->mc = SIM_DEF_MC;
+    o->val_mc = SIM_DEF_MC;
     o->threads = 1;
-    o->radius = 4.0;
-    o->occ_res = 0.1;
-    o->map_res = 0.05;
+    o->radius = SIM_DEF_RADIUS_M;
+    o->occ_res = SIM_DEF_OCC_RES_M;
+    o->map_res = SIM_DEF_MAP_RES_M;
     o->scale = SIM_PLAN_DEFAULT_SCALE;
-    o->d = dinno_default_cfg();
-    o->d.strategy = DINNO_KL; /* --strategy's default, as tools/fleet's */
+    o->d = dinno_default_cfg(); /* its strategy, kl, is --strategy's default: FLEET_STRATEGIES lists it first */
     o->mode = SIM_FLEET_DINNO;
 }
 
@@ -96,7 +98,7 @@ static const cli_opt_t fleet_opts[] = {
              "pass), mc (BCE of the --val-mc pass predictive mean); val_mean and val_sample are on every row, "
              "val_mc on the last (on every row with --val-mode mc: --val-mc times dearer)"},
     {.names = "--val-mc", .meta = "K", CLI_INT(opts_t, val_mc, 1, 1000), .help = "passes of the predictive mean"},
-    {.names = "--metrics-every", .meta = "M", CLI_INT(opts_t, metrics_every, 1, 10000000), .def = "R/20",
+    {.names = "--metrics-every", .meta = "M", CLI_INT(opts_t, metrics_every, 1, 10000000), .def = "R/" SIM_DEF_STR(SIM_DEF_METRICS_ROWS),
      .help = "metrics and a progress line every M rounds"},
     {.names = "--samples", .meta = "DIR", CLI_STRING(opts_t, samples),
      .help = "train on DIR/robot_<i>.samples (host_sim sample files) instead of scanning the paths"},
@@ -128,6 +130,7 @@ static void fleet_usage(FILE *out)
             "(DIR/robot_<i>.csv, i = 0..N-1), in synchronous DiNNO rounds, in ONE process (--inproc, required):\n"
             "the reference of the multi-process fleet (tools/fleet: one `host_sim run --fleet N` per robot\n"
             "over LCM), which trains the same models bit for bit from the same seed (offline, no loss).\n"
+            "The options both take have the same defaults (`host_sim defaults`: radius_m, map_res_m, ...).\n"
             "Baselines with the same network and step budget: 'central' (one model on the\n"
             "pooled data) and 'isolated' (no communication).\n"
             "\n"
@@ -174,7 +177,7 @@ static int parse(int argc, char **argv, opts_t *o)
         return -1;
     }
     if (o->metrics_every == 0)
-        o->metrics_every = o->rounds >= 20 ? o->rounds / 20 : 1;
+        o->metrics_every = o->rounds >= SIM_DEF_METRICS_ROWS ? o->rounds / SIM_DEF_METRICS_ROWS : 1;
     return 0;
 }
 

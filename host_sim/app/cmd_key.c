@@ -12,7 +12,7 @@ static void key_usage(FILE *out)
                  "       host_sim key check FILE\n"
                  "\n"
                  "A keyed fleet (host_sim run --key-file FILE, tools/fleet --key-file FILE) authenticates every\n"
-                 "datagram with keyed BLAKE2b-256 (libsodium) under one 32-byte key that every member holds.\n"
+                 "datagram with an XChaCha20-Poly1305 tag (libsodium) under one 32-byte key that every member holds.\n"
                  "  new FILE    writes a new random key: 64 hexadecimal digits, mode 0600, never over an\n"
                  "              existing file\n"
                  "  check FILE  says whether FILE is a usable key (format, mode 0600 or stricter)\n"

@@ -7,13 +7,15 @@
 
 #include "cli.h"
 #include "cli_opts.h"
+#include "sim_defaults.h"
 #include "sim_plan.h"
 
 
 
 static maps_opts_t maps_defaults(void)
 {
-    return (maps_opts_t){.res = 0.05, .scale = SIM_PLAN_DEFAULT_SCALE, .mc = 50, .seed = 1};
+    return (maps_opts_t){.res = SIM_DEF_FLEET_MAP_RES_M, .scale = SIM_PLAN_DEFAULT_SCALE, .mc = SIM_DEF_MC,
+                         .seed = SIM_DEF_SEED};
 }
 
 static const cli_opt_t maps_opts[] = {

@@ -172,7 +172,7 @@ static void write_profile(const run_opts_t *o, const sim_image_result_t *r, FILE
     static const double hz[HAL_CORE_COUNT] = {1e6 / FW_RT_PERIOD_US, 1e6 / FW_GP_PERIOD_US,
                                               1e6 / FW_AI_PERIOD_US};
     const fw_robot_memory_t *m = &r->mem;
-    const size_t mem_core[HAL_CORE_COUNT] = {m->rt_state + m->rt_links, m->gp_state + m->gp_links,
+    const size_t mem_core[HAL_CORE_COUNT] = {m->rt_state + m->rt_links, m->gp_state + m->gp_links + m->gp_fleet,
                                              m->ai_state + m->ai_links};
     if (csv)
         fprintf(csv, "core,rate_hz,ticks,late_ticks,lateness_max_us,wall_min_us,wall_mean_us,wall_max_us,"
@@ -205,21 +205,23 @@ static void write_profile(const run_opts_t *o, const sim_image_result_t *r, FILE
     fprintf(txt, "  RT  core state (waypoints, scan, sample scratch) %12zu\n", m->rt_state);
     fprintf(txt, "  RT  links (sample ring %zu + 2 status mailboxes) %12zu\n", m->ring, m->rt_links);
     fprintf(txt, "  AI  core state total                             %12zu\n", m->ai_state);
-    fprintf(txt, "        DiNNO node (model, duals, slots, batch)    %12zu\n", m->ai_node);
+    fprintf(txt, "        DiNNO node (model, duals, view, batch)     %12zu\n", m->ai_node);
     fprintf(txt, "          BNN arena (bnn_get_buffer_size)          %12zu\n", m->ai_model_arena);
     fprintf(txt, "        sample pool (%u samples)               %12zu\n", (unsigned)AI_POOL_CAPACITY,
             m->ai_pool);
     fprintf(txt, "  AI  links (status, state, ckpt mailboxes)        %12zu\n", m->ai_links);
     fprintf(txt, "  GP  core state (round log, telemetry)            %12zu\n", m->gp_state);
-    fprintf(txt, "  GP  links (ready mailbox + neighbour slots)      %12zu\n", m->gp_links);
+    fprintf(txt, "  GP  links (ready mailbox + neighbour view)       %12zu\n", m->gp_links);
+    fprintf(txt, "  GP  fleet exchange (state buffers of 2 rounds)   %12zu\n", m->gp_fleet);
     fprintf(txt, "  board budgets: RT %u, GP %u, AI %u; stacks RT %u, GP %u, AI %u\n",
             (unsigned)BOARD_RAM_RT_BYTES, (unsigned)BOARD_RAM_GP_BYTES, (unsigned)BOARD_RAM_AI_BYTES,
             (unsigned)BOARD_STACK_RT_BYTES, (unsigned)BOARD_STACK_GP_BYTES, (unsigned)BOARD_STACK_AI_BYTES);
     if (csv)
         fprintf(csv, "mem,rt_state,%zu\nmem,rt_links,%zu\nmem,ring,%zu\nmem,ai_state,%zu\nmem,ai_node,%zu\n"
-                 "mem,ai_model_arena,%zu\nmem,ai_pool,%zu\nmem,ai_links,%zu\nmem,gp_state,%zu\nmem,gp_links,%zu\n",
+                 "mem,ai_model_arena,%zu\nmem,ai_pool,%zu\nmem,ai_links,%zu\nmem,gp_state,%zu\nmem,gp_links,%zu\n"
+                 "mem,gp_fleet,%zu\n",
             m->rt_state, m->rt_links, m->ring, m->ai_state, m->ai_node, m->ai_model_arena, m->ai_pool,
-            m->ai_links, m->gp_state, m->gp_links);
+            m->ai_links, m->gp_state, m->gp_links, m->gp_fleet);
 }
 
 /* Everything one `host_sim run` holds; freed in one place (job_free). */
@@ -321,7 +323,7 @@ static int prepare(job_t *j)
                o->fleet, o->transport == RUN_TRANSPORT_ZMQ ? "ZeroMQ" : "LCM", o->net[0] ? o->net : HAL_HOST_NET_URL_DEFAULT, o->encoding == GP_FLEET_INT8 ? "int8" : "fp32",
                o->radius > 0 ? "within " : "all (radius ", o->radius);
     if (o->key_file != NULL)
-        printf("keyed fleet: every datagram authenticated (keyed BLAKE2b-256, key %s, run id %016llx)\n", o->key_file,
+        printf("keyed fleet: every datagram authenticated (XChaCha20-Poly1305, key %s, run id %016llx)\n", o->key_file,
                (unsigned long long)o->run_id);
     printf("incarnation %u (%s/incarnation)\n", j->incarnation, o->out);
     if (o->resume && j->resume.start_round > 0)

@@ -12,29 +12,31 @@
 #include "cli_opts.h"
 #include "gp/gp_core.h"
 #include "gp/gp_pse.h"
+#include "sim_defaults.h"
 #include "sim_plan.h"
 
-static void run_defaults(run_opts_t *o)
+void run_defaults(run_opts_t *o)
 {
     memset(o, 0, sizeof *o);
     o->d = dinno_default_cfg();
-    o->rounds = 8;
+    o->rounds = SIM_DEF_RUN_ROUNDS;
     o->per_comm = 1;
-    o->seed = 1;
+    o->seed = SIM_DEF_SEED;
     o->fleet = 1;
-    o->time_limit = 1800;
-    o->val_poses = 500;
-    o->mc = 50;
-    o->map_res = 0.1;
+    o->time_limit = SIM_DEF_TIME_LIMIT_S;
+    o->val_poses = SIM_DEF_VAL_POSES;
+    o->mc = SIM_DEF_MC;
+    o->map_res = SIM_DEF_MAP_RES_M;
     o->scale = SIM_PLAN_DEFAULT_SCALE;
-    o->radius = 6.0;
-    o->peer_timeout = 10.0;
-    o->resend_ms = 50.0;
-    o->join_timeout = 120.0;
+    o->radius = SIM_DEF_RADIUS_M;
+    o->peer_timeout = GP_FLEET_PEER_TIMEOUT_US_DEFAULT / 1e6;
+    o->resend_ms = GP_FLEET_RESEND_AFTER_US_DEFAULT / 1e3;
+    o->join_timeout = GP_FLEET_JOIN_TIMEOUT_US_DEFAULT / 1e6;
+    o->chunk_bytes = GP_FLEET_CHUNK_BYTES_DEFAULT;
     o->net = "memq://";
     o->pool = AI_POOL_CDR;
     o->sched = HAL_HOST_SCHED_SERIAL;
-    o->encoding = GP_FLEET_FP32;
+    o->encoding = GP_FLEET_ENCODING_DEFAULT;
     o->ckpt_keep = GP_CORE_CKPT_KEEP_DEFAULT;
     o->ckpt_keep_every = GP_CORE_CKPT_KEEP_EVERY_DEFAULT;
 }
@@ -109,7 +111,7 @@ static const cli_opt_t run_opts[] = {
      .def = "the most, 60 KB or less on a small MTU", .help = "fleet: state bytes per datagram"},
     {.names = "--key-file", .meta = "F", CLI_STRING(run_opts_t, key_file),
      .help = "fleet: a keyed fleet (F from `host_sim key new`, mode 0600): every datagram carries an "
-             "BLAKE2b tag under the key; others are dropped and counted"},
+             "XChaCha20-Poly1305 tag under the key; others are dropped and counted"},
     {.names = "--run-id", .meta = "X", CLI_HEX64(run_opts_t, run_id), CLI_GIVEN(run_opts_t, run_id_given),
      .help = "keyed fleet: this launch's id, 1-16 hex digits, the same for every member (tools/fleet draws one per "
              "run): recordings of other runs are refused"},
@@ -124,7 +126,7 @@ static const cli_opt_t run_opts[] = {
     {.names = "--val-poses", .meta = "N", CLI_INT(run_opts_t, val_poses, 0, 100000),
      .help = "validation poses x 500 points (0: no validation)"},
     {.names = "--val-every", .meta = "M", CLI_INT(run_opts_t, val_every, 1, AI_CORE_MAX_ROUNDS),
-     .def = "1 alone, rounds/50 in a fleet",
+     .def = "1 alone, rounds/" SIM_DEF_STR(SIM_DEF_FLEET_VAL_CHECKS) " in a fleet",
      .help = "validation loss (and a round checkpoint) every M rounds and at the end"},
     {.names = "--keep-ckpt", .meta = "K", CLI_INT(run_opts_t, ckpt_keep, 0, AI_CORE_MAX_ROUNDS),
      .help = "round checkpoints kept: the newest K (0: every one written)"},
@@ -321,7 +323,7 @@ int run_parse(int argc, char **argv, run_opts_t *o, char *url)
         return -1;
     }
     if (o->val_every == 0)
-        o->val_every = o->fleet > 1 ? (o->rounds >= 50 ? o->rounds / 50 : 1) : 1;
+        o->val_every = o->fleet > 1 && o->rounds >= SIM_DEF_FLEET_VAL_CHECKS ? o->rounds / SIM_DEF_FLEET_VAL_CHECKS : 1;
     return 0;
 }
 

@@ -34,6 +34,9 @@ typedef struct run_opts {
     long long ckpt_keep, ckpt_keep_every; /* --keep-ckpt K, --keep-ckpt-every M */
 } run_opts_t;
 
+/* o = the defaults (sim_defaults.h, gp_fleet.h's GP_FLEET_*_DEFAULT, dinno_default_cfg). */
+void run_defaults(run_opts_t *o);
+
 /* Parses argv into o (defaults first), then checks the options together; --peers becomes the
  * ZeroMQ URL in url (RUN_NET_URL_MAX). 0, 1 after --help, -1 after printing why. */
 int run_parse(int argc, char **argv, run_opts_t *o, char *url);

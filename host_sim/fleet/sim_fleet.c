@@ -35,6 +35,9 @@ struct sim_fleet {
     dinno_graph_t graph;
     uint32_t rounds_done;
     float *bad_theta;        /* the bad agent's state as its neighbours get it (cfg.bad) */
+    float *snap;             /* n_models round-start states (BNN_N_PARAMS floats each): what
+                                the neighbours read while every node trains its own model */
+    dinno_nbrs_t *views;     /* n_models views of the round, pointing into snap / bad_theta */
     uint64_t excluded;       /* sim_fleet_screen_totals */
     double honest_dist_max;
 };
@@ -72,6 +75,8 @@ static void free_fleet(sim_fleet_t *f)
     free(f->tour_n);
     free(f->stats);
     free(f->bad_theta);
+    free(f->snap);
+    free(f->views);
     free(f);
 }
 
@@ -143,7 +148,9 @@ int sim_fleet_create(const sim_fleet_cfg_t *cfg, const bnn_config_t *bcfg, const
     f->data = calloc((size_t)f->n_models, sizeof *f->data);
     f->n_data = calloc((size_t)f->n_models, sizeof *f->n_data);
     f->stats = calloc((size_t)f->n_models, sizeof *f->stats);
-    if (!f->nodes || !f->data || !f->n_data || !f->stats)
+    f->views = calloc((size_t)f->n_models, sizeof *f->views);
+    f->snap = aligned_alloc(64, ((size_t)f->n_models * BNN_N_PARAMS * sizeof(float) + 63u) / 64u * 64u);
+    if (!f->nodes || !f->data || !f->n_data || !f->stats || !f->views || !f->snap)
         goto oom;
     if (cfg->bad != SIM_FLEET_BAD_NONE && cfg->bad != SIM_FLEET_BAD_SILENT && (f->bad_theta = malloc(BNN_N_PARAMS * sizeof(float))) == NULL)
         goto oom;
@@ -303,21 +310,28 @@ int sim_fleet_round(sim_fleet_t *f, dinno_graph_report_t *rep)
         const size_t P = bnn_n_params(&f->nodes[0]->model);
         if (f->bad_theta != NULL)
             make_bad_state(f, k, bnn_params_const(&f->nodes[f->cfg.bad_agent]->model), P);
+        /* One round-start snapshot per node (the nodes' models change while their neighbours
+           still read them); the views point into it, as the GP core's point into its buffers. */
+        for (int j = 0; j < f->n_models; j++)
+            memcpy(f->snap + (size_t)j * P, bnn_params_const(&f->nodes[j]->model), P * sizeof(float));
         for (int i = 0; i < f->n_models; i++) {
-            dinno_slots_clear(f->nodes[i]);
-            /* Slots in ascending neighbour id, as the GP core fills them. */
-            uint32_t s = 0;
+            dinno_nbrs_t *v = &f->views[i];
+            v->round = k;
+            v->count = 0;
+            /* Ascending neighbour id, as the GP core's view. */
             for (uint32_t e = 0; e < f->graph.deg[i]; e++) {
                 const int j = f->graph.nb[i][e];
                 if (f->cfg.bad == SIM_FLEET_BAD_SILENT && j == f->cfg.bad_agent)
                     continue;
-                const float *theta_j = f->bad_theta != NULL && j == f->cfg.bad_agent
-                                           ? f->bad_theta
-                                           : bnn_params_const(&f->nodes[j]->model);
-                rc = dinno_slot_put(f->nodes[i], s++, (uint32_t)j, k, theta_j, P);
-                if (rc)
-                    return rc;
+                if (v->count >= DINNO_MAX_PEERS)
+                    return -EINVAL;
+                v->id[v->count] = (uint32_t)j;
+                v->theta[v->count++] = f->bad_theta != NULL && j == f->cfg.bad_agent ? f->bad_theta
+                                                                                      : f->snap + (size_t)j * P;
             }
+            rc = dinno_node_set_nbrs(f->nodes[i], v);
+            if (rc)
+                return rc;
         }
         if (rep)
             dinno_graph_report(&f->graph, rep);

@@ -37,9 +37,6 @@ static double wall_now(void)
     return (double)ts.tv_sec + 1e-9 * (double)ts.tv_nsec;
 }
 
-/* The robot's fleet membership: static, as on a board (one image per process). */
-static gp_fleet_t image_fleet;
-
 static int join_fleet(hal_host_t *h, const gp_fleet_cfg_t *fc, char *err, size_t errlen)
 {
     static const int types[3] = {HAL_HOST_MSG_STATE_CHUNK, HAL_HOST_MSG_ROUND_COMPLETE, HAL_HOST_MSG_CHUNK_REQUEST};
@@ -54,7 +51,7 @@ static int join_fleet(hal_host_t *h, const gp_fleet_cfg_t *fc, char *err, size_t
             return rc;
         }
     }
-    int rc = gp_fleet_init(&image_fleet, fc);
+    int rc = gp_fleet_init(fw_robot_fleet(), fc);
     if (rc < 0)
         snprintf(err, errlen, "image: fleet membership refused (%d): robot %u of %u, %u rounds", rc, fc->self,
                  fc->n_peers, fc->rounds);
@@ -147,7 +144,7 @@ int sim_image_run(const sim_plan_t *plan, const sim_path_t *path, const sim_imag
     fc.gp.ckpt_keep_every = cfg->ckpt_keep_every;
     if (cfg->fleet != NULL) {
         fc.gp.peers = &gp_fleet_peers_ops;
-        fc.gp.peers_ctx = &image_fleet;
+        fc.gp.peers_ctx = fw_robot_fleet();
     }
     rc = fw_robot_start(&fc);
     if (rc < 0) {
@@ -169,7 +166,7 @@ int sim_image_run(const sim_plan_t *plan, const sim_path_t *path, const sim_imag
             goto out;
         }
         /* Every core is blocked in the lockstep now: the round log is stable. */
-        for (const gp_fleet_round_t *r; cfg->fleet && (r = gp_fleet_round(&image_fleet, fleet_seen)) != NULL;
+        for (const gp_fleet_round_t *r; cfg->fleet && (r = gp_fleet_round(fw_robot_fleet(), fleet_seen)) != NULL;
              fleet_seen++)
             if (cfg->on_fleet_round)
                 cfg->on_fleet_round(r, cfg->user);
@@ -206,8 +203,8 @@ int sim_image_run(const sim_plan_t *plan, const sim_path_t *path, const sim_imag
     res->rounds_done = fw_robot_ai()->next_round;
     fw_robot_memory(&res->mem);
     if (cfg->fleet != NULL) {
-        res->fleet = image_fleet.stats;
-        res->pse = image_fleet.pse.stats;
+        res->fleet = fw_robot_fleet()->stats;
+        res->pse = fw_robot_fleet()->drv.pse.stats;
         const hal_board_t *b = hal_host_board(h);
         if (b != NULL && b->net != NULL && b->net->stats != NULL)
             (void)b->net->stats(b->ctx, &res->net);

@@ -33,7 +33,7 @@ static ai_ckpt_msg_t ckpt;
 static uint64_t tick_no;
 
 /* Checkpoints of the core that ran every round: after round 1 and the final one. */
-static uint8_t ckpt_round1[FW_LINK_CKPT_BYTES], ckpt_final[FW_LINK_CKPT_BYTES];
+static uint8_t ckpt_round1[AI_LINK_CKPT_BYTES], ckpt_final[AI_LINK_CKPT_BYTES];
 static uint32_t ckpt_round1_len, ckpt_final_len;
 
 static ai_core_cfg_t cfg_for(uint32_t start_round, const uint8_t *ck, uint32_t ck_len)
@@ -147,7 +147,7 @@ static void test_resumed_equals_every_round(void **st)
     assert_int_equal(ai.node.round, 2);
     assert_null(ai.cfg.resume_ckpt); /* the caller's buffer is not kept */
     /* theta is the checkpoint's: saving it again gives the same bytes. */
-    static uint8_t again[FW_LINK_CKPT_BYTES];
+    static uint8_t again[AI_LINK_CKPT_BYTES];
     size_t n = 0;
     assert_int_equal(bnn_ckpt_save(&ai.node.model, 0, again, sizeof again, &n), 0);
     assert_int_equal(n, ckpt_round1_len);
@@ -188,7 +188,7 @@ static void test_refused(void **st)
     assert_int_equal(ai_core_init(&ai, &c, link_), -EINVAL); /* bytes but no checkpoint */
     c = cfg_for(2, ckpt_round1, 40);
     assert_int_equal(ai_core_init(&ai, &c, link_), -ENODATA); /* torn */
-    static uint8_t bad[FW_LINK_CKPT_BYTES];
+    static uint8_t bad[AI_LINK_CKPT_BYTES];
     memcpy(bad, ckpt_round1, ckpt_round1_len);
     bad[ckpt_round1_len - 1] ^= 0x40u;
     c = cfg_for(2, bad, ckpt_round1_len);

@@ -120,6 +120,38 @@ static void test_round_trip_bound(void **state)
     }
 }
 
+/* The in-place unpack (the GP core's, into its reassembly buffer) gives bnn_quant_unpack_theta's
+ * floats bit for bit, refuses what it refuses before moving anything, and needs room for the
+ * scales only. */
+static void test_unpack_in_place(void **state)
+{
+    (void)state;
+    bnn_config_t c = cfg();
+    assert_int_equal(bnn_init(&m, &c, 5), 0);
+    float *th = bnn_params(&m);
+    const size_t P = bnn_n_params(&m);
+    for (size_t j = 0; j < P; j++)
+        th[j] += 0.01f * (float)((int)(j % 251) - 125);
+    size_t n = 0;
+    assert_int_equal(bnn_quant_pack(&m, BNN_GROUP_ALL, packed, sizeof packed, &n), 0);
+    static float want[BNN_N_PARAMS], buf[BNN_N_PARAMS], scales[BNN_QUANT_MAX_ROWS];
+    assert_int_equal(bnn_quant_unpack_theta(&c, BNN_GROUP_ALL, packed, n, want), 0);
+    memcpy(buf, packed, n);
+    alloc_count_reset();
+    assert_int_equal(bnn_quant_unpack_theta_inplace(&c, buf, n, scales, BNN_QUANT_MAX_ROWS), 0);
+    assert_int_equal(alloc_count_allocations(), 0);
+    assert_memory_equal(buf, want, P * sizeof(float));
+    /* refused, untouched: a bad length, a bad scale, too few scales */
+    memcpy(buf, packed, n);
+    assert_int_equal(bnn_quant_unpack_theta_inplace(&c, buf, n - 1, scales, BNN_QUANT_MAX_ROWS), -EBADMSG);
+    const float bad = -1.0f;
+    memcpy((uint8_t *)buf + 4, &bad, 4);
+    assert_int_equal(bnn_quant_unpack_theta_inplace(&c, buf, n, scales, BNN_QUANT_MAX_ROWS), -EBADMSG);
+    memcpy(buf, packed, n);
+    assert_int_equal(bnn_quant_unpack_theta_inplace(&c, buf, n, scales, 3), -EINVAL);
+    assert_memory_equal(buf, packed, n);
+}
+
 static void test_validation_loss_change(void **state)
 {
     (void)state;
@@ -168,6 +200,7 @@ int main(void)
 {
     const struct CMUnitTest tests[] = {
         cmocka_unit_test(test_round_trip_bound),
+        cmocka_unit_test(test_unpack_in_place),
         cmocka_unit_test(test_validation_loss_change),
     };
     return cmocka_run_group_tests_name("ai/bnn_quant", tests, NULL, NULL);

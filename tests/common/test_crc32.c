@@ -49,6 +49,12 @@ static void test_every_length_and_alignment(void **st)
         for (size_t n = 0; n <= 64; n++)
             assert_int_equal(crc32_ieee(buf + off, n), crc_bitwise(buf + off, n));
     assert_int_equal(crc32_ieee(buf, sizeof buf), crc_bitwise(buf, sizeof buf));
+    /* Past the 64 bytes where a folding implementation starts: every tail of 16-byte blocks
+       and bytes, and a state's size. */
+    for (size_t off = 0; off < 4; off++)
+        for (size_t n = 65; n <= 300; n++)
+            assert_int_equal(crc32_ieee(buf + off, n), crc_bitwise(buf + off, n));
+    assert_int_equal(crc32_ieee(buf + 3, 33601u), crc_bitwise(buf + 3, 33601u));
 }
 
 static void test_incremental(void **st)

@@ -16,6 +16,37 @@
 #include "ai/dinno.h"
 
 static dinno_node_t node, other;
+
+/* Neighbour views for the tests, one per node, filled as the GP core fills its view (entries
+ * appended in call order; a new round or a fresh node starts it over). The states stay where
+ * the test keeps them: the node reads them in place. */
+static dinno_nbrs_t view_node, view_other, view_big;
+
+static dinno_nbrs_t *view_of(const dinno_node_t *n)
+{
+    return n == &node ? &view_node : n == &other ? &view_other : &view_big;
+}
+
+static int nb_put(dinno_node_t *n, uint32_t peer, uint32_t round, const float *theta, size_t np)
+{
+    dinno_nbrs_t *v = view_of(n);
+    if (np != bnn_n_params(&n->model))
+        return -EINVAL;
+    if (n->nb != v || v->round != round)
+        v->count = 0;
+    if (v->count >= DINNO_MAX_PEERS)
+        return -EINVAL;
+    v->round = round;
+    v->id[v->count] = peer;
+    v->theta[v->count++] = theta;
+    return dinno_node_set_nbrs(n, v);
+}
+
+static void nb_clear(dinno_node_t *n)
+{
+    view_of(n)->count = 0;
+    assert_int_equal(dinno_node_set_nbrs(n, NULL), 0);
+}
 static ai_sample_t data[256];
 
 /* S = 3, H = 2, L = 1: mu-group 3*2+3 + (3*2+2) + 2+1 = 20, rho-group 8. */
@@ -58,7 +89,11 @@ static void test_sizes_and_layout(void **st)
     assert_int_equal(bnn_n_params(&node.model), 28);
     assert_int_equal(node.model.n_mu, 20);
     assert_int_equal(node.model.n_rho, 8);
-    assert_true(dinno_get_buffer_size() >= sizeof(bnn_model_t) + DINNO_MAX_PEERS * BNN_N_PARAMS * sizeof(float));
+    /* The model and its four per-parameter vectors (duals, theta0, aux1 and the KL sums), but no
+       copy of any neighbour's state: the node reads those in place. */
+    assert_true(dinno_get_buffer_size() >= sizeof(bnn_model_t) + 3u * BNN_N_PARAMS * sizeof(float));
+    assert_true(dinno_get_buffer_size() < sizeof(bnn_model_t) + 4u * BNN_N_PARAMS * sizeof(float) +
+                                              sizeof(ai_sample_t) * BNN_MAX_BATCH + 4u * BNN_MAX_BATCH + 4096u);
     /* bad configs */
     c.batch = 17;
     assert_int_equal(dinno_node_init(&node, &c, &b, 1, 2, 0), -EINVAL);
@@ -113,10 +148,14 @@ static void test_dual_and_l2_midpoints_by_hand(void **st)
     memcpy(th0, bnn_params(&node.model), sizeof th0);
     for (int i = 0; i < 28; i++)
         node.dual[i] = 0.01f * (float)i; /* a previous dual */
-    assert_int_equal(dinno_slot_put(&node, 3, 3, 0, ta, 28), 0);
-    assert_int_equal(dinno_slot_put(&node, 9, 9, 0, tb, 28), 0);
-    assert_int_equal(dinno_slot_put(&node, DINNO_MAX_PEERS, DINNO_MAX_PEERS, 0, tb, 28), -EINVAL);
-    assert_int_equal(dinno_slot_put(&node, 1, 1, 0, tb, 27), -EINVAL);
+    assert_int_equal(nb_put(&node, 3, 0, ta, 28), 0);
+    assert_int_equal(nb_put(&node, 9, 0, tb, 28), 0);
+    dinno_nbrs_t bad = view_node;
+    bad.count = DINNO_MAX_PEERS + 1u;
+    assert_int_equal(dinno_node_set_nbrs(&node, &bad), -EINVAL); /* refused, the view kept */
+    bad.count = 2;
+    bad.theta[1] = NULL;
+    assert_int_equal(dinno_node_set_nbrs(&node, &bad), -EINVAL);
     const float rho = 0.4f;
     assert_int_equal(dinno_dual_update(&node, rho), 2);
     for (int i = 0; i < 28; i++) {
@@ -188,8 +227,8 @@ static void check_kl_reading(dinno_kl_form_t form, dinno_kl_reduce_t reduce)
     assert_int_equal(dinno_node_init(&node, &c, &b, 1, 2, 0), 0);
     float ta[28], tb[28];
     set_known(&node, ta, tb);
-    assert_int_equal(dinno_slot_put(&node, 0, 0, 0, ta, 28), 0);
-    assert_int_equal(dinno_slot_put(&node, 15, 15, 0, tb, 28), 0);
+    assert_int_equal(nb_put(&node, 0, 0, ta, 28), 0);
+    assert_int_equal(nb_put(&node, 15, 0, tb, 28), 0);
     const float rho = 0.3f;
     assert_int_equal(dinno_dual_update(&node, rho), 2);
     dinno_prepare(&node);
@@ -236,7 +275,7 @@ static void check_kl_reading(dinno_kl_form_t form, dinno_kl_reduce_t reduce)
     /* At agreement (theta = every midpoint) the KL term and its gradient vanish. */
     assert_int_equal(dinno_node_init(&node, &c, &b, 1, 2, 0), 0);
     const float *t0 = bnn_params(&node.model);
-    assert_int_equal(dinno_slot_put(&node, 0, 0, 0, t0, 28), 0);
+    assert_int_equal(nb_put(&node, 0, 0, t0, 28), 0);
     (void)dinno_dual_update(&node, rho);
     dinno_prepare(&node);
     memset(bnn_grads(&node.model), 0, 28 * sizeof(float));
@@ -290,7 +329,7 @@ static void test_literal_rho_loss_moves_rho_only_by_consensus(void **st)
         float other_state[28];
         for (int i = 0; i < 28; i++)
             other_state[i] = bnn_params(&node.model)[i] + (i >= 20 ? 0.5f : 0.0f);
-        assert_int_equal(dinno_slot_put(&node, 1, 1, 5, other_state, 28), 0);
+        assert_int_equal(nb_put(&node, 1, 5, other_state, 28), 0);
         memcpy(t0, bnn_params(&node.model), sizeof t0);
         assert_int_equal(dinno_node_round(&node, data, 256, NULL), 0);
         for (int i = 20; i < 28; i++)
@@ -321,10 +360,10 @@ static void run_pair(dinno_strategy_t s, float w_rho, float *out, int rounds)
     for (int k = 0; k < rounds; k++) {
         memcpy(tn, bnn_params(&node.model), sizeof tn);
         memcpy(to, bnn_params(&other.model), sizeof to);
-        dinno_slots_clear(&node);
-        dinno_slots_clear(&other);
-        assert_int_equal(dinno_slot_put(&node, 1, 1, (uint32_t)k, to, 28), 0);
-        assert_int_equal(dinno_slot_put(&other, 0, 0, (uint32_t)k, tn, 28), 0);
+        nb_clear(&node);
+        nb_clear(&other);
+        assert_int_equal(nb_put(&node, 1, (uint32_t)k, to, 28), 0);
+        assert_int_equal(nb_put(&other, 0, (uint32_t)k, tn, 28), 0);
         assert_int_equal(dinno_node_round(&node, data, 128, NULL), 0);
         assert_int_equal(dinno_node_round(&other, data + 128, 128, NULL), 0);
     }
@@ -350,7 +389,7 @@ static void test_slot_round_mismatch_rejected(void **st)
     assert_int_equal(dinno_node_init(&node, &c, &b, 1, 2, 0), 0);
     float t[28];
     memcpy(t, bnn_params(&node.model), sizeof t);
-    assert_int_equal(dinno_slot_put(&node, 2, 2, 1, t, 28), 0); /* round 1 state in round 0 */
+    assert_int_equal(nb_put(&node, 2, 1, t, 28), 0); /* round 1 state in round 0 */
     assert_int_equal(dinno_node_round(&node, data, 256, NULL), -EINVAL);
     assert_memory_equal(t, bnn_params(&node.model), sizeof t);
     assert_int_equal(node.round, 0);
@@ -373,8 +412,8 @@ static void test_no_neighbours_trains_alone(void **st)
     assert_int_equal(dinno_node_init(&other, &c, &b, 9, 10, 0), 0);
     dinno_round_stats_t sa, sb, first = {0};
     for (int k = 0; k < 40; k++) {
-        dinno_slots_clear(&other);
-        assert_int_equal(dinno_slot_put(&other, 4, 4, (uint32_t)k, bnn_params(&other.model), 28), 0);
+        nb_clear(&other);
+        assert_int_equal(nb_put(&other, 4, (uint32_t)k, bnn_params(&other.model), 28), 0);
         assert_int_equal(dinno_node_round(&node, data, 256, &sa), 0);
         assert_int_equal(dinno_node_round(&other, data, 256, &sb), 0);
         if (k == 0)
@@ -398,30 +437,34 @@ static void test_screen_leaves_out_bad_states(void **st)
     dinno_cfg_t c = cfg_of(DINNO_KL);
     assert_int_equal(dinno_node_init(&node, &c, &b, 1, 2, 0), 0);
     assert_int_equal(dinno_node_init(&other, &c, &b, 1, 2, 0), 0);
-    float own[28], t[28];
+    float own[28];
     memcpy(own, bnn_params(&node.model), sizeof own);
     double norm = 0.0;
     for (int e = 0; e < 28; e++)
         norm += (double)own[e] * own[e];
     norm = sqrt(norm);
     assert_true(norm > 1.0);
-    /* slot 1: close (a tenth of the radius); 2: NaN; 3: x1000; 4: -theta; 5: +inf */
+    /* neighbour 1: close (a tenth of the radius); 2: NaN; 3: x1000; 4: -theta; 5: +inf (each its
+       own array: the node reads them in place) */
+    static float t1[28], t2[28], t3[28], t4[28], t5[28];
     for (int e = 0; e < 28; e++)
-        t[e] = own[e] + (float)(0.05 * norm / sqrt(28.0));
-    assert_int_equal(dinno_slot_put(&node, 1, 1, 0, t, 28), 0);
-    assert_int_equal(dinno_slot_put(&other, 1, 1, 0, t, 28), 0); /* `other` never sees the bad ones */
-    memcpy(t, own, sizeof t);
-    t[7] = NAN;
-    assert_int_equal(dinno_slot_put(&node, 2, 2, 0, t, 28), 0);
+        t1[e] = own[e] + (float)(0.05 * norm / sqrt(28.0));
+    assert_int_equal(nb_put(&node, 1, 0, t1, 28), 0);
+    assert_int_equal(nb_put(&other, 1, 0, t1, 28), 0); /* `other` never sees the bad ones */
+    memcpy(t2, own, sizeof t2);
+    t2[7] = NAN;
+    assert_int_equal(nb_put(&node, 2, 0, t2, 28), 0);
     for (int e = 0; e < 28; e++)
-        t[e] = own[e] * 1000.0f;
-    assert_int_equal(dinno_slot_put(&node, 3, 3, 0, t, 28), 0);
+        t3[e] = own[e] * 1000.0f;
+    assert_int_equal(nb_put(&node, 3, 0, t3, 28), 0);
     for (int e = 0; e < 28; e++)
-        t[e] = -own[e];
-    assert_int_equal(dinno_slot_put(&node, 4, 4, 0, t, 28), 0);
-    memcpy(t, own, sizeof t);
-    t[0] = INFINITY;
-    assert_int_equal(dinno_slot_put(&node, 5, 5, 0, t, 28), 0);
+        t4[e] = -own[e];
+    assert_int_equal(nb_put(&node, 4, 0, t4, 28), 0);
+    memcpy(t5, own, sizeof t5);
+    t5[0] = INFINITY;
+    assert_int_equal(nb_put(&node, 5, 0, t5, 28), 0);
+    float keep1[28];
+    memcpy(keep1, t1, sizeof keep1);
     dinno_round_stats_t sa, sb;
     assert_int_equal(dinno_node_round(&node, data, 256, &sa), 0);
     assert_int_equal(dinno_node_round(&other, data, 256, &sb), 0);
@@ -432,17 +475,21 @@ static void test_screen_leaves_out_bad_states(void **st)
     assert_true(fabs(sb.nb_dist_max - 0.05) < 1e-3);
     assert_memory_equal(bnn_params(&node.model), bnn_params(&other.model), sizeof own);
     assert_memory_equal(node.dual, other.dual, sizeof own);
+    /* The screen wrote nothing shared: the states are as they were handed over. */
+    assert_memory_equal(t1, keep1, sizeof keep1);
+    assert_true(isnan(t2[7]) && isinf(t5[0]));
     /* Radius 0: no distance screen, only non-finite states are left out. */
     c.screen_radius = 0.0f;
     assert_int_equal(dinno_node_init(&node, &c, &b, 1, 2, 0), 0);
     for (int e = 0; e < 28; e++)
-        t[e] = -own[e];
-    assert_int_equal(dinno_slot_put(&node, 4, 4, 0, t, 28), 0);
-    t[3] = NAN;
-    assert_int_equal(dinno_slot_put(&node, 2, 2, 0, t, 28), 0);
+        t4[e] = -own[e];
+    assert_int_equal(nb_put(&node, 4, 0, t4, 28), 0);
+    memcpy(t2, t4, sizeof t2);
+    t2[3] = NAN;
+    assert_int_equal(nb_put(&node, 2, 0, t2, 28), 0);
     float dmax = 0.0f;
     assert_int_equal(dinno_screen_slots(&node, &dmax), 1);
-    assert_true(node.slots.valid[4] && !node.slots.valid[2]);
+    assert_true(node.use[0] && !node.use[1]); /* robot 4's state used, robot 2's left out */
     c.screen_radius = -1.0f;
     assert_int_equal(dinno_node_init(&node, &c, &b, 1, 2, 0), -EINVAL);
 }
@@ -461,13 +508,13 @@ static void test_round_allocates_nothing(void **st)
     alloc_count_reset();
     assert_int_equal(dinno_node_init(&big, &c, NULL, 1, 2, 0), 0);
     for (uint32_t s = 0; s < DINNO_MAX_PEERS; s++)
-        assert_int_equal(dinno_slot_put(&big, s, s, 0, bnn_params(&big.model), bnn_n_params(&big.model)), 0);
+        assert_int_equal(nb_put(&big, s, 0, bnn_params(&big.model), bnn_n_params(&big.model)), 0);
     dinno_round_stats_t rs;
     assert_int_equal(dinno_node_round(&big, many, 2048, &rs), 0);
     assert_int_equal(rs.neighbours, DINNO_MAX_PEERS);
     big.cfg.strategy = DINNO_UNIFORM;
     for (uint32_t s = 0; s < DINNO_MAX_PEERS; s++)
-        assert_int_equal(dinno_slot_put(&big, s, s, 1, bnn_params(&big.model), bnn_n_params(&big.model)), 0);
+        assert_int_equal(nb_put(&big, s, 1, bnn_params(&big.model), bnn_n_params(&big.model)), 0);
     assert_int_equal(dinno_node_round(&big, many, 2048, &rs), 0);
     print_message("node %zu bytes: %llu allocations\n", dinno_get_buffer_size(),
                   (unsigned long long)alloc_count_allocations());

@@ -101,7 +101,7 @@ static void fill_state(harness_t *h, uint32_t round)
 }
 
 /* Every neighbour state handed out is a whole one of this round: its CRC is its chunks'. */
-static void check_neighbours(const harness_t *h)
+static void check_neighbours(harness_t *h) /* takes the round's states, as the GP core does */
 {
     uint32_t ids[GP_PSE_MAX_NEIGHBOURS];
     const uint8_t *states[GP_PSE_MAX_NEIGHBOURS];
@@ -161,7 +161,7 @@ static void mac_check(unsigned what, const uint8_t *d, size_t len)
     if (len > HAL_NET_MTU_BYTES)
         return;
     memcpy(sealed, d, len);
-    hal_host_auth_seal(&member, channel_name[what], sealed, len, sealed + len);
+    hal_host_auth_seal(&member, channel_name[what], sealed, len);
     const size_t wire = len + HAL_HOST_AUTH_TRAILER_BYTES;
     CHECK(hal_host_auth_open(&member, channel_name[what], sealed, wire, &n) == HAL_HOST_AUTH_OK && n == len);
     const size_t at = (len > 0 ? d[0] : 0u) * 131u % wire; /* one byte the input chooses */

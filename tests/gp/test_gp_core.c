@@ -32,7 +32,9 @@ static struct {
     float theta0;
 } hook;
 
-static int exchange(void *ctx, const gp_exchange_req_t *req, dinno_slots_t *slots)
+static const float peer_state[4] = {1.0f, 2.0f, 3.0f, 4.0f}; /* where the "peers' states" stay */
+
+static int exchange(void *ctx, const gp_exchange_req_t *req, dinno_nbrs_t *nbrs)
 {
     (void)ctx;
     assert_true(req->n_params > 0);
@@ -42,9 +44,11 @@ static int exchange(void *ctx, const gp_exchange_req_t *req, dinno_slots_t *slot
     int a = hook.answers[hook.calls < hook.n_answers ? hook.calls : hook.n_answers - 1];
     hook.calls++;
     for (int s = 0; s < a; s++) {
-        slots->valid[s] = 1;
-        slots->round[s] = round;
+        nbrs->id[s] = (uint32_t)s;
+        nbrs->theta[s] = &peer_state[s];
     }
+    nbrs->round = round;
+    nbrs->count = a > 0 ? (uint32_t)a : 0u;
     return a;
 }
 
@@ -130,9 +134,11 @@ static void test_round_hand_over_and_exchange(void **st)
     assert_int_equal(mbox_get(link_->gp_ready, &r, NULL), 1);
     assert_int_equal(r.round, 0);
     assert_int_equal(r.neighbours, 2);
-    assert_int_equal(link_->slots->valid[0], 1);
+    assert_int_equal(link_->nbrs->count, 2);
+    assert_int_equal(link_->nbrs->round, 0);
+    assert_ptr_equal(link_->nbrs->theta[1], &peer_state[1]);
     assert_int_equal(gp.stats.rounds_coordinated, 1);
-    /* A failing exchange makes a local round: counted, logged, no neighbour slot valid. */
+    /* A failing exchange makes a local round: counted, logged, an empty neighbour view. */
     hook.answers[0] = -EIO;
     hook.n_answers = 1;
     hook.calls = 0;
@@ -143,7 +149,7 @@ static void test_round_hand_over_and_exchange(void **st)
     assert_int_equal(mbox_get(link_->gp_ready, &r, NULL), 1);
     assert_int_equal(r.round, 1);
     assert_int_equal(r.neighbours, 0);
-    assert_int_equal(link_->slots->valid[0], 0);
+    assert_int_equal(link_->nbrs->count, 0);
     assert_int_equal(gp.stats.exchange_errors, 1);
     assert_true(fake_board_logged(&fb, "state exchange failed"));
 }

@@ -13,6 +13,7 @@
 
 #include "ai/dinno_graph.h"
 #include "alloc_count.h"
+#include "common/crc32.h"
 #include "gp/gp_pse.h"
 
 #define N 3
@@ -427,6 +428,87 @@ static void test_requests_for_one_chunk_merge(void **st)
     assert_int_equal(eng[0].stats.chunks_resent, 2);
 }
 
+/* The handed-out buffers (gp_pse.h): once gp_pse_neighbours() gave round k's states out, no
+ * message of round k writes them until round k + 1 begins, although the old rules would have:
+ * a nearer peer heard late (after it timed out) took the farthest listed peer's buffer, a
+ * listed peer whose chunks moved it had its state started over in place, a restarted peer's
+ * buffer went to the next chunk's sender. One engine, robot 0 of GP_PSE_MAX_NEIGHBOURS + 2
+ * robots fed by hand: peers 1 .. K deliver (peer i at x = 100 - i), peer K + 1 stays silent. */
+#define LONE_K GP_PSE_MAX_NEIGHBOURS
+#define LONE_N (LONE_K + 2u)
+static gp_pse_t lone;
+static uint8_t lone_state[LONE_N][STATE_BYTES], lone_other[STATE_BYTES];
+
+static int lone_send(void *ctx, gp_pse_kind_t kind, const void *m)
+{
+    (void)ctx;
+    (void)kind;
+    (void)m;
+    return 0;
+}
+
+static int lone_chunk(uint32_t from, uint32_t inc, uint32_t round, uint32_t chunk, double x, const uint8_t *bytes,
+                      uint64_t now)
+{
+    const uint32_t n_chunks = (STATE_BYTES + CHUNK - 1u) / CHUNK, off = chunk * CHUNK;
+    const uint32_t len = STATE_BYTES - off < CHUNK ? STATE_BYTES - off : CHUNK;
+    const gp_pse_chunk_t c = {from, round, chunk, n_chunks, STATE_BYTES, crc32_ieee(bytes, STATE_BYTES), x, 0.0,
+                              len, bytes + off, 0, inc};
+    return gp_pse_on_chunk(&lone, &c, now);
+}
+
+static void test_handed_out_buffers_are_not_written(void **st)
+{
+    (void)st;
+    const gp_pse_cfg_t c = {0, LONE_N, STATE_BYTES, CHUNK, 0.0, RESEND, TIMEOUT, 0, lone_send, NULL, 0, 0, 0};
+    assert_int_equal(gp_pse_init(&lone, &c), 0);
+    const uint32_t n_chunks = (STATE_BYTES + CHUNK - 1u) / CHUNK;
+    for (uint32_t i = 0; i < LONE_N; i++)
+        for (uint32_t b = 0; b < STATE_BYTES; b++)
+            lone_state[i][b] = (uint8_t)(b * 13u + i * 29u);
+    memset(lone_other, 0xA5, sizeof lone_other);
+    uint8_t mine_[STATE_BYTES] = {0};
+    assert_int_equal(gp_pse_begin_round(&lone, 0, mine_, 0.0, 0.0, 0), 0);
+    for (uint32_t i = 1; i <= LONE_K; i++)
+        for (uint32_t k = 0; k < n_chunks; k++)
+            assert_int_equal(lone_chunk(i, 0, 0, k, 100.0 - (double)i, lone_state[i], 10), 0);
+    for (uint64_t t = RESEND; t <= 2u * TIMEOUT && !gp_pse_states_ready(&lone); t += RESEND)
+        gp_pse_poll(&lone, t); /* peer K + 1 is never heard: it leaves the round */
+    assert_true(gp_pse_states_ready(&lone));
+    assert_int_equal(lone.stats.timeouts, 1);
+    uint32_t ids[GP_PSE_MAX_NEIGHBOURS];
+    const uint8_t *got[GP_PSE_MAX_NEIGHBOURS];
+    assert_int_equal(gp_pse_neighbours(&lone, ids, got), LONE_K);
+    for (uint32_t j = 0; j < LONE_K; j++)
+        assert_memory_equal(got[j], lone_state[ids[j]], STATE_BYTES);
+    const uint64_t t = 3u * TIMEOUT;
+    /* 1. The silent peer after all, nearest of all, with its whole state. */
+    for (uint32_t k = 0; k < n_chunks; k++)
+        (void)lone_chunk(LONE_K + 1u, 0, 0, k, 0.5, lone_other, t);
+    /* 2. A listed peer's chunk from elsewhere, with other bytes. */
+    (void)lone_chunk(1, 0, 0, 0, 50.0, lone_other, t + 1);
+    /* 3. A listed peer restarted: its new incarnation's state of the round. */
+    for (uint32_t k = 0; k < n_chunks; k++)
+        (void)lone_chunk(2, 1, 0, k, 100.0 - 2.0, lone_other, t + 2);
+    for (uint32_t j = 0; j < LONE_K; j++)
+        assert_memory_equal(got[j], lone_state[ids[j]], STATE_BYTES);
+    assert_int_equal(lone.stats.restarts, 1);
+    assert_int_equal(lone.stats.evictions, 0);
+    assert_int_equal(lone.stats.after_taken, 2u * n_chunks + 1u);
+    /* The caller may rewrite them (the GP core expands int8 states in place): still its own. */
+    memset((uint8_t *)(uintptr_t)got[0], 0, STATE_BYTES);
+    (void)lone_chunk(ids[0], ids[0] == 2u ? 1u : 0u, 0, 0, 100.0 - (double)ids[0], lone_state[ids[0]], t + 3);
+    for (uint32_t b = 0; b < STATE_BYTES; b++)
+        assert_int_equal(got[0][b], 0);
+    assert_int_equal(gp_pse_neighbours(&lone, ids, got), LONE_K); /* the same buffers again */
+    /* Round 1 begins: the rules are the usual ones again, the nearest peer is kept. */
+    assert_int_equal(gp_pse_complete(&lone, t + 4), 0);
+    assert_int_equal(gp_pse_begin_round(&lone, 1, mine_, 0.0, 0.0, t + 5), 0);
+    for (uint32_t k = 0; k < n_chunks; k++)
+        assert_int_equal(lone_chunk(LONE_K + 1u, 0, 1, k, 0.5, lone_other, t + 6), 0);
+    assert_int_equal(lone.stats.after_taken, 2u * n_chunks + 2u);
+}
+
 int main(void)
 {
     const struct CMUnitTest tests[] = {
@@ -440,6 +522,7 @@ int main(void)
         cmocka_unit_test(test_invalid_messages_change_nothing),
         cmocka_unit_test(test_forged_chunk_does_not_block_the_state),
         cmocka_unit_test(test_disk_neighbours_match_dinno_graph),
+        cmocka_unit_test(test_handed_out_buffers_are_not_written),
     };
     return cmocka_run_group_tests_name("gp/pse", tests, NULL, NULL);
 }

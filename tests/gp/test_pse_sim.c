@@ -4,10 +4,12 @@
  * virtual clock, over a simulated multicast network that drops, duplicates, delays (and so
  * reorders), corrupts and partitions datagrams, with robots that pause (their datagrams wait,
  * as in a kernel socket buffer), crash, and restart from their last completed round with a
- * newer incarnation. Each robot is driven like gp_fleet drives it: begin the round, wait for
- * the states, "train" (a deterministic mix of its model and its neighbours' states, taking
- * virtual time), complete, wait for the round to finish, then gp_pse_next_round (capped at
- * the last round), and after the last round linger, repeating RoundComplete.
+ * newer incarnation. Each robot runs the image's own round driver (gp_round, the object the
+ * image links) as gp_fleet runs it: want round k, begin it when the driver says so, read the
+ * neighbours when it says they are there and ask it for the next round (its skip-ahead),
+ * "train" (a deterministic mix of its model and its neighbours' states, taking virtual time),
+ * say the node update is done, and after the last round let the driver finish and leave.
+ * Only the transport and the clock are the simulation's.
  *
  * One seed draws a whole schedule (fleet size, rounds, radius, faults) and drives it; every
  * schedule asserts
@@ -34,6 +36,7 @@
 
 #include "ai/dinno_graph.h"
 #include "gp/gp_pse.h"
+#include "gp/gp_round.h"
 
 #define SMALL_N 7         /* most schedules: 2 .. SMALL_N robots */
 #define BIG_N_MIN (GP_PSE_MAX_NEIGHBOURS + 1) /* one in 32: more robots than neighbour slots */
@@ -44,10 +47,9 @@
 #define N_CHUNKS 3u
 #define HDR 12u           /* oracle header: sender, round, hash of the rest */
 #define TICK_US 1000u
-#define RESEND_US 5000u  /* peer_timeout / resend_after = 50, as the defaults (10 s / 200 ms) */
+#define RESEND_US 5000u  /* peer_timeout / resend_after = 50: tighter than the defaults' 200 (gp_fleet.h: 10 s / 50 ms) */
 #define TIMEOUT_US 250000u
 #define JOIN_US 500000u
-#define LINGER_US (2u * RESEND_US)
 #define LATE_MAX_US (2u * TIMEOUT_US) /* a late datagram arrives up to this much later */
 #define QCAP 32768
 
@@ -84,17 +86,19 @@ static int loss_only(const schedule_t *s)
     return !s->partition && s->pause_robot < 0 && s->crash_robot < 0;
 }
 
-typedef enum { R_DRIVE, R_STATES, R_COMPUTE, R_FINISH, R_LINGER, R_EXITED, R_DOWN } rphase_t;
+typedef enum { R_DRIVE, R_EXCHANGE, R_COMPUTE, R_FINISH, R_EXITED, R_DOWN } rphase_t;
 
 typedef struct robot {
-    gp_pse_t pse;
+    gp_round_t drv;             /* the image's round driver, with the protocol inside */
     int id;
     rphase_t phase;
     uint32_t round;
+    uint32_t next;              /* the round after this one (the driver's skip-ahead) */
     uint32_t incarnation;
-    uint64_t wake_us;           /* R_DRIVE / R_COMPUTE / R_LINGER: when that ends */
-    uint64_t round_begin_us;
-    uint64_t paused_in_round;   /* virtual time paused during the current round */
+    uint64_t wake_us;           /* R_DRIVE / R_COMPUTE: when that ends */
+    int timing;                 /* a round begun and not finished yet: */
+    uint64_t round_begin_us;    /* when it began */
+    uint64_t paused_in_round;   /* virtual time paused since */
     uint8_t model[STATE_BYTES];
     uint8_t mine[STATE_BYTES];  /* the state sent this round (stable until the round ends) */
     uint8_t ckpt[STATE_BYTES];  /* model after the last completed round (for a restart) */
@@ -220,11 +224,11 @@ static void deliver(robot_t *r, dgram_t *d)
 {
     if (d->kind == GP_PSE_CHUNK) {
         d->chunk.data = d->data;
-        (void)gp_pse_on_chunk(&r->pse, &d->chunk, now_us);
+        (void)gp_pse_on_chunk(&r->drv.pse, &d->chunk, now_us);
     } else if (d->kind == GP_PSE_DONE) {
-        (void)gp_pse_on_done(&r->pse, &d->done, now_us);
+        (void)gp_pse_on_done(&r->drv.pse, &d->done, now_us);
     } else {
-        (void)gp_pse_on_request(&r->pse, &d->req, now_us);
+        (void)gp_pse_on_request(&r->drv.pse, &d->req, now_us);
     }
 }
 
@@ -276,7 +280,8 @@ static void start_engine(robot_t *r)
 {
     gp_pse_cfg_t c = {(uint32_t)r->id, (uint32_t)cur->n, STATE_BYTES, CHUNK, cur->radius, RESEND_US, TIMEOUT_US,
                       JOIN_US, net_send, &rob_ctx[r->id], 0, r->incarnation, 1};
-    assert_int_equal(gp_pse_init(&r->pse, &c), 0);
+    assert_int_equal(gp_round_init(&r->drv, &c, (uint32_t)cur->rounds), 0);
+    r->timing = 0;
 }
 
 static void begin(robot_t *r)
@@ -287,8 +292,8 @@ static void begin(robot_t *r)
     put32(r->mine + 8, hash32(r->mine + HDR, STATE_BYTES - HDR));
     double x, y;
     position(r->id, r->round, &x, &y);
-    assert_int_equal(gp_pse_begin_round(&r->pse, r->round, r->mine, x, y, now_us), 0);
-    r->phase = R_STATES;
+    assert_int_equal(gp_round_begin(&r->drv, r->mine, x, y, now_us), 0);
+    r->timing = 1;
     r->round_begin_us = now_us;
     r->paused_in_round = 0;
 }
@@ -313,16 +318,16 @@ static void check_nearest(const robot_t *r, const uint32_t *ids, uint32_t n)
     for (uint32_t j = 0; j < n && same; j++)
         same = ids[j] == g.nb[r->id][j];
     if (!same && getenv("FLEETSIM_PSE_SIM_DEBUG")) {
-        const gp_pse_nearest_t *nr = &r->pse.near[r->round & 1u];
+        const gp_pse_nearest_t *nr = &r->drv.pse.near[r->round & 1u];
         fprintf(stderr, "near round %u valid %d n %u:", nr->round, nr->valid, nr->n);
         for (uint32_t m = 0; m < nr->n; m++)
-            fprintf(stderr, " %u(buf %u)", nr->id[m], r->pse.peer[nr->id[m]].buf[r->round & 1u]);
+            fprintf(stderr, " %u(buf %u)", nr->id[m], r->drv.pse.peer[nr->id[m]].buf[r->round & 1u]);
         fprintf(stderr, "\n");
         for (int i = 0; i < cur->n; i++)
-            fprintf(stderr, "peer %d: has_pos %d pos_round %u absent %d heard %d at %llu; now %llu start %llu timeouts %llu\n", i, r->pse.peer[i].has_pos[r->round & 1u],
-                    r->pse.peer[i].pos_round[r->round & 1u], r->pse.peer[i].absent, r->pse.peer[i].heard,
-                    (unsigned long long)r->pse.peer[i].heard_us, (unsigned long long)now_us,
-                    (unsigned long long)r->pse.round_start_us, (unsigned long long)r->pse.stats.timeouts);
+            fprintf(stderr, "peer %d: has_pos %d pos_round %u absent %d heard %d at %llu; now %llu start %llu timeouts %llu\n", i, r->drv.pse.peer[i].has_pos[r->round & 1u],
+                    r->drv.pse.peer[i].pos_round[r->round & 1u], r->drv.pse.peer[i].absent, r->drv.pse.peer[i].heard,
+                    (unsigned long long)r->drv.pse.peer[i].heard_us, (unsigned long long)now_us,
+                    (unsigned long long)r->drv.pse.round_start_us, (unsigned long long)r->drv.pse.stats.timeouts);
     }
     if (!same)
         fail_msg("schedule %llu: robot %d of %d took %u neighbour states in round %u, the reference %u (or others) "
@@ -336,7 +341,7 @@ static void train(robot_t *r)
 {
     uint32_t ids[GP_PSE_MAX_NEIGHBOURS];
     const uint8_t *st[GP_PSE_MAX_NEIGHBOURS];
-    const uint32_t n = gp_pse_neighbours(&r->pse, ids, st);
+    const uint32_t n = gp_pse_neighbours(&r->drv.pse, ids, st);
     if (loss_only(cur))
         check_nearest(r, ids, n);
     for (uint32_t j = 0; j < n; j++) {
@@ -357,71 +362,86 @@ static int trace;
     do {                                                                                       \
         if (trace)                                                                             \
             fprintf(stderr, "%8.3f robot %d round %u: %s (timeouts %llu, later %d)\n", (double)now_us * 1e-6, (r)->id, \
-                    (r)->round, what, (unsigned long long)(r)->pse.stats.timeouts, (r)->pse.later_heard); \
+                    (r)->round, what, (unsigned long long)(r)->drv.pse.stats.timeouts, (r)->drv.pse.later_heard); \
     } while (0)
 
 static uint64_t slack_us; /* of the schedule running */
 
 static uint64_t compute_us(void) { return 2000u + rnd_below(12000u); }
 
+/* The round that began at round_begin_us is over for the robot (the driver began the next or
+   started leaving): its length, own pauses not counted, against the liveness bound. */
+static void round_finished(robot_t *r)
+{
+    if (!r->timing)
+        return;
+    const uint64_t took = now_us - r->round_begin_us - r->paused_in_round;
+    /* A datagram held back for rounds is progress when it finally arrives: the bound runs
+       from the last progress received, so late ones extend it by their delay. */
+    const uint64_t allowed = (r->first_round ? JOIN_US : TIMEOUT_US) + (cur->late > 0.0 ? LATE_MAX_US : 0u) + slack_us;
+    if (took > allowed && took - allowed > r->max_round_us - r->max_allowed_us) {
+        r->max_round_us = took;
+        r->max_allowed_us = allowed;
+    }
+    r->first_round = 0;
+    r->timing = 0;
+}
+
+/* One tick of a robot, driven as gp_fleet drives the image's: the AI core wants round k
+   exchanged, the driver says when to begin it and when the states are there; the node update
+   takes virtual time; then RoundComplete, and after the last round the driver's leaving. */
 static void step(robot_t *r)
 {
+    const uint32_t last = (uint32_t)cur->rounds - 1u;
     switch (r->phase) {
     case R_DRIVE:
-        if (now_us >= r->wake_us) {
-            begin(r);
-            TRACE(r, "begin");
-        }
-        break;
-    case R_STATES:
-        gp_pse_poll(&r->pse, now_us);
-        if (gp_pse_states_ready(&r->pse)) {
+        if (now_us < r->wake_us)
+            break;
+        assert_int_equal(gp_round_want(&r->drv, r->round, now_us), 0);
+        r->phase = R_EXCHANGE; /* the GP core steps the driver at once */
+        /* fall through */
+    case R_EXCHANGE:
+        for (gp_round_event_t ev; (ev = gp_round_step(&r->drv, now_us)) != GP_ROUND_WAIT;) {
+            if (ev == GP_ROUND_BEGIN) {
+                round_finished(r);
+                begin(r);
+                TRACE(r, "begin");
+                continue;
+            }
+            assert_int_equal(ev, GP_ROUND_READY);
             train(r);
+            r->next = gp_round_next_round(&r->drv, r->round, now_us);
             TRACE(r, "states ready");
             r->phase = R_COMPUTE;
             r->wake_us = now_us + compute_us();
+            break;
         }
         break;
     case R_COMPUTE:
-        gp_pse_poll(&r->pse, now_us); /* the GP core serves the network while the AI trains */
-        if (now_us >= r->wake_us) {
-            assert_int_equal(gp_pse_complete(&r->pse, now_us), 0);
-            memcpy(r->ckpt, r->model, STATE_BYTES);
-            r->ckpt_round = (int32_t)r->round;
+        (void)gp_round_step(&r->drv, now_us); /* the GP core serves the network while the AI trains */
+        if (now_us < r->wake_us)
+            break;
+        assert_int_equal(gp_round_node_done(&r->drv, r->round, r->round == last, now_us), 0);
+        memcpy(r->ckpt, r->model, STATE_BYTES);
+        r->ckpt_round = (int32_t)r->round;
+        TRACE(r, "complete");
+        if (r->round == last) {
             r->phase = R_FINISH;
-            TRACE(r, "complete");
+            break;
         }
+        r->round = r->next; /* offline: the AI core publishes the next state at once */
+        r->phase = R_DRIVE;
+        r->wake_us = now_us;
         break;
-    case R_FINISH:
-        gp_pse_poll(&r->pse, now_us);
-        if (gp_pse_round_finished(&r->pse)) {
-            const uint64_t took = now_us - r->round_begin_us - r->paused_in_round;
-            /* A datagram held back for rounds is progress when it finally arrives: the bound
-               runs from the last progress received, so late ones extend it by their delay. */
-            const uint64_t allowed = (r->first_round ? JOIN_US : TIMEOUT_US) + (cur->late > 0.0 ? LATE_MAX_US : 0u) + slack_us;
-            if (took > allowed && took - allowed > r->max_round_us - r->max_allowed_us) {
-                r->max_round_us = took;
-                r->max_allowed_us = allowed;
-            }
-            r->first_round = 0;
-            const uint32_t last = (uint32_t)cur->rounds - 1u;
-            if (r->round == last) {
-                gp_pse_leave(&r->pse, now_us);
-                r->phase = R_LINGER;
-                r->wake_us = now_us + LINGER_US;
-                break;
-            }
-            uint32_t next = gp_pse_next_round(&r->pse, now_us);
-            r->round = next > last ? last : next;
-            begin(r);
-            TRACE(r, "begin");
-        }
-        break;
-    case R_LINGER: /* as gp_fleet: until every peer left too (and a grace), at most a timeout */
-        gp_pse_poll(&r->pse, now_us);
-        if ((now_us >= r->wake_us && gp_pse_all_left(&r->pse)) || now_us >= r->wake_us - LINGER_US + TIMEOUT_US)
+    case R_FINISH: {
+        const gp_round_phase_t was = r->drv.phase;
+        const gp_round_event_t ev = gp_round_step(&r->drv, now_us);
+        if (was == GP_ROUND_FINISHING && r->drv.phase != GP_ROUND_FINISHING)
+            round_finished(r);
+        if (ev == GP_ROUND_DONE)
             r->phase = R_EXITED;
         break;
+    }
     default:
         break;
     }
@@ -479,7 +499,7 @@ static void run(const schedule_t *s, uint8_t out[MAXN][STATE_BYTES], uint64_t *t
     for (; now_us < deadline; now_us += TICK_US) {
         if (s->crash_robot >= 0 && !crashed && now_us >= s->crash_at && rob[s->crash_robot].phase != R_EXITED) {
             robot_t *r = &rob[s->crash_robot];
-            add_stats(&r->pse.stats);
+            add_stats(&r->drv.pse.stats);
             r->phase = R_DOWN;
             crashed = 1;
             tot.crashes++;
@@ -513,7 +533,7 @@ static void run(const schedule_t *s, uint8_t out[MAXN][STATE_BYTES], uint64_t *t
                 continue;
             active = 1;
             if (is_paused(i)) {
-                if (r->phase == R_STATES || r->phase == R_COMPUTE || r->phase == R_FINISH)
+                if (r->timing)
                     r->paused_in_round += TICK_US;
                 continue;
             }
@@ -538,13 +558,13 @@ static void run(const schedule_t *s, uint8_t out[MAXN][STATE_BYTES], uint64_t *t
                      (unsigned long long)s->seed, i, (double)r->max_round_us * 1e-6, (double)r->max_allowed_us * 1e-6,
                      (unsigned long long)s->seed);
         if (!left_down)
-            add_stats(&r->pse.stats);
+            add_stats(&r->drv.pse.stats);
         if (out)
             memcpy(out[i], r->model, STATE_BYTES);
         if (timeouts)
-            *timeouts += r->pse.stats.timeouts;
+            *timeouts += r->drv.pse.stats.timeouts;
         if (cut)
-            *cut += r->pse.stats.rounds_cut;
+            *cut += r->drv.pse.stats.rounds_cut;
     }
 }
 

@@ -53,7 +53,7 @@ static void test_tag_verdicts(void **st)
     uint8_t wire[64 + HAL_HOST_AUTH_TRAILER_BYTES];
     for (size_t i = 0; i < 64; i++)
         wire[i] = (uint8_t)(i * 13u);
-    hal_host_auth_seal(&a, "fleetsim/3/state", wire, 64, wire + 64);
+    hal_host_auth_seal(&a, "fleetsim/3/state", wire, 64);
     size_t len = 0;
     assert_int_equal(hal_host_auth_open(&a, "fleetsim/3/state", wire, sizeof wire, &len), HAL_HOST_AUTH_OK);
     assert_int_equal(len, 64);
@@ -75,7 +75,7 @@ static void test_tag_verdicts(void **st)
                      HAL_HOST_AUTH_BAD_TAG);
     /* An empty message has a tag of its own. */
     uint8_t empty[HAL_HOST_AUTH_TRAILER_BYTES];
-    hal_host_auth_seal(&a, "x", NULL, 0, empty);
+    hal_host_auth_seal(&a, "x", empty, 0);
     assert_int_equal(hal_host_auth_open(&a, "x", empty, sizeof empty, &len), HAL_HOST_AUTH_OK);
     assert_int_equal(len, 0);
 }

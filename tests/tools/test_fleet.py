@@ -17,6 +17,9 @@ that prints host_sim's round lines, and dies by SIGKILL at a chosen round unless
   - more robots than the default tours without --paths: `host_sim paths gen` makes them in the
     run's folder (one line says so) and robot i drives RUN/tours/robot_<i>.csv; up to 1024;
   - a ZeroMQ fleet's ports skip a port another process listens on (the next free block).
+  - the launcher's defaults are the binary's (`host_sim defaults`, which the stand-in answers
+    with today's values): one without the command is refused at once, exit 2, one line; --help
+    still works and says where the defaults come from.
 Every launcher runs under a timeout: a hang is a failure.
 
     python3 tests/tools/test_fleet.py      prints "N passed, M failed", exit 1 on failure
@@ -35,11 +38,37 @@ ROOT = os.path.dirname(os.path.dirname(os.path.dirname(os.path.realpath(__file__
 FLEET = os.path.join(ROOT, "tools", "fleet")
 TIMEOUT = 120
 
+# What the stand-in says to `host_sim defaults` (today's values; test_defaults.py checks the
+# launcher against the real binary's).
+DEFAULTS = """seed=1
+strategy=kl
+radius_m=6
+encoding=fp32
+pool=cdr
+rounds_per_comm=1
+mc=50
+resend_ms=50
+peer_timeout_s=10
+lcm_url=udpm://239.255.76.67:7667?ttl=0&recv_buf_size=33554432
+max_fleet=1024
+fleet_robots=7
+fleet_rounds=1500
+fleet_mode=offline
+fleet_val_poses=200
+fleet_val_checks=50
+fleet_map_res_m=0.05"""
+
 # The stand-in for `host_sim run`: FAKE_DIE="robot:round" makes that robot kill itself after
 # printing that round, unless it was started with --resume (FAKE_DIE_ALWAYS=1: then too).
 FAKE = r'''
 import os, signal, sys, time
 args = sys.argv[1:]
+if args[:1] == ["defaults"]:  # what the launcher reads (the values of today's build)
+    if os.environ.get("FAKE_NO_DEFAULTS"):  # a build from before the command
+        print("host_sim: unknown command 'defaults'", file=sys.stderr)
+        sys.exit(2)
+    print(DEFAULTS)
+    sys.exit(0)
 if args[:1] == ["key"]:  # host_sim key new|check FILE
     if args[1] == "new":
         fd = os.open(args[2], os.O_WRONLY | os.O_CREAT | os.O_EXCL, 0o600)
@@ -80,16 +109,22 @@ sys.exit(0)
 
 
 def launch(tmp, extra, env_extra, name, robots=3):
-    fake = os.path.join(tmp, "host_sim")
-    with open(fake, "w") as f:
-        f.write(f"#!{sys.executable}\n" + FAKE)
-    os.chmod(fake, 0o755)
+    fake = write_fake(tmp)
     env = dict(os.environ, **env_extra)
     cmd = ["/usr/bin/python3", FLEET, "--bin", fake, "--robots", str(robots), "--rounds", "10", "--results", tmp,
            "--name", name, "--force", "--val-poses", "1", "--fleet-id", str(60000 + os.getpid() % 5000)] + extra
     res = subprocess.run(cmd, stdout=subprocess.PIPE, stderr=subprocess.STDOUT, text=True, env=env,
                          timeout=TIMEOUT)
     return res.returncode, res.stdout, os.path.join(tmp, name)
+
+
+def write_fake(tmp):
+    """The stand-in for host_sim in tmp; its path."""
+    fake = os.path.join(tmp, "host_sim")
+    with open(fake, "w") as f:
+        f.write(f"#!{sys.executable}\nDEFAULTS = {DEFAULTS!r}\n" + FAKE)
+    os.chmod(fake, 0o755)
+    return fake
 
 
 def run_json(run_dir):
@@ -259,8 +294,12 @@ def unwritable_results_refused():
             # root writes anyway: the launcher runs as nobody instead (when nobody can read it:
             # a clone in a 0700 folder, as mktemp -d makes, cannot be)
             os.chmod(tmp, 0o755)
+            sh_fake = os.path.join(tmp, "host_sim.sh")  # one nobody can run: /bin/sh's, only `defaults`
+            with open(sh_fake, "w") as f:
+                f.write(f"#!/bin/sh\ncat <<'EOF'\n{DEFAULTS}\nEOF\n")
+            os.chmod(sh_fake, 0o755)
             res = subprocess.run(["setpriv", "--reuid=65534", "--regid=65534", "--clear-groups", "/usr/bin/python3",
-                                  FLEET, "--bin", "/bin/true", "--force", "--results", ro],
+                                  FLEET, "--bin", sh_fake, "--force", "--results", ro],
                                  stdout=subprocess.PIPE, stderr=subprocess.STDOUT, text=True, timeout=TIMEOUT)
             out = res.stdout
             check(res.returncode == 2 and len(out.strip().splitlines()) == 1,
@@ -271,6 +310,29 @@ def unwritable_results_refused():
     finally:
         for d, _, _ in os.walk(tmp):
             os.chmod(d, 0o755)
+        shutil.rmtree(tmp, ignore_errors=True)
+
+
+@test
+def binary_without_defaults_refused():
+    """The launcher's defaults are the binary's: one without `host_sim defaults` (an older build)
+    is refused at once, exit 2, one line that says so; --help still works (it says where the
+    defaults come from)."""
+    tmp = tempfile.mkdtemp()
+    try:
+        rc, out, run_dir = launch(tmp, ["--no-report"], {"FAKE_NO_DEFAULTS": "1"}, "old")
+        check(rc == 2 and len(out.strip().splitlines()) == 1 and "has no `defaults` command" in out and
+              "rebuild (make)" in out and not os.path.exists(run_dir), f"exit {rc}:\n{out}")
+        res = subprocess.run(["/usr/bin/python3", FLEET, "--bin", os.path.join(tmp, "nothing"), "--help"],
+                             stdout=subprocess.PIPE, stderr=subprocess.STDOUT, text=True, timeout=TIMEOUT)
+        check(res.returncode == 0 and "fleet_rounds" in res.stdout and "gives none: build it" in res.stdout, res.stdout)
+        # the defaults read are passed on: radius, peer timeout, resend period, validation poses
+        rc, out, run_dir = launch(tmp, ["--no-report", "--resend-ms", "50"], {}, "defaults")
+        start = starts(run_dir, 0)[0]
+        check(rc == 0 and "--radius 6.0 " in start and "--peer-timeout 10.0 " in start and
+              "--encoding fp32 " in start and "--strategy kl " in start, f"exit {rc}: {start}\n{out}")
+        check(run_json(run_dir)["map_res_m"] == 0.05, "run.json: the consensus map's grid")
+    finally:
         shutil.rmtree(tmp, ignore_errors=True)
 
 

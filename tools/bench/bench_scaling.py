@@ -75,7 +75,7 @@ def measure(a, transport, n, rounds, preset):
         rss.append(float(m.group(2)))
         if i == 0:
             with open(os.path.join(rd, "profile.csv")) as f:
-                top = ("rt_state", "rt_links", "ai_state", "ai_links", "gp_state", "gp_links")  # the rest nests
+                top = ("rt_state", "rt_links", "ai_state", "ai_links", "gp_state", "gp_links", "gp_fleet")  # the rest nests
                 static = sum(int(r[2]) for r in csv.reader(f) if r and r[0] == "mem" and r[1] in top)
     row = {"transport": transport, "robots": n, "rounds": rounds, "round_ms": statistics.median(walls),
            "sent_per_robot_B": statistics.mean(sent), "received_per_robot_B": statistics.mean(recv),

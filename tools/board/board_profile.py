@@ -307,7 +307,7 @@ def main(argv=None):
                 f"DiNNO node {kb(r['mem_ai_node'])} (model arena {kb(r['arena_bytes'])}), "
                 f"pool {kb(r['mem_ai_pool'])}, state and checkpoint mailboxes {kb(r['mem_ai_links'])}"),
                ("GP", d.get("BOARD_RAM_GP_BYTES", 0), r["mem_gp_state"] + r["mem_gp_links"] + r["mem_gp_fleet"],
-                f"gp_core_t, neighbour slots {kb(r['mem_gp_links'])}, fleet exchange {kb(r['mem_gp_fleet'])}")]
+                f"gp_core_t, neighbour view {kb(r['mem_gp_links'])}, fleet exchange {kb(r['mem_gp_fleet'])}")]
     md += ["Static RAM per core against the board's budget (board.h, checked at compile time):", "",
            "| core | budget | used | what |", "|---|---:|---:|---|"]
     for core, budget, used, what in budgets:

@@ -6,8 +6,9 @@
  * with the host build of the same preset and tools/board/board_profile.py turns into the
  * board's profile.
  *
- * Every round has one neighbour: the node's own state at the start of the round (a copy into
- * slot 0), so the round runs the dual update and the regulariser like a round in a fleet.
+ * Every round has one neighbour: the node's own state at the start of the round (a view of
+ * it, read in place), so the round runs the dual update and the regulariser like a round in a
+ * fleet.
  * Instructions come from the target (hal_stdc_target.h): exact under QEMU's -icount on the
  * Cortex-M boards, printed here; on a Linux board QEMU's plugin logs the count at marks around
  * the same work, which the profile pairs.
@@ -50,11 +51,6 @@ typedef struct train_opts {
 static float xy[2u * TRAIN_POINTS_MAX], mean_p[TRAIN_POINTS_MAX], std_p[TRAIN_POINTS_MAX];
 static float logit_fp32[TRAIN_POINTS_MAX], logit_int8[TRAIN_POINTS_MAX];
 static uint8_t packed[BNN_QUANT_MAX_BYTES];
-/* The GP core's fleet exchange (peers' states of two rounds). On the host the program that runs
- * the network owns it (host_sim); a board's image owns it too, so its RAM counts here even
- * though this program has no fleet to talk to. */
-static gp_fleet_t fleet_exchange;
-
 static void usage(FILE *to)
 {
     fprintf(to,
@@ -185,7 +181,9 @@ int main(int argc, char **argv)
         fprintf(stderr, "board_train: cannot install the board (%d)\n", r);
         return 1;
     }
-    memset(&fleet_exchange, 0, sizeof fleet_exchange); /* no fleet: the exchange stays empty */
+    /* The image's fleet exchange (fw_robot_fleet) is linked and counted (its RAM is the
+       board's), but this program has no fleet to talk to: it stays empty. */
+    memset(fw_robot_fleet(), 0, sizeof *fw_robot_fleet());
     ai_core_t *ai = fw_robot_ai_work();
     ai_core_cfg_t cfg = ai_core_default_cfg();
     cfg.rounds = o.rounds;
@@ -221,7 +219,10 @@ int main(int argc, char **argv)
     uint64_t train_insns = 0, round_max = 0;
     dinno_round_stats_t st = {0};
     for (uint32_t k = 0; k < o.rounds; k++) {
-        if ((r = dinno_slot_put(&ai->node, 0, 0, k, bnn_params(m), n_params)) != 0)
+        /* One neighbour: the model itself, read in place (the screen, the dual update and the
+           neighbour sums all read it before the round's first step changes it). */
+        const dinno_nbrs_t self_view = {.round = k, .count = 1, .id = {0}, .theta = {bnn_params_const(m)}};
+        if ((r = dinno_node_set_nbrs(&ai->node, &self_view)) != 0)
             break;
         uint64_t t0 = insns();
         hal_stdc_target_mark(MARK_ROUND_BEGIN);
@@ -294,7 +295,7 @@ int main(int argc, char **argv)
     printf("result mem_ai_links %lu\n", (unsigned long)mem.ai_links);
     printf("result mem_gp_state %lu\n", (unsigned long)mem.gp_state);
     printf("result mem_gp_links %lu\n", (unsigned long)mem.gp_links);
-    printf("result mem_gp_fleet %lu\n", (unsigned long)sizeof fleet_exchange);
+    printf("result mem_gp_fleet %lu\n", (unsigned long)mem.gp_fleet);
     printf("result arena_bytes %lu\n", (unsigned long)mem.ai_model_arena);
     printf("result arena_persistent_bytes %lu\n", (unsigned long)persistent);
     printf("result arena_scratch_bytes %lu\n", (unsigned long)(mem.ai_model_arena - persistent));
