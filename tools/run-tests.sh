@@ -8,8 +8,10 @@
 #
 # Each program runs under timeout(1), so one hung program fails instead of hanging the suite:
 # SIGTERM after its bound, SIGKILL TEST_KILL_AFTER seconds later (default 10) if it is still
-# there; both go to its whole process group, so the processes a test started go with it. A
-# program that timed out counts as one failed case and is listed as "(timed out after N s)".
+# there; both go to its whole process group, so the processes a test started go with it (the
+# fleet tests put their robots in groups of their own, tests/support/fleet_procs.c, and stop
+# them on the SIGTERM). A program that timed out counts as one failed case and is listed as
+# "(timed out after N s)".
 # The bound is TEST_TIMEOUT seconds (default 900: the slowest programs take a few tens of
 # seconds alone in a release build; ASan + UBSan and a second core's other work multiply that
 # several times), except tests/gp/test_pse_sim, whose run grows with its schedule count: it
