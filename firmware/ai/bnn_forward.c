@@ -20,8 +20,8 @@
 #define SAMPLE_TILE 2048u
 /* partial sums of the output layer's dot products (one 512-bit vector, or two 256-bit ones) */
 #define OUT_LANES 16u
-AI_WIDE void bnn_sample_weights(bnn_model_t *m, const bnn_layout_t *y, uint64_t noise_key,
-                                int sigma_ready)
+AI_WIDE static void sample_weights(bnn_model_t *m, const bnn_layout_t *y, uint64_t noise_key,
+                               int sigma_ready)
 {
     float *restrict eps = m->arena + y->eps;
     float *restrict sig = m->arena + y->sigma;
@@ -51,8 +51,8 @@ AI_WIDE void bnn_sample_weights(bnn_model_t *m, const bnn_layout_t *y, uint64_t 
 /* Forward of n points whose inputs are in the arena's xy buffer; wb = Bayesian block of the
  * weights to use (sampled or mu); step: a training step's forward (its precision applies).
  * Leaves cos0, h0, h_l and logits in the arena. */
-AI_WIDE void bnn_forward_pass(bnn_model_t *m, const bnn_layout_t *y, const float *wb, size_t n,
-                              int step)
+AI_WIDE static void forward_pass(bnn_model_t *m, const bnn_layout_t *y, const float *wb, size_t n,
+                             int step)
 {
     float *a = m->arena;
     const size_t S = y->S, H = y->H;
@@ -138,8 +138,8 @@ int bnn_forward_logits(bnn_model_t *m, const float *xy, size_t n, int use_mean, 
     bnn_make_layout(&m->cfg, &y);
     memcpy(m->arena + y.xy, xy, 2 * n * sizeof(float));
     if (!use_mean)
-        bnn_sample_weights(m, &y, noise_key, 0);
-    bnn_forward_pass(m, &y, use_mean ? m->arena + y.bay : m->arena + y.wsamp, n, 0);
+        sample_weights(m, &y, noise_key, 0);
+    forward_pass(m, &y, use_mean ? m->arena + y.bay : m->arena + y.wsamp, n, 0);
     memcpy(logits, m->arena + y.logit, n * sizeof(float));
     return 0;
 }
@@ -159,12 +159,12 @@ int bnn_predict_mc(bnn_model_t *m, const float *xy, size_t n, uint32_t K,
             std[i] = 0.0f; /* holds Welford's M2 until the end */
     const size_t B = m->cfg.max_batch;
     for (uint32_t k = 0; k < K; k++) {
-        bnn_sample_weights(m, &y, mc_key(seed, k), k > 0);
+        sample_weights(m, &y, mc_key(seed, k), k > 0);
         const float inv = 1.0f / (float)(k + 1);
         for (size_t c0 = 0; c0 < n; c0 += B) {
             const size_t nc = n - c0 < B ? n - c0 : B;
             memcpy(a + y.xy, xy + 2 * c0, 2 * nc * sizeof(float));
-            bnn_forward_pass(m, &y, a + y.wsamp, nc, 0);
+            forward_pass(m, &y, a + y.wsamp, nc, 0);
             const float *restrict lg = a + y.logit;
             float *restrict mu = mean + c0;
             float *restrict m2 = std ? std + c0 : a + y.dlogit; /* scratch when std == NULL */
@@ -202,7 +202,7 @@ int bnn_eval_bce(bnn_model_t *m, const ai_sample_t *samples, size_t n, uint32_t 
             a[y.xy + 2 * i + 1] = samples[c0 + i].y;
         }
         if (K == 0) {
-            bnn_forward_pass(m, &y, a + y.bay, nc, 0);
+            forward_pass(m, &y, a + y.bay, nc, 0);
             for (size_t i = 0; i < nc; i++)
                 sum += bnn_bce_logit(a[y.logit + i], samples[c0 + i].occ);
             continue;
@@ -211,8 +211,8 @@ int bnn_eval_bce(bnn_model_t *m, const ai_sample_t *samples, size_t n, uint32_t 
         for (size_t i = 0; i < nc; i++)
             pm[i] = 0.0f;
         for (uint32_t k = 0; k < K; k++) {
-            bnn_sample_weights(m, &y, mc_key(seed, k), k > 0 || c0 > 0);
-            bnn_forward_pass(m, &y, a + y.wsamp, nc, 0);
+            sample_weights(m, &y, mc_key(seed, k), k > 0 || c0 > 0);
+            forward_pass(m, &y, a + y.wsamp, nc, 0);
             for (size_t i = 0; i < nc; i++)
                 pm[i] += (float)(1.0 / (1.0 + exp(-(double)a[y.logit + i])));
         }
@@ -224,4 +224,17 @@ int bnn_eval_bce(bnn_model_t *m, const ai_sample_t *samples, size_t n, uint32_t 
     }
     *bce = (float)(sum / (double)n);
     return 0;
+}
+
+/* For bnn_train.c: plain functions around the cloned ones. A function with clones is reached
+ * through an ifunc whose symbol the compilers name differently (GCC: the function's own name,
+ * clang: "<name>.ifunc"), so no cloned function is called across files. */
+void bnn_sample_weights(bnn_model_t *m, const bnn_layout_t *y, uint64_t noise_key, int sigma_ready)
+{
+    sample_weights(m, y, noise_key, sigma_ready);
+}
+
+void bnn_forward_pass(bnn_model_t *m, const bnn_layout_t *y, const float *wb, size_t n, int step)
+{
+    forward_pass(m, y, wb, n, step);
 }
