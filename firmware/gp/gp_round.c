@@ -22,8 +22,17 @@ int gp_round_want(gp_round_t *d, uint32_t k, uint64_t now_us)
     gp_pse_t *p = &d->pse;
     if (k >= d->rounds || d->phase >= GP_ROUND_FINISHING)
         return -EINVAL;
-    if (d->phase == GP_ROUND_CLOSING || d->phase == GP_ROUND_BEGINNING)
-        return k == d->want ? 0 : -EINVAL;
+    if (d->phase == GP_ROUND_CLOSING || d->phase == GP_ROUND_BEGINNING) {
+        if (k < d->want)
+            return -EINVAL;
+        /* A later round: the wanted one was never begun (the caller could not encode it and
+           ran it alone); the later one waits for the same end of the round before. */
+        if (k > d->want) {
+            d->want = k;
+            d->phase = GP_ROUND_CLOSING;
+        }
+        return 0;
+    }
     if (p->in_round && p->round >= k) {
         if (p->round != k)
             return -EINVAL;

@@ -66,9 +66,9 @@ typedef struct gp_round {
 FS_MUST_CHECK int gp_round_init(gp_round_t *d, const gp_pse_cfg_t *pse_cfg, uint32_t rounds);
 
 /* The AI core wants round k exchanged. Round k must be after the last round begun, or that
- * same round (asked again: nothing changes). An unfinished round before k is completed
- * first (its node update is over). 0, or -EINVAL (k out of order, past the last round, after
- * the last round was completed). */
+ * same round (asked again: nothing changes); a round wanted but never begun gives way to a
+ * later one. An unfinished round before k is completed first (its node update is over). 0,
+ * or -EINVAL (k out of order, past the last round, after the last round was completed). */
 FS_MUST_CHECK int gp_round_want(gp_round_t *d, uint32_t k, uint64_t now_us);
 
 /* Polls the protocol and moves on when the phase's condition holds: see gp_round_event_t.

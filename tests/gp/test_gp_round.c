@@ -72,7 +72,6 @@ static void test_lossless_rounds(void **st)
     for (uint32_t k = 0; k < ROUNDS; k++) {
         for (int i = 0; i < 2; i++)
             assert_int_equal(gp_round_want(&drv[i], k, now), 0); /* again for robot 0: no change */
-        assert_int_equal(gp_round_want(&drv[0], k + 1u, now), -EINVAL);
         assert_int_equal(gp_round_step(&drv[0], now), GP_ROUND_BEGIN);
         assert_int_equal(gp_round_step(&drv[0], now), GP_ROUND_BEGIN); /* until begun */
         begin(0, k);
@@ -127,12 +126,27 @@ static void test_out_of_order_refused(void **st)
     assert_int_equal(gp_round_node_done(&drv[0], 0, 0, now), -EINVAL); /* nothing begun */
     assert_int_equal(gp_round_step(&drv[0], now), GP_ROUND_WAIT);      /* nothing wanted */
     assert_int_equal(gp_round_want(&drv[0], 1, now), 0);
-    assert_int_equal(gp_round_want(&drv[0], 0, now), -EINVAL);         /* another round */
+    assert_int_equal(gp_round_want(&drv[0], 0, now), -EINVAL);         /* an earlier round */
     assert_int_equal(gp_round_step(&drv[0], now), GP_ROUND_BEGIN);
     begin(0, 1);
     assert_int_equal(gp_round_want(&drv[0], 0, now), -EINVAL);         /* behind the round begun */
     assert_int_equal(gp_round_want(&drv[0], 1, now), 0);               /* the same: fine */
     assert_int_equal(gp_round_init(NULL, NULL, 1), -EINVAL);
+}
+
+/* A round wanted but never begun (the caller failed to encode it and ran it alone) gives way to
+   the next one, which begins as the first would have. */
+static void test_unbegun_round_gives_way(void **st)
+{
+    (void)st;
+    assert_int_equal(gp_round_want(&drv[0], 0, now), 0);
+    assert_int_equal(gp_round_step(&drv[0], now), GP_ROUND_BEGIN);
+    assert_int_equal(gp_round_node_done(&drv[0], 0, 0, now), -EINVAL); /* never begun */
+    assert_int_equal(gp_round_want(&drv[0], 1, now), 0);
+    assert_int_equal(gp_round_want(&drv[0], 0, now), -EINVAL);
+    assert_int_equal(gp_round_step(&drv[0], now), GP_ROUND_BEGIN);
+    begin(0, 1);
+    assert_int_equal(drv[0].pse.round, 1u);
 }
 
 /* A robot behind its fleet skips to the round the live peer is in, never past its last. */
@@ -156,6 +170,7 @@ int main(void)
     const struct CMUnitTest tests[] = {
         cmocka_unit_test_setup(test_lossless_rounds, setup),
         cmocka_unit_test_setup(test_out_of_order_refused, setup),
+        cmocka_unit_test_setup(test_unbegun_round_gives_way, setup),
         cmocka_unit_test_setup(test_skip_ahead_capped, setup),
     };
     return cmocka_run_group_tests(tests, NULL, NULL);
