@@ -66,6 +66,9 @@ int ai_core_init(ai_core_t *ai, const ai_core_cfg_t *cfg, const fw_link_t *link)
     ai->empty_rounds = 0;
     int r = dinno_node_init(&ai->node, &ai->cfg.dinno, NULL, cfg->model_seed, cfg->seed,
                             cfg->node_id);
+    if (r == 0) /* over the initial SIREN layer, the fleet's common one (bnn_post.h) */
+        r = bnn_post_init(&ai->post, &ai->node.model);
+    ai->post_staged = 0;
     if (r == 0)
         r = resume_node(ai, cfg);
     if (r != 0)
@@ -141,6 +144,15 @@ static void publish_state(ai_core_t *ai, uint64_t now_us)
     ai->phase = AI_PHASE_WAIT_SLOTS;
 }
 
+/* The staged samples' points into the posterior (a chunk at a time: one GEMM, not a rank-1
+ * update per sample). The arena's activations are scratch between training steps. */
+static int observe_staged(ai_core_t *ai)
+{
+    const int rc = bnn_post_observe(&ai->post, &ai->node.model, ai->post_xy, ai->post_staged);
+    ai->post_staged = 0;
+    return rc;
+}
+
 static int run_round(ai_core_t *ai, const gp_ready_t *ready)
 {
     const uint32_t k = ai->next_round;
@@ -196,7 +208,15 @@ static int run_round(ai_core_t *ai, const gp_ready_t *ready)
     msg->info = *p;
     msg->flags = k + 1u == ai->cfg.rounds ? AI_CKPT_FLAG_FINAL : 0u;
     size_t written = 0;
-    int r = bnn_ckpt_save(&ai->node.model, 0, msg->bytes, sizeof msg->bytes, &written);
+    const bnn_post_t *post = NULL;
+    if (msg->flags & AI_CKPT_FLAG_FINAL) { /* everything this robot observed */
+        const int rp = observe_staged(ai);
+        if (rp == 0)
+            post = &ai->post;
+        else
+            hal_log(HAL_LOG_WARN, "round %" PRIu32 ": no epistemic posterior (%d)", k, rp);
+    }
+    int r = bnn_ckpt_save_post(&ai->node.model, 0, post, msg->bytes, sizeof msg->bytes, &written);
     msg->n_bytes = r == 0 ? (uint32_t)written : 0u;
     if (r != 0)
         rc = r;
@@ -221,8 +241,13 @@ int ai_core_tick(void *arg, const fw_tick_t *tick)
     /* Drain at most one ring's worth: bounded work per tick even if the RT core keeps up. */
     ai_sample_t s;
     for (uint32_t i = 0; i < FW_LINK_RING_CAPACITY && ring_get(ai->link->samples, &s) == 0; i++) {
-        if (ai->phase != AI_PHASE_DONE)
+        if (ai->phase != AI_PHASE_DONE) {
             (void)ai_pool_offer(&ai->pool, &s);
+            ai->post_xy[2 * ai->post_staged] = s.x;
+            ai->post_xy[2 * ai->post_staged + 1] = s.y;
+            if (++ai->post_staged == AI_POST_STAGE && observe_staged(ai) != 0)
+                rc = -EINVAL;
+        }
     }
     if (mbox_get(ai->link->rt_to_ai, &ai->rt, NULL) < 0)
         rc = -EINVAL;

@@ -31,6 +31,9 @@
  * Option train_between: on every tick between boundaries with a non-empty pool, one more
  * optimiser step (bnn_train_step, lr of the coming round) on a minibatch drawn from the pool.
  *
+ * The last round's checkpoint also carries the robot's epistemic posterior (bnn_post.h): every
+ * sample drained from the ring (kept by the pool or not), summed in AI_POST_STAGE at a time
+ * over the initial SIREN layer's features.
  * Storage: ai_core_t is static (the image declares it): the DiNNO node (model, duals, the
  * view of the neighbours), the pool of AI_POOL_CAPACITY samples and a minibatch buffer, checked with the
  * AI core's links against BOARD_RAM_AI_BYTES. No allocation. One AI core per image. */
@@ -41,6 +44,7 @@
 
 #include "ai/ai_link.h"
 #include "ai/ai_pool.h"
+#include "ai/bnn_post.h"
 #include "ai/dinno.h"
 #include "common/fw_core.h"
 #include "fw_link.h"
@@ -50,6 +54,7 @@
 /* AI_POOL_CAPACITY (samples) comes from the build configuration, common/fw_config.h. */
 
 #define AI_CORE_MAX_ROUNDS 100000u
+#define AI_POST_STAGE 256u /* samples summed into the posterior at once */
 
 typedef struct ai_core_cfg {
     uint32_t rounds;          /* DiNNO rounds in all, 1 .. AI_CORE_MAX_ROUNDS */
@@ -86,6 +91,9 @@ typedef struct ai_core {
     dinno_node_t node;
     ai_sample_t batch[BNN_MAX_BATCH];
     ai_sample_t pool_data[AI_POOL_CAPACITY];
+    bnn_post_t post;          /* every sample the robot took, summed in as they come */
+    float post_xy[2u * AI_POST_STAGE]; /* samples not yet summed in */
+    uint32_t post_staged;
 } ai_core_t;
 
 #define AI_CORE_BYTES (sizeof(ai_core_t))

@@ -45,11 +45,22 @@ size_t bnn_ckpt_size(const bnn_model_t *m, int with_adam)
     return BNN_CKPT_HEADER_BYTES + (with_adam ? 3u : 1u) * m->n_params * 4u;
 }
 
+size_t bnn_ckpt_size_post(const bnn_model_t *m, int with_adam, const bnn_post_t *post)
+{
+    return bnn_ckpt_size(m, with_adam) + (post ? bnn_post_wire_size(post) : 0u);
+}
+
 int bnn_ckpt_save(const bnn_model_t *m, int with_adam, uint8_t *buf, size_t cap, size_t *written)
 {
-    if (!m || !buf || !written)
+    return bnn_ckpt_save_post(m, with_adam, NULL, buf, cap, written);
+}
+
+int bnn_ckpt_save_post(const bnn_model_t *m, int with_adam, const bnn_post_t *post, uint8_t *buf, size_t cap,
+                       size_t *written)
+{
+    if (!m || !buf || !written || (post && post->dim != m->cfg.siren_width + 1u))
         return -EINVAL;
-    const size_t need = bnn_ckpt_size(m, with_adam);
+    const size_t need = bnn_ckpt_size_post(m, with_adam, post);
     if (cap < need)
         return -ENOSPC;
     const size_t P = m->n_params;
@@ -66,7 +77,7 @@ int bnn_ckpt_save(const bnn_model_t *m, int with_adam, uint8_t *buf, size_t cap,
     put32(buf + 36, (uint32_t)(m->seed >> 32));
     put32(buf + 40, with_adam ? m->adam[BNN_GROUP_MU].t : 0u);
     put32(buf + 44, with_adam ? m->adam[BNN_GROUP_RHO].t : 0u);
-    put32(buf + 48, with_adam ? BNN_CKPT_FLAG_ADAM : 0u);
+    put32(buf + 48, (with_adam ? BNN_CKPT_FLAG_ADAM : 0u) | (post ? BNN_CKPT_FLAG_POST : 0u));
     put32(buf + 52, (uint32_t)payload);
     uint8_t *pl = buf + BNN_CKPT_HEADER_BYTES;
     const float *th = bnn_params_const(m);
@@ -74,6 +85,12 @@ int bnn_ckpt_save(const bnn_model_t *m, int with_adam, uint8_t *buf, size_t cap,
     if (with_adam) {
         put_floats(pl + 4 * P, th + 2 * P, P); /* arena: theta, grads, m, v (bnn_int.h layout) */
         put_floats(pl + 8 * P, th + 3 * P, P);
+    }
+    if (post) {
+        const size_t model_bytes = bnn_ckpt_size(m, with_adam) - BNN_CKPT_HEADER_BYTES;
+        const int rc = bnn_post_write(post, pl + model_bytes, payload - model_bytes, NULL);
+        if (rc != 0)
+            return rc;
     }
     uint32_t crc = crc32_ieee_update(0u, buf, 56);
     crc = crc32_ieee_update(crc, pl, payload);
@@ -90,6 +107,11 @@ int bnn_ckpt_save(const bnn_model_t *m, int with_adam, uint8_t *buf, size_t cap,
     } while (0)
 
 int bnn_ckpt_load(bnn_model_t *m, const uint8_t *buf, size_t len, const char **reason)
+{
+    return bnn_ckpt_load_post(m, NULL, buf, len, reason);
+}
+
+int bnn_ckpt_load_post(bnn_model_t *m, bnn_post_t *post, const uint8_t *buf, size_t len, const char **reason)
 {
     if (reason)
         *reason = "ok";
@@ -110,23 +132,35 @@ int bnn_ckpt_load(bnn_model_t *m, const uint8_t *buf, size_t len, const char **r
         get32(buf + 20) != m->cfg.hidden_width || get32(buf + 24) != m->cfg.n_bayes ||
         P != m->n_params)
         FAIL(-ENOEXEC, "fingerprint mismatch: checkpoint of another preset or configuration");
-    if ((flags & ~BNN_CKPT_FLAG_ADAM) != 0)
+    if ((flags & ~(BNN_CKPT_FLAG_ADAM | BNN_CKPT_FLAG_POST)) != 0)
         FAIL(-EBADMSG, "unknown flags");
-    const int with_adam = (flags & BNN_CKPT_FLAG_ADAM) != 0;
-    if ((uint64_t)payload != (with_adam ? 3u : 1u) * (uint64_t)P * 4u)
+    const int with_adam = (flags & BNN_CKPT_FLAG_ADAM) != 0, with_post = (flags & BNN_CKPT_FLAG_POST) != 0;
+    const uint64_t model_bytes = (with_adam ? 3u : 1u) * (uint64_t)P * 4u;
+    const uint64_t post_bytes = with_post ? BNN_POST_WIRE_BYTES(m->cfg.siren_width + 1u) : 0u;
+    if ((uint64_t)payload != model_bytes + post_bytes)
         FAIL(-EBADMSG, "payload length inconsistent with n_params and flags");
     uint32_t crc = crc32_ieee_update(0u, buf, 56);
     crc = crc32_ieee_update(crc, buf + BNN_CKPT_HEADER_BYTES, payload);
     if (crc != get32(buf + 56))
         FAIL(-EILSEQ, "CRC mismatch: checkpoint is corrupt");
     const uint8_t *pl = buf + BNN_CKPT_HEADER_BYTES;
-    for (size_t i = 0; i < (size_t)payload / 4u; i++)
+    for (size_t i = 0; i < (size_t)model_bytes / 4u; i++)
         if (!isfinite(get_float(pl + 4 * i)))
             FAIL(-EBADMSG, "non-finite value in the payload");
     if (with_adam)
         for (size_t i = 0; i < P; i++)
             if (get_float(pl + 8 * (size_t)P + 4 * i) < 0.0f)
                 FAIL(-EBADMSG, "negative Adam second moment");
+    if (post) { /* validated into post before the model is touched; none stored: an empty one */
+        if (with_post) {
+            const char *why = NULL;
+            const int rc = bnn_post_read(post, m, pl + model_bytes, (size_t)post_bytes, &why);
+            if (rc != 0)
+                FAIL(rc, why);
+        } else if (bnn_post_init(post, m) != 0) {
+            FAIL(-EINVAL, "posterior of another configuration");
+        }
+    }
     /* valid: copy */
     float *th = bnn_params(m);
     for (size_t i = 0; i < P; i++)

@@ -58,19 +58,8 @@ AI_WIDE static void forward_pass(bnn_model_t *m, const bnn_layout_t *y, const fl
     const size_t S = y->S, H = y->H;
     const float w0 = m->cfg.w0;
     const float *restrict W0 = a, *restrict b0 = a + 2 * S;
-    const float *restrict xy = a + y->xy;
-    float *restrict h0 = a + y->h0, *restrict c0 = a + y->cos0;
-    for (size_t i = 0; i < n; i++) {
-        const float px = xy[2 * i], py = xy[2 * i + 1];
-        float *hr = h0 + i * S, *cr = c0 + i * S;
-        for (size_t j = 0; j < S; j++) {
-            float t = w0 * (W0[2 * j] * px + W0[2 * j + 1] * py + b0[j]);
-            float s, c;
-            ai_fm_sincosf(t, &s, &c);
-            hr[j] = s;
-            cr[j] = c;
-        }
-    }
+    float *restrict h0 = a + y->h0;
+    bnn_siren_rows(W0, b0, w0, S, a + y->xy, n, h0, a + y->cos0);
     const float *prev = h0;
     float *restrict logit = a + y->logit;
     const float *restrict wout = a + y->wout;

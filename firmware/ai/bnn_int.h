@@ -88,6 +88,25 @@ static inline void bnn_make_layout(const bnn_config_t *c, bnn_layout_t *y)
     y->dlogit = y->logit + B;
 }
 
+/* The SIREN layer of n points xy (interleaved): h0 = sin(w0 (W0 x + b0)) and its cosine c0
+ * (for the backward pass), rows of S. Inline, so the forward pass and the posterior's
+ * features (bnn_post.c) are one expression. */
+static inline void bnn_siren_rows(const float *restrict W0, const float *restrict b0, float w0, size_t S,
+                                  const float *restrict xy, size_t n, float *restrict h0, float *restrict c0)
+{
+    for (size_t i = 0; i < n; i++) {
+        const float px = xy[2 * i], py = xy[2 * i + 1];
+        float *hr = h0 + i * S, *cr = c0 + i * S;
+        for (size_t j = 0; j < S; j++) {
+            float t = w0 * (W0[2 * j] * px + W0[2 * j + 1] * py + b0[j]);
+            float s, c;
+            ai_fm_sincosf(t, &s, &c);
+            hr[j] = s;
+            cr[j] = c;
+        }
+    }
+}
+
 static inline uint64_t bnn_philox_key(const bnn_model_t *m)
 {
     return ai_rng_mix64(m->seed ^ BNN_SEED_SALT);

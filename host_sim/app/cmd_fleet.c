@@ -417,25 +417,53 @@ static int report(job_t *j)
         fprintf(stderr, "host_sim fleet: cannot create %s\n", file);
         return -1;
     }
+    /* What each robot knows after the posterior's consensus: in its checkpoint, and robot 0's map. */
+    bnn_post_t *posts = malloc((size_t)M * sizeof *posts);
+    sim_fleet_post_report_t prep;
+    int prc = posts ? sim_fleet_posteriors(j->fleet, posts, SIM_FLEET_POST_MAX_ITER, SIM_FLEET_POST_TOL, &prep) : -ENOMEM;
+    if (prc == 0) {
+        sim_maps_grid_t g = {.res = o->map_res, .x0 = j->plan.min.x, .y0 = j->plan.min.y};
+        g.w = (int)ceil((j->plan.max.x - j->plan.min.x) / o->map_res);
+        g.h = (int)ceil((j->plan.max.y - j->plan.min.y) / o->map_res);
+        float *epi = malloc((size_t)g.w * g.h * sizeof *epi);
+        snprintf(file, sizeof file, "%s/map_epistemic.png", o->out);
+        prc = !epi ? -ENOMEM
+                   : sim_maps_epistemic(&sim_fleet_node(j->fleet, 0)->model, &posts[0], &j->plan, &g, epi, j->err,
+                                        sizeof j->err);
+        if (prc == 0)
+            prc = sim_maps_write_epistemic_png(&g, epi, &j->plan, j->paths, j->n, file, j->err, sizeof j->err);
+        free(epi);
+        if (prc == 0)
+            printf("epistemic: %d model(s), consensus of the posteriors in %d mixing round(s) (robots apart by %.2g); "
+                   "agent 0: %s\n", M, prep.iterations, prep.disagreement, file);
+    }
+    if (prc != 0) {
+        fprintf(stderr, "host_sim fleet: epistemic posterior failed (%d): %s\n", prc, j->err);
+        free(posts);
+        return -1;
+    }
     static uint8_t ckpt[BNN_CKPT_MAX_BYTES];
     for (int i = 0; i < M; i++) {
         size_t n = 0;
         hal_host_file_t mf;
         snprintf(file, sizeof file, "%s/models/robot_%d.bnn", o->out, i);
-        if (bnn_ckpt_save(&sim_fleet_node(j->fleet, i)->model, 0, ckpt, sizeof ckpt, &n) != 0) {
+        if (bnn_ckpt_save_post(&sim_fleet_node(j->fleet, i)->model, 0, &posts[i], ckpt, sizeof ckpt, &n) != 0) {
+            free(posts);
             fprintf(stderr, "host_sim fleet: model %d: checkpoint failed\n", i);
             return -1;
         }
-        if (cmd_out_begin("fleet", &mf, file) != 0)
-            return -1;
-        if (fwrite(ckpt, 1, n, hal_host_file_stream(&mf)) != n) {
+        int wrc = cmd_out_begin("fleet", &mf, file);
+        if (wrc == 0 && fwrite(ckpt, 1, n, hal_host_file_stream(&mf)) != n) {
             hal_host_file_abort(&mf);
             fprintf(stderr, "host_sim fleet: %s: write failed\n", file);
+            wrc = -1;
+        }
+        if (wrc != 0 || cmd_out_commit("fleet", &mf) != 0) {
+            free(posts);
             return -1;
         }
-        if (cmd_out_commit("fleet", &mf) != 0)
-            return -1;
     }
+    free(posts);
     snprintf(file, sizeof file, "%s/summary.txt", o->out);
     hal_host_file_t out;
     if (cmd_out_begin("fleet", &out, file) != 0)

@@ -23,10 +23,11 @@
 #define MAPS_MAX_CELLS 4000000u /* sim_maps_compute's limit */
 
 /* Everything one `host_sim maps` run holds; freed in one place (job_free). */
-enum { OUT_BNN, OUT_CSV, OUT_MEAN, OUT_STD, OUT_SINGLE, OUT_TRUTH, OUT_META, OUT_PGM, OUT_YAML, OUT_N };
+enum { OUT_BNN, OUT_CSV, OUT_MEAN, OUT_STD, OUT_SINGLE, OUT_TRUTH, OUT_META, OUT_PGM, OUT_YAML, OUT_EPI, OUT_N };
 static const char *const out_names[OUT_N] = {"consensus.bnn",  "consensus.csv", "map_mean.npy",
                                              "map_std.npy",    "map_single.npy", "map_truth.npy",
-                                             "map_meta.json",  "map.pgm",        "map.yaml"};
+                                             "map_meta.json",  "map.pgm",        "map.yaml",
+                                             "map_epistemic.npy"};
 
 typedef struct job {
     maps_opts_t o;
@@ -35,6 +36,10 @@ typedef struct job {
     size_t n_val;
     bnn_model_t *scratch, *cons; /* a model loaded or evaluated; the consensus model */
     bnn_config_t cfg;            /* the network of every model */
+    bnn_post_t *post_in, *post;  /* a model's epistemic posterior; the fleet's (their sum) */
+    int n_post;                  /* models that carried one */
+    int post_shared;             /* one of them was a fleet's estimate: they are averaged */
+    float *epi;                  /* the grid's cells: the epistemic map, when n_post > 0 */
     uint64_t seed0;              /* the first model's seed */
     size_t P;                    /* parameters per model */
     float *theta;                /* n_models x P */
@@ -56,7 +61,7 @@ typedef struct job {
     size_t nav_walls, nav_occ_wall, nav_occ_known, nav_free_known, nav_free_free;
     double wall_iou, free_precision, level_max;
     char path[OUT_N][PATH_MAX];
-    char png_mean[PATH_MAX], png_std[PATH_MAX];
+    char png_mean[PATH_MAX], png_std[PATH_MAX], png_epi[PATH_MAX];
     hal_host_file_t out[OUT_N];
     int begun[OUT_N];
     char err[8192];
@@ -70,6 +75,9 @@ static void job_free(job_t *j)
     sim_maps_grid_free(&j->mc);
     sim_maps_grid_free(&j->single);
     free(j->val_p);
+    free(j->epi);
+    free(j->post);
+    free(j->post_in);
     free(j->truth);
     free(j->buf);
     free(j->val_loss);
@@ -132,7 +140,7 @@ static int load_model(job_t *j, const char *file)
         return -1;
     }
     const char *why = NULL;
-    if (bnn_ckpt_load(j->scratch, j->buf, n, &why) != 0) {
+    if (bnn_ckpt_load_post(j->scratch, j->post_in, j->buf, n, &why) != 0) {
         fprintf(stderr, "host_sim maps: %s: %s\n", file, why ? why : "invalid checkpoint");
         return -1;
     }
@@ -173,7 +181,25 @@ static int load_models(job_t *j)
             return -1;
         }
         memcpy(j->theta + (size_t)i * j->P, bnn_params_const(m), j->P * sizeof *j->theta);
+        /* the fleet's posterior: robots' own posteriors (robots 1) are summed, estimates of the
+           fleet's (robots > 1, after consensus; consensus.bnn) averaged below */
+        if (j->post_in->robots > 0.0) {
+            if (j->post_in->robots > 1.0 + 1e-9)
+                j->post_shared = 1;
+            if (j->n_post == 0)
+                *j->post = *j->post_in;
+            else if (bnn_post_add(j->post, j->post_in, 1.0) != 0) {
+                fprintf(stderr,
+                        "host_sim maps: %s: its epistemic posterior is over other features than %s's (a fleet of "
+                        "another seed or network)\n",
+                        file, o->models[0]);
+                return -1;
+            }
+            j->n_post++;
+        }
     }
+    if (j->post_shared && bnn_post_scale(j->post, 1.0 / j->n_post) != 0)
+        return -1;
     return 0;
 }
 
@@ -229,12 +255,15 @@ static int prepare(job_t *j)
     for (int k = 0; k < OUT_N; k++)
         if (out_path(o->out, out_names[k], j->path[k]) != 0)
             return -1;
-    if (out_path(o->out, "map_mean.png", j->png_mean) != 0 || out_path(o->out, "map_std.png", j->png_std) != 0)
+    if (out_path(o->out, "map_mean.png", j->png_mean) != 0 || out_path(o->out, "map_std.png", j->png_std) != 0 ||
+        out_path(o->out, "map_epistemic.png", j->png_epi) != 0)
         return -1;
     j->scratch = model_alloc();
     j->cons = model_alloc();
     j->buf = malloc(BNN_CKPT_MAX_BYTES + 1);
-    if (j->scratch == NULL || j->cons == NULL || j->buf == NULL) {
+    j->post_in = malloc(sizeof *j->post_in);
+    j->post = malloc(sizeof *j->post);
+    if (j->scratch == NULL || j->cons == NULL || j->buf == NULL || j->post_in == NULL || j->post == NULL) {
         fprintf(stderr, "host_sim maps: out of memory\n");
         return -1;
     }
@@ -394,6 +423,13 @@ static int compute(job_t *j)
         sim_maps_compute(j->cons, &j->plan, o->res, 1, (uint64_t)o->seed, &j->single, j->err, sizeof j->err) != 0) {
         fprintf(stderr, "host_sim maps: maps: %s\n", j->err);
         return -1;
+    }
+    if (j->n_post > 0) {
+        j->epi = malloc((size_t)j->mc.w * j->mc.h * sizeof *j->epi);
+        if (j->epi == NULL || sim_maps_epistemic(j->cons, j->post, &j->plan, &j->mc, j->epi, j->err, sizeof j->err) != 0) {
+            fprintf(stderr, "host_sim maps: epistemic map: %s\n", j->epi ? j->err : "out of memory");
+            return -1;
+        }
     }
     return compute_truth(j) == 0 && choose_thresholds(j) == 0 ? score_nav2(j) : -1;
 }
@@ -587,7 +623,7 @@ static int stage_all(job_t *j)
     const sim_maps_grid_t *g = &j->mc;
     const int N = o->n_models;
     size_t nb = 0;
-    if (bnn_ckpt_save(j->cons, 0, j->buf, BNN_CKPT_MAX_BYTES + 1, &nb) != 0) {
+    if (bnn_ckpt_save_post(j->cons, 0, j->epi ? j->post : NULL, j->buf, BNN_CKPT_MAX_BYTES + 1, &nb) != 0) {
         fprintf(stderr, "host_sim maps: %s: cannot serialise the consensus model\n", j->path[OUT_BNN]);
         return -1;
     }
@@ -609,7 +645,8 @@ static int stage_all(job_t *j)
     int rc = stage_text(j, OUT_CSV, &t);
     free(t.s);
     if (rc != 0 || stage_npy(j, OUT_MEAN, g, g->mean, NULL) != 0 || stage_npy(j, OUT_STD, g, g->std, NULL) != 0 ||
-        stage_npy(j, OUT_SINGLE, &j->single, j->single.mean, NULL) != 0 || stage_truth(j) != 0)
+        stage_npy(j, OUT_SINGLE, &j->single, j->single.mean, NULL) != 0 || stage_truth(j) != 0 ||
+        (j->epi && stage_npy(j, OUT_EPI, g, j->epi, NULL) != 0))
         return -1;
     const double xmax = g->x0 + g->w * g->res, ymax = g->y0 + g->h * g->res;
     char e[64], f[64];
@@ -627,10 +664,18 @@ static int stage_all(job_t *j)
             "{\"res\": %s, \"xmin\": %s, \"ymin\": %s, \"xmax\": %s, \"ymax\": %s, \"width\": %d, \"height\": %d, "
             "\"mc\": %lld, \"seed\": %lld, \"std_max\": %s, \"models\": %d, \"occupied_thresh\": %s, "
             "\"free_thresh\": %s, \"thresholds\": \"%s\", \"nav2_occupied\": %zu, \"nav2_free\": %zu, "
-            "\"nav2_unknown\": %zu, \"nav2_wall_iou\": %s, \"nav2_free_truly_free\": %s}\n",
+            "\"nav2_unknown\": %zu, \"nav2_wall_iou\": %s, \"nav2_free_truly_free\": %s, \"epistemic\": ",
             a, b, c, d, e, g->w, g->h, o->mc, o->seed, f, N, j->th_occ, j->th_free,
             j->th_chosen ? "valset" : "default", j->nav_occ, j->nav_free, j->nav_unknown, iou,
             isfinite(j->free_precision) ? fp : "null");
+    if (j->epi)
+        tprintf(&t,
+                "{\"file\": \"map_epistemic.npy\", \"method\": \"bayesian linear read-out of the SIREN features\", "
+                "\"value\": \"share of the prior variance left\", \"models_with_posterior\": %d, \"robots\": %.6g, "
+                "\"observations\": %.17g, \"prior_precision\": %g, \"obs_precision\": %g, \"png_floor\": %g}}\n",
+                j->n_post, j->post->robots, j->post->n_obs, BNN_POST_LAMBDA0, BNN_POST_BETA, SIM_MAPS_EPI_FLOOR);
+    else
+        tprintf(&t, "null}\n");
     rc = stage_text(j, OUT_META, &t);
     free(t.s);
     if (rc != 0 || stage_pgm(j) != 0)
@@ -668,9 +713,17 @@ static int write_outputs(job_t *j)
         fprintf(stderr, "host_sim maps: %s\n", j->err);
         return -1;
     }
+    if (j->epi && sim_maps_write_epistemic_png(&j->mc, j->epi, &j->plan, NULL, 0, j->png_epi, j->err, sizeof j->err) != 0) {
+        fprintf(stderr, "host_sim maps: %s\n", j->err);
+        return -1;
+    }
     for (int k = 0; k < OUT_N; k++)
-        if (cmd_out_commit("maps", &j->out[k]) != 0)
+        if (j->begun[k] && cmd_out_commit("maps", &j->out[k]) != 0)
             return -1;
+    if (!j->epi) { /* no posterior in the models: an earlier run's epistemic map would mislead */
+        (void)remove(j->path[OUT_EPI]);
+        (void)remove(j->png_epi);
+    }
     return 0;
 }
 
@@ -704,9 +757,21 @@ static void report(const job_t *j)
     printf("map.yaml as nav2 reads it: %zu occupied, %zu free, %zu unknown cells; against the ground truth: wall IoU "
            "%.3f, %s of the free cells truly free\n",
            j->nav_occ, j->nav_free, j->nav_unknown, j->wall_iou, fp_pct(j->free_precision).s);
+    if (j->epi) {
+        double known = 0.0;
+        for (size_t i = 0; i < (size_t)g->w * g->h; i++)
+            known += j->epi[i] < SIM_MAPS_EPI_KNOWN;
+        printf("epistemic: the posterior of %d model(s) (%.6g robots' data, %.0f observations); %.1f %% of the map's "
+               "cells keep less than %g of their prior variance (known)%s\n",
+               j->n_post, j->post->robots, j->post->n_obs, 100.0 * known / ((double)g->w * g->h), SIM_MAPS_EPI_KNOWN,
+               j->n_post < o->n_models ? "; the other models carry none" : "");
+    } else {
+        printf("epistemic: none of the models carries a posterior (checkpoints of an older fleetsim or of a round "
+               "before the last): no map_epistemic.npy\n");
+    }
     printf("results in %s: consensus.bnn consensus.csv map_mean.npy map_std.npy map_single.npy map_truth.npy map_meta.json "
-           "map.pgm map.yaml map_mean.png map_std.png\n",
-           o->out);
+           "map.pgm map.yaml map_mean.png map_std.png%s\n",
+           o->out, j->epi ? " map_epistemic.npy map_epistemic.png" : "");
 }
 
 int cmd_maps(int argc, char **argv)

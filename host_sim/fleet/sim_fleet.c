@@ -469,3 +469,78 @@ int sim_fleet_metrics(sim_fleet_t *f, int i, const ai_sample_t *val, size_t n_va
     }
     return 0;
 }
+
+/* ---- the fleet's epistemic posterior ------------------------------------------------------ */
+int sim_fleet_posteriors(sim_fleet_t *f, bnn_post_t *posts, int max_iter, double tol, sim_fleet_post_report_t *rep)
+{
+    if (!f || !posts || max_iter < 0 || !(tol > 0.0) || !rep)
+        return -EINVAL;
+    memset(rep, 0, sizeof *rep);
+    const int M = f->n_models;
+    /* over the initial SIREN layer, as the image makes it (ai_core.c): every robot's the same */
+    bnn_model_t *init = aligned_alloc(_Alignof(bnn_model_t), (sizeof(bnn_model_t) + 63) / 64 * 64);
+    if (!init)
+        return -ENOMEM;
+    int rc = bnn_init(init, &f->nodes[0]->model.cfg, f->nodes[0]->model.seed);
+    for (int i = 0; i < M && rc == 0; i++) {
+        bnn_model_t *m = &f->nodes[i]->model;
+        rc = bnn_post_init(&posts[i], init);
+        if (rc == 0)
+            rc = bnn_post_observe_samples(&posts[i], m, f->data[i], f->n_data[i]);
+    }
+    free(init);
+    if (rc != 0)
+        return rc;
+    if (f->cfg.mode != SIM_FLEET_DINNO || M < 2)
+        return 0; /* one model, or robots that never talk: each keeps what it saw */
+    /* Average consensus on the last round's graph, made symmetric, with Metropolis-Hastings
+       weights w_ij = 1 / (1 + max(d_i, d_j)), w_ii = 1 - sum_j w_ij (doubly stochastic: the
+       mean is kept, every robot converges to it on a connected graph); then times M, the sum. */
+    const dinno_graph_t *g = &f->graph;
+    int deg[SIM_FLEET_MAX_AGENTS];
+    for (int i = 0; i < M; i++) {
+        deg[i] = 0;
+        for (int k = 0; k < M; k++)
+            deg[i] += k != i && (dinno_graph_has_edge(g, (uint32_t)i, (uint32_t)k) ||
+                                 dinno_graph_has_edge(g, (uint32_t)k, (uint32_t)i));
+    }
+    bnn_post_t *next = malloc((size_t)M * sizeof *next);
+    if (!next)
+        return -ENOMEM;
+    const size_t np = BNN_POST_PACKED(posts[0].dim);
+    for (int it = 0; rc == 0; it++) {
+        /* how far apart the robots still are: max_i |P_i - mean|_inf / |mean|_inf */
+        double dev = 0.0, scale = 0.0;
+        for (size_t e = 0; e < np; e++) {
+            double mean = 0.0;
+            for (int i = 0; i < M; i++)
+                mean += posts[i].prec[e] / M;
+            scale = fmax(scale, fabs(mean));
+            for (int i = 0; i < M; i++)
+                dev = fmax(dev, fabs(posts[i].prec[e] - mean));
+        }
+        rep->disagreement = scale > 0.0 ? dev / scale : 0.0;
+        if (rep->disagreement <= tol || it == max_iter)
+            break;
+        for (int i = 0; i < M && rc == 0; i++) {
+            double w[SIM_FLEET_MAX_AGENTS], self = 1.0;
+            for (int k = 0; k < M; k++) {
+                const int edge = k != i && (dinno_graph_has_edge(g, (uint32_t)i, (uint32_t)k) ||
+                                            dinno_graph_has_edge(g, (uint32_t)k, (uint32_t)i));
+                w[k] = edge ? 1.0 / (1.0 + (deg[i] > deg[k] ? deg[i] : deg[k])) : 0.0;
+                self -= w[k];
+            }
+            next[i] = posts[i];
+            rc = bnn_post_scale(&next[i], self);
+            for (int k = 0; k < M && rc == 0; k++)
+                if (w[k] > 0.0)
+                    rc = bnn_post_add(&next[i], &posts[k], w[k]);
+        }
+        memcpy(posts, next, (size_t)M * sizeof *next);
+        rep->iterations = it + 1;
+    }
+    for (int i = 0; i < M && rc == 0; i++) /* the mean of the robots' data, times M: the fleet's */
+        rc = bnn_post_scale(&posts[i], (double)M);
+    free(next);
+    return rc;
+}

@@ -29,6 +29,7 @@
 
 #include "ai/ai_sample.h"
 #include "ai/bnn.h"
+#include "ai/bnn_post.h"
 #include "ai/dinno.h"
 #include "ai/dinno_graph.h"
 #include "sim_grid.h"
@@ -102,6 +103,22 @@ const dinno_round_stats_t *sim_fleet_last_stats(const sim_fleet_t *f, int i);
 void sim_fleet_screen_totals(const sim_fleet_t *f, uint64_t *excluded, double *honest_dist_max);
 /* The graph of the last round (DINNO mode). */
 const dinno_graph_t *sim_fleet_graph(const sim_fleet_t *f);
+
+/* The epistemic posterior of every model (ai/bnn_post.h): each robot's from its own training
+ * samples under its final model, then, in DiNNO mode, average consensus over the last round's
+ * graph (made symmetric; Metropolis-Hastings weights) until the robots' data precisions agree
+ * to tol (relative, max norm) or max_iter mixing rounds, each finally scaled by the number of
+ * robots: every robot's estimate of the fleet's sum (posts[i].robots = M on a connected graph).
+ * CENTRAL: the one model on the pooled data; ISOLATED: each its own. posts: sim_fleet_models()
+ * entries. 0 or a negative code. */
+#define SIM_FLEET_POST_MAX_ITER 1000
+#define SIM_FLEET_POST_TOL 1e-6
+typedef struct sim_fleet_post_report {
+    int iterations;      /* mixing rounds run */
+    double disagreement; /* max_i |P_i - mean|_inf / |mean|_inf before the scaling */
+} sim_fleet_post_report_t;
+FS_MUST_CHECK int sim_fleet_posteriors(sim_fleet_t *f, bnn_post_t *posts, int max_iter, double tol,
+                                       sim_fleet_post_report_t *rep);
 /* Position of agent i at round k (arc-length fraction k / rounds of its path); -EINVAL
  * without paths. */
 FS_MUST_CHECK

@@ -146,6 +146,71 @@ int sim_maps_choose_thresholds(const float *p, const ai_sample_t *pts, size_t n,
     return 0;
 }
 
+/* The w x h cell centres of a map, normalised (interleaved x, y); malloc'd, NULL when out of
+ * memory. */
+static float *cell_centres(const sim_plan_t *plan, double res, int w, int h)
+{
+    float *xy = malloc((size_t)w * h * 2 * sizeof *xy);
+    if (!xy)
+        return NULL;
+    for (int r = 0; r < h; r++)
+        for (int c = 0; c < w; c++) {
+            float xn, yn;
+            sim_plan_normalise(plan, plan->min.x + (c + 0.5) * res, plan->min.y + (r + 0.5) * res, &xn, &yn);
+            xy[2 * ((size_t)r * w + c)] = fminf(fmaxf(xn, -1.0f), 1.0f);
+            xy[2 * ((size_t)r * w + c) + 1] = fminf(fmaxf(yn, -1.0f), 1.0f);
+        }
+    return xy;
+}
+
+int sim_maps_epistemic(bnn_model_t *m, bnn_post_t *post, const sim_plan_t *plan, const sim_maps_grid_t *g,
+                       float *unknown, char *err, size_t errlen)
+{
+    if (!m || !post || !plan || !g || g->w < 1 || g->h < 1 || !unknown) {
+        snprintf(err, errlen, "bad map arguments");
+        return -EINVAL;
+    }
+    float *xy = cell_centres(plan, g->res, g->w, g->h);
+    if (!xy) {
+        snprintf(err, errlen, "out of memory");
+        return -ENOMEM;
+    }
+    const int rc = bnn_post_predict(post, m, xy, (size_t)g->w * g->h, NULL, unknown);
+    if (rc)
+        snprintf(err, errlen, "epistemic posterior failed (%d%s)", rc,
+                 rc == -EDOM ? ": its precision is not positive definite" : "");
+    free(xy);
+    return rc;
+}
+
+int sim_maps_write_epistemic_png(const sim_maps_grid_t *g, const float *unknown, const sim_plan_t *plan,
+                                 const sim_path_t *paths, int n_paths, const char *png, char *err, size_t errlen)
+{
+    if (!g || !unknown || g->w < 1 || g->h < 1 || !plan || !png || (n_paths > 0 && !paths)) {
+        snprintf(err, errlen, "bad map arguments");
+        return -EINVAL;
+    }
+    const int w = g->w, h = g->h;
+    const double z = ceil(0.02 / g->res * 5.0);
+    const int zoom = z < 1.0 ? 1 : z > 8.0 ? 8 : (int)z;
+    const int W = w * zoom, H = h * zoom;
+    uint8_t *rgb = malloc((size_t)W * H * 3);
+    if (!rgb) {
+        snprintf(err, errlen, "out of memory");
+        return -ENOMEM;
+    }
+    for (int R = 0; R < H; R++)
+        for (int C = 0; C < W; C++) {
+            const size_t i = (size_t)(h - 1 - R / zoom) * w + (size_t)(C / zoom);
+            const double v = unknown[i] > SIM_MAPS_EPI_FLOOR ? unknown[i] : SIM_MAPS_EPI_FLOOR;
+            ramp(log10(v / SIM_MAPS_EPI_FLOOR) / -log10(SIM_MAPS_EPI_FLOOR), rgb + 3 * ((size_t)R * W + C));
+        }
+    draw_paths(rgb, W, H, plan, g->res, zoom, paths, n_paths);
+    const int rc = sim_png_write_rgb(png, W, H, rgb, err, errlen);
+    free(rgb);
+    return rc;
+}
+
 int sim_maps_compute(bnn_model_t *m, const sim_plan_t *plan, double res, uint32_t K, uint64_t seed,
                      sim_maps_grid_t *g, char *err, size_t errlen)
 {
@@ -161,7 +226,7 @@ int sim_maps_compute(bnn_model_t *m, const sim_plan_t *plan, double res, uint32_
         return -EINVAL;
     }
     const size_t n = (size_t)w * h;
-    float *xy = malloc(n * 2 * sizeof *xy);
+    float *xy = cell_centres(plan, res, w, h);
     g->mean = malloc(n * sizeof *g->mean);
     g->std = malloc(n * sizeof *g->std);
     int rc = -ENOMEM;
@@ -169,13 +234,6 @@ int sim_maps_compute(bnn_model_t *m, const sim_plan_t *plan, double res, uint32_
         snprintf(err, errlen, "out of memory");
         goto done;
     }
-    for (int r = 0; r < h; r++)
-        for (int c = 0; c < w; c++) {
-            float xn, yn;
-            sim_plan_normalise(plan, plan->min.x + (c + 0.5) * res, plan->min.y + (r + 0.5) * res, &xn, &yn);
-            xy[2 * ((size_t)r * w + c)] = fminf(fmaxf(xn, -1.0f), 1.0f);
-            xy[2 * ((size_t)r * w + c) + 1] = fminf(fmaxf(yn, -1.0f), 1.0f);
-        }
     rc = bnn_predict_mc(m, xy, n, K, seed, g->mean, g->std);
     if (rc)
         snprintf(err, errlen, "MC prediction failed (%d)", rc);

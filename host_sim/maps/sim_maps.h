@@ -6,6 +6,7 @@
 #include <stdint.h>
 
 #include "ai/bnn.h"
+#include "ai/bnn_post.h"
 #include "sim_paths.h"
 #include "sim_plan.h"
 
@@ -47,6 +48,23 @@ FS_MUST_CHECK
 int sim_maps_write_png(const sim_maps_grid_t *g, const sim_plan_t *plan, const sim_path_t *paths, int n_paths,
                        const char *mean_png, const char *std_png, double *std_max_out, char *err,
                        size_t errlen);
+
+/* The epistemic map (ai/bnn_post.h) at the cells of g (a grid of sim_maps_compute on `plan`):
+ * per cell the share of the read-out's prior variance the posterior leaves, in (0, 1], larger
+ * = less known; unknown holds g->w * g->h floats, same order as g->mean. 0 or a negative code,
+ * err. */
+FS_MUST_CHECK
+int sim_maps_epistemic(bnn_model_t *m, bnn_post_t *post, const sim_plan_t *plan, const sim_maps_grid_t *g,
+                       float *unknown, char *err, size_t errlen);
+
+/* Its picture, y up like the others, on a log scale: SIM_MAPS_EPI_FLOOR (and below: known)
+ * dark blue .. 1 (nothing known) yellow, the paths on top. */
+#define SIM_MAPS_EPI_FLOOR 1e-6
+/* The share below which host_sim maps counts a cell as known, in its report. */
+#define SIM_MAPS_EPI_KNOWN 1e-3
+FS_MUST_CHECK
+int sim_maps_write_epistemic_png(const sim_maps_grid_t *g, const float *unknown, const sim_plan_t *plan,
+                                 const sim_path_t *paths, int n_paths, const char *png, char *err, size_t errlen);
 
 /* Largest std of the grid (0 for an empty grid). */
 double sim_maps_std_max(const sim_maps_grid_t *g);
