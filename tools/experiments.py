@@ -229,7 +229,8 @@ def all_runs(s, args):
 # cheap and deterministic, so it is simply run again.
 ARCHIVE_FILES = ("done.json", "log.txt", "metrics.csv", "summary.txt", "paper_metrics.json", "maps/consensus.csv",
                  "fleet/maps/consensus.csv", "fleet/summary.md", "fleet/run.json")
-ARCHIVE_MAPS = ("map_mean.npy", "map_std.npy", "map_single.npy", "map_truth.npy", "map_meta.json")
+ARCHIVE_MAPS = ("map_mean.npy", "map_std.npy", "map_single.npy", "map_truth.npy", "map_meta.json",
+                "map_epistemic.npy")  # kept when the maps folder has it (host_sim maps writes it now)
 
 
 def drawn(run):

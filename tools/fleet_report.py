@@ -14,6 +14,11 @@ Reads (every file optional: a missing one skips its figure and is named in summa
   maps/map_mean.npy, map_std.npy, map_single.npy, map_meta.json, consensus.csv,
   maps/map.pgm + map.yaml       (ROS map_server: its thresholds, and from map_meta.json how the map
                                 scores as nav2 reads it), scene.png
+  maps/map_epistemic.npy, map_epistemic.png, map_std.png, map_truth.npy   when the maps folder
+                                has map_epistemic.npy (older ones do not: the section is skipped),
+                                the section "What the fleet knows": the two maps side by side and
+                                tools/paper_metrics.py's scores of them against every robot's
+                                robot_<i>/train.samples (seen cells, AUC, AUSE, Spearman vs KDE)
 Writes into RUN_DIR (each file whole or not at all: a temporary file beside it, renamed):
   map_mean.png, map_std.png, map_single.png   the maps in metres with the robots' tours
   kde.png                        Gaussian KDE of the lidar hits (occ > 0.5) of all robots
@@ -197,6 +202,8 @@ class Run:
         self.tours = {}       # robot -> array (n, 2)
         self.has_ros_map = False
         self.scene = False
+        self.knows = None     # paper_metrics.compute of maps/ when it has map_epistemic.npy
+        self.train_samples = []
 
     def p(self, *parts):
         return os.path.join(self.dir, *parts)
@@ -237,6 +244,7 @@ class Run:
                 self.note(f"{rd}/traffic.csv is missing")
             f = self.p(rd, "train.samples")
             if os.path.isfile(f):
+                self.train_samples.append(f)
                 (h, a), to_metres = load_samples(f)
                 x, y = to_metres(h, a)
                 hit = a["occ"] > 0.5
@@ -251,6 +259,7 @@ class Run:
                 self.note(f"{rd}/train.samples is missing")
 
         self.load_maps()
+        self.load_knowledge()
 
         paths = s.get("paths")
         if paths is not None:
@@ -312,6 +321,32 @@ class Run:
             self.consensus = [dict(zip(c.keys(), vals)) for vals in zip(*c.values())]
         else:
             self.note("maps/consensus.csv is missing: no consensus errors")
+
+    def load_knowledge(self):
+        """tools/paper_metrics.py's scores of the MC std, the epistemic map and the distance to the
+        samples (the section "What the fleet knows"), when maps/ has map_epistemic.npy. A malformed
+        map stops the report; a missing ground truth or no training samples skip the section."""
+        f = self.p("maps", "map_epistemic.npy")
+        if not os.path.isfile(f):
+            self.note("maps/map_epistemic.npy is missing: no section \"What the fleet knows\"")
+            return
+        if not os.path.isfile(self.p("maps", "map_truth.npy")):
+            self.note("maps/map_truth.npy is missing: no scores of the epistemic map")
+            return
+        if not self.train_samples:
+            self.note("no robot_<i>/train.samples: no scores of the epistemic map")
+            return
+        sys.path.insert(0, TOOLS_DIR)
+        try:
+            import paper_metrics
+        finally:
+            sys.path.pop(0)
+        try:
+            self.knows = paper_metrics.compute(self.p("maps"), self.train_samples)
+        except paper_metrics.MetricsError as e:
+            raise ReportError(str(e))
+        self.knows_table = paper_metrics.markdown_table(self.knows)
+        self.seen_dist = paper_metrics.SEEN_DIST
 
     def map_box(self):
         """(xmin, ymin, xmax, ymax, unit) of the map grid."""
@@ -633,6 +668,44 @@ def deaths_section(s):
     return L
 
 
+def knowledge_section(run, figures):
+    """"What the fleet knows": maps/map_epistemic.png next to maps/map_std.png and the scores of
+    tools/paper_metrics.py; nothing when the maps folder has no map_epistemic.npy."""
+    k = run.knows
+    if k is None:
+        return []
+    std_png = ("maps/map_std.png" if os.path.isfile(run.p("maps", "map_std.png")) else
+               "map_std.png" if "map_std.png" in figures else None)
+    epi_png = "maps/map_epistemic.png" if os.path.isfile(run.p("maps", "map_epistemic.png")) else None
+    L = ["## What the fleet knows", "",
+         "How to read it: the MC std (left) is where the model is unsure of the value, highest on the walls, "
+         "whose occupancy changes within a cell (aleatoric); the epistemic map (right) is where no robot "
+         "gathered data (the share of the prior variance of the read-out left after the data: 1 = nothing "
+         "observed there).", "",
+         "| MC-50 std | epistemic |", "|---|---|",
+         "| " + (f"![map_std]({std_png})" if std_png else "(no map_std.png)") + " | " +
+         (f"![map_epistemic]({epi_png})" if epi_png else "(maps/map_epistemic.png is missing)") + " |", ""]
+    L += run.knows_table + [""]
+    pct = 100 * k["seen_fraction"] if math.isfinite(k["seen_fraction"]) else math.nan
+    L += [f"- seen: a cell whose centre is within {run.seen_dist:g} m of a training sample of any robot: "
+          f"{fmt(pct, 3)} % of the {k['n_cells']:,} cells inside the building "
+          f"({k['n_points']:,} samples of {len(run.train_samples)} robot(s))",
+          "- AUC: the score for the unseen against the seen cells (1 = every unseen cell above every seen one, "
+          "0.5 = chance); AUSE: area under the sparsification error of |mean - truth| (0 = the score orders "
+          "the cells like their errors; lower is better); Spearman: the score against the KDE of the lidar "
+          "hits (negative = less uncertain where the data are dense); the distance to the nearest sample is "
+          "the non-Bayesian reference (AUC 1 by construction)",
+          f"- the MC mean: Brier {fmt(k['brier'])}, ECE {fmt(k['ece'])}, wall IoU {fmt(k['wall_iou'])}"]
+    means = [f"{name} {fmt(k[f'{name}_mean_seen'], 3)} seen / {fmt(k[f'{name}_mean_unseen'], 3)} unseen"
+             for name in ("std", "epistemic") if f"{name}_mean_seen" in k]
+    if means:
+        L.append("- mean " + ", ".join(means))
+    e = (run.meta or {}).get("epistemic")
+    if isinstance(e, dict) and e:
+        L.append("- epistemic map (map_meta.json): " + ", ".join(f"{md_cell(a)} {md_cell(b)}" for a, b in e.items()))
+    return L + [""]
+
+
 def summary(run, figures):
     np = run.np
     L = [f"# Fleet run report: {os.path.basename(os.path.abspath(run.dir))}", ""]
@@ -711,6 +784,7 @@ def summary(run, figures):
                          if k in run.meta)
         L.append(f"- maps: {meta}")
     L.append("")
+    L += knowledge_section(run, figures)
 
     L += ["## Figures", ""]
     captions = {

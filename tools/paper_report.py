@@ -318,11 +318,23 @@ def fig_decentralised(plt, runs, out):
 
 
 # ---- the report ------------------------------------------------------------------------------------
+# runs.csv's columns; those of paper_metrics.json a run lacks (the epistemic ones before host_sim maps
+# wrote map_epistemic.npy) are left empty
+RUNS_COLS = ["name", "kind", "row", "reading", "strategy", "preset", "seed", "kl_weight", "pool", "comm_rounds",
+             "rounds", "seconds", "val_mean", "val_sample", "val_mc", "val_mean_best", "val_sample_best", "val_mc_best",
+             "consensus_val", "occ_mse", "occ_iou", "consensus_error", "sigma_mean", "auc_std_unobserved",
+             "unobserved_fraction", "spearman_std_kde", "mse", "wall_iou", "ece", "seen_fraction", "auc_seen_std",
+             "auc_seen_epistemic", "ause_std", "ause_epistemic", "spearman_kde_epistemic", "brier"]
+# The tables' metric columns (paper_metrics.json key, heading, digits); a missing or NaN value is '-'.
+METRIC_COLS = (("auc_std_unobserved", "AUC std / unseen", 3), ("spearman_std_kde", "Spearman std ~ KDE", 3),
+               ("auc_seen_std", "AUC std / seen", 3), ("auc_seen_epistemic", "AUC epistemic / seen", 3),
+               ("ause_std", "AUSE std", 3), ("ause_epistemic", "AUSE epistemic", 3),
+               ("spearman_kde_epistemic", "Spearman epistemic ~ KDE", 3),
+               ("mse", "MSE", 3), ("brier", "Brier", 3), ("wall_iou", "wall IoU", 3), ("ece", "ECE", 3))
+
+
 def write_csvs(out, runs, table):
-    cols = ["name", "kind", "row", "reading", "strategy", "preset", "seed", "kl_weight", "pool", "comm_rounds",
-            "rounds", "seconds", "val_mean", "val_sample", "val_mc", "val_mean_best", "val_sample_best", "val_mc_best",
-            "consensus_val", "occ_mse", "occ_iou", "consensus_error", "sigma_mean", "auc_std_unobserved",
-            "unobserved_fraction", "spearman_std_kde", "mse", "wall_iou", "ece"]
+    cols = RUNS_COLS
     with open(os.path.join(out, "runs.csv"), "w", newline="", encoding="utf-8") as f:
         w = csv.writer(f)
         w.writerow(cols)
@@ -467,7 +479,9 @@ def report(out, quick):
         add(f"| 6.1 | the std shows where the agent had no data (kl_weight {r['tags']['kl_weight']}) | ROC AUC of the std "
             f"for cells > 0.5 m from every lidar point: {fmt(p.get('auc_std_unobserved'), 3)} "
             f"({fmt(100 * p.get('unobserved_fraction', math.nan), 3)} % of the cells unobserved); mean std observed "
-            f"{fmt(p.get('std_mean_observed'), 3)}, unobserved {fmt(p.get('std_mean_unobserved'), 3)} |")
+            f"{fmt(p.get('std_mean_observed'), 3)}, unobserved {fmt(p.get('std_mean_unobserved'), 3)}"
+            + (f"; cells unseen (> 0.15 m) against seen: AUC std {fmt(p.get('auc_seen_std'), 3)}, epistemic map "
+               f"{fmt(p.get('auc_seen_epistemic'), 3)}" if "auc_seen_std" in p else "") + " |")
     online = sorted([r for r in runs if r["tags"].get("kind") == "online"],
                     key=lambda r: (r["tags"]["pool"], r["tags"]["comm_rounds"]))
     if online:
@@ -491,12 +505,17 @@ def report(out, quick):
         "models), on the cells inside the building. **AUC**: the std as a score for the cells farther than 0.5 m "
         "from every training point against the others (1 = the std ranks every unseen cell above every seen one, "
         "0.5 = no better than chance; '-' when the robots' points reach every cell). **Spearman**: the std against "
-        "the Gaussian-KDE density of the lidar hits (negative = less uncertain where the data are dense). **MSE**, "
-        "**wall IoU** (mean > 0.5): against the ground truth. **ECE**: expected calibration error of the 50-pass "
-        "mean, 15 bins. Every run's figures: `runs.csv`.")
+        "the Gaussian-KDE density of the lidar hits (negative = less uncertain where the data are dense). "
+        "**AUC … / seen**: the std, or the epistemic map (the share of the prior variance of the read-out left "
+        "after the data), as a score for the unseen cells against the seen ones, a cell being seen when its centre "
+        "is within 0.15 m of a training point (a cell some ray crossed). **AUSE**: area under the sparsification "
+        "error of |mean − truth| (remove the cells of largest score first, minus the same with the cells ordered by "
+        "their error; 0 = ordered like the errors, lower is better). **MSE** (= **Brier**, the mean as a "
+        "probability of a wall), **wall IoU** (mean > 0.5): against the ground truth. **ECE**: expected calibration "
+        "error of the 50-pass mean, 15 bins. '-': not measured (maps written before `map_epistemic.npy`). Every "
+        "run's figures: `runs.csv`.")
     add("")
-    metric_cols = (("auc_std_unobserved", "AUC std / unseen", 3), ("spearman_std_kde", "Spearman std ~ KDE", 3),
-                   ("mse", "MSE", 3), ("wall_iou", "wall IoU", 3), ("ece", "ECE", 3))
+    metric_cols = METRIC_COLS
     if singles:
         add("**Per kl_weight** (one robot alone, section 6.1 set-up):")
         add("")

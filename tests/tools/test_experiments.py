@@ -101,6 +101,55 @@ def archive_restores_on_a_fresh_folder():
 
 
 @test
+def archive_keeps_the_epistemic_map():
+    d = tempfile.mkdtemp()
+    try:
+        out, arc = os.path.join(d, "out"), os.path.join(d, "archive")
+        tags = {"kind": "single", "kl_weight": "5e-3", "seed": 1}
+        # two drawn runs, one with map_epistemic.npy and one written before it existed (test files, not results)
+        runs = [experiments.Run("with", [sh("mkdir -p {RUN}/maps; echo m > {RUN}/maps/map_mean.npy; "
+                                           "echo e > {RUN}/maps/map_epistemic.npy")], dict(tags)),
+                experiments.Run("without", [sh("mkdir -p {RUN}/maps; echo m > {RUN}/maps/map_mean.npy")],
+                                dict(tags, kl_weight="5e-1"))]
+        c, rc = campaign(runs, out, arc)
+        check(rc == 0, "campaign")
+        check(os.path.isfile(os.path.join(arc, "runs", "with", "maps", "map_epistemic.npy")), "epistemic map kept")
+        check(os.path.isfile(os.path.join(arc, "runs", "without", "maps", "map_mean.npy")) and
+              not os.path.exists(os.path.join(arc, "runs", "without", "maps", "map_epistemic.npy")),
+              "a run without it is archived as before")
+    finally:
+        shutil.rmtree(d)
+
+
+@test
+def paper_report_epistemic_columns():
+    try:
+        import numpy  # noqa: F401  (tools/paper_report.py needs it)
+    except ImportError:
+        return
+    import paper_report
+    new = ("auc_seen_std", "auc_seen_epistemic", "ause_std", "ause_epistemic", "spearman_kde_epistemic", "brier")
+    keys = [c[0] for c in paper_report.METRIC_COLS]
+    for k in new:
+        check(k in paper_report.RUNS_COLS and k in keys, f"{k}: a column of runs.csv and of the tables")
+    check(keys.index("auc_std_unobserved") == 0, "the paper's AUC first, as before")
+    check(paper_report.fmt(None, 3) == "-" and paper_report.fmt(float("nan"), 3) == "-", "missing: '-'")
+    d = tempfile.mkdtemp()
+    try:
+        runs = [{"name": "old", "tags": {"kind": "single"}, "seconds": 1.0, "pm": {"mse": 0.1}},
+                {"name": "new", "tags": {"kind": "single"}, "seconds": 1.0,
+                 "pm": {"mse": 0.1, "brier": 0.1, "auc_seen_epistemic": 0.97, "ause_epistemic": float("nan")}}]
+        paper_report.write_csvs(d, runs, [])
+        with open(os.path.join(d, "runs.csv"), encoding="utf-8") as f:
+            import csv
+            rows = list(csv.DictReader(f))
+        check(rows[0]["auc_seen_epistemic"] == "" and rows[0]["brier"] == "", f"{rows[0]}")
+        check(rows[1]["auc_seen_epistemic"] == "0.97" and rows[1]["ause_epistemic"] == "-", f"{rows[1]}")
+    finally:
+        shutil.rmtree(d)
+
+
+@test
 def campaign_definitions():
     class A:
         bin_small, bin_paper = "s", "p"

@@ -209,6 +209,127 @@ def load_map_grid_convention():
         shutil.rmtree(d)
 
 
+@test
+def seen_definition():
+    # a cell 0.1 m from a sample point is seen, 0.2 m is not; the boundary is SEEN_DIST = 0.15 m
+    check(pm.SEEN_DIST == 0.15, f"SEEN_DIST {pm.SEEN_DIST}")
+    check(0.14 / 2 + 0.1 * math.sqrt(2) / 2 < pm.SEEN_DIST, "a crossed 0.1 m cell is within SEEN_DIST")
+    pts = np.array([[1.0, 1.0]])
+    cells = np.array([[1.1, 1.0], [1.2, 1.0], [1.0, 0.9], [1.0, 0.8], [1.1, 1.1], [1.0, 1.149], [1.0, 1.151]])
+    got = pm.seen_mask(cells, pts)
+    check(got.tolist() == [True, False, True, False, True, True, False], f"{got}")
+    check(not pm.seen_mask(cells, np.zeros((0, 2))).any(), "no points: nothing seen")
+    check(pm.seen_mask(cells, pts, 0.25).all(), "seen_dist 0.25")
+    # a tiny 0.1 m grid, 3 x 3 cells over [0, 0.3]^2, one point at the centre of cell (1, 0)
+    d = tempfile.mkdtemp(prefix="pmtest.")
+    try:
+        m = os.path.join(d, "maps")
+        os.makedirs(m)
+        np.save(os.path.join(m, "map_mean.npy"), np.full((3, 3), 0.2, np.float32))
+        np.save(os.path.join(m, "map_std.npy"), np.full((3, 3), 0.1, np.float32))
+        np.save(os.path.join(m, "map_truth.npy"), np.zeros((3, 3), np.uint8))
+        with open(os.path.join(m, "map_meta.json"), "w") as f:
+            f.write('{"res": 0.1, "xmin": 0, "ymin": 0, "xmax": 0.3, "ymax": 0.3, "width": 3, "height": 3}\n')
+        s = os.path.join(d, "a.samples")
+        write_samples(s, [[0.05, 0.15]], [1.0], (0.0, 0.0, 0.3, 0.3))
+        r = pm.compute(m, [s])
+        # seen: (1, 0) itself (0 m), (0, 0), (2, 0), (1, 1) (0.1 m), (0, 1), (2, 1) (0.141 m); not column 2 (0.2 m)
+        check(close(r["seen_fraction"], 6 / 9), f"seen_fraction {r['seen_fraction']}")
+        check(r["auc_seen_dist"] == 1.0, f"auc_seen_dist {r['auc_seen_dist']}")
+    finally:
+        shutil.rmtree(d)
+
+
+@test
+def sparsification_and_ause():
+    # errors 3, 2, 1, 0 in the score's order: removing 0, 1, 2, 3 of 4 cells leaves means 1.5, 1, .5, 0
+    check(np.allclose(pm.sparsification([4, 3, 2, 1], [3, 2, 1, 0], steps=4), [1.5, 1.0, 0.5, 0.0]), "hand curve")
+    # reversed order: 1.5, 2, 2.5, 3; gap 0, 1, 2, 3 over f = 0, .25, .5, .75: trapezoid .125 + .375 + .625
+    check(close(pm.ause([1, 2, 3, 4], [3, 2, 1, 0], steps=4), 1.125), f"{pm.ause([1, 2, 3, 4], [3, 2, 1, 0], steps=4)}")
+    rng = np.random.default_rng(7)
+    err = rng.random(500)
+    check(pm.ause(err, err) == 0.0, "the oracle ordering gives 0")
+    check(close(pm.ause(2 * err + 1, err), 0.0, 1e-15), "any increasing function of the error gives 0")
+    a = pm.ause(rng.random(500), err)
+    check(a > 0.05, f"a random ordering gives > 0: {a}")
+    check(pm.ause(-err, err) > a, "the reversed ordering is worse than a random one")
+    # ties: a constant score keeps the mean error at every f (the expected value of a random order)
+    check(np.allclose(pm.sparsification(np.zeros(500), err), err.mean()), "ties averaged")
+    perm = rng.permutation(500)
+    s = rng.integers(0, 5, 500).astype(float)
+    check(close(pm.ause(s, err), pm.ause(s[perm], err[perm]), 1e-12), "ties: independent of the cells' order")
+    check(pm.ause(s, err) >= 0, "never below the oracle")
+    check(math.isnan(pm.ause([], [])), "no cell: NaN")
+
+
+def add_epistemic(m):
+    """A fabricated map_epistemic.npy for the synthetic maps: 0.1 where the samples are (columns
+    0..4), 1 beyond (test data only, not a result)."""
+    e = np.where(np.arange(W)[None, :] < 5, 0.1, 1.0) * np.ones((H, 1))
+    np.save(os.path.join(m, "map_epistemic.npy"), e.astype(np.float32))
+
+
+NEW_KEYS = ("auc_seen_{}", "ause_{}", "spearman_kde_{}")
+
+
+@test
+def epistemic_keys_with_and_without_the_file():
+    d = tempfile.mkdtemp(prefix="pmtest.")
+    try:
+        m, files = synthetic_maps(d)
+        out_json = os.path.join(d, "m.json")
+        rc, out, err = run(["--maps", m, "--json", out_json] + files)
+        check(rc == 0 and err == "", f"exit {rc}: {err}")
+        r = parse(out)
+        for score in ("std", "dist"):
+            for k in NEW_KEYS:
+                check(k.format(score) in r, f"{k.format(score)} missing:\n{out}")
+        check(not any("epistemic" in k for k in r), f"epistemic keys without map_epistemic.npy:\n{out}")
+        check(r["brier"] == r["mse"] == 0.0, "brier = mse")
+        check("auc_std_unobserved" in r and "spearman_std_kde" in r, "the old keys are kept")
+        # columns 0..4 hold a point at every cell centre: seen; columns 5..8 are 0.5 m or more away
+        check(close(r["seen_fraction"], 40 / 72, 1e-6), out)
+        check(r["auc_seen_std"] == 1.0 and r["auc_seen_dist"] == 1.0, out)
+        check(r["spearman_kde_std"] == r["spearman_std_kde"], "the same Spearman under both names")
+        check(r["ause_std"] == 0.0, "a perfect map: every error 0, AUSE 0")
+        j = json.load(open(out_json))
+        check(j["seen_dist"] == 0.15 and "auc_seen_epistemic" not in j, f"{j}")
+        rc, md, err = run(["--maps", m, "--markdown"] + files)
+        check(rc == 0 and md.startswith("| score | AUC unseen/seen | AUSE | Spearman vs KDE |"), md)
+        check(len(md.strip().splitlines()) == 4 and "epistemic" not in md, md)
+
+        add_epistemic(m)
+        rc, out, err = run(["--maps", m, "--json", out_json] + files)
+        check(rc == 0 and err == "", f"exit {rc}: {err}")
+        r2 = parse(out)
+        for k in NEW_KEYS:
+            check(k.format("epistemic") in r2, f"{k.format('epistemic')} missing:\n{out}")
+        check(r2["auc_seen_epistemic"] == 1.0, out)
+        check(close(r2["epistemic_mean_seen"], 0.1, 1e-6) and r2["epistemic_mean_unseen"] == 1.0, out)
+        check(all(r2[k] == v for k, v in r.items()), "the other keys do not change")
+        check(json.load(open(out_json))["auc_seen_epistemic"] == 1.0, "JSON")
+        rc, md, err = run(["--maps", m, "--markdown"] + files)
+        check(rc == 0 and len(md.strip().splitlines()) == 5 and "| epistemic" in md, md)
+        # a malformed epistemic map stops with one line
+        for bad, want in ((np.full((H, W), 1.5, np.float32), "outside (0, 1]"),
+                          (np.full((W, H), 0.5, np.float32), "shape"),
+                          (np.full((H, W), 0.5, np.float64), "dtype")):
+            np.save(os.path.join(m, "map_epistemic.npy"), bad)
+            rc, out, err = run(["--maps", m] + files)
+            check(rc == 1 and "map_epistemic.npy" in err and want in err and "Traceback" not in err, f"{rc} {err}")
+    finally:
+        shutil.rmtree(d)
+
+
+@test
+def markdown_table_rows():
+    r = {"auc_seen_std": 0.7, "ause_std": 0.05, "spearman_kde_std": float("nan"),
+         "auc_seen_dist": 1.0, "ause_dist": 0.04, "spearman_kde_dist": -0.7}
+    L = pm.markdown_table(r)
+    check(len(L) == 4 and L[2] == "| MC-50 std | 0.7 | 0.05 | - |", f"{L}")
+    check(L[3].startswith("| distance") and L[3].endswith("| 1 | 0.04 | -0.7 |"), f"{L}")
+
+
 # ---- the CLI ---------------------------------------------------------------------------------
 
 @test
