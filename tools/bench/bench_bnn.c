@@ -70,6 +70,7 @@
 
 #include "ai/ai_rng.h"
 #include "ai/bnn.h"
+#include "ai/bnn_post.h"
 #include "ai/bnn_quant.h"
 #include "ai/kernels/la.h"
 #include "ai/kernels/la_bf16.h"
@@ -292,6 +293,44 @@ void __wrap_la_sgemm_ep(la_trans_t ta, la_trans_t tb, int M, int N, int K, float
         add_shape_time(ta, tb, M, N, K, t);
 }
 
+/* The one-pass epistemic map (ai/bnn_post.h) against the MC-50 mean and std it stands beside:
+ * the same 4096 points, the posterior of 100,000 observed points (factored once, outside the
+ * timing, and timed on its own: once per map). */
+static bnn_post_t post;
+static void bench_post(const char *P, int nrep)
+{
+    const size_t n = 4096, n_obs = 100000;
+    int rc;
+    if ((rc = bnn_post_init(&post, &model)))
+        die("bnn_post_init", rc);
+    ai_rng_uniform_fill(5, 5, 0, xy, 2 * n);
+    for (size_t i = 0; i < 2 * n; i++)
+        xy[i] = 0.5f * xy[i] - 0.25f; /* the observed region: a quarter of the square */
+    double t_obs = now_s();
+    for (size_t k = 0; k < n_obs; k += n)
+        if ((rc = bnn_post_observe(&post, &model, xy, n_obs - k < n ? n_obs - k : n)))
+            die("bnn_post_observe", rc);
+    t_obs = now_s() - t_obs;
+    double t_fac = now_s();
+    if ((rc = bnn_post_factor(&post)))
+        die("bnn_post_factor", rc);
+    t_fac = now_s() - t_fac;
+    ai_rng_uniform_fill(2, 2, 0, xy, 2 * n);
+    for (size_t i = 0; i < 2 * n; i++)
+        xy[i] = 2 * xy[i] - 1;
+    for (int r = 0; r < nrep && r < MAX_REPS; r++) {
+        const double t0 = now_s();
+        if ((rc = bnn_post_predict(&post, &model, xy, n, mean, sd)))
+            die("bnn_post_predict", rc);
+        samples_[r] = now_s() - t0;
+    }
+    const double pps = (double)n / median(nrep);
+    printf("BENCH bnn_post_points_per_s_%s %.0f points/s\n", P, pps);
+    printf("BENCH bnn_post_observe_points_per_s_%s %.0f points/s\n", P, (double)n_obs / t_obs);
+    printf("BENCH bnn_post_factor_ms_%s %.2f ms\n", P, 1e3 * t_fac);
+    printf("BENCH bnn_post_bytes_%s %zu bytes\n", P, sizeof(bnn_post_t));
+}
+
 /* One mean-weight pass over the preset's batch of points, fp32 (bnn_forward_logits) and int8
  * (bnn_quant_forward_mean on the kernel the CPU takes, then on the pure-C reference). The fp32
  * and int8 passes alternate within every repetition, so that both see the same machine (it is
@@ -510,6 +549,7 @@ int main(int argc, char **argv)
         for (int w = 0; w < 3; w++)
             if ((rc = bnn_train_step(&model, batch, B, 1e-4f, (uint64_t)w, 1e-4f, NULL)))
                 die("bnn_train_step", rc);
+        bench_post(P, 5);
         bench_mean_pass(P, reps);
         return 0;
     }
@@ -717,6 +757,7 @@ int main(int argc, char **argv)
         }
     }
 
+    bench_post(P, 5);
     bench_mean_pass(P, 30);
     printf("BENCH bnn_arena_bytes_%s %zu bytes\n", P, bnn_get_buffer_size());
     printf("BENCH bnn_params_%s %zu params\n", P, bnn_n_params(&model));
