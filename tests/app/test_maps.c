@@ -25,8 +25,10 @@
 #include "png_read.h"
 #include "run_outputs.h"
 
+#include "ai/ai_rng.h"
 #include "ai/bnn.h"
 #include "ai/bnn_ckpt.h"
+#include "ai/bnn_post.h"
 #include "sim_grid.h"
 #include "sim_maps.h"
 #include "sim_palette.h"
@@ -491,6 +493,98 @@ static void test_map_png_y_up(void **st)
 }
 
 /* The outputs a good run leaves in DIR: a failed run must keep every one of them. */
+
+/* The epistemic map: two robots' posteriors (one saw the plan's left half, the other its right
+ * half) summed into the map of the consensus model, written as map_epistemic.npy like the
+ * other arrays (sim_maps_epistemic of consensus.bnn and the posterior it carries); models
+ * without one write none and remove an earlier one; posteriors over other features refuse. */
+static bnn_post_t g_pa, g_pb, g_pc;
+static void test_epistemic_map(void **st)
+{
+    (void)st;
+    char out[PATH_MAX], p[PATH_MAX], fa[PATH_MAX], fb[PATH_MAX], fc[PATH_MAX];
+    static uint8_t buf[BNN_CKPT_MAX_BYTES];
+    static float xy[2 * 2000];
+    size_t n = 0;
+    assert_int_equal(bnn_init(&g_load, NULL, 11), 0); /* g_ma's initial SIREN layer */
+    assert_int_equal(bnn_post_init(&g_pa, &g_load), 0);
+    assert_int_equal(bnn_post_init(&g_pb, &g_load), 0);
+    assert_int_equal(bnn_init(&g_load, NULL, 22), 0);
+    assert_int_equal(bnn_post_init(&g_pc, &g_load), 0);
+    ai_rng_uniform_fill(4, 4, 0, xy, 2 * 2000);
+    for (int k = 0; k < 2000; k++) {
+        xy[2 * k] = xy[2 * k] - 1.0f; /* x in [-1, 0): the left half */
+        xy[2 * k + 1] = 2.0f * xy[2 * k + 1] - 1.0f;
+    }
+    assert_int_equal(bnn_post_observe(&g_pa, &g_load, xy, 2000), 0);
+    assert_int_equal(bnn_post_observe(&g_pc, &g_load, xy, 2000), 0);
+    for (int k = 0; k < 2000; k++)
+        xy[2 * k] += 1.0f; /* the right half */
+    assert_int_equal(bnn_post_observe(&g_pb, &g_load, xy, 1000), 0);
+    path_in(fa, "post_a.bnn");
+    path_in(fb, "post_b.bnn");
+    path_in(fc, "post_c.bnn");
+    assert_int_equal(bnn_ckpt_save_post(&g_ma, 0, &g_pa, buf, sizeof buf, &n), 0);
+    spit(fa, buf, n);
+    assert_int_equal(bnn_ckpt_save_post(&g_ma, 0, &g_pb, buf, sizeof buf, &n), 0);
+    spit(fb, buf, n);
+    assert_int_equal(bnn_ckpt_save_post(&g_ma, 0, &g_pc, buf, sizeof buf, &n), 0);
+    spit(fc, buf, n);
+
+    path_in(out, "epi");
+    HS_OK("maps", "--plan", g_plan, "--out", out, "--res", "0.25", "--mc", "2", fa, fb);
+    if (strstr(g_out, "epistemic: the posterior of 2 model(s)") == NULL)
+        fail_msg("stdout:\n%s", g_out);
+    path_at(p, out, "map_meta.json");
+    char *json = (char *)test_slurp(p, &n);
+    assert_non_null(json);
+    const int W = (int)json_num(json, "width"), H = (int)json_num(json, "height");
+    assert_non_null(strstr(json, "\"models_with_posterior\": 2"));
+    free(json);
+    int h = 0, w = 0;
+    path_at(p, out, "map_epistemic.npy");
+    float *epi = read_npy(p, &h, &w);
+    assert_int_equal(h, H);
+    assert_int_equal(w, W);
+    /* the same cells from consensus.bnn and the posterior it carries (the sum of the two) */
+    path_at(p, out, "consensus.bnn");
+    uint8_t *b = test_slurp(p, &n);
+    assert_non_null(b);
+    const char *why = NULL;
+    assert_int_equal(bnn_init(&g_load, NULL, 0), 0);
+    if (bnn_ckpt_load_post(&g_load, &g_pc, b, n, &why) != 0)
+        fail_msg("consensus.bnn: %s", why);
+    free(b);
+    assert_true(fabs(g_pc.n_obs - 3000.0) < 1e-9 && fabs(g_pc.robots - 2.0) < 1e-12);
+    char err[4096];
+    sim_plan_t plan;
+    assert_int_equal(sim_plan_load(g_plan, 0, &plan, err, sizeof err), 0);
+    sim_maps_grid_t g = {.w = W, .h = H, .res = 0.25, .x0 = plan.min.x, .y0 = plan.min.y};
+    float *want = malloc((size_t)W * H * sizeof *want);
+    assert_non_null(want);
+    assert_int_equal(sim_maps_epistemic(&g_load, &g_pc, &plan, &g, want, err, sizeof err), 0);
+    for (int r = 0; r < H; r++)
+        for (int c = 0; c < W; c++) {
+            const float v = epi[(size_t)r * W + c]; /* row 0 the top: grid row H - 1 - r */
+            assert_true(v > 0.0f && v <= 1.0f);
+            assert_true(v == want[(size_t)(H - 1 - r) * W + c]);
+        }
+    free(want);
+    free(epi);
+    path_at(p, out, "map_epistemic.png");
+    assert_int_equal(access(p, F_OK), 0);
+
+    /* models without a posterior: none, and the earlier one goes */
+    HS_OK("maps", "--plan", g_plan, "--out", out, "--res", "0.25", "--mc", "2", g_a, g_b);
+    assert_non_null(strstr(g_out, "none of the models carries a posterior"));
+    path_at(p, out, "map_epistemic.npy");
+    assert_int_equal(access(p, F_OK), -1);
+    /* posteriors over another SIREN layer (another seed's fleet) do not add up */
+    path_in(out, "epi_bad");
+    assert_int_equal(HS(-1, "maps", "--plan", g_plan, "--out", out, "--res", "0.25", "--mc", "2", fa, fc), 1);
+    expect_err("post_c.bnn", "other features");
+}
+
 static const char *const outputs[] = {"consensus.bnn", "consensus.csv", "map_mean.npy", "map_std.npy",
                                       "map_single.npy", "map_truth.npy", "map_meta.json", "map.pgm",
                                       "map.yaml",      "map_mean.png",  "map_std.png"};
@@ -600,6 +694,7 @@ int main(void)
         cmocka_unit_test(test_map_files_agree),
         cmocka_unit_test(test_bad_inputs_keep_earlier_output),
         cmocka_unit_test(test_map_png_y_up),
+        cmocka_unit_test(test_epistemic_map),
     };
     return cmocka_run_group_tests_name("app/maps", tests, setup, teardown);
 }
