@@ -19,7 +19,8 @@
  * rooms go to nobody: each robot sweeps its start room only (the same seeded start rooms), and
  * the rooms no robot starts in are left unvisited (a fleet that leaves part of the building
  * unseen). Every waypoint of such a tour lies in its start room as long as the A* legs between
- * the room's own goals need not leave it (true of convex rooms and the shipped plans).
+ * the room's own goals need not leave it (tests/sim/test_paths.c checks the default plan and
+ * generated ones).
  *
  * N > reachable rooms: every reachable room starts at least one robot and the rooms take the
  * others, largest work first: robot r < R (R reachable rooms) starts in the r-th of them in
