@@ -47,6 +47,9 @@ static const cli_opt_t paths_gen_opts[] = {
     {.names = "--res", .meta = "M", CLI_DOUBLE(paths_opts_t, cfg.res_m, 0.005, 1.0), .help = "planning grid"},
     {.names = "--sweep", .meta = "M", CLI_DOUBLE(paths_opts_t, cfg.sweep_m, 0.1, 100.0),
      .help = "spacing of the sweep goals in each room"},
+    {.names = "--rooms", CLI_CHOICE(paths_opts_t, cfg.own_rooms, "all|own"),
+     .help = "all: the tours together sweep every reachable room; own: each robot sweeps only its start room "
+             "and the rooms nobody starts in stay unvisited (a fleet that leaves part of the building unseen)"},
     PATHS_SCALE_OPT,
     PATHS_PNG_OPT,
     CLI_OPT_END,
@@ -68,14 +71,18 @@ static void paths_usage(FILE *out)
             "usage: host_sim paths <gen|check> ...\n"
             "\n"
             "  host_sim paths gen --plan FILE --robots N --seed S --out DIR\n"
-            "                     [--clearance M] [--res M] [--sweep M] [--scale S] [--png FILE.png]\n"
+            "                     [--clearance M] [--res M] [--sweep M] [--rooms all|own] [--scale S]\n"
+            "                     [--png FILE.png]\n"
             "      plan collision-free coverage tours from N different start rooms and write\n"
             "      DIR/robot_<i>.csv (header x_m,y_m); with more robots than reachable rooms every\n"
             "      room starts one and the rooms with the most sweep per robot take the others,\n"
             "      each robot sweeping its share of its room from a start cell of its own (up to %d\n"
             "      robots); prints waypoints, length and start room per robot, the clearance kept\n"
             "      and the coverage of the free cells (line of sight within 1.5 m and 3.5 m);\n"
-            "      --png draws the ground truth with the tours\n"
+            "      --png draws the ground truth with the tours.\n"
+            "      --rooms own: each robot sweeps only its start room (same seeded start rooms), so\n"
+            "      with fewer robots than rooms part of the building stays unvisited: the rooms\n"
+            "      without a waypoint are listed and the coverage line says how much was seen\n"
             "  host_sim paths check --plan FILE [--clearance M] [--scale S] [--png FILE.png] CSV...\n"
             "      validate waypoint files against the plan and print the same figures; exit 1 with\n"
             "      FILE:LINE: reason when a waypoint is not free or a segment comes closer than\n"
@@ -172,8 +179,9 @@ static int paths_gen(int argc, char **argv)
             goto done_paths;
         }
     }
-    printf("plan %s, %d robots, seed %lld, clearance %g m, grid %g m, sweep %g m -> %s/robot_*.csv\n", plan_file,
-           cfg.n_robots, seed, cfg.clearance_m, cfg.res_m, cfg.sweep_m, out);
+    /* "rooms own" only when given: the default's output stays what it was. */
+    printf("plan %s, %d robots, seed %lld, clearance %g m, grid %g m, sweep %g m%s -> %s/robot_*.csv\n", plan_file,
+           cfg.n_robots, seed, cfg.clearance_m, cfg.res_m, cfg.sweep_m, cfg.own_rooms ? ", rooms own" : "", out);
     if (sim_grid_from_plan(&plan, cfg.res_m, &g) != 0) {
         fprintf(stderr, "host_sim paths gen: cannot rasterise the plan\n");
         goto done_paths;

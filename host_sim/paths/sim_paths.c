@@ -73,6 +73,7 @@ void sim_paths_cfg_default(sim_paths_cfg_t *cfg)
     cfg->clearance_m = 0.2;
     cfg->res_m = 0.05;
     cfg->sweep_m = 1.0;
+    cfg->own_rooms = 0;
 }
 
 int sim_plan_room_at(const sim_plan_t *plan, double x, double y)

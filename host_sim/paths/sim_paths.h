@@ -15,7 +15,12 @@
  * N <= reachable rooms: each robot starts in its own room (N distinct start rooms; with more
  * rooms than robots the start rooms are a seeded choice), every other room is assigned to
  * the robot with the smallest tour so far (nearest room first), so together the robots visit
- * every reachable room; a robot sweeps each of its rooms whole.
+ * every reachable room; a robot sweeps each of its rooms whole. With cfg->own_rooms the other
+ * rooms go to nobody: each robot sweeps its start room only (the same seeded start rooms), and
+ * the rooms no robot starts in are left unvisited (a fleet that leaves part of the building
+ * unseen). Every waypoint of such a tour lies in its start room as long as the A* legs between
+ * the room's own goals need not leave it (tests/sim/test_paths.c checks the default plan and
+ * generated ones).
  *
  * N > reachable rooms: every reachable room starts at least one robot and the rooms take the
  * others, largest work first: robot r < R (R reachable rooms) starts in the r-th of them in
@@ -29,7 +34,7 @@
  * room with fewer goals than robots gets a finer lattice for them (half the spacing, again,
  * down to res_m); a room still too small fails with its index, type and the counts.
  * A robot whose run is one goal drives on to the neighbouring run's first goal. The seed
- * plays no part then. Each robot sweeps only its own room.
+ * plays no part then. Each robot sweeps only its own room (so cfg->own_rooms changes nothing).
  *
  * Consecutive goals are joined by A* (8-connected, no corner cutting) and each leg is
  * shortened by line-of-sight shortcuts that stay on traversable cells (sampled every res/2),
@@ -62,6 +67,8 @@ typedef struct sim_paths_cfg {
     double clearance_m; /* robot centre to any wall, default 0.2 (TurtleBot3 burger radius 0.105 + margin) */
     double res_m;       /* planning grid resolution, default 0.05 */
     double sweep_m;     /* spacing of sweep goals inside rooms, default 1.0 */
+    int own_rooms;      /* 0 (default): the tours together sweep every reachable room; 1: each robot
+                         * sweeps only its start room, the rooms nobody starts in stay unvisited */
 } sim_paths_cfg_t;
 
 void sim_paths_cfg_default(sim_paths_cfg_t *cfg);

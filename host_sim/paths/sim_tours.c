@@ -592,9 +592,9 @@ int sim_paths_generate(const sim_plan_t *plan, const sim_paths_cfg_t *cfg, sim_p
     if (cfg->n_robots < 1 || cfg->n_robots > SIM_PATHS_MAX_ROBOTS)
         return sim_paths_errf(err, errlen, "robots %d out of range 1..%d", cfg->n_robots, SIM_PATHS_MAX_ROBOTS);
     if (!(cfg->res_m >= 0.005 && cfg->res_m <= 1.0) || !(cfg->clearance_m >= 0.0 && cfg->clearance_m <= 5.0) ||
-        !(cfg->sweep_m >= 0.1 && cfg->sweep_m <= 100.0))
-        return sim_paths_errf(err, errlen, "bad configuration (res %g m, clearance %g m, sweep %g m)", cfg->res_m,
-                    cfg->clearance_m, cfg->sweep_m);
+        !(cfg->sweep_m >= 0.1 && cfg->sweep_m <= 100.0) || (cfg->own_rooms != 0 && cfg->own_rooms != 1))
+        return sim_paths_errf(err, errlen, "bad configuration (res %g m, clearance %g m, sweep %g m, own rooms %d)",
+                              cfg->res_m, cfg->clearance_m, cfg->sweep_m, cfg->own_rooms);
     const int N = cfg->n_robots;
     for (int r = 0; r < N; r++) {
         sim_path_init(&paths[r]);
@@ -682,8 +682,8 @@ int sim_paths_generate(const sim_plan_t *plan, const sim_paths_cfg_t *cfg, sim_p
     }
     /* The other rooms: the robot with the smallest load so far takes the unassigned room
      * nearest to its last one; its load grows by the room's goals and the trip there
-     * (in units of sweep spacing). */
-    for (;;) {
+     * (in units of sweep spacing). With own_rooms nobody takes them. */
+    while (!cfg->own_rooms) {
         int rb = 0;
         for (int r = 1; r < N; r++)
             if (load[r] < load[rb])

@@ -1,6 +1,6 @@
 /* Robot tours on the default plan (distinct start rooms, clearance on every segment,
- * coverage, determinism), more robots than rooms (rooms shared, distinct starts), the
- * committed CSV files, and CSV validation. */
+ * coverage, determinism), more robots than rooms (rooms shared, distinct starts), tours kept
+ * to their start rooms (--rooms own), the committed CSV files, and CSV validation. */
 #include <setjmp.h>
 #include <stdarg.h>
 #include <stddef.h>
@@ -14,9 +14,11 @@
 #include <cmocka.h>
 
 #include "alloc_count.h"
+#include "run_outputs.h"
 #include "sim_grid.h"
 #include "sim_paths.h"
 #include "sim_plan.h"
+#include "sim_plangen.h"
 
 #define N_ROBOTS 7
 
@@ -210,6 +212,138 @@ static void test_more_robots_than_rooms(void **state)
     check_crowded(SIM_PATHS_MAX_ROBOTS, 0.05); /* finer lattices: distinct cells */
 }
 
+/* Tours of `own` and of `all` for n robots on plan p (grid g): the same start rooms; every
+ * waypoint of an own tour in its start room, its segments clear; own visits only the n start
+ * rooms, fewer than all when n < the reachable rooms, and sees less; own is deterministic. */
+static void check_own_rooms(const sim_plan_t *p, const sim_grid_t *g, int n, uint64_t seed, const char *what)
+{
+    sim_paths_cfg_t cfg;
+    sim_paths_cfg_default(&cfg);
+    cfg.n_robots = n;
+    cfg.seed = seed;
+    sim_path_t all[8], own[8], again[8];
+    assert_true(n <= 8);
+    char err[256];
+    if (sim_paths_generate(p, &cfg, all, err, sizeof err) != 0)
+        fail_msg("%s, all: %s", what, err);
+    cfg.own_rooms = 1;
+    if (sim_paths_generate(p, &cfg, own, err, sizeof err) != 0)
+        fail_msg("%s, own: %s", what, err);
+    int *seen_all = calloc((size_t)p->n_rooms, sizeof *seen_all);
+    int *seen_own = calloc((size_t)p->n_rooms, sizeof *seen_own);
+    assert_true(seen_all != NULL && seen_own != NULL);
+    for (int r = 0; r < n; r++) {
+        assert_int_equal(own[r].start_room, all[r].start_room);
+        assert_true(own[r].n >= 2 && own[r].n <= all[r].n);
+        if (sim_path_min_clearance(p, &own[r]) < cfg.clearance_m)
+            fail_msg("%s: robot %d comes closer than %g m to a wall", what, r, cfg.clearance_m);
+        for (int i = 0; i < own[r].n; i++) {
+            int room = sim_plan_room_at(p, own[r].p[i].x, own[r].p[i].y);
+            if (room != own[r].start_room)
+                fail_msg("%s: robot %d, waypoint %d (%.3f, %.3f) in room %d, not its start room %d", what, r, i,
+                         own[r].p[i].x, own[r].p[i].y, room, own[r].start_room);
+            seen_own[room] = 1;
+        }
+        for (int i = 0; i < all[r].n; i++) {
+            int room = sim_plan_room_at(p, all[r].p[i].x, all[r].p[i].y);
+            if (room >= 0)
+                seen_all[room] = 1;
+        }
+    }
+    int n_all = 0, n_own = 0;
+    for (int k = 0; k < p->n_rooms; k++) {
+        n_all += seen_all[k];
+        n_own += seen_own[k];
+    }
+    assert_int_equal(n_own, n);
+    if (n_own >= n_all)
+        fail_msg("%s: own tours visit %d rooms, all tours %d", what, n_own, n_all);
+    const double cov_own = sim_paths_coverage(g, own, n, 1.5), cov_all = sim_paths_coverage(g, all, n, 1.5);
+    if (!(cov_own > 0.0 && cov_own < cov_all))
+        fail_msg("%s: coverage own %.3f, all %.3f", what, cov_own, cov_all);
+    assert_int_equal(sim_paths_generate(p, &cfg, again, err, sizeof err), 0);
+    for (int r = 0; r < n; r++) {
+        assert_int_equal(own[r].n, again[r].n);
+        assert_memory_equal(own[r].p, again[r].p, (size_t)own[r].n * sizeof *own[r].p);
+        sim_path_free(&all[r]);
+        sim_path_free(&own[r]);
+        sim_path_free(&again[r]);
+    }
+    free(seen_all);
+    free(seen_own);
+}
+
+static void test_own_rooms(void **state)
+{
+    (void)state;
+    /* The default plan: 8 rooms. */
+    const int counts[] = {1, 3, 5, 7};
+    for (int t = 0; t < 4; t++)
+        for (uint64_t seed = 1; seed <= 3; seed++) {
+            char what[64];
+            snprintf(what, sizeof what, "apartment, %d robots, seed %llu", counts[t], (unsigned long long)seed);
+            check_own_rooms(&plan, &grid, counts[t], seed, what);
+        }
+    /* Generated plans (a corridor with rooms on both sides, and wings beyond 16 rooms). */
+    const int plan_rooms[] = {6, 12, 20};
+    for (int t = 0; t < 3; t++) {
+        char *svg = NULL, err[256], what[64];
+        assert_int_equal(sim_plangen_svg(7 + (unsigned long)t, plan_rooms[t], &svg), 0);
+        sim_plan_t p;
+        sim_grid_t g;
+        assert_int_equal(sim_plan_parse(svg, "gen.svg", 0.0, &p, err, sizeof err), 0);
+        free(svg);
+        assert_int_equal(sim_grid_from_plan(&p, 0.05, &g), 0);
+        snprintf(what, sizeof what, "generated plan of %d rooms, 3 robots", plan_rooms[t]);
+        check_own_rooms(&p, &g, 3, 1, what);
+        sim_grid_free(&g);
+        sim_plan_free(&p);
+    }
+    /* More robots than rooms: each robot sweeps its own room already, own changes nothing. */
+    sim_paths_cfg_t cfg;
+    sim_paths_cfg_default(&cfg);
+    cfg.n_robots = 9;
+    sim_path_t a[9], b[9];
+    char err[256];
+    assert_int_equal(sim_paths_generate(&plan, &cfg, a, err, sizeof err), 0);
+    cfg.own_rooms = 1;
+    assert_int_equal(sim_paths_generate(&plan, &cfg, b, err, sizeof err), 0);
+    for (int r = 0; r < 9; r++) {
+        assert_int_equal(a[r].n, b[r].n);
+        assert_memory_equal(a[r].p, b[r].p, (size_t)a[r].n * sizeof *a[r].p);
+        sim_path_free(&a[r]);
+        sim_path_free(&b[r]);
+    }
+    /* Anything but 0 or 1 is refused. */
+    cfg.own_rooms = 2;
+    assert_int_equal(sim_paths_generate(&plan, &cfg, a, err, sizeof err), -EINVAL);
+    assert_non_null(strstr(err, "own rooms 2"));
+}
+
+/* `host_sim paths gen --rooms`: own prints a truthful coverage below 100 % and the rooms left
+ * unvisited; a value other than all or own is a usage error (exit 2) naming the choices. */
+static void test_rooms_option(void **state)
+{
+    (void)state;
+    char bin[1024], dir[] = "/tmp/test_paths_XXXXXX", out[4096], errs[4096], tours[64];
+    test_build_program("host_sim", bin, sizeof bin);
+    assert_non_null(mkdtemp(dir));
+    snprintf(tours, sizeof tours, "%s/tours", dir);
+    const char *bad[] = {"host_sim", "paths", "gen", "--plan", "host_sim/plans/apartment.svg", "--robots", "3",
+                         "--seed", "1", "--rooms", "some", "--out", tours, NULL};
+    assert_int_equal(test_run(bin, bad, -1, dir, errs, out, sizeof errs), 2);
+    if (strstr(errs, "--rooms: 'some' is not all or own") == NULL)
+        fail_msg("stderr: %s", errs);
+    const char *own[] = {"host_sim", "paths", "gen", "--plan", "host_sim/plans/apartment.svg", "--robots", "3",
+                         "--seed", "1", "--rooms", "own", "--out", tours, NULL};
+    if (test_run(bin, own, -1, dir, errs, out, sizeof errs) != 0)
+        fail_msg("paths gen --rooms own failed: %s", errs);
+    if (strstr(out, ", rooms own -> ") == NULL || strstr(out, "rooms with waypoints: 3 of 8") == NULL ||
+        strstr(out, "room 3 (Hall) has no waypoint") == NULL || strstr(out, "100.0%") != NULL)
+        fail_msg("stdout: %s", out);
+    assert_int_equal(test_remove_tree(dir), 0);
+}
+
 /* N <= rooms is what it was: the committed tours are `paths gen --robots 7 --seed 1`, byte
  * for byte. */
 static void test_committed_paths_regenerate(void **state)
@@ -366,6 +500,8 @@ int main(void)
         cmocka_unit_test(test_generate_default_plan),
         cmocka_unit_test(test_other_fleets),
         cmocka_unit_test(test_more_robots_than_rooms),
+        cmocka_unit_test(test_own_rooms),
+        cmocka_unit_test(test_rooms_option),
         cmocka_unit_test(test_committed_paths_regenerate),
         cmocka_unit_test(test_committed_paths),
         cmocka_unit_test(test_csv_round_trip),

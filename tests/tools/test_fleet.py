@@ -16,6 +16,9 @@ that prints host_sim's round lines, and dies by SIGKILL at a chosen round unless
     without --paths, --results that cannot be written, more robots than tours in --paths;
   - more robots than the default tours without --paths: `host_sim paths gen` makes them in the
     run's folder (one line says so) and robot i drives RUN/tours/robot_<i>.csv; up to 1024;
+  - --tour-rooms own: `host_sim paths gen --rooms own` makes the tours in the run's folder even
+    when the shipped ones are enough, on another plan too; run.json says own; with --paths it is
+    refused (exit 2), as is a value other than all or own;
   - a ZeroMQ fleet's ports skip a port another process listens on (the next free block).
   - the launcher's defaults are the binary's (`host_sim defaults`, which the stand-in answers
     with today's values): one without the command is refused at once, exit 2, one line; --help
@@ -380,6 +383,41 @@ def more_robots_than_default_tours_made():
         check(rc == 0 and "making" not in out and not os.path.exists(os.path.join(run_dir, "tours")) and
               "--path " + os.path.join(ROOT, "host_sim/plans/apartment/robot_6.csv") in starts(run_dir, 6)[0],
               f"exit {rc}:\n{out}")
+    finally:
+        shutil.rmtree(tmp, ignore_errors=True)
+
+
+@test
+def own_tours_made():
+    tmp = tempfile.mkdtemp()
+    try:
+        other = os.path.join(tmp, "other.svg")
+        shutil.copy(os.path.join(ROOT, "host_sim/plans/apartment.svg"), other)
+        for name, plan in (("own", []), ("own-other", ["--plan", other])):
+            rc, out, run_dir = launch(tmp, ["--no-report", "--tour-rooms", "own"] + plan, {}, name)
+            check(rc == 0, f"{name}: exit {rc}:\n{out}")
+            tours = os.path.join(run_dir, "tours")
+            lines = [l for l in out.splitlines() if "making 3 tours" in l]
+            check(len(lines) == 1 and lines[0].startswith("fleet: --tour-rooms own: each robot sweeps only its start "
+                                                          "room; making 3 tours with `host_sim paths gen --plan ") and
+                  f"--robots 3 --seed 1 --rooms own --out {tours}`" in lines[0], f"{name}: no progress line in:\n{out}")
+            with open(os.path.join(tours, "gen.txt")) as f:
+                gen = f.read().split()
+            want_plan = other if plan else os.path.join(ROOT, "host_sim/plans/apartment.svg")
+            check(gen[:2] == ["paths", "gen"] and gen[gen.index("--rooms") + 1] == "own" and
+                  gen[gen.index("--plan") + 1] == want_plan,
+                  f"{name}: paths gen was run as {gen}")
+            for i in range(3):
+                check(f"--path {tours}/robot_{i}.csv " in starts(run_dir, i)[0], f"{name}: robot {i}")
+            check(run_json(run_dir)["tour_rooms"] == "own", f"{name}: run.json")
+        rc, out, run_dir = launch(tmp, ["--no-report"], {}, "all")
+        check(rc == 0 and run_json(run_dir)["tour_rooms"] == "all" and "making" not in out, f"exit {rc}:\n{out}")
+        rc, out, run_dir = launch(tmp, ["--no-report", "--tour-rooms", "own", "--paths",
+                                        os.path.join(ROOT, "host_sim/plans/apartment")], {}, "own-paths")
+        check(rc == 2 and "--tour-rooms own makes the tours" in out and not os.path.exists(run_dir),
+              f"exit {rc}:\n{out}")
+        rc, out, run_dir = launch(tmp, ["--no-report", "--tour-rooms", "some"], {}, "own-bad")
+        check(rc == 2 and "invalid choice: 'some'" in out and not os.path.exists(run_dir), f"exit {rc}:\n{out}")
     finally:
         shutil.rmtree(tmp, ignore_errors=True)
 
