@@ -188,16 +188,6 @@ void fp_show_log(const char *path)
     }
 }
 
-int fp_same_file(const char *a, const char *b)
-{
-    size_t na = 0, nb = 0;
-    uint8_t *x = test_slurp(a, &na), *y = test_slurp(b, &nb);
-    int same = x && y && na == nb && memcmp(x, y, na) == 0;
-    free(x);
-    free(y);
-    return same;
-}
-
 unsigned long long fp_summary_sum(const char *tag, int n, const char *line, const char *what, int after)
 {
     unsigned long long total = 0;
@@ -256,14 +246,33 @@ void fp_inproc_reference_radius(int n, const char *rounds, const char *radius, i
     g_have_ref = 1;
 }
 
+/* The model of two checkpoints, bit for bit: the header's network and seed and theta (bytes
+ * [12, 40) and [60, 60 + 4 n_params)). What follows theta may differ: a robot's final.bnn
+ * carries its own epistemic posterior, the in-process reference's the fleet's after their
+ * consensus (bnn_post.h). */
+static int same_model(const char *a, const char *b)
+{
+    size_t na = 0, nb = 0;
+    uint8_t *x = test_slurp(a, &na), *y = test_slurp(b, &nb);
+    int same = x && y && na >= 60 && nb >= 60 && memcmp(x + 12, y + 12, 28) == 0;
+    if (same) {
+        const size_t end = 60 + 4 * (size_t)((uint32_t)x[28] | (uint32_t)x[29] << 8 | (uint32_t)x[30] << 16 |
+                                             (uint32_t)x[31] << 24);
+        same = na >= end && nb >= end && memcmp(x + 60, y + 60, end - 60) == 0;
+    }
+    free(x);
+    free(y);
+    return same;
+}
+
 void fp_expect_reference_models(const char *tag, int n)
 {
     for (int i = 0; i < n; i++) {
         char a[PATH_MAX + 64], b[PATH_MAX + 64];
         snprintf(a, sizeof a, "%s/%s/robot_%d/final.bnn", fp_env.dir, tag, i);
         snprintf(b, sizeof b, "%s/inproc/models/robot_%d.bnn", fp_env.dir, i);
-        if (!fp_same_file(a, b))
-            fail_msg("robot %d (%s): %s differs from the in-process reference %s", i, tag, a, b);
+        if (!same_model(a, b))
+            fail_msg("robot %d (%s): the model in %s differs from the in-process reference %s", i, tag, a, b);
     }
 }
 

@@ -62,8 +62,6 @@ int fp_run_cmd(const char *const *argv, char *out, size_t cap);
 int fp_find_program(const char *name, char *out, size_t cap);
 /* Prints the last 3000 bytes of a log (a failed robot's) on stderr. */
 void fp_show_log(const char *path);
-/* 1 when the two files exist and are equal byte for byte. */
-int fp_same_file(const char *a, const char *b);
 
 /* One robot of a test fleet. */
 typedef struct fp_robot {
