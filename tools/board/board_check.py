@@ -3,8 +3,8 @@
 the loss, BCE and KL of every round and the final figures must agree within a float
 tolerance, and the one-pass uncertainty of every inference point (`post <i> p <p> unknown
 <u>`, the share of prior variance left) within its own: it is a difference of float dot
-products over D = S + 1 features (sinf of the board's C library) through a float L^-1, so it
-keeps fewer digits than the losses. The two builds run the same code on other instruction
+products over D = S + 1 features through a float L^-1, so it keeps fewer digits than the
+losses. The two builds run the same code on other instruction
 sets and C libraries (sinf, expf, logf differ in their last bits), so they agree closely,
 not bit for bit.
 
