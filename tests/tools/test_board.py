@@ -53,6 +53,11 @@ def train_runs_and_reports():
     check(res["steps"] == "6" and res["heap_growth_after_init"] == "0", f"results {res}")
     check(int(res["arena_persistent_bytes"]) + int(res["arena_scratch_bytes"]) == int(res["arena_bytes"]),
           "the arena splits into persistent and scratch")
+    _, _, post = board_check.parse_text_post(r.stdout)
+    check(sorted(post) == list(range(64)), f"one-pass uncertainty of the 64 points: {sorted(post)}")
+    check(all(0.0 < u <= 1.0 and 0.0 < p < 1.0 for p, u in post.values()), f"shares in (0, 1]: {post}")
+    check(res["post_observed"] == "2048" and float(res["post_logit_max_abs_diff"]) == 0.0,
+          f"every sample summed in, the logits those of the mean pass: {res}")
 
 
 @test
@@ -98,6 +103,19 @@ def check_agrees_and_disagrees():
         with open(b, "w") as f:
             f.write(RUN.split("result")[0])
         check(board_check.main([a, b]) == 1, "a run without its results is incomplete")
+        post = "post 0 p 0.300000 unknown 5.000000e-04\npost 1 p 0.400000 unknown 2.000000e-03\n"
+        with open(a, "w") as f:
+            f.write(RUN + post)
+        with open(b, "w") as f:
+            f.write(RUN + post.replace("5.000000e-04", "5.004000e-04"))
+        check(board_check.main([a, b]) == 0, "a share 8e-4 away agrees (--rtol-post 1e-3)")
+        with open(b, "w") as f:
+            f.write(RUN + post.replace("5.000000e-04", "5.010000e-04"))
+        check(board_check.main([a, b]) == 1, "a share 2e-3 away disagrees")
+        check(board_check.main([a, b, "--rtol-post", "1e-2"]) == 0, "within a wider tolerance it agrees")
+        with open(b, "w") as f:
+            f.write(RUN + post.split("post 1")[0])
+        check(board_check.main([a, b]) == 1, "a point missing disagrees")
 
 
 MAP = """Linker script and memory map
@@ -133,7 +151,8 @@ def profile_reads_board_and_map():
 @test
 def profile_pairs_plugin_marks():
     log = "insn_mark 10 100\ninsn_mark 11 1100\ninsn_mark 10 1200\ninsn_mark 11 2200\n" \
-          "insn_mark 20 3000\ninsn_mark 21 9000\ninsn_total 9500\n"
+          "insn_mark 20 3000\ninsn_mark 21 9000\ninsn_mark 60 9100\ninsn_mark 61 9200\n" \
+          "insn_mark 50 9300\ninsn_mark 51 9400\ninsn_total 9500\n"
     with tempfile.TemporaryDirectory() as t:
         path = os.path.join(t, "insn.log")
         with open(path, "w") as f:
@@ -141,6 +160,7 @@ def profile_pairs_plugin_marks():
         res = {"steps": 4.0}
         board_profile.insn_from_marks(path, res)
         check(res["insn_train_step"] == 500 and res["insn_mc_inference"] == 6000, f"pairs {res}")
+        check(res["insn_post_factor"] == 100 and res["insn_post_inference"] == 100, f"post marks {res}")
         with open(path, "w") as f:
             f.write("insn_total 5\n")
         try:

@@ -9,7 +9,8 @@ From the link map: text, data and bss per module (what the linker kept) and per 
 memory regions against the part's sizes. From -fstack-usage (OBJDIR/**/*.su): the largest
 frames; from the run: the main stack's measured high-water mark. From the run (board_train
 under QEMU -icount): instructions per training step, per 50-pass inference, per fp32 and
-int8 mean-weight pass, and the cycle and time estimates at the part's clock (an assumption
+int8 mean-weight pass, per one-pass uncertainty (bnn_post: its prediction, its factor once
+per map, its sum over the samples), and the cycle and time estimates at the part's clock (an assumption
 on cycles per instruction, stated). Then what the robot can afford, and published figures
 of small networks on the same cores for comparison."""
 import argparse
@@ -76,7 +77,9 @@ def run_results(path):
     return res
 
 
-MARKS = {10: "insn_train_round", 20: "insn_mc_inference", 30: "insn_fp32_inference", 40: "insn_int8_inference"}
+MARKS = {10: "insn_train_round", 20: "insn_mc_inference", 30: "insn_fp32_inference", 40: "insn_int8_inference",
+         50: "insn_post_inference", 60: "insn_post_factor", 70: "insn_post_observe"}
+POST_GOAL = 1 / 20  # the one-pass uncertainty's instructions against MC-50's, at most
 
 
 def insn_from_marks(path, res):
@@ -395,6 +398,17 @@ def main(argv=None):
                  f"{r['insn_fp32_inference'] / (pts * macs):.1f} per MAC", 1),
                 ("mean-weight pass, int8", r["insn_int8_inference"],
                  f"{r['insn_int8_inference'] / (pts * macs):.1f} per MAC", 1)]
+        has_post = "insn_post_inference" in r
+        if has_post:
+            post_ratio = r["insn_post_inference"] / r["insn_mc_inference"]
+            rows += [(f"one-pass uncertainty of {int(pts)} points (logits + share of prior variance left)",
+                      r["insn_post_inference"],
+                      f"{post_ratio:.4f} of MC-{int(r['mc_passes'])} (1/{1 / post_ratio:.0f})", 1),
+                     ("its posterior's factor, once per map (Cholesky and L^-1, "
+                      f"D = {int(r['post_dim'])})", r["insn_post_factor"], "once", 1),
+                     (f"summing the samples into the posterior ({int(r['post_observed']):,})",
+                      r["insn_post_observe"], f"{r['insn_post_observe'] / max(r['post_observed'], 1):,.0f} per sample",
+                      1)]
         for name, n, unit, _ in rows:
             md.append(f"| {name} | {int(n):,} | {unit} | {n * CPI_LOW / clock * 1e3:,.1f} ms | "
                       f"{n * CPI_HIGH / clock * 1e3:,.1f} ms |")
@@ -404,6 +418,16 @@ def main(argv=None):
                   f"{int(r['parameters_mean'] * 4):,} in fp32, largest change of an output probability "
                   f"{r['int8_max_abs_prob_diff']:.4f}.")
         md.append("")
+        if has_post:
+            verdict = "within" if post_ratio <= POST_GOAL else "**over**"
+            md.append(f"One-pass uncertainty (bnn_post.h, {int(r['post_bytes']):,} bytes of `bnn_post_t` at this "
+                      f"preset): {int(r['insn_post_inference']):,} instructions for {int(pts)} points against "
+                      f"{int(r['insn_mc_inference']):,} for the {int(r['mc_passes'])}-pass Monte-Carlo inference, "
+                      f"{post_ratio:.4f} ({verdict} the goal of 1/{1 / POST_GOAL:.0f}); the factor adds "
+                      f"{int(r['insn_post_factor']):,} once per map. Mean share of prior variance left over the "
+                      f"points {r['unknown_mean_post']:.4g} (min {r['unknown_min_post']:.3g}, "
+                      f"max {r['unknown_max_post']:.3g}).")
+            md.append("")
         step_s = r["insn_train_step"] * CPI_MID / clock
         steps_ps = 1.0 / step_s
         samples_ps = steps_ps * r["batch"]
@@ -411,6 +435,8 @@ def main(argv=None):
         mc_s = r["insn_mc_inference"] * CPI_MID / clock
         afford = {"train_steps_per_s": steps_ps, "samples_per_s": samples_ps,
                   "dinno_rounds_per_min": steps_ps * 60 / PRIMAL_STEPS, "mc_inference_s": mc_s}
+        if has_post:
+            afford["post_inference_s"] = r["insn_post_inference"] * CPI_MID / clock
         prof["afford"] = afford
         md += ["## What the robot can afford", "",
                f"At CPI {CPI_MID} on the AI core alone ({clock / 1e6:.0f} MHz), batch {int(r['batch'])}:", "",
@@ -420,6 +446,8 @@ def main(argv=None):
                f"| DiNNO rounds per minute (B = {PRIMAL_STEPS} steps per round, exchange not counted) | "
                f"{afford['dinno_rounds_per_min']:,.1f} |",
                f"| 50-pass map inference of {int(pts)} points | {mc_s:,.2f} s |",
+               *([f"| one-pass uncertainty of {int(pts)} points (logits and what is known) | "
+                  f"{afford['post_inference_s'] * 1e3:,.1f} ms |"] if has_post else []),
                f"| the 10 Hz scan gives (20 beams x 25 points) | {need:,} samples/s |", ""]
         if samples_ps >= need:
             md.append(f"The 10 Hz scan fits: the AI core can train on every sample once as it arrives "
@@ -435,6 +463,10 @@ def main(argv=None):
                   f"{kb(r['arena_bytes'])} of model arena against the 256 KB the Tiny Training Engine trains in.")
         print(f"BENCH mcu_train_step_instructions_{a.board} {int(r['insn_train_step'])} instructions")
         print(f"BENCH mcu_mc50_instructions_{a.board} {int(r['insn_mc_inference'])} instructions")
+        if has_post:
+            print(f"BENCH mcu_post_instructions_{a.board} {int(r['insn_post_inference'])} instructions")
+            print(f"BENCH mcu_post_over_mc50_{a.board} {post_ratio:.5f} ratio")
+            print(f"BENCH mcu_post_factor_instructions_{a.board} {int(r['insn_post_factor'])} instructions")
     else:
         md.append("Not counted on this board (no instruction counter in this run).")
     md += ["", "## Published figures of small networks on these cores", "",

@@ -1,7 +1,9 @@
 /* board_train: the firmware image of a board without a simulator. It runs the AI core's work
  * on the board's one thread: the robot's own AI core (fw_robot_ai_work) loads a bundled file
  * of samples into its pool and trains its DiNNO node for a fixed number of rounds, then runs
- * the 50-pass Monte-Carlo inference and the int8 inference. It prints the loss of every round
+ * the 50-pass Monte-Carlo inference and the int8 inference, then the one-pass epistemic
+ * uncertainty of the same points (bnn_post.h: the AI core's posterior over the model's initial
+ * SIREN layer, the training samples summed in). It prints the loss of every round
  * and one `result <key> <value>` line per figure, which tools/board/board_check.py compares
  * with the host build of the same preset and tools/board/board_profile.py turns into the
  * board's profile.
@@ -36,6 +38,8 @@
 enum {
     MARK_ROUND_BEGIN = 10, MARK_ROUND_END = 11, MARK_MC_BEGIN = 20, MARK_MC_END = 21,
     MARK_FP32_BEGIN = 30, MARK_FP32_END = 31, MARK_INT8_BEGIN = 40, MARK_INT8_END = 41,
+    MARK_POST_BEGIN = 50, MARK_POST_END = 51, MARK_FACTOR_BEGIN = 60, MARK_FACTOR_END = 61,
+    MARK_OBSERVE_BEGIN = 70, MARK_OBSERVE_END = 71,
 };
 
 /* Inference points: one forward batch of the preset at most. */
@@ -50,6 +54,7 @@ typedef struct train_opts {
 
 static float xy[2u * TRAIN_POINTS_MAX], mean_p[TRAIN_POINTS_MAX], std_p[TRAIN_POINTS_MAX];
 static float logit_fp32[TRAIN_POINTS_MAX], logit_int8[TRAIN_POINTS_MAX];
+static float logit_post[TRAIN_POINTS_MAX], unknown_post[TRAIN_POINTS_MAX];
 static uint8_t packed[BNN_QUANT_MAX_BYTES];
 static void usage(FILE *to)
 {
@@ -196,10 +201,17 @@ int main(int argc, char **argv)
         fprintf(stderr, "board_train: AI core configuration refused (%d)\n", r);
         return 1;
     }
+    bnn_model_t *m = &ai->node.model;
+    /* The epistemic posterior: the AI core's own (static, in its state), made over the freshly
+       initialised model's SIREN layer, before any training step (ai_core_init made it so
+       already; made again here so the harness does not depend on it). */
+    if ((r = bnn_post_init(&ai->post, m)) != 0) {
+        fprintf(stderr, "board_train: posterior refused (%d)\n", r);
+        return 1;
+    }
     uint32_t n = 0;
     if (load_samples(ai, o.samples, &n) != 0)
         return 1;
-    bnn_model_t *m = &ai->node.model;
     size_t n_params = bnn_n_params(m);
 
     printf("board_train: board %s, target %s, preset %s (%lu parameters), math %s\n", BOARD_NAME,
@@ -271,11 +283,47 @@ int main(int argc, char **argv)
         fprintf(stderr, "board_train: inference failed (%d)\n", r);
         return 1;
     }
-    double sigma = 0.0, dp_max = 0.0;
+
+    /* The one-pass uncertainty of the same points: every training sample summed into the
+       posterior (what the AI core does as samples arrive; the model's activations are its
+       scratch), the factor (once per map, not per point: marked apart), then the marked
+       prediction, the mean-weight logits and the share of prior variance left per point:
+       what replaces the 50 passes' mean and std. */
+    t0 = insns();
+    hal_stdc_target_mark(MARK_OBSERVE_BEGIN);
+    r = bnn_post_observe_samples(&ai->post, m, ai->pool_data, n);
+    hal_stdc_target_mark(MARK_OBSERVE_END);
+    uint64_t observe_insns = insns() - t0;
+    t0 = insns();
+    hal_stdc_target_mark(MARK_FACTOR_BEGIN);
+    if (r == 0)
+        r = bnn_post_factor(&ai->post);
+    hal_stdc_target_mark(MARK_FACTOR_END);
+    uint64_t factor_insns = insns() - t0;
+    t0 = insns();
+    hal_stdc_target_mark(MARK_POST_BEGIN);
+    if (r == 0)
+        r = bnn_post_predict(&ai->post, m, xy, o.points, logit_post, unknown_post);
+    hal_stdc_target_mark(MARK_POST_END);
+    uint64_t post_insns = insns() - t0;
+    if (r != 0) {
+        fprintf(stderr, "board_train: one-pass uncertainty failed (%d)\n", r);
+        return 1;
+    }
+    double sigma = 0.0, dp_max = 0.0, unknown_sum = 0.0, dlogit_max = 0.0;
+    float unknown_min = INFINITY, unknown_max = 0.0f;
     for (uint32_t i = 0; i < o.points; i++) {
         sigma += std_p[i];
         double dp = fabs((double)sigmoidf(logit_fp32[i]) - (double)sigmoidf(logit_int8[i]));
         dp_max = dp > dp_max ? dp : dp_max;
+        double dl = fabs((double)logit_post[i] - (double)logit_fp32[i]);
+        dlogit_max = dl > dlogit_max ? dl : dlogit_max;
+        unknown_sum += unknown_post[i];
+        unknown_min = unknown_post[i] < unknown_min ? unknown_post[i] : unknown_min;
+        unknown_max = unknown_post[i] > unknown_max ? unknown_post[i] : unknown_max;
+        /* %e: the shares of well observed points are small, their digits are what is compared */
+        printf("post %" PRIu32 " p %.6f unknown %.6e\n", i, (double)sigmoidf(logit_post[i]),
+               (double)unknown_post[i]);
     }
     float val_bce = NAN;
     if (bnn_eval_bce(m, ai->pool_data, n, 0, 0, &val_bce) != 0)
@@ -307,6 +355,13 @@ int main(int argc, char **argv)
     printf("result bce_all_mean_weights %.6f\n", (double)val_bce);
     printf("result sigma_mean_mc %.6f\n", sigma / o.points);
     printf("result int8_max_abs_prob_diff %.6f\n", dp_max);
+    printf("result unknown_mean_post %.6e\n", unknown_sum / o.points);
+    printf("result unknown_min_post %.6e\n", (double)unknown_min);
+    printf("result unknown_max_post %.6e\n", (double)unknown_max);
+    printf("result post_logit_max_abs_diff %.6e\n", dlogit_max);
+    printf("result post_observed %.0f\n", ai->post.n_obs);
+    printf("result post_dim %lu\n", (unsigned long)ai->post.dim);
+    printf("result post_bytes %lu\n", (unsigned long)BNN_POST_BYTES);
     printf("result int8_packed_bytes %lu\n", (unsigned long)packed_len);
     printf("result parameters %lu\n", (unsigned long)n_params);
     printf("result parameters_mean %lu\n", (unsigned long)bnn_group_len(m, BNN_GROUP_MU));
@@ -323,6 +378,9 @@ int main(int argc, char **argv)
         printf("result insn_mc_inference %llu\n", (unsigned long long)(mc_insns));
         printf("result insn_fp32_inference %llu\n", (unsigned long long)(fp32_insns));
         printf("result insn_int8_inference %llu\n", (unsigned long long)(int8_insns));
+        printf("result insn_post_observe %llu\n", (unsigned long long)(observe_insns));
+        printf("result insn_post_factor %llu\n", (unsigned long long)(factor_insns));
+        printf("result insn_post_inference %llu\n", (unsigned long long)(post_insns));
     }
     if (have_stack)
         printf("result stack_main_used %lu of %lu\n", (unsigned long)stack_used, (unsigned long)stack_size);
