@@ -158,6 +158,60 @@ static void test_same_seed_bit_identical(void **st)
     sim_fleet_destroy(c);
 }
 
+
+/* The fleet's epistemic posterior (sim_fleet_posteriors): on a ring of 4 (no robot hears all
+ * the others), average consensus brings every robot to the sum of the 4 robots' own
+ * posteriors, computed here directly; robots that never talk keep their own. */
+static bnn_post_t posts[4], own;
+static void test_posteriors_reach_the_fleets_sum(void **st)
+{
+    (void)st;
+    for (int iso = 0; iso < 2; iso++) {
+        sim_fleet_cfg_t c;
+        sim_fleet_cfg_default(&c);
+        c.n_agents = 4;
+        c.rounds = 1;
+        c.mode = iso ? SIM_FLEET_ISOLATED : SIM_FLEET_DINNO;
+        c.graph = DINNO_GRAPH_RING;
+        c.dinno.batch = 128;
+        bnn_config_t b = small_cfg();
+        const ai_sample_t *data[4] = {half[0], half[0] + N_HALF / 2, half[1], half[1] + N_HALF / 2};
+        const size_t n[4] = {N_HALF / 2, N_HALF / 2, N_HALF / 2, N_HALF / 2};
+        sim_fleet_t *f = NULL;
+        char err[256];
+        assert_int_equal(sim_fleet_create(&c, &b, data, n, NULL, &f, err, sizeof err), 0);
+        dinno_graph_report_t rep;
+        assert_int_equal(sim_fleet_round(f, &rep), 0);
+        sim_fleet_post_report_t pr;
+        assert_int_equal(sim_fleet_posteriors(f, posts, 1000, 1e-9, &pr), 0);
+        /* each robot's own posterior over the initial SIREN layer, and their sum */
+        static bnn_model_t init;
+        bnn_model_t *scratch = &sim_fleet_node(f, 0)->model;
+        assert_int_equal(bnn_init(&init, &scratch->cfg, scratch->seed), 0);
+        assert_int_equal(bnn_post_init(&own, &init), 0);
+        for (int i = 0; i < 4; i++) {
+            static bnn_post_t one;
+            assert_int_equal(bnn_post_init(&one, &init), 0);
+            assert_int_equal(bnn_post_observe_samples(&one, scratch, data[i], n[i]), 0);
+            if (iso) { /* isolated: its own, untouched */
+                assert_true(posts[i].robots == 1.0);
+                assert_memory_equal(posts[i].prec, one.prec, BNN_POST_PACKED(one.dim) * sizeof(double));
+            }
+            assert_int_equal(bnn_post_add(&own, &one, 1.0), 0);
+        }
+        if (!iso) {
+            assert_true(pr.iterations > 1 && pr.disagreement <= 1e-9);
+            for (int i = 0; i < 4; i++) {
+                assert_true(fabs(posts[i].robots - 4.0) < 1e-6);
+                assert_true(fabs(posts[i].n_obs - 2.0 * N_HALF) < 1e-3);
+                for (size_t e = 0; e < BNN_POST_PACKED(own.dim); e++)
+                    assert_true(fabs(posts[i].prec[e] - own.prec[e]) <= 1e-6 * 2.0 * N_HALF);
+            }
+        }
+        sim_fleet_destroy(f);
+    }
+}
+
 static void test_bad_arguments(void **st)
 {
     (void)st;
@@ -188,6 +242,7 @@ int main(void)
         cmocka_unit_test(test_consensus_close_to_central_isolated_worse),
         cmocka_unit_test(test_same_seed_bit_identical),
         cmocka_unit_test(test_bad_arguments),
+        cmocka_unit_test(test_posteriors_reach_the_fleets_sum),
     };
     return cmocka_run_group_tests_name("dinno/fleet", tests, NULL, NULL);
 }
