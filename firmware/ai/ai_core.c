@@ -208,13 +208,13 @@ static int run_round(ai_core_t *ai, const gp_ready_t *ready)
     msg->info = *p;
     msg->flags = k + 1u == ai->cfg.rounds ? AI_CKPT_FLAG_FINAL : 0u;
     size_t written = 0;
-    const bnn_post_t *post = NULL;
-    if (msg->flags & AI_CKPT_FLAG_FINAL) { /* everything this robot observed */
-        const int rp = observe_staged(ai);
-        if (rp == 0)
-            post = &ai->post;
-        else
-            hal_log(HAL_LOG_WARN, "round %" PRIu32 ": no epistemic posterior (%d)", k, rp);
+    /* every checkpoint carries what the robot has observed so far: online, an early round's
+       map shows the building as far as the robot had seen it then */
+    const bnn_post_t *post = &ai->post;
+    const int rp = observe_staged(ai);
+    if (rp != 0) {
+        post = NULL;
+        hal_log(HAL_LOG_WARN, "round %" PRIu32 ": no epistemic posterior (%d)", k, rp);
     }
     int r = bnn_ckpt_save_post(&ai->node.model, 0, post, msg->bytes, sizeof msg->bytes, &written);
     msg->n_bytes = r == 0 ? (uint32_t)written : 0u;

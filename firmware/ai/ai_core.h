@@ -31,9 +31,9 @@
  * Option train_between: on every tick between boundaries with a non-empty pool, one more
  * optimiser step (bnn_train_step, lr of the coming round) on a minibatch drawn from the pool.
  *
- * The last round's checkpoint also carries the robot's epistemic posterior (bnn_post.h): every
- * sample drained from the ring (kept by the pool or not), summed in AI_POST_STAGE at a time
- * over the initial SIREN layer's features.
+ * Every checkpoint also carries the robot's epistemic posterior (bnn_post.h): every sample
+ * drained from the ring so far (kept by the pool or not), summed in AI_POST_STAGE at a time
+ * (and the rest at each checkpoint) over the initial SIREN layer's features.
  * Storage: ai_core_t is static (the image declares it): the DiNNO node (model, duals, the
  * view of the neighbours), the pool of AI_POOL_CAPACITY samples and a minibatch buffer, checked with the
  * AI core's links against BOARD_RAM_AI_BYTES. No allocation. One AI core per image. */

@@ -15,8 +15,8 @@
 _Static_assert(FW_STATE_MAX_BYTES == BNN_N_PARAMS * 4u, "FW_STATE_MAX_BYTES (fw_config.h) is not BNN_N_PARAMS * 4");
 _Static_assert(FW_STATE_MAX_PARAMS == BNN_N_PARAMS, "FW_STATE_MAX_PARAMS (fw_config.h) is not BNN_N_PARAMS");
 
-/* Checkpoint bytes carried by a ckpt message: theta (no Adam moments) and, in the last
- * round's, the robot's epistemic posterior (bnn_post.h). */
+/* Checkpoint bytes carried by a ckpt message: theta (no Adam moments) and the robot's
+ * epistemic posterior (bnn_post.h). */
 #define AI_LINK_CKPT_BYTES (BNN_CKPT_HEADER_BYTES + BNN_N_PARAMS * 4u + BNN_POST_WIRE_MAX)
 
 typedef struct ai_status {
