@@ -3,7 +3,8 @@
  *   DIR/wire/NAME.bin     datagram sequences (framing in fuzz_config.h) made by gp_wire: whole
  *                         states reassembled over two rounds, a gap and its resend request, a
  *                         peer restarting, a fleet rounds ahead, a bad CRC, an echo of our own
- *   DIR/ckpt/NAME.bnn     bnn_ckpt_save of the fuzz model, with and without the Adam moments
+ *   DIR/ckpt/NAME.bnn     bnn_ckpt_save of the fuzz model, with and without the Adam moments,
+ *                         and with an epistemic posterior (bnn_ckpt_save_post)
  *   DIR/samples/NAME.samples  sim_samples_open/append/close files: a few records, and none
  * `make fuzz-seeds` writes them into tests/fuzz/corpus; `make fuzz` into its scratch corpus.
  *   gen_seeds DIR */
@@ -15,6 +16,7 @@
 
 #include "ai/bnn.h"
 #include "ai/bnn_ckpt.h"
+#include "ai/bnn_post.h"
 #include "common/crc32.h"
 #include "fuzz/fuzz_config.h"
 #include "gp/gp_wire.h"
@@ -213,6 +215,14 @@ static void ckpt_seeds(void)
     if (bnn_ckpt_save(&m, 1, buf, sizeof buf, &n) != 0)
         die("bnn_ckpt_save");
     write_file("ckpt", "adam.bnn", buf, n);
+    /* With an epistemic posterior (flag bit 1) over the initial SIREN layer, of four points. */
+    static bnn_model_t m0;
+    static bnn_post_t post;
+    const float xy[8] = {-0.5f, -0.5f, 0.5f, -0.5f, -0.5f, 0.5f, 0.5f, 0.5f};
+    if (bnn_init(&m0, &cfg, FUZZ_CKPT_SEED) != 0 || bnn_post_init(&post, &m0) != 0 ||
+        bnn_post_observe(&post, &m, xy, 4) != 0 || bnn_ckpt_save_post(&m, 0, &post, buf, sizeof buf, &n) != 0)
+        die("bnn_ckpt_save_post");
+    write_file("ckpt", "post.bnn", buf, n);
 }
 
 /* ---- samples files ---------------------------------------------------------------------- */
