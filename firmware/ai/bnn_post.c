@@ -12,6 +12,7 @@
  * buffers of the arena (free outside a training step, B x max(S, H) floats each, B >= S), then
  * added to the double sums: a chunk's float sum has at most max_batch terms. */
 _Static_assert(BNN_MAX_BATCH >= BNN_SIREN_MAX, "the chunk's S x S product must fit a backward buffer");
+#define POST_GRAM_BLOCKS 4u /* row blocks of phi^T phi: block row b computes columns 0 .. its end */
 
 static size_t pk(size_t i, size_t j) /* (i, j), j <= i, in a packed lower triangle */
 {
@@ -61,8 +62,14 @@ int bnn_post_observe(bnn_post_t *p, bnn_model_t *m, const float *xy, size_t n)
     for (size_t c0 = 0; c0 < n; c0 += B) {
         const size_t nc = n - c0 < B ? n - c0 : B;
         const float *phi = features(p, m, &y, xy + 2 * c0, nc);
-        la_sgemm(LA_TRANS, LA_NO_TRANS, (int)S, (int)S, (int)nc, 1.0f, phi, (int)S, phi, (int)S, 0.0f, gram,
-                 (int)S);
+        /* phi^T phi on the blocks at or below the diagonal only (P is symmetric): 10 of the
+           16 blocks' work, one GEMM each */
+        const size_t bs = (S + POST_GRAM_BLOCKS - 1u) / POST_GRAM_BLOCKS;
+        for (size_t i0 = 0; i0 < S; i0 += bs) {
+            const size_t mi = S - i0 < bs ? S - i0 : bs;
+            la_sgemm(LA_TRANS, LA_NO_TRANS, (int)mi, (int)(i0 + mi), (int)nc, 1.0f, phi + i0, (int)S, phi, (int)S,
+                     0.0f, gram + i0 * S, (int)S);
+        }
         for (size_t i = 0; i < S; i++)
             for (size_t j = 0; j <= i; j++)
                 p->prec[pk(i, j)] += (double)gram[i * S + j];
