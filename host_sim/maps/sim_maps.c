@@ -146,6 +146,20 @@ int sim_maps_choose_thresholds(const float *p, const ai_sample_t *pts, size_t n,
     return 0;
 }
 
+/* The RGB picture of a grid: each cell zoom x zoom pixels, zoom = ceil(0.1 m / res) within 1..8
+ * (about 10 pixels per metre or more); malloc'd, NULL (err set) when out of memory. */
+static uint8_t *canvas(const sim_maps_grid_t *g, int *zoom, int *W, int *H, char *err, size_t errlen)
+{
+    const double z = ceil(0.02 / g->res * 5.0);
+    *zoom = z < 1.0 ? 1 : z > 8.0 ? 8 : (int)z;
+    *W = g->w * *zoom;
+    *H = g->h * *zoom;
+    uint8_t *rgb = malloc((size_t)*W * *H * 3);
+    if (!rgb)
+        snprintf(err, errlen, "out of memory");
+    return rgb;
+}
+
 /* The w x h cell centres of a map, normalised (interleaved x, y); malloc'd, NULL when out of
  * memory. */
 static float *cell_centres(const sim_plan_t *plan, double res, int w, int h)
@@ -191,14 +205,10 @@ int sim_maps_write_epistemic_png(const sim_maps_grid_t *g, const float *unknown,
         return -EINVAL;
     }
     const int w = g->w, h = g->h;
-    const double z = ceil(0.02 / g->res * 5.0);
-    const int zoom = z < 1.0 ? 1 : z > 8.0 ? 8 : (int)z;
-    const int W = w * zoom, H = h * zoom;
-    uint8_t *rgb = malloc((size_t)W * H * 3);
-    if (!rgb) {
-        snprintf(err, errlen, "out of memory");
+    int zoom, W, H;
+    uint8_t *rgb = canvas(g, &zoom, &W, &H, err, errlen);
+    if (!rgb)
         return -ENOMEM;
-    }
     for (int R = 0; R < H; R++)
         for (int C = 0; C < W; C++) {
             const size_t i = (size_t)(h - 1 - R / zoom) * w + (size_t)(C / zoom);
@@ -263,14 +273,10 @@ int sim_maps_write_png(const sim_maps_grid_t *g, const sim_plan_t *plan, const s
     const double res = g->res;
     const int w = g->w, h = g->h;
     const float *mean = g->mean, *sd = g->std;
-    const double z = ceil(0.02 / res * 5.0);
-    const int zoom = z < 1.0 ? 1 : z > 8.0 ? 8 : (int)z;
-    const int W = w * zoom, H = h * zoom;
-    uint8_t *rgb = malloc((size_t)W * H * 3);
-    if (!rgb) {
-        snprintf(err, errlen, "out of memory");
+    int zoom, W, H;
+    uint8_t *rgb = canvas(g, &zoom, &W, &H, err, errlen);
+    if (!rgb)
         return -ENOMEM;
-    }
     const double smax = sim_maps_std_max(g);
     if (std_max_out)
         *std_max_out = smax;

@@ -13,13 +13,12 @@ python3 found first lacks numpy).
 """
 import os
 import shutil
-import struct
 import subprocess
 import sys
 import tempfile
-import zlib
 
 sys.path.insert(0, os.path.dirname(os.path.realpath(__file__)))
+import samples_file  # noqa: E402
 from minitest import check, main, need_numpy, test  # noqa: E402
 
 np = need_numpy("test_fleet_report")
@@ -32,20 +31,7 @@ SECTION = "## What the fleet knows"
 
 
 def write_samples(path, xy_m, occ, box):
-    """A samples file as host_sim/sim_samples.h specifies: x, y normalised to [-1, 1], both CRCs."""
-    xy_m = np.asarray(xy_m, dtype=np.float64)
-    xn = 2.0 * (xy_m[:, 0] - box[0]) / (box[2] - box[0]) - 1.0
-    yn = 2.0 * (xy_m[:, 1] - box[1]) / (box[3] - box[1]) - 1.0
-    recs = np.column_stack([xn, yn, occ]).astype("<f4").tobytes()
-    h = bytearray(208)
-    h[0:8] = b"FSSAMPLE"
-    struct.pack_into("<IIIIQ", h, 8, 1, 208, 12, 0, len(xy_m))
-    struct.pack_into("<4d", h, 32, *box)
-    struct.pack_into("<Q", h, 64, 7)
-    h[72:72 + 21] = b"scan fleet_report test"[:21]
-    struct.pack_into("<I", h, 204, zlib.crc32(bytes(h[:204])))
-    with open(path, "wb") as f:
-        f.write(bytes(h) + recs + struct.pack("<I", zlib.crc32(recs)))
+    samples_file.write_samples(path, xy_m, occ, box, b"scan fleet_report test")
 
 
 def synthetic_run(d):

@@ -12,14 +12,13 @@ import json
 import math
 import os
 import shutil
-import struct
 import subprocess
 import sys
 import tempfile
-import zlib
 
 
 sys.path.insert(0, os.path.dirname(os.path.realpath(__file__)))
+import samples_file  # noqa: E402
 from minitest import check, main, need_numpy, test  # noqa: E402
 
 np = need_numpy("test_paper_metrics")
@@ -43,21 +42,7 @@ def close(a, b, tol=1e-9):
 # ---- synthetic inputs ------------------------------------------------------------------------
 
 def write_samples(path, xy_m, occ, box):
-    """A samples file as host_sim/sim_samples.h specifies: x, y normalised to [-1, 1], both CRCs."""
-    xy_m = np.asarray(xy_m, dtype=np.float64)
-    xn = 2.0 * (xy_m[:, 0] - box[0]) / (box[2] - box[0]) - 1.0
-    yn = 2.0 * (xy_m[:, 1] - box[1]) / (box[3] - box[1]) - 1.0
-    recs = np.column_stack([xn, yn, occ]).astype("<f4").tobytes()
-    h = bytearray(208)
-    h[0:8] = b"FSSAMPLE"
-    struct.pack_into("<IIIIQ", h, 8, 1, 208, 12, 0, len(xy_m))
-    struct.pack_into("<4d", h, 32, *box)
-    struct.pack_into("<Q", h, 64, 7)
-    src = b"scan paper_metrics test"
-    h[72:72 + len(src)] = src
-    struct.pack_into("<I", h, 204, zlib.crc32(bytes(h[:204])))
-    with open(path, "wb") as f:
-        f.write(bytes(h) + recs + struct.pack("<I", zlib.crc32(recs)))
+    samples_file.write_samples(path, xy_m, occ, box, b"scan paper_metrics test")
 
 
 H, W, RES = 8, 10, 0.5
