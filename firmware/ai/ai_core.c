@@ -45,7 +45,8 @@ int ai_core_init(ai_core_t *ai, const ai_core_cfg_t *cfg, const fw_link_t *link)
 {
     if (ai == NULL || cfg == NULL || link == NULL || cfg->rounds < 1 ||
         cfg->rounds > AI_CORE_MAX_ROUNDS || cfg->train_between < 0 || cfg->train_between > 1 ||
-        cfg->offline < 0 || cfg->offline > 1 || cfg->start_round >= cfg->rounds ||
+        cfg->offline < 0 || cfg->offline > 1 || cfg->post_rounds > AI_CORE_MAX_POST_ROUNDS ||
+        cfg->start_round >= cfg->rounds + cfg->post_rounds || (cfg->post_rounds > 0 && cfg->fleet_size < 1) ||
         (cfg->resume_ckpt == NULL && cfg->resume_ckpt_bytes != 0) ||
         (cfg->rounds_per_boundary > 0 && cfg->rounds % cfg->rounds_per_boundary != 0))
         return -EINVAL;
@@ -69,6 +70,7 @@ int ai_core_init(ai_core_t *ai, const ai_core_cfg_t *cfg, const fw_link_t *link)
     if (r == 0) /* over the initial SIREN layer, the fleet's common one (bnn_post.h) */
         r = bnn_post_init(&ai->post, &ai->node.model);
     ai->post_staged = 0;
+    ai->post_fleet = 0;
     if (r == 0)
         r = resume_node(ai, cfg);
     if (r != 0)
@@ -84,17 +86,24 @@ int ai_core_init(ai_core_t *ai, const ai_core_cfg_t *cfg, const fw_link_t *link)
     return 0;
 }
 
+static int observe_staged(ai_core_t *ai);
+
+static uint32_t total_rounds(const ai_core_t *ai) /* DiNNO rounds, then the posterior's */
+{
+    return ai->cfg.rounds + ai->cfg.post_rounds;
+}
+
 static uint32_t rounds_due(const ai_core_t *ai)
 {
     const uint32_t R = ai->cfg.rounds_per_boundary;
     const uint32_t C = ai->cfg.rounds / R; /* boundaries */
     if (ai->rt.finished)
-        return ai->cfg.rounds;
+        return total_rounds(ai);
     if (ai->cfg.offline || !(ai->rt.path_length_m > 0.0f))
         return 0;
     double f = (double)ai->rt.progress_m / (double)ai->rt.path_length_m * (double)C;
     uint32_t due = f >= (double)C ? C : (uint32_t)f;
-    return due * R;
+    return due >= C ? total_rounds(ai) : due * R;
 }
 
 /* One optimiser step between boundaries on a minibatch drawn uniformly from the pool. */
@@ -132,7 +141,17 @@ static void publish_state(ai_core_t *ai, uint64_t now_us)
     ai_state_msg_t *st = mbox_write_buffer(ai->link->ai_state);
     st->round = k;
     st->n_params = (uint32_t)bnn_n_params(&ai->node.model);
-    memcpy(st->theta, bnn_params_const(&ai->node.model), sizeof(float) * st->n_params);
+    if (k < ai->cfg.rounds) {
+        memcpy(st->theta, bnn_params_const(&ai->node.model), sizeof(float) * st->n_params);
+    } else { /* a posterior round: the estimate of the fleet's posterior is the state */
+        if (!ai->post_fleet) { /* the first this run: N times its own (ai_core.h) */
+            if (observe_staged(ai) != 0 || bnn_post_scale(&ai->post, (double)ai->cfg.fleet_size) != 0)
+                hal_log(HAL_LOG_WARN, "round %" PRIu32 ": the posterior could not be made the fleet's estimate", k);
+            ai->post_fleet = 1;
+        }
+        if (bnn_post_to_state(&ai->post, st->theta, st->n_params) != 0)
+            memset(st->theta, 0, sizeof(float) * st->n_params); /* refused by every neighbour */
+    }
     (void)mbox_publish(ai->link->ai_state);
     ai_round_info_t *p = &ai->pending;
     memset(p, 0, sizeof *p);
@@ -153,11 +172,34 @@ static int observe_staged(ai_core_t *ai)
     return rc;
 }
 
+/* Posterior round k: the neighbours' estimates mixed into ours (weights 1/N). */
+static int post_round(ai_core_t *ai, const gp_ready_t *ready)
+{
+    const uint32_t k = ai->next_round;
+    const dinno_nbrs_t *nbrs = ai->link->nbrs;
+    const int have = ready->neighbours > 0 && nbrs->count > 0 && nbrs->round == k;
+    uint32_t used = 0;
+    const int rc = bnn_post_mix(&ai->post, have ? nbrs->theta : NULL, have ? nbrs->count : 0,
+                                bnn_n_params(&ai->node.model), 1.0 / (double)ai->cfg.fleet_size, &used);
+    if (have && used < nbrs->count)
+        hal_log(HAL_LOG_WARN, "posterior round %" PRIu32 ": %" PRIu32 " of %" PRIu32 " neighbour posteriors left out "
+                "(other features or bad values)", k, nbrs->count - used, nbrs->count);
+    ai_round_info_t *p = &ai->pending;
+    p->neighbours = used;
+    p->loss_train = p->bce = NAN;
+    p->kl = (float)bnn_kl_loss(&ai->node.model);
+    return rc;
+}
+
 static int run_round(ai_core_t *ai, const gp_ready_t *ready)
 {
     const uint32_t k = ai->next_round;
     ai_round_info_t *p = &ai->pending;
     int rc = 0;
+    if (k >= ai->cfg.rounds) {
+        rc = post_round(ai, ready);
+        goto publish;
+    }
     /* The neighbour states are read where the GP core left them (fw_link.h: ours from ready(k)
        until our next state publish), never copied. */
     const dinno_nbrs_t *nbrs = ai->link->nbrs;
@@ -204,9 +246,10 @@ static int run_round(ai_core_t *ai, const gp_ready_t *ready)
         p->loss_train = p->bce = NAN;
         p->steps = 0;
     }
+publish:;
     ai_ckpt_msg_t *msg = mbox_write_buffer(ai->link->ai_ckpt);
     msg->info = *p;
-    msg->flags = k + 1u == ai->cfg.rounds ? AI_CKPT_FLAG_FINAL : 0u;
+    msg->flags = k + 1u == total_rounds(ai) ? AI_CKPT_FLAG_FINAL : 0u;
     size_t written = 0;
     /* every checkpoint carries what the robot has observed so far: online, an early round's
        map shows the building as far as the robot had seen it then */
@@ -222,14 +265,14 @@ static int run_round(ai_core_t *ai, const gp_ready_t *ready)
         rc = r;
     (void)mbox_publish(ai->link->ai_ckpt);
     ai->status.loss_train = p->loss_train;
-    if (!ai->cfg.offline && (k + 1u) % ai->cfg.rounds_per_boundary == 0)
+    if (!ai->cfg.offline && k < ai->cfg.rounds && (k + 1u) % ai->cfg.rounds_per_boundary == 0)
         ai_pool_boundary(&ai->pool);
     /* The GP core may say the fleet is further on (this robot was paused, restarted or cut
        off): the rounds between are skipped, not run alone, so the robot catches up. */
-    ai->next_round = ready->next_round > k + 1u && ready->next_round < ai->cfg.rounds ? ready->next_round : k + 1u;
+    ai->next_round = ready->next_round > k + 1u && ready->next_round < total_rounds(ai) ? ready->next_round : k + 1u;
     ai->node.round = ai->next_round; /* the node's schedule (lr, rho_k, noise) follows the skip */
     ai->status.round = ai->next_round;
-    ai->phase = ai->next_round >= ai->cfg.rounds ? AI_PHASE_DONE : AI_PHASE_COLLECT;
+    ai->phase = ai->next_round >= total_rounds(ai) ? AI_PHASE_DONE : AI_PHASE_COLLECT;
     return rc;
 }
 

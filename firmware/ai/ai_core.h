@@ -34,6 +34,12 @@
  * Every checkpoint also carries the robot's epistemic posterior (bnn_post.h): every sample
  * drained from the ring so far (kept by the pool or not), summed in AI_POST_STAGE at a time
  * (and the rest at each checkpoint) over the initial SIREN layer's features.
+ * Posterior rounds: after the last DiNNO round, post_rounds more rounds of the same protocol
+ * (state(k), ready(k), ckpt(k)) in which the state is the posterior (bnn_post_to_state) and
+ * the round mixes the neighbours' in (bnn_post_mix, weights 1/N): average consensus on the
+ * robots' estimates of the fleet's posterior, each starting at N times its own (robots = N),
+ * so that every robot's map comes to know what any robot observed. theta does not change; the
+ * last of these rounds is the final one.
  * Storage: ai_core_t is static (the image declares it): the DiNNO node (model, duals, the
  * view of the neighbours), the pool of AI_POOL_CAPACITY samples and a minibatch buffer, checked with the
  * AI core's links against BOARD_RAM_AI_BYTES. No allocation. One AI core per image. */
@@ -54,6 +60,7 @@
 /* AI_POOL_CAPACITY (samples) comes from the build configuration, common/fw_config.h. */
 
 #define AI_CORE_MAX_ROUNDS 100000u
+#define AI_CORE_MAX_POST_ROUNDS 1000u /* posterior rounds, beyond the DiNNO rounds */
 #define AI_POST_STAGE 256u /* samples summed into the posterior at once */
 
 typedef struct ai_core_cfg {
@@ -66,7 +73,10 @@ typedef struct ai_core_cfg {
     uint64_t seed;            /* minibatches, BNN noise, reservoir */
     uint32_t node_id;
     int train_between;        /* 0/1 */
-    uint32_t start_round;     /* first round to run, 0 .. rounds - 1 (0: a fresh run) */
+    uint32_t start_round;     /* first round to run, 0 .. rounds + post_rounds - 1 (0: fresh) */
+    uint32_t post_rounds;     /* rounds after the DiNNO rounds in which the fleet's epistemic
+                                 posterior is reached by average consensus (0: none) */
+    uint32_t fleet_size;      /* N, the weights 1/N of that consensus; >= 1 when post_rounds > 0 */
     const uint8_t *resume_ckpt; /* NULL (theta from model_seed), or the checkpoint to start from */
     uint32_t resume_ckpt_bytes;
 } ai_core_cfg_t;
@@ -94,6 +104,7 @@ typedef struct ai_core {
     bnn_post_t post;          /* every sample the robot took, summed in as they come */
     float post_xy[2u * AI_POST_STAGE]; /* samples not yet summed in */
     uint32_t post_staged;
+    int post_fleet;           /* 1: post holds this robot's estimate of the fleet's posterior */
 } ai_core_t;
 
 #define AI_CORE_BYTES (sizeof(ai_core_t))

@@ -240,6 +240,89 @@ int bnn_post_predict(bnn_post_t *p, bnn_model_t *m, const float *xy, size_t n, f
     return 0;
 }
 
+/* ---- over the fleet's state exchange ------------------------------------------------------ */
+static void put_hilo(float *o, double d)
+{
+    o[0] = (float)d;
+    o[1] = (float)(d - (double)o[0]);
+}
+
+static double get_hilo(const float *o)
+{
+    return (double)o[0] + (double)o[1];
+}
+
+int bnn_post_to_state(const bnn_post_t *p, float *out, size_t cap)
+{
+    if (!p || !out || p->dim == 0)
+        return -EINVAL;
+    const size_t D = p->dim, S = D - 1u, np = BNN_POST_PACKED(D);
+    if (cap < BNN_POST_STATE_FLOATS(D))
+        return -ENOSPC;
+    out[0] = (float)D;
+    out[1] = p->w0;
+    memcpy(out + 2, p->siren, 3u * S * sizeof(float));
+    float *o = out + 2 + 3u * S;
+    put_hilo(o, p->n_obs);
+    put_hilo(o + 2, p->robots);
+    for (size_t i = 0; i < np; i++)
+        put_hilo(o + 4 + 2 * i, p->prec[i]);
+    for (size_t i = BNN_POST_STATE_FLOATS(D); i < cap; i++)
+        out[i] = 0.0f;
+    return 0;
+}
+
+/* A neighbour's state over p's features, with finite and sensible values. */
+static int state_ok(const bnn_post_t *p, const float *st, size_t cap)
+{
+    const size_t D = p->dim, S = D - 1u;
+    if (cap < BNN_POST_STATE_FLOATS(D) || st[0] != (float)D || st[1] != p->w0 ||
+        memcmp(st + 2, p->siren, 3u * S * sizeof(float)) != 0)
+        return 0;
+    const float *o = st + 2 + 3u * S;
+    for (size_t i = 0; i < 4u + 2u * BNN_POST_PACKED(D); i++)
+        if (!isfinite(o[i]))
+            return 0;
+    if (get_hilo(o) < 0.0 || get_hilo(o + 2) < 0.0)
+        return 0;
+    for (size_t i = 0; i < D; i++)
+        if (get_hilo(o + 4 + 2 * pk(i, i)) < 0.0)
+            return 0;
+    return 1;
+}
+
+int bnn_post_mix(bnn_post_t *p, const float *const *states, size_t n, size_t cap, double w, uint32_t *used)
+{
+    if (used)
+        *used = 0;
+    if (!p || p->dim == 0 || (n > 0 && !states) || !isfinite(w) || w <= 0.0 || (double)n * w > 1.0)
+        return -EINVAL;
+    const size_t D = p->dim, S = D - 1u, np = BNN_POST_PACKED(D);
+    uint32_t c = 0;
+    for (size_t k = 0; k < n; k++)
+        c += states[k] != NULL && state_ok(p, states[k], cap);
+    const double self = 1.0 - (double)c * w;
+    double n_obs = self * p->n_obs, robots = self * p->robots;
+    for (size_t i = 0; i < np; i++)
+        p->work[i] = self * p->prec[i];
+    for (size_t k = 0; k < n; k++) {
+        if (states[k] == NULL || !state_ok(p, states[k], cap))
+            continue;
+        const float *o = states[k] + 2 + 3u * S;
+        n_obs += w * get_hilo(o);
+        robots += w * get_hilo(o + 2);
+        for (size_t i = 0; i < np; i++)
+            p->work[i] += w * get_hilo(o + 4 + 2 * i);
+    }
+    memcpy(p->prec, p->work, np * sizeof(double));
+    p->n_obs = n_obs;
+    p->robots = robots;
+    p->factored = 0;
+    if (used)
+        *used = c;
+    return 0;
+}
+
 /* ---- storage ---------------------------------------------------------------------------- */
 size_t bnn_post_wire_size(const bnn_post_t *p)
 {

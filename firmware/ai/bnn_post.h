@@ -86,6 +86,25 @@ FS_MUST_CHECK int bnn_post_factor(bnn_post_t *p);
 FS_MUST_CHECK int bnn_post_predict(bnn_post_t *p, bnn_model_t *m, const float *xy, size_t n, float *logit,
                                    float *unknown);
 
+/* ---- over the fleet's state exchange ------------------------------------------------------
+ * A posterior travels as a robot's state does (fp32 words, n_params of them): floats
+ *   [0] dim, [1] w0, [2 .. 2 + 3S) W0 and b0, then n_obs, robots and the packed P, each double
+ *   d as two floats hi = (float)d, lo = (float)(d - hi) (48 bits of it), then zeros.
+ * Mixing (average consensus with the max-degree weights w = 1/N, N the fleet's size, doubly
+ * stochastic on any undirected graph): p = (1 - c w) p + w sum of the c neighbours' states that
+ * are over p's features. */
+#define BNN_POST_STATE_FLOATS(d) (2u + 3u * ((size_t)(d)-1u) + 4u + 2u * BNN_POST_PACKED(d))
+_Static_assert(BNN_POST_STATE_FLOATS(BNN_POST_DIM_MAX) <= BNN_N_PARAMS,
+               "a posterior must fit a state of the fleet's exchange");
+/* Writes the state form into out (cap floats, >= BNN_POST_STATE_FLOATS(dim); the rest zeroed).
+ * 0, -EINVAL or -ENOSPC. */
+FS_MUST_CHECK int bnn_post_to_state(const bnn_post_t *p, float *out, size_t cap);
+/* Mixes the n neighbour states (each cap floats) into p with weight w each (0 < n w <= 1);
+ * a state of another dimension or other features, or with a bad value, is left out. *used
+ * (may be NULL): how many were mixed in. 0 or -EINVAL. */
+FS_MUST_CHECK int bnn_post_mix(bnn_post_t *p, const float *const *states, size_t n, size_t cap, double w,
+                               uint32_t *used);
+
 /* ---- storage (checkpoints) --------------------------------------------------------------- */
 /* Bytes of the serialised posterior of dimension d: u32 d, f64 n_obs, f64 robots, f32 w0,
  * f32 W0 and b0 (3 (d - 1)), then the packed P as f64, little-endian. */

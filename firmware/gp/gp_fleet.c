@@ -84,6 +84,7 @@ static int fleet_send(void *ctx, gp_pse_kind_t kind, const void *msg)
 int gp_fleet_init(gp_fleet_t *f, const gp_fleet_cfg_t *cfg)
 {
     if (f == NULL || cfg == NULL || cfg->rounds < 1 || (unsigned)cfg->encoding > GP_FLEET_INT8 ||
+        cfg->post_rounds > UINT32_MAX - cfg->rounds || (cfg->post_rounds > 0 && cfg->encoding != GP_FLEET_FP32) ||
         cfg->poll_us == 0 || (cfg->positions_from_tour &&
                               (cfg->tour == NULL || cfg->n_tour < 1 || cfg->n_tour > (int32_t)GP_FLEET_MAX_TOUR)))
         return -EINVAL;
@@ -118,7 +119,7 @@ int gp_fleet_init(gp_fleet_t *f, const gp_fleet_cfg_t *cfg)
         .incarnation = cfg->incarnation,
         .burst = GP_FLEET_SEND_BURST,
     };
-    int r = gp_round_init(&f->drv, &pc, cfg->rounds);
+    int r = gp_round_init(&f->drv, &pc, cfg->rounds + cfg->post_rounds);
     if (r != 0)
         return r;
     memset(&f->mark, 0, sizeof f->mark);
@@ -351,7 +352,7 @@ static int fill_slots(gp_fleet_t *f, uint32_t round, const float *own_theta, din
     out->round = round;
     out->count = k;
     f->cur.neighbours = k;
-    f->cur.disagreement = disagreement(own_theta, out);
+    f->cur.disagreement = round < f->cfg.rounds ? disagreement(own_theta, out) : NAN; /* posteriors: none */
     f->view_filled = 1;
     return (int)k;
 }
@@ -365,9 +366,15 @@ static int begin(gp_fleet_t *f, const gp_exchange_req_t *req)
     if (r != 0)
         return r;
     double x = req->x_m, y = req->y_m;
-    if (f->cfg.positions_from_tour &&
-        rt_path_point_frac(f->tour, f->cfg.n_tour, req->round, f->cfg.rounds, &x, &y) != 0)
+    if (req->round >= f->cfg.rounds) {
+        /* a posterior round: every robot gives the same position, so that the disk graph is the
+           whole fleet (the nearest GP_PSE_MAX_NEIGHBOURS by id) and one round of the 1/N
+           average reaches the fleet's sum (ai_core.h) */
+        x = y = 0.0;
+    } else if (f->cfg.positions_from_tour &&
+               rt_path_point_frac(f->tour, f->cfg.n_tour, req->round, f->cfg.rounds, &x, &y) != 0) {
         return -EINVAL;
+    }
     f->mark = f->drv.pse.stats;
     memset(&f->cur, 0, sizeof f->cur);
     f->cur.round = req->round;

@@ -80,6 +80,9 @@ typedef struct gp_fleet_cfg {
     uint32_t fleet_id;
     uint32_t self, n_peers;          /* self < n_peers <= GP_PSE_MAX_FLEET */
     uint32_t rounds;                 /* DiNNO rounds of the run (tour fractions) */
+    uint32_t post_rounds;            /* then the epistemic posterior's rounds (ai_core.h): every
+                                        robot at one position (the whole fleet its neighbours), no
+                                        disagreement; fp32 states only */
     double radius_m;                 /* disk graph radius; <= 0: every peer */
     gp_fleet_encoding_t encoding;
     uint32_t incarnation;

@@ -420,7 +420,7 @@ static int report(job_t *j)
     /* What each robot knows after the posterior's consensus: in its checkpoint, and robot 0's map. */
     bnn_post_t *posts = malloc((size_t)M * sizeof *posts);
     sim_fleet_post_report_t prep;
-    int prc = posts ? sim_fleet_posteriors(j->fleet, posts, SIM_FLEET_POST_MAX_ITER, SIM_FLEET_POST_TOL, &prep) : -ENOMEM;
+    int prc = posts ? sim_fleet_posteriors(j->fleet, posts, SIM_DEF_POST_ROUNDS, &prep) : -ENOMEM;
     if (prc == 0) {
         sim_maps_grid_t g = {.res = o->map_res, .x0 = j->plan.min.x, .y0 = j->plan.min.y};
         g.w = (int)ceil((j->plan.max.x - j->plan.min.x) / o->map_res);
@@ -434,8 +434,8 @@ static int report(job_t *j)
             prc = sim_maps_write_epistemic_png(&g, epi, &j->plan, j->paths, j->n, file, j->err, sizeof j->err);
         free(epi);
         if (prc == 0)
-            printf("epistemic: %d model(s), consensus of the posteriors in %d mixing round(s) (robots apart by %.2g); "
-                   "agent 0: %s\n", M, prep.iterations, prep.disagreement, file);
+            printf("epistemic: %d model(s), %d posterior round(s) (every robot the fleet's posterior); agent 0: %s\n", M,
+                   prep.iterations, file);
     }
     if (prc != 0) {
         fprintf(stderr, "host_sim fleet: epistemic posterior failed (%d): %s\n", prc, j->err);

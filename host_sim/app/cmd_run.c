@@ -31,6 +31,7 @@
 typedef struct run_row {
     ai_round_info_t in;
     double val, wall_s;
+    int deferred; /* the last DiNNO round's validation waits for final.bnn (posterior rounds) */
 } run_row_t;
 
 typedef struct run_ctx {
@@ -40,6 +41,9 @@ typedef struct run_ctx {
     const ai_sample_t *val;
     size_t n_val;
     int failed, ckpt_failed;
+    uint32_t post_rounds;                /* after the DiNNO rounds: no rows of their own */
+    uint32_t post_done;                  /* ... their traffic, for summary.txt */
+    uint64_t post_sent, post_received;
     double last_val, t0;
     uint32_t rows_in, rows_out;          /* AI records taken / written */
     run_row_t rows[RUN_PENDING];
@@ -83,6 +87,8 @@ static void flush_rows(run_ctx_t *c, int all)
     while (c->rows_out < c->rows_in) {
         const run_row_t *r = &c->rows[c->rows_out % RUN_PENDING];
         const uint32_t k = r->in.round;
+        if (r->deferred && !all)
+            return;
         const gp_fleet_round_t *fr = NULL;
         if (c->o->fleet > 1) {
             if (c->fleet_in > k)
@@ -114,6 +120,7 @@ static void on_round(const ai_round_info_t *in, void *user)
 {
     run_ctx_t *c = user;
     double val = NAN;
+    int deferred = 0;
     char name[64];
     gp_core_ckpt_name(in->round, name, sizeof name);
     if (in->ckpt_status != 0) {
@@ -125,11 +132,31 @@ static void on_round(const ai_round_info_t *in, void *user)
                     in->round);
         c->ckpt_failed = 1;
         c->failed = 1;
+    } else if (in->round >= (uint32_t)c->o->rounds) {
+        /* A posterior round (ai_core.h): no row. The last writes final.bnn, which validates the
+           last DiNNO round's row (theta no longer changes). */
+        if (in->round + 1u == (uint32_t)c->o->rounds + c->post_rounds && c->rows_in > c->rows_out) {
+            run_row_t *r = &c->rows[(c->rows_in - 1u) % RUN_PENDING];
+            if (r->deferred) {
+                char file[4200];
+                snprintf(file, sizeof file, "%s/final.bnn", c->o->out);
+                float v = NAN;
+                if (load_ckpt(c->model, file) != 0 || bnn_eval_bce(c->model, c->val, c->n_val, 0, 0, &v) != 0)
+                    c->failed = 1;
+                r->val = c->last_val = v;
+                r->deferred = 0;
+            }
+        }
+        flush_rows(c, 0);
+        return;
+    } else if (c->n_val > 0 && c->post_rounds > 0 && in->round + 1u == (uint32_t)c->o->rounds &&
+               (in->round + 1u) % (uint32_t)c->o->val_every != 0) {
+        deferred = 1; /* its checkpoint is final.bnn, written after the posterior rounds */
     } else if (c->n_val > 0 && val_round(c->o, in->round)) {
         /* The last round's checkpoint may exist only as final.bnn (--val-every not dividing it). */
         char file[4200];
         snprintf(file, sizeof file, "%s/%s", c->o->out,
-                 in->round + 1u == (uint32_t)c->o->rounds ? "final.bnn" : name);
+                 in->round + 1u == (uint32_t)c->o->rounds && c->post_rounds == 0 ? "final.bnn" : name);
         float v = NAN;
         if (load_ckpt(c->model, file) != 0 || bnn_eval_bce(c->model, c->val, c->n_val, 0, 0, &v) != 0)
             c->failed = 1;
@@ -138,7 +165,7 @@ static void on_round(const ai_round_info_t *in, void *user)
     }
     if (c->rows_in - c->rows_out == RUN_PENDING)
         flush_rows(c, 1); /* never expected: the fleet's log runs one round behind at most */
-    c->rows[c->rows_in % RUN_PENDING] = (run_row_t){*in, val, wall_now() - c->t0};
+    c->rows[c->rows_in % RUN_PENDING] = (run_row_t){*in, val, wall_now() - c->t0, deferred};
     c->rows_in++;
     flush_rows(c, 0);
 }
@@ -146,11 +173,17 @@ static void on_round(const ai_round_info_t *in, void *user)
 static void on_fleet_round(const gp_fleet_round_t *r, void *user)
 {
     run_ctx_t *c = user;
-    c->fleet[r->round % RUN_PENDING] = *r;
-    c->fleet_in = r->round + 1u;
     if (r->timeouts > 0)
         fprintf(stderr, "host_sim run: robot %lld, round %u: %llu peer(s) timed out and left the round\n", c->o->robot,
                 r->round, (unsigned long long)r->timeouts);
+    if (r->round >= (uint32_t)c->o->rounds) { /* a posterior round: summed, not a row (summary.txt) */
+        c->post_done++;
+        c->post_sent += r->bytes_sent;
+        c->post_received += r->bytes_received;
+        return;
+    }
+    c->fleet[r->round % RUN_PENDING] = *r;
+    c->fleet_in = r->round + 1u;
     fprintf(c->traffic, "%u,%.3f,%.3f,%llu,%llu,%llu,%llu,%llu,%llu,%llu,%llu,%llu,%llu,%llu,%llu,%llu,%llu,%llu,%llu,%llu,%llu,%llu\n",
             r->round,
             (double)r->wall_us * 1e-3, (double)r->wait_us * 1e-3, (unsigned long long)r->bytes_sent,
@@ -276,7 +309,8 @@ static int prepare_resume(job_t *j)
     const char *const headers[RUN_CARRY_FILES] = {run_metrics_header, o->fleet > 1 ? run_traffic_header : NULL};
     if (run_resume_find(o->out, (uint32_t)o->rounds, headers, &j->resume) != 0)
         return -1;
-    if (j->resume.start_round >= (uint32_t)o->rounds) {
+    const uint32_t post = o->fleet > 1 && o->encoding == GP_FLEET_FP32 ? (uint32_t)o->post_rounds : 0u;
+    if (j->resume.start_round >= (uint32_t)o->rounds && post == 0) { /* else: the posterior rounds are left */
         fprintf(stderr, "host_sim run: %s/%s is the last round's checkpoint: every round is done, nothing to "
                         "resume (run without --resume to start over)\n", o->out, j->resume.ckpt_name);
         return -1;
@@ -418,6 +452,7 @@ static int run_image(job_t *j)
     c->traffic = traffic;
     c->model = j->model;
     c->val = j->val;
+    c->post_rounds = o->fleet > 1 && o->encoding == GP_FLEET_FP32 ? (uint32_t)o->post_rounds : 0u;
     c->n_val = j->n_val;
     c->last_val = NAN;
     c->t0 = wall_now();
@@ -471,6 +506,7 @@ static int run_image(job_t *j)
         f->resend_after_us = (uint32_t)llround(o->resend_ms * 1e3);
         f->join_timeout_us = (uint32_t)llround(o->join_timeout * 1e6);
         f->positions_from_tour = o->offline;
+        f->post_rounds = o->encoding == GP_FLEET_FP32 ? (uint32_t)o->post_rounds : 0u;
         f->tour = j->tour;
         f->n_tour = j->path.n;
         ic.fleet = f;
@@ -614,6 +650,11 @@ static int report(job_t *j)
             fprintf(f, "network: %.0f B received per round in %.1f datagrams (every other member's, before the "
                        "protocol keeps the nearest)\n",
                     (double)res->net.rx_bytes / R, (double)res->net.rx_messages / R);
+            if (j->ctx.post_rounds > 0)
+                fprintf(f, "posterior rounds: %u of %u (the fleet's epistemic posterior: %llu B sent, %llu B received, "
+                           "not in traffic.csv)\n",
+                        j->ctx.post_done, j->ctx.post_rounds, (unsigned long long)j->ctx.post_sent,
+                        (unsigned long long)j->ctx.post_received);
             fprintf(f, "nearest: at most %u neighbour states per round; %llu chunks of peers beyond the radius or the "
                        "nearest only placed their sender, %llu states given up for a nearer peer's\n",
                     (unsigned)GP_PSE_MAX_NEIGHBOURS, (unsigned long long)p->not_nearest,

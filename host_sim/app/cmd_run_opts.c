@@ -23,6 +23,7 @@ void run_defaults(run_opts_t *o)
     o->per_comm = 1;
     o->seed = SIM_DEF_SEED;
     o->fleet = 1;
+    o->post_rounds = SIM_DEF_POST_ROUNDS;
     o->time_limit = SIM_DEF_TIME_LIMIT_S;
     o->val_poses = SIM_DEF_VAL_POSES;
     o->mc = SIM_DEF_MC;
@@ -97,6 +98,10 @@ static const cli_opt_t run_opts[] = {
      .help = "the same (alone: default memq://, in-process; 'none' for no network)", .def = ""},
     {.names = "--radius", .meta = "M", CLI_DOUBLE(run_opts_t, radius, 0.0, 1e6),
      .help = "fleet: neighbours within M metres (0: every peer)"},
+    {.names = "--post-rounds", .meta = "K", CLI_INT(run_opts_t, post_rounds, 0, AI_CORE_MAX_POST_ROUNDS),
+     .help = "fleet: after the last round, K rounds in which the robots' epistemic posteriors reach the fleet's "
+             "by average consensus over every peer (docs/uncertainty.md); 0: each keeps its own; none with int8 "
+             "states"},
     {.names = "--encoding", CLI_CHOICE(run_opts_t, encoding, "fp32|int8"),
      .values = (const int[]){GP_FLEET_FP32, GP_FLEET_INT8},
      .help = "fleet: states as fp32 or int8 with per-row scales"},

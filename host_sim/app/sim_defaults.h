@@ -38,5 +38,7 @@
 #define SIM_DEF_FLEET_VAL_POSES 200  /* each robot's validation set (tools/fleet) */
 /* The fleet's final maps: tools/fleet's consensus map (host_sim maps) and make run-inproc's. */
 #define SIM_DEF_FLEET_MAP_RES_M 0.05
+#define SIM_DEF_POST_ROUNDS 3   /* fleet: rounds of the epistemic posterior's consensus (one is exact
+                                   when no state is lost; the others repair a lost one) */
 
 #endif /* HOST_SIM_APP_SIM_DEFAULTS_H */

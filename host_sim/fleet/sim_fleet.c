@@ -471,9 +471,9 @@ int sim_fleet_metrics(sim_fleet_t *f, int i, const ai_sample_t *val, size_t n_va
 }
 
 /* ---- the fleet's epistemic posterior ------------------------------------------------------ */
-int sim_fleet_posteriors(sim_fleet_t *f, bnn_post_t *posts, int max_iter, double tol, sim_fleet_post_report_t *rep)
+int sim_fleet_posteriors(sim_fleet_t *f, bnn_post_t *posts, uint32_t rounds, sim_fleet_post_report_t *rep)
 {
-    if (!f || !posts || max_iter < 0 || !(tol > 0.0) || !rep)
+    if (!f || !posts || !rep)
         return -EINVAL;
     memset(rep, 0, sizeof *rep);
     const int M = f->n_models;
@@ -491,56 +491,33 @@ int sim_fleet_posteriors(sim_fleet_t *f, bnn_post_t *posts, int max_iter, double
     free(init);
     if (rc != 0)
         return rc;
-    if (f->cfg.mode != SIM_FLEET_DINNO || M < 2)
+    if (f->cfg.mode != SIM_FLEET_DINNO || M < 2 || rounds == 0)
         return 0; /* one model, or robots that never talk: each keeps what it saw */
-    /* Average consensus on the last round's graph, made symmetric, with Metropolis-Hastings
-       weights w_ij = 1 / (1 + max(d_i, d_j)), w_ii = 1 - sum_j w_ij (doubly stochastic: the
-       mean is kept, every robot converges to it on a connected graph); then times M, the sum. */
-    const dinno_graph_t *g = &f->graph;
-    int deg[SIM_FLEET_MAX_AGENTS];
-    for (int i = 0; i < M; i++) {
-        deg[i] = 0;
-        for (int k = 0; k < M; k++)
-            deg[i] += k != i && (dinno_graph_has_edge(g, (uint32_t)i, (uint32_t)k) ||
-                                 dinno_graph_has_edge(g, (uint32_t)k, (uint32_t)i));
-    }
-    bnn_post_t *next = malloc((size_t)M * sizeof *next);
-    if (!next)
+    /* The image's posterior rounds (ai_core.h), with its own code: each robot starts at M times
+       its own and mixes in, at weight 1/M, the states of its neighbours, which in these rounds
+       are every other robot up to DINNO_MAX_PEERS of them, the lowest ids first (gp_fleet puts
+       every robot at one position, and gp_pse keeps the nearest by distance, then id). */
+    float *states = malloc((size_t)M * BNN_N_PARAMS * sizeof *states);
+    if (!states)
         return -ENOMEM;
-    const size_t np = BNN_POST_PACKED(posts[0].dim);
-    for (int it = 0; rc == 0; it++) {
-        /* how far apart the robots still are: max_i |P_i - mean|_inf / |mean|_inf */
-        double dev = 0.0, scale = 0.0;
-        for (size_t e = 0; e < np; e++) {
-            double mean = 0.0;
-            for (int i = 0; i < M; i++)
-                mean += posts[i].prec[e] / M;
-            scale = fmax(scale, fabs(mean));
-            for (int i = 0; i < M; i++)
-                dev = fmax(dev, fabs(posts[i].prec[e] - mean));
-        }
-        rep->disagreement = scale > 0.0 ? dev / scale : 0.0;
-        if (rep->disagreement <= tol || it == max_iter)
-            break;
-        for (int i = 0; i < M && rc == 0; i++) {
-            double w[SIM_FLEET_MAX_AGENTS], self = 1.0;
-            for (int k = 0; k < M; k++) {
-                const int edge = k != i && (dinno_graph_has_edge(g, (uint32_t)i, (uint32_t)k) ||
-                                            dinno_graph_has_edge(g, (uint32_t)k, (uint32_t)i));
-                w[k] = edge ? 1.0 / (1.0 + (deg[i] > deg[k] ? deg[i] : deg[k])) : 0.0;
-                self -= w[k];
-            }
-            next[i] = posts[i];
-            rc = bnn_post_scale(&next[i], self);
-            for (int k = 0; k < M && rc == 0; k++)
-                if (w[k] > 0.0)
-                    rc = bnn_post_add(&next[i], &posts[k], w[k]);
-        }
-        memcpy(posts, next, (size_t)M * sizeof *next);
-        rep->iterations = it + 1;
-    }
-    for (int i = 0; i < M && rc == 0; i++) /* the mean of the robots' data, times M: the fleet's */
+    for (int i = 0; i < M && rc == 0; i++)
         rc = bnn_post_scale(&posts[i], (double)M);
-    free(next);
+    for (uint32_t r = 0; r < rounds && rc == 0; r++) {
+        for (int i = 0; i < M && rc == 0; i++)
+            rc = bnn_post_to_state(&posts[i], states + (size_t)i * BNN_N_PARAMS, BNN_N_PARAMS);
+        for (int i = 0; i < M && rc == 0; i++) {
+            const float *nb[DINNO_MAX_PEERS];
+            size_t n = 0;
+            for (int k = 0; k < M && n < DINNO_MAX_PEERS; k++)
+                if (k != i)
+                    nb[n++] = states + (size_t)k * BNN_N_PARAMS;
+            uint32_t used = 0;
+            rc = bnn_post_mix(&posts[i], nb, n, BNN_N_PARAMS, 1.0 / M, &used);
+            if (rc == 0 && used != n)
+                rc = -EINVAL; /* one feature map for the whole fleet: never expected */
+        }
+        rep->iterations = (int)r + 1;
+    }
+    free(states);
     return rc;
 }

@@ -105,19 +105,15 @@ void sim_fleet_screen_totals(const sim_fleet_t *f, uint64_t *excluded, double *h
 const dinno_graph_t *sim_fleet_graph(const sim_fleet_t *f);
 
 /* The epistemic posterior of every model (ai/bnn_post.h): each robot's from its own training
- * samples under its final model, then, in DiNNO mode, average consensus over the last round's
- * graph (made symmetric; Metropolis-Hastings weights) until the robots' data precisions agree
- * to tol (relative, max norm) or max_iter mixing rounds, each finally scaled by the number of
- * robots: every robot's estimate of the fleet's sum (posts[i].robots = M on a connected graph).
- * CENTRAL: the one model on the pooled data; ISOLATED: each its own. posts: sim_fleet_models()
- * entries. 0 or a negative code. */
-#define SIM_FLEET_POST_MAX_ITER 1000
-#define SIM_FLEET_POST_TOL 1e-6
+ * samples over the initial SIREN layer, then, in DiNNO mode, `rounds` posterior rounds as the
+ * image runs them after its last DiNNO round (ai_core.h: from M times its own, the states of
+ * every other robot mixed in at weight 1/M; one round gives every robot the fleet's sum,
+ * robots = M). CENTRAL: the one model on the pooled data; ISOLATED or rounds 0: each its own.
+ * posts: sim_fleet_models() entries. 0 or a negative code. */
 typedef struct sim_fleet_post_report {
-    int iterations;      /* mixing rounds run */
-    double disagreement; /* max_i |P_i - mean|_inf / |mean|_inf before the scaling */
+    int iterations; /* posterior rounds run */
 } sim_fleet_post_report_t;
-FS_MUST_CHECK int sim_fleet_posteriors(sim_fleet_t *f, bnn_post_t *posts, int max_iter, double tol,
+FS_MUST_CHECK int sim_fleet_posteriors(sim_fleet_t *f, bnn_post_t *posts, uint32_t rounds,
                                        sim_fleet_post_report_t *rep);
 /* Position of agent i at round k (arc-length fraction k / rounds of its path); -EINVAL
  * without paths. */

@@ -80,7 +80,8 @@ int sim_image_run(const sim_plan_t *plan, const sim_path_t *path, const sim_imag
         (cfg->rounds_per_boundary > 1 && cfg->rounds % cfg->rounds_per_boundary != 0) ||
         (cfg->fleet != NULL && cfg->net_url == NULL) ||
         !(cfg->time_limit_s > 0) || !isfinite(cfg->time_limit_s) || !(cfg->kl_weight >= 0) ||
-        !isfinite(cfg->kl_weight) || cfg->start_round >= cfg->rounds || cfg->resume_ckpt_bytes > UINT32_MAX) {
+        !isfinite(cfg->kl_weight) || cfg->start_round >= cfg->rounds + (cfg->fleet ? cfg->fleet->post_rounds : 0u) ||
+        cfg->resume_ckpt_bytes > UINT32_MAX) {
         snprintf(err, errlen, "image: need 1 <= rounds <= %u, steps per round >= 1, a positive time "
                               "limit, a finite kl weight >= 0 and a start round below rounds", AI_CORE_MAX_ROUNDS);
         return -EINVAL;
@@ -145,6 +146,8 @@ int sim_image_run(const sim_plan_t *plan, const sim_path_t *path, const sim_imag
     if (cfg->fleet != NULL) {
         fc.gp.peers = &gp_fleet_peers_ops;
         fc.gp.peers_ctx = fw_robot_fleet();
+        fc.ai.post_rounds = cfg->fleet->post_rounds; /* the fleet's posterior, after the DiNNO rounds */
+        fc.ai.fleet_size = cfg->fleet->n_peers;
     }
     rc = fw_robot_start(&fc);
     if (rc < 0) {

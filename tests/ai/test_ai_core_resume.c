@@ -146,12 +146,13 @@ static void test_resumed_equals_every_round(void **st)
     assert_int_equal(ai.status.round, 2);
     assert_int_equal(ai.node.round, 2);
     assert_null(ai.cfg.resume_ckpt); /* the caller's buffer is not kept */
-    /* theta is the checkpoint's: saving it again gives the same bytes. */
+    /* theta is the checkpoint's: saving it again gives the same theta bytes (the checkpoint's
+       epistemic posterior after them starts anew: the robot drives its tour again). */
     static uint8_t again[AI_LINK_CKPT_BYTES];
     size_t n = 0;
     assert_int_equal(bnn_ckpt_save(&ai.node.model, 0, again, sizeof again, &n), 0);
-    assert_int_equal(n, ckpt_round1_len);
-    assert_memory_equal(again, ckpt_round1, n);
+    assert_true(n < ckpt_round1_len);
+    assert_memory_equal(again + BNN_CKPT_HEADER_BYTES, ckpt_round1 + BNN_CKPT_HEADER_BYTES, n - BNN_CKPT_HEADER_BYTES);
     drive_tour();
     tick();
     ai_status_t s;

@@ -220,6 +220,44 @@ static void test_wire_round_trip_and_refusals(void **state)
     assert_memory_equal(&tmp, &pb, sizeof pb);
 }
 
+
+/* The state form a posterior travels in: mixing a neighbour's gives the weighted mean to 48
+ * bits; a state over other features or with a non-finite value is left out. */
+static float st_b[BNN_N_PARAMS], st_bad[BNN_N_PARAMS];
+static void test_state_form_and_mixing(void **state)
+{
+    (void)state;
+    setup_model();
+    assert_int_equal(bnn_post_init(&pa, &model), 0);
+    assert_int_equal(bnn_post_init(&pb, &model), 0);
+    assert_int_equal(bnn_post_observe(&pa, &model, pts, NPTS / 2), 0);
+    assert_int_equal(bnn_post_observe(&pb, &model, pts + NPTS, NPTS / 2), 0);
+    assert_int_equal(bnn_post_to_state(&pb, st_b, 10), -ENOSPC);
+    assert_int_equal(bnn_post_to_state(&pb, st_b, BNN_N_PARAMS), 0);
+    for (size_t i = BNN_POST_STATE_FLOATS(pb.dim); i < BNN_N_PARAMS; i++)
+        assert_true(st_b[i] == 0.0f);
+    tmp = pa;
+    const float *sts[3] = {st_b, NULL, st_bad};
+    memcpy(st_bad, st_b, sizeof st_b);
+    st_bad[3] += 1e-3f; /* another SIREN layer */
+    uint32_t used = 9;
+    assert_int_equal(bnn_post_mix(&pa, sts, 3, BNN_N_PARAMS, 0.5, &used), -EINVAL); /* 3 x 0.5 > 1 */
+    assert_int_equal(bnn_post_mix(&pa, sts, 3, BNN_N_PARAMS, 1.0 / 3.0, &used), 0);
+    assert_int_equal(used, 1);
+    for (size_t i = 0; i < BNN_POST_PACKED(pa.dim); i++) {
+        const double want = (2.0 / 3.0) * tmp.prec[i] + (1.0 / 3.0) * pb.prec[i];
+        assert_true(fabs(pa.prec[i] - want) <= 1e-12 * (1.0 + fabs(want)));
+    }
+    assert_true(fabs(pa.n_obs - NPTS / 2.0) < 1e-9 && fabs(pa.robots - 1.0) < 1e-12);
+    memcpy(st_bad, st_b, sizeof st_b);
+    st_bad[BNN_POST_STATE_FLOATS(pb.dim) - 1] = NAN;
+    const float *bad[1] = {st_bad};
+    tmp = pa;
+    assert_int_equal(bnn_post_mix(&pa, bad, 1, BNN_N_PARAMS, 0.5, &used), 0);
+    assert_int_equal(used, 0);
+    assert_memory_equal(pa.prec, tmp.prec, BNN_POST_PACKED(pa.dim) * sizeof(double));
+}
+
 static void test_no_allocation(void **state)
 {
     (void)state;
@@ -240,6 +278,7 @@ int main(void)
         cmocka_unit_test(test_precision_and_variance_match_dense_reference),
         cmocka_unit_test(test_fleet_sum_and_consensus),
         cmocka_unit_test(test_wire_round_trip_and_refusals),
+        cmocka_unit_test(test_state_form_and_mixing),
         cmocka_unit_test(test_no_allocation),
     };
     return cmocka_run_group_tests(tests, NULL, NULL);

@@ -21,6 +21,8 @@
 #include <cmocka.h>
 
 #include "run_outputs.h"
+#include "ai/bnn_ckpt.h"
+#include "ai/bnn_post.h"
 
 fp_env_t fp_env;
 
@@ -265,14 +267,45 @@ static int same_model(const char *a, const char *b)
     return same;
 }
 
+/* The epistemic posterior a checkpoint carries (fails the test when it has none). */
+static void load_post(const char *file, bnn_post_t *post)
+{
+    static bnn_model_t m;
+    size_t n = 0;
+    uint8_t *x = test_slurp(file, &n);
+    const char *why = NULL;
+    assert_non_null(x);
+    assert_int_equal(bnn_init(&m, NULL, 0), 0);
+    if (bnn_ckpt_load_post(&m, post, x, n, &why) != 0)
+        fail_msg("%s: %s", file, why);
+    free(x);
+    if (post->robots <= 0.0)
+        fail_msg("%s: no epistemic posterior", file);
+}
+
 void fp_expect_reference_models(const char *tag, int n)
 {
+    static bnn_post_t pa, pb;
     for (int i = 0; i < n; i++) {
         char a[PATH_MAX + 64], b[PATH_MAX + 64];
         snprintf(a, sizeof a, "%s/%s/robot_%d/final.bnn", fp_env.dir, tag, i);
         snprintf(b, sizeof b, "%s/inproc/models/robot_%d.bnn", fp_env.dir, i);
         if (!same_model(a, b))
             fail_msg("robot %d (%s): the model in %s differs from the in-process reference %s", i, tag, a, b);
+        /* after the posterior rounds, every robot holds the fleet's posterior, as in the reference
+           (the sums' chunks differ: equal to float rounding, not bit for bit) */
+        load_post(a, &pa);
+        load_post(b, &pb);
+        double big = 0.0, dev = 0.0;
+        for (size_t e = 0; e < BNN_POST_PACKED(pa.dim); e++) {
+            big = fmax(big, fabs(pb.prec[e]));
+            dev = fmax(dev, fabs(pa.prec[e] - pb.prec[e]));
+        }
+        if (fabs(pa.robots - n) > 1e-9 || fabs(pb.robots - n) > 1e-9 || fabs(pa.n_obs - pb.n_obs) > 1e-6 * pb.n_obs ||
+            dev > 1e-5 * big)
+            fail_msg("robot %d (%s): its posterior (%g robots, %g observations) is not the fleet's of the reference "
+                     "(%g robots, %g observations; largest difference %g of %g)",
+                     i, tag, pa.robots, pa.n_obs, pb.robots, pb.n_obs, dev, big);
     }
 }
 
