@@ -24,6 +24,11 @@ network only in its 8-round row):
                      (kl form, reduction, W_rho, literal Algorithm 2, kl_weight, network), seeds
   single             one robot alone (section 6.1) at kl_weight 1e-4, 5e-3, 5e-1 (`paper` preset)
   online             the 7-robot fleet over LCM, online (section 6.2): CDR 8/18/25, DR 18
+  data-cov-<P>-s<S>  partial coverage: 3 tours of `host_sim paths gen --rooms own` (each robot sweeps
+                     only its start room, seed S) on plan P (apartment, or gen7: `host_sim plan gen
+                     --seed 7 --rooms 12`), scanned, and a validation set of that plan
+  coverage           those 3 robots (`kl`, disk graph, 300 rounds; 60 --quick): the consensus map of
+                     the 3 models and robot 0's own map, each scored by tools/paper_metrics.py
 The seven-agent comparison (6.3) and the decentralised map are the kl-table's `paper` runs.
 Exit status: 0 all done, 1 a run failed (the others still ran), 2 bad options, 130 interrupted.
 """
@@ -58,6 +63,7 @@ class Settings:
         self.single_rounds = 60 if quick else 1500
         self.online_rpc = 1 if quick else 10    # DiNNO rounds per communication round
         self.big = "small" if quick else "paper"  # the preset of the paper's own experiments
+        self.coverage_rounds = 60 if quick else 300
 
 
 class Run:
@@ -73,6 +79,8 @@ class Run:
             return 0.02
         if t["kind"] == "online":
             return 3.0 * t.get("rounds", 180) / 180
+        if t["kind"] == "coverage":  # 3 robots instead of 7, and two more maps
+            return 0.5 * t.get("rounds", 300) / 1500
         scale = 1.0 if t.get("preset") == "small" else 6.0
         return scale * (1.0 if t["kind"] == "kl_table" else 0.2) * t.get("rounds", 1500) / 1500
 
@@ -93,18 +101,18 @@ def data_run(s, seed, hs):
     return Run(f"data-s{seed}", cmds, {"kind": "data", "seed": seed})
 
 
-def fleet_cmds(s, b, data, rounds, robots, strategy, extra, mc_curve, seed):
+def fleet_cmds(s, b, data, rounds, robots, strategy, extra, mc_curve, seed, plan=PLAN, paths=PATHS):
     """host_sim fleet --inproc, then the consensus maps and the paper's map metrics."""
     every = max(1, rounds // (15 if mc_curve else 30))
     graph = ["--graph", "disk", "--radius", str(RADIUS)] if robots > 1 else ["--graph", "full"]
-    fleet = [b, "fleet", "--inproc", "--plan", PLAN, "--paths", PATHS, "--robots", str(robots), "--rounds",
+    fleet = [b, "fleet", "--inproc", "--plan", plan, "--paths", paths, "--robots", str(robots), "--rounds",
              str(rounds), "--strategy", strategy, *graph, "--seed", str(seed), "--threads", "1",
              "--metrics-every", str(every), "--samples", f"{data}/samples", "--valset", f"{data}/valset.samples",
              "--val-mc", str(s.mc), "--mc", str(s.mc), "--out", "{RUN}", *extra]
     if mc_curve:
         fleet += ["--val-mode", "mc"]
     models = [f"{{RUN}}/models/robot_{i}.bnn" for i in range(robots)]
-    maps = [b, "maps", "--plan", PLAN, "--out", "{RUN}/maps", "--mc", str(s.mc), "--seed", str(seed),
+    maps = [b, "maps", "--plan", plan, "--out", "{RUN}/maps", "--mc", str(s.mc), "--seed", str(seed),
             "--valset", f"{data}/valset.samples", *models]
     samples = [f"{data}/samples/robot_{i}.samples" for i in range(robots)]
     metrics = [sys.executable, "tools/paper_metrics.py", "--maps", "{RUN}/maps", "--json",
@@ -208,6 +216,55 @@ def online_runs(s, args):
     return runs
 
 
+# Partial coverage: (name, how the plan is made: None = the default plan, or host_sim plan gen's
+# --seed and --rooms). The tours are made per seed, so the seen rooms change with it.
+COVERAGE_ROBOTS = 3
+COVERAGE_PLANS = (("apartment", None), ("gen7", (7, 12)))
+COVERAGE_OWN = (0,)  # the robots whose own map is scored besides the consensus map
+
+
+def coverage_data_run(s, plan_name, gen, seed, hs):
+    """The plan (generated, or the default one), 3 own-room tours, their samples, a validation set."""
+    cmds = []
+    plan = PLAN
+    if gen:
+        plan = "{RUN}/plan.svg"
+        cmds.append([hs, "plan", "gen", "--seed", str(gen[0]), "--rooms", str(gen[1]), "--out", plan])
+    cmds.append([hs, "paths", "gen", "--plan", plan, "--robots", str(COVERAGE_ROBOTS), "--seed", str(seed),
+                 "--rooms", "own", "--out", "{RUN}/paths", "--png", "{RUN}/paths.png"])
+    cmds += [[hs, "scan", "--plan", plan, "--path", f"{{RUN}}/paths/robot_{i}.csv", "--robot", str(i), "--seed",
+              str(seed), "--out", f"{{RUN}}/samples/robot_{i}.samples", "-q"] for i in range(COVERAGE_ROBOTS)]
+    cmds.append([hs, "valset", "--plan", plan, "--poses", str(s.val_poses), "--seed", str(seed), "--out",
+                 "{RUN}/valset.samples"])
+    tags = {"kind": "data", "seed": seed, "plan": plan_name}
+    return Run(f"data-cov-{plan_name}-s{seed}", cmds, tags)
+
+
+def coverage_runs(s, args):
+    """3 robots that each tour only their start room: the consensus map and robot 0's own one."""
+    b = bins(args)["small"]
+    runs = []
+    for plan_name, gen in COVERAGE_PLANS:
+        for seed in s.seeds:
+            dname = f"data-cov-{plan_name}-s{seed}"
+            data = f"{{OUT}}/runs/{dname}"
+            plan = f"{data}/plan.svg" if gen else PLAN
+            cmds = fleet_cmds(s, b, data, s.coverage_rounds, COVERAGE_ROBOTS, "kl", [], False, seed, plan=plan,
+                              paths=f"{data}/paths")
+            samples = [f"{data}/samples/robot_{i}.samples" for i in range(COVERAGE_ROBOTS)]
+            for i in COVERAGE_OWN:  # robot i's checkpoint alone: its model and the fleet's posterior it holds
+                cmds.append([b, "maps", "--plan", plan, "--out", f"{{RUN}}/maps_robot{i}", "--mc", str(s.mc),
+                             "--seed", str(seed), "--valset", f"{data}/valset.samples",
+                             f"{{RUN}}/models/robot_{i}.bnn"])
+                cmds.append([sys.executable, "tools/paper_metrics.py", "--maps", f"{{RUN}}/maps_robot{i}", "--json",
+                             f"{{RUN}}/paper_metrics_robot{i}.json", *samples])
+            tags = {"kind": "coverage", "plan": plan_name, "plan_gen": list(gen) if gen else None, "seed": seed,
+                    "preset": "small", "rounds": s.coverage_rounds, "robots": COVERAGE_ROBOTS, "strategy": "kl",
+                    "own": list(COVERAGE_OWN)}
+            runs.append(Run(f"coverage-{plan_name}-s{seed}", cmds, tags, needs=[dname]))
+    return runs
+
+
 def all_runs(s, args):
     b = bins(args)
     data = [data_run(s, seed, b["small"]) for seed in s.seeds]
@@ -216,7 +273,8 @@ def all_runs(s, args):
     table = kl_table_runs(s, args)
     small = [r for r in table if r.tags["preset"] == "small"]
     paper = [r for r in table if r.tags["preset"] != "small"]
-    runs = data + single_runs(s, args) + small + paper + online_runs(s, args)
+    cov_data = [coverage_data_run(s, p, gen, seed, b["small"]) for p, gen in COVERAGE_PLANS for seed in s.seeds]
+    runs = data + single_runs(s, args) + small + paper + online_runs(s, args) + cov_data + coverage_runs(s, args)
     names = [r.name for r in runs]
     assert len(set(names)) == len(names), "two runs share a folder name"
     return runs
@@ -290,6 +348,9 @@ class Campaign:
         files = list(ARCHIVE_FILES)
         if run.tags["kind"] == "online":
             files += [f"fleet/robot_{i}/metrics.csv" for i in range(ROBOTS)]
+        if run.tags["kind"] == "coverage":  # robot i's own map: its scores and its row of consensus.csv
+            files += [f for i in run.tags.get("own", ()) for f in (f"paper_metrics_robot{i}.json",
+                                                                    f"maps_robot{i}/consensus.csv")]
         if drawn(run):
             files += [f"{m}/{f}" for m in ("maps", "fleet/maps") for f in ARCHIVE_MAPS]
         for f in files:
@@ -465,7 +526,10 @@ def main(argv=None):
         for r in runs:
             print(f"{'done' if camp.is_done(r) else 'todo'}  {r.name}")
         return 0
+    used = {c[0] for r in runs for c in r.cmds}  # only the programs of the runs selected (--only)
     for preset, b in bins(args).items():
+        if args.report_only or b not in used:
+            continue
         if (preset == "small" or s.big == "paper") and not os.access(os.path.join(ROOT, b), os.X_OK):
             print(f"experiments: {b}: not built (make PRESET={preset})", file=sys.stderr)
             return 2

@@ -3,9 +3,10 @@
 
     tools/paper_report.py OUT [--quick]
 
-Reads OUT/runs/*/done.json (what each run was), metrics.csv, maps/ and paper_metrics.json;
+Reads OUT/runs/*/done.json (what each run was), metrics.csv, maps/ and paper_metrics.json
+(a coverage run's paper_metrics_robot<i>.json too, and its log.txt for the posterior's mixing);
 writes into OUT: REPORT.md, the figures (PNG, axes in metres, colour bars) and the CSVs every
-number of the report comes from (runs.csv, kl_table.csv, curves.csv). Runs not finished yet
+number of the report comes from (runs.csv, kl_table.csv, curves.csv, coverage.csv). Runs not finished yet
 are listed as missing; the report is whole for what exists. Exit 1 on unreadable input.
 Needs Debian's python3-numpy, python3-scipy and python3-matplotlib.
 """
@@ -65,8 +66,19 @@ def load_runs(out):
         if os.path.isfile(pm):
             with open(pm, encoding="utf-8") as fh:
                 run["pm"] = {k: (math.nan if v is None else v) for k, v in json.load(fh).items()}
-        if run["tags"].get("kind") in ("kl_table", "single"):
+        run["pm_own"] = {}  # a coverage run's robots' own maps: robot -> paper_metrics of maps_robot<i>
+        for i in run["tags"].get("own", ()) if run["tags"].get("kind") == "coverage" else ():
+            f = os.path.join(d, f"paper_metrics_robot{i}.json")
+            if os.path.isfile(f):
+                with open(f, encoding="utf-8") as fh:
+                    run["pm_own"][i] = {k: (math.nan if v is None else v) for k, v in json.load(fh).items()}
+        if run["tags"].get("kind") in ("kl_table", "single", "coverage"):
             run.update(fleet_figures(d))
+            if run["tags"].get("kind") == "coverage":
+                run["post_mixing"] = posterior_mixing(os.path.join(d, "log.txt"))
+                obs = posterior_observations(os.path.join(d, "log.txt")) + [math.nan] * (1 + len(run["pm_own"]))
+                # robot i's posterior against the fleet's: 1 when the mixing gave it the fleet's sum
+                run["post_share"] = {i: obs[1 + k] / obs[0] for k, i in enumerate(run["tags"].get("own", ()))}
         elif run["tags"].get("kind") == "online":
             run.update(online_figures(d))
         runs.append(run)
@@ -98,6 +110,34 @@ def fleet_figures(d):
                 last["consensus_val"] = num(r["val_loss"])
     res["final"] = last
     return res
+
+
+def posterior_mixing(log):
+    """host_sim fleet's line on the consensus of the epistemic posteriors: (mixing rounds, how far
+    apart the robots' posteriors stayed), or (nan, nan) when the log lacks it."""
+    try:
+        with open(log, encoding="utf-8") as f:
+            for line in f:
+                if line.startswith("epistemic:") and "mixing round" in line:
+                    words = line.replace("(", " ").replace(")", " ").replace(";", " ").split()
+                    return (num(words[words.index("mixing") - 1]), num(words[words.index("by") + 1]))
+    except OSError:
+        pass
+    return (math.nan, math.nan)
+
+
+def posterior_observations(log):
+    """The observations of the posterior of every `host_sim maps` of a run's log, in order (for a
+    coverage run: the consensus map's, then each own map's)."""
+    obs = []
+    try:
+        with open(log, encoding="utf-8") as f:
+            for line in f:
+                if line.startswith("epistemic: the posterior of") and " observations)" in line:
+                    obs.append(num(line.split(" observations)")[0].split()[-1]))
+    except OSError:
+        pass
+    return obs
 
 
 def online_figures(d):
@@ -333,6 +373,44 @@ METRIC_COLS = (("auc_std_unobserved", "AUC std / unseen", 3), ("spearman_std_kde
                ("mse", "MSE", 3), ("brier", "Brier", 3), ("wall_iou", "wall IoU", 3), ("ece", "ECE", 3))
 
 
+# The partial-coverage table: (paper_metrics.json key, heading, digits).
+COVERAGE_COLS = (("seen_fraction", "seen fraction", 3), ("auc_seen_std", "AUC unseen/seen: MC-50 std", 3),
+                 ("auc_seen_epistemic", "AUC unseen/seen: epistemic", 3),
+                 ("auc_seen_dist", "AUC unseen/seen: distance (reference)", 3), ("ause_std", "AUSE std", 3),
+                 ("ause_epistemic", "AUSE epistemic", 3), ("spearman_kde_std", "Spearman std ~ KDE", 3),
+                 ("spearman_kde_epistemic", "Spearman epistemic ~ KDE", 3), ("ece", "ECE", 3), ("brier", "Brier", 3))
+
+
+def coverage_rows(runs):
+    """Per plan, the consensus map and each robot's own map: (plan, map, runs, [metrics per run])."""
+    cov = sorted([r for r in runs if r["tags"].get("kind") == "coverage"],
+                 key=lambda r: (r["tags"]["plan"] != "apartment", r["tags"]["plan"], r["tags"]["seed"]))
+    plans = []
+    for r in cov:
+        if r["tags"]["plan"] not in plans:
+            plans.append(r["tags"]["plan"])
+    rows = []
+    for plan in plans:
+        rs = [r for r in cov if r["tags"]["plan"] == plan]
+        rows.append((plan, "consensus", rs, [r["pm"] for r in rs]))
+        for i in sorted({i for r in rs for i in r["pm_own"]}):
+            rows.append((plan, f"robot {i}'s own", rs, [r["pm_own"].get(i, {}) for r in rs]))
+    return rows
+
+
+def own_share(run, what):
+    """A row's posterior observations over the fleet's: 1 for the consensus map, robot i's share for its own."""
+    if what == "consensus":
+        return 1.0
+    return run.get("post_share", {}).get(int(what.split()[1].rstrip("'s")), math.nan)
+
+
+def mean_sd(v, d):
+    """'-', the one value, or mean ± sample standard deviation (the tables' form)."""
+    v = [x for x in v if x is not None and math.isfinite(x)]
+    return "-" if not v else fmt(v[0], d) if len(v) == 1 else f"{np.mean(v):.{d}g} ± {np.std(v, ddof=1):.1g}"
+
+
 def write_csvs(out, runs, table):
     cols = RUNS_COLS
     with open(os.path.join(out, "runs.csv"), "w", newline="", encoding="utf-8") as f:
@@ -361,6 +439,18 @@ def write_csvs(out, runs, table):
             for i, k in enumerate(r["rounds"]):
                 w.writerow([r["name"], int(k)] + [fmt(float(r["curve"][c][i]), 6) for c in
                                                   ("val_mean", "val_sample", "val_mc", "consensus_error", "sigma_mean")])
+    rows = coverage_rows(runs)
+    if rows:  # every number of the partial-coverage table, per run and map
+        with open(os.path.join(out, "coverage.csv"), "w", newline="", encoding="utf-8") as f:
+            w = csv.writer(f)
+            w.writerow(["name", "plan", "seed", "map", "rounds", "consensus_error", "post_mixing_rounds",
+                        "post_disagreement", "post_obs_over_fleet"] + [c[0] for c in COVERAGE_COLS])
+            for plan, what, rs, pms in rows:
+                for r, p in zip(rs, pms):
+                    w.writerow([r["name"], plan, r["tags"]["seed"], what, r["tags"]["rounds"],
+                                fmt(r["final"]["consensus_error"], 6), fmt(r["post_mixing"][0], 6),
+                                fmt(r["post_mixing"][1], 6), fmt(own_share(r, what), 6)] +
+                               [fmt(p.get(c[0], math.nan), 6) for c in COVERAGE_COLS])
 
 
 def verdict(table):
@@ -556,6 +646,44 @@ def report(out, quick):
             add(f"| {r['tags']['pool'].upper()} {r['tags']['comm_rounds']} CR | " +
                 " | ".join(fmt(p.get(c[0]), c[2]) for c in metric_cols) + f" | {fmt(r['final']['consensus_val'])} |")
         add("")
+    cov = coverage_rows(runs)
+    if cov:
+        first = cov[0][2][0]["tags"]
+        add("## Partial coverage (3 robots, tours in their start rooms)")
+        add("")
+        add(f"3 robots, each touring only its start room (`host_sim paths gen --rooms own`, the tours' seed = the "
+            f"run's seed, so the rooms seen change with it), `host_sim fleet --inproc`, strategy `kl`, disk graph "
+            f"6 m, {first['rounds']} rounds, preset {first['preset']}; plans: `apartment` = "
+            "`host_sim/plans/apartment.svg` (8 rooms), `gen7` = `host_sim plan gen --seed 7 --rooms 12`. "
+            "**consensus**: `host_sim maps` over the 3 final models (the consensus model, the fleet's posterior "
+            "summed from the checkpoints); **robot 0's own**: `host_sim maps` over robot 0's checkpoint alone "
+            "(its model and the posterior it holds after the in-process mixing over the last round's graph). Both "
+            "are scored by `tools/paper_metrics.py` against the 3 robots' training samples (seen: within 0.15 m "
+            "of a sample point), as in the section above. Mean ± sample standard deviation over seeds; every "
+            "number per run: `coverage.csv`. **Posterior: robots apart** (consensus rows, per seed): how far apart "
+            "the robots' posteriors stayed after the mixing (host_sim fleet's log; ~1e-6 when they agreed). "
+            "**Observations / fleet's** (own rows, per seed): the observations in robot 0's posterior over those "
+            "of the fleet's (1 when robot 0 holds the fleet's posterior).")
+        add("")
+        add("| plan | map | seeds | " + " | ".join(c[1] for c in COVERAGE_COLS) +
+            " | final consensus error | posterior: robots apart / observations over the fleet's |")
+        add("|---" * (len(COVERAGE_COLS) + 5) + "|")
+        for plan, what, rs, pms in cov:
+            cells = [mean_sd([p.get(c, math.nan) for p in pms], d) for c, _, d in COVERAGE_COLS]
+            ce = mean_sd([r["final"]["consensus_error"] for r in rs], 3) if what == "consensus" else ""
+            post = ", ".join(fmt(r["post_mixing"][1], 2) if what == "consensus" else fmt(own_share(r, what), 3)
+                             for r in rs)
+            add(f"| {plan} | {what} | {len(pms)} | " + " | ".join(cells) + f" | {ce} | {post} |")
+        add("")
+        every = [r for row in cov if row[1] == "consensus" for r in row[2]]
+        apart = [r for r in every if math.isfinite(r["post_mixing"][1]) and r["post_mixing"][1] > 1e-3]
+        if apart:
+            add(f"**The robots' posteriors did not agree in {len(apart)} of {len(every)} runs**: `host_sim fleet "
+                "--inproc` mixes them over the last round's disk graph, which the own-room tours can leave "
+                "disconnected, then scales by the fleet size. A robot's own posterior is then its "
+                "component's sum times 3 / (the component's size), not the fleet's (observations / fleet's ≠ 1). "
+                "The consensus map is not affected: averaging the robots' estimates gives back the fleet's sum.")
+            add("")
     with open(os.path.join(out, ".REPORT.md.tmp"), "w", encoding="utf-8") as f:
         f.write("\n".join(L))
     os.replace(os.path.join(out, ".REPORT.md.tmp"), os.path.join(out, "REPORT.md"))
