@@ -113,14 +113,15 @@ def fleet_figures(d):
 
 
 def posterior_mixing(log):
-    """host_sim fleet's line on the consensus of the epistemic posteriors: (mixing rounds, how far
-    apart the robots' posteriors stayed), or (nan, nan) when the log lacks it."""
+    """host_sim fleet's line on the epistemic posteriors' consensus: (posterior rounds, nan), or
+    (nan, nan) when the log lacks it (the second figure was how far apart the robots stayed, which
+    the posterior rounds, exact over every robot, no longer print)."""
     try:
         with open(log, encoding="utf-8") as f:
             for line in f:
-                if line.startswith("epistemic:") and "mixing round" in line:
-                    words = line.replace("(", " ").replace(")", " ").replace(";", " ").split()
-                    return (num(words[words.index("mixing") - 1]), num(words[words.index("by") + 1]))
+                if line.startswith("epistemic:") and "posterior round" in line:
+                    words = line.replace("(", " ").replace(")", " ").replace(";", " ").replace(",", " ").split()
+                    return (num(words[words.index("posterior") - 1]), math.nan)
     except OSError:
         pass
     return (math.nan, math.nan)
@@ -443,13 +444,13 @@ def write_csvs(out, runs, table):
     if rows:  # every number of the partial-coverage table, per run and map
         with open(os.path.join(out, "coverage.csv"), "w", newline="", encoding="utf-8") as f:
             w = csv.writer(f)
-            w.writerow(["name", "plan", "seed", "map", "rounds", "consensus_error", "post_mixing_rounds",
-                        "post_disagreement", "post_obs_over_fleet"] + [c[0] for c in COVERAGE_COLS])
+            w.writerow(["name", "plan", "seed", "map", "rounds", "consensus_error", "post_rounds",
+                        "post_obs_over_fleet"] + [c[0] for c in COVERAGE_COLS])
             for plan, what, rs, pms in rows:
                 for r, p in zip(rs, pms):
                     w.writerow([r["name"], plan, r["tags"]["seed"], what, r["tags"]["rounds"],
                                 fmt(r["final"]["consensus_error"], 6), fmt(r["post_mixing"][0], 6),
-                                fmt(r["post_mixing"][1], 6), fmt(own_share(r, what), 6)] +
+                                fmt(own_share(r, what), 6)] +
                                [fmt(p.get(c[0], math.nan), 6) for c in COVERAGE_COLS])
 
 
@@ -657,32 +658,28 @@ def report(out, quick):
             "`host_sim/plans/apartment.svg` (8 rooms), `gen7` = `host_sim plan gen --seed 7 --rooms 12`. "
             "**consensus**: `host_sim maps` over the 3 final models (the consensus model, the fleet's posterior "
             "summed from the checkpoints); **robot 0's own**: `host_sim maps` over robot 0's checkpoint alone "
-            "(its model and the posterior it holds after the in-process mixing over the last round's graph). Both "
+            "(its model and the posterior it holds after the posterior rounds, which give every robot the "
+            "fleet's). Both "
             "are scored by `tools/paper_metrics.py` against the 3 robots' training samples (seen: within 0.15 m "
             "of a sample point), as in the section above. Mean ± sample standard deviation over seeds; every "
-            "number per run: `coverage.csv`. **Posterior: robots apart** (consensus rows, per seed): how far apart "
-            "the robots' posteriors stayed after the mixing (host_sim fleet's log; ~1e-6 when they agreed). "
-            "**Observations / fleet's** (own rows, per seed): the observations in robot 0's posterior over those "
-            "of the fleet's (1 when robot 0 holds the fleet's posterior).")
+            "number per run: `coverage.csv`. **Observations / fleet's** (own rows, per seed): the observations "
+            "in robot 0's posterior over those of the fleet's (1 when robot 0 holds the fleet's posterior).")
         add("")
         add("| plan | map | seeds | " + " | ".join(c[1] for c in COVERAGE_COLS) +
-            " | final consensus error | posterior: robots apart / observations over the fleet's |")
+            " | final consensus error | posterior: observations over the fleet's |")
         add("|---" * (len(COVERAGE_COLS) + 5) + "|")
         for plan, what, rs, pms in cov:
             cells = [mean_sd([p.get(c, math.nan) for p in pms], d) for c, _, d in COVERAGE_COLS]
             ce = mean_sd([r["final"]["consensus_error"] for r in rs], 3) if what == "consensus" else ""
-            post = ", ".join(fmt(r["post_mixing"][1], 2) if what == "consensus" else fmt(own_share(r, what), 3)
-                             for r in rs)
+            post = "" if what == "consensus" else ", ".join(fmt(own_share(r, what), 3) for r in rs)
             add(f"| {plan} | {what} | {len(pms)} | " + " | ".join(cells) + f" | {ce} | {post} |")
         add("")
-        every = [r for row in cov if row[1] == "consensus" for r in row[2]]
-        apart = [r for r in every if math.isfinite(r["post_mixing"][1]) and r["post_mixing"][1] > 1e-3]
-        if apart:
-            add(f"**The robots' posteriors did not agree in {len(apart)} of {len(every)} runs**: `host_sim fleet "
-                "--inproc` mixes them over the last round's disk graph, which the own-room tours can leave "
-                "disconnected, then scales by the fleet size. A robot's own posterior is then its "
-                "component's sum times 3 / (the component's size), not the fleet's (observations / fleet's ≠ 1). "
-                "The consensus map is not affected: averaging the robots' estimates gives back the fleet's sum.")
+        own = [(r, what) for row in cov if row[1] != "consensus" for r, what in ((x, row[1]) for x in row[2])]
+        off = [r for r, what in own if math.isfinite(own_share(r, what)) and abs(own_share(r, what) - 1.0) > 1e-3]
+        if off:
+            add(f"**A robot's posterior was not the fleet's in {len(off)} of {len(own)} runs** (observations / "
+                "fleet's ≠ 1): its own map then knows less, or more, than the fleet saw. The consensus map is "
+                "not affected.")
             add("")
     with open(os.path.join(out, ".REPORT.md.tmp"), "w", encoding="utf-8") as f:
         f.write("\n".join(L))
