@@ -571,6 +571,7 @@ static void test_epistemic_map(void **st)
         }
     free(want);
     free(epi);
+    sim_plan_free(&plan);
     path_at(p, out, "map_epistemic.png");
     assert_int_equal(access(p, F_OK), 0);
 
