@@ -6,6 +6,7 @@
 #include <string.h>
 
 #include "ai/bnn_int.h"
+#include "ai/dinno.h"
 #include "ai/kernels/la.h"
 
 /* P's S x S block is summed a chunk at a time as one float GEMM, phi^T phi, in the backward
@@ -298,15 +299,20 @@ int bnn_post_mix(bnn_post_t *p, const float *const *states, size_t n, size_t cap
     if (!p || p->dim == 0 || (n > 0 && !states) || !isfinite(w) || w <= 0.0 || (double)n * w > 1.0)
         return -EINVAL;
     const size_t D = p->dim, S = D - 1u, np = BNN_POST_PACKED(D);
+    if (n > DINNO_MAX_PEERS)
+        return -EINVAL;
+    uint8_t ok[DINNO_MAX_PEERS];
     uint32_t c = 0;
-    for (size_t k = 0; k < n; k++)
-        c += states[k] != NULL && state_ok(p, states[k], cap);
+    for (size_t k = 0; k < n; k++) { /* checked once: the count sets our own weight */
+        ok[k] = states[k] != NULL && state_ok(p, states[k], cap);
+        c += ok[k];
+    }
     const double self = 1.0 - (double)c * w;
     double n_obs = self * p->n_obs, robots = self * p->robots;
     for (size_t i = 0; i < np; i++)
         p->work[i] = self * p->prec[i];
     for (size_t k = 0; k < n; k++) {
-        if (states[k] == NULL || !state_ok(p, states[k], cap))
+        if (!ok[k])
             continue;
         const float *o = states[k] + 2 + 3u * S;
         n_obs += w * get_hilo(o);

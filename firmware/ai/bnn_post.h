@@ -99,7 +99,8 @@ _Static_assert(BNN_POST_STATE_FLOATS(BNN_POST_DIM_MAX) <= BNN_N_PARAMS,
 /* Writes the state form into out (cap floats, >= BNN_POST_STATE_FLOATS(dim); the rest zeroed).
  * 0, -EINVAL or -ENOSPC. */
 FS_MUST_CHECK int bnn_post_to_state(const bnn_post_t *p, float *out, size_t cap);
-/* Mixes the n neighbour states (each cap floats) into p with weight w each (0 < n w <= 1);
+/* Mixes the n <= DINNO_MAX_PEERS neighbour states (each cap floats) into p with weight w each
+ * (0 < n w <= 1);
  * a state of another dimension or other features, or with a bad value, is left out. *used
  * (may be NULL): how many were mixed in. 0 or -EINVAL. */
 FS_MUST_CHECK int bnn_post_mix(bnn_post_t *p, const float *const *states, size_t n, size_t cap, double w,
