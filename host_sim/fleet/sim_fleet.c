@@ -32,7 +32,8 @@ struct sim_fleet {
     rt_waypoint_t **tours; /* the paths as the firmware holds them (float), or NULL */
     int32_t *tour_n;
     dinno_round_stats_t *stats;
-    dinno_graph_t graph;
+    dinno_graph_t graph;     /* the round's graph (geometry, or full / ring) */
+    dinno_graph_t live;      /* its links that delivered this round (cfg.links) */
     uint32_t rounds_done;
     float *bad_theta;        /* the bad agent's state as its neighbours get it (cfg.bad) */
     float *snap;             /* n_models round-start states (BNN_N_PARAMS floats each): what
@@ -40,6 +41,8 @@ struct sim_fleet {
     dinno_nbrs_t *views;     /* n_models views of the round, pointing into snap / bad_theta */
     uint64_t excluded;       /* sim_fleet_screen_totals */
     double honest_dist_max;
+    uint32_t last_dropped, last_offered; /* sim_fleet_last_links */
+    uint64_t dropped, offered;           /* sim_fleet_link_totals */
 };
 
 void sim_fleet_cfg_default(sim_fleet_cfg_t *cfg)
@@ -53,6 +56,7 @@ void sim_fleet_cfg_default(sim_fleet_cfg_t *cfg)
     cfg->radius = 4.0;
     cfg->seed = 1;
     cfg->threads = 1;
+    sim_links_default(&cfg->links);
 }
 
 static void free_fleet(sim_fleet_t *f)
@@ -126,6 +130,12 @@ int sim_fleet_create(const sim_fleet_cfg_t *cfg, const bnn_config_t *bcfg, const
         (cfg->mode != SIM_FLEET_DINNO || cfg->bad < SIM_FLEET_BAD_SCALE || cfg->bad > SIM_FLEET_BAD_SILENT ||
          cfg->bad_agent < 0 || cfg->bad_agent >= cfg->n_agents || !isfinite(cfg->bad_scale))) {
         snprintf(err, errlen, "a bad member needs a DiNNO fleet and an agent 0..%d", cfg->n_agents - 1);
+        return -EINVAL;
+    }
+    if (sim_links_check(&cfg->links, cfg->n_agents, err, errlen) != 0)
+        return -EINVAL;
+    if (sim_links_active(&cfg->links) && cfg->mode != SIM_FLEET_DINNO) {
+        snprintf(err, errlen, "a link model needs a DiNNO fleet (the baselines do not communicate)");
         return -EINVAL;
     }
     for (int i = 0; i < cfg->n_agents; i++) {
@@ -314,13 +324,30 @@ int sim_fleet_round(sim_fleet_t *f, dinno_graph_report_t *rep)
            still read them); the views point into it, as the GP core's point into its buffers. */
         for (int j = 0; j < f->n_models; j++)
             memcpy(f->snap + (size_t)j * P, bnn_params_const(&f->nodes[j]->model), P * sizeof(float));
+        /* The links of the round first (the graph's pairs that deliver, both ways or neither:
+           sim_links.h), then each view from them. */
+        f->live.n = f->graph.n;
+        f->last_dropped = f->last_offered = 0;
+        for (int i = 0; i < f->n_models; i++) {
+            f->live.deg[i] = 0;
+            for (uint32_t e = 0; e < f->graph.deg[i]; e++) {
+                const uint16_t j = f->graph.nb[i][e];
+                f->last_offered++;
+                if (sim_links_deliver(&f->cfg.links, f->cfg.seed, k, (uint32_t)i, j))
+                    f->live.nb[i][f->live.deg[i]++] = j;
+                else
+                    f->last_dropped++;
+            }
+        }
+        f->offered += f->last_offered;
+        f->dropped += f->last_dropped;
         for (int i = 0; i < f->n_models; i++) {
             dinno_nbrs_t *v = &f->views[i];
             v->round = k;
             v->count = 0;
             /* Ascending neighbour id, as the GP core's view. */
-            for (uint32_t e = 0; e < f->graph.deg[i]; e++) {
-                const int j = f->graph.nb[i][e];
+            for (uint32_t e = 0; e < f->live.deg[i]; e++) {
+                const int j = f->live.nb[i][e];
                 if (f->cfg.bad == SIM_FLEET_BAD_SILENT && j == f->cfg.bad_agent)
                     continue;
                 if (v->count >= DINNO_MAX_PEERS)
@@ -334,10 +361,11 @@ int sim_fleet_round(sim_fleet_t *f, dinno_graph_report_t *rep)
                 return rc;
         }
         if (rep)
-            dinno_graph_report(&f->graph, rep);
+            dinno_graph_report(&f->live, rep);
     } else {
-        f->graph.n = (uint32_t)f->n_models;
+        f->graph.n = f->live.n = (uint32_t)f->n_models;
         memset(f->graph.deg, 0, sizeof f->graph.deg);
+        memset(f->live.deg, 0, sizeof f->live.deg);
         if (rep)
             dinno_graph_report(&f->graph, rep);
     }
@@ -364,11 +392,11 @@ int sim_fleet_round(sim_fleet_t *f, dinno_graph_report_t *rep)
     for (int i = 0; i < f->n_models; i++) {
         f->excluded += f->stats[i].excluded;
         /* A bad agent's own neighbours are honest, but an honest agent next to it sees it:
-           with a bad agent, only rounds of honest agents without it in reach say what honest
-           distances are. */
+           with a bad agent, only rounds of honest agents that did not hear it say what honest
+           distances are (the live graph: a dropped link brought nothing). */
         const int near_bad = f->cfg.bad != SIM_FLEET_BAD_NONE &&
                              (i == f->cfg.bad_agent ||
-                              dinno_graph_has_edge(&f->graph, (uint32_t)i, (uint32_t)f->cfg.bad_agent));
+                              dinno_graph_has_edge(&f->live, (uint32_t)i, (uint32_t)f->cfg.bad_agent));
         if (!near_bad && f->stats[i].nb_dist_max > f->honest_dist_max)
             f->honest_dist_max = f->stats[i].nb_dist_max;
     }
@@ -407,6 +435,29 @@ const dinno_round_stats_t *sim_fleet_last_stats(const sim_fleet_t *f, int i)
 const dinno_graph_t *sim_fleet_graph(const sim_fleet_t *f)
 {
     return f ? &f->graph : NULL;
+}
+
+const dinno_nbrs_t *sim_fleet_view(const sim_fleet_t *f, int i)
+{
+    if (!f || f->cfg.mode != SIM_FLEET_DINNO || f->rounds_done == 0 || i < 0 || i >= f->n_models)
+        return NULL;
+    return &f->views[i];
+}
+
+void sim_fleet_last_links(const sim_fleet_t *f, uint32_t *dropped, uint32_t *offered)
+{
+    if (dropped)
+        *dropped = f ? f->last_dropped : 0;
+    if (offered)
+        *offered = f ? f->last_offered : 0;
+}
+
+void sim_fleet_link_totals(const sim_fleet_t *f, uint64_t *dropped, uint64_t *offered)
+{
+    if (dropped)
+        *dropped = f ? f->dropped : 0;
+    if (offered)
+        *offered = f ? f->offered : 0;
 }
 
 double sim_fleet_consensus_error(const sim_fleet_t *f, int i)

@@ -17,6 +17,10 @@
  * Graph positions (disk graph): agent i at round k is at arc-length fraction k / rounds of
  * its path (rt_path_point_frac on the path's float waypoints, as the robot's firmware).
  *
+ * Links (DINNO mode, cfg.links, sim_links.h): each round every graph link {i, j} delivers both
+ * ways or neither; node i's view holds only the neighbours whose link delivers (none: it trains
+ * alone that round). The default model delivers everything and draws nothing.
+ *
  * Data (offline mode, the paper's main experiments): each agent trains on the samples of its
  * whole path (host_sim scan / sim_scan_run) from round 0; the caller passes them in.
  *
@@ -33,6 +37,7 @@
 #include "ai/dinno.h"
 #include "ai/dinno_graph.h"
 #include "sim_grid.h"
+#include "sim_links.h"
 #include "sim_paths.h"
 #include "sim_occ_eval.h"
 #include "sim_plan.h"
@@ -68,6 +73,8 @@ typedef struct sim_fleet_cfg {
     sim_fleet_bad_t bad;        /* DINNO mode: agent bad_agent sends bad states (NONE: all honest) */
     int bad_agent;
     double bad_scale;           /* SIM_FLEET_BAD_SCALE's factor */
+    sim_links_t links;          /* DINNO mode: which links deliver each round (default: every one;
+                                   anything else needs a DiNNO fleet) */
 } sim_fleet_cfg_t;
 
 /* "scale=S" | "flip" | "random" | "silent" -> kind (and scale); 0 or -EINVAL. */
@@ -89,7 +96,9 @@ int sim_fleet_create(const sim_fleet_cfg_t *cfg, const bnn_config_t *bcfg, const
 void sim_fleet_destroy(sim_fleet_t *f);
 
 /* One synchronous round for every model. rep (may be NULL) receives the connectivity of the
- * round's graph (DINNO mode; baselines report n isolated nodes). Returns 0 or a negative code. */
+ * round's graph as the links delivered it (DINNO mode: the pairs that exchanged states, so the
+ * graph itself without a link model; baselines report n isolated nodes). Returns 0 or a
+ * negative code. */
 FS_MUST_CHECK
 int sim_fleet_round(sim_fleet_t *f, dinno_graph_report_t *rep);
 
@@ -101,8 +110,17 @@ const dinno_round_stats_t *sim_fleet_last_stats(const sim_fleet_t *f, int i);
  * the largest relative neighbour distance any model saw (of the honest agents' neighbours
  * only when a bad agent is set: what the radius must stay clear of). */
 void sim_fleet_screen_totals(const sim_fleet_t *f, uint64_t *excluded, double *honest_dist_max);
-/* The graph of the last round (DINNO mode). */
+/* The graph of the last round (DINNO mode), before the link model. */
 const dinno_graph_t *sim_fleet_graph(const sim_fleet_t *f);
+/* The neighbour states node i received in the last round (DINNO mode: its graph neighbours
+ * whose link delivered, ascending id, a silent bad member left out), or NULL (baselines, no
+ * round yet). Valid until the next round. */
+const dinno_nbrs_t *sim_fleet_view(const sim_fleet_t *f, int i);
+/* Neighbour entries of the graph (node i taking node j counts once for i) in the last round
+ * and in all rounds so far: how many the graph offered and how many the link model dropped.
+ * Any pointer may be NULL; all 0 outside DINNO mode. */
+void sim_fleet_last_links(const sim_fleet_t *f, uint32_t *dropped, uint32_t *offered);
+void sim_fleet_link_totals(const sim_fleet_t *f, uint64_t *dropped, uint64_t *offered);
 
 /* The epistemic posterior of every model (ai/bnn_post.h): each robot's from its own training
  * samples over the initial SIREN layer, then, in DiNNO mode, `rounds` posterior rounds as the
