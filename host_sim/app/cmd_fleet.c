@@ -35,6 +35,7 @@ typedef struct opts {
     sim_fleet_bad_t bad;    /* --bad-member I:KIND */
     long long bad_agent;
     double bad_scale;
+    sim_links_t links;      /* --link-success, --link-faults (checked against --robots in parse) */
 } opts_t;
 
 /* The same values as host_sim run's where the options overlap (sim_defaults.h), so that the
@@ -54,6 +55,7 @@ static void defaults(opts_t *o)
     o->scale = SIM_PLAN_DEFAULT_SCALE;
     o->d = dinno_default_cfg(); /* its strategy, kl, is --strategy's default: FLEET_STRATEGIES lists it first */
     o->mode = SIM_FLEET_DINNO;
+    sim_links_default(&o->links);
 }
 
 /* --bad-member I:scale=S|flip|random|silent */
@@ -71,6 +73,19 @@ static int parse_bad_member(const char *cmd, const char *opt, const char *v, voi
         return -1;
     }
     o->bad_agent = i;
+    return 0;
+}
+
+/* --link-faults SPEC (repeatable: the cuts add up). The agent ids are checked against --robots
+   once every option is read (parse). */
+static int parse_link_faults(const char *cmd, const char *opt, const char *v, void *field, void *opts)
+{
+    (void)opts;
+    char why[300];
+    if (sim_links_parse(v, field, why, sizeof why) != 0) {
+        fprintf(stderr, "host_sim %s: %s: '%s': %s\n", cmd, opt, v, why);
+        return -1;
+    }
     return 0;
 }
 
@@ -115,6 +130,14 @@ static const cli_opt_t fleet_opts[] = {
      .help = "agent I trains honestly but sends bad states every round: K = scale=S (theta x S), flip (-theta), "
              "random (normal, theta's rms), or silent (sends nothing: the baseline); summary.txt gives the "
              "honest members' figures"},
+    {.names = "--link-success", .meta = "P", CLI_DOUBLE(opts_t, links.success, 0.0, 1.0),
+     .help = "probability a link delivers in a round, both ways or neither (seeded by --seed: the same seed drops "
+             "the same links)"},
+    {.names = "--link-faults", .meta = "SPEC", CLI_CUSTOM(opts_t, links, parse_link_faults),
+     .help = "scheduled cuts, ';'-separated (or the option repeated, at most " SIM_DEF_STR(SIM_LINKS_MAX_CUTS)
+             " in all): partition=0.1.2/3.4.5 (robot ids '.'-separated; robots named in no group form one more "
+             "group) or away=I (robot I alone), with from=R1, until=R2 (rounds [R1, R2), default 0 and the end): "
+             "robots of different groups do not hear each other then"},
     {.names = "--scale", .meta = "S", CLI_DOUBLE(opts_t, scale, 1e-6, 100.0), .help = "plan metres per pixel"},
     CLI_OPT_END,
 };
@@ -174,6 +197,16 @@ static int parse(int argc, char **argv, opts_t *o)
         fprintf(stderr, "host_sim fleet: --graph full of %d robots needs %d neighbour slots, the board has %u: "
                         "use --graph disk (each robot takes its %u nearest in reach)\n",
                 (int)o->robots, (int)o->robots - 1, (unsigned)DINNO_GRAPH_MAX_DEGREE, (unsigned)DINNO_GRAPH_MAX_DEGREE);
+        return -1;
+    }
+    char why[300];
+    if (sim_links_check(&o->links, (int)o->robots, why, sizeof why) != 0) {
+        fprintf(stderr, "host_sim fleet: --link-faults: %s\n", why);
+        return -1;
+    }
+    if (sim_links_active(&o->links) && o->mode != SIM_FLEET_DINNO) {
+        fprintf(stderr, "host_sim fleet: --link-success and --link-faults need a DiNNO strategy (the '%s' baseline "
+                        "does not communicate)\n", o->strategy_name);
         return -1;
     }
     if (o->metrics_every == 0)
@@ -333,6 +366,7 @@ static int train(job_t *j)
     fc.bad = o->bad;
     fc.bad_agent = (int)o->bad_agent;
     fc.bad_scale = o->bad_scale;
+    fc.links = o->links;
     const ai_sample_t *cdata[SIM_FLEET_MAX_AGENTS];
     for (int i = 0; i < j->n; i++)
         cdata[i] = j->data[i];
@@ -387,6 +421,11 @@ static int train(job_t *j)
         printf("round %6u/%lld  val_loss %.4f  occ_iou %.3f  consensus_err(max) %.4f", k, o->rounds, vmean, iou, cmax);
         if (o->mode == SIM_FLEET_DINNO && k > 0)
             printf("  graph: %u edges, %u components, %u isolated", rep.edges, rep.components, rep.isolated);
+        if (o->mode == SIM_FLEET_DINNO && k > 0 && sim_links_active(&o->links)) {
+            uint32_t dropped, offered;
+            sim_fleet_last_links(j->fleet, &dropped, &offered);
+            printf("  links: %u of %u dropped", dropped, offered);
+        }
         printf("\n");
         fflush(stdout);
     }
@@ -489,9 +528,12 @@ static int report(job_t *j)
             hv += val_of(o, &j->last[i]) / (o->bad == SIM_FLEET_BAD_NONE ? M : M - 1);
             hce = fmax(hce, j->last[i].consensus_error);
         }
-    uint64_t excluded = 0;
+    uint64_t excluded = 0, dropped = 0, offered = 0;
     double dist_max = 0;
     sim_fleet_screen_totals(j->fleet, &excluded, &dist_max);
+    sim_fleet_link_totals(j->fleet, &dropped, &offered);
+    char links[1024];
+    sim_links_describe(&o->links, links, sizeof links);
     for (int pass = 0; pass < 2; pass++) {
         FILE *f = pass ? stdout : hal_host_file_stream(&out);
         fprintf(f, "mode: in-process fleet (one process)\n");
@@ -507,9 +549,12 @@ static int report(job_t *j)
                 (double)o->d.lr_end, (double)o->d.kl_weight, (double)o->d.w_mu, (double)o->d.w_rho,
                 o->d.persistent_adam ? "persistent" : "fresh each round", dinno_kl_form_name(o->d.kl_form),
                 dinno_kl_reduce_name(o->d.kl_reduce), o->d.rho_pred_grad, val_mode_names[o->val_mode]);
-        if (o->mode == SIM_FLEET_DINNO)
+        if (o->mode == SIM_FLEET_DINNO) {
+            fprintf(f, "links: %s; %llu of %llu neighbour states dropped\n", links, (unsigned long long)dropped,
+                    (unsigned long long)offered);
             fprintf(f, "rounds with an isolated agent: %llu; with a split graph: %llu\n",
                     (unsigned long long)j->isolated_rounds, (unsigned long long)j->split_rounds);
+        }
         fprintf(f, "validation points: %zu\n", j->n_val);
         fprintf(f, "final val_loss (mean over models): %.5f (min %.5f, max %.5f)\n", v, vmin, vmax);
         fprintf(f, "final val_mean / val_sample / val_mc%lld (mean over models): %.5f / %.5f / %.5f\n", o->val_mc,

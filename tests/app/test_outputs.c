@@ -312,8 +312,8 @@ static void test_out_parents_and_stale_temporaries(void **st)
     }
 }
 
-/* The readings of the KL strategy and the validation modes as options: bad values refused with
- * the reason (exit 2); good ones recorded in summary.txt (--strategy left out: kl by default), and --val-mode mc makes val_loss the
+/* The readings of the KL strategy, the validation modes and the link model as options: bad values
+ * refused with the reason (exit 2); good ones recorded in summary.txt (--strategy left out: kl by default), and --val-mode mc makes val_loss the
  * MC column on every row, beside val_mean, val_sample and sigma_mean. */
 static void test_fleet_readings_and_val_modes(void **st)
 {
@@ -323,7 +323,10 @@ static void test_fleet_readings_and_val_modes(void **st)
     static const char *const bad[][3] = {{"--kl-form", "forward", "is not own, reverse or full"},
                                          {"--kl-reduce", "avg", "is not sum or mean"},
                                          {"--rho-pred-grad", "2", "is not an integer in [0, 1]"},
-                                         {"--val-mode", "best", "is not mean, sample or mc"}};
+                                         {"--val-mode", "best", "is not mean, sample or mc"},
+                                         {"--link-success", "1.5", "is not a number in [0, 1]"},
+                                         {"--link-faults", "away=1,from=3,until=2", "until=2 is not after from=3"},
+                                         {"--link-faults", "away=2", "agent 2 is not one of the 1 agents"}};
     for (size_t k = 0; k < sizeof bad / sizeof bad[0]; k++) {
         assert_int_equal(HS(-1, "fleet", "--inproc", "--plan", g_plan, "--paths", g_paths, "--robots", "1",
                             "--rounds", "1", "--strategy", "kl", "--graph", "full", "--seed", "1", "--out", p,
@@ -337,13 +340,15 @@ static void test_fleet_readings_and_val_modes(void **st)
     HS_OK("fleet", "--inproc", "--plan", g_plan, "--paths", g_paths, "--robots", "2", "--rounds", "2",
           "--graph", "full", "--seed", "1", "--out", p, "--valset", q, "--mc", "2", "--map-res", "0.2",
           "--kl-form", "full", "--kl-reduce", "mean", "--rho-pred-grad", "0", "--val-mode", "mc", "--val-mc", "3",
-          "--metrics-every", "1");
+          "--metrics-every", "1", "--link-faults", "away=1,from=1");
     snprintf(f, sizeof f, "%s/summary.txt", p);
     size_t n = 0;
     char *sum = (char *)test_slurp(f, &n);
     assert_non_null(sum);
     assert_non_null(strstr(sum, "kl_form: full\nkl_reduce: mean\nrho_pred_grad: 0\nval_mode: mc\n"));
     assert_non_null(strstr(sum, "strategy: kl\n"));
+    /* robot 1 away in round 1: both neighbour entries of that round dropped */
+    assert_non_null(strstr(sum, "links: success 1; away=1 rounds [1, end); 2 of 4 neighbour states dropped\n"));
     free(sum);
     snprintf(f, sizeof f, "%s/metrics.csv", p);
     char *csv = (char *)test_slurp(f, &n);
