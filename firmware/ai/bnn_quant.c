@@ -5,6 +5,7 @@
 #include "ai/kernels/q8_gemm.h"
 
 #include <errno.h>
+#include <float.h>
 #include <math.h>
 #include <string.h>
 
@@ -38,6 +39,44 @@ static size_t tensor_cols(const bnn_tensor_t *t)
 {
     return t->is_bias ? (size_t)t->rows * t->cols : t->cols;
 }
+
+/* ---- the row quantiser of both packings (int8: qmax 127, 4-bit: qmax 7) ------------------
+ * One code for the packers and bnn_quant_round_trip_theta, so that the floats a receiver
+ * expands are the round trip's, bit for bit. */
+
+/* max |x_k| / qmax; *bad |= 1 for a non-finite element (on the bits: the loop vectorises). */
+static inline float row_scale(const float *x, size_t C, float qmax, uint32_t *bad)
+{
+    float amax = 0.0f;
+    uint32_t nf = 0;
+    for (size_t k = 0; k < C; k++) {
+        uint32_t w;
+        memcpy(&w, &x[k], sizeof w);
+        nf |= (w & 0x7f800000u) == 0x7f800000u;
+        amax = fabsf(x[k]) > amax ? fabsf(x[k]) : amax;
+    }
+    *bad |= nf;
+    return amax / qmax;
+}
+
+/* 1 / scale, 0 for a zero scale, and 0 where it overflows (a scale below ~2.9e-39: a row of
+ * subnormals, quantised to 0 rather than to inf * 0 = NaN, whose conversion is undefined). */
+static inline float row_inv(float scale)
+{
+    const float inv = scale > 0.0f ? 1.0f / scale : 0.0f;
+    return inv <= FLT_MAX ? inv : 0.0f;
+}
+
+/* round(x / scale) clamped to [-qmax, qmax] (x finite, so x * inv is). */
+static inline int row_q(float x, float inv, float qmax)
+{
+    float v = roundf(x * inv);
+    v = v > qmax ? qmax : (v < -qmax ? -qmax : v);
+    return (int)v;
+}
+
+#define QMAX8_ 127.0f
+#define QMAX4_ 7.0f
 
 static size_t packed_size_of(const bnn_tensor_t *T, size_t nt, bnn_group_t g)
 {
@@ -80,6 +119,7 @@ int bnn_quant_pack_theta(const bnn_config_t *cfg, bnn_group_t g, const float *th
     if (cap < need)
         return -ENOSPC;
     uint8_t *p = buf;
+    uint32_t bad = 0;
     for (size_t t = 0; t < nt; t++) {
         if (!in_group(&T[t], g))
             continue;
@@ -87,22 +127,18 @@ int bnn_quant_pack_theta(const bnn_config_t *cfg, bnn_group_t g, const float *th
         uint8_t *scales = p, *q = p + 4 * R;
         for (size_t r = 0; r < R; r++) {
             const float *x = th + T[t].offset + r * C;
-            float amax = 0.0f;
-            for (size_t k = 0; k < C; k++)
-                amax = fabsf(x[k]) > amax ? fabsf(x[k]) : amax;
-            const float scale = amax / 127.0f;
-            const float inv = scale > 0.0f ? 1.0f / scale : 0.0f;
+            const float scale = row_scale(x, C, QMAX8_, &bad);
+            const float inv = row_inv(scale);
             uint32_t u;
             memcpy(&u, &scale, 4);
             put32(scales + 4 * r, u);
-            for (size_t k = 0; k < C; k++) {
-                float v = roundf(x[k] * inv);
-                v = v > 127.0f ? 127.0f : (v < -127.0f ? -127.0f : v);
-                q[r * C + k] = (uint8_t)(int8_t)v;
-            }
+            for (size_t k = 0; k < C; k++)
+                q[r * C + k] = (uint8_t)(int8_t)row_q(x[k], inv, QMAX8_);
         }
         p += 4 * R + R * C;
     }
+    if (bad)
+        return -EINVAL;
     *written = need;
     return 0;
 }
@@ -200,6 +236,194 @@ int bnn_quant_unpack_theta_inplace(const bnn_config_t *cfg, float *th, size_t le
         }
     }
     return 0;
+}
+
+/* ---- 4-bit packing ----------------------------------------------------------------------- */
+static size_t row_bytes4(size_t C)
+{
+    return (C + 1u) / 2u;
+}
+
+static size_t packed_size4_of(const bnn_tensor_t *T, size_t nt, bnn_group_t g)
+{
+    size_t s = 0;
+    for (size_t i = 0; i < nt; i++)
+        if (in_group(&T[i], g))
+            s += tensor_rows(&T[i]) * (4u + row_bytes4(tensor_cols(&T[i])));
+    return s;
+}
+
+/* The signed value of the nibble n (0..15). */
+static inline int nibble_value(unsigned n)
+{
+    return (int)(n ^ 8u) - 8;
+}
+
+size_t bnn_quant_packed_size4_cfg(const bnn_config_t *cfg, bnn_group_t g)
+{
+    if (!cfg)
+        return 0;
+    bnn_tensor_t T[BNN_MAX_TENSORS];
+    const size_t nt = bnn_tensors_cfg(cfg, T, BNN_MAX_TENSORS);
+    return packed_size4_of(T, nt, g);
+}
+
+int bnn_quant_pack_theta4(const bnn_config_t *cfg, bnn_group_t g, const float *th, uint8_t *buf, size_t cap,
+                          size_t *written)
+{
+    if (!cfg || !th || !buf || !written || (g != BNN_GROUP_MU && g != BNN_GROUP_RHO && g != BNN_GROUP_ALL))
+        return -EINVAL;
+    bnn_tensor_t T[BNN_MAX_TENSORS];
+    const size_t nt = bnn_tensors_cfg(cfg, T, BNN_MAX_TENSORS);
+    const size_t need = packed_size4_of(T, nt, g);
+    if (cap < need)
+        return -ENOSPC;
+    uint8_t *p = buf;
+    uint32_t bad = 0;
+    for (size_t t = 0; t < nt; t++) {
+        if (!in_group(&T[t], g))
+            continue;
+        const size_t R = tensor_rows(&T[t]), C = tensor_cols(&T[t]), RB = row_bytes4(C);
+        uint8_t *scales = p, *q = p + 4 * R;
+        for (size_t r = 0; r < R; r++) {
+            const float *x = th + T[t].offset + r * C;
+            const float scale = row_scale(x, C, QMAX4_, &bad);
+            const float inv = row_inv(scale);
+            uint32_t u;
+            memcpy(&u, &scale, 4);
+            put32(scales + 4 * r, u);
+            uint8_t *qr = q + r * RB;
+            for (size_t k = 0; k + 1 < C; k += 2)
+                qr[k / 2] = (uint8_t)(((unsigned)row_q(x[k], inv, QMAX4_) & 15u) |
+                                      ((unsigned)row_q(x[k + 1], inv, QMAX4_) & 15u) << 4);
+            if (C % 2u) /* the odd row's last value, a zero high nibble */
+                qr[C / 2] = (uint8_t)((unsigned)row_q(x[C - 1], inv, QMAX4_) & 15u);
+        }
+        p += R * (4u + RB);
+    }
+    if (bad)
+        return -EINVAL;
+    *written = need;
+    return 0;
+}
+
+int bnn_quant_unpack_theta4(const bnn_config_t *cfg, bnn_group_t g, const uint8_t *buf, size_t len, float *th)
+{
+    if (!cfg || !th || !buf || (g != BNN_GROUP_MU && g != BNN_GROUP_RHO && g != BNN_GROUP_ALL))
+        return -EINVAL;
+    bnn_tensor_t T[BNN_MAX_TENSORS];
+    const size_t nt = bnn_tensors_cfg(cfg, T, BNN_MAX_TENSORS);
+    if (len != packed_size4_of(T, nt, g))
+        return -EBADMSG;
+    const uint8_t *p = buf;
+    for (size_t t = 0; t < nt; t++) { /* every scale first */
+        if (!in_group(&T[t], g))
+            continue;
+        const size_t R = tensor_rows(&T[t]), C = tensor_cols(&T[t]);
+        for (size_t r = 0; r < R; r++) {
+            const float s = getf(p + 4 * r);
+            if (!isfinite(s) || s < 0.0f)
+                return -EBADMSG;
+        }
+        p += R * (4u + row_bytes4(C));
+    }
+    p = buf;
+    for (size_t t = 0; t < nt; t++) {
+        if (!in_group(&T[t], g))
+            continue;
+        const size_t R = tensor_rows(&T[t]), C = tensor_cols(&T[t]), RB = row_bytes4(C);
+        const uint8_t *q = p + 4 * R;
+        for (size_t r = 0; r < R; r++) {
+            const float s = getf(p + 4 * r);
+            float *x = th + T[t].offset + r * C;
+            for (size_t k = 0; k < C; k++) {
+                const unsigned b = q[r * RB + k / 2];
+                x[k] = s * (float)nibble_value(k % 2u ? b >> 4 : b & 15u);
+            }
+        }
+        p += R * (4u + RB);
+    }
+    return 0;
+}
+
+int bnn_quant_unpack_theta4_inplace(const bnn_config_t *cfg, float *th, size_t len, float *scales, size_t n_scales)
+{
+    if (!cfg || !th || !scales)
+        return -EINVAL;
+    bnn_tensor_t T[BNN_MAX_TENSORS];
+    const size_t nt = bnn_tensors_cfg(cfg, T, BNN_MAX_TENSORS);
+    if (len != packed_size4_of(T, nt, BNN_GROUP_ALL))
+        return -EBADMSG;
+    uint8_t *buf = (uint8_t *)th; /* character access: may alias the floats */
+    /* The scales, checked before anything moves (the tensors must tile theta in order). */
+    const uint8_t *p = buf;
+    size_t rows = 0, at = 0;
+    for (size_t t = 0; t < nt; t++) {
+        const size_t R = tensor_rows(&T[t]), C = tensor_cols(&T[t]);
+        if (T[t].offset != at || rows + R > n_scales)
+            return -EINVAL;
+        for (size_t r = 0; r < R; r++) {
+            const float s = getf(p + 4 * r);
+            if (!isfinite(s) || s < 0.0f)
+                return -EBADMSG;
+            scales[rows + r] = s;
+        }
+        rows += R;
+        at += R * C;
+        p += R * (4u + row_bytes4(C));
+    }
+    /* The values of every tensor to the front, in order: each lands at or below where it was. */
+    p = buf;
+    size_t d = 0;
+    for (size_t t = 0; t < nt; t++) {
+        const size_t R = tensor_rows(&T[t]), D = R * row_bytes4(tensor_cols(&T[t]));
+        memmove(buf + d, p + 4 * R, D);
+        d += D;
+        p += 4 * R + D;
+    }
+    /* Backwards. The byte of element i is at b(i) <= i (every byte before it holds at least one
+       element before i), so the bytes 4i..4i+3 of float i hold only values of elements >= i:
+       already read. */
+    for (size_t t = nt; t-- > 0;) {
+        const size_t R = tensor_rows(&T[t]), C = tensor_cols(&T[t]), RB = row_bytes4(C);
+        rows -= R;
+        d -= R * RB;
+        for (size_t r = R; r-- > 0;) {
+            const float s = scales[rows + r];
+            const uint8_t *qr = buf + d + r * RB;
+            float *x = th + T[t].offset + r * C;
+            for (size_t k = C; k-- > 0;) {
+                const unsigned b = qr[k / 2];
+                const int q = nibble_value(k % 2u ? b >> 4 : b & 15u);
+                x[k] = s * (float)q;
+            }
+        }
+    }
+    return 0;
+}
+
+int bnn_quant_round_trip_theta(const bnn_config_t *cfg, unsigned bits, const float *in, float *out)
+{
+    if (!cfg || !in || !out || (bits != 8u && bits != 4u))
+        return -EINVAL;
+    const float qmax = bits == 8u ? QMAX8_ : QMAX4_;
+    bnn_tensor_t T[BNN_MAX_TENSORS];
+    const size_t nt = bnn_tensors_cfg(cfg, T, BNN_MAX_TENSORS);
+    uint32_t bad = 0;
+    for (size_t t = 0; t < nt; t++) {
+        const size_t R = tensor_rows(&T[t]), C = tensor_cols(&T[t]);
+        for (size_t r = 0; r < R; r++) {
+            const float *x = in + T[t].offset + r * C;
+            float *y = out + T[t].offset + r * C;
+            /* the scale as the packer writes it and the unpacker reads it back (the same bits),
+               then the unpacker's product: the whole row is read before any of it is written */
+            const float scale = row_scale(x, C, qmax, &bad);
+            const float inv = row_inv(scale);
+            for (size_t k = 0; k < C; k++)
+                y[k] = scale * (float)row_q(x[k], inv, qmax);
+        }
+    }
+    return bad ? -EINVAL : 0;
 }
 
 /* ---- int8 inference ----------------------------------------------------------------------

@@ -114,4 +114,36 @@ FS_MUST_CHECK int bnn_quant_unpack_theta(const bnn_config_t *cfg, bnn_group_t g,
 FS_MUST_CHECK int bnn_quant_unpack_theta_inplace(const bnn_config_t *cfg, float *th, size_t len, float *scales,
                                                  size_t n_scales);
 
+/* ---- 4-bit packing (the compressed exchange, ai/dinno_codec.h's DINNO_CODEC_INT4_EF) ----
+ * The rows of the int8 packing, in the same order, with
+ *     scale = max_k |x_k| / 7 (fp32, little-endian; 0 for an all-zero row),
+ *     q_k = round(x_k / scale) in [-7, 7],  x_k ~ scale * q_k,
+ * so |x_k - scale * q_k| <= scale / 2. The packed bytes are, per tensor, all its row scales (4
+ * bytes each) then its rows, each in ceil(C / 2) bytes: element 2j of the row in the low nibble
+ * of byte j, element 2j + 1 in the high nibble (4-bit two's complement); a row of odd length ends
+ * with a zero high nibble. The nibble 8 (-8) is never written; a receiver takes it as -8.
+ * About an eighth of the fp32 state, plus the scales. Both packers (int8 and 4-bit) refuse a
+ * non-finite element (-EINVAL; buf then holds nothing usable): its row has no scale. */
+size_t bnn_quant_packed_size4_cfg(const bnn_config_t *cfg, bnn_group_t g);
+/* Largest 4-bit packed size of the preset (whole theta): a row of C values takes at most
+ * (C + 1) / 2 bytes. */
+#define BNN_QUANT4_MAX_BYTES ((BNN_N_PARAMS + BNN_QUANT_MAX_ROWS_ + 1u) / 2u + 4u * BNN_QUANT_MAX_ROWS_)
+FS_MUST_CHECK int bnn_quant_pack_theta4(const bnn_config_t *cfg, bnn_group_t g, const float *theta, uint8_t *buf,
+                                        size_t cap, size_t *written);
+/* Validates the length and every scale (finite, >= 0) before writing anything. 0, -EINVAL or
+ * -EBADMSG. */
+FS_MUST_CHECK int bnn_quant_unpack_theta4(const bnn_config_t *cfg, bnn_group_t g, const uint8_t *buf, size_t len,
+                                          float *theta);
+/* As bnn_quant_unpack_theta_inplace, for the 4-bit packing of a whole theta: the values'
+ * bytes move to the front, then expand backwards (the byte of element i is at or below i, so
+ * float i overwrites only values already read); bnn_quant_unpack_theta4's floats, bit for bit. */
+FS_MUST_CHECK int bnn_quant_unpack_theta4_inplace(const bnn_config_t *cfg, float *th, size_t len, float *scales,
+                                                  size_t n_scales);
+
+/* out = what unpacking the packing of the whole theta `in` gives, bit for bit, without the
+ * bytes: bits 8 (bnn_quant_pack_theta + bnn_quant_unpack_theta) or 4 (..._theta4). The rows'
+ * scales and values are computed by the packers' own code. out may equal in. 0, or -EINVAL
+ * (NULL, bits, a non-finite element: out then holds nothing usable). */
+FS_MUST_CHECK int bnn_quant_round_trip_theta(const bnn_config_t *cfg, unsigned bits, const float *in, float *out);
+
 #endif /* AI_BNN_QUANT_H */

@@ -9,12 +9,19 @@
 #include <string.h>
 
 #include "ai/bnn_quant.h"
+#include "ai/dinno_codec.h"
 #include "gp/gp_wire.h"
 #include "hal/hal.h"
 #include "rt/rt_path.h"
 
 _Static_assert(__BYTE_ORDER__ == __ORDER_LITTLE_ENDIAN__, "fp32 states travel as little-endian words");
+/* Every codec's state fits the state buffers (ours and gp_pse's reassembly buffers), and a
+   quantised one expands there in place to the fp32 state. */
+_Static_assert(DINNO_CODEC_MAX_BYTES <= GP_PSE_MAX_STATE_BYTES, "every codec's state fits the state buffers");
 _Static_assert(BNN_QUANT_MAX_BYTES <= GP_PSE_MAX_STATE_BYTES, "an int8 state fits the state buffers");
+_Static_assert(BNN_QUANT4_MAX_BYTES <= GP_PSE_MAX_STATE_BYTES, "a 4-bit state fits the state buffers");
+_Static_assert(BNN_N_PARAMS * sizeof(float) <= GP_PSE_MAX_STATE_BYTES, "a decoded state fits the state buffers");
+_Static_assert(GP_PSE_ENCODINGS == DINNO_CODEC_COUNT, "the protocol takes every codec, and no other");
 _Static_assert(GP_PSE_MAX_CHUNK_BYTES + GP_WIRE_CHUNK_HEADER_BYTES <= HAL_NET_MTU_BYTES,
                "a chunk and its header fit one datagram");
 _Static_assert(GP_WIRE_REQUEST_BYTES(GP_PSE_MAX_REQUEST) <= HAL_NET_MTU_BYTES, "a request fits one datagram");
@@ -44,11 +51,10 @@ int gp_fleet_channel_name(uint32_t fleet_id, gp_fleet_channel_t which, char *buf
     return n > 0 && (size_t)n < cap && hal_net_channel_valid(buf) ? 0 : -EINVAL;
 }
 
-uint32_t gp_fleet_state_bytes(gp_fleet_encoding_t enc)
+uint32_t gp_fleet_state_bytes(dinno_codec_t enc)
 {
     const bnn_config_t c = bnn_default_config();
-    return enc == GP_FLEET_INT8 ? (uint32_t)bnn_quant_packed_size_cfg(&c, BNN_GROUP_ALL)
-                                : (uint32_t)(BNN_N_PARAMS * sizeof(float));
+    return (uint32_t)dinno_codec_bytes(&c, enc);
 }
 
 /* ---- sending: the protocol's callback ---------------------------------------------------- */
@@ -83,8 +89,8 @@ static int fleet_send(void *ctx, gp_pse_kind_t kind, const void *msg)
 
 int gp_fleet_init(gp_fleet_t *f, const gp_fleet_cfg_t *cfg)
 {
-    if (f == NULL || cfg == NULL || cfg->rounds < 1 || (unsigned)cfg->encoding > GP_FLEET_INT8 ||
-        cfg->post_rounds > UINT32_MAX - cfg->rounds || (cfg->post_rounds > 0 && cfg->encoding != GP_FLEET_FP32) ||
+    if (f == NULL || cfg == NULL || cfg->rounds < 1 || (unsigned)cfg->encoding >= DINNO_CODEC_COUNT ||
+        cfg->post_rounds > UINT32_MAX - cfg->rounds || (cfg->post_rounds > 0 && cfg->encoding != DINNO_CODEC_FP32) ||
         cfg->poll_us == 0 || (cfg->positions_from_tour &&
                               (cfg->tour == NULL || cfg->n_tour < 1 || cfg->n_tour > (int32_t)GP_FLEET_MAX_TOUR)))
         return -EINVAL;
@@ -253,43 +259,29 @@ const gp_fleet_round_t *gp_fleet_round(gp_fleet_t *f, uint32_t i)
 }
 
 /* ---- the hooks ---------------------------------------------------------------------------- */
+/* Our state in the fleet's codec (for the -ef codecs the AI core hands us a difference vector:
+   the same to us). */
 static int encode_state(gp_fleet_t *f, const float *theta, uint32_t n_params)
 {
     if (n_params != BNN_N_PARAMS)
         return -EINVAL;
-    if (f->cfg.encoding == GP_FLEET_FP32) {
-        memcpy(f->mine, theta, sizeof(float) * n_params);
-        return 0;
-    }
     size_t written = 0;
-    int r = bnn_quant_pack_theta(&f->bnn, BNN_GROUP_ALL, theta, f->mine, sizeof f->mine, &written);
+    int r = dinno_codec_encode(&f->bnn, f->cfg.encoding, theta, f->mine, sizeof f->mine, &written);
     return r != 0 ? r : (written == f->state_bytes ? 0 : -EINVAL);
 }
 
 /* A neighbour's state of the round, in its reassembly buffer (handed out by gp_pse_neighbours,
-   so ours until the next round begins): fp32 is read where it arrived, int8 is expanded there
-   once, in place (the buffer holds a whole fp32 state; the row scales go to f->qscales). A
-   whole fp32 state in the buffer or none: -EBADMSG for a non-finite fp32 element or a bad
-   int8 scale (what the copy into the slots refused before). */
+   so ours until the next round begins): fp32 is read where it arrived, the quantised codecs
+   are expanded there once, in place (the buffer holds a whole fp32 state; the row scales go to
+   f->qscales). A whole fp32 state in the buffer or none: -EBADMSG for a non-finite fp32
+   element or a bad scale (dinno_codec_decode_inplace checks before anything moves). */
 static int decode_state(gp_fleet_t *f, const uint8_t *bytes, const float **theta)
 {
     float *words = (float *)(uintptr_t)bytes; /* gp_pse_buf_t.words: the same storage */
-    if (f->cfg.encoding == GP_FLEET_FP32) {
-        /* Not finite: all exponent bits set. On the bits, so the pass vectorises (a branch per
-           float did not) and takes exactly the words isfinite refuses. */
-        uint32_t bad = 0;
-        for (uint32_t i = 0; i < BNN_N_PARAMS; i++) {
-            uint32_t w;
-            memcpy(&w, &words[i], sizeof w);
-            bad |= (w & 0x7f800000u) == 0x7f800000u;
-        }
-        if (bad)
-            return -EBADMSG;
-    } else {
-        int r = bnn_quant_unpack_theta_inplace(&f->bnn, words, f->state_bytes, f->qscales, BNN_QUANT_MAX_ROWS);
-        if (r != 0)
-            return r;
-    }
+    int r = dinno_codec_decode_inplace(&f->bnn, f->cfg.encoding, words, f->state_bytes, f->qscales,
+                                       BNN_QUANT_MAX_ROWS);
+    if (r != 0)
+        return r;
     *theta = words;
     return 0;
 }
@@ -333,8 +325,8 @@ static float disagreement(const float *theta, const dinno_nbrs_t *nbrs)
 static int fill_slots(gp_fleet_t *f, uint32_t round, const float *own_theta, dinno_nbrs_t *out)
 {
     /* Asked again for the round whose view was filled (the GP core could not publish ready
-       and comes back): the view still points at the same states, and an int8 state must not
-       be expanded twice. */
+       and comes back): the view still points at the same states, and a quantised state must
+       not be expanded twice. */
     if (f->view_filled && out->round == round)
         return (int)out->count;
     uint32_t ids[GP_PSE_MAX_NEIGHBOURS];

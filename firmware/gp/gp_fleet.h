@@ -15,13 +15,13 @@
  * one the protocol simulation runs; this file only feeds it and waits:
  *   exchange(k)     (AI published state(k)) gp_round_want(k), then receive and step the driver
  *                   (waiting at most poll_us at a time) until it says BEGIN: encode our state
- *                   (fp32, or int8 with per-row scales: bnn_quant) and begin with our position
+ *                   (dinno_codec: fp32, or int8 / 4-bit with per-row scales) and begin with our position
  *                   of round k (offline: the point at fraction k / rounds of the tour, as the
  *                   in-process reference; online: the robot's pose); then until READY: point
  *                   the view at the neighbours' states (disk radius on the carried positions,
- *                   or every peer) where gp_pse reassembled them: fp32 read in place, int8
- *                   expanded in place once (only the row scales need room of their own:
- *                   qscales);
+ *                   or every peer) where gp_pse reassembled them: fp32 read in place, the
+ *                   quantised codecs expanded in place once (only the row scales need room
+ *                   of their own: qscales);
  *   round_done(k)   (AI's checkpoint of k) gp_round_node_done; after the last round, receive
  *                   and step until the driver says DONE (every peer finished, we left);
  *   next_round(k)   the driver's skip-ahead;
@@ -44,6 +44,7 @@
 
 #include "ai/bnn.h"
 #include "ai/bnn_quant.h"
+#include "ai/dinno_codec.h"
 #include "gp/gp_core.h"
 #include "gp/gp_pse.h"
 #include "gp/gp_round.h"
@@ -58,14 +59,18 @@
 #define GP_FLEET_SEND_BURST 4u
 #define GP_FLEET_MAX_TOUR RT_CORE_MAX_WAYPOINTS
 
-typedef enum gp_fleet_encoding { GP_FLEET_FP32 = 0, GP_FLEET_INT8 = 1 } gp_fleet_encoding_t;
+/* A fleet's states travel in one of the exchange codecs (ai/dinno_codec.h); the names before
+ * them, kept for callers elsewhere, are aliases with the same values. */
+typedef dinno_codec_t gp_fleet_encoding_t;
+#define GP_FLEET_FP32 DINNO_CODEC_FP32
+#define GP_FLEET_INT8 DINNO_CODEC_INT8
 
 /* The protocol's defaults (gp_fleet_default_cfg), named once: host_sim run's options start from
  * them and `host_sim defaults` prints them for the launchers (tools/fleet). 10 s / 50 ms: a live
  * peer speaks at least once per resend period, so it is not timed out for a few lost datagrams;
  * 120 s before a peer is first heard: the others may still be starting up (offline: driving
  * their tours first). */
-#define GP_FLEET_ENCODING_DEFAULT GP_FLEET_FP32
+#define GP_FLEET_ENCODING_DEFAULT DINNO_CODEC_FP32
 #define GP_FLEET_RESEND_AFTER_US_DEFAULT 50000u     /* 50 ms */
 #define GP_FLEET_PEER_TIMEOUT_US_DEFAULT 10000000u  /* 10 s */
 #define GP_FLEET_JOIN_TIMEOUT_US_DEFAULT 120000000u /* 120 s */
@@ -84,7 +89,7 @@ typedef struct gp_fleet_cfg {
                                         robot at one position (the whole fleet its neighbours), no
                                         disagreement; fp32 states only */
     double radius_m;                 /* disk graph radius; <= 0: every peer */
-    gp_fleet_encoding_t encoding;
+    dinno_codec_t encoding;          /* every member's the same (the chunks carry it) */
     uint32_t incarnation;
     uint32_t chunk_bytes;            /* 0: GP_PSE_MAX_CHUNK_BYTES */
     uint32_t resend_after_us;        /* ask again for missing chunks (GP_FLEET_RESEND_AFTER_US_DEFAULT) */
@@ -118,7 +123,7 @@ typedef struct gp_fleet_stats {
     uint64_t rx_undecodable;         /* refused by gp_wire (or on an unknown channel) */
     uint64_t own_echoes;             /* our own datagrams delivered back (LCM does) */
     uint64_t tx_failed;              /* publishes refused by hal_net */
-    uint64_t decode_failures;        /* neighbour states that did not decode (int8 scales) */
+    uint64_t decode_failures;        /* neighbour states that did not decode (fp32 values, scales) */
     uint64_t wait_us;                /* total real time spent waiting */
 } gp_fleet_stats_t;
 
@@ -138,7 +143,7 @@ typedef struct gp_fleet {
     _Atomic uint32_t n_log;
     gp_fleet_round_t log[GP_FLEET_LOG_ROUNDS];
     rt_waypoint_t tour[GP_FLEET_MAX_TOUR];
-    float qscales[BNN_QUANT_MAX_ROWS]; /* an int8 state's row scales while it expands in place */
+    float qscales[BNN_QUANT_MAX_ROWS]; /* a quantised state's row scales while it expands in place */
     _Alignas(64) uint8_t mine[GP_PSE_MAX_STATE_BYTES];
     _Alignas(64) uint8_t tx[HAL_NET_MTU_BYTES];
     _Alignas(64) uint8_t rx[HAL_NET_MTU_BYTES];
@@ -150,8 +155,8 @@ gp_fleet_cfg_t gp_fleet_default_cfg(void);
 /* The channel name of `which` for fleet `fleet_id` into buf. 0 or -EINVAL. */
 FS_MUST_CHECK int gp_fleet_channel_name(uint32_t fleet_id, gp_fleet_channel_t which, char *buf, size_t cap);
 
-/* State bytes of one encoded state of the preset. */
-uint32_t gp_fleet_state_bytes(gp_fleet_encoding_t enc);
+/* State bytes of one encoded state of the preset (dinno_codec_bytes; 0 for a bad codec). */
+uint32_t gp_fleet_state_bytes(dinno_codec_t enc);
 
 /* Validates cfg, resets f and subscribes to the fleet's channels (the board must be
  * installed). 0, -EINVAL or the HAL's error. */

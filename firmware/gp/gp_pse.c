@@ -51,7 +51,7 @@ int gp_pse_init(gp_pse_t *p, const gp_pse_cfg_t *c)
         c->chunk_bytes < GP_PSE_MIN_CHUNK_BYTES || c->chunk_bytes > GP_PSE_MAX_CHUNK_BYTES ||
         !isfinite(c->radius_m) || c->resend_after_us == 0 || c->peer_timeout_us <= c->resend_after_us ||
         (c->join_timeout_us != 0 && c->join_timeout_us < c->peer_timeout_us) ||
-        c->encoding > 1)
+        c->encoding >= GP_PSE_ENCODINGS)
         return -EINVAL;
     memset(&p->stats, 0, sizeof p->stats);
     p->cfg = *c;

@@ -66,7 +66,7 @@
  * gp_pse_begin_round(). Until then chunks of round k are still validated and tell where and
  * in which round their sender is (liveness is unchanged), but their bytes are dropped
  * (stats.after_taken). In exchange the caller may rewrite a handed-out buffer in place (the
- * GP core expands an int8 state to fp32 there: every buffer holds GP_PSE_MAX_STATE_BYTES and
+ * GP core expands a quantised state to fp32 there: every buffer holds GP_PSE_MAX_STATE_BYTES and
  * is 64-byte aligned, readable as floats) and must be done with it before it begins k + 1.
  * Round k + 1's chunks go to the other pool meanwhile.
  *
@@ -94,6 +94,10 @@
                                                                   : 60u * 1024u)
 #define GP_PSE_MAX_CHUNKS ((GP_PSE_MAX_STATE_BYTES + GP_PSE_MIN_CHUNK_BYTES - 1u) / GP_PSE_MIN_CHUNK_BYTES)
 #define GP_PSE_MAX_REQUEST 64u /* chunk indices one resend request names */
+/* State encodings 0 .. GP_PSE_ENCODINGS - 1: ai/dinno_codec.h's codecs (fp32, int8, int8-ef,
+ * int4-ef; gp_fleet.c asserts the count). The protocol only carries the number and refuses a
+ * chunk of another encoding than the fleet's. */
+#define GP_PSE_ENCODINGS 4u
 
 typedef enum gp_pse_kind { GP_PSE_CHUNK = 0, GP_PSE_DONE = 1, GP_PSE_REQUEST = 2 } gp_pse_kind_t;
 
@@ -106,7 +110,7 @@ typedef struct gp_pse_chunk {
     double x_m, y_m;         /* the sender's position for round `round` */
     uint32_t n_bytes;
     const uint8_t *data;
-    uint8_t encoding;        /* 0 fp32, 1 int8 (the fleet's, from gp_pse_cfg_t) */
+    uint8_t encoding;        /* the fleet's (from gp_pse_cfg_t) */
     uint32_t incarnation;    /* the sender's start count (from gp_pse_cfg_t) */
 } gp_pse_chunk_t;
 
@@ -143,7 +147,7 @@ typedef struct gp_pse_cfg {
                                    else >= peer_timeout_us */
     gp_pse_send_fn send;
     void *send_ctx;
-    uint8_t encoding;           /* of every state in the fleet: 0 fp32, 1 int8 */
+    uint8_t encoding;           /* of every state in the fleet: < GP_PSE_ENCODINGS (dinno_codec_t) */
     uint32_t incarnation;       /* ours, carried in our chunks */
     uint32_t burst;             /* chunks sent by begin_round, then as many by each poll (a send
                                    window that lets the receivers keep up); 0: all at once */

@@ -21,7 +21,7 @@ static const char *const keys_help =
     "  strategy          DiNNO regulariser (dinno_default_cfg)\n"
     "  rho0, rho_scaling, primal_steps, batch, lr_start, lr_end, kl_weight   DiNNO (dinno_default_cfg)\n"
     "  radius_m          disk graph radius (run, fleet --inproc, tools/fleet, tools/run-fleet.sh)\n"
-    "  encoding          fleet states: fp32 or int8\n"
+    "  encoding          fleet states: fp32, int8, int8-ef or int4-ef (ai/dinno_codec.h)\n"
     "  pool              online pool policy (cdr or dr)\n"
     "  rounds_per_comm   online: DiNNO rounds per communication round\n"
     "  run_rounds        host_sim run's rounds\n"
@@ -93,7 +93,7 @@ static void defaults_print(void)
     put_float("lr_end", d->lr_end);
     put_float("kl_weight", d->kl_weight);
     put_double("radius_m", r.radius);
-    printf("encoding=%s\n", r.encoding == GP_FLEET_INT8 ? "int8" : "fp32");
+    printf("encoding=%s\n", dinno_codec_name(r.encoding));
     printf("pool=%s\n", ai_pool_policy_name(r.pool));
     printf("rounds_per_comm=%lld\nrun_rounds=%lld\n", r.per_comm, r.rounds);
     put_double("time_limit_s", r.time_limit);

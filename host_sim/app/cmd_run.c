@@ -309,7 +309,7 @@ static int prepare_resume(job_t *j)
     const char *const headers[RUN_CARRY_FILES] = {run_metrics_header, o->fleet > 1 ? run_traffic_header : NULL};
     if (run_resume_find(o->out, (uint32_t)o->rounds, headers, &j->resume) != 0)
         return -1;
-    const uint32_t post = o->fleet > 1 && o->encoding == GP_FLEET_FP32 ? (uint32_t)o->post_rounds : 0u;
+    const uint32_t post = o->fleet > 1 && o->encoding == DINNO_CODEC_FP32 ? (uint32_t)o->post_rounds : 0u;
     if (j->resume.start_round >= (uint32_t)o->rounds && post == 0) { /* else: the posterior rounds are left */
         fprintf(stderr, "host_sim run: %s/%s is the last round's checkpoint: every round is done, nothing to "
                         "resume (run without --resume to start over)\n", o->out, j->resume.ckpt_name);
@@ -354,7 +354,7 @@ static int prepare(job_t *j)
            o->train_between ? ", training between boundaries" : "");
     if (o->fleet > 1)
         printf("fleet %lld: member %lld of %lld over %s %s, %s states, neighbours %s%.3g m\n", o->fleet_id, o->robot,
-               o->fleet, o->transport == RUN_TRANSPORT_ZMQ ? "ZeroMQ" : "LCM", o->net[0] ? o->net : HAL_HOST_NET_URL_DEFAULT, o->encoding == GP_FLEET_INT8 ? "int8" : "fp32",
+               o->fleet, o->transport == RUN_TRANSPORT_ZMQ ? "ZeroMQ" : "LCM", o->net[0] ? o->net : HAL_HOST_NET_URL_DEFAULT, dinno_codec_name(o->encoding),
                o->radius > 0 ? "within " : "all (radius ", o->radius);
     if (o->key_file != NULL)
         printf("keyed fleet: every datagram authenticated (XChaCha20-Poly1305, key %s, run id %016llx)\n", o->key_file,
@@ -452,7 +452,7 @@ static int run_image(job_t *j)
     c->traffic = traffic;
     c->model = j->model;
     c->val = j->val;
-    c->post_rounds = o->fleet > 1 && o->encoding == GP_FLEET_FP32 ? (uint32_t)o->post_rounds : 0u;
+    c->post_rounds = o->fleet > 1 && o->encoding == DINNO_CODEC_FP32 ? (uint32_t)o->post_rounds : 0u;
     c->n_val = j->n_val;
     c->last_val = NAN;
     c->t0 = wall_now();
@@ -506,7 +506,7 @@ static int run_image(job_t *j)
         f->resend_after_us = (uint32_t)llround(o->resend_ms * 1e3);
         f->join_timeout_us = (uint32_t)llround(o->join_timeout * 1e6);
         f->positions_from_tour = o->offline;
-        f->post_rounds = o->encoding == GP_FLEET_FP32 ? (uint32_t)o->post_rounds : 0u;
+        f->post_rounds = o->encoding == DINNO_CODEC_FP32 ? (uint32_t)o->post_rounds : 0u;
         f->tour = j->tour;
         f->n_tour = j->path.n;
         ic.fleet = f;
@@ -643,7 +643,7 @@ static int report(job_t *j)
             const gp_pse_stats_t *p = &res->pse; /* the whole run, start-up included */
             const double R = (double)(o->rounds - (long long)j->resume.start_round); /* run by this start */
             fprintf(f, "fleet: %lld robots (this is robot %lld, fleet id %lld), %s states, radius %g m\n", o->fleet,
-                    o->robot, o->fleet_id, o->encoding == GP_FLEET_INT8 ? "int8" : "fp32", o->radius);
+                    o->robot, o->fleet_id, dinno_codec_name(o->encoding), o->radius);
             fprintf(f, "traffic: %.0f B sent and %.0f B received per round; %llu chunks sent, %llu received\n",
                     (double)p->bytes_sent / R, (double)p->bytes_received / R, (unsigned long long)p->chunks_sent,
                     (unsigned long long)p->chunks_received);

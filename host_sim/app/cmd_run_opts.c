@@ -100,11 +100,11 @@ static const cli_opt_t run_opts[] = {
      .help = "fleet: neighbours within M metres (0: every peer)"},
     {.names = "--post-rounds", .meta = "K", CLI_INT(run_opts_t, post_rounds, 0, AI_CORE_MAX_POST_ROUNDS),
      .help = "fleet: after the last round, K rounds in which the robots' epistemic posteriors reach the fleet's "
-             "by average consensus over every peer (docs/uncertainty.md); 0: each keeps its own; none with int8 "
-             "states"},
-    {.names = "--encoding", CLI_CHOICE(run_opts_t, encoding, "fp32|int8"),
-     .values = (const int[]){GP_FLEET_FP32, GP_FLEET_INT8},
-     .help = "fleet: states as fp32 or int8 with per-row scales"},
+             "by average consensus over every peer (docs/uncertainty.md); 0: each keeps its own; fp32 states only"},
+    {.names = "--encoding", CLI_CHOICE(run_opts_t, encoding, "fp32|int8|int8-ef|int4-ef"),
+     .values = (const int[]){DINNO_CODEC_FP32, DINNO_CODEC_INT8, DINNO_CODEC_INT8_EF, DINNO_CODEC_INT4_EF},
+     .help = "fleet: states as fp32, int8 with per-row scales, or compressed with error feedback (the difference "
+             "against the sender's public copy, int8 or 4-bit with per-row scales; ai/dinno_codec.h)"},
     {.names = "--peer-timeout", .meta = "S", CLI_DOUBLE(run_opts_t, peer_timeout, 0.1, 3600.0),
      .help = "fleet: a peer silent S seconds leaves the round"},
     {.names = "--join-timeout", .meta = "S", CLI_DOUBLE(run_opts_t, join_timeout, 0.1, 3600.0),

@@ -7,6 +7,7 @@
 
 #include "ai/ai_pool.h"
 #include "ai/dinno.h"
+#include "ai/dinno_codec.h"
 #include "gp/gp_fleet.h"
 #include "hal_host.h"
 
@@ -23,7 +24,7 @@ typedef struct run_opts {
     dinno_cfg_t d;
     ai_pool_policy_t pool;
     hal_host_sched_t sched;
-    gp_fleet_encoding_t encoding;
+    dinno_codec_t encoding;
     int offline, train_between, no_maps, quiet, net_given, resume;
     int robot_given, fleet_given; /* --id / --fleet on the command line (else SLURM's may say) */
     int transport;          /* --transport: RUN_TRANSPORT_LCM or RUN_TRANSPORT_ZMQ */

@@ -71,7 +71,7 @@ static void attacker_main(unsigned fleet_id, int rounds)
     char ch[64];
     if (l == NULL || gp_fleet_channel_name(fleet_id, GP_FLEET_CH_STATE, ch, sizeof ch) != 0)
         _exit(3);
-    const uint32_t sb = gp_fleet_state_bytes(GP_FLEET_FP32);
+    const uint32_t sb = gp_fleet_state_bytes(DINNO_CODEC_FP32);
     const uint32_t nc = (sb + GP_PSE_MAX_CHUNK_BYTES - 1u) / GP_PSE_MAX_CHUNK_BYTES;
     static uint8_t state[GP_PSE_MAX_CHUNKS * GP_PSE_MAX_CHUNK_BYTES], junk[GP_PSE_MAX_CHUNK_BYTES];
     static uint8_t buf[HAL_NET_MTU_BYTES + HAL_HOST_AUTH_TRAILER_BYTES];

@@ -5,7 +5,7 @@
  *   - the same with every 7th datagram lost (the FLEETSIM_NET_DROP_EVERY seam of
  *     hal/host/hal_host_net.c): the protocol asks again for what is missing, so the models are
  *     still the reference's, and the traffic logs show the chunks requested and re-sent;
- *   - int8 states: a smaller state on the wire, the run completes;
+ *   - int8 and int4-ef states: a smaller state on the wire, the run completes;
  *   - tools/fleet: a robot killed with SIGKILL makes the launcher stop the fleet, name the
  *     robot and the signal, and exit 1; Ctrl-C (SIGINT) stops it with status 130; neither
  *     leaves a host_sim process of that fleet behind.
@@ -142,6 +142,12 @@ static void test_int8_states(void **st)
     run_fleet("int8", "int8", NULL);
     const unsigned long long b8 = traffic_sum("int8", "bytes_sent"), b32 = traffic_sum("fp32", "bytes_sent");
     assert_true(b8 > 0 && b8 * 3 < b32); /* about a quarter */
+    /* 4-bit states (the AI core may hand over theta or a difference: the same to the wire) */
+    run_fleet("int4-ef", "int4-ef", NULL);
+    const unsigned long long b4 = traffic_sum("int4-ef", "bytes_sent");
+    assert_true(b4 > 0 && b4 * 10 < b8 * 6); /* about half of int8's (the row scales are the same) */
+    assert_int_equal(traffic_sum("int4-ef", "invalid"), 0);
+    assert_int_equal(traffic_sum("int4-ef", "states_missed"), 0);
 }
 
 /* pids of host_sim processes whose command line holds "--fleet-id\0<fid>". */

@@ -340,6 +340,38 @@ static void test_invalid_messages_change_nothing(void **st)
     assert_int_equal(qn, 0); /* nothing was answered */
 }
 
+/* Every encoding of GP_PSE_ENCODINGS (ai/dinno_codec.h's codecs) is a fleet's, no other; an
+ * engine sends its own in every chunk and refuses a chunk of any other as invalid (members of
+ * different encodings do not take each other's states). */
+static void test_encodings(void **st)
+{
+    (void)st;
+    static uint8_t junk[CHUNK];
+    for (uint32_t e = 0; e <= GP_PSE_ENCODINGS; e++) {
+        qn = 0;
+        gp_pse_cfg_t c = {0, N, STATE_BYTES, CHUNK, 0.0, RESEND, TIMEOUT, 0, net_send, &sender_id[0], (uint8_t)e, 0, 0};
+        if (e == GP_PSE_ENCODINGS) {
+            assert_int_equal(gp_pse_init(&eng[0], &c), -EINVAL);
+            c.encoding = 255;
+            assert_int_equal(gp_pse_init(&eng[0], &c), -EINVAL);
+            break;
+        }
+        assert_int_equal(gp_pse_init(&eng[0], &c), 0);
+        begin(0, 0, 0);
+        assert_true(qn > 0);
+        for (int i = 0; i < qn; i++)
+            if (q[i].kind == GP_PSE_CHUNK)
+                assert_int_equal(q[i].chunk.encoding, e);
+        qn = 0;
+        for (uint32_t o = 0; o < GP_PSE_ENCODINGS; o++) {
+            const gp_pse_chunk_t ch = {1, 0, o, 5, STATE_BYTES, 123, 1.0, 0.0, CHUNK, junk, (uint8_t)o, 0};
+            assert_int_equal(gp_pse_on_chunk(&eng[0], &ch, 0), o == e ? 0 : -EBADMSG);
+        }
+        assert_int_equal(eng[0].stats.invalid, GP_PSE_ENCODINGS - 1u);
+        assert_int_equal(eng[0].stats.chunks_received, 1);
+    }
+}
+
 /* One forged chunk (another CRC) before the genuine ones, and one in the middle of them: the
  * genuine state still arrives whole, byte for byte, in the same round (an unkeyed fleet's
  * defence; a keyed one never lets the forgery in). */
@@ -520,6 +552,7 @@ int main(void)
         cmocka_unit_test(test_corrupted_chunk),
         cmocka_unit_test(test_silent_peer_leaves_and_rejoins),
         cmocka_unit_test(test_invalid_messages_change_nothing),
+        cmocka_unit_test(test_encodings),
         cmocka_unit_test(test_forged_chunk_does_not_block_the_state),
         cmocka_unit_test(test_disk_neighbours_match_dinno_graph),
         cmocka_unit_test(test_handed_out_buffers_are_not_written),

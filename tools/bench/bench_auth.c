@@ -12,6 +12,7 @@
 #include <string.h>
 #include <time.h>
 
+#include "ai/dinno_codec.h"
 #include "gp/gp_fleet.h"
 #include "gp/gp_pse.h"
 #include "hal/hal.h"
@@ -104,8 +105,7 @@ int main(int argc, char **argv)
     printf("BENCH auth_check_us_per_chunk %.1f us (%zu B)\n", open * 1e6, chunk);
     printf("BENCH auth_seal_us_per_small %.2f us (20 B, a RoundComplete)\n", small_seal * 1e6);
     printf("BENCH auth_check_us_per_small %.2f us (20 B)\n", small_open * 1e6);
-    const gp_fleet_encoding_t enc[2] = {GP_FLEET_FP32, GP_FLEET_INT8};
-    const char *name[2] = {"fp32", "int8"};
+    const dinno_codec_t enc[2] = {DINNO_CODEC_FP32, DINNO_CODEC_INT8};
     for (int e = 0; e < 2; e++) {
         const uint32_t sb = gp_fleet_state_bytes(enc[e]);
         const size_t tail = sb % chunk ? sb % chunk : chunk;
@@ -113,7 +113,7 @@ int main(int argc, char **argv)
         /* One robot of 7 in a round: its state sealed, six states checked, 7 x 2 RoundCompletes. */
         const double round = per_state(seal, tail_seal, sb) + 6.0 * per_state(open, tail_open, sb) +
                              7.0 * small_seal + 12.0 * small_open;
-        printf("BENCH auth_us_per_round_%s_%s_7robots %.0f us (state %u B)\n", BNN_PRESET_NAME, name[e], round * 1e6,
+        printf("BENCH auth_us_per_round_%s_%s_7robots %.0f us (state %u B)\n", BNN_PRESET_NAME, dinno_codec_name(enc[e]), round * 1e6,
                (unsigned)sb);
     }
     hal_host_auth_wipe(&a);
