@@ -142,7 +142,11 @@ static void publish_state(ai_core_t *ai, uint64_t now_us)
     st->round = k;
     st->n_params = (uint32_t)bnn_n_params(&ai->node.model);
     if (k < ai->cfg.rounds) {
-        memcpy(st->theta, bnn_params_const(&ai->node.model), sizeof(float) * st->n_params);
+        /* theta, or with an EF codec the difference against our public copy (dinno.h) */
+        if (dinno_node_outgoing(&ai->node, st->theta) != 0) {
+            hal_log(HAL_LOG_WARN, "round %" PRIu32 ": no state to send", k);
+            memset(st->theta, 0, sizeof(float) * st->n_params); /* refused by every neighbour */
+        }
     } else { /* a posterior round: the estimate of the fleet's posterior is the state */
         if (!ai->post_fleet) { /* the first this run: N times its own (ai_core.h) */
             if (observe_staged(ai) != 0 || bnn_post_scale(&ai->post, (double)ai->cfg.fleet_size) != 0)

@@ -50,6 +50,10 @@ dinno_cfg_t dinno_default_cfg(void)
         .kl_reduce = DINNO_REDUCE_SUM,
         .rho_pred_grad = 1,
         .screen_radius = DINNO_SCREEN_RADIUS_DEFAULT,
+        .dual_rule = DINNO_DUAL_LINK,
+        .rejoin_gap = DINNO_REJOIN_GAP_DEFAULT,
+        .codec = DINNO_CODEC_FP32,
+        .key_every = DINNO_KEY_EVERY_DEFAULT,
     };
     return c;
 }
@@ -75,7 +79,8 @@ static int cfg_ok(const dinno_cfg_t *c, const bnn_config_t *b)
            (c->kl_form == DINNO_KL_OWN_MEAN || c->kl_form == DINNO_KL_REVERSE || c->kl_form == DINNO_KL_FULL) &&
            (c->kl_reduce == DINNO_REDUCE_SUM || c->kl_reduce == DINNO_REDUCE_MEAN) &&
            (c->rho_pred_grad == 0 || c->rho_pred_grad == 1) && isfinite(c->screen_radius) &&
-           c->screen_radius >= 0.0f;
+           c->screen_radius >= 0.0f && (c->dual_rule == DINNO_DUAL_NODE || c->dual_rule == DINNO_DUAL_LINK) &&
+           (unsigned)c->codec < DINNO_CODEC_COUNT && c->key_every >= 1;
 }
 
 int dinno_node_init(dinno_node_t *n, const dinno_cfg_t *cfg, const bnn_config_t *bcfg,
@@ -104,6 +109,10 @@ int dinno_node_init(dinno_node_t *n, const dinno_cfg_t *cfg, const bnn_config_t 
     memset(n->aux3, 0, n->model.n_rho * sizeof(float));
     n->nb = NULL;
     memset(n->use, 0, sizeof n->use);
+    for (uint32_t l = 0; l < DINNO_MAX_PEERS; l++)
+        n->link[l] = (dinno_link_t){DINNO_NO_PEER, DINNO_NO_ROUND, DINNO_NO_ROUND, 0};
+    n->pub_own_round = DINNO_NO_ROUND;
+    memset(n->pub_own, 0, P * sizeof(float));
     return 0;
 }
 
@@ -112,19 +121,216 @@ int dinno_node_set_nbrs(dinno_node_t *n, const dinno_nbrs_t *nb)
     if (!n || (nb && nb->count > DINNO_MAX_PEERS))
         return -EINVAL;
     const uint32_t m = nb ? nb->count : 0u;
-    for (uint32_t s = 0; s < m; s++)
-        if (!nb->theta[s])
+    for (uint32_t s = 0; s < m; s++) {
+        if (!nb->theta[s] || nb->id[s] == DINNO_NO_PEER)
             return -EINVAL;
+        for (uint32_t t = 0; t < s; t++)
+            if (nb->id[t] == nb->id[s])
+                return -EINVAL; /* the links are keyed by the ids */
+    }
     n->nb = m > 0 ? nb : NULL;
     memset(n->use, 0, sizeof n->use);
     memset(n->use, 1, m);
+    for (uint32_t s = 0; s < m; s++) {
+        n->src[s] = nb->theta[s];
+        n->slot_link[s] = DINNO_MAX_PEERS;
+    }
     return 0;
 }
 
 /* Neighbour s's state when it takes part in the round, else NULL. */
 static const float *nb_in_use(const dinno_node_t *n, uint32_t s)
 {
-    return n->nb != NULL && s < n->nb->count && n->use[s] ? n->nb->theta[s] : NULL;
+    return n->nb != NULL && s < n->nb->count && n->use[s] ? n->src[s] : NULL;
+}
+
+static int is_key_round(const dinno_cfg_t *c, uint32_t k)
+{
+    return k % c->key_every == 0;
+}
+
+int dinno_node_outgoing(dinno_node_t *n, float *out)
+{
+    if (n == NULL || out == NULL)
+        return -EINVAL;
+    const size_t P = bnn_n_params(&n->model);
+    const float *th = bnn_params_const(&n->model);
+    const uint32_t k = n->round;
+    if (!dinno_codec_is_ef(n->cfg.codec)) {
+        memcpy(out, th, P * sizeof(float));
+        return 0;
+    }
+    if (n->pub_own_round == k)
+        return -EALREADY; /* the copy moved on already: a second difference would not match it */
+    const bnn_config_t *bc = &n->model.cfg;
+    if (is_key_round(&n->cfg, k)) {
+        memcpy(out, th, P * sizeof(float));
+        int r = dinno_codec_channel(bc, n->cfg.codec, out, n->pub_own);
+        if (r != 0)
+            return r;
+    } else {
+        for (size_t i = 0; i < P; i++)
+            out[i] = th[i] - n->pub_own[i];
+        /* aux1 is scratch between rounds (dinno_prepare fills it afresh) */
+        int r = dinno_codec_channel(bc, n->cfg.codec, out, n->aux1);
+        if (r != 0)
+            return r;
+        for (size_t i = 0; i < P; i++)
+            n->pub_own[i] += n->aux1[i];
+    }
+    n->pub_own_round = k;
+    return 0;
+}
+
+/* The link of peer `id`, or DINNO_MAX_PEERS. */
+static uint32_t find_link(const dinno_node_t *n, uint32_t id)
+{
+    for (uint32_t l = 0; l < DINNO_MAX_PEERS; l++)
+        if (n->link[l].peer == id)
+            return l;
+    return DINNO_MAX_PEERS;
+}
+
+/* A slot for a new peer: a free one, else the one seen longest ago (never seen first) among those
+   not mapped this round; there always is one, a round has at most DINNO_MAX_PEERS states. An
+   evicted link still in the dual (LINK rule) is taken out of it first. */
+static uint32_t new_link(dinno_node_t *n, const uint8_t *mapped, uint32_t id)
+{
+    uint32_t best = DINNO_MAX_PEERS;
+    int64_t best_key = INT64_MAX;
+    for (uint32_t l = 0; l < DINNO_MAX_PEERS; l++) {
+        if (mapped[l])
+            continue;
+        const dinno_link_t *lk = &n->link[l];
+        const int64_t key = lk->peer == DINNO_NO_PEER ? -2 : lk->seen == DINNO_NO_ROUND ? -1 : (int64_t)lk->seen;
+        if (key < best_key) {
+            best_key = key;
+            best = l;
+        }
+    }
+    if (best < DINNO_MAX_PEERS) {
+        if (n->link[best].active) {
+            const size_t P = bnn_n_params(&n->model);
+            for (size_t i = 0; i < P; i++)
+                n->dual[i] -= n->lambda[best][i];
+        }
+        n->link[best] = (dinno_link_t){id, DINNO_NO_ROUND, DINNO_NO_ROUND, 0};
+    }
+    return best;
+}
+
+/* Maps the view's slots to links (new peers get a slot) and, with an EF codec, turns each
+   arrived difference into the peer's public copy; a difference without the copy it refines is
+   left out (stale). Sets src[] and clears use[] of the stale. Returns how many were stale. */
+static uint32_t receive_links(dinno_node_t *n, uint32_t k)
+{
+    uint8_t mapped[DINNO_MAX_PEERS] = {0};
+    const uint32_t m = n->nb != NULL ? n->nb->count : 0u;
+    for (uint32_t s = 0; s < m; s++) {
+        const uint32_t l = find_link(n, n->nb->id[s]);
+        n->slot_link[s] = (uint8_t)l;
+        if (l < DINNO_MAX_PEERS)
+            mapped[l] = 1;
+    }
+    for (uint32_t s = 0; s < m; s++)
+        if (n->slot_link[s] >= DINNO_MAX_PEERS) {
+            const uint32_t l = new_link(n, mapped, n->nb->id[s]);
+            n->slot_link[s] = (uint8_t)l;
+            mapped[l] = 1;
+        }
+    const size_t P = bnn_n_params(&n->model);
+    const int ef = dinno_codec_is_ef(n->cfg.codec);
+    uint32_t stale = 0;
+    for (uint32_t s = 0; s < m; s++) {
+        const uint32_t l = n->slot_link[s];
+        dinno_link_t *lk = &n->link[l];
+        const float *in = n->nb->theta[s];
+        n->src[s] = in;
+        if (!ef)
+            continue;
+        float *pub = n->pub[l];
+        if (is_key_round(&n->cfg, k)) {
+            memcpy(pub, in, P * sizeof(float));
+            lk->pub_round = k;
+        } else if (lk->pub_round != DINNO_NO_ROUND && lk->pub_round + 1u == k) {
+            for (size_t i = 0; i < P; i++)
+                pub[i] += in[i];
+            lk->pub_round = k;
+        } else {
+            n->use[s] = 0;
+            stale++;
+        }
+        n->src[s] = pub;
+    }
+    return stale;
+}
+
+/* Before the dual update of round k: the links of the round in use take part, the others not.
+   LINK rule: a link absent now has its lambda taken out of the dual; a link back after a short
+   absence has it put back, after a long one (or new) starts at zero. Returns how many links
+   came back after >= rejoin_gap missed rounds. */
+static uint32_t update_links(dinno_node_t *n, uint32_t k)
+{
+    const size_t P = bnn_n_params(&n->model);
+    const int link_rule = n->cfg.dual_rule == DINNO_DUAL_LINK;
+    uint8_t now[DINNO_MAX_PEERS] = {0};
+    const uint32_t m = n->nb != NULL ? n->nb->count : 0u;
+    for (uint32_t s = 0; s < m; s++)
+        if (n->use[s])
+            now[n->slot_link[s]] = 1;
+    for (uint32_t l = 0; l < DINNO_MAX_PEERS; l++)
+        if (link_rule && n->link[l].active && !now[l]) {
+            for (size_t i = 0; i < P; i++)
+                n->dual[i] -= n->lambda[l][i];
+            n->link[l].active = 0;
+        }
+    uint32_t rejoined = 0;
+    for (uint32_t l = 0; l < DINNO_MAX_PEERS; l++) {
+        if (!now[l])
+            continue;
+        dinno_link_t *lk = &n->link[l];
+        const int known = lk->seen != DINNO_NO_ROUND && lk->seen < k;
+        const uint32_t missed = known ? k - lk->seen - 1u : 0u;
+        const int long_gone = known && n->cfg.rejoin_gap > 0 && missed >= n->cfg.rejoin_gap;
+        rejoined += (uint32_t)long_gone;
+        if (link_rule && !lk->active) {
+            if (!known || long_gone)
+                memset(n->lambda[l], 0, P * sizeof(float));
+            else
+                for (size_t i = 0; i < P; i++)
+                    n->dual[i] += n->lambda[l][i];
+            lk->active = 1;
+        }
+        lk->seen = k;
+    }
+    return rejoined;
+}
+
+/* Rejoin: theta and theta0 become the mean of the own round-start state and the states in use,
+   summed in ascending robot id with the own at its place. */
+static void step_to_mean(dinno_node_t *n, uint32_t m)
+{
+    const size_t P = bnn_n_params(&n->model);
+    float *th = bnn_params(&n->model);
+    const float inv = 1.0f / (float)(m + 1u);
+    for (size_t i = 0; i < P; i++) {
+        float sum = 0.0f;
+        int own_done = 0;
+        for (uint32_t s = 0; s < DINNO_MAX_PEERS; s++) {
+            const float *tj = nb_in_use(n, s);
+            if (!tj)
+                continue;
+            if (!own_done && n->nb->id[s] > n->id) {
+                sum += n->theta0[i];
+                own_done = 1;
+            }
+            sum += tj[i];
+        }
+        if (!own_done)
+            sum += n->theta0[i];
+        th[i] = sum * inv;
+    }
+    memcpy(n->theta0, th, P * sizeof(float));
 }
 
 float dinno_rho_at(const dinno_cfg_t *cfg, uint32_t k)
@@ -146,6 +352,13 @@ uint32_t dinno_dual_update(dinno_node_t *n, float rho_k)
     const size_t P = bnn_n_params(&n->model);
     float *th = bnn_params(&n->model);
     memcpy(n->theta0, th, P * sizeof(float));
+    /* Our state as the neighbours hold it: both ends of a link then add opposite terms. */
+    const float *me = n->theta0;
+    if (n->cfg.codec == DINNO_CODEC_INT8 && dinno_codec_channel(&n->model.cfg, n->cfg.codec, th, n->mine) == 0)
+        me = n->mine;
+    else if (dinno_codec_is_ef(n->cfg.codec) && n->pub_own_round == n->round)
+        me = n->pub_own;
+    const int link_rule = n->cfg.dual_rule == DINNO_DUAL_LINK;
     uint32_t m = 0;
     for (uint32_t s = 0; s < DINNO_MAX_PEERS; s++) {
         const float *tj = nb_in_use(n, s);
@@ -153,7 +366,12 @@ uint32_t dinno_dual_update(dinno_node_t *n, float rho_k)
             continue;
         m++;
         for (size_t i = 0; i < P; i++)
-            n->dual[i] += rho_k * (n->theta0[i] - tj[i]);
+            n->dual[i] += rho_k * (me[i] - tj[i]);
+        if (link_rule) {
+            float *lam = n->lambda[n->slot_link[s]];
+            for (size_t i = 0; i < P; i++)
+                lam[i] += rho_k * (me[i] - tj[i]);
+        }
     }
     n->n_nb = m;
     return m;
@@ -383,8 +601,12 @@ int dinno_node_round(dinno_node_t *n, const ai_sample_t *data, size_t n_data, di
     const dinno_cfg_t *c = &n->cfg;
     const float rho_k = dinno_rho_at(c, k), lr = dinno_lr_at(c, k);
     float dist_max = 0.0f;
+    const uint32_t stale = receive_links(n, k);
     const uint32_t excluded = dinno_screen_slots(n, &dist_max);
+    const uint32_t rejoined = update_links(n, k);
     const uint32_t m = dinno_dual_update(n, rho_k);
+    if (m > 0 && rejoined > 0)
+        step_to_mean(n, m);
     if (m > 0)
         dinno_prepare(n);
     if (!c->persistent_adam) {
@@ -442,6 +664,8 @@ int dinno_node_round(dinno_node_t *n, const ai_sample_t *data, size_t n_data, di
         stats->dual_dot = (float)(acc[5] / B);
         stats->excluded = excluded;
         stats->nb_dist_max = dist_max;
+        stats->rejoined = rejoined;
+        stats->stale = stale;
     }
     return 0;
 }
@@ -450,6 +674,7 @@ int dinno_node_round(dinno_node_t *n, const ai_sample_t *data, size_t n_data, di
 static const char *const strategy_names[] = {"uniform", "separate", "kl"};
 static const char *const kl_form_names[] = {"own", "reverse", "full"};
 static const char *const kl_reduce_names[] = {"sum", "mean"};
+static const char *const dual_rule_names[] = {"node", "link"};
 #define N_OF(a) (sizeof(a) / sizeof((a)[0]))
 
 static const char *name_of(const char *const *names, size_t n, int v)
@@ -505,5 +730,19 @@ int dinno_kl_reduce_parse(const char *name, dinno_kl_reduce_t *out)
     if (i < 0 || !out)
         return -EINVAL;
     *out = (dinno_kl_reduce_t)i;
+    return 0;
+}
+
+const char *dinno_dual_rule_name(dinno_dual_rule_t r)
+{
+    return name_of(dual_rule_names, N_OF(dual_rule_names), (int)r);
+}
+
+int dinno_dual_rule_parse(const char *name, dinno_dual_rule_t *out)
+{
+    const int i = index_of(dual_rule_names, N_OF(dual_rule_names), name);
+    if (i < 0 || !out)
+        return -EINVAL;
+    *out = (dinno_dual_rule_t)i;
     return 0;
 }

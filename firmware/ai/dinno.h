@@ -61,6 +61,41 @@
  * how far one round can drag a node, not whether it is dragged. When it never triggers, the
  * round is bit-identical to one without it.
  *
+ * Links that come and go (docs/faults.md, "Bad and cheap links"). A neighbour whose state does
+ * not arrive in a round (lost, out of reach, cut off, screened out) is absent from that round.
+ *   DINNO_DUAL_NODE (the original rule): p_i collects every term it ever received and keeps it.
+ *     When a link delivers one way only, or a group is cut off for many rounds, the fleet's duals
+ *     no longer sum to zero and a healed node carries hundreds of rounds of one-sided terms.
+ *   DINNO_DUAL_LINK (default; UDON, arXiv 2509.12702): each link j keeps its own dual
+ *     lambda_ij += rho_k (theta_i - theta_j), and p_i = sum of lambda_ij over the links that take
+ *     part in the round: a link absent this round has its lambda taken out of p_i (kept, frozen),
+ *     put back when it returns after fewer than rejoin_gap missed rounds, and restarted at zero
+ *     after more (a dual of models that trained apart for long is out of date). Links are
+ *     symmetric in a round (both states cross or neither, the protocol's resends see to it), so
+ *     lambda_ij = -lambda_ji and the fleet's duals keep summing to zero whatever the links do.
+ *     p_i itself is updated exactly as the NODE rule does while the links stay (the same
+ *     increments, in the same order), so a run in which every link always delivers is
+ *     bit-identical under both rules.
+ *   Rejoin: when a link comes back after missing >= rejoin_gap rounds (a healed partition, a
+ *     robot back from away), the node first steps to the mean of its own round-start state and
+ *     the round's neighbour states (summed in ascending robot id, its own at its place, so every
+ *     node of a full graph steps to the same bits), after the dual update and before the primal
+ *     steps: models that trained apart for long meet at once instead of being pulled together
+ *     at the optimiser's pace (the learning rate bounds every Adam step).
+ *   The dual step uses our state as the neighbours hold it (`mine`: theta0 for FP32, what the
+ *   codec delivers otherwise), so both ends of a link add opposite terms even when the states
+ *   travel quantised.
+ *
+ * Compressed exchange (codec, dinno_codec.h). INT8 sends Q(theta) each round: its error is
+ * nearly the same every round and accumulates in the duals (the fleet diverged after ~300
+ * rounds). The EF codecs (CHOCO-SGD's error feedback, Koloskova et al. 2019) keep a public copy
+ * of every state, the same bits at the sender (pub_own) and at every receiver (pub[link]): each
+ * round the sender sends d = Q(theta - pub_own) and both sides add d to the copy, so the copy's
+ * error is the quantisation error of a DIFFERENCE that shrinks as the models settle. Key
+ * rounds (k % key_every == 0) send Q(theta) whole, so a receiver that missed a round (its copy
+ * is not of round k - 1: `stale`) leaves that peer out until the next key round and then
+ * continues. Neighbours' states are their public copies; the wire format is the same.
+ *
  * Neighbour states are read IN PLACE, never copied: the caller hands the node a view
  * (dinno_nbrs_t: count pointers to n_params floats, the robots' ids in ascending order, the
  * round) with dinno_node_set_nbrs() before dinno_node_round(). The view and the states it
@@ -75,8 +110,9 @@
  * data when it has at most `batch` samples. BNN noise keys are derived from (seed, k, b) too,
  * so a node's trajectory is a pure function of (seed, data, neighbour states).
  *
- * Memory: a dinno_node_t holds everything inline (the bnn_model_t, duals, the round-start
- * snapshot, auxiliary vectors, the view of the neighbours, a batch buffer): DINNO_NODE_BYTES,
+ * Memory: a dinno_node_t holds everything inline (the bnn_model_t, duals, one dual and one
+ * public copy per link slot, the round-start snapshot, auxiliary vectors, the view of the
+ * neighbours, a batch buffer): DINNO_NODE_BYTES,
  * checked against the board's AI RAM. Declare it static. No function allocates.
  * Thread-safety: one thread per node at a time; nodes are independent. */
 #ifndef AI_DINNO_H
@@ -87,6 +123,7 @@
 
 #include "ai/ai_sample.h"
 #include "ai/bnn.h"
+#include "ai/dinno_codec.h"
 
 
 #define DINNO_MAX_PEERS BOARD_MAX_PEERS
@@ -109,6 +146,17 @@ typedef enum dinno_kl_reduce {
     DINNO_REDUCE_MEAN = 1,
 } dinno_kl_reduce_t;
 
+/* Which duals the node keeps (see "Links that come and go" above). */
+typedef enum dinno_dual_rule {
+    DINNO_DUAL_NODE = 0, /* one dual per node, every delivered neighbour's term added for good */
+    DINNO_DUAL_LINK = 1, /* one dual per link; the node's dual is the sum over the links of the round */
+} dinno_dual_rule_t;
+
+#define DINNO_REJOIN_GAP_DEFAULT 10u
+#define DINNO_KEY_EVERY_DEFAULT 25u
+#define DINNO_NO_ROUND UINT32_MAX
+#define DINNO_NO_PEER UINT32_MAX
+
 typedef struct dinno_cfg {
     dinno_strategy_t strategy;
     float rho0;            /* > 0, default 0.3 */
@@ -126,6 +174,12 @@ typedef struct dinno_cfg {
     dinno_kl_reduce_t kl_reduce; /* KL strategy: SUM (default) or MEAN over the rho elements */
     int rho_pred_grad;     /* 1 (default) or 0: prediction-loss gradient on the rho group */
     float screen_radius;   /* >= 0, default DINNO_SCREEN_RADIUS_DEFAULT; 0: no distance screen */
+    dinno_dual_rule_t dual_rule; /* default DINNO_DUAL_LINK */
+    uint32_t rejoin_gap;   /* a link back after missing >= this many rounds restarts fresh and the
+                              node steps to the mean first; 0: never (default DINNO_REJOIN_GAP_DEFAULT) */
+    dinno_codec_t codec;   /* how states travel (default FP32); the EF codecs keep public copies */
+    uint32_t key_every;    /* EF codecs: rounds k with k % key_every == 0 send the whole state (>= 1,
+                              default DINNO_KEY_EVERY_DEFAULT) */
 } dinno_cfg_t;
 
 /* The neighbour states of one round, read in place: entries 0 .. count-1, in ascending robot
@@ -152,7 +206,19 @@ typedef struct dinno_round_stats {
     uint32_t excluded;     /* neighbour states the screen left out (not finite, too far) */
     float nb_dist_max;     /* largest ||theta_j - theta_i|| / max(||theta_i||, 1) seen this round
                               (screened or not; 0 without neighbours; +inf for a non-finite one) */
+    uint32_t rejoined;     /* links back after >= rejoin_gap missed rounds (> 0: the node stepped to
+                              the mean of its own and the round's states first) */
+    uint32_t stale;        /* EF codecs: differences that arrived without the public copy they
+                              refine (a round of that peer was missed): left out until a key round */
 } dinno_round_stats_t;
+
+/* One link of the node: a peer whose state it has used, its dual and its public copy. */
+typedef struct dinno_link {
+    uint32_t peer;         /* robot id, DINNO_NO_PEER: free */
+    uint32_t seen;         /* last round its state took part (DINNO_NO_ROUND: never) */
+    uint32_t pub_round;    /* EF: pub[] is the peer's public copy of this round (or DINNO_NO_ROUND) */
+    uint32_t active;       /* DINNO_DUAL_LINK: its lambda is part of dual (it took part last round) */
+} dinno_link_t;
 
 typedef struct dinno_node {
     dinno_cfg_t cfg;
@@ -163,8 +229,16 @@ typedef struct dinno_node {
     double mid_sq[2];      /* sum_j ||mid_j||^2 of the mu and the rho group (L2 values) */
     bnn_model_t model;
     const dinno_nbrs_t *nb;              /* the view of the round (dinno_node_set_nbrs), or NULL */
-    uint8_t use[DINNO_MAX_PEERS];        /* 1: nb->theta[s] takes part in this round (screen) */
+    uint8_t use[DINNO_MAX_PEERS];        /* 1: view slot s takes part in this round (screen, EF) */
+    uint8_t slot_link[DINNO_MAX_PEERS];  /* view slot s -> its link, this round */
+    const float *src[DINNO_MAX_PEERS];   /* view slot s -> the state used (the view's, or the public copy) */
+    dinno_link_t link[DINNO_MAX_PEERS];
+    uint32_t pub_own_round;              /* EF: pub_own is ours as of this round (DINNO_NO_ROUND: none) */
     _Alignas(64) float dual[BNN_N_PARAMS];  /* p_i: [mu-group duals | rho-group duals] */
+    _Alignas(64) float lambda[DINNO_MAX_PEERS][BNN_N_PARAMS]; /* DINNO_DUAL_LINK: each link's dual */
+    _Alignas(64) float pub[DINNO_MAX_PEERS][BNN_N_PARAMS];    /* EF: the peers' public copies */
+    _Alignas(64) float pub_own[BNN_N_PARAMS];  /* EF: ours, as every receiver holds it */
+    _Alignas(64) float mine[BNN_N_PARAMS];     /* our round-start state as the neighbours hold it */
     _Alignas(64) float theta0[BNN_N_PARAMS]; /* theta_i at the start of the round */
     _Alignas(64) float aux1[BNN_N_PARAMS];   /* L2: sum_j mid_j; KL rho part: sum_j 1/r_j^2 */
     _Alignas(64) float aux2[BNN_N_RHO];      /* KL: sum_j log r_j */
@@ -178,6 +252,13 @@ _Static_assert(sizeof(dinno_node_t) <= BOARD_RAM_AI_BYTES, "DiNNO node exceeds t
 
 /* Defaults above; total_rounds = 1000. */
 dinno_cfg_t dinno_default_cfg(void);
+
+/* The vector to hand to the exchange for the node's next round (k = n->round), n_params floats:
+ * theta for FP32 and INT8; for the EF codecs theta on a key round, else theta minus our public
+ * copy, which is then advanced by what the receivers will hold (dinno_codec_channel), so call it
+ * exactly once per round, before dinno_node_round of that round. 0, -EINVAL, or -EALREADY when
+ * called twice for one round with an EF codec. */
+FS_MUST_CHECK int dinno_node_outgoing(dinno_node_t *n, float *out);
 
 /* Bytes of storage a node holds (the module's buffer size). */
 size_t dinno_get_buffer_size(void);
@@ -223,6 +304,10 @@ void dinno_add_reg_grad(dinno_node_t *n, float rho_k, float *reg_mu, float *reg_
 
 /* The value of <theta, p> + REG(theta) at the current theta (double, for finite differences). */
 double dinno_reg_value(const dinno_node_t *n, float rho_k);
+
+/* "node" | "link" <-> dual rule. */
+const char *dinno_dual_rule_name(dinno_dual_rule_t r);
+FS_MUST_CHECK int dinno_dual_rule_parse(const char *name, dinno_dual_rule_t *out);
 
 const char *dinno_strategy_name(dinno_strategy_t s);
 /* "uniform" | "separate" | "kl" -> strategy; returns 0 or -EINVAL. */

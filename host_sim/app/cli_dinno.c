@@ -32,5 +32,15 @@ const cli_opt_t cmd_dinno_opts[] = {
     {.names = "--screen-radius", .meta = "R", CLI_DOUBLE(dinno_cfg_t, screen_radius, 0.0, 1e6),
      .help = "fleet: leave out a neighbour state further than R x ||own state|| (and any non-finite one) "
              "before the node update, counted and logged (0: no distance screen)"},
+    {.names = "--dual-rule", CLI_CHOICE(dinno_cfg_t, dual_rule, "link|node"),
+     .values = (const int[]){DINNO_DUAL_LINK, DINNO_DUAL_NODE},
+     .help = "link: one dual per neighbour link, only the links of the round count (a link back after a long "
+             "absence starts afresh); node: one dual per robot that keeps every term (the original DiNNO)"},
+    {.names = "--rejoin-gap", .meta = "R", CLI_INT(dinno_cfg_t, rejoin_gap, 0, 1000000),
+     .help = "a neighbour back after missing R or more rounds makes the robot step to the mean of its own and "
+             "the round's states first (0: never)"},
+    {.names = "--key-every", .meta = "K", CLI_INT(dinno_cfg_t, key_every, 1, 1000000),
+     .help = "int8-ef, int4-ef: every K-th round sends the whole state, the others the difference against "
+             "the public copy"},
     CLI_OPT_END,
 };

@@ -23,7 +23,7 @@ static const char *const val_mode_names[3] = {"mean", "sample", "mc"}; /* --val-
 
 typedef struct opts {
     const char *plan, *paths, *out, *samples, *valset;
-    long long robots, rounds, seed, metrics_every, val_poses, mc, threads, val_mc;
+    long long robots, rounds, seed, metrics_every, val_poses, mc, threads, val_mc, val_stride;
     int val_mode; /* 0 mean, 1 sample, 2 mc */
     double radius, occ_res, map_res, scale;
     int inproc;
@@ -48,6 +48,7 @@ static void defaults(opts_t *o)
     o->val_poses = SIM_DEF_VAL_POSES;
     o->mc = SIM_DEF_MC;
     o->val_mc = SIM_DEF_MC;
+    o->val_stride = 1;
     o->threads = 1;
     o->radius = SIM_DEF_RADIUS_M;
     o->occ_res = SIM_DEF_OCC_RES_M;
@@ -115,6 +116,13 @@ static const cli_opt_t fleet_opts[] = {
     {.names = "--val-mc", .meta = "K", CLI_INT(opts_t, val_mc, 1, 1000), .help = "passes of the predictive mean"},
     {.names = "--metrics-every", .meta = "M", CLI_INT(opts_t, metrics_every, 1, 10000000), .def = "R/" SIM_DEF_STR(SIM_DEF_METRICS_ROWS),
      .help = "metrics and a progress line every M rounds"},
+    {.names = "--val-stride", .meta = "V", CLI_INT(opts_t, val_stride, 1, 10000000),
+     .help = "the validation and occupancy columns on every V-th metrics row only (and the last; NaN on the "
+             "others): consensus error and losses per round at a fraction of the cost"},
+    {.names = "--encoding", CLI_CHOICE(opts_t, d.codec, "fp32|int8|int8-ef|int4-ef"),
+     .values = (const int[]){DINNO_CODEC_FP32, DINNO_CODEC_INT8, DINNO_CODEC_INT8_EF, DINNO_CODEC_INT4_EF},
+     .help = "how the states travel, as host_sim run's: each node's neighbours hold what the codec delivers "
+             "(int8-ef, int4-ef: differences against public copies, dinno.h)"},
     {.names = "--samples", .meta = "DIR", CLI_STRING(opts_t, samples),
      .help = "train on DIR/robot_<i>.samples (host_sim sample files) instead of scanning the paths"},
     {.names = "--valset", .meta = "FILE", CLI_STRING(opts_t, valset), .def = "generate --val-poses poses",
@@ -267,6 +275,7 @@ typedef struct job {
     sim_fleet_t *fleet;
     sim_fleet_metrics_t last[SIM_FLEET_MAX_AGENTS]; /* metrics of the final round */
     uint64_t isolated_rounds, split_rounds;
+    uint64_t rejoined, stale; /* dinno_round_stats_t, summed over the rounds and models */
     char err[8192];
 } job_t;
 
@@ -395,14 +404,20 @@ static int train(job_t *j)
             if (o->mode == SIM_FLEET_DINNO) {
                 j->isolated_rounds += rep.isolated > 0;
                 j->split_rounds += rep.components > 1;
+                for (int i = 0; i < M; i++) {
+                    j->rejoined += sim_fleet_last_stats(j->fleet, i)->rejoined;
+                    j->stale += sim_fleet_last_stats(j->fleet, i)->stale;
+                }
             }
         }
         if (k % (uint32_t)o->metrics_every != 0 && k != (uint32_t)o->rounds)
             continue;
         double vmean = 0, cmax = 0, iou = 0;
         const uint32_t mc_k = o->val_mode == 2 || k == (uint32_t)o->rounds ? (uint32_t)o->val_mc : 0;
+        const int val_row = (k / (uint32_t)o->metrics_every) % (uint32_t)o->val_stride == 0 || k == (uint32_t)o->rounds;
         for (int i = 0; i < M && rc == 0; i++) {
-            if ((rc = sim_fleet_metrics(j->fleet, i, j->val, j->n_val, &j->ev, mc_k, &j->last[i])) != 0) {
+            if ((rc = sim_fleet_metrics(j->fleet, i, val_row ? j->val : NULL, val_row ? j->n_val : 0,
+                                        val_row ? &j->ev : NULL, val_row ? mc_k : 0, &j->last[i])) != 0) {
                 fprintf(stderr, "host_sim fleet: metrics failed (%d)\n", rc);
                 break;
             }
@@ -418,6 +433,8 @@ static int train(job_t *j)
         if (rc != 0)
             break;
         fflush(csv);
+        if (!val_row)
+            continue;
         printf("round %6u/%lld  val_loss %.4f  occ_iou %.3f  consensus_err(max) %.4f", k, o->rounds, vmean, iou, cmax);
         if (o->mode == SIM_FLEET_DINNO && k > 0)
             printf("  graph: %u edges, %u components, %u isolated", rep.edges, rep.components, rep.isolated);
@@ -554,6 +571,15 @@ static int report(job_t *j)
                     (unsigned long long)offered);
             fprintf(f, "rounds with an isolated agent: %llu; with a split graph: %llu\n",
                     (unsigned long long)j->isolated_rounds, (unsigned long long)j->split_rounds);
+            fprintf(f, "duals: %s rule, rejoin after %u missed rounds%s; links rejoined: %llu\n",
+                    dinno_dual_rule_name(o->d.dual_rule), o->d.rejoin_gap, o->d.rejoin_gap ? "" : " (never)",
+                    (unsigned long long)j->rejoined);
+            const bnn_config_t bc = bnn_default_config();
+            fprintf(f, "encoding: %s", dinno_codec_name(o->d.codec));
+            if (dinno_codec_is_ef(o->d.codec))
+                fprintf(f, " (key round every %u; %llu differences without their public copy left out)", o->d.key_every,
+                        (unsigned long long)j->stale);
+            fprintf(f, "\nstate bytes per round and robot: %zu\n", dinno_codec_bytes(&bc, o->d.codec));
         }
         fprintf(f, "validation points: %zu\n", j->n_val);
         fprintf(f, "final val_loss (mean over models): %.5f (min %.5f, max %.5f)\n", v, vmin, vmax);

@@ -465,6 +465,7 @@ static int run_image(job_t *j)
     ic.offline = o->offline;
     ic.policy = o->pool;
     ic.dinno = o->d;
+    ic.dinno.codec = (dinno_codec_t)o->encoding; /* the AI core sends what the GP core packs */
     ic.steps_per_round = o->d.primal_steps;
     ic.kl_weight = o->d.kl_weight;
     ic.train_between = o->train_between;

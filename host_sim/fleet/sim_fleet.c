@@ -322,8 +322,15 @@ int sim_fleet_round(sim_fleet_t *f, dinno_graph_report_t *rep)
             make_bad_state(f, k, bnn_params_const(&f->nodes[f->cfg.bad_agent]->model), P);
         /* One round-start snapshot per node (the nodes' models change while their neighbours
            still read them); the views point into it, as the GP core's point into its buffers. */
-        for (int j = 0; j < f->n_models; j++)
-            memcpy(f->snap + (size_t)j * P, bnn_params_const(&f->nodes[j]->model), P * sizeof(float));
+        for (int j = 0; j < f->n_models; j++) {
+            /* what node j hands the exchange, as its neighbours will hold it (dinno_codec.h) */
+            float *sj = f->snap + (size_t)j * P;
+            rc = dinno_node_outgoing(f->nodes[j], sj);
+            if (rc == 0)
+                rc = dinno_codec_channel(&f->nodes[j]->model.cfg, f->cfg.dinno.codec, sj, sj);
+            if (rc)
+                return rc;
+        }
         /* The links of the round first (the graph's pairs that deliver, both ways or neither:
            sim_links.h), then each view from them. */
         f->live.n = f->graph.n;

@@ -89,11 +89,13 @@ static void test_sizes_and_layout(void **st)
     assert_int_equal(bnn_n_params(&node.model), 28);
     assert_int_equal(node.model.n_mu, 20);
     assert_int_equal(node.model.n_rho, 8);
-    /* The model and its four per-parameter vectors (duals, theta0, aux1 and the KL sums), but no
-       copy of any neighbour's state: the node reads those in place. */
-    assert_true(dinno_get_buffer_size() >= sizeof(bnn_model_t) + 3u * BNN_N_PARAMS * sizeof(float));
-    assert_true(dinno_get_buffer_size() < sizeof(bnn_model_t) + 4u * BNN_N_PARAMS * sizeof(float) +
-                                              sizeof(ai_sample_t) * BNN_MAX_BATCH + 4u * BNN_MAX_BATCH + 4096u);
+    /* The model and its per-parameter vectors (duals, theta0, aux1, the KL sums, the public copy
+       and our state as sent), one dual and one public copy per link slot, but no copy of any
+       neighbour's state of the round: the node reads those in place. */
+    const size_t vec = BNN_N_PARAMS * sizeof(float);
+    assert_true(dinno_get_buffer_size() >= sizeof(bnn_model_t) + (5u + 2u * DINNO_MAX_PEERS) * vec);
+    assert_true(dinno_get_buffer_size() < sizeof(bnn_model_t) + (6u + 2u * DINNO_MAX_PEERS) * vec +
+                                              sizeof(ai_sample_t) * BNN_MAX_BATCH + 4u * BNN_MAX_BATCH + 8192u);
     /* bad configs */
     c.batch = 17;
     assert_int_equal(dinno_node_init(&node, &c, &b, 1, 2, 0), -EINVAL);
