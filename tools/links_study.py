@@ -3,7 +3,7 @@
 deliver a state with probability p, and the compressed exchanges; the original rule (one dual
 per robot, no rejoin) against the new one (one dual per link, rejoin), same seeds.
 
-usage: tools/links_study.py [--robots 16] [--rounds 600] [--cut-from 150] [--cut-rounds 200]
+usage: tools/links_study.py [--robots 16] [--rounds 400] [--cut-from 100] [--cut-rounds 200]
                             [--codec-robots 4] [--codec-rounds 1500] [--out results/links]
                             [--docs docs/faults] [--only NAME ...] [--plots-only] [--bin HOST_SIM]
 
@@ -60,6 +60,9 @@ def scenarios(a):
     for codec in ("fp32", "int8", "int8-ef", "int4-ef"):
         out.append((f"codec-{codec}", a.codec_robots, a.codec_rounds, ["--encoding", codec]))
     out.append(("codec-int8-old", a.codec_robots, a.codec_rounds, ["--encoding", "int8"] + OLD))
+    # No fault at all, robots moving in and out of reach (the disk graph of tools/fleet): what the
+    # new rule changes for a lossless run whose neighbours come and go.
+    out += [(f"disk-{rule}", a.robots, a.rounds, ["--graph", "disk"] + opts) for rule, opts in (("old", OLD), ("new", NEW))]
     return out
 
 
@@ -84,7 +87,7 @@ def fleet(a, hs, name, robots, rounds, extra):
         return out
     d = make_data(a, hs, robots)
     run([hs, "fleet", "--inproc", "--plan", PLAN, "--paths", f"{d}/paths", "--robots", str(robots),
-         "--rounds", str(rounds), "--graph", "full", "--seed", str(a.seed), "--threads", "2",
+         "--rounds", str(rounds), *([] if "--graph" in extra else ["--graph", "full"]), "--seed", str(a.seed), "--threads", "2",
          "--samples", f"{d}/samples", "--valset", f"{d}/valset.samples", "--metrics-every", "1",
          "--val-stride", str(a.val_stride), "--mc", "2", "--val-mc", "2", "--out", out, *extra],
         log=out + ".log")
@@ -229,8 +232,8 @@ def plots(a, runs):
 def main():
     p = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     p.add_argument("--robots", type=int, default=16)
-    p.add_argument("--rounds", type=int, default=600)
-    p.add_argument("--cut-from", type=int, default=150)
+    p.add_argument("--rounds", type=int, default=400)
+    p.add_argument("--cut-from", type=int, default=100)
     p.add_argument("--cut-rounds", type=int, default=200)
     p.add_argument("--codec-robots", type=int, default=4)
     p.add_argument("--codec-rounds", type=int, default=1500)

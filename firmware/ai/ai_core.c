@@ -229,6 +229,14 @@ static int run_round(ai_core_t *ai, const gp_ready_t *ready)
             ai->status.states_excluded += st.excluded;
         }
         if (r == 0) {
+            if (st.rejoined > 0) /* a partition healed, a robot came back: say that the models met */
+                hal_log(HAL_LOG_INFO, "round %" PRIu32 ": %" PRIu32 " neighbour(s) back after %" PRIu32
+                        " or more missed rounds: stepped to the mean of the round's states",
+                        k, st.rejoined, ai->cfg.dinno.rejoin_gap);
+            ai->status.links_rejoined += st.rejoined;
+            ai->status.states_stale += st.stale;
+        }
+        if (r == 0) {
             p->excluded = st.excluded;
             p->neighbours = st.neighbours;
             p->steps = ai->cfg.dinno.primal_steps;

@@ -29,6 +29,8 @@ typedef struct ai_status {
     float loss_train;        /* prediction loss of the last round (NaN before the first) */
     uint32_t done;           /* 1 after the last round */
     uint64_t states_excluded; /* neighbour states the screen left out so far (dinno.h) */
+    uint64_t links_rejoined;  /* neighbours back after >= rejoin_gap missed rounds (dinno.h) */
+    uint64_t states_stale;    /* EF codecs: differences without their public copy, left out */
 } ai_status_t;
 
 #define AI_CKPT_FLAG_FINAL 1u

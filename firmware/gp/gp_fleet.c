@@ -344,7 +344,10 @@ static int fill_slots(gp_fleet_t *f, uint32_t round, const float *own_theta, din
     out->round = round;
     out->count = k;
     f->cur.neighbours = k;
-    f->cur.disagreement = round < f->cfg.rounds ? disagreement(own_theta, out) : NAN; /* posteriors: none */
+    /* posteriors have none; nor do the EF codecs, whose views hold differences (the AI core
+       turns them into the neighbours' public copies) */
+    f->cur.disagreement = round < f->cfg.rounds && !dinno_codec_is_ef(f->cfg.encoding) ? disagreement(own_theta, out)
+                                                                                        : NAN;
     f->view_filled = 1;
     return (int)k;
 }

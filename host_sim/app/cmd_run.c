@@ -686,6 +686,13 @@ static int report(job_t *j)
                     (unsigned long long)res->pse.send_failures);
             fprintf(f, "screen: %llu neighbour states left out (not finite, or beyond %g x ||own state||)\n",
                     (unsigned long long)res->ai_status.states_excluded, (double)o->d.screen_radius);
+            fprintf(f, "duals: %s rule; %llu neighbours back after %u or more missed rounds (rejoined)",
+                    dinno_dual_rule_name(o->d.dual_rule), (unsigned long long)res->ai_status.links_rejoined,
+                    o->d.rejoin_gap);
+            if (dinno_codec_is_ef((dinno_codec_t)o->encoding))
+                fprintf(f, "; %llu differences without their public copy left out (key round every %u)",
+                        (unsigned long long)res->ai_status.states_stale, o->d.key_every);
+            fputc('\n', f);
             if (o->key_file != NULL)
                 fprintf(f, "keyed fleet (run id %016llx): %llu datagrams without a valid tag dropped (forged or "
                            "not a member), %llu of another run dropped (replayed)\n",

@@ -13,10 +13,10 @@
  *     every robot exits 0; inside the window robot 0 trains with no neighbour while robots 1
  *     and 2 stay each other's (metrics.csv `neighbours`), outside it every robot has both; the
  *     side behind skipped ahead after the heal; in the last 10 % of the rounds every robot
- *     has both neighbours again and robot 0's consensus error (`disagreement`) has fallen
- *     below 0.6 of what it was right after the heal. It does not come back to the level of
- *     an unpartitioned run within a test's length: robot 0 alone runs hundreds of rounds
- *     ahead during the window and DiNNO pulls it back slowly (docs/faults.md, "A partition").
+ *     has both neighbours again and robot 0's consensus error (`disagreement`) is back at its
+ *     level before the cut within 10 rounds of the heal (every robot steps to the mean of the
+ *     round's states when a neighbour returns after a long absence, and the link duals of the
+ *     cut restart, dinno.h) and below it at the end (docs/faults.md, "Bad and cheap links").
  * Bounded: every wait has a deadline (a checkpoint awaited, a killed robot's end, each
  * fleet); when it passes every robot is killed and the test FAILS, naming the robot and what
  * it waited for. Every child is killed on every path (tests/support/fleet_procs.[ch]: the
@@ -325,6 +325,13 @@ static void test_partition_and_heal(void **st)
         before += m[0].dis[k];
     for (int k = last0 + 1; k < m[0].n && k <= last0 + 10; k++, nb_after++)
         after += m[0].dis[k];
+    /* Back within 10 rounds: the first round after the heal measures the states the neighbours
+       sent before they met (every robot rejoins in it, dinno.h), the next ten how far apart the
+       models are after they met. */
+    double back = 0;
+    int nb_back = 0;
+    for (int k = last0 + 2; k < m[0].n && k <= last0 + 11; k++, nb_back++)
+        back += m[0].dis[k];
     for (int i = 1; i < NPROC; i++)
         for (int k = 0; k < m[i].n; k++)
             if (m[i].nbrs[k] == 1 && isfinite(m[i].dis[k])) {
@@ -336,15 +343,23 @@ static void test_partition_and_heal(void **st)
     during /= nb_during > 0 ? nb_during : 1;
     after /= nb_after;
     tail /= nb_tail;
+    back /= nb_back > 0 ? nb_back : 1;
     printf("# partition %s, peer timeout %g s, %d rounds: robot 0 alone in rounds %.0f..%.0f (%d rounds), robots 1 "
            "and 2 together in %d and %d rounds; %.0f rounds skipped after the heal; robot 0's disagreement: %.2g "
-           "before, %.2g just after the heal, %.2g in the last 10 %% (robots 1 and 2 during: %.2g); every robot "
-           "exited 0 after %.1f s\n",
+           "before, %.2g in the first 10 rounds after the heal, %.2g in the 10 after its first, %.2g in the last "
+           "10 %% (robots 1 and 2 during: %.2g); every robot exited 0 after %.1f s\n",
            PART_SPEC, PART_TIMEOUT_S, PART_ROUNDS, m[0].round[first0], m[0].round[last0], alone, pair[1], pair[2],
-           skipped, before, after, tail, during, wall);
-    if (!(tail <= 0.6 * after))
-        fail_msg("robot 0's disagreement did not fall after the heal: %.3g in the last 10 %% of the rounds, %.3g in "
-                 "the 10 rounds after the heal", tail, after);
+           skipped, before, after, back, tail, during, wall);
+    /* The recovery (docs/faults.md, "Bad and cheap links"): back at the level before the cut
+       within 10 rounds, and below it at the end (the disagreement falls as the learning rate
+       decays). Before one dual per link and the rejoin it was 20x the level before the cut at
+       the end of this test. */
+    if (!(nb_back > 0 && back <= 2.0 * before))
+        fail_msg("robot 0's disagreement did not come back after the heal: %.3g in rounds 2-11 after it, %.3g "
+                 "before the partition", back, before);
+    if (!(tail <= before))
+        fail_msg("robot 0's disagreement stayed up after the heal: %.3g in the last 10 %% of the rounds, %.3g before "
+                 "the partition", tail, before);
 }
 
 static int teardown_case(void **st)

@@ -5,7 +5,8 @@
  *   - the same with every 7th datagram lost (the FLEETSIM_NET_DROP_EVERY seam of
  *     hal/host/hal_host_net.c): the protocol asks again for what is missing, so the models are
  *     still the reference's, and the traffic logs show the chunks requested and re-sent;
- *   - int8 and int4-ef states: a smaller state on the wire, the run completes;
+ *   - int8 and int4-ef states: a smaller state on the wire, the run completes; int4-ef's models
+ *     equal the in-process fleet's with the same codec, bit for bit;
  *   - tools/fleet: a robot killed with SIGKILL makes the launcher stop the fleet, name the
  *     robot and the signal, and exit 1; Ctrl-C (SIGINT) stops it with status 130; neither
  *     leaves a host_sim process of that fleet behind.
@@ -148,6 +149,12 @@ static void test_int8_states(void **st)
     assert_true(b4 > 0 && b4 * 10 < b8 * 6); /* about half of int8's (the row scales are the same) */
     assert_int_equal(traffic_sum("int4-ef", "invalid"), 0);
     assert_int_equal(traffic_sum("int4-ef", "states_missed"), 0);
+    /* The differences against the public copies (dinno.h): the receivers' copies are the
+       senders', so the process fleet trains the in-process fleet's models with the same codec,
+       bit for bit. */
+    const char *const int4_ef[] = {"--encoding", "int4-ef", NULL};
+    fp_inproc_run(NPROC, ROUNDS, "6", "inproc-int4-ef", int4_ef, REF_DEADLINE_S);
+    fp_expect_models_of("int4-ef", NPROC, "inproc-int4-ef");
 }
 
 /* pids of host_sim processes whose command line holds "--fleet-id\0<fid>". */

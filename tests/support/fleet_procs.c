@@ -229,23 +229,33 @@ void fp_inproc_reference_radius(int n, const char *rounds, const char *radius, i
 {
     if (g_have_ref)
         return;
+    fp_inproc_run(n, rounds, radius, "inproc", NULL, deadline_s);
+    g_have_ref = 1;
+}
+
+void fp_inproc_run(int n, const char *rounds, const char *radius, const char *name, const char *const *extra,
+                   int deadline_s)
+{
     char out[PATH_MAX + 16], log[PATH_MAX + 16], robots[16];
-    snprintf(out, sizeof out, "%s/inproc", fp_env.dir);
-    snprintf(log, sizeof log, "%s/inproc.txt", fp_env.dir);
+    snprintf(out, sizeof out, "%s/%s", fp_env.dir, name);
+    snprintf(log, sizeof log, "%s/%s.txt", fp_env.dir, name);
     snprintf(robots, sizeof robots, "%d", n);
-    const char *argv[] = {fp_env.bin, "fleet", "--inproc", "--plan", fp_env.plan, "--paths", fp_env.paths,
-                          "--robots", robots, "--rounds", rounds, "--strategy", "kl", "--graph", "disk", "--radius", radius,
-                          "--seed", "3", "--out", out, "--val-poses", "5", "--mc", "1", "--map-res", "0.5", NULL};
+    const char *argv[40] = {fp_env.bin, "fleet", "--inproc", "--plan", fp_env.plan, "--paths", fp_env.paths,
+                            "--robots", robots, "--rounds", rounds, "--strategy", "kl", "--graph", "disk", "--radius",
+                            radius, "--seed", "3", "--out", out, "--val-poses", "5", "--mc", "1", "--map-res", "0.5"};
+    int argc = 27;
+    for (int i = 0; extra != NULL && extra[i] != NULL && argc < 39; i++)
+        argv[argc++] = extra[i];
+    argv[argc] = NULL;
     const pid_t pid = fp_spawn(argv, log, NULL, NULL);
     const int rc = fp_wait(pid, fp_now() + deadline_s);
     fp_kill(pid); /* when late; a no-op for a reaped one */
     if (rc != 0) {
         fp_show_log(log);
         if (rc < 0)
-            fail_msg("host_sim fleet --inproc (the reference) still running after %d s: killed", deadline_s);
-        fail_msg("host_sim fleet --inproc (the reference) failed (status %d)", rc);
+            fail_msg("host_sim fleet --inproc (%s) still running after %d s: killed", name, deadline_s);
+        fail_msg("host_sim fleet --inproc (%s) failed (status %d)", name, rc);
     }
-    g_have_ref = 1;
 }
 
 /* The model of two checkpoints, bit for bit: the header's network and seed and theta (bytes
@@ -306,6 +316,17 @@ void fp_expect_reference_models(const char *tag, int n)
             fail_msg("robot %d (%s): its posterior (%g robots, %g observations) is not the fleet's of the reference "
                      "(%g robots, %g observations; largest difference %g of %g)",
                      i, tag, pa.robots, pa.n_obs, pb.robots, pb.n_obs, dev, big);
+    }
+}
+
+void fp_expect_models_of(const char *tag, int n, const char *name)
+{
+    for (int i = 0; i < n; i++) {
+        char a[PATH_MAX + 64], b[PATH_MAX + 64];
+        snprintf(a, sizeof a, "%s/%s/robot_%d/final.bnn", fp_env.dir, tag, i);
+        snprintf(b, sizeof b, "%s/%s/models/robot_%d.bnn", fp_env.dir, name, i);
+        if (!same_model(a, b))
+            fail_msg("robot %d (%s): the model in %s differs from the in-process run's %s", i, tag, a, b);
     }
 }
 

@@ -113,6 +113,13 @@ void fp_inproc_reference_radius(int n, const char *rounds, const char *radius, i
 /* Every robot's DIR/<tag>/robot_<i>/final.bnn equals the reference's model bit for bit;
  * fails the test naming the first robot that differs. */
 void fp_expect_reference_models(const char *tag, int n);
+/* host_sim fleet --inproc as fp_inproc_reference runs it, with the options `extra` (NULL-ended,
+ * may be NULL) added, into DIR/<name>: the reference of a fleet run with those options. */
+void fp_inproc_run(int n, const char *rounds, const char *radius, const char *name, const char *const *extra,
+                   int deadline_s);
+/* Each robot's final model of run `tag` equals DIR/<name>/models/robot_<i>.bnn's, bit for bit
+ * (the network, the seed and theta; not the posterior). */
+void fp_expect_models_of(const char *tag, int n, const char *name);
 
 /* fp_summary_number of DIR/<tag>/robot_<i>/summary.txt, summed over robots 0 .. n-1. */
 unsigned long long fp_summary_sum(const char *tag, int n, const char *line, const char *what, int after);
