@@ -110,7 +110,7 @@ int dinno_node_init(dinno_node_t *n, const dinno_cfg_t *cfg, const bnn_config_t 
     n->nb = NULL;
     memset(n->use, 0, sizeof n->use);
     for (uint32_t l = 0; l < DINNO_MAX_PEERS; l++)
-        n->link[l] = (dinno_link_t){DINNO_NO_PEER, DINNO_NO_ROUND, DINNO_NO_ROUND, 0};
+        n->link[l] = (dinno_link_t){DINNO_NO_PEER, DINNO_NO_ROUND, DINNO_NO_ROUND, 0, 0};
     n->pub_own_round = DINNO_NO_ROUND;
     memset(n->pub_own, 0, P * sizeof(float));
     return 0;
@@ -191,10 +191,21 @@ static uint32_t find_link(const dinno_node_t *n, uint32_t id)
     return DINNO_MAX_PEERS;
 }
 
+/* Forgets link l and gives it to (id, inc): out of the dual first when it is in it. */
+static void reset_link(dinno_node_t *n, uint32_t l, uint32_t id, uint32_t inc)
+{
+    if (n->link[l].active) {
+        const size_t P = bnn_n_params(&n->model);
+        for (size_t i = 0; i < P; i++)
+            n->dual[i] -= n->lambda[l][i];
+    }
+    n->link[l] = (dinno_link_t){id, DINNO_NO_ROUND, DINNO_NO_ROUND, 0, inc};
+}
+
 /* A slot for a new peer: a free one, else the one seen longest ago (never seen first) among those
    not mapped this round; there always is one, a round has at most DINNO_MAX_PEERS states. An
    evicted link still in the dual (LINK rule) is taken out of it first. */
-static uint32_t new_link(dinno_node_t *n, const uint8_t *mapped, uint32_t id)
+static uint32_t new_link(dinno_node_t *n, const uint8_t *mapped, uint32_t id, uint32_t inc)
 {
     uint32_t best = DINNO_MAX_PEERS;
     int64_t best_key = INT64_MAX;
@@ -208,14 +219,8 @@ static uint32_t new_link(dinno_node_t *n, const uint8_t *mapped, uint32_t id)
             best = l;
         }
     }
-    if (best < DINNO_MAX_PEERS) {
-        if (n->link[best].active) {
-            const size_t P = bnn_n_params(&n->model);
-            for (size_t i = 0; i < P; i++)
-                n->dual[i] -= n->lambda[best][i];
-        }
-        n->link[best] = (dinno_link_t){id, DINNO_NO_ROUND, DINNO_NO_ROUND, 0};
-    }
+    if (best < DINNO_MAX_PEERS)
+        reset_link(n, best, id, inc);
     return best;
 }
 
@@ -229,12 +234,15 @@ static uint32_t receive_links(dinno_node_t *n, uint32_t k)
     for (uint32_t s = 0; s < m; s++) {
         const uint32_t l = find_link(n, n->nb->id[s]);
         n->slot_link[s] = (uint8_t)l;
-        if (l < DINNO_MAX_PEERS)
+        if (l < DINNO_MAX_PEERS) {
             mapped[l] = 1;
+            if (n->link[l].inc != n->nb->inc[s]) /* restarted: nothing of the old one holds */
+                reset_link(n, l, n->nb->id[s], n->nb->inc[s]);
+        }
     }
     for (uint32_t s = 0; s < m; s++)
         if (n->slot_link[s] >= DINNO_MAX_PEERS) {
-            const uint32_t l = new_link(n, mapped, n->nb->id[s]);
+            const uint32_t l = new_link(n, mapped, n->nb->id[s], n->nb->inc[s]);
             n->slot_link[s] = (uint8_t)l;
             mapped[l] = 1;
         }

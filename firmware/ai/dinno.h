@@ -190,6 +190,8 @@ typedef struct dinno_nbrs {
     uint32_t count;                        /* entries used, <= DINNO_MAX_PEERS */
     uint32_t id[DINNO_MAX_PEERS];          /* whose state it is (the robot id) */
     const float *theta[DINNO_MAX_PEERS];   /* n_params floats each, unchanged during the round */
+    uint32_t inc[DINNO_MAX_PEERS];         /* the sender's incarnation (its restart count; 0 in the
+                                              in-process fleet): a new one is a new link */
 } dinno_nbrs_t;
 
 /* What one round did (means over its B primal steps unless said otherwise). */
@@ -218,6 +220,8 @@ typedef struct dinno_link {
     uint32_t seen;         /* last round its state took part (DINNO_NO_ROUND: never) */
     uint32_t pub_round;    /* EF: pub[] is the peer's public copy of this round (or DINNO_NO_ROUND) */
     uint32_t active;       /* DINNO_DUAL_LINK: its lambda is part of dual (it took part last round) */
+    uint32_t inc;          /* the peer's incarnation: a restarted peer starts a new link (its public
+                              copy and its dual start afresh) */
 } dinno_link_t;
 
 typedef struct dinno_node {

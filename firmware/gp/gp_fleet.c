@@ -339,6 +339,7 @@ static int fill_slots(gp_fleet_t *f, uint32_t round, const float *own_theta, din
             continue;
         }
         out->id[k] = ids[j];
+        out->inc[k] = gp_pse_peer_incarnation(&f->drv.pse, ids[j]);
         k++;
     }
     out->round = round;

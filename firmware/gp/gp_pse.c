@@ -725,6 +725,11 @@ uint32_t gp_pse_neighbours(gp_pse_t *p, uint32_t ids[GP_PSE_MAX_NEIGHBOURS],
     return n;
 }
 
+uint32_t gp_pse_peer_incarnation(const gp_pse_t *p, uint32_t id)
+{
+    return p != NULL && id < GP_PSE_MAX_FLEET && p->peer[id].has_inc ? p->peer[id].incarnation : 0u;
+}
+
 int gp_pse_complete(gp_pse_t *p, uint64_t now_us)
 {
     if (p == NULL || !p->in_round)

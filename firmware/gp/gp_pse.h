@@ -279,6 +279,9 @@ uint32_t gp_pse_neighbours(gp_pse_t *pse, uint32_t ids[GP_PSE_MAX_NEIGHBOURS],
                            const uint8_t *states[GP_PSE_MAX_NEIGHBOURS]);
 
 /* Our node update of round k is done: RoundComplete(k) goes out. 0 or -EINVAL. */
+/* The newest incarnation heard of peer id (0 when none was, or id is out of range). */
+uint32_t gp_pse_peer_incarnation(const gp_pse_t *p, uint32_t id);
+
 FS_MUST_CHECK int gp_pse_complete(gp_pse_t *pse, uint64_t now_us);
 
 /* 1 when round k is over for us: every peer still in the round completed it, or a later round

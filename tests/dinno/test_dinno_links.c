@@ -91,6 +91,7 @@ static void fleet_round(int k, link_fn up)
         for (int j = 0; j < N; j++)
             if (j != i && up(k, i < j ? i : j, i < j ? j : i)) {
                 v->id[v->count] = (uint32_t)j;
+                v->inc[v->count] = 0;
                 v->theta[v->count++] = snap[j];
             }
         assert_int_equal(dinno_node_set_nbrs(&nodes[i], v), 0);
@@ -317,6 +318,45 @@ static void test_outgoing_once_per_round(void **st)
     assert_int_equal(dinno_dual_rule_parse("edge", &r), -EINVAL);
 }
 
+/* A peer that restarted (a new incarnation in the view) is a new link: its public copy and its
+   dual start afresh, so a difference of the new incarnation is never added to the old one's
+   copy (stale until the next key round). */
+static void test_restarted_peer_is_a_new_link(void **st)
+{
+    (void)st;
+    init_fleet(DINNO_DUAL_LINK, DINNO_CODEC_INT8_EF);
+    for (int k = 0; k < 7; k++) {
+        fleet_round(k, always);
+        assert_int_equal(stats[0].stale, 0);
+    }
+    /* round 7: node 1 comes back as incarnation 1 in node 0's view */
+    const bnn_config_t b = tiny();
+    for (int j = 0; j < N; j++) {
+        assert_int_equal(dinno_node_outgoing(&nodes[j], snap[j]), 0);
+        assert_int_equal(dinno_codec_channel(&b, nodes[j].cfg.codec, snap[j], snap[j]), 0);
+    }
+    for (int i = 0; i < N; i++) {
+        dinno_nbrs_t *v = &views[i];
+        v->round = 7;
+        v->count = 0;
+        for (int j = 0; j < N; j++)
+            if (j != i) {
+                v->id[v->count] = (uint32_t)j;
+                v->inc[v->count] = i == 0 && j == 1 ? 1u : 0u;
+                v->theta[v->count++] = snap[j];
+            }
+        assert_int_equal(dinno_node_set_nbrs(&nodes[i], v), 0);
+    }
+    for (int i = 0; i < N; i++)
+        assert_int_equal(dinno_node_round(&nodes[i], data[i], 64, &stats[i]), 0);
+    assert_int_equal(stats[0].stale, 1); /* node 1's difference: no copy of the new incarnation */
+    assert_int_equal(stats[0].neighbours, 2);
+    const uint32_t l = link_of(&nodes[0], 1);
+    assert_true(l < DINNO_MAX_PEERS);
+    assert_int_equal(nodes[0].link[l].inc, 1);
+    assert_int_equal(nodes[0].link[l].active, 0);
+}
+
 /* More peers over time than link slots: the slots seen longest ago are reused, a reused slot's
    dual leaves the node's dual first, and p still equals the sum over the links in use. */
 static void test_link_slots_are_reused(void **st)
@@ -365,6 +405,7 @@ int main(void)
         cmocka_unit_test(test_rejoin_steps_to_the_mean),
         cmocka_unit_test(test_error_feedback_public_copies),
         cmocka_unit_test(test_outgoing_once_per_round),
+        cmocka_unit_test(test_restarted_peer_is_a_new_link),
         cmocka_unit_test(test_link_slots_are_reused),
     };
     return cmocka_run_group_tests_name("dinno/links", tests, NULL, NULL);
