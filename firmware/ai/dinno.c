@@ -375,7 +375,7 @@ uint32_t dinno_dual_update(dinno_node_t *n, float rho_k)
         m++;
         for (size_t i = 0; i < P; i++)
             n->dual[i] += rho_k * (me[i] - tj[i]);
-        if (link_rule) {
+        if (link_rule && n->slot_link[s] < DINNO_MAX_PEERS) { /* mapped: inside dinno_node_round */
             float *lam = n->lambda[n->slot_link[s]];
             for (size_t i = 0; i < P; i++)
                 lam[i] += rho_k * (me[i] - tj[i]);

@@ -296,7 +296,8 @@ FS_MUST_CHECK int dinno_node_round(dinno_node_t *n, const ai_sample_t *data, siz
 uint32_t dinno_screen_slots(dinno_node_t *n, float *dist_max);
 
 /* Dual update only: p += rho_k * sum_{s in use} (theta - theta_s); also snapshots theta0.
- * Returns the number of neighbours used. */
+ * The link duals move with it only inside dinno_node_round (which maps the view to the links
+ * first). Returns the number of neighbours used. */
 uint32_t dinno_dual_update(dinno_node_t *n, float rho_k);
 
 /* Adds the gradient of <theta, p> + REG(theta) (strategy terms, weight rho_k) to the model's
