@@ -274,9 +274,12 @@ static uint32_t receive_links(dinno_node_t *n, uint32_t k)
 }
 
 /* Before the dual update of round k: the links of the round in use take part, the others not.
-   LINK rule: a link absent now has its lambda taken out of the dual; a link back after a short
-   absence has it put back, after a long one (or new) starts at zero. Returns how many links
-   came back after >= rejoin_gap missed rounds. */
+   LINK rule (G = rejoin_gap): a link absent for G rounds (G = 0: at once) has its lambda taken
+   out of the dual; one absent for fewer keeps it there, frozen, as a brief loss does not make
+   a neighbour's dual out of date (taking it out and back every round at 50 % link success made
+   the dual term flicker: 6x the consensus error of keeping it). A link back after G or more
+   missed rounds (or new) starts at zero; with G = 0 it comes back with its lambda. Returns how
+   many links came back after >= G missed rounds (G > 0). */
 static uint32_t update_links(dinno_node_t *n, uint32_t k)
 {
     const size_t P = bnn_n_params(&n->model);
@@ -286,8 +289,9 @@ static uint32_t update_links(dinno_node_t *n, uint32_t k)
     for (uint32_t s = 0; s < m; s++)
         if (n->use[s])
             now[n->slot_link[s]] = 1;
+    const uint32_t gap = n->cfg.rejoin_gap;
     for (uint32_t l = 0; l < DINNO_MAX_PEERS; l++)
-        if (link_rule && n->link[l].active && !now[l]) {
+        if (link_rule && n->link[l].active && !now[l] && (gap == 0 || k - n->link[l].seen >= gap)) {
             for (size_t i = 0; i < P; i++)
                 n->dual[i] -= n->lambda[l][i];
             n->link[l].active = 0;

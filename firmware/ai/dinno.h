@@ -66,11 +66,14 @@
  *   DINNO_DUAL_NODE (the original rule): p_i collects every term it ever received and keeps it.
  *     When a link delivers one way only, or a group is cut off for many rounds, the fleet's duals
  *     no longer sum to zero and a healed node carries hundreds of rounds of one-sided terms.
- *   DINNO_DUAL_LINK (default; UDON, arXiv 2509.12702): each link j keeps its own dual
- *     lambda_ij += rho_k (theta_i - theta_j), and p_i = sum of lambda_ij over the links that take
- *     part in the round: a link absent this round has its lambda taken out of p_i (kept, frozen),
- *     put back when it returns after fewer than rejoin_gap missed rounds, and restarted at zero
- *     after more (a dual of models that trained apart for long is out of date). Links are
+ *   DINNO_DUAL_LINK (default; after UDON, arXiv 2509.12702): each link j keeps its own dual
+ *     lambda_ij += rho_k (theta_i - theta_j) over the rounds it delivers, and p_i = sum of
+ *     lambda_ij over the links that are there: a link missing for rejoin_gap rounds (G) has its
+ *     lambda taken out of p_i, so a neighbour gone for long (cut off, away, out of reach) no
+ *     longer pulls; one missing for fewer keeps it there, frozen (a brief loss does not make it
+ *     out of date, and taking it out and back each round made the dual term flicker); back after
+ *     G or more missed rounds it restarts at zero. G = 0: only the links of the round count
+ *     (UDON's rule as written), each coming back with its lambda, and no rejoin. Links are
  *     symmetric in a round (both states cross or neither, the protocol's resends see to it), so
  *     lambda_ij = -lambda_ji and the fleet's duals keep summing to zero whatever the links do.
  *     p_i itself is updated exactly as the NODE rule does while the links stay (the same
