@@ -188,17 +188,18 @@ int bnn_quant_unpack_theta(const bnn_config_t *cfg, bnn_group_t g, const uint8_t
     return 0;
 }
 
-int bnn_quant_unpack_theta_inplace(const bnn_config_t *cfg, float *th, size_t len, float *scales, size_t n_scales)
+/* Bytes of one row of C 4-bit values (two per byte, an odd row padded). */
+static size_t row_bytes4(size_t C)
 {
-    if (!cfg || !th || !scales)
-        return -EINVAL;
-    bnn_tensor_t T[BNN_MAX_TENSORS];
-    const size_t nt = bnn_tensors_cfg(cfg, T, BNN_MAX_TENSORS);
-    if (len != packed_size_of(T, nt, BNN_GROUP_ALL))
-        return -EBADMSG;
-    uint8_t *buf = (uint8_t *)th; /* character access: may alias the floats */
-    /* The scales, checked before anything moves; the tensors must tile theta in order (the
-       int8 values then move to their element's index). */
+    return (C + 1u) / 2u;
+}
+
+/* The row scales of a packed whole theta (int8: rows of 4 + C bytes; 4-bit: 4 + ceil(C / 2))
+   into scales[0 .. *rows), each checked (finite, >= 0) before the caller moves anything; the
+   tensors must tile theta in order. 0, -EINVAL (scales too small, a gap) or -EBADMSG. */
+static int load_scales(const bnn_tensor_t *T, size_t nt, const uint8_t *buf, int bits, float *scales,
+                       size_t n_scales, size_t *rows_out)
+{
     const uint8_t *p = buf;
     size_t rows = 0, at = 0;
     for (size_t t = 0; t < nt; t++) {
@@ -213,8 +214,28 @@ int bnn_quant_unpack_theta_inplace(const bnn_config_t *cfg, float *th, size_t le
         }
         rows += R;
         at += R * C;
-        p += 4 * R + R * C;
+        p += R * (4u + (bits == 8 ? C : row_bytes4(C)));
     }
+    *rows_out = rows;
+    return 0;
+}
+
+int bnn_quant_unpack_theta_inplace(const bnn_config_t *cfg, float *th, size_t len, float *scales, size_t n_scales)
+{
+    if (!cfg || !th || !scales)
+        return -EINVAL;
+    bnn_tensor_t T[BNN_MAX_TENSORS];
+    const size_t nt = bnn_tensors_cfg(cfg, T, BNN_MAX_TENSORS);
+    if (len != packed_size_of(T, nt, BNN_GROUP_ALL))
+        return -EBADMSG;
+    uint8_t *buf = (uint8_t *)th; /* character access: may alias the floats */
+    /* The scales, checked before anything moves; the tensors must tile theta in order (the
+       int8 values then move to their element's index). */
+    size_t rows = 0;
+    int rc = load_scales(T, nt, buf, 8, scales, n_scales, &rows);
+    if (rc != 0)
+        return rc;
+    const uint8_t *p;
     /* q of element i to byte i: every destination is at or below its source. */
     p = buf;
     for (size_t t = 0; t < nt; t++) {
@@ -239,10 +260,6 @@ int bnn_quant_unpack_theta_inplace(const bnn_config_t *cfg, float *th, size_t le
 }
 
 /* ---- 4-bit packing ----------------------------------------------------------------------- */
-static size_t row_bytes4(size_t C)
-{
-    return (C + 1u) / 2u;
-}
 
 static size_t packed_size4_of(const bnn_tensor_t *T, size_t nt, bnn_group_t g)
 {
@@ -356,22 +373,11 @@ int bnn_quant_unpack_theta4_inplace(const bnn_config_t *cfg, float *th, size_t l
         return -EBADMSG;
     uint8_t *buf = (uint8_t *)th; /* character access: may alias the floats */
     /* The scales, checked before anything moves (the tensors must tile theta in order). */
-    const uint8_t *p = buf;
-    size_t rows = 0, at = 0;
-    for (size_t t = 0; t < nt; t++) {
-        const size_t R = tensor_rows(&T[t]), C = tensor_cols(&T[t]);
-        if (T[t].offset != at || rows + R > n_scales)
-            return -EINVAL;
-        for (size_t r = 0; r < R; r++) {
-            const float s = getf(p + 4 * r);
-            if (!isfinite(s) || s < 0.0f)
-                return -EBADMSG;
-            scales[rows + r] = s;
-        }
-        rows += R;
-        at += R * C;
-        p += R * (4u + row_bytes4(C));
-    }
+    size_t rows = 0;
+    int rc = load_scales(T, nt, buf, 4, scales, n_scales, &rows);
+    if (rc != 0)
+        return rc;
+    const uint8_t *p;
     /* The values of every tensor to the front, in order: each lands at or below where it was. */
     p = buf;
     size_t d = 0;
