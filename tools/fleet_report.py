@@ -11,6 +11,9 @@ Reads (every file optional: a missing one skips its figure and is named in summa
   robot_<i>/traffic.csv         per round: round,...,bytes_sent,...,chunks_resent,
                                 chunks_requested,...,timeouts,...
   robot_<i>/train.samples       the samples the robot trained on (tools/samples.py format)
+  robot_<i>/summary.txt         with traffic.csv, what the fleet lost (tools/fleet_losses.py): states
+                                given up, peer timeouts, datagrams dropped by full receive queues,
+                                stated at the top of summary.md
   maps/map_mean.npy, map_std.npy, map_single.npy, map_meta.json, consensus.csv,
   maps/map.pgm + map.yaml       (ROS map_server: its thresholds, and from map_meta.json how the map
                                 scores as nav2 reads it), scene.png
@@ -44,6 +47,7 @@ import tempfile
 TOOLS_DIR = os.path.dirname(os.path.realpath(__file__))
 sys.path.insert(0, TOOLS_DIR)
 from palette import robot_colour  # noqa: E402  (one colour per robot in every figure)
+import fleet_losses  # noqa: E402  (the same totals as tools/fleet's last line)
 sys.path.pop(0)
 TMP_PREFIX = ".fleet_report."
 KDE_MAX_POINTS = 20000
@@ -637,6 +641,7 @@ def last_finite(np, v):
 
 
 DEATH_KEYS = ("deaths", "failed")
+LOSS_KEYS = fleet_losses.KEYS + ("losses_uncounted",)  # run.json's copy of losses_section's figures
 
 
 def death_line(d):
@@ -666,6 +671,33 @@ def deaths_section(s):
         deaths = [deaths]
     L += ["## Robots that died", ""] + [death_line(d) for d in deaths] + [""]
     return L
+
+
+def losses_section(run):
+    """What the fleet lost, summed over the robots, in plain words, before anything else: with a
+    state given up or a peer timed out the models are not those of a lossless run, so they cannot
+    be compared with the in-process reference."""
+    if not run.robots:
+        return []
+    totals, gaps = fleet_losses.fleet_losses(run.dir, run.robots)
+    n = len(run.robots)
+    if fleet_losses.lossless(totals, gaps):
+        head = (f"**A lossless run: over its {n} robots, no neighbour state was given up, no peer timed out and "
+                "no datagram was dropped by a full receive queue.**")
+    else:
+        head = (f"**{fleet_losses.totals_text(totals, gaps)} (over {n} robots): "
+                f"{fleet_losses.verdict(totals, gaps)}.**")
+    L = ["## What the fleet lost", "", head, "",
+         "- states given up: a round went on without a neighbour's state (the protocol's `states_missed`: "
+         "summary.txt's \"peer states gone without\"); that robot's model then learned without it",
+         "- peer timeouts: a peer was silent for longer than the peer timeout and left a round",
+         "- datagrams dropped by full queues: a robot read its receive queue too late (a busy CPU) and the "
+         "queue was full (`rx_dropped_full`: summary.txt's \"queue full\"); the robot asks for them again, "
+         "only a state given up changes a model"]
+    L += [f"- not counted whole: {md_cell(g)}" for g in gaps[:10]]
+    if len(gaps) > 10:
+        L.append(f"- ... and {len(gaps) - 10} more robot folders like these")
+    return L + [""]
 
 
 def knowledge_section(run, figures):
@@ -712,8 +744,10 @@ def summary(run, figures):
     s = run.settings
     if s is not None:
         L += deaths_section(s)
+    L += losses_section(run)
+    if s is not None:
         L += ["## Settings", "", "| setting | value |", "|---|---|"]
-        L += [f"| {md_cell(k)} | {md_cell(v)} |" for k, v in s.items() if k not in DEATH_KEYS]
+        L += [f"| {md_cell(k)} | {md_cell(v)} |" for k, v in s.items() if k not in DEATH_KEYS + LOSS_KEYS]
         L.append("")
 
     L += ["## Final figures", ""]

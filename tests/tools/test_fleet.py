@@ -8,6 +8,10 @@ that prints host_sim's round lines, and dies by SIGKILL at a chosen round unless
   - without restarts: exit 1, the message names the robot, the round and the signal, and
     run.json ("failed", "deaths") and summary.md (tools/fleet_report.py) say the same;
   - a robot that dies again after its last restart fails the fleet;
+  - what the fleet lost, summed over the robots' summary.txt and traffic.csv (which the stand-in
+    writes in host_sim's formats, FAKE_LOSSES giving one robot losses): said in the line "all N
+    robots finished", the last line, run.json and summary.md, zero or not; --strict exits 3 when
+    any is non-zero (or a total is only a lower bound: a restarted robot's queue drops), else 0;
   - --restart-failed with --mode online is refused (exit 2): an online robot cannot resume.
   - a run owns its folder: a second launch with the same --name moves the earlier run aside to
     NAME.prev-<date-time> and says so, the new run's robots start once there (a restarted one
@@ -72,6 +76,8 @@ if args[:1] == ["defaults"]:  # what the launcher reads (the values of today's b
         sys.exit(2)
     print(DEFAULTS)
     sys.exit(0)
+if args[:1] in (["maps"], ["render"]):  # the consensus map and the scene: nothing to check here
+    sys.exit(0)
 if args[:1] == ["key"]:  # host_sim key new|check FILE
     if args[1] == "new":
         fd = os.open(args[2], os.O_WRONLY | os.O_CREAT | os.O_EXCL, 0o600)
@@ -107,6 +113,34 @@ for k in range(first, rounds + 1):
     if me == die_robot and k == die_round and (always or not resume):
         print("host_sim run: about to die", file=sys.stderr, flush=True)
         os.kill(os.getpid(), signal.SIGKILL)
+# What a finished robot writes: traffic.csv and summary.txt in host_sim's exact formats, its
+# losses in the last round (FAKE_LOSSES="robot:states:timeouts:drops" for one robot, else none).
+loss = os.environ.get("FAKE_LOSSES")
+lr, ls, lt, ld = (int(x) for x in loss.split(":")) if loss else (-1, 0, 0, 0)
+ls, lt, ld = (ls, lt, ld) if me == lr else (0, 0, 0)
+n = int(opt("--fleet"))
+with open(os.path.join(out, "traffic.csv"), "w") as f:
+    f.write("round,wall_ms,wait_ms,bytes_sent,bytes_received,chunks_sent,chunks_received,chunks_resent,"
+            "chunks_requested,duplicates,stale,timeouts,rejoins,crc_failures,invalid,chunks_recovered,chunks_lost,"
+            "states_missed,rounds_skipped,beacons_sent,peer_restarts,old_incarnation\n")
+    for k in range(rounds):
+        t, m = (lt, ls) if k == rounds - 1 else (0, 0)
+        f.write(f"{k},1.0,0.1,100,100,1,1,0,0,0,0,{t},0,0,0,0,0,{m},0,0,0,0\n")
+with open(os.path.join(out, "summary.txt"), "w") as f:
+    f.write("seed: 1\npreset: small (33601 parameters)\nincarnation: 1\n")
+    if resume:
+        f.write(f"resumed: from round_{first - 2:04d}.bnn (round {first - 2}), rounds {first - 1} .. {rounds - 1} "
+                "run by this start\n")
+    if n > 1:
+        f.write(f"fleet: {n} robots (this is robot {me}, fleet id 1), fp32 states, radius 6 m\n"
+                "losses: 0 chunks requested again, 0 re-sent; 0 duplicates, 0 stale, 0 invalid, 0 CRC failures; "
+                f"{lt} peer timeouts, 0 rejoins; 0 own echoes\n"
+                "faults survived: 0 chunks lost (never received), 0 recovered by a request; "
+                f"{ls} peer states gone without, 0 rounds cut short by a later round, 0 rounds skipped to catch up; "
+                "0 peer restarts seen, 0 messages of an earlier incarnation dropped\n"
+                "waiting for peers: 1.00 s wall in all (0.10 ms per round); "
+                f"network queue drops {ld} (queue full {ld}, buffer too small 0); malformed datagrams dropped 0; "
+                "sends refused 0\n")
 sys.exit(0)
 '''
 
@@ -162,6 +196,78 @@ def restart_then_finish():
         check("failed" not in info and info.get("restart_failed") == 2, "run.json: no failure, the setting")
         with open(os.path.join(run_dir, "robot_1", "stderr.log")) as f:
             check("about to die" in f.read(), "the dead robot's stderr is kept across the restart")
+        # The queue drops of the start that died are written nowhere: the totals say "at least".
+        gaps = info.get("losses_uncounted")
+        check(info.get("queue_drops") == 0 and len(gaps) == 1 and gaps[0].startswith("robot_1: the datagrams "
+              "dropped by full queues of the start(s) before its --resume at round 4"), f"run.json: {gaps}")
+        check("robots finished in " in out and ": at least 0 states given up, 0 peer timeouts, 0 datagrams dropped "
+              "by full queues: not all of it could be counted" in out, out)
+    finally:
+        shutil.rmtree(tmp, ignore_errors=True)
+
+
+def last_line(out):
+    return out.strip().splitlines()[-1]
+
+
+@test
+def lossless_fleet_says_so():
+    """A fleet whose robots lost nothing: the totals (zeros) in the line "all N robots finished",
+    in the last line and in run.json; --strict exits 0; summary.md says it was lossless."""
+    tmp = tempfile.mkdtemp()
+    try:
+        rc, out, run_dir = launch(tmp, ["--strict"], {}, "lossless")
+        check(rc == 0, f"launcher exit {rc}:\n{out}")
+        zeros = "0 states given up, 0 peer timeouts, 0 datagrams dropped by full queues"
+        fin = [l for l in out.splitlines() if l.startswith("fleet: all 3 robots finished in ")]
+        check(len(fin) == 1 and fin[0].endswith(f" s: {zeros}"), f"no finished line with the zeros:\n{out}")
+        check(last_line(out).startswith("fleet: done in ") and last_line(out).endswith(f"/summary.md; {zeros}"),
+              f"last line: {last_line(out)}")
+        info = run_json(run_dir)
+        check([info.get(k) for k in ("states_given_up", "peer_timeouts", "queue_drops")] == [0, 0, 0] and
+              info.get("losses_uncounted") == [], f"run.json: {info}")
+        with open(os.path.join(run_dir, "summary.md")) as f:
+            md = f.read()
+        check("**A lossless run: over its 3 robots, no neighbour state was given up, no peer timed out and no "
+              "datagram was dropped by a full receive queue.**" in md, md)
+        check("| states_given_up |" not in md, "the totals are not repeated as settings")
+    finally:
+        shutil.rmtree(tmp, ignore_errors=True)
+
+
+@test
+def losses_are_said_and_strict_fails():
+    """One robot gave up 5 states, timed a peer out and dropped 1234 datagrams: the finished line
+    says so and that the models are not a lossless run's; exit 0 without --strict; with it exit 3
+    after run.json and summary.md are written, the message naming the totals."""
+    tmp = tempfile.mkdtemp()
+    try:
+        lossy = {"FAKE_LOSSES": "2:5:1:1234"}
+        said = ("5 states given up, 1 peer timeouts, 1,234 datagrams dropped by full queues: the models are NOT "
+                "those of a lossless run (nor the in-process reference's)")
+        rc, out, run_dir = launch(tmp, ["--no-report"], lossy, "lossy")
+        check(rc == 0 and "fleet: all 3 robots finished in " in out and f" s: {said}" in out, f"exit {rc}:\n{out}")
+        info = run_json(run_dir)
+        check([info.get(k) for k in ("states_given_up", "peer_timeouts", "queue_drops")] == [5, 1, 1234],
+              f"run.json: {info}")
+        rc, out, run_dir = launch(tmp, ["--strict"], lossy, "lossy-strict")
+        check(rc == 3, f"--strict: exit {rc}, not 3:\n{out}")
+        check(last_line(out) == f"fleet: --strict: {said}", f"last line: {last_line(out)}")
+        check(f"summary.md; {said}" in out, f"the done line names the totals:\n{out}")
+        check(run_json(run_dir).get("queue_drops") == 1234, "run.json written before the exit")
+        with open(os.path.join(run_dir, "summary.md")) as f:
+            md = f.read()
+        check("**5 states given up, 1 peer timeouts, 1,234 datagrams dropped by full queues (over 3 robots): the "
+              "models are NOT those of a lossless run (nor the in-process reference's).**" in md, md)
+        check(os.path.islink(os.path.join(tmp, "latest")), "the run finished as usual: latest points at it")
+        # --no-report: the same exit status
+        rc, out, _ = launch(tmp, ["--strict", "--no-report"], {"FAKE_LOSSES": "0:0:0:7"}, "drops-only")
+        # Queue drops alone: re-sent, no state given up, so the models are not said to differ; --strict
+        # still fails (the run was not lossless).
+        check(rc == 3 and last_line(out).startswith("fleet: --strict: 0 states given up, 0 peer timeouts, 7 "
+                                                    "datagrams dropped by full queues: not a lossless run: a busy "
+                                                    "CPU let receive queues overflow; no state was given up") and
+              "NOT" not in last_line(out), f"exit {rc}:\n{out}")
     finally:
         shutil.rmtree(tmp, ignore_errors=True)
 

@@ -5,6 +5,10 @@ skipped cleanly (named under "Not in this report") when it does not; a malformed
 stops the report before summary.md is written. The run folder is synthetic: a 10 x 8 grid of
 0.5 m and one robot's train.samples in the exact tools/samples.py format; the epistemic map is
 fabricated from the distance to the samples (test data only, not a result).
+Also what the fleet lost (tools/fleet_losses.py, the section "What the fleet lost"), on robot
+folders fabricated in host_sim's formats: zero and non-zero totals, a robot resumed after a death
+(traffic.csv's carried rows plus summary.txt's last start; its earlier queue drops uncounted), a
+robot that wrote no summary.txt (traffic.csv only: at least), a robot alone (nothing exchanged).
 
     python3 tests/tools/test_fleet_report.py      prints "N passed, M failed", exit 1 on failure
 
@@ -25,6 +29,8 @@ np = need_numpy("test_fleet_report")
 
 ROOT = os.path.dirname(os.path.dirname(os.path.dirname(os.path.realpath(__file__))))
 TOOL = os.path.join(ROOT, "tools", "fleet_report.py")
+sys.path.insert(0, os.path.join(ROOT, "tools"))
+import fleet_losses  # noqa: E402
 H, W, RES = 8, 10, 0.5
 BOX = (0.0, 0.0, W * RES, H * RES)
 SECTION = "## What the fleet knows"
@@ -146,6 +152,147 @@ def malformed_epistemic_stops():
         os.unlink(os.path.join(run, "robot_0", "train.samples"))
         rc, err = report(run)
         check(rc == 0 and SECTION not in summary(run) and "no scores of the epistemic map" in summary(run), err)
+    finally:
+        shutil.rmtree(d)
+
+
+TRAFFIC_HEADER = ("round,wall_ms,wait_ms,bytes_sent,bytes_received,chunks_sent,chunks_received,chunks_resent,"
+                  "chunks_requested,duplicates,stale,timeouts,rejoins,crc_failures,invalid,chunks_recovered,"
+                  "chunks_lost,states_missed,rounds_skipped,beacons_sent,peer_restarts,old_incarnation\n")
+
+
+def robot_folder(run, i, rounds=None, summary=None, resumed_at=0, fleet=3):
+    """robot_<i>/ as host_sim run writes it: traffic.csv with rows {round: (timeouts, states_missed)}
+    (None: no file) and summary.txt with (states_missed, timeouts, rx_dropped_full) of its last
+    start (None: no file), "resumed: ..." when resumed_at > 0, the fleet lines when fleet > 1."""
+    d = os.path.join(run, f"robot_{i}")
+    os.makedirs(d, exist_ok=True)
+    if rounds is not None:
+        with open(os.path.join(d, "traffic.csv"), "w") as f:
+            f.write(TRAFFIC_HEADER)
+            for r, (t, m) in sorted(rounds.items()):
+                f.write(f"{r},53.160,0.844,35685,107055,1,3,0,1,0,0,{t},0,0,0,1,0,{m},0,0,0,0\n")
+    if summary is None:
+        return
+    states, timeouts, full = summary
+    L = ["seed: 1", "preset: small (33601 parameters)", "incarnation: 1"]
+    if resumed_at:
+        L.append(f"resumed: from round_{resumed_at - 1:04d}.bnn (round {resumed_at - 1}), rounds {resumed_at} .. 39 "
+                 "run by this start")
+    if fleet > 1:
+        L += [f"fleet: {fleet} robots (this is robot {i}, fleet id 25852), int8-ef states, radius 6 m",
+              "nearest: at most 32 neighbour states per round; 23 chunks of peers beyond the radius or the nearest "
+              "only placed their sender, 9 states given up for a nearer peer's",
+              "losses: 1 chunks requested again, 0 re-sent; 0 duplicates, 16 stale, 0 invalid, 0 CRC failures; "
+              f"{timeouts} peer timeouts, 0 rejoins; 246 own echoes",
+              "faults survived: 0 chunks lost (never received), 1 recovered by a request; "
+              f"{states} peer states gone without, 0 rounds cut short by a later round, 0 rounds skipped to catch "
+              "up; 0 peer restarts seen, 0 messages of an earlier incarnation dropped",
+              "waiting for peers: 7.70 s wall in all (192.59 ms per round); network queue drops "
+              f"{full + 3} (queue full {full}, buffer too small 3); malformed datagrams dropped 0; sends refused 0"]
+    L.append("process: 5.36 s CPU (user 4.95, system 0.41), peak RSS 85.6 MB")
+    with open(os.path.join(d, "summary.txt"), "w") as f:
+        f.write("\n".join(L) + "\n")
+
+
+def losses(run, n=3):
+    return fleet_losses.fleet_losses(run, range(n))
+
+
+@test
+def losses_zero():
+    d = tempfile.mkdtemp(prefix="frtest.")
+    try:
+        run = synthetic_run(d)
+        for i in range(3):
+            robot_folder(run, i, {0: (0, 0), 1: (0, 0)}, (0, 0, 0))
+        totals, gaps = losses(run)
+        check(totals == {"states_given_up": 0, "peer_timeouts": 0, "queue_drops": 0} and gaps == [],
+              f"{totals} {gaps}")
+        check(fleet_losses.lossless(totals, gaps), "lossless")
+        rc, err = report(run)
+        check(rc == 0, err)
+        s = summary(run)
+        check("## What the fleet lost" in s and s.index("## What the fleet lost") < s.index("## Final figures"),
+              "near the top")
+        check("**A lossless run: over its 3 robots, no neighbour state was given up" in s, s)
+    finally:
+        shutil.rmtree(d)
+
+
+@test
+def losses_nonzero():
+    """'states given up for a nearer peer's' (the nearest rule, not a loss) is not taken for one."""
+    d = tempfile.mkdtemp(prefix="frtest.")
+    try:
+        run = synthetic_run(d)
+        robot_folder(run, 0, {0: (0, 0), 1: (2, 3)}, (3, 2, 0))
+        robot_folder(run, 1, {0: (0, 0), 1: (0, 1)}, (1, 0, 1500))
+        robot_folder(run, 2, {0: (0, 0), 1: (0, 0)}, (0, 0, 0))
+        totals, gaps = losses(run)
+        check(totals == {"states_given_up": 4, "peer_timeouts": 2, "queue_drops": 1500} and gaps == [],
+              f"{totals} {gaps}")
+        check(fleet_losses.totals_text(totals, gaps) == "4 states given up, 2 peer timeouts, 1,500 datagrams "
+              "dropped by full queues", fleet_losses.totals_text(totals, gaps))
+        check(not fleet_losses.lossless(totals, gaps) and "NOT those of a lossless run" in
+              fleet_losses.verdict(totals, gaps), "not lossless")
+        drops = {"states_given_up": 0, "peer_timeouts": 0, "queue_drops": 7}  # re-sent: the states came whole
+        check(not fleet_losses.lossless(drops, []) and "NOT" not in fleet_losses.verdict(drops, []) and
+              "no state was given up" in fleet_losses.verdict(drops, []), fleet_losses.verdict(drops, []))
+        rc, err = report(run)
+        check(rc == 0, err)
+        check("**4 states given up, 2 peer timeouts, 1,500 datagrams dropped by full queues (over 3 robots): the "
+              "models are NOT those of a lossless run (nor the in-process reference's).**" in summary(run),
+              summary(run))
+    finally:
+        shutil.rmtree(d)
+
+
+@test
+def losses_of_a_resumed_robot():
+    """Robot 1 died and resumed at round 20: traffic.csv's rows of rounds < 20 (carried over from
+    the start that died) add to summary.txt's figures of its last start; its earlier queue drops
+    are written nowhere, so the totals are a lower bound and say so."""
+    d = tempfile.mkdtemp(prefix="frtest.")
+    try:
+        run = synthetic_run(d)
+        robot_folder(run, 0, {5: (1, 1), 25: (0, 0)}, (1, 1, 0))
+        # rows 5 and 19 from the dead start, 25 from this one (its 2 states are in summary.txt)
+        robot_folder(run, 1, {5: (1, 4), 19: (0, 1), 25: (0, 2)}, (2, 0, 10), resumed_at=20)
+        totals, gaps = losses(run, 2)
+        check(totals == {"states_given_up": 1 + 4 + 1 + 2, "peer_timeouts": 1 + 1, "queue_drops": 10},
+              f"{totals}")
+        check(len(gaps) == 1 and gaps[0].startswith("robot_1: the datagrams dropped by full queues of the start(s) "
+                                                    "before its --resume at round 20"), f"{gaps}")
+        check(not fleet_losses.lossless(totals, gaps) and
+              fleet_losses.totals_text(totals, gaps).startswith("at least 8 states given up"), "at least")
+        # the same robot without non-zero figures: still not known to be lossless
+        robot_folder(run, 1, {5: (0, 0), 25: (0, 0)}, (0, 0, 0), resumed_at=20)
+        robot_folder(run, 0, {5: (0, 0)}, (0, 0, 0))
+        totals, gaps = losses(run, 2)
+        check(not fleet_losses.lossless(totals, gaps) and "not known to be lossless" in
+              fleet_losses.verdict(totals, gaps), f"{totals} {gaps}")
+    finally:
+        shutil.rmtree(d)
+
+
+@test
+def losses_without_summary_or_alone():
+    d = tempfile.mkdtemp(prefix="frtest.")
+    try:
+        run = synthetic_run(d)
+        robot_folder(run, 0, {0: (1, 2), 1: (0, 3)}, None)  # stopped before its summary.txt
+        totals, gaps = losses(run, 1)
+        check(totals == {"states_given_up": 5, "peer_timeouts": 1, "queue_drops": None} and
+              gaps == ["robot_0: no summary.txt, counted from traffic.csv (at least)"], f"{totals} {gaps}")
+        check(fleet_losses.totals_text(totals, gaps) == "at least 5 states given up, 1 peer timeouts, datagrams "
+              "dropped by full queues: not known", fleet_losses.totals_text(totals, gaps))
+        rc, err = report(run)
+        check(rc == 0 and "- not counted whole: robot_0: no summary.txt" in summary(run), err)
+        shutil.rmtree(os.path.join(run, "robot_0"))
+        robot_folder(run, 0, None, (0, 0, 0), fleet=1)  # a fleet of one: no fleet lines, nothing exchanged
+        totals, gaps = losses(run, 1)
+        check(fleet_losses.lossless(totals, gaps), f"{totals} {gaps}")
     finally:
         shutil.rmtree(d)
 

@@ -1,0 +1,134 @@
+"""What a fleet run lost, summed over its robots: the neighbour states a round went on without,
+the peer timeouts and the datagrams dropped by full receive queues. A run with any of these is
+not a lossless run; with a state given up or a peer timed out its models are not the ones the
+in-process fleet (the reference) makes. tools/fleet prints the totals in its last line,
+--strict fails on any of them, and tools/fleet_report.py states them at the top of summary.md.
+
+Read from each robot_<i>/ as `host_sim run` writes it (host_sim/app/cmd_run.c):
+  summary.txt   "losses: ... N peer timeouts, ..."           the protocol's `timeouts`
+                "faults survived: ... N peer states gone without, ..."   its `states_missed`
+                "waiting for peers: ... network queue drops N (queue full M, ...)"
+                                                             hal net stats `rx_dropped_full`
+                "resumed: from ... (round c), rounds S .. E run by this start"
+                "fleet: ..."                                 absent for a robot alone
+  traffic.csv   per round: `states_missed`, `timeouts`
+summary.txt counts the last start of the process, its start-up and posterior rounds included;
+traffic.csv carries the rows of the rounds before a --resume over from the starts that died.
+So a robot's figure is summary.txt's plus traffic.csv's rows of rounds < S. The queue drops of
+a start that died are written nowhere: they are missing from the totals, and said so.
+"""
+import csv
+import os
+import re
+
+KEYS = ("states_given_up", "peer_timeouts", "queue_drops")  # also run.json's keys
+WORDS = {"states_given_up": "states given up", "peer_timeouts": "peer timeouts",
+         "queue_drops": "datagrams dropped by full queues"}
+SUMMARY_RE = {
+    "states_given_up": re.compile(r"^faults survived:.*?\b(\d+) peer states gone without\b", re.M),
+    "peer_timeouts": re.compile(r"^losses:.*?\b(\d+) peer timeouts\b", re.M),
+    "queue_drops": re.compile(r"^waiting for peers:.*?network queue drops \d+ \(queue full (\d+)\b", re.M),
+}
+TRAFFIC_COL = {"states_given_up": "states_missed", "peer_timeouts": "timeouts"}  # queue drops: not per round
+RESUMED_RE = re.compile(r"^resumed: from \S+ \(round \d+\), rounds (\d+) \.\.", re.M)
+FLEET_RE = re.compile(r"^fleet: \d+ robots", re.M)
+
+
+def read_summary(path):
+    try:
+        with open(path, encoding="utf-8", errors="replace") as f:
+            return f.read()
+    except OSError:
+        return None
+
+
+def traffic_sums(path, before=None):
+    """{key: sum of its traffic.csv column} over the rows (of rounds < before, when given); None
+    when the file is missing or unreadable, a key left out when its column is."""
+    try:
+        with open(path, newline="", encoding="utf-8", errors="replace") as f:
+            rows = list(csv.DictReader(f))
+    except (OSError, csv.Error):
+        return None
+    out = {}
+    for key, col in TRAFFIC_COL.items():
+        try:
+            out[key] = sum(int(float(r[col])) for r in rows
+                           if before is None or int(float(r["round"])) < before)
+        except (KeyError, TypeError, ValueError):
+            pass  # an older or damaged file: the figure is not known from it
+    return out
+
+
+def robot_losses(robot_dir):
+    """({key: count} of one robot's folder, [what could not be counted]). A key missing from the
+    dict is not known; a count may be a lower bound, then the list says why."""
+    name = os.path.basename(os.path.normpath(robot_dir))
+    text = read_summary(os.path.join(robot_dir, "summary.txt"))
+    traffic = os.path.join(robot_dir, "traffic.csv")
+    if text is None:
+        # The robot did not finish: traffic.csv's rows are all there is (queue drops: nothing).
+        got = traffic_sums(traffic) or {}
+        return got, [f"{name}: no summary.txt" + (", counted from traffic.csv (at least)" if got else "")]
+    if not FLEET_RE.search(text):
+        return {k: 0 for k in KEYS}, []  # a robot alone exchanges nothing
+    m = RESUMED_RE.search(text)
+    start = int(m.group(1)) if m else 0
+    earlier = traffic_sums(traffic, before=start) if start else {}
+    got, gaps = {}, []
+    for key, rx in SUMMARY_RE.items():
+        m = rx.search(text)
+        if m is None:
+            gaps.append(f"{name}: summary.txt has no {WORDS[key]} (an older host_sim?)")
+        elif key not in TRAFFIC_COL and start:
+            got[key] = int(m.group(1))
+            gaps.append(f"{name}: the {WORDS[key]} of the start(s) before its --resume at round {start} "
+                        "are not written anywhere (at least)")
+        elif key in TRAFFIC_COL and start and (earlier is None or key not in earlier):
+            got[key] = int(m.group(1))
+            gaps.append(f"{name}: no traffic.csv rows for the {WORDS[key]} before its --resume at round "
+                        f"{start} (at least)")
+        else:
+            got[key] = int(m.group(1)) + (earlier.get(key, 0) if start else 0)
+    return got, gaps
+
+
+def fleet_losses(run_dir, robots):
+    """{key: total over the folders robot_<i> of i in robots, None when no robot says}, [gaps]."""
+    totals, gaps = {k: 0 for k in KEYS}, []
+    known = {k: False for k in KEYS}
+    for i in robots:
+        got, g = robot_losses(os.path.join(run_dir, f"robot_{i}"))
+        gaps += g
+        for k in KEYS:
+            if k in got:
+                totals[k] += got[k]
+                known[k] = True
+    return {k: (totals[k] if known[k] else None) for k in KEYS}, gaps
+
+
+def lossless(totals, gaps):
+    """True when every total is known, complete and zero."""
+    return not gaps and all(totals[k] == 0 for k in KEYS)
+
+
+def totals_text(totals, gaps=()):
+    """"12 states given up, 0 peer timeouts, ..." ("not known" for a total no robot wrote; "at
+    least" before the figures when some robot's could not be counted whole)."""
+    parts = [f"{WORDS[k]}: not known" if totals[k] is None else f"{totals[k]:,} {WORDS[k]}" for k in KEYS]
+    return ("at least " if gaps else "") + ", ".join(parts)
+
+
+def verdict(totals, gaps):
+    """What the totals mean for the models, in a few words. Queue drops alone cost re-sends, not
+    states: a round that got every neighbour's state whole computes what a lossless one does
+    (tests/fleet/test_fleet_procs.c: bit for bit with lost datagrams), so only then it is not said
+    that the models differ."""
+    if lossless(totals, gaps):
+        return "a lossless run"
+    if totals["states_given_up"] or totals["peer_timeouts"]:
+        return "the models are NOT those of a lossless run (nor the in-process reference's)"
+    if totals["queue_drops"]:
+        return ("not a lossless run: a busy CPU let receive queues overflow; no state was given up (the "
+                "datagrams were asked for again), so the models should still be the lossless run's")
+    return "not all of it could be counted, so the run is not known to be lossless"
