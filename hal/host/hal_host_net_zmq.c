@@ -21,9 +21,12 @@
  * before it unsubscribes the ones gone (no gap for senders in both), and only those. The
  * receiver strips the topic back to the channel ('#' and 8 hex digits, or '#' alone; anything
  * else is counted invalid). A process of a build before these topics is not heard (one fleet,
- * one build). Subscriptions cross TCP asynchronously: for a moment after a change what was in
- * flight still arrives (hal_host_net.c's filter drops it) and a newly wanted sender's
- * datagrams may be missed (recovered like any loss).
+ * one build), and a channel must be typed (hal_host_net_expect_type) at its publishers as at
+ * its receivers, or its datagrams carry no sender and a narrowed receiver never gets them
+ * (host_sim types the fleet channels on every robot alike). Subscriptions cross TCP
+ * asynchronously: for a moment after a change what was in flight still arrives (hal_host_net.c's
+ * filter drops it) and a newly wanted sender's datagrams may be missed (recovered like any
+ * loss).
  *
  * Thread safety: a ZeroMQ socket belongs to one thread. The SUB is the receiver thread's
  * (zmq_handle); subscribe and senders come from the caller's thread, so they only record the
@@ -306,11 +309,12 @@ static void apply_chan(zmq_ctx_t *c, zmq_chan_t *ch)
     ch->dirty = 0;
 }
 
-/* The receiver thread: the wake-up pipe emptied, and what changed applied to the SUB. */
-static void apply_pending(zmq_ctx_t *c)
+/* The receiver thread: the wake-up pipe emptied (when it woke us), and what changed applied
+ * to the SUB. */
+static void apply_pending(zmq_ctx_t *c, int woken)
 {
     char b[64];
-    while (read(c->wake[0], b, sizeof b) > 0) {
+    while (woken && read(c->wake[0], b, sizeof b) > 0) {
     }
     pthread_mutex_lock(&c->mu);
     if (c->dirty) {
@@ -355,13 +359,13 @@ static void drain(void *sock)
 static int zmq_handle(void *ctx, int timeout_ms)
 {
     zmq_ctx_t *c = ctx;
-    apply_pending(c);
+    apply_pending(c, 0);
     zmq_pollitem_t it[2] = {{c->sub, 0, ZMQ_POLLIN, 0}, {NULL, c->wake[0], ZMQ_POLLIN, 0}};
     const int r = zmq_poll(it, 2, timeout_ms);
     if (r < 0)
         return zmq_errno() == EINTR ? 0 : -EIO;
     if (it[1].revents & ZMQ_POLLIN)
-        apply_pending(c); /* woken by subscribe or senders */
+        apply_pending(c, 1); /* woken by subscribe or senders */
     for (int k = 0; k < 256 && (it[0].revents & ZMQ_POLLIN); k++) { /* what is there now, a bounded batch */
         const int cl = zmq_recv(c->sub, c->channel, sizeof c->channel - 1u, ZMQ_DONTWAIT);
         if (cl < 0)
