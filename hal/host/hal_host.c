@@ -129,6 +129,11 @@ static int op_net_wait(void *ctx, uint32_t timeout_us)
     return -EAGAIN;
 }
 
+static int op_net_senders(void *ctx, const char *channel, const uint8_t *wanted, uint32_t n_ids)
+{
+    return hal_host_net_set_senders(((hal_host_t *)ctx)->net, channel, wanted, n_ids);
+}
+
 static int op_net_clock(void *ctx, uint64_t *now_us)
 {
     (void)ctx;
@@ -171,7 +176,7 @@ static const hal_motor_ops_t host_motor_ops_wheels = {.set_wheels = op_set_wheel
 static const hal_motor_ops_t host_motor_ops_twist = {.set_wheels = op_set_wheels, .set_twist = op_set_twist};
 static const hal_net_ops_t host_net_ops = {
     .publish = op_net_publish, .subscribe = op_net_subscribe, .receive = op_net_receive, .stats = op_net_stats,
-    .wait = op_net_wait, .clock_us = op_net_clock};
+    .wait = op_net_wait, .clock_us = op_net_clock, .senders = op_net_senders};
 static const hal_storage_ops_t host_storage_ops = {.write = op_st_write, .read = op_st_read, .remove = op_st_remove};
 
 /* ---- life cycle ------------------------------------------------------------------------- */

@@ -211,6 +211,15 @@ FS_MUST_CHECK int hal_host_net_set_self(hal_host_net_t *n, uint32_t self);
  * member's MTU stays HAL_NET_MTU_BYTES (the trailer rides on top). 0, -EINVAL, -EBUSY,
  * -EIO (libsodium), -ENOMEM. */
 FS_MUST_CHECK int hal_host_net_set_auth(hal_host_net_t *n, const hal_host_auth_t *auth);
+/* Neighbour-scoped delivery (hal_net_set_senders): from now on only datagrams of the typed,
+ * subscribed `channel` whose sender's bit is set in `wanted` (n_ids bits; NULL: every sender
+ * again) are delivered; the others are dropped on arrival before the tag check and counted
+ * (rx_unwanted), and over ZeroMQ not even sent by their publishers once the change reached
+ * them (hal_host_net_zmq.c). The same set again does no transport work. One thread at a time
+ * (the GP core's). 0, -EINVAL (n or channel bad, n_ids > BOARD_MAX_FLEET, the channel not
+ * subscribed or not typed: hal_host_net_expect_type), -EIO (the transport). */
+FS_MUST_CHECK int hal_host_net_set_senders(hal_host_net_t *n, const char *channel, const uint8_t *wanted,
+                                           uint32_t n_ids);
 
 /* Storage in a directory. Thread-safe as far as the file system is (one writer per name). */
 typedef struct hal_host_storage hal_host_storage_t;

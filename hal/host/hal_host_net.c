@@ -13,7 +13,16 @@
  * the queue, after the checks: receive side, so one robot's loss does not hide the datagram
  * from the others (a lossy radio, not a broken sender). Delayed and reordered datagrams wait
  * in a holding area allocated with the faults; the receiver thread, wait and receive move
- * what is due into the queue as time passes. */
+ * what is due into the queue as time passes.
+ *
+ * Neighbour-scoped delivery (hal_host_net_set_senders): each subscription of a typed channel
+ * may carry a fixed bitmap of wanted senders (BOARD_MAX_FLEET bits, in this struct, nothing
+ * allocated). hal_host_net_on_datagram checks it right after the subscription match and the
+ * own-echo check, before the tag check, the bounds check and any copy: an unwanted sender's
+ * datagram costs the channel lookup and a read of its sender field (rx_unwanted). A datagram
+ * too short to name a sender passes, and the checks after refuse it. The transport is told
+ * too (its optional `senders`): ZeroMQ then filters at the publisher, so most unwanted bytes
+ * never arrive at all; LCM multicast cannot, and this check is its filter. */
 #include "hal_host.h"
 #include "hal_host_auth.h"
 #include "hal_host_msg.h"
@@ -47,6 +56,10 @@ struct hal_host_net {
     net_slot_t *slots;
     uint32_t n_subs;
     char sub_channel[HAL_HOST_NET_MAX_SUBS][HAL_NET_CHANNEL_MAX]; /* under mu */
+    /* hal_host_net_set_senders, per subscription (under mu): filtered, and then the wanted
+       senders' bits (ids >= BOARD_MAX_FLEET never wanted). */
+    uint8_t sub_filtered[HAL_HOST_NET_MAX_SUBS];
+    uint8_t sub_wanted[HAL_HOST_NET_MAX_SUBS][HAL_HOST_NET_SENDER_BYTES];
     uint32_t n_typed;
     char typed_channel[HAL_HOST_NET_MAX_SUBS][HAL_NET_CHANNEL_MAX];
     hal_host_msg_type_t typed[HAL_HOST_NET_MAX_SUBS];
@@ -376,6 +389,18 @@ static int tx_count(hal_host_net_t *n, int rc, size_t len)
     return rc;
 }
 
+/* The sender a datagram names, for a transport that filters by it (-1 for the others: no
+ * lookup under the mutex). */
+static int64_t publish_sender(hal_host_net_t *n, const char *channel, const void *data, size_t len)
+{
+    if (n->tp->senders == NULL)
+        return -1;
+    pthread_mutex_lock(&n->mu);
+    const hal_host_msg_type_t type = channel_type(n, channel);
+    pthread_mutex_unlock(&n->mu);
+    return typed_sender(type, data, len);
+}
+
 int hal_host_net_publish(hal_host_net_t *n, const char *channel, const void *data, size_t len)
 {
     if (n == NULL)
@@ -386,6 +411,7 @@ int hal_host_net_publish(hal_host_net_t *n, const char *channel, const void *dat
         return tx_count(n, -EMSGSIZE, len);
     if (n->drop_every != 0 && ++n->publishes % n->drop_every == 0)
         return tx_count(n, 0, len); /* lost on the way: the sender cannot tell */
+    const int64_t sender = publish_sender(n, channel, data, len);
     if (n->keyed) {
         /* The message and its trailer in one datagram (the wire buffer is the one copy). */
         pthread_mutex_lock(&n->tx_mu);
@@ -393,19 +419,21 @@ int hal_host_net_publish(hal_host_net_t *n, const char *channel, const void *dat
             memcpy(n->tx_wire, data, len);
         hal_host_auth_seal(&n->auth, channel, n->tx_wire, len);
         const size_t wire = len + HAL_HOST_AUTH_TRAILER_BYTES;
-        const int rc = n->tp->publish(n->tp_ctx, channel, n->tx_wire, wire);
+        const int rc = n->tp->publish(n->tp_ctx, channel, n->tx_wire, wire, sender);
         pthread_mutex_unlock(&n->tx_mu);
         return tx_count(n, rc, wire);
     }
     pthread_mutex_lock(&n->tx_mu); /* a transport's sending side is one thread's at a time */
-    const int rc = n->tp->publish(n->tp_ctx, channel, data, len);
+    const int rc = n->tp->publish(n->tp_ctx, channel, data, len, sender);
     pthread_mutex_unlock(&n->tx_mu);
     return tx_count(n, rc, len);
 }
 
 /* A datagram from the transport: everything from the wire is checked before it is queued:
  * first who sent it (a keyed fleet's tag), then its shape (the bounds check of a typed
- * channel). A channel nobody subscribed to (a transport that filters by prefix) is ignored. */
+ * channel). A channel nobody subscribed to (a transport that filters by prefix) is ignored;
+ * before any check, the node's own datagrams and those of senders it does not want
+ * (hal_host_net_set_senders) are dropped on their sender field alone. */
 void hal_host_net_on_datagram(hal_host_net_t *n, const char *channel, const void *data, size_t len)
 {
     pthread_mutex_lock(&n->mu);
@@ -423,8 +451,18 @@ void hal_host_net_on_datagram(hal_host_net_t *n, const char *channel, const void
         pthread_mutex_unlock(&n->mu);
         return;
     }
-    if (n->has_self && typed_sender(channel_type(n, channel), data, len) == (int64_t)n->self) {
+    const hal_host_msg_type_t type = channel_type(n, channel);
+    const int64_t sender = typed_sender(type, data, len);
+    if (n->has_self && sender == (int64_t)n->self) {
         n->stats.rx_own++;
+        pthread_mutex_unlock(&n->mu);
+        return;
+    }
+    /* Not a wanted sender: gone before the tag check and the copy (sender -1: too short to
+       name one, or the channel was made untyped; the checks below decide). */
+    if (n->sub_filtered[i] && sender >= 0 &&
+        (sender >= (int64_t)BOARD_MAX_FLEET || ((n->sub_wanted[i][sender >> 3] >> (sender & 7)) & 1u) == 0)) {
+        n->stats.rx_unwanted++;
         pthread_mutex_unlock(&n->mu);
         return;
     }
@@ -440,13 +478,13 @@ void hal_host_net_on_datagram(hal_host_net_t *n, const char *channel, const void
         }
     }
     /* Typed channels: the bytes are checked here, before anything can decode them. */
-    if (hal_host_msg_check(channel_type(n, channel), data, len) != HAL_HOST_MSG_OK) {
+    if (hal_host_msg_check(type, data, len) != HAL_HOST_MSG_OK) {
         n->stats.rx_dropped_malformed++;
         pthread_mutex_unlock(&n->mu);
         return;
     }
     if (n->faults_on)
-        inject(n, channel_type(n, channel), channel, data, (uint32_t)len);
+        inject(n, type, channel, data, (uint32_t)len);
     else
         enqueue(n, channel, data, (uint32_t)len);
     pthread_mutex_unlock(&n->mu);
@@ -479,6 +517,39 @@ int hal_host_net_subscribe(hal_host_net_t *n, const char *channel)
         n->rx_started = 1;
     }
     return 0;
+}
+
+int hal_host_net_set_senders(hal_host_net_t *n, const char *channel, const uint8_t *wanted, uint32_t n_ids)
+{
+    if (n == NULL || !hal_net_channel_valid(channel) || (wanted != NULL && n_ids > (uint32_t)BOARD_MAX_FLEET))
+        return -EINVAL;
+    uint8_t map[HAL_HOST_NET_SENDER_BYTES];
+    memset(map, 0, sizeof map);
+    if (wanted != NULL) {
+        memcpy(map, wanted, n_ids / 8u);
+        if (n_ids % 8u != 0)
+            map[n_ids / 8u] = (uint8_t)(wanted[n_ids / 8u] & ((1u << (n_ids % 8u)) - 1u));
+    }
+    pthread_mutex_lock(&n->mu);
+    uint32_t i = 0;
+    while (i < n->n_subs && strcmp(n->sub_channel[i], channel) != 0)
+        i++;
+    if (i == n->n_subs || channel_type(n, channel) == HAL_HOST_MSG_ANY) {
+        pthread_mutex_unlock(&n->mu); /* not subscribed, or its datagrams name no sender */
+        return -EINVAL;
+    }
+    const uint8_t filtered = wanted != NULL;
+    const int same = n->sub_filtered[i] == filtered && (!filtered || memcmp(n->sub_wanted[i], map, sizeof map) == 0);
+    if (!same) {
+        n->sub_filtered[i] = filtered;
+        memcpy(n->sub_wanted[i], map, sizeof map);
+    }
+    pthread_mutex_unlock(&n->mu);
+    /* The same set again: nothing for the transport to do. Otherwise this node's filter holds
+       from now on, and the transport narrows what it carries as soon as it can. */
+    if (same || n->tp->senders == NULL)
+        return 0;
+    return n->tp->senders(n->tp_ctx, channel, filtered ? map : NULL);
 }
 
 /* Waits (the mutex held) until a message is queued or timeout_ms passed. Held datagrams that

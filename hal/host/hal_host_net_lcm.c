@@ -1,4 +1,10 @@
-/* The LCM transport of the host network (hal_host_net_transport.h). */
+/* The LCM transport of the host network (hal_host_net_transport.h).
+ *
+ * No sender filter of its own (no `senders`): UDP multicast hands every datagram of the group
+ * to every socket anyway, and LCM channels keep their names (recordings and tests rely on
+ * them), so neighbour-scoped delivery is hal_host_net.c's check on arrival: an unwanted
+ * sender's datagram costs one channel lookup and a read of its sender field, no tag check and
+ * no copy into the queue. */
 #include "hal_host.h"
 #include "hal_host_net_transport.h"
 
@@ -49,9 +55,10 @@ static void lcm_close(void *ctx)
     free(c);
 }
 
-static int lcm_pub(void *ctx, const char *channel, const void *data, size_t len)
+static int lcm_pub(void *ctx, const char *channel, const void *data, size_t len, int64_t sender)
 {
     lcm_ctx_t *c = ctx;
+    (void)sender; /* every datagram goes to the whole group */
     static const uint8_t empty; /* LCM wants a non-NULL pointer even for an empty message */
     return lcm_publish(c->lcm, channel, len > 0 ? data : &empty, (unsigned)len) != 0 ? -EIO : 0;
 }
@@ -84,4 +91,4 @@ static int lcm_handle_for(void *ctx, int timeout_ms)
     return lcm_handle_timeout(c->lcm, timeout_ms) < 0 ? -EIO : 0;
 }
 
-const hal_host_net_transport_t hal_host_net_lcm = {"lcm", lcm_open, lcm_close, lcm_pub, lcm_sub, lcm_handle_for};
+const hal_host_net_transport_t hal_host_net_lcm = {"lcm", lcm_open, lcm_close, lcm_pub, lcm_sub, lcm_handle_for, NULL};

@@ -7,11 +7,19 @@
  *     process): hal_host_net_lcm.c;
  *   - ZeroMQ over TCP ("zmq://BIND?peers=EP,EP,...", hal_host_net_zmq.c): peer to peer, each
  *     process binds one PUB endpoint and connects its SUB to every peer's.
+ * Neighbour-scoped delivery (hal_host_net_set_senders): hal_host_net.c drops an unwanted
+ * sender's datagram on arrival whatever the transport; a transport that can do better (ZeroMQ:
+ * at the publisher, so the bytes never cross TCP) offers `senders`, and its `publish` is told
+ * each datagram's sender for that.
  * Not part of the board's API. */
 #ifndef HAL_HOST_NET_TRANSPORT_H
 #define HAL_HOST_NET_TRANSPORT_H
 
 #include <stddef.h>
+#include <stdint.h>
+
+/* Bytes of a sender bitmap: one bit per possible robot id (0 .. BOARD_MAX_FLEET - 1). */
+#define HAL_HOST_NET_SENDER_BYTES (((size_t)BOARD_MAX_FLEET + 7u) / 8u)
 
 typedef struct hal_host_net hal_host_net_t;
 
@@ -21,13 +29,22 @@ typedef struct hal_host_net_transport {
        URL) or -EIO. */
     int (*open)(hal_host_net_t *n, const char *url, void **ctx);
     void (*close)(void *ctx);
-    /* Sends one datagram (any thread, one at a time: hal_host_net.c serialises). 0 or -EIO. */
-    int (*publish)(void *ctx, const char *channel, const void *data, size_t len);
+    /* Sends one datagram (any thread, one at a time: hal_host_net.c serialises). `sender` is the
+       robot id the datagram names (a typed channel's sender field, 0 .. UINT32_MAX), -1 when it
+       names none (an untyped channel, too short) or the transport has no `senders`. 0, -EIO. */
+    int (*publish)(void *ctx, const char *channel, const void *data, size_t len, int64_t sender);
     /* Adds a channel (the caller's thread, before or while the receiver runs). 0, -EIO. */
     int (*subscribe)(void *ctx, const char *channel);
     /* The receiver thread: waits up to timeout_ms, delivering what arrives through
        hal_host_net_on_datagram(). 0, or < 0 when the transport is gone. */
     int (*handle)(void *ctx, int timeout_ms);
+    /* Optional (NULL: the transport delivers every sender; hal_host_net.c's filter is all).
+       Narrows what arrives on a subscribed `channel` to the senders whose bit is set in
+       `wanted` (HAL_HOST_NET_SENDER_BYTES bytes, bit i = wanted[i / 8] >> (i % 8) & 1), or
+       every sender again (wanted NULL). Called from the caller's thread while the receiver
+       runs, only when the set changed; best effort (what passes is filtered above). 0, -EINVAL
+       (not subscribed), -EIO. */
+    int (*senders)(void *ctx, const char *channel, const uint8_t *wanted);
 } hal_host_net_transport_t;
 
 extern const hal_host_net_transport_t hal_host_net_lcm;

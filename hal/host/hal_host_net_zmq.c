@@ -3,12 +3,36 @@
  *
  * URL: "zmq://BIND?peers=HOST:PORT,HOST:PORT,..." (host_sim run --transport zmq --peers builds
  * it). The process binds one PUB socket on tcp://BIND (e.g. "*:7701") and connects one SUB
- * socket to every peer's PUB. Every datagram goes out as two frames, [channel][bytes], to every
- * connected peer: the fleet's messages are all "to everyone" (states, RoundCompletes, resend
- * requests), so PUB/SUB carries them as LCM's multicast did, and no socket needs a reply.
- * (ROUTER/DEALER would address single peers, which the protocol never does; REQ/REP would
- * block a robot on a peer that is gone.) The SUB subscribes to everything; hal_host_net.c
- * keeps only the channels this process subscribed to.
+ * socket to every peer's PUB. Every datagram goes out as two frames, [topic][bytes], to every
+ * connected peer that subscribed to its topic: the fleet's messages are all "to everyone"
+ * (states, RoundCompletes, resend requests), so PUB/SUB carries them as LCM's multicast did,
+ * and no socket needs a reply. (ROUTER/DEALER would address single peers, which the protocol
+ * never does; REQ/REP would block a robot on a peer that is gone.)
+ *
+ * Topics and neighbour-scoped delivery. The topic frame is the channel, '#', then the sender
+ * as 8 lower-case hex digits when the datagram names one (a typed channel: hal_host_net.c
+ * passes typed_sender()), else nothing: "fleetsim/3/state#0000002a", "fleetsim/3/telemetry#".
+ * '#' is no channel character, so the topic ends the channel exactly, and the fixed width
+ * makes every sender's topic no prefix of another's (sender 1 is "...#00000001", never a
+ * prefix of 17's "...#00000011"). ZeroMQ's PUB filters by topic prefix AT THE PUBLISHER: the
+ * SUB subscribes to "CHANNEL#" for each subscribed channel (every sender), and for a channel
+ * narrowed by hal_host_net_set_senders to one topic "CHANNEL#%08x" per wanted sender instead,
+ * so an unwanted sender's bytes never cross TCP. A change subscribes the topics new to the set
+ * before it unsubscribes the ones gone (no gap for senders in both), and only those. The
+ * receiver strips the topic back to the channel ('#' and 8 hex digits, or '#' alone; anything
+ * else is counted invalid). A process of a build before these topics is not heard (one fleet,
+ * one build), and a channel must be typed (hal_host_net_expect_type) at its publishers as at
+ * its receivers, or its datagrams carry no sender and a narrowed receiver never gets them
+ * (host_sim types the fleet channels on every robot alike). Subscriptions cross TCP
+ * asynchronously: for a moment after a change what was in flight still arrives (hal_host_net.c's
+ * filter drops it) and a newly wanted sender's datagrams may be missed (recovered like any
+ * loss).
+ *
+ * Thread safety: a ZeroMQ socket belongs to one thread. The SUB is the receiver thread's
+ * (zmq_handle); subscribe and senders come from the caller's thread, so they only record the
+ * wanted state under `mu` and write a byte to a pipe that zmq_handle polls beside the SUB: it
+ * wakes at once and applies the difference on the receiver thread (ZMQ_SUBSCRIBE and
+ * ZMQ_UNSUBSCRIBE). The PUB is the publishing thread's (hal_host_net.c serialises publish).
  *
  * Chosen on purpose, because the protocol recovers what the transport loses but must never
  * block or grow without bound:
@@ -26,19 +50,43 @@
 #include "hal_host_net_transport.h"
 
 #include <errno.h>
+#include <fcntl.h>
+#include <pthread.h>
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
+#include <unistd.h>
 #include <zmq.h>
 
 #define ZMQ_HWM 1000
 #define ZMQ_PEERS_MAX 1024
 #define ENDPOINT_MAX 300
 
+#define SENDER_HEX 8u /* hex digits of the sender in a topic */
+#define TOPIC_MAX (HAL_NET_CHANNEL_MAX + 1u + SENDER_HEX) /* channel, '#', sender, NUL */
+
+/* One subscribed channel: what the caller wants (under mu) and what the SUB has (the
+   receiver thread's). */
+typedef struct zmq_chan {
+    char name[HAL_NET_CHANNEL_MAX];
+    int dirty;                               /* want differs from have (under mu) */
+    int want_filtered;                       /* under mu */
+    uint8_t want[HAL_HOST_NET_SENDER_BYTES];
+    int have_subscribed, have_filtered;      /* the receiver thread's */
+    uint8_t have[HAL_HOST_NET_SENDER_BYTES];
+} zmq_chan_t;
+
 typedef struct zmq_ctx {
     void *ctx, *pub, *sub;
     hal_host_net_t *n;
-    char channel[HAL_NET_CHANNEL_MAX + 1];
+    pthread_mutex_t mu;   /* chans' wanted state, n_chans, dirty */
+    int mu_ok;
+    int wake[2];          /* a byte written: the wanted subscriptions changed (read end polled) */
+    int dirty;
+    uint32_t n_chans;
+    zmq_chan_t chans[HAL_HOST_NET_MAX_SUBS];
+    char tx_topic[TOPIC_MAX];  /* the publishing thread's */
+    char channel[TOPIC_MAX + 1]; /* the receiver thread's */
     uint8_t buf[HAL_NET_MTU_BYTES + HAL_HOST_AUTH_TRAILER_BYTES];
 } zmq_ctx_t;
 
@@ -50,6 +98,11 @@ static void zmq_close_all(zmq_ctx_t *c)
         zmq_close(c->sub);
     if (c->ctx != NULL)
         zmq_ctx_term(c->ctx);
+    for (int k = 0; k < 2; k++)
+        if (c->wake[k] >= 0)
+            close(c->wake[k]);
+    if (c->mu_ok)
+        pthread_mutex_destroy(&c->mu);
     free(c);
 }
 
@@ -99,6 +152,15 @@ static int zmq_open_url(hal_host_net_t *n, const char *url, void **out)
     if (c == NULL)
         return -ENOMEM;
     c->n = n;
+    c->wake[0] = c->wake[1] = -1;
+    c->mu_ok = pthread_mutex_init(&c->mu, NULL) == 0;
+    if (!c->mu_ok || pipe(c->wake) != 0 || fcntl(c->wake[0], F_SETFL, O_NONBLOCK) != 0 ||
+        fcntl(c->wake[1], F_SETFL, O_NONBLOCK) != 0 || fcntl(c->wake[0], F_SETFD, FD_CLOEXEC) != 0 ||
+        fcntl(c->wake[1], F_SETFD, FD_CLOEXEC) != 0) {
+        fprintf(stderr, "hal_host_net: zmq: cannot make the wake-up pipe\n");
+        zmq_close_all(c);
+        return -EIO;
+    }
     c->ctx = zmq_ctx_new();
     c->pub = c->ctx ? zmq_socket(c->ctx, ZMQ_PUB) : NULL;
     c->sub = c->ctx ? zmq_socket(c->ctx, ZMQ_SUB) : NULL;
@@ -107,8 +169,7 @@ static int zmq_open_url(hal_host_net_t *n, const char *url, void **out)
         set_int(c->pub, ZMQ_LINGER, 0) != 0 || set_int(c->sub, ZMQ_RCVHWM, ZMQ_HWM) != 0 ||
         set_int(c->sub, ZMQ_LINGER, 0) != 0 || set_int(c->sub, ZMQ_RECONNECT_IVL, 100) != 0 ||
         set_int(c->sub, ZMQ_RECONNECT_IVL_MAX, 2000) != 0 ||
-        zmq_setsockopt(c->sub, ZMQ_MAXMSGSIZE, &max_msg, sizeof max_msg) != 0 ||
-        zmq_setsockopt(c->sub, ZMQ_SUBSCRIBE, "", 0) != 0) {
+        zmq_setsockopt(c->sub, ZMQ_MAXMSGSIZE, &max_msg, sizeof max_msg) != 0) {
         fprintf(stderr, "hal_host_net: zmq: cannot set up the sockets: %s\n", zmq_strerror(zmq_errno()));
         zmq_close_all(c);
         return -EIO;
@@ -144,19 +205,141 @@ static void zmq_close_ctx(void *ctx)
     zmq_close_all(ctx);
 }
 
-static int zmq_pub(void *ctx, const char *channel, const void *data, size_t len)
+/* "CHANNEL#" and, for sender >= 0, its 8 hex digits: the topic's length. */
+static int topic_of(char *out, const char *channel, int64_t sender)
+{
+    return sender >= 0 ? snprintf(out, TOPIC_MAX, "%s#%08x", channel, (unsigned)sender)
+                       : snprintf(out, TOPIC_MAX, "%s#", channel);
+}
+
+static int zmq_pub(void *ctx, const char *channel, const void *data, size_t len, int64_t sender)
 {
     zmq_ctx_t *c = ctx;
-    /* PUB never blocks: past the high-water mark a peer's copy is dropped (a lossy link). */
-    if (zmq_send(c->pub, channel, strlen(channel), ZMQ_SNDMORE) < 0 || zmq_send(c->pub, data, len, 0) < 0)
+    const int tl = topic_of(c->tx_topic, channel, sender <= (int64_t)UINT32_MAX ? sender : -1);
+    /* PUB never blocks: past the high-water mark a peer's copy is dropped (a lossy link); a
+       peer that did not subscribe to the topic gets nothing. */
+    if (zmq_send(c->pub, c->tx_topic, (size_t)tl, ZMQ_SNDMORE) < 0 || zmq_send(c->pub, data, len, 0) < 0)
         return -EIO;
     return 0;
 }
 
+/* Tells the receiver thread that the wanted subscriptions changed (a full pipe has told it). */
+static void wake_receiver(zmq_ctx_t *c)
+{
+    const char b = 1;
+    (void)!write(c->wake[1], &b, 1);
+}
+
 static int zmq_sub(void *ctx, const char *channel)
 {
-    (void)ctx; /* the SUB takes everything; hal_host_net.c keeps what was subscribed */
-    (void)channel;
+    zmq_ctx_t *c = ctx;
+    int rc = 0;
+    pthread_mutex_lock(&c->mu);
+    uint32_t i = 0;
+    while (i < c->n_chans && strcmp(c->chans[i].name, channel) != 0)
+        i++;
+    if (i == c->n_chans) {
+        if (c->n_chans == HAL_HOST_NET_MAX_SUBS) {
+            rc = -ENOSPC;
+        } else {
+            zmq_chan_t *ch = &c->chans[c->n_chans++];
+            memcpy(ch->name, channel, strlen(channel) + 1u);
+            ch->dirty = c->dirty = 1; /* every sender: "CHANNEL#" */
+        }
+    }
+    pthread_mutex_unlock(&c->mu);
+    if (rc == 0)
+        wake_receiver(c);
+    return rc;
+}
+
+static int zmq_senders(void *ctx, const char *channel, const uint8_t *wanted)
+{
+    zmq_ctx_t *c = ctx;
+    pthread_mutex_lock(&c->mu);
+    uint32_t i = 0;
+    while (i < c->n_chans && strcmp(c->chans[i].name, channel) != 0)
+        i++;
+    if (i == c->n_chans) {
+        pthread_mutex_unlock(&c->mu);
+        return -EINVAL;
+    }
+    zmq_chan_t *ch = &c->chans[i];
+    ch->want_filtered = wanted != NULL;
+    if (wanted != NULL)
+        memcpy(ch->want, wanted, sizeof ch->want);
+    ch->dirty = c->dirty = 1;
+    pthread_mutex_unlock(&c->mu);
+    wake_receiver(c);
+    return 0;
+}
+
+/* The receiver thread, c->mu held: one (un)subscription of the SUB. */
+static void sub_topic(zmq_ctx_t *c, int opt, const char *channel, int64_t sender)
+{
+    char t[TOPIC_MAX];
+    const int tl = topic_of(t, channel, sender);
+    if (zmq_setsockopt(c->sub, opt, t, (size_t)tl) != 0)
+        fprintf(stderr, "hal_host_net: zmq: cannot %ssubscribe %s: %s\n", opt == ZMQ_SUBSCRIBE ? "" : "un", t,
+                zmq_strerror(zmq_errno()));
+}
+
+/* The receiver thread, c->mu held: one channel's SUB subscriptions brought to what is wanted,
+ * the new ones first, then the ones gone; nothing for what stays. */
+static void apply_chan(zmq_ctx_t *c, zmq_chan_t *ch)
+{
+    const int plain_had = ch->have_subscribed && !ch->have_filtered, plain_want = !ch->want_filtered;
+    const int ids_had = ch->have_subscribed && ch->have_filtered;
+    if (plain_want && !plain_had)
+        sub_topic(c, ZMQ_SUBSCRIBE, ch->name, -1);
+    for (int pass = 0; pass < 2; pass++) { /* 0: subscribe what is new, 1: unsubscribe what went */
+        for (size_t b = 0; b < HAL_HOST_NET_SENDER_BYTES; b++) {
+            const unsigned had = ids_had ? ch->have[b] : 0u, want = ch->want_filtered ? ch->want[b] : 0u;
+            const unsigned diff = pass == 0 ? want & ~had : had & ~want;
+            for (unsigned k = 0; diff != 0 && k < 8u; k++)
+                if ((diff >> k) & 1u)
+                    sub_topic(c, pass == 0 ? ZMQ_SUBSCRIBE : ZMQ_UNSUBSCRIBE, ch->name, (int64_t)(b * 8u + k));
+        }
+    }
+    if (plain_had && !plain_want)
+        sub_topic(c, ZMQ_UNSUBSCRIBE, ch->name, -1);
+    ch->have_subscribed = 1;
+    ch->have_filtered = ch->want_filtered;
+    memcpy(ch->have, ch->want, sizeof ch->have);
+    ch->dirty = 0;
+}
+
+/* The receiver thread: the wake-up pipe emptied (when it woke us), and what changed applied
+ * to the SUB. */
+static void apply_pending(zmq_ctx_t *c, int woken)
+{
+    char b[64];
+    while (woken && read(c->wake[0], b, sizeof b) > 0) {
+    }
+    pthread_mutex_lock(&c->mu);
+    if (c->dirty) {
+        for (uint32_t i = 0; i < c->n_chans; i++)
+            if (c->chans[i].dirty)
+                apply_chan(c, &c->chans[i]);
+        c->dirty = 0;
+    }
+    pthread_mutex_unlock(&c->mu);
+}
+
+/* A received topic back to its channel, in place: "CHANNEL#" or "CHANNEL#" and 8 hex digits.
+ * 0, or -1 when it is neither (the datagram is then refused). */
+static int strip_topic(char *topic, int len)
+{
+    const char *hash = memchr(topic, '#', (size_t)len);
+    if (hash == NULL)
+        return -1;
+    const int at = (int)(hash - topic), digits = len - at - 1;
+    if (digits != 0 && digits != (int)SENDER_HEX)
+        return -1;
+    for (int k = at + 1; k < len; k++)
+        if (!((topic[k] >= '0' && topic[k] <= '9') || (topic[k] >= 'a' && topic[k] <= 'f')))
+            return -1;
+    topic[at] = '\0';
     return 0;
 }
 
@@ -176,11 +359,14 @@ static void drain(void *sock)
 static int zmq_handle(void *ctx, int timeout_ms)
 {
     zmq_ctx_t *c = ctx;
-    zmq_pollitem_t it = {c->sub, 0, ZMQ_POLLIN, 0};
-    const int r = zmq_poll(&it, 1, timeout_ms);
+    apply_pending(c, 0);
+    zmq_pollitem_t it[2] = {{c->sub, 0, ZMQ_POLLIN, 0}, {NULL, c->wake[0], ZMQ_POLLIN, 0}};
+    const int r = zmq_poll(it, 2, timeout_ms);
     if (r < 0)
         return zmq_errno() == EINTR ? 0 : -EIO;
-    for (int k = 0; k < 256 && r > 0; k++) { /* what is there now, a bounded batch */
+    if (it[1].revents & ZMQ_POLLIN)
+        apply_pending(c, 1); /* woken by subscribe or senders */
+    for (int k = 0; k < 256 && (it[0].revents & ZMQ_POLLIN); k++) { /* what is there now, a bounded batch */
         const int cl = zmq_recv(c->sub, c->channel, sizeof c->channel - 1u, ZMQ_DONTWAIT);
         if (cl < 0)
             return zmq_errno() == EAGAIN || zmq_errno() == EINTR ? 0 : -EIO;
@@ -192,6 +378,8 @@ static int zmq_handle(void *ctx, int timeout_ms)
             continue;
         }
         c->channel[cl] = '\0';
+        if (strip_topic(c->channel, cl) != 0)
+            c->channel[0] = '\0'; /* not our topic: refused below, its bytes read first */
         const int dl = zmq_recv(c->sub, c->buf, sizeof c->buf, 0);
         if (dl < 0)
             return zmq_errno() == EINTR ? 0 : -EIO;
@@ -206,4 +394,5 @@ static int zmq_handle(void *ctx, int timeout_ms)
     return 0;
 }
 
-const hal_host_net_transport_t hal_host_net_zmq = {"zmq", zmq_open_url, zmq_close_ctx, zmq_pub, zmq_sub, zmq_handle};
+const hal_host_net_transport_t hal_host_net_zmq = {"zmq",   zmq_open_url, zmq_close_ctx, zmq_pub,
+                                                   zmq_sub, zmq_handle,   zmq_senders};

@@ -213,6 +213,9 @@ static int stdc_net_clock(void *ctx, uint64_t *now_us)
     return stdc_now_us(ctx, now_us);
 }
 
+/* No `senders`: hal_net_set_senders() is -ENOTSUP here and every sender is delivered (a RAM
+ * loopback hears only its own node; a per-channel bitmap of BOARD_MAX_FLEET bits would cost
+ * the small boards RAM for nothing). */
 static const hal_net_ops_t stdc_net = {.publish = stdc_publish,
                                        .subscribe = stdc_subscribe,
                                        .receive = stdc_receive,

@@ -648,9 +648,11 @@ static int report(job_t *j)
             fprintf(f, "traffic: %.0f B sent and %.0f B received per round; %llu chunks sent, %llu received\n",
                     (double)p->bytes_sent / R, (double)p->bytes_received / R, (unsigned long long)p->chunks_sent,
                     (unsigned long long)p->chunks_received);
-            fprintf(f, "network: %.0f B received per round in %.1f datagrams (every other member's, before the "
-                       "protocol keeps the nearest)\n",
-                    (double)res->net.rx_bytes / R, (double)res->net.rx_messages / R);
+            fprintf(f, "network: %.0f B received per round in %.1f datagrams (the members' the network delivered, "
+                       "before the protocol keeps the nearest); %llu datagrams of senders not asked for dropped on "
+                       "arrival\n",
+                    (double)res->net.rx_bytes / R, (double)res->net.rx_messages / R,
+                    (unsigned long long)res->net.rx_unwanted);
             if (j->ctx.post_rounds > 0)
                 fprintf(f, "posterior rounds: %u of %u (the fleet's epistemic posterior: %llu B sent, %llu B received, "
                            "not in traffic.csv)\n",

@@ -1,6 +1,8 @@
 /* hal_net over LCM: publish / receive of fixed-size messages through the HAL wrappers
  * (memq://), MTU limit, channel validation, caller buffer too small, bounded-queue overflow
- * with drop counting, and one test with two real processes over udpm:// on this host.
+ * with drop counting, neighbour-scoped delivery (hal_net_set_senders: unwanted senders dropped
+ * on arrival and counted, before a keyed fleet's tag check), and one test with two real
+ * processes over udpm:// on this host (the ZeroMQ side of the filter: test_net_zmq.c).
  *
  * udpm on one host (the set-up the two-process test needs; tools/install-deps.sh does not
  * change the network):
@@ -38,6 +40,8 @@
 #include "hal/hal.h"
 #include "hal_host.h"
 #include "hal_host_msg.h"
+#include "hal_host_net_transport.h"
+#include "gp/gp_wire.h"
 #include "lcm/fleetsim_state_chunk_t.h"
 
 static uint8_t big[HAL_NET_MTU_BYTES + 16u];
@@ -202,6 +206,168 @@ static void test_queue_overflow_drops_and_counts(void **state)
     }
     assert_int_equal(alloc_count_allocations(), 0);
     hal_host_destroy(h);
+}
+
+/* ---- neighbour-scoped delivery ---------------------------------------------------------- */
+#define FCH "fleetsim/filter/done"
+
+/* A RoundComplete of `sender` (a typed datagram: fingerprint, then the sender). */
+static size_t done_from(uint8_t *buf, size_t cap, uint32_t sender)
+{
+    const gp_pse_done_t d = {sender, 17, 1};
+    const int len = gp_wire_encode_done(&d, buf, cap);
+    assert_true(len > 0);
+    return (size_t)len;
+}
+
+static void publish_from(const uint32_t *senders, int n)
+{
+    uint8_t b[64];
+    for (int i = 0; i < n; i++)
+        assert_int_equal(hal_net_publish(FCH, b, done_from(b, sizeof b, senders[i])), 0);
+}
+
+/* Every datagram the receiver thread has dealt with, whatever became of it. */
+static uint64_t arrived(const hal_net_stats_t *s)
+{
+    return s->queue_fill + s->rx_messages + s->rx_dropped_small + s->rx_dropped_full + s->rx_dropped_invalid +
+           s->rx_dropped_malformed + s->rx_dropped_unauth + s->rx_dropped_replay + s->rx_own + s->rx_unwanted;
+}
+
+/* Waits (at most 2 s) until `more` datagrams more than `before` arrived, then takes what was
+ * queued, counting each sender (ids < 64) in got[]. */
+static void take_senders(uint64_t before, uint64_t more, int *got)
+{
+    hal_net_stats_t st;
+    for (int t = 0; t < 2000; t++) {
+        assert_int_equal(hal_net_get_stats(&st), 0);
+        if (arrived(&st) >= before + more)
+            break;
+        const struct timespec ms = {0, 1000000L};
+        nanosleep(&ms, NULL);
+    }
+    assert_int_equal(arrived(&st), before + more);
+    memset(got, 0, 64 * sizeof *got);
+    hal_net_rx_info_t info;
+    uint8_t b[64];
+    while (hal_net_receive(&info, b, sizeof b) == 0) {
+        gp_pse_done_t d;
+        assert_int_equal(gp_wire_decode_done(b, info.len, &d), 0);
+        assert_true(d.sender < 64);
+        got[d.sender]++;
+    }
+}
+
+static void test_senders_filter(void **state)
+{
+    (void)state;
+    hal_host_t *h = make_board(64); /* robot 0: its own datagrams are dropped as rx_own */
+    hal_host_net_t *n = hal_host_get_net(h);
+    static uint8_t all[(BOARD_MAX_FLEET + 7u) / 8u];
+    memset(all, 0xff, sizeof all);
+    /* Not subscribed, then subscribed but untyped: nothing names the sender. */
+    assert_int_equal(hal_net_set_senders(FCH, all, 8), -EINVAL);
+    assert_int_equal(hal_net_subscribe(FCH), 0);
+    assert_int_equal(hal_net_set_senders(FCH, all, 8), -EINVAL);
+    assert_int_equal(hal_host_net_expect_type(n, FCH, HAL_HOST_MSG_ROUND_COMPLETE), 0);
+    assert_int_equal(hal_net_set_senders("bad name", all, 8), -EINVAL);
+    assert_int_equal(hal_net_set_senders(NULL, NULL, 0), -EINVAL);
+    assert_int_equal(hal_net_set_senders(FCH, all, BOARD_MAX_FLEET + 1u), -EINVAL);
+    assert_int_equal(hal_host_net_set_senders(NULL, FCH, NULL, 0), -EINVAL);
+    assert_int_equal(hal_net_set_senders(FCH, all, BOARD_MAX_FLEET), 0); /* everyone, filtered */
+    assert_int_equal(hal_net_set_senders(FCH, NULL, BOARD_MAX_FLEET + 1u), 0); /* n_ids ignored */
+
+    /* Wanted: 1 and 3 of n_ids = 4; the bits past n_ids (5, 6, 7) do not count. */
+    const uint8_t w13[1] = {0x0a | 0xe0};
+    assert_int_equal(hal_net_set_senders(FCH, w13, 4), 0);
+    assert_int_equal(hal_net_set_senders(FCH, w13, 4), 0); /* the same again */
+    hal_net_stats_t st;
+    assert_int_equal(hal_net_get_stats(&st), 0);
+    uint64_t before = arrived(&st);
+    const uint32_t from[] = {1, 2, 3, 5, 17, 0};
+    publish_from(from, 6);
+    /* A datagram too short to name its sender passes the filter; the bounds check refuses it. */
+    assert_int_equal(hal_net_publish(FCH, "short", 5), 0);
+    int got[64];
+    take_senders(before, 7, got);
+    assert_int_equal(got[1], 1);
+    assert_int_equal(got[3], 1);
+    assert_int_equal(got[2] + got[5] + got[17] + got[0], 0);
+    assert_int_equal(hal_net_get_stats(&st), 0);
+    assert_int_equal(st.rx_unwanted, 3); /* 2, 5 and 17 */
+    assert_int_equal(st.rx_own, 1);      /* its own, dropped first as before */
+    assert_int_equal(st.rx_dropped_malformed, 1);
+
+    /* n_ids = 0: nobody. */
+    assert_int_equal(hal_net_set_senders(FCH, w13, 0), 0);
+    before = arrived(&st);
+    publish_from(from, 3);
+    take_senders(before, 3, got);
+    assert_int_equal(got[1] + got[2] + got[3], 0);
+    assert_int_equal(hal_net_get_stats(&st), 0);
+    assert_int_equal(st.rx_unwanted, 6);
+
+    /* NULL: every sender again. */
+    assert_int_equal(hal_net_set_senders(FCH, NULL, 0), 0);
+    before = arrived(&st);
+    publish_from(from, 5);
+    take_senders(before, 5, got);
+    assert_true(got[1] == 1 && got[2] == 1 && got[3] == 1 && got[5] == 1 && got[17] == 1);
+    assert_int_equal(hal_net_get_stats(&st), 0);
+    assert_int_equal(st.rx_unwanted, 6);
+    hal_host_destroy(h);
+    /* No board. */
+    assert_int_equal(hal_net_set_senders(FCH, NULL, 0), -ENODEV);
+}
+
+/* A keyed member drops an unwanted sender before the tag check: a forged datagram of an
+ * unwanted sender is rx_unwanted, not rx_dropped_unauth; the wanted member is heard. The
+ * forged ones are handed to the network as its transport would (hal_host_net_on_datagram). */
+static void test_senders_filter_before_the_tag(void **state)
+{
+    (void)state;
+    hal_host_auth_t a;
+    memset(a.key, 9, sizeof a.key);
+    a.run_id = 5;
+    hal_host_net_t *n = NULL;
+    assert_int_equal(hal_host_net_open("memq://", 16, &n), 0);
+    assert_int_equal(hal_host_net_set_self(n, 0), 0);
+    assert_int_equal(hal_host_net_set_auth(n, &a), 0);
+    assert_int_equal(hal_host_net_expect_type(n, FCH, HAL_HOST_MSG_ROUND_COMPLETE), 0);
+    assert_int_equal(hal_host_net_subscribe(n, FCH), 0);
+    const uint8_t w2[1] = {0x04};
+    assert_int_equal(hal_host_net_set_senders(n, FCH, w2, 8), 0);
+    uint8_t b[64 + HAL_HOST_AUTH_TRAILER_BYTES];
+    /* Unsealed (forged or not a member): sender 1 unwanted, sender 2 wanted. */
+    size_t len = done_from(b, sizeof b, 1);
+    memset(b + len, 0, HAL_HOST_AUTH_TRAILER_BYTES);
+    hal_host_net_on_datagram(n, FCH, b, len + HAL_HOST_AUTH_TRAILER_BYTES);
+    len = done_from(b, sizeof b, 2);
+    memset(b + len, 0, HAL_HOST_AUTH_TRAILER_BYTES);
+    hal_host_net_on_datagram(n, FCH, b, len + HAL_HOST_AUTH_TRAILER_BYTES);
+    hal_net_stats_t s;
+    hal_host_net_get_stats(n, &s);
+    assert_int_equal(s.rx_unwanted, 1);
+    assert_int_equal(s.rx_dropped_unauth, 1);
+    /* Sealed by the member itself (memq delivers them back): 2 is heard, 1 is not. */
+    assert_int_equal(hal_host_net_publish(n, FCH, b, done_from(b, sizeof b, 1)), 0);
+    assert_int_equal(hal_host_net_publish(n, FCH, b, done_from(b, sizeof b, 2)), 0);
+    int heard = 0;
+    for (int tries = 0; tries < 40 && (heard < 1 || s.rx_unwanted < 2); tries++) { /* bounded: 2 s */
+        assert_int_equal(hal_host_net_wait(n, 0, 50), 0);
+        hal_net_rx_info_t info;
+        while (hal_host_net_receive(n, 0, &info, b, sizeof b) == 0) {
+            gp_pse_done_t d;
+            assert_int_equal(gp_wire_decode_done(b, info.len, &d), 0);
+            assert_int_equal(d.sender, 2);
+            heard++;
+        }
+        hal_host_net_get_stats(n, &s);
+    }
+    assert_int_equal(heard, 1);
+    assert_int_equal(s.rx_unwanted, 2);
+    assert_int_equal(s.rx_dropped_unauth, 1);
+    hal_host_net_close(n);
 }
 
 /* ---- two processes over udpm:// ---------------------------------------------------------- */
@@ -484,6 +650,8 @@ int main(int argc, char **argv)
         cmocka_unit_test(test_publish_receive_fixed_message),
         cmocka_unit_test(test_channel_names_and_arguments),
         cmocka_unit_test(test_queue_overflow_drops_and_counts),
+        cmocka_unit_test(test_senders_filter),
+        cmocka_unit_test(test_senders_filter_before_the_tag),
         cmocka_unit_test(test_udpm_two_processes),
         cmocka_unit_test(test_udpm_crafted_datagrams),
     };

@@ -3,7 +3,11 @@
  * every datagram of a subscribed channel whole to both others (never to the sender), keep
  * channels nobody subscribed to out, carry a keyed fleet's trailer, refuse bad URLs and a port
  * already bound with the reason, and a peer that closes and opens again on its port is
- * reconnected to by itself. The fleet over ZeroMQ as real processes: tests/fleet. */
+ * reconnected to by itself. Neighbour-scoped delivery (hal_host_net_set_senders): a robot that
+ * wants only some senders is not even sent the others' datagrams (the publishers filter by
+ * topic, so its rx_unwanted stays 0 once the subscription reached them), ids match exactly
+ * (wanting 1 does not bring 17), NULL brings everyone back, and keyed members filter the same.
+ * The fleet over ZeroMQ as real processes: tests/fleet. */
 #define _GNU_SOURCE 1
 #include <setjmp.h>
 #include <stdarg.h>
@@ -18,6 +22,8 @@
 
 #include "hal/hal.h"
 #include "hal_host.h"
+#include "hal_host_msg.h"
+#include "gp/gp_wire.h"
 
 #define N 3
 #define CH "fleetsim/9/state"
@@ -183,6 +189,145 @@ static void test_peer_restart_reconnects(void **st)
         hal_host_net_close(net[i]);
 }
 
+/* ---- neighbour-scoped delivery ------------------------------------------------------------ */
+#define FCH "fleetsim/9/done"
+
+/* Robot n publishes a RoundComplete naming `sender`. */
+static void publish_done(hal_host_net_t *n, uint32_t sender)
+{
+    uint8_t b[64];
+    const gp_pse_done_t d = {sender, 3, 1};
+    const int len = gp_wire_encode_done(&d, b, sizeof b);
+    assert_true(len > 0);
+    assert_int_equal(hal_host_net_publish(n, FCH, b, (size_t)len), 0);
+}
+
+/* One step: robot 1 publishes as sender 1, robot 2 as senders 2 and 17; robot 0 waits up to
+ * 50 ms and counts what it took per sender (got[0..31]). */
+static void step(hal_host_net_t **net, int *got)
+{
+    publish_done(net[1], 1);
+    publish_done(net[2], 2);
+    publish_done(net[2], 17);
+    assert_int_equal(hal_host_net_wait(net[0], 0, 50), 0);
+    uint8_t b[64];
+    hal_net_rx_info_t info;
+    while (hal_host_net_receive(net[0], 0, &info, b, sizeof b) == 0) {
+        gp_pse_done_t d;
+        assert_string_equal(info.channel, FCH);
+        assert_int_equal(gp_wire_decode_done(b, info.len, &d), 0);
+        assert_true(d.sender < 32);
+        got[d.sender]++;
+    }
+}
+
+static uint64_t unwanted_at(hal_host_net_t *n)
+{
+    hal_net_stats_t s;
+    hal_host_net_get_stats(n, &s);
+    return s.rx_unwanted;
+}
+
+static void run_filter(unsigned base, int keyed)
+{
+    hal_host_auth_t a;
+    memset(a.key, 3, sizeof a.key);
+    a.run_id = 11;
+    hal_host_net_t *net[N];
+    for (int i = 0; i < N; i++) {
+        net[i] = open_robot(i, base);
+        if (keyed)
+            assert_int_equal(hal_host_net_set_auth(net[i], &a), 0);
+        assert_int_equal(hal_host_net_expect_type(net[i], FCH, HAL_HOST_MSG_ROUND_COMPLETE), 0);
+        assert_int_equal(hal_host_net_subscribe(net[i], FCH), 0);
+        assert_int_equal(hal_host_net_subscribe(net[i], CH), 0);
+    }
+    /* The connections up, every pair proved by the first test's exchange on CH (with all
+       three publishing at once from the start, a robot at times heard only one of its two
+       peers for seconds, with the transport before these topics too). */
+    static uint8_t m[100];
+    for (int from = 0; from < N; from++) {
+        int g[N] = {0};
+        exchange(net, from, m, sizeof m, g);
+    }
+    int got[32] = {0};
+    /* Everyone heard on FCH: at most 5 s. */
+    for (int t = 0; t < 100 && (got[1] == 0 || got[2] == 0 || got[17] == 0); t++)
+        step(net, got);
+    assert_true(got[1] > 0 && got[2] > 0 && got[17] > 0);
+    assert_int_equal(unwanted_at(net[0]), 0);
+
+    /* Robot 0 wants only sender 1 of 32. Until the change reached both publishers what was in
+       flight still arrives and is dropped here (rx_unwanted); then nothing of 2 or 17 is sent
+       to it: 10 quiet steps in a row, at most 5 s. */
+    static const uint8_t only1[4] = {0x02, 0, 0, 0};
+    assert_int_equal(hal_host_net_set_senders(net[0], FCH, only1, 32), 0);
+    assert_int_equal(hal_host_net_set_senders(net[0], FCH, only1, 32), 0); /* the same: no work */
+    assert_int_equal(hal_host_net_set_senders(net[0], CH, only1, 32), -EINVAL); /* untyped */
+    assert_int_equal(hal_host_net_set_senders(net[0], "fleetsim/9/other", only1, 32), -EINVAL);
+    int quiet = 0;
+    for (int t = 0; t < 100 && quiet < 10; t++) {
+        const uint64_t u = unwanted_at(net[0]);
+        memset(got, 0, sizeof got);
+        step(net, got);
+        quiet = got[2] == 0 && got[17] == 0 && unwanted_at(net[0]) == u ? quiet + 1 : 0;
+    }
+    assert_int_equal(quiet, 10);
+    /* Now: sender 1 heard, 2 and 17 (17 = 0x11: exact ids, 1's topic is no prefix of it)
+       neither heard nor even received (rx_unwanted stays: their publisher sent them nowhere). */
+    const uint64_t u0 = unwanted_at(net[0]);
+    memset(got, 0, sizeof got);
+    for (int t = 0; t < 20; t++)
+        step(net, got);
+    assert_true(got[1] > 0);
+    assert_int_equal(got[2], 0);
+    assert_int_equal(got[17], 0);
+    assert_int_equal(unwanted_at(net[0]), u0);
+    printf("# zmq filter%s: %llu datagrams in flight dropped on arrival while the subscription moved, "
+           "then none sent\n", keyed ? " (keyed)" : "", (unsigned long long)u0);
+    /* The others still hear everyone: robot 1 hears 2 and 17. */
+    uint8_t b[64];
+    hal_net_rx_info_t info;
+    int heard17 = 0;
+    while (hal_host_net_receive(net[1], 0, &info, b, sizeof b) == 0) {
+        gp_pse_done_t d;
+        heard17 += strcmp(info.channel, FCH) == 0 && gp_wire_decode_done(b, info.len, &d) == 0 && d.sender == 17;
+    }
+    assert_true(heard17 > 0);
+
+    /* NULL: every sender again, at most 5 s. */
+    assert_int_equal(hal_host_net_set_senders(net[0], FCH, NULL, 0), 0);
+    memset(got, 0, sizeof got);
+    for (int t = 0; t < 100 && (got[2] == 0 || got[17] == 0); t++)
+        step(net, got);
+    assert_true(got[1] > 0 && got[2] > 0 && got[17] > 0);
+    hal_net_stats_t s;
+    hal_host_net_get_stats(net[0], &s);
+    assert_int_equal(s.rx_dropped_unauth, 0);
+    assert_int_equal(s.rx_dropped_invalid, 0);
+    for (int i = 0; i < N; i++)
+        hal_host_net_close(net[i]);
+}
+
+/* Ports 14000 .. 19999: the other tests' are base_port()'s, and the kernel's ephemeral range
+ * (from 32768) is avoided. */
+static unsigned filter_base(unsigned k)
+{
+    return 14000u + (unsigned)(getpid() % 1000) * 6u + 3u * k;
+}
+
+static void test_senders_filtered_at_the_publisher(void **st)
+{
+    (void)st;
+    run_filter(filter_base(0), 0);
+}
+
+static void test_senders_filtered_keyed(void **st)
+{
+    (void)st;
+    run_filter(filter_base(1), 1);
+}
+
 int main(void)
 {
     const struct CMUnitTest tests[] = {
@@ -190,6 +335,8 @@ int main(void)
         cmocka_unit_test(test_keyed_over_zmq),
         cmocka_unit_test(test_bad_urls_and_a_taken_port),
         cmocka_unit_test(test_peer_restart_reconnects),
+        cmocka_unit_test(test_senders_filtered_at_the_publisher),
+        cmocka_unit_test(test_senders_filtered_keyed),
     };
     return cmocka_run_group_tests(tests, NULL, NULL);
 }

@@ -84,6 +84,7 @@ static void test_loopback_net(void **state)
     assert_int_equal(hal_net_publish("nobody/listens", "x", 1), 0); /* gone */
     assert_int_equal(hal_net_subscribe("fleet/state"), 0);
     assert_int_equal(hal_net_subscribe("fleet/state"), 0); /* twice: a no-op */
+    assert_int_equal(hal_net_set_senders("fleet/state", NULL, 0), -ENOTSUP); /* no sender filter here */
     for (uint8_t i = 0; i < HAL_STDC_NET_QUEUE + 2u; i++)
         assert_int_equal(hal_net_publish("fleet/state", &i, 1), 0);
     hal_net_stats_t st;

@@ -19,6 +19,11 @@
  *   clock, because the peers are other processes that run at their own speed while the
  *   lockstep's simulated time does not), and hal_net_wait() blocks the caller until a message
  *   waits or that much real time passed. Both are optional (-ENOTSUP).
+ * - Neighbour-scoped delivery (optional, -ENOTSUP): hal_net_set_senders() narrows a channel
+ *   whose datagrams name their sender (the fleet's typed channels: an 8-byte fingerprint, then
+ *   the big-endian 32-bit sender id) to a set of senders; the others are dropped as early as
+ *   the board can, before any check or copy into the queue, and counted
+ *   (hal_net_stats_t.rx_unwanted). A board without it delivers every sender, as before.
  *
  * Who may call: the GP core only (the operations are not thread-safe).
  */
@@ -56,6 +61,9 @@ typedef struct hal_net_stats {
     uint64_t rx_dropped_replay; /* a member's tag of another run: a recording played back */
     uint64_t rx_own;            /* the node's own publishes delivered back (LCM multicast loops
                                    them), dropped before the tag check (a host told its id) */
+    uint64_t rx_unwanted;       /* dropped because their sender is not in the channel's wanted
+                                   set (hal_net_set_senders), before the tag check; a board that
+                                   filters at the sender (ZeroMQ) never sees most of them */
     /* Faults a board injected on purpose (the host's --net-faults; 0 elsewhere). */
     uint64_t fault_dropped;     /* lost at random */
     uint64_t fault_duplicated;  /* delivered twice */
@@ -75,6 +83,7 @@ typedef struct hal_net_ops {
     int (*stats)(void *ctx, hal_net_stats_t *stats);
     int (*wait)(void *ctx, uint32_t timeout_us);
     int (*clock_us)(void *ctx, uint64_t *now_us);
+    int (*senders)(void *ctx, const char *channel, const uint8_t *wanted, uint32_t n_ids);
 } hal_net_ops_t;
 
 /* 1 when `channel` is a valid channel name, else 0. */
@@ -169,6 +178,31 @@ FS_MUST_CHECK static inline int hal_net_clock_us(uint64_t *now_us)
     if (b->net->clock_us == NULL)
         return -ENOTSUP;
     return b->net->clock_us(b->ctx, now_us);
+}
+
+/* From now on delivers only the datagrams of `channel` whose sender is in `wanted`: bit i
+ * (wanted[i / 8] >> (i % 8) & 1) for sender id i, n_ids bits (ids >= n_ids are unwanted;
+ * n_ids == 0 wants nobody). wanted == NULL delivers every sender again (the default; n_ids is
+ * then ignored). The others are dropped as early as the board can (before any tag check or
+ * copy into the queue) and counted in hal_net_stats_t.rx_unwanted. The set is copied; it
+ * applies to datagrams that arrive after the call (ones already queued stay), and setting the
+ * same set again costs no transport work. A datagram too short to name its sender passes (the
+ * checks after refuse it). A board that filters at the publisher may lose a newly wanted
+ * sender's datagrams in flight while the change propagates (best effort, as any loss).
+ * 0; -EINVAL: bad channel, n_ids > BOARD_MAX_FLEET, or (board-specific) a channel not
+ * subscribed or whose datagrams do not name a sender (the host: not typed,
+ * hal_host_net_expect_type); -ENOTSUP: the board cannot filter (everything is delivered, as
+ * before); -ENODEV. */
+FS_MUST_CHECK static inline int hal_net_set_senders(const char *channel, const uint8_t *wanted, uint32_t n_ids)
+{
+    const hal_board_t *b = hal_board_current;
+    if (!hal_net_channel_valid(channel) || (wanted != NULL && n_ids > (uint32_t)BOARD_MAX_FLEET))
+        return -EINVAL;
+    if (b == NULL || b->net == NULL)
+        return -ENODEV;
+    if (b->net->senders == NULL)
+        return -ENOTSUP;
+    return b->net->senders(b->ctx, channel, wanted, n_ids);
 }
 
 #endif /* HAL_NET_H */
