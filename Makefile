@@ -150,7 +150,9 @@ SIM_DIRS := host_sim $(addprefix host_sim/,floorplan plangen paths world fleet m
 HOST_INC := $(FW_INC) -Ihal/host $(addprefix -I,$(SIM_DIRS)) -I$(GEN) -D_POSIX_C_SOURCE=200809L
 TEST_INC := $(HOST_INC) -Ihal/stdc -Itests/support -Itests
 
-SYS_LIBS := -lode -llcm -lzmq -lsodium -lOSMesa -lpng -lm -lpthread
+# No -lOSMesa: host_sim/maps/sim_render.c dlopens it at the first render (dlopen is in libc
+# from glibc 2.34; an older glibc would need -ldl here).
+SYS_LIBS := -lode -llcm -lzmq -lsodium -lpng -lm -lpthread
 WRAP     := $(foreach f,malloc calloc realloc free aligned_alloc posix_memalign,-Wl,--wrap=$(f))
 
 # ---- sources ----------------------------------------------------------------------------

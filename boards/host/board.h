@@ -17,7 +17,8 @@
 #define BOARD_RAM_GP_BYTES (256u * 1024u * 1024u)
 #define BOARD_RAM_AI_BYTES (512u * 1024u * 1024u)
 
-/* Fixed stack per core thread, painted at start for the high-water mark. */
+/* Fixed stack per core thread; only its touched pages are resident, and the deepest of them
+ * gives the high-water mark (hal/host/hal_host_cores.c). */
 #define BOARD_STACK_RT_BYTES (256u * 1024u)
 #define BOARD_STACK_GP_BYTES (1024u * 1024u)
 #define BOARD_STACK_AI_BYTES (8u * 1024u * 1024u)

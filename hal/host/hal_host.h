@@ -18,8 +18,11 @@
  *
  * Threads and memory
  * - Each core runs on a pthread whose stack is a static array of BOARD_STACK_<core>_BYTES
- *   (pthread_attr_setstack), painted with a pattern before the start; the high-water mark is
- *   the painted prefix that is no longer intact. Because the stacks are static, at most one
+ *   (pthread_attr_setstack), whose pages are dropped (MADV_DONTNEED) before the start; the
+ *   high-water mark is the bytes from the top down to the start of the deepest page the thread
+ *   touched (resident, by mincore()): exact to a page, over by less than 4 KB, never under
+ *   (unless a stack page was swapped out). Unlike painting, this keeps the untouched part of
+ *   the stacks out of RSS. Because the stacks are static, at most one
  *   hal_host_t can have started cores at a time (-EBUSY otherwise).
  * - hal_host_create() allocates everything (network queue included); nothing allocates in
  *   this back end once the cores run.

@@ -1,5 +1,17 @@
-/* Host board: the core threads, each on a painted static stack (high-water marks), started
- * SLEEPING for the scheduler's first release. See hal_host_priv.h for the states. */
+/* Host board: the core threads, each on a static stack, started SLEEPING for the scheduler's
+ * first release. See hal_host_priv.h for the states.
+ *
+ * Stack high-water marks by page residency, not by painting: painting a stack makes all of it
+ * resident (9.4 MB per process for the three host stacks, of which a few hundred KB are ever
+ * used). Instead, before a core starts, its stack's pages are dropped (MADV_DONTNEED: the
+ * next touch maps a fresh page) and kept out of transparent huge pages (MADV_NOHUGEPAGE: one
+ * touch must fault in one 4 KB page, not 2 MB); a page becomes resident only when the thread
+ * touches it (reads or writes it). mincore() then finds the deepest resident page, and the
+ * high-water mark is the bytes from the stack's top down to the start of that page: exact
+ * to a page (it over-states the deepest byte touched by less than one page, never
+ * under-states it, as long as no stack page has been swapped out: mincore() does not count a
+ * page that is only in swap). */
+#define _DEFAULT_SOURCE /* mincore(), MADV_NOHUGEPAGE */
 #include "hal_host_priv.h"
 
 #include <errno.h>
@@ -8,16 +20,18 @@
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
+#include <sys/mman.h>
 #include <time.h>
 #include <unistd.h>
 
 _Thread_local host_core_t *hal_host_tls_core;
 
-#define STACK_PAINT 0xA5u
-
-static _Alignas(4096) uint8_t stack_rt[BOARD_STACK_RT_BYTES + STACK_RESERVE];
-static _Alignas(4096) uint8_t stack_gp[BOARD_STACK_GP_BYTES + STACK_RESERVE];
-static _Alignas(4096) uint8_t stack_ai[BOARD_STACK_AI_BYTES + STACK_RESERVE];
+/* The arrays' alignment: the page size of the hosts built for (x86-64; aarch64 with 4 KB
+ * pages), as pthread_attr_setstack() and madvise() want. */
+#define STACK_PAGE 4096u
+static _Alignas(STACK_PAGE) uint8_t stack_rt[BOARD_STACK_RT_BYTES + STACK_RESERVE];
+static _Alignas(STACK_PAGE) uint8_t stack_gp[BOARD_STACK_GP_BYTES + STACK_RESERVE];
+static _Alignas(STACK_PAGE) uint8_t stack_ai[BOARD_STACK_AI_BYTES + STACK_RESERVE];
 static uint8_t *const core_stack[HAL_CORE_COUNT] = {stack_rt, stack_gp, stack_ai};
 static const size_t core_stack_size[HAL_CORE_COUNT] = {BOARD_STACK_RT_BYTES + STACK_RESERVE,
                                                        BOARD_STACK_GP_BYTES + STACK_RESERVE,
@@ -27,27 +41,31 @@ static const size_t core_board_stack[HAL_CORE_COUNT] = {
 /* Which hal_host_t owns the static stacks (between its first core start and its stop). */
 static _Atomic(hal_host_t *) stacks_owner;
 
-/* ---- stacks ------------------------------------------------------------------------------
- * Painting and scanning touch bytes that sanitizers may consider another thread's live
- * stack frames (redzones); they are plain memory here, so the checks are turned off for
- * these two functions only. */
-__attribute__((no_sanitize_address, no_sanitize_thread)) static void stack_paint(uint8_t *s,
-                                                                                  size_t n)
+/* ---- stacks ------------------------------------------------------------------------------ */
+
+/* Before a start: no page of the stack resident, none to be faulted in as a huge page.
+ * The arrays are page-aligned, page-sized .bss (private anonymous memory), so dropped pages
+ * come back zero-filled. */
+static void stack_reset(uint8_t *s, size_t n)
 {
-    volatile uint8_t *p = s;
-    for (size_t i = 0; i < n; i++)
-        p[i] = STACK_PAINT;
+    (void)madvise(s, n, MADV_NOHUGEPAGE); /* fails only without THP support: nothing to undo */
+    (void)madvise(s, n, MADV_DONTNEED);
 }
 
-/* Stacks grow down: the untouched part is the low end. */
-__attribute__((no_sanitize_address, no_sanitize_thread)) static size_t stack_used(const uint8_t *s,
-                                                                                   size_t n)
+/* Stacks grow down: the bytes from the top to the start of the lowest resident page. */
+static size_t stack_used(const uint8_t *s, size_t n)
 {
-    const volatile uint8_t *p = s;
-    size_t i = 0;
-    while (i < n && p[i] == STACK_PAINT)
-        i++;
-    return n - i;
+    const size_t page = (size_t)sysconf(_SC_PAGESIZE);
+    unsigned char vec[256]; /* one byte per page, a chunk at a time: nothing allocated */
+    for (size_t off = 0; off < n; off += sizeof vec * page) {
+        size_t len = n - off < sizeof vec * page ? n - off : sizeof vec * page;
+        if (mincore((void *)(uintptr_t)(s + off), len, vec) != 0)
+            return n; /* cannot tell: report the whole stack as used */
+        for (size_t i = 0; i < (len + page - 1) / page; i++)
+            if (vec[i] & 1u)
+                return n - (off + i * page);
+    }
+    return 0;
 }
 
 /* The core's own use (below its first frame) and its board stack size; h->mu held. */
@@ -115,7 +133,7 @@ static int op_core_start(void *ctx, hal_core_id_t id, hal_core_entry_t entry, vo
         pthread_mutex_unlock(&h->mu);
         return code;
     }
-    stack_paint(core_stack[id], core_stack_size[id]);
+    stack_reset(core_stack[id], core_stack_size[id]);
     c->entry = entry;
     c->arg = arg;
     c->state = CORE_SLEEPING;

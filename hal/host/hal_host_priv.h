@@ -1,6 +1,6 @@
 /* State shared by the files of the host board (hal_host.c: life cycle and adapters,
  * hal_host_sched.c: the lockstep scheduler and the clock, hal_host_cores.c: core threads on
- * painted static stacks, hal_host_log.c: the log). Not part of the board's API.
+ * static stacks, hal_host_log.c: the log). Not part of the board's API.
  *
  * Scheduler state (all under h->mu): each core is UNUSED, SLEEPING (blocked, waiting for
  * `wake_us`), RUNNING (released; it runs until it blocks again) or DONE. The controlling

@@ -12,7 +12,11 @@
  * azimuth -90 the plan's +y points up the image and +x to the right, as in every other figure
  * (sim_figure.h), so the scene and the maps show the building the same way round. Robots and
  * paths are drawn in their sim_palette.h colours.
- * Not thread-safe (one OSMesa context per call, made current on the calling thread). */
+ * Not thread-safe (one OSMesa context per call, made current on the calling thread).
+ *
+ * libOSMesa is not linked: the first render loads it (dlopen "libOSMesa.so.8", else
+ * "libOSMesa.so"; Debian's package libosmesa6), so a program that never renders never maps it
+ * nor the libLLVM it pulls in. Without it a render fails with -ENOENT and says so. */
 #ifndef SIM_RENDER_H
 #define SIM_RENDER_H
 
@@ -52,8 +56,17 @@ typedef struct sim_render_cfg {
 
 sim_render_cfg_t sim_render_default_cfg(void); /* 1024 x 768, fov 40, azimuth -90, elevation 72 */
 
+/* Loads libOSMesa and its GL entry points, once per process: the first of `names` (a NULL-ended
+ * list; NULL for the defaults above) that dlopen finds. Returns 0 (also when already loaded,
+ * whatever `names`), or -ENOENT with "render: cannot load <names[0]> (install libosmesa6):
+ * <dlerror>" in err (or which function it lacks); a failure is not remembered. The renders
+ * call it themselves; a caller may call it first to fail early, a test to see the message. */
+FS_MUST_CHECK
+int sim_render_load(const char *const *names, char *err, size_t errlen);
+
 /* Renders into rgb (width * height * 3 bytes, row-major, top row first).
- * Returns 0, -EINVAL or -EIO (OSMesa failure) with a message in err. */
+ * Returns 0, -EINVAL, -ENOENT (no libOSMesa: sim_render_load) or -EIO (OSMesa failure) with a
+ * message in err. */
 FS_MUST_CHECK
 int sim_render_rgb(const sim_render_scene_t *scene, const sim_render_cfg_t *cfg, uint8_t *rgb,
                    char *err, size_t errlen);

@@ -23,6 +23,22 @@
  * library (measured: 1 render 5 allocations, 4 renders 11); tests/lsan.supp suppresses
  * exactly those, for this test and for `host_sim render` run by tests/app. */
 
+/* A library that is not there: a clear message naming it and the package, no crash; the
+ * renders after it still load the real one (a failure is not remembered). First in main():
+ * once libOSMesa is loaded, sim_render_load returns 0 whatever it is given. */
+static void test_render_missing_library(void **st)
+{
+    (void)st;
+    static const char *const names[] = {"libOSMesa-fleetsim-absent.so.8", NULL};
+    char err[512] = "";
+    assert_int_equal(sim_render_load(names, err, sizeof err), -ENOENT);
+    printf("# %s\n", err);
+    assert_non_null(strstr(err, "render: cannot load libOSMesa-fleetsim-absent.so.8 (install libosmesa6): "));
+    assert_non_null(strstr(err, "libOSMesa-fleetsim-absent.so.8: cannot open shared object file"));
+    assert_int_equal(sim_render_load(NULL, err, sizeof err), 0);
+    assert_int_equal(sim_render_load(names, err, sizeof err), 0); /* loaded: nothing to do */
+}
+
 static void scene_box(sim_plan_t *p, sim_solid_t s[4], sim_room_t *room)
 {
     tu_box_room(p, s, room, 4.0, 3.0, 0);
@@ -163,6 +179,7 @@ int main(void)
 {
     alloc_count_reset();
     const struct CMUnitTest tests[] = {
+        cmocka_unit_test(test_render_missing_library),
         cmocka_unit_test(test_render_image),
         cmocka_unit_test(test_render_y_up_and_colours),
         cmocka_unit_test(test_render_png),

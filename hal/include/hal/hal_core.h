@@ -2,7 +2,8 @@
  *
  * Each core of the image runs one entry function on a FIXED stack that the board
  * allocates statically (BOARD_STACK_RT_BYTES, BOARD_STACK_GP_BYTES, BOARD_STACK_AI_BYTES).
- * The board paints the stack before the core starts, so the deepest use so far (the
+ * The board prepares the stack before the core starts (the MCU boards paint it; the host
+ * drops its pages and later finds the deepest one touched), so the deepest use so far (the
  * high-water mark) can be read at any time.
  *
  * Contract
