@@ -11,7 +11,7 @@ firmware/msg (through tools/lcmgen.py, as the firmware's are; today's values):
 
     state_chunk_t     0xdf65602b2d04bf15   on <prefix><fleet>/state
     round_complete_t  0x9ec25daeb3a35535   on <prefix><fleet>/done
-    chunk_request_t   0x2765123cb5b82f65   on <prefix><fleet>/request
+    chunk_request_t   0x1a0ee5130e4fff0d   on <prefix><fleet>/request
 
 Telemetry (<prefix>telemetry/<robot>) is counted per robot; any other channel as "other".
 

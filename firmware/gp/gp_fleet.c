@@ -101,6 +101,8 @@ int gp_fleet_init(gp_fleet_t *f, const gp_fleet_cfg_t *cfg)
     memset(&f->stats, 0, sizeof f->stats);
     f->final_done = 0;
     f->view_filled = 0;
+    f->senders_all = 1; /* hal_net's default */
+    f->senders_off = 0;
     f->have_cur = 0;
     atomic_store(&f->n_log, 0u);
     if (cfg->positions_from_tour) {
@@ -144,14 +146,21 @@ static uint64_t net_now(void)
     return hal_net_clock_us(&t) == 0 ? t : 0;
 }
 
-/* Takes everything queued and hands it to the protocol. */
-static void drain(gp_fleet_t *f)
+/* Messages taken per drain: between two batches the protocol polls, so a robot fed faster than
+   it reads still sends its beacons and requests (a drain that ran until the queue was empty
+   could go on as long as the peers kept sending, silent meanwhile, and be timed out). */
+#define GP_FLEET_DRAIN_BATCH 64u
+
+/* Hands up to GP_FLEET_DRAIN_BATCH queued messages to the protocol; returns how many it took. */
+static uint32_t drain(gp_fleet_t *f)
 {
     hal_net_rx_info_t info;
-    for (;;) {
+    for (uint32_t taken = 0;; taken++) {
+        if (taken == GP_FLEET_DRAIN_BATCH)
+            return taken;
         int r = hal_net_receive(&info, f->rx, sizeof f->rx);
         if (r == -EAGAIN || r == -ENODEV || r == -EINVAL)
-            return;
+            return taken;
         if (r != 0) {
             f->stats.rx_undecodable++;
             continue;
@@ -188,6 +197,30 @@ static void drain(gp_fleet_t *f)
     }
 }
 
+/* Tells the network whose chunks we may keep (gp_pse_wanted), when that changed: the other
+   peers' chunks are then dropped on arrival, before they cost a tag check, a copy or a slot of
+   the queue. A board that cannot filter delivers everything, as before. */
+static void update_senders(gp_fleet_t *f)
+{
+    if (f->senders_off)
+        return;
+    uint8_t bits[GP_PSE_WANTED_BYTES];
+    const uint32_t n = gp_pse_wanted(&f->drv.pse, bits);
+    const int all = n + 1u >= f->cfg.n_peers;
+    if (all ? f->senders_all : !f->senders_all && memcmp(bits, f->senders, sizeof bits) == 0)
+        return;
+    const int r = hal_net_set_senders(f->channel[GP_FLEET_CH_STATE], all ? NULL : bits, f->cfg.n_peers);
+    if (r == -ENOTSUP) {
+        f->senders_off = 1;
+        return;
+    }
+    if (r != 0)
+        return; /* tried again at the next change */
+    f->senders_all = all;
+    memcpy(f->senders, bits, sizeof bits);
+    f->stats.senders_set++;
+}
+
 /* Receives and steps the driver until it has something to say. The protocol's timeouts end
  * every wait; a board without hal_net_wait gets -EAGAIN (the GP core asks again next tick). */
 static int next_event(gp_fleet_t *f, gp_round_event_t *ev)
@@ -195,8 +228,10 @@ static int next_event(gp_fleet_t *f, gp_round_event_t *ev)
     const uint64_t t0 = net_now();
     int rc = 0;
     for (;;) {
-        drain(f);
-        if ((*ev = gp_round_step(&f->drv, net_now())) != GP_ROUND_WAIT)
+        (void)drain(f);
+        *ev = gp_round_step(&f->drv, net_now());
+        update_senders(f);
+        if (*ev != GP_ROUND_WAIT)
             break;
         int r = hal_net_wait(f->cfg.poll_us);
         if (r != 0 && r != -EAGAIN) {
@@ -423,8 +458,10 @@ static uint32_t fleet_next_round(void *ctx, uint32_t round)
 static void fleet_service(void *ctx)
 {
     gp_fleet_t *f = ctx;
-    drain(f);
+    while (drain(f) == GP_FLEET_DRAIN_BATCH)
+        gp_pse_poll(&f->drv.pse, net_now());
     gp_pse_poll(&f->drv.pse, net_now());
+    update_senders(f);
 }
 
 const gp_peers_ops_t gp_fleet_peers_ops = {

@@ -125,6 +125,7 @@ typedef struct gp_fleet_stats {
     uint64_t tx_failed;              /* publishes refused by hal_net */
     uint64_t decode_failures;        /* neighbour states that did not decode (fp32 values, scales) */
     uint64_t wait_us;                /* total real time spent waiting */
+    uint64_t senders_set;            /* the set of peers whose chunks we take, handed to hal_net */
 } gp_fleet_stats_t;
 
 typedef struct gp_fleet {
@@ -136,6 +137,10 @@ typedef struct gp_fleet {
     int final_done;
     int view_filled;                 /* the neighbour view holds the states of the round begun */
     char channel[3][HAL_NET_CHANNEL_MAX];
+    /* The peers whose chunks the network delivers (gp_pse_wanted); all of them while
+       senders_all, and always when the board cannot filter (senders_off). */
+    uint8_t senders[GP_PSE_WANTED_BYTES];
+    int senders_all, senders_off;
     gp_pse_stats_t mark;             /* pse counters when the current record began */
     gp_fleet_round_t cur;            /* the record of the round in progress */
     int have_cur;

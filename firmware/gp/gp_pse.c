@@ -58,7 +58,7 @@ int gp_pse_init(gp_pse_t *p, const gp_pse_cfg_t *c)
     p->n_chunks = (c->state_bytes + c->chunk_bytes - 1u) / c->chunk_bytes;
     p->round = 0;
     p->in_round = p->completed = p->later_heard = p->ready_noted = p->leaving = p->taken = 0;
-    p->sent_us = 0;
+    p->sent_us = p->pos_sent_us = p->polled_us = 0;
     p->mine = NULL;
     p->x_m = p->y_m = 0.0;
     memset(p->near, 0, sizeof p->near);
@@ -262,6 +262,20 @@ static void send_window(gp_pse_t *p, uint64_t now_us)
         send_chunk(p, p->next_send, now_us);
 }
 
+/* "I am in round `round`", with our position when it is the round we are in. */
+static void send_beacon(gp_pse_t *p, uint32_t round, uint64_t now_us)
+{
+    gp_pse_request_t beacon = {p->cfg.self, p->cfg.self, round, 0, {0}, p->cfg.incarnation, 0, 0.0, 0.0};
+    if (p->in_round && round == p->round) {
+        beacon.has_position = 1;
+        beacon.x_m = p->x_m;
+        beacon.y_m = p->y_m;
+        p->pos_sent_us = now_us | 1u;
+    }
+    send_msg(p, GP_PSE_REQUEST, &beacon, now_us);
+    p->stats.beacons_sent++;
+}
+
 static int heard_within(const gp_pse_t *p, const gp_pse_peer_t *q, uint64_t now_us)
 {
     return q->heard && now_us - q->heard_us < p->cfg.peer_timeout_us;
@@ -310,9 +324,42 @@ int gp_pse_begin_round(gp_pse_t *p, uint32_t round, const uint8_t *state, double
         if (q->has_round && q->at_round > round)
             p->later_heard = 1;
     }
+    /* Where we are this round, first and in a few bytes: a peer that does not take our state
+       (beyond its radius or its nearest, and told its network so) still needs our position. */
+    send_beacon(p, round, now_us);
     p->next_send = 0;
     send_window(p, now_us);
     return 0;
+}
+
+/* Peer i's position of `round` (par = its parity), without ranking anything. */
+static void set_position(gp_pse_peer_t *q, uint32_t par, uint32_t round, double x_m, double y_m)
+{
+    q->x_m[par] = x_m;
+    q->y_m[par] = y_m;
+    q->pos_round[par] = round;
+    q->has_pos[par] = 1;
+}
+
+/* Peer i said where it is in `round` (a chunk, or a beacon with its position). The first word
+   places it among the nearest; another position for the same round (corruption, or bytes
+   forged in an unkeyed fleet; a restart changes the incarnation) ranks the round again and
+   counts as invalid. 1 when it moved, else 0. */
+static int note_position(gp_pse_t *p, uint32_t i, uint32_t round, double x_m, double y_m, uint64_t now_us)
+{
+    gp_pse_peer_t *q = &p->peer[i];
+    const uint32_t par = round & 1u;
+    if (!pos_known(q, round)) {
+        set_position(q, par, round, x_m, y_m);
+        near_place(p, i, round, now_us);
+        return 0;
+    }
+    if (q->x_m[par] == x_m && q->y_m[par] == y_m)
+        return 0;
+    p->stats.invalid++;
+    set_position(q, par, round, x_m, y_m);
+    near_rank(p, round, now_us);
+    return 1;
 }
 
 /* Forgets what we held of a peer that restarted: its buffers may hold chunks of a state its new
@@ -347,6 +394,14 @@ static int note_sender(gp_pse_t *p, uint32_t sender, uint32_t incarnation, uint3
     }
     const uint32_t k = p->round;
     if (!p->in_round || round >= k || (done && round + 1u == k)) {
+        if (q->heard) {
+            /* The gaps between its signs of progress, smoothed as RFC 6298 smooths round-trip
+               times (gains 1/8 and 1/4): how irregular this peer is, for its timeout. */
+            const uint64_t gap = now_us - q->heard_us;
+            const uint64_t dev = gap > q->gap_srtt_us ? gap - q->gap_srtt_us : q->gap_srtt_us - gap;
+            q->gap_var_us = (3u * q->gap_var_us + dev) / 4u;
+            q->gap_srtt_us = (7u * q->gap_srtt_us + gap) / 8u;
+        }
         q->heard = 1;
         q->heard_us = now_us;
     }
@@ -415,32 +470,14 @@ int gp_pse_on_chunk(gp_pse_t *p, const gp_pse_chunk_t *c, uint64_t now_us)
         /* Round k's states were handed out (gp_pse.h): its buffers are the caller's until round
            k + 1 begins. The chunk still places its sender (no request for its position goes
            out), but neither ranks the round again nor reaches a buffer. */
-        if (!pos_known(q, c->round)) {
-            q->x_m[par] = c->x_m;
-            q->y_m[par] = c->y_m;
-            q->pos_round[par] = c->round;
-            q->has_pos[par] = 1;
-        }
+        if (!pos_known(q, c->round))
+            set_position(q, par, c->round, c->x_m, c->y_m);
         p->stats.after_taken++;
         return -EALREADY;
     }
-    int moved = 0;
-    if (!pos_known(q, c->round)) {
-        q->x_m[par] = c->x_m;
-        q->y_m[par] = c->y_m;
-        q->pos_round[par] = c->round;
-        q->has_pos[par] = 1;
-        near_place(p, c->sender, c->round, now_us);
-    } else if (q->x_m[par] != c->x_m || q->y_m[par] != c->y_m) {
-        /* Chunks of one round disagree on where their sender is (corruption, or bytes forged
-           in an unkeyed fleet; a restart changes the incarnation): the newcomer's position
-           ranks the round again and its state starts over, as for a CRC conflict below. */
-        p->stats.invalid++;
-        q->x_m[par] = c->x_m;
-        q->y_m[par] = c->y_m;
-        near_rank(p, c->round, now_us);
-        moved = 1;
-    }
+    /* A position that disagrees with the round's earlier word starts its state over, as a CRC
+       conflict below does. */
+    const int moved = note_position(p, c->sender, c->round, c->x_m, c->y_m, now_us);
     gp_pse_buf_t *b = buf_of(p, c->sender, c->round);
     if (b == NULL) {
         p->stats.not_nearest++; /* beyond the radius or the nearest: its position was what we needed */
@@ -512,6 +549,29 @@ int gp_pse_on_done(gp_pse_t *p, const gp_pse_done_t *d, uint64_t now_us)
     return 0; /* a round further ahead still tells where the peer is */
 }
 
+/* A beacon that says where its sender is in round k or k + 1 places it (gp_pse.h, "Fleets
+   larger than the neighbour slots"), as its chunk 0 would. */
+static void request_position(gp_pse_t *p, const gp_pse_request_t *r, uint64_t now_us)
+{
+    const uint32_t k = p->in_round ? p->round : 0u;
+    if (!r->has_position || r->round < k || r->round > k + 1u)
+        return;
+    const uint32_t par = r->round & 1u;
+    if (!p->near[par].valid || p->near[par].round != r->round)
+        near_reset(p, r->round);
+    gp_pse_peer_t *q = &p->peer[r->requester];
+    if (p->taken && r->round == p->round) { /* frozen (gp_pse.h): noted, not ranked */
+        if (!pos_known(q, r->round))
+            set_position(q, par, r->round, r->x_m, r->y_m);
+        return;
+    }
+    if (note_position(p, r->requester, r->round, r->x_m, r->y_m, now_us)) {
+        gp_pse_buf_t *b = buf_of(p, r->requester, r->round); /* its state starts over, as for a chunk */
+        if (b != NULL)
+            buf_reset(b, r->round, p->n_chunks, now_us);
+    }
+}
+
 int gp_pse_on_request(gp_pse_t *p, const gp_pse_request_t *r, uint64_t now_us)
 {
     if (r == NULL || r->requester >= p->cfg.n_peers || r->requester == p->cfg.self || r->target >= p->cfg.n_peers ||
@@ -524,8 +584,13 @@ int gp_pse_on_request(gp_pse_t *p, const gp_pse_request_t *r, uint64_t now_us)
             p->stats.invalid++;
             return -EBADMSG;
         }
+    if (r->has_position > 1u || (r->has_position && (!isfinite(r->x_m) || !isfinite(r->y_m)))) {
+        p->stats.invalid++;
+        return -EBADMSG;
+    }
     if (note_sender(p, r->requester, r->incarnation, r->round, 0, now_us) != 0)
         return -ESTALE;
+    request_position(p, r, now_us);
     if (r->n == 0)
         sender_state_sent(p, r->requester, r->round, now_us);
     if (r->n == 0 || r->target != p->cfg.self)
@@ -534,6 +599,10 @@ int gp_pse_on_request(gp_pse_t *p, const gp_pse_request_t *r, uint64_t now_us)
         p->stats.stale++;
         return -ESTALE; /* only the current round's state is kept */
     }
+    /* Asked for chunk 0 (what a peer asks when it does not know where we are): our positioned
+       beacon goes first, since a peer that does not take our state never sees the chunk. */
+    if (r->chunks[0] == 0u && now_us - p->pos_sent_us >= p->cfg.resend_after_us / 2u)
+        send_beacon(p, p->round, now_us);
     /* A resend reaches every peer (multicast): one per chunk per half resend period serves
        all the peers that asked for it meanwhile, instead of a storm of copies. */
     for (uint32_t i = 0; i < r->n; i++) {
@@ -566,7 +635,7 @@ static int waiting_for(const gp_pse_t *p, uint32_t i)
 /* Asks peer i for the chunks of its round-k state we still miss. */
 static void ask_again(gp_pse_t *p, uint32_t i, gp_pse_buf_t *b, uint64_t now_us)
 {
-    gp_pse_request_t r = {p->cfg.self, i, p->round, 0, {0}, p->cfg.incarnation};
+    gp_pse_request_t r = {p->cfg.self, i, p->round, 0, {0}, p->cfg.incarnation, 1, p->x_m, p->y_m};
     for (uint32_t k = 0; k < p->n_chunks && r.n < GP_PSE_MAX_REQUEST; k++)
         if (!(b->have[k] & GP_PSE_HAVE)) {
             b->have[k] = GP_PSE_ASKED;
@@ -580,12 +649,6 @@ static void ask_again(gp_pse_t *p, uint32_t i, gp_pse_buf_t *b, uint64_t now_us)
         b->backoff++;
 }
 
-static void send_beacon(gp_pse_t *p, uint32_t round, uint64_t now_us)
-{
-    const gp_pse_request_t beacon = {p->cfg.self, p->cfg.self, round, 0, {0}, p->cfg.incarnation};
-    send_msg(p, GP_PSE_REQUEST, &beacon, now_us);
-    p->stats.beacons_sent++;
-}
 
 void gp_pse_leave(gp_pse_t *p, uint64_t now_us)
 {
@@ -595,10 +658,43 @@ void gp_pse_leave(gp_pse_t *p, uint64_t now_us)
     send_beacon(p, p->round + 1u, now_us);
 }
 
+/* How long peer q may show no progress while we wait for it (the liveness rule, gp_pse.h):
+   the configured timeout, stretched for a peer whose messages come irregularly (RFC 6298's
+   srtt + 4 rttvar of its gaps), never beyond GP_PSE_TIMEOUT_STRETCH timeouts. A peer never
+   heard has the join timeout. */
+static uint64_t silence_allowed(const gp_pse_t *p, const gp_pse_peer_t *q)
+{
+    if (!q->heard && p->cfg.join_timeout_us != 0)
+        return p->cfg.join_timeout_us;
+    const uint64_t rto = q->gap_srtt_us + 4u * q->gap_var_us, cap = GP_PSE_TIMEOUT_STRETCH * p->cfg.peer_timeout_us;
+    return rto <= p->cfg.peer_timeout_us ? p->cfg.peer_timeout_us : rto < cap ? rto : cap;
+}
+
+/* Time we did not run is not our peers' silence: a robot that waited for the CPU finds its
+   peers' messages queued, and on a busy machine they waited as long. A gap between two polls
+   beyond one resend period moves every peer's last progress and the round's start forward by
+   the excess. */
+static void discount_stall(gp_pse_t *p, uint64_t now_us)
+{
+    const uint64_t last = p->polled_us;
+    p->polled_us = now_us;
+    if (last == 0 || now_us - last <= p->cfg.resend_after_us)
+        return;
+    const uint64_t gap = now_us - last - p->cfg.resend_after_us;
+    p->stats.stalled_us += gap;
+    for (uint32_t i = 0; i < p->cfg.n_peers; i++) {
+        gp_pse_peer_t *q = &p->peer[i];
+        if (q->heard)
+            q->heard_us = now_us - q->heard_us > gap ? q->heard_us + gap : now_us;
+    }
+    p->round_start_us = now_us - p->round_start_us > gap ? p->round_start_us + gap : now_us;
+}
+
 void gp_pse_poll(gp_pse_t *p, uint64_t now_us)
 {
     if (!p->in_round)
         return;
+    discount_stall(p, now_us);
     send_window(p, now_us);
     if (p->leaving) {
         /* After the last round: "I am past it" often, so a peer that missed our RoundComplete
@@ -630,8 +726,9 @@ void gp_pse_poll(gp_pse_t *p, uint64_t now_us)
         uint64_t last = p->round_start_us;
         if (q->heard && q->heard_us > last)
             last = q->heard_us;
-        const uint64_t timeout = q->heard || p->cfg.join_timeout_us == 0 ? p->cfg.peer_timeout_us
-                                                                          : p->cfg.join_timeout_us;
+        const uint64_t timeout = silence_allowed(p, q);
+        if (q->heard && timeout > p->stats.timeout_longest_us)
+            p->stats.timeout_longest_us = timeout;
         /* Progress keeps a peer in the round, but not forever: whatever seems to come from it
            (a link that delivers a chunk a minute, or bytes forged in its name in an unkeyed
            fleet) cannot hold the round past GP_PSE_ROUND_CAP timeouts from its start. */
@@ -652,7 +749,7 @@ void gp_pse_poll(gp_pse_t *p, uint64_t now_us)
             ask_again(p, i, b, now_us);
         } else if (!pos_known(q, p->round) && now_us - p->round_start_us >= p->cfg.resend_after_us &&
                    (q->pos_backoff == 0 || now_us - q->asked_us >= ask_after(p, q->pos_backoff))) {
-            const gp_pse_request_t r = {p->cfg.self, i, p->round, 1, {0}, p->cfg.incarnation};
+            const gp_pse_request_t r = {p->cfg.self, i, p->round, 1, {0}, p->cfg.incarnation, 1, p->x_m, p->y_m};
             send_msg(p, GP_PSE_REQUEST, &r, now_us);
             p->stats.requests_sent++;
             p->stats.chunks_requested++;
@@ -721,6 +818,28 @@ uint32_t gp_pse_neighbours(gp_pse_t *p, uint32_t ids[GP_PSE_MAX_NEIGHBOURS],
         ids[at] = i;
         states[at] = b->bytes;
         n++;
+    }
+    return n;
+}
+
+uint32_t gp_pse_wanted(const gp_pse_t *p, uint8_t bits[GP_PSE_WANTED_BYTES])
+{
+    memset(bits, 0, GP_PSE_WANTED_BYTES);
+    uint32_t n = 0;
+    for (uint32_t i = 0; i < p->cfg.n_peers; i++) {
+        const gp_pse_peer_t *q = &p->peer[i];
+        int want = !p->in_round || (!q->has_pos[0] && !q->has_pos[1]); /* never placed: maybe near */
+        for (uint32_t par = 0; par < 2u && !want; par++) {
+            const gp_pse_nearest_t *nr = &p->near[par];
+            if (!nr->valid || nr->round + 1u < p->round) /* older than round k - 1: no guide */
+                continue;
+            for (uint32_t m = 0; m < nr->n && !want; m++)
+                want = nr->id[m] == i;
+        }
+        if (want && i != p->cfg.self) {
+            bits[i / 8u] |= (uint8_t)(1u << (i % 8u));
+            n++;
+        }
     }
     return n;
 }

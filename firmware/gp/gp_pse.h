@@ -121,16 +121,25 @@ typedef struct gp_pse_done {
 } gp_pse_done_t;
 
 /* "Send again these chunks of your state of `round`" (fleetsim.chunk_request_t). With n = 0 it
- * is a beacon, "the requester is in round `round`", for every peer (target is the requester). */
+ * is a beacon, "the requester is in round `round`", for every peer (target is the requester);
+ * with has_position it also says where the requester is in that round. */
 typedef struct gp_pse_request {
     uint32_t requester, target, round, n;
     uint32_t chunks[GP_PSE_MAX_REQUEST];
     uint32_t incarnation;    /* the requester's */
+    uint8_t has_position;    /* 1: x_m, y_m are the requester's position for `round` */
+    double x_m, y_m;
 } gp_pse_request_t;
 
 /* Sends one message (msg points to the struct of `kind`). 0, or a negative code (counted:
  * a lost message is what the protocol is built for). */
 typedef int (*gp_pse_send_fn)(void *ctx, gp_pse_kind_t kind, const void *msg);
+
+/* A peer's timeout adapts to what the fleet shows (gp_pse_poll), within 1 .. this many of the
+ * configured peer timeouts: the bound on what a crashed peer costs. */
+#define GP_PSE_TIMEOUT_STRETCH 4u
+/* Bytes of a set of fleet ids, one bit per id (gp_pse_wanted). */
+#define GP_PSE_WANTED_BYTES ((GP_PSE_MAX_FLEET + 7u) / 8u)
 
 /* A round waits for a peer at most this many of its timeouts (peer or join) from the round's
  * start, progress or not: the bound on a round that no peer can lift. */
@@ -175,6 +184,9 @@ typedef struct gp_pse_stats {
     uint64_t not_nearest;       /* chunks of peers beyond the radius or the nearest: position noted */
     uint64_t evictions;         /* states given up for a nearer peer's (its chunks came later) */
     uint64_t after_taken;       /* chunks of a round whose states were handed out: not stored */
+    uint64_t stalled_us;        /* time we did not run (gaps between polls beyond a resend
+                                   period): not counted as our peers' silence */
+    uint64_t timeout_longest_us; /* the longest adapted timeout a heard peer was given */
 } gp_pse_stats_t;
 
 /* One state being reassembled: a slot of the buffer pool, owned by one of the nearest peers of
@@ -210,6 +222,7 @@ typedef struct gp_pse_peer {
     uint64_t heard_us;          /* last progress from it (see the liveness rule above) */
     uint64_t asked_us;          /* last request for its position (its chunk 0) */
     uint32_t pos_backoff;       /* such requests this round (the wait doubles as for a state) */
+    uint64_t gap_srtt_us, gap_var_us; /* its gaps between signs of progress, smoothed */
     double x_m[2], y_m[2];      /* its position of round pos_round[parity] (with has_pos) */
     uint32_t pos_round[2];
     uint32_t incarnation;       /* newest seen (with has_inc) */
@@ -238,6 +251,8 @@ typedef struct gp_pse {
     int in_round, completed, later_heard, ready_noted, leaving;
     int taken;                  /* round k's states were handed out: frozen until round k + 1 */
     uint64_t round_start_us, completed_us, done_sent_us, sent_us;
+    uint64_t pos_sent_us;       /* our last beacon with our position (| 1: 0 is never) */
+    uint64_t polled_us;         /* our last poll (for the time we did not run) */
     const uint8_t *mine;
     uint32_t next_send;         /* our next chunk not sent yet this round (the send window) */
     uint32_t my_crc32;
@@ -278,9 +293,18 @@ int gp_pse_states_ready(const gp_pse_t *pse);
 uint32_t gp_pse_neighbours(gp_pse_t *pse, uint32_t ids[GP_PSE_MAX_NEIGHBOURS],
                            const uint8_t *states[GP_PSE_MAX_NEIGHBOURS]);
 
-/* Our node update of round k is done: RoundComplete(k) goes out. 0 or -EINVAL. */
 /* The newest incarnation heard of peer id (0 when none was, or id is out of range). */
 uint32_t gp_pse_peer_incarnation(const gp_pse_t *p, uint32_t id);
+
+/* The peers whose state chunks we may keep, as a set of ids (bit i: bits[i / 8] >> (i % 8) & 1):
+ * the nearest of rounds k - 1 .. k + 1 as far as they are known, and every peer never placed
+ * yet (before our first round: everyone). The GP core hands it to its network
+ * (hal_net_set_senders) so that the chunks of other peers are dropped before they cost
+ * anything; what the set misses is asked for again, like a loss, so it changes timing only.
+ * Returns the number of ids in the set. */
+uint32_t gp_pse_wanted(const gp_pse_t *p, uint8_t bits[GP_PSE_WANTED_BYTES]);
+
+/* Our node update of round k is done: RoundComplete(k) goes out. 0 or -EINVAL. */
 
 FS_MUST_CHECK int gp_pse_complete(gp_pse_t *pse, uint64_t now_us);
 

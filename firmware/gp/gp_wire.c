@@ -6,6 +6,7 @@
 #include "gp/gp_wire.h"
 
 #include <errno.h>
+#include <math.h>
 #include <stddef.h>
 #include <string.h>
 
@@ -279,7 +280,8 @@ int gp_wire_decode_request(const uint8_t *buf, size_t len, gp_pse_request_t *out
     memset(&r, 0, sizeof r);
     if (out == NULL || decode(&REQUEST, buf, len, &r) != 0)
         return -EBADMSG;
-    if (!NONNEG(r.requester) || !NONNEG(r.target) || !NONNEG(r.round))
+    if (!NONNEG(r.requester) || !NONNEG(r.target) || !NONNEG(r.round) || r.has_position > 1u ||
+        (r.has_position && (!isfinite(r.x_m) || !isfinite(r.y_m))))
         return -EBADMSG;
     for (uint32_t i = 0; i < r.n; i++)
         if (!NONNEG(r.chunks[i]))

@@ -676,6 +676,12 @@ static int report(job_t *j)
                     (unsigned long long)p->states_missed, (unsigned long long)p->rounds_cut,
                     (unsigned long long)p->rounds_skipped, (unsigned long long)p->restarts,
                     (unsigned long long)p->old_incarnation);
+            /* The adaptive liveness rule (gp_pse.h): what it allowed, and what it did not count. */
+            fprintf(f, "liveness: peer timeout %.3g s, stretched for irregular peers up to %.3g s (longest given "
+                       "%.3g s); %.2f s we did not run not counted against our peers\n",
+                    o->peer_timeout, o->peer_timeout * GP_PSE_TIMEOUT_STRETCH,
+                    (double)(p->timeout_longest_us > 0 ? p->timeout_longest_us : (uint64_t)llround(o->peer_timeout * 1e6)) * 1e-6,
+                    (double)p->stalled_us * 1e-6);
             /* Queue drops (a full queue, a buffer too small) are load; malformed datagrams are
                someone else's bytes: counted apart so that each figure means one thing. */
             fprintf(f, "waiting for peers: %.2f s wall in all (%.2f ms per round); network queue drops %llu "

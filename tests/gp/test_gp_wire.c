@@ -44,9 +44,9 @@ static void test_same_as_lcm_gen(void **st)
     assert_int_equal(fleetsim_round_complete_t_encode(theirs, 0, (int)sizeof theirs, &ld), nd);
     assert_memory_equal(mine, theirs, (size_t)nd);
 
-    gp_pse_request_t r = {1, 2, 8, 3, {0, 4, 6}, 5};
+    gp_pse_request_t r = {1, 2, 8, 3, {0, 4, 6}, 5, 1, 2.5, -1.25};
     int32_t ch[3] = {0, 4, 6};
-    fleetsim_chunk_request_t lr = {1, 2, 8, 5, 3, ch};
+    fleetsim_chunk_request_t lr = {1, 2, 8, 5, 1, 2.5, -1.25, 3, ch};
     const int nr = gp_wire_encode_request(&r, mine, sizeof mine);
     assert_int_equal(fleetsim_chunk_request_t_encode(theirs, 0, (int)sizeof theirs, &lr), nr);
     assert_memory_equal(mine, theirs, (size_t)nr);
@@ -55,6 +55,8 @@ static void test_same_as_lcm_gen(void **st)
     assert_int_equal(rb.n, 3);
     assert_int_equal(rb.chunks[2], 6);
     assert_int_equal(rb.incarnation, 5);
+    assert_int_equal(rb.has_position, 1);
+    assert_true(rb.x_m == 2.5 && rb.y_m == -1.25);
     gp_pse_done_t db;
     assert_int_equal(gp_wire_decode_done(theirs, 0, &db), -EBADMSG);
     assert_int_equal(fleetsim_round_complete_t_encode(theirs, 0, (int)sizeof theirs, &ld), nd);
@@ -95,9 +97,9 @@ static void test_crafted_refused(void **st)
     assert_int_equal(gp_wire_decode_chunk(mine, (size_t)n, &out), -EBADMSG);
     mine[0] ^= 1;
     assert_memory_equal(&out, &before, sizeof out); /* untouched by every refusal */
-    gp_pse_request_t r = {1, 2, 8, 1, {3}, 0};
+    gp_pse_request_t r = {1, 2, 8, 1, {3}, 0, 0, 0.0, 0.0};
     const int nr = gp_wire_encode_request(&r, mine, sizeof mine);
-    put32(mine + 24, 0x7FFFFFFFu); /* n_chunks = INT_MAX */
+    put32(mine + 41, 0x7FFFFFFFu); /* n_chunks = INT_MAX (after the fingerprint, 4 ints and the position) */
     gp_pse_request_t rb;
     assert_int_equal(gp_wire_decode_request(mine, (size_t)nr, &rb), -EBADMSG);
     gp_pse_done_t d = {1, 1, 0};

@@ -99,6 +99,7 @@ typedef struct robot {
     int timing;                 /* a round begun and not finished yet: */
     uint64_t round_begin_us;    /* when it began */
     uint64_t paused_in_round;   /* virtual time paused since */
+    uint64_t stalled_mark;      /* the engine's stalled_us when it began */
     uint8_t model[STATE_BYTES];
     uint8_t mine[STATE_BYTES];  /* the state sent this round (stable until the round ends) */
     uint8_t ckpt[STATE_BYTES];  /* model after the last completed round (for a restart) */
@@ -296,6 +297,7 @@ static void begin(robot_t *r)
     r->timing = 1;
     r->round_begin_us = now_us;
     r->paused_in_round = 0;
+    r->stalled_mark = r->drv.pse.stats.stalled_us;
 }
 
 /* With loss alone every robot is heard in every round, so a robot's neighbours are exactly
@@ -378,7 +380,14 @@ static void round_finished(robot_t *r)
     const uint64_t took = now_us - r->round_begin_us - r->paused_in_round;
     /* A datagram held back for rounds is progress when it finally arrives: the bound runs
        from the last progress received, so late ones extend it by their delay. */
-    const uint64_t allowed = (r->first_round ? JOIN_US : TIMEOUT_US) + (cur->late > 0.0 ? LATE_MAX_US : 0u) + slack_us;
+    /* The timeout adapts (gp_pse.h): the longest the engine applied so far, at most
+       GP_PSE_TIMEOUT_STRETCH x TIMEOUT_US; and the time it did not run (computing, paused) is
+       not counted against its peers. */
+    const gp_pse_stats_t *ps = &r->drv.pse.stats;
+    const uint64_t timeout = ps->timeout_longest_us > TIMEOUT_US ? ps->timeout_longest_us : TIMEOUT_US;
+    assert_true(timeout <= GP_PSE_TIMEOUT_STRETCH * TIMEOUT_US);
+    const uint64_t allowed = (r->first_round ? JOIN_US : timeout) + (ps->stalled_us - r->stalled_mark) +
+                             (cur->late > 0.0 ? LATE_MAX_US : 0u) + slack_us;
     if (took > allowed && took - allowed > r->max_round_us - r->max_allowed_us) {
         r->max_round_us = took;
         r->max_allowed_us = allowed;

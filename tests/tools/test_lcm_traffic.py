@@ -30,7 +30,7 @@ ENV = dict(os.environ, MPLBACKEND="Agg")
 SYNC = struct.pack(">I", 0xEDA1DA01)
 FP_STATE = 0xDF65602B2D04BF15
 FP_DONE = 0x9EC25DAEB3A35535
-FP_REQUEST = 0x2765123CB5B82F65
+FP_REQUEST = 0x1A0EE5130E4FFF0D
 
 
 def run(cmd, cwd=ROOT):
@@ -59,7 +59,7 @@ def done(sender, rnd):
 
 
 def request(requester, target, rnd, chunks):
-    return struct.pack(">Qiiiii", FP_REQUEST, requester, target, rnd, 1, len(chunks)) + \
+    return struct.pack(">Qiiiibddi", FP_REQUEST, requester, target, rnd, 1, 1, 0.5, -2.0, len(chunks)) + \
         struct.pack(f">{len(chunks)}i", *chunks)
 
 

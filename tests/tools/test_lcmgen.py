@@ -79,7 +79,8 @@ def fingerprints_are_lcm_gens():
         # the constants the fleet has always used (firmware, logs, peers of older builds)
         check(ours["state_chunk_t"] == 0xDF65602B2D04BF15, hex(ours["state_chunk_t"]))
         check(ours["round_complete_t"] == 0x9EC25DAEB3A35535, hex(ours["round_complete_t"]))
-        check(ours["chunk_request_t"] == 0x2765123CB5B82F65, hex(ours["chunk_request_t"]))
+        # the request carries its sender's position since neighbour-scoped delivery (was 0x2765123CB5B82F65)
+        check(ours["chunk_request_t"] == 0x1A0EE5130E4FFF0D, hex(ours["chunk_request_t"]))
     finally:
         shutil.rmtree(d)
 
@@ -95,7 +96,7 @@ def layouts():
     check(data.count == 0 and sc.fields[data.len_field].name == "n_bytes", vars(data))
     check(m["round_complete_t"].fixed_bytes == 20, "done")
     rq = m["chunk_request_t"]
-    check(rq.fixed_bytes == 28 and rq.fields[-1].len_field == 4, "request")
+    check(rq.fixed_bytes == 45 and rq.fields[-1].len_field == 7, "request")
 
 
 @test
@@ -118,7 +119,7 @@ def header_is_firmware_clean():
                     "#define OFF(name, member, type, size, count, len_field, offset) +(offset)\n"
                     "_Static_assert(0 MSG_STATE_CHUNK_FIELDS(OFF) == 8+12+16+20+24+28+29+33+41+49+53+57, \"offsets\");\n"
                     "_Static_assert(MSG_STATE_CHUNK_FINGERPRINT == 0xdf65602b2d04bf15ull, \"fp\");\n"
-                    "_Static_assert(MSG_CHUNK_REQUEST_FIXED_BYTES == 28u, \"request\");\n"
+                    "_Static_assert(MSG_CHUNK_REQUEST_FIXED_BYTES == 45u, \"request\");\n"
                     "int main(void) { return 0; }\n")
         r = subprocess.run(["gcc", "-std=c11", "-Wall", "-Wextra", "-Werror", "-pedantic", "-I", d, "-c", c,
                             "-o", os.path.join(d, "t.o")], capture_output=True, text=True)
