@@ -38,6 +38,11 @@ static void fw_core_entry(void *arg)
         return;
     }
     st->start_us = start;
+    if (c->asleep != NULL) {
+        const int r = hal_clock_while_asleep(c->asleep, c->arg, c->asleep_every_us);
+        if (r != 0 && r != -ENOTSUP) /* a board whose clock is real time does not need it */
+            hal_log(HAL_LOG_WARN, "%s: no work while asleep (%d)", core_label(c, slot->id), r);
+    }
     if (c->init != NULL) {
         int r = c->init(c->arg);
         if (r < 0) {

@@ -59,6 +59,9 @@ int fw_robot_start(const fw_robot_cfg_t *cfg)
                                       .sub_divider = cfg->timing[id].sub_divider,
                                       .tick = loop[id].tick,
                                       .arg = loop[id].arg};
+    /* The network runs in real time: the GP core serves it while the AI core trains. */
+    fw_img.core[HAL_CORE_GP].asleep = gp_core_asleep;
+    fw_img.core[HAL_CORE_GP].asleep_every_us = GP_CORE_ASLEEP_EVERY_US;
     return fw_image_start(&fw_img);
 }
 

@@ -38,6 +38,10 @@ typedef struct fw_core {
     fw_core_init_fn init;  /* optional */
     fw_core_tick_fn tick;  /* NULL: the core is not started */
     void *arg;
+    /* Optional: work in real time while the core sleeps and the board's clock stands still
+       (hal_clock_while_asleep), every asleep_every_us: the GP core's network. */
+    void (*asleep)(void *arg);
+    uint32_t asleep_every_us;
 } fw_core_t;
 
 typedef struct fw_core_stats {

@@ -193,6 +193,13 @@ static void handle_ckpt(gp_core_t *gp, uint64_t now_us)
     }
 }
 
+void gp_core_asleep(void *arg)
+{
+    gp_core_t *gp = arg;
+    if (gp->cfg.peers != NULL && gp->cfg.peers->service != NULL)
+        gp->cfg.peers->service(gp->cfg.peers_ctx);
+}
+
 int gp_core_tick(void *arg, const fw_tick_t *tick)
 {
     gp_core_t *gp = arg;

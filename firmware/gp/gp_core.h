@@ -122,6 +122,12 @@ FS_MUST_CHECK int gp_core_init(gp_core_t *gp, const gp_core_cfg_t *cfg,
 /* fw_core_t tick function: arg is the gp_core_t. */
 int gp_core_tick(void *arg, const fw_tick_t *tick);
 
+/* The GP core's work while it sleeps and the board's clock stands still (hal_clock_while_asleep,
+ * the host's lockstep while another core computes): the peers' service (read the network,
+ * answer it, say we are alive), as a board's GP core does between its ticks in real time. */
+#define GP_CORE_ASLEEP_EVERY_US 25000u
+void gp_core_asleep(void *arg);
+
 /* For the host, while the cores are held (lockstep) or stopped; any thread. The round log
  * grows by release stores, so the records below gp_core_rounds_logged() are complete. */
 uint32_t gp_core_rounds_logged(gp_core_t *gp);

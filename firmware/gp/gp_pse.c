@@ -591,6 +591,14 @@ int gp_pse_on_request(gp_pse_t *p, const gp_pse_request_t *r, uint64_t now_us)
     if (note_sender(p, r->requester, r->incarnation, r->round, 0, now_us) != 0)
         return -ESTALE;
     request_position(p, r, now_us);
+    if (r->n == 0 && !r->has_position && p->in_round && r->round == p->round) {
+        /* A beacon of our round without a position: its sender has not begun the round (it is
+           on its way to it, gp_pse_poll). Its chunks will come by themselves: no request for
+           its position while it keeps saying so. */
+        gp_pse_peer_t *q = &p->peer[r->requester];
+        q->asked_us = now_us;
+        q->pos_backoff = GP_PSE_BACKOFF_MAX;
+    }
     if (r->n == 0)
         sender_state_sent(p, r->requester, r->round, now_us);
     if (r->n == 0 || r->target != p->cfg.self)
@@ -692,8 +700,14 @@ static void discount_stall(gp_pse_t *p, uint64_t now_us)
 
 void gp_pse_poll(gp_pse_t *p, uint64_t now_us)
 {
-    if (!p->in_round)
+    if (!p->in_round) {
+        /* Not begun yet (starting, or driving the tour first): "on my way to round 0", without
+           a position, every resend period, so that the peers already waiting can tell a robot
+           that is slow to start (a busy CPU) from one that never will. */
+        if (now_us - p->sent_us >= p->cfg.resend_after_us)
+            send_beacon(p, p->round, now_us);
         return;
+    }
     discount_stall(p, now_us);
     send_window(p, now_us);
     if (p->leaving) {

@@ -224,12 +224,12 @@ int hal_host_create(const hal_host_config_t *cfg, hal_host_t **out)
     pthread_condattr_init(&ca);
     pthread_condattr_setclock(&ca, CLOCK_MONOTONIC); /* the watchdog's clock */
     pthread_cond_init(&h->sched_cv, &ca);
-    pthread_condattr_destroy(&ca);
     for (int i = 0; i < HAL_CORE_COUNT; i++) {
         h->core[i].h = h;
         h->core[i].id = (hal_core_id_t)i;
-        pthread_cond_init(&h->core[i].cv, NULL);
+        pthread_cond_init(&h->core[i].cv, &ca); /* monotonic too: the work while asleep */
     }
+    pthread_condattr_destroy(&ca);
     int r = 0;
     if (cfg->net_url != NULL)
         r = hal_host_net_open(cfg->net_url,

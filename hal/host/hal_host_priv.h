@@ -46,6 +46,9 @@ typedef struct host_core {
     /* owned by the core's thread */
     struct timespec tick_start;
     int tick_open;
+    void (*asleep_fn)(void *arg); /* hal_clock_while_asleep: real-time work while it sleeps */
+    void *asleep_arg;
+    uint32_t asleep_every_us;
     /* bytes above the core's first frame (TCB, TLS, thread start): set by the core before
      * its first release, read after (ordered by h->mu) */
     size_t stack_top_bytes;

@@ -58,15 +58,49 @@ static void tick_begin(host_core_t *c, uint64_t asked_us, uint64_t now_us)
     c->tick_open = 1;
 }
 
-/* Blocks core c (h->mu held) until the scheduler releases it. Returns 0 or -ECANCELED. */
+/* Blocks core c (h->mu held) until the scheduler releases it. Returns 0 or -ECANCELED. With
+ * work registered by hal_clock_while_asleep, the core wakes every asleep_every_us of real time
+ * to do it (the mutex released meanwhile: the scheduler may release the core during it, which
+ * the loop then sees). */
 static int core_block(hal_host_t *h, host_core_t *c, uint64_t wake_us)
 {
     c->wake_us = wake_us;
     c->state = CORE_SLEEPING;
     pthread_cond_signal(&h->sched_cv);
-    while (c->state == CORE_SLEEPING)
-        pthread_cond_wait(&c->cv, &h->mu);
+    while (c->state == CORE_SLEEPING) {
+        if (c->asleep_fn == NULL) {
+            pthread_cond_wait(&c->cv, &h->mu);
+            continue;
+        }
+        struct timespec dl;
+        clock_gettime(CLOCK_MONOTONIC, &dl);
+        const uint64_t ns = ts_ns(&dl) + (uint64_t)c->asleep_every_us * 1000u;
+        dl.tv_sec = (time_t)(ns / 1000000000u);
+        dl.tv_nsec = (long)(ns % 1000000000u);
+        if (pthread_cond_timedwait(&c->cv, &h->mu, &dl) == ETIMEDOUT && c->state == CORE_SLEEPING &&
+            !h->stopping) {
+            pthread_mutex_unlock(&h->mu);
+            c->asleep_fn(c->asleep_arg);
+            pthread_mutex_lock(&h->mu);
+        }
+    }
     return h->stopping ? -ECANCELED : 0;
+}
+
+static int op_while_asleep(void *ctx, void (*fn)(void *arg), void *arg, uint32_t every_us)
+{
+    hal_host_t *h = ctx;
+    host_core_t *c = hal_host_tls_core;
+    if (c == NULL || c->h != h)
+        return -EPERM;
+    if (fn != NULL && every_us == 0)
+        return -EINVAL;
+    pthread_mutex_lock(&h->mu);
+    c->asleep_fn = fn;
+    c->asleep_arg = arg;
+    c->asleep_every_us = every_us;
+    pthread_mutex_unlock(&h->mu);
+    return 0;
 }
 
 static int op_sleep_until_us(void *ctx, uint64_t wake_us)
@@ -91,7 +125,8 @@ static int op_sleep_until_us(void *ctx, uint64_t wake_us)
     return r;
 }
 
-const hal_clock_ops_t hal_host_clock_ops = {.now_us = op_now_us, .sleep_until_us = op_sleep_until_us};
+const hal_clock_ops_t hal_host_clock_ops = {
+    .now_us = op_now_us, .sleep_until_us = op_sleep_until_us, .while_asleep = op_while_asleep};
 
 /* ---- scheduler ---------------------------------------------------------------------------- */
 static int any_running(const hal_host_t *h)

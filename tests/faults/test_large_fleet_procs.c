@@ -1,12 +1,15 @@
-/* A fleet larger than the board's neighbour slots, as real processes: 40 `host_sim run`
- * processes over LCM multicast on this host, every robot within reach of every other (a 1 km
- * radius), so each keeps the states of its 32 nearest (ties by id) out of 39. Their tours come
- * from `host_sim paths gen --robots 40` (five robots per room of the default plan). The final
- * models must equal `host_sim fleet --inproc`'s bit for bit: the protocol engine and the
- * in-process graph choose the same nearest, and the DiNNO slots sum them in the same order.
- * Bounded like every fleet test (tests/support/fleet_procs.h): a hang is a failure. About a
- * minute on 2 cores; 40 processes of ~90 MB each. */
-#define _XOPEN_SOURCE 700
+/* A fleet larger than the board's neighbour slots, starved of CPU, as real processes: 40
+ * `host_sim run` processes over LCM multicast on this host, all on ONE core (the launcher's
+ * affinity, inherited), every robot within reach of every other (a 1 km radius), so each keeps
+ * the states of its 32 nearest (ties by id) out of 39 and tells its network to drop the other
+ * peers' chunks (hal_net_set_senders). Their tours come from `host_sim paths gen --robots 40`
+ * (five robots per room of the default plan). With the default peer timeout (10 s) a robot
+ * waiting for the core must not be taken for a crashed one: no peer timeout, no state given
+ * up, no datagram dropped by a full queue, and the final models equal `host_sim fleet
+ * --inproc`'s bit for bit (the protocol engine and the in-process graph choose the same
+ * nearest, and the DiNNO slots sum them in the same order). Bounded like every fleet test
+ * (tests/support/fleet_procs.h): a hang is a failure. About 45 s on this machine. */
+#define _GNU_SOURCE /* sched_setaffinity */
 #include <limits.h>
 #include <setjmp.h>
 #include <stdarg.h>
@@ -17,6 +20,7 @@
 #include <string.h>
 
 #include <cmocka.h>
+#include <sched.h>
 
 #include "fleet_procs.h"
 #include "gp/gp_pse.h"
@@ -43,16 +47,36 @@ static void test_nearest_of_forty_equal_inproc(void **st)
         fail_msg("host_sim paths gen --robots %d failed:\n%s", NPROC, out);
     memcpy(fp_env.paths, tours, strlen(tours) + 1u);
 
+    /* One core for the whole fleet: its robots inherit the affinity. */
+    cpu_set_t all, one;
+    assert_int_equal(sched_getaffinity(0, sizeof all, &all), 0);
+    CPU_ZERO(&one);
+    for (int c = 0; c < CPU_SETSIZE; c++)
+        if (CPU_ISSET(c, &all)) {
+            CPU_SET(c, &one);
+            break;
+        }
+    assert_int_equal(sched_setaffinity(0, sizeof one, &one), 0);
     static fp_fleet_t f;
-    const char *args[] = {"--rounds", ROUNDS, "--radius", RADIUS, "--peer-timeout", "60", "--resend-ms", "200",
-                          NULL};
+    const char *args[] = {"--rounds", ROUNDS, "--radius", RADIUS, "--resend-ms", "200", NULL};
     fp_fleet_init(&f, "forty", NPROC, NULL, args);
     fp_fleet_start(&f, NULL, NULL);
     const double wall = fp_fleet_wait_ok(&f, DEADLINE_S);
+    assert_int_equal(sched_setaffinity(0, sizeof all, &all), 0);
+    const unsigned long long timeouts = fp_summary_sum("forty", NPROC, "losses:", " peer timeouts", 0);
+    const unsigned long long missed = fp_summary_sum("forty", NPROC, "faults survived", " peer states gone without", 0);
+    const unsigned long long full = fp_summary_sum("forty", NPROC, "waiting for peers", "(queue full", 1);
+    const unsigned long long unwanted =
+        fp_summary_sum("forty", NPROC, "network:", " datagrams of senders not asked for", 0);
+    if (timeouts != 0 || missed != 0 || full != 0)
+        fail_msg("on one core: %llu peer timeouts, %llu states given up, %llu datagrams dropped by full queues "
+                 "(all must be 0)", timeouts, missed, full);
     fp_inproc_reference_radius(NPROC, ROUNDS, RADIUS, DEADLINE_S);
     fp_expect_reference_models("forty", NPROC);
-    print_message("%d processes, %s rounds, each keeping its %u nearest of %d: %.1f s, models equal to the "
-                  "in-process reference\n", NPROC, ROUNDS, (unsigned)GP_PSE_MAX_NEIGHBOURS, NPROC - 1, wall);
+    print_message("%d processes on one core, %s rounds, each keeping its %u nearest of %d: %.1f s, no timeout, "
+                  "no state given up, no queue drop, %llu unwanted datagrams dropped on arrival; models equal to "
+                  "the in-process reference\n", NPROC, ROUNDS, (unsigned)GP_PSE_MAX_NEIGHBOURS, NPROC - 1, wall,
+                  unwanted);
 }
 
 static int setup(void **st)

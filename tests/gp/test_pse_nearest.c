@@ -170,9 +170,10 @@ static void test_a_peer_never_heard_is_asked_where_it_is(void **st)
     assert_int_equal(gp_pse_begin_round(&eng, 0, mine, 0.0, 0.0, 0), 0);
     for (uint32_t i = 2; i < N; i++)
         whole_state_from(i, 0, 100.0, 10); /* all out of reach */
-    /* Peer 1 is in round 0 (its beacon), but every chunk of it was lost. */
-    const gp_pse_request_t beacon = {1, 1, 0, 0, {0}, 0, 0, 0.0, 0.0};
-    assert_int_equal(gp_pse_on_request(&eng, &beacon, 10), 0);
+    /* Peer 1 is in round 0 (its request to peer 2, which does not say where it is), but its
+       positioned beacon and every chunk of it were lost. */
+    const gp_pse_request_t other = {1, 2, 0, 1, {0}, 0, 0, 0.0, 0.0};
+    assert_int_equal(gp_pse_on_request(&eng, &other, 10), 0);
     gp_pse_poll(&eng, 20);
     assert_int_equal(n_asked, 0); /* within a resend period of the round's start: in flight */
     assert_false(gp_pse_states_ready(&eng));

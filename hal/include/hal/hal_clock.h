@@ -20,6 +20,8 @@ typedef struct hal_clock_ops {
      * board is stopping (the core must return from its entry function), -EPERM when not
      * called from a core. */
     int (*sleep_until_us)(void *ctx, uint64_t wake_us);
+    /* Optional. See hal_clock_while_asleep(). */
+    int (*while_asleep)(void *ctx, void (*fn)(void *arg), void *arg, uint32_t every_us);
 } hal_clock_ops_t;
 
 /* Current simulated time in microseconds into *now_us. 0 or -EINVAL/-ENODEV. */
@@ -41,6 +43,23 @@ FS_MUST_CHECK static inline int hal_sleep_until_us(uint64_t wake_us)
     if (b == NULL || b->clock == NULL)
         return -ENODEV;
     return b->clock->sleep_until_us(b->ctx, wake_us);
+}
+
+/* Work the calling core does in REAL time while it sleeps in hal_sleep_until_us() and the
+ * board's clock stands still for it: fn(arg) runs on the core's own thread every every_us of
+ * real time until the sleep ends. Only a board whose clock is not real time needs it (the host's
+ * lockstep, where simulated time waits for the slowest core: while the AI core trains, the GP
+ * core would otherwise neither read nor answer the network, which runs in real time). fn must
+ * not use the clock or sleep. NULL fn: none. 0, -EINVAL (every_us 0), -EPERM (not a core),
+ * -ENOTSUP where the clock is real time (a board: the core's own ticks do the work). */
+static inline int hal_clock_while_asleep(void (*fn)(void *arg), void *arg, uint32_t every_us)
+{
+    const hal_board_t *b = hal_board_current;
+    if (b == NULL || b->clock == NULL)
+        return -ENODEV;
+    if (b->clock->while_asleep == NULL)
+        return -ENOTSUP;
+    return b->clock->while_asleep(b->ctx, fn, arg, every_us);
 }
 
 #endif /* HAL_CLOCK_H */
