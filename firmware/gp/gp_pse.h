@@ -39,10 +39,15 @@
  *
  * Liveness (the rule docs/architecture.md states): a peer is kept in round k only by progress,
  * i.e. a message of round k or later, or its RoundComplete of k - 1 (it is on its way to k);
- * a peer that shows none for peer_timeout_us (join_timeout_us before it was ever heard) while
- * we wait for it leaves the round, and stays out until a round boundary where it is heard in
- * the round before or later. Every live peer sends at least one message per resend_after_us,
- * so only a crashed, paused or cut-off peer times out. A message of a later round ends our
+ * a peer that shows none for its timeout (join_timeout_us before it was ever heard) while we
+ * wait for it leaves the round, and stays out until a round boundary where it is heard in the
+ * round before or later. Its timeout is peer_timeout_us, stretched for a peer whose signs of
+ * progress come irregularly (RFC 6298's srtt + 4 rttvar of the gaps between them) up to
+ * GP_PSE_TIMEOUT_STRETCH x peer_timeout_us; and time we did not run (a gap between two of our
+ * polls beyond a resend period: a busy CPU) does not count, since our peers' messages waited
+ * for us meanwhile. Every live peer sends at least one message per resend_after_us, also
+ * before its first round ("on my way to round 0", no position), so only a crashed, paused or
+ * cut-off peer times out. A message of a later round ends our
  * waiting at once: the sender finished round k, so every peer still in it had completed it or
  * was given up (with loss alone this never happens before our own state set was complete, so
  * the models stay those of the lossless run). A robot therefore finishes every round at most
@@ -50,9 +55,11 @@
  *
  * Fleets larger than the neighbour slots: the fleet has up to GP_PSE_MAX_FLEET ids (the board's
  * BOARD_MAX_FLEET), but a round keeps the states of GP_PSE_MAX_NEIGHBOURS peers at most (the
- * board's BOARD_MAX_PEERS, DiNNO's slots). Every chunk carries its sender's position, so the
- * first chunk of a peer in a round places it: each round keeps a list of its nearest peers
- * within the radius, sorted by (squared distance, id), and only those own a state buffer; a
+ * board's BOARD_MAX_PEERS, DiNNO's slots). A round opens with a beacon that carries its
+ * sender's position (so do its requests and every chunk), so the first word of a peer in a
+ * round places it, and gp_pse_wanted() tells the GP core whose chunks it may keep: its network
+ * drops the others' before they cost anything (hal_net_set_senders; ZeroMQ never sends them).
+ * Each round keeps a list of its nearest peers within the radius, sorted by (squared distance, id), and only those own a state buffer; a
  * nearer peer heard later takes the buffer of the farthest (an eviction). Chunks of round
  * k + 1 are ranked against our position of round k until round k + 1 begins and the list is
  * ranked again; a peer that got in only then is asked for its chunks. A round's states are
