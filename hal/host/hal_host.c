@@ -197,8 +197,12 @@ int hal_host_create(const hal_host_config_t *cfg, hal_host_t **out)
         return config_error("log_level out of range");
     if (cfg->log_fd < 0)
         return config_error("log_fd is negative");
-    if (cfg->net_queue_depth > 4096u)
-        return config_error("net_queue_depth above 4096");
+    if (cfg->net_queue_depth > HAL_HOST_NET_QUEUE_MAX)
+        return config_error("net_queue_depth above 16384 (HAL_HOST_NET_QUEUE_MAX)");
+    if (cfg->net_queue_bytes != 0 && cfg->net_queue_bytes < HAL_HOST_NET_QUEUE_BYTES_MIN)
+        return config_error("net_queue_bytes below two MTU-sized datagrams (HAL_HOST_NET_QUEUE_BYTES_MIN)");
+    if (cfg->net_queue_bytes > HAL_HOST_NET_QUEUE_BYTES_MAX)
+        return config_error("net_queue_bytes above 256 MB (HAL_HOST_NET_QUEUE_BYTES_MAX)");
     if (cfg->world != NULL && cfg->world->advance_to_us == NULL)
         return config_error("world without advance_to_us");
     if (!(cfg->wheel_radius_m >= 0.0f) || !(cfg->wheel_separation_m >= 0.0f))
@@ -235,7 +239,7 @@ int hal_host_create(const hal_host_config_t *cfg, hal_host_t **out)
         r = hal_host_net_open(cfg->net_url,
                               cfg->net_queue_depth ? cfg->net_queue_depth
                                                    : HAL_HOST_NET_QUEUE_DEFAULT,
-                              &h->net);
+                              cfg->net_queue_bytes, &h->net);
     if (r == 0 && h->net != NULL)
         r = hal_host_net_set_faults(
             h->net, &faults,

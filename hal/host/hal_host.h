@@ -73,6 +73,14 @@ typedef enum hal_host_sched {
  * 60 KB messages at rate: a round of 7 robots of the paper preset sends 15 MB at once). */
 #define HAL_HOST_NET_URL_DEFAULT "udpm://239.255.76.67:7667?ttl=0&recv_buf_size=33554432"
 #define HAL_HOST_NET_QUEUE_DEFAULT 64u
+/* The network's receive queue is a byte ring (hal_host_net.c): a message takes a
+ * HAL_HOST_NET_ENTRY_HEADER-byte header and its bytes rounded up to 8. It holds at most
+ * net_queue_depth messages (HAL_HOST_NET_QUEUE_MAX at most) and net_queue_bytes bytes. */
+#define HAL_HOST_NET_QUEUE_MAX 16384u
+#define HAL_HOST_NET_ENTRY_HEADER 16u
+#define HAL_HOST_NET_ENTRY_BYTES(len) ((size_t)HAL_HOST_NET_ENTRY_HEADER + (((size_t)(len) + 7u) & ~(size_t)7u))
+#define HAL_HOST_NET_QUEUE_BYTES_MIN (2u * HAL_HOST_NET_ENTRY_BYTES(HAL_NET_MTU_BYTES)) /* a configuration's */
+#define HAL_HOST_NET_QUEUE_BYTES_MAX ((size_t)256u << 20)
 #define HAL_HOST_NET_MAX_SUBS 16u
 
 typedef struct hal_host_config {
@@ -86,7 +94,11 @@ typedef struct hal_host_config {
     /* Network: NULL for none, "" for HAL_HOST_NET_URL_DEFAULT, else an LCM URL
      * (memq:// in tests). */
     const char *net_url;
-    uint32_t net_queue_depth;   /* 0: HAL_HOST_NET_QUEUE_DEFAULT; at most 4096 */
+    uint32_t net_queue_depth;   /* messages: 0: HAL_HOST_NET_QUEUE_DEFAULT; at most HAL_HOST_NET_QUEUE_MAX */
+    /* Bytes of the receive ring: 0: hal_host_net_queue_bytes_default(depth), else
+     * HAL_HOST_NET_QUEUE_BYTES_MIN .. HAL_HOST_NET_QUEUE_BYTES_MAX (two MTU-sized datagrams
+     * at least: one being read while the next arrives). */
+    size_t net_queue_bytes;
     /* Faults injected into what this board receives (hal_host_netfault.h spec; NULL or "":
      * none; needs net_url). Its random stream: the spec's seed= or else net_faults_seed (the
      * run seed), mixed with robot_id. */
@@ -172,9 +184,16 @@ uint64_t hal_host_world_steps(const hal_host_t *h);
 /* ---- pieces, usable on their own (tests, tools) --------------------------------------- */
 
 /* Network over LCM. A receiver thread (from the first subscription on) moves datagrams into
- * the bounded queue as they arrive; the calls below may come from one other thread. */
-FS_MUST_CHECK int hal_host_net_open(const char *url, uint32_t queue_depth,
+ * the bounded queue as they arrive; the calls below may come from one other thread. The queue
+ * holds at most queue_depth messages (1 .. HAL_HOST_NET_QUEUE_MAX) in a byte ring of
+ * queue_bytes bytes (rounded up to 8), allocated here once: 0 for
+ * hal_host_net_queue_bytes_default(queue_depth), else from one MTU-sized entry
+ * (HAL_HOST_NET_ENTRY_BYTES(HAL_NET_MTU_BYTES)) to HAL_HOST_NET_QUEUE_BYTES_MAX; -EINVAL
+ * outside. A datagram whose entry does not fit the free bytes is dropped (rx_dropped_full). */
+FS_MUST_CHECK int hal_host_net_open(const char *url, uint32_t queue_depth, size_t queue_bytes,
                                                           hal_host_net_t **out);
+/* The ring of queue_bytes 0: queue_depth x 4 KB, at least 4 MTU-sized entries. */
+size_t hal_host_net_queue_bytes_default(uint32_t queue_depth);
 void hal_host_net_close(hal_host_net_t *n);
 FS_MUST_CHECK int hal_host_net_publish(hal_host_net_t *n,
                                                              const char *channel,

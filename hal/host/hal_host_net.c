@@ -1,7 +1,20 @@
 /* hal_net on the host, over LCM or ZeroMQ (the transports: hal_host_net_transport.h; the URL
- * chooses). Subscriptions deliver into one bounded queue of fixed-size slots that the GP core
- * polls; the queue is allocated once at open, so receiving never allocates in our code (the
- * transports' own buffers are their business).
+ * chooses). Subscriptions deliver into one bounded queue that the GP core polls: a byte ring
+ * allocated once at open, so receiving never allocates in our code (the transports' own
+ * buffers are their business).
+ *
+ * The queue is a byte ring, not a table of MTU-sized slots: most datagrams are small
+ * (requests, beacons, completions: tens to hundreds of bytes) while a state chunk may take a
+ * whole MTU (~60 KB), and a ring of slots is touched slot by slot until every slot is resident
+ * (depth x MTU of RSS). An entry is a 16-byte header (length, subscription index, queue stamp:
+ * the hal_net_rx_info_t fields; the channel name is the subscription's, kept once in the
+ * table) and the datagram's bytes, rounded up to 8 bytes. An entry never straddles the end:
+ * when it does not fit in the tail, the tail becomes padding (a skip marker where the next
+ * header would be) and the entry starts at offset 0. The queue is full when the bytes do not
+ * fit OR it holds `depth` messages (the message cap, hal_net_stats_t.queue_depth); a datagram
+ * that does not fit is dropped and counted (rx_dropped_full). When the queue empties both ends
+ * go back to offset 0, so a queue drained as fast as it fills keeps using the ring's first
+ * bytes and the pages past its high-water mark (queue_bytes_max) are never touched.
  *
  * A receiver thread (started with the first subscription) runs the transport's handler all along and
  * moves every datagram into the queue at once, as a board's network interface receives while
@@ -37,23 +50,35 @@
 #include <stdlib.h>
 #include <string.h>
 
-#define NET_QUEUE_MAX 4096u
+/* The message cap: no storage is sized by it (a message costs its entry in the ring), so it
+ * may be high. */
+#define NET_QUEUE_MAX HAL_HOST_NET_QUEUE_MAX
 /* Most datagrams held back at once (MTU-sized slots): a deeper holding area would only move
  * the overflow into the queue; when it is full the one due first is released early. */
 #define NET_HOLD_MAX 512u
 
-typedef struct net_slot {
-    hal_net_rx_info_t info;
-    uint8_t data[HAL_NET_MTU_BYTES];
-} net_slot_t;
+/* An entry's header in the ring (HAL_HOST_NET_ENTRY_HEADER bytes, 8-byte aligned), its
+ * datagram's bytes right after it. len == NET_SKIP marks padding from here to the end of the
+ * ring: the next entry is at offset 0 (only its first 4 bytes are written: the padding may be
+ * just 8 bytes). */
+typedef struct net_entry {
+    uint32_t len;      /* datagram bytes, or NET_SKIP */
+    uint32_t sub;      /* index in sub_channel: the channel it came on */
+    uint64_t stamp_us; /* queue time (hal_net_rx_info_t.stamp_us) */
+} net_entry_t;
+#define NET_SKIP UINT32_MAX
+_Static_assert(sizeof(net_entry_t) == HAL_HOST_NET_ENTRY_HEADER, "ring entry header");
 
 struct hal_host_net {
     const hal_host_net_transport_t *tp; /* LCM or ZeroMQ (hal_host_net_transport.h) */
     void *tp_ctx;
-    uint32_t depth;
-    uint32_t head; /* next slot to pop */
-    uint32_t fill;
-    net_slot_t *slots;
+    /* The queue (under mu): a byte ring of ring_cap bytes (a multiple of 8). Entries from
+       offset head (the oldest) to tail (where the next goes), possibly wrapped; head == tail
+       with fill > 0 is a full ring. used: bytes taken, padding included. Empty: head = tail = 0. */
+    uint32_t depth;    /* message cap */
+    uint32_t fill;     /* messages queued */
+    size_t ring_cap, head, tail, used;
+    uint8_t *ring;
     uint32_t n_subs;
     char sub_channel[HAL_HOST_NET_MAX_SUBS][HAL_NET_CHANNEL_MAX]; /* under mu */
     /* hal_host_net_set_senders, per subscription (under mu): filtered, and then the wanted
@@ -95,21 +120,92 @@ static uint64_t mono_us(void)
     return (uint64_t)ts.tv_sec * 1000000u + (uint64_t)ts.tv_nsec / 1000u;
 }
 
-/* mu held: one datagram into the queue, or counted as a queue-full drop. */
+/* mu held: the offset where an entry of `esize` bytes goes, setting *pad to the padding it
+ * leaves at the end of the ring (wrapping); SIZE_MAX when it does not fit. */
+static size_t ring_place(const hal_host_net_t *n, size_t esize, size_t *pad)
+{
+    *pad = 0;
+    if (n->fill == 0) /* empty: head = tail = 0 */
+        return esize <= n->ring_cap ? 0u : SIZE_MAX;
+    if (n->tail > n->head) { /* [head, tail) taken: room at the end, then before head */
+        if (esize <= n->ring_cap - n->tail)
+            return n->tail;
+        if (esize <= n->head) {
+            *pad = n->ring_cap - n->tail;
+            return 0;
+        }
+        return SIZE_MAX;
+    }
+    /* wrapped: [head, end) and [0, tail) taken (tail == head: full) */
+    return esize <= n->head - n->tail ? n->tail : SIZE_MAX;
+}
+
+/* mu held: the ring's entry at head, past a skip marker (fill > 0). */
+static net_entry_t *ring_front(hal_host_net_t *n)
+{
+    uint32_t len;
+    memcpy(&len, n->ring + n->head, sizeof len);
+    if (len == NET_SKIP) {
+        n->used -= n->ring_cap - n->head;
+        n->head = 0;
+    }
+    return (net_entry_t *)(void *)(n->ring + n->head);
+}
+
+/* mu held: the entry at head leaves the ring. */
+static void ring_pop(hal_host_net_t *n, const net_entry_t *e)
+{
+    const size_t esize = HAL_HOST_NET_ENTRY_BYTES(e->len);
+    n->head += esize;
+    n->used -= esize;
+    if (n->head == n->ring_cap)
+        n->head = 0;
+    if (--n->fill == 0)
+        n->head = n->tail = n->used = 0; /* back to the start: the low pages stay the hot ones */
+}
+
+/* mu held: the index of a subscribed channel (every queued datagram is of one), or n_subs. */
+static uint32_t sub_index(const hal_host_net_t *n, const char *channel)
+{
+    uint32_t i = 0;
+    while (i < n->n_subs && strcmp(n->sub_channel[i], channel) != 0)
+        i++;
+    return i;
+}
+
+/* mu held: one datagram into the queue, or counted as a queue-full drop (the message cap
+ * reached, or its bytes do not fit the ring). */
 static void enqueue(hal_host_net_t *n, const char *channel, const void *data, uint32_t len)
 {
-    if (n->fill == n->depth) {
+    const uint32_t sub = sub_index(n, channel);
+    if (sub == n->n_subs || len > HAL_NET_MTU_BYTES) { /* not expected: checked before */
+        n->stats.rx_dropped_invalid++;
+        return;
+    }
+    const size_t esize = HAL_HOST_NET_ENTRY_BYTES(len);
+    size_t pad, at;
+    if (n->fill == n->depth || (at = ring_place(n, esize, &pad)) == SIZE_MAX) {
         n->stats.rx_dropped_full++;
         return;
     }
-    net_slot_t *s = &n->slots[(n->head + n->fill) % n->depth];
-    memset(&s->info, 0, sizeof(s->info));
-    memcpy(s->info.channel, channel, strlen(channel) + 1u);
-    s->info.len = len;
-    s->info.stamp_us = n->pump_stamp_us;
+    if (pad > 0) {
+        const uint32_t skip = NET_SKIP;
+        memcpy(n->ring + n->tail, &skip, sizeof skip);
+    }
+    net_entry_t *e = (net_entry_t *)(void *)(n->ring + at);
+    e->len = len;
+    e->sub = sub;
+    e->stamp_us = n->pump_stamp_us;
     if (len > 0)
-        memcpy(s->data, data, len);
+        memcpy(e + 1, data, len);
+    n->tail = at + esize;
+    if (n->tail == n->ring_cap)
+        n->tail = 0;
+    n->used += pad + esize;
     n->fill++;
+    n->stats.queue_bytes = n->used;
+    if (n->used > n->stats.queue_bytes_max)
+        n->stats.queue_bytes_max = n->used;
     pthread_cond_broadcast(&n->cv);
 }
 
@@ -251,21 +347,36 @@ int hal_host_net_expect_type(hal_host_net_t *n, const char *channel, int type)
     return rc;
 }
 
-int hal_host_net_open(const char *url, uint32_t queue_depth, hal_host_net_t **out)
+size_t hal_host_net_queue_bytes_default(uint32_t queue_depth)
+{
+    const size_t want = (size_t)queue_depth * 4096u, least = 4u * HAL_HOST_NET_ENTRY_BYTES(HAL_NET_MTU_BYTES);
+    return want > least ? want : least;
+}
+
+int hal_host_net_open(const char *url, uint32_t queue_depth, size_t queue_bytes, hal_host_net_t **out)
 {
     if (url == NULL || out == NULL || queue_depth == 0 || queue_depth > NET_QUEUE_MAX)
+        return -EINVAL;
+    if (queue_bytes == 0)
+        queue_bytes = hal_host_net_queue_bytes_default(queue_depth);
+    queue_bytes = (queue_bytes + 7u) & ~(size_t)7u;
+    if (queue_bytes < HAL_HOST_NET_ENTRY_BYTES(HAL_NET_MTU_BYTES) || queue_bytes > HAL_HOST_NET_QUEUE_BYTES_MAX)
         return -EINVAL;
     *out = NULL;
     hal_host_net_t *n = calloc(1, sizeof(*n));
     if (n == NULL)
         return -ENOMEM;
-    n->slots = calloc(queue_depth, sizeof(net_slot_t));
-    if (n->slots == NULL) {
+    /* calloc: the pages are mapped when first written, so the ring costs RSS only up to the
+       high-water mark of what it held. */
+    n->ring = calloc(1, queue_bytes);
+    if (n->ring == NULL) {
         free(n);
         return -ENOMEM;
     }
+    n->ring_cap = queue_bytes;
     n->depth = queue_depth;
     n->stats.queue_depth = queue_depth;
+    n->stats.queue_bytes_cap = queue_bytes;
     n->t0_us = mono_us();
     pthread_condattr_t ca;
     pthread_condattr_init(&ca);
@@ -292,7 +403,7 @@ int hal_host_net_open(const char *url, uint32_t queue_depth, hal_host_net_t **ou
         pthread_cond_destroy(&n->cv);
         pthread_mutex_destroy(&n->tx_mu);
         pthread_mutex_destroy(&n->mu);
-        free(n->slots);
+        free(n->ring);
         free(n);
         return rc;
     }
@@ -315,7 +426,7 @@ void hal_host_net_close(hal_host_net_t *n)
     hal_host_netfault_hold_free(&n->hold); /* what is still held is lost with the process */
     hal_host_auth_wipe(&n->auth);
     free(n->tx_wire);
-    free(n->slots);
+    free(n->ring);
     free(n);
 }
 
@@ -594,20 +705,23 @@ int hal_host_net_receive(hal_host_net_t *n, uint64_t stamp_us, hal_net_rx_info_t
         pthread_mutex_unlock(&n->mu);
         return atomic_load(&n->rx_failed) ? -EIO : -EAGAIN;
     }
-    net_slot_t *s = &n->slots[n->head];
-    *info = s->info;
+    const net_entry_t *e = ring_front(n);
+    memset(info, 0, sizeof(*info));
+    memcpy(info->channel, n->sub_channel[e->sub], strlen(n->sub_channel[e->sub]) + 1u);
+    info->len = e->len;
+    info->stamp_us = e->stamp_us;
     int rc = 0;
     if (info->len > cap) {
         n->stats.rx_dropped_small++;
         rc = -EMSGSIZE;
     } else {
         if (info->len > 0)
-            memcpy(buf, s->data, info->len);
+            memcpy(buf, e + 1, info->len);
         n->stats.rx_messages++;
         n->stats.rx_bytes += info->len;
     }
-    n->head = (n->head + 1u) % n->depth;
-    n->fill--;
+    ring_pop(n, e);
+    n->stats.queue_bytes = n->used;
     pthread_mutex_unlock(&n->mu);
     return rc;
 }
@@ -631,5 +745,6 @@ void hal_host_net_get_stats(const hal_host_net_t *n, hal_net_stats_t *stats)
     pthread_mutex_lock(&m->mu);
     *stats = m->stats;
     stats->queue_fill = m->fill;
+    stats->queue_bytes = m->used;
     pthread_mutex_unlock(&m->mu);
 }

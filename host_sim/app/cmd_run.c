@@ -692,6 +692,9 @@ static int report(job_t *j)
                     (unsigned long long)res->net.rx_dropped_full, (unsigned long long)res->net.rx_dropped_small,
                     (unsigned long long)(res->net.rx_dropped_malformed + res->net.rx_dropped_invalid),
                     (unsigned long long)res->pse.send_failures);
+            fprintf(f, "network queue: a ring of %llu B for %u messages at most; high-water mark %llu B\n",
+                    (unsigned long long)res->net.queue_bytes_cap, (unsigned)res->net.queue_depth,
+                    (unsigned long long)res->net.queue_bytes_max);
             fprintf(f, "screen: %llu neighbour states left out (not finite, or beyond %g x ||own state||)\n",
                     (unsigned long long)res->ai_status.states_excluded, (double)o->d.screen_radius);
             fprintf(f, "duals: %s rule; %llu neighbours back after %u or more missed rounds (rejoined)",

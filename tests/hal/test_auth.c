@@ -149,12 +149,12 @@ static void test_only_members_are_heard(void **st)
     snprintf(url, sizeof url, "udpm://239.255.76.67:%u?ttl=0&recv_buf_size=1048576", 7930u + (unsigned)(getpid() % 30));
     const hal_host_auth_t me = member(7, 1000), replay = member(7, 999), stranger = member(8, 1000);
     hal_host_net_t *rx = NULL, *tx[4] = {NULL};
-    assert_int_equal(hal_host_net_open(url, 256, &rx), 0);
+    assert_int_equal(hal_host_net_open(url, 256, 0, &rx), 0);
     assert_int_equal(hal_host_net_set_auth(rx, &me), 0);
     assert_int_equal(hal_host_net_subscribe(rx, CH), 0);
     assert_int_equal(hal_host_net_set_auth(rx, &me), -EBUSY); /* once, before the first datagram */
     for (int i = 0; i < 4; i++)
-        assert_int_equal(hal_host_net_open(url, 4, &tx[i]), 0);
+        assert_int_equal(hal_host_net_open(url, 4, 0, &tx[i]), 0);
     assert_int_equal(hal_host_net_set_auth(tx[0], &me), 0);
     assert_int_equal(hal_host_net_set_auth(tx[2], &replay), 0);
     assert_int_equal(hal_host_net_set_auth(tx[3], &stranger), 0);
@@ -197,7 +197,7 @@ static void test_own_datagrams_dropped_before_the_tag(void **st)
     const char *ch = "fleetsim/authtest/done";
     const hal_host_auth_t me = member(7, 1000);
     hal_host_net_t *n = NULL;
-    assert_int_equal(hal_host_net_open("memq://", 16, &n), 0);
+    assert_int_equal(hal_host_net_open("memq://", 16, 0, &n), 0);
     assert_int_equal(hal_host_net_set_self(n, 3), 0);
     assert_int_equal(hal_host_net_set_auth(n, &me), 0);
     assert_int_equal(hal_host_net_expect_type(n, ch, HAL_HOST_MSG_ROUND_COMPLETE), 0);

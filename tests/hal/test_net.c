@@ -1,6 +1,7 @@
 /* hal_net over LCM: publish / receive of fixed-size messages through the HAL wrappers
  * (memq://), MTU limit, channel validation, caller buffer too small, bounded-queue overflow
- * with drop counting, neighbour-scoped delivery (hal_net_set_senders: unwanted senders dropped
+ * with drop counting, the queue's byte ring (filled to the byte, wrapped with a skip in FIFO
+ * order, the message cap, a buffer too small), neighbour-scoped delivery (hal_net_set_senders: unwanted senders dropped
  * on arrival and counted, before a keyed fleet's tag check), and one test with two real
  * processes over udpm:// on this host (the ZeroMQ side of the filter: test_net_zmq.c).
  *
@@ -330,7 +331,7 @@ static void test_senders_filter_before_the_tag(void **state)
     memset(a.key, 9, sizeof a.key);
     a.run_id = 5;
     hal_host_net_t *n = NULL;
-    assert_int_equal(hal_host_net_open("memq://", 16, &n), 0);
+    assert_int_equal(hal_host_net_open("memq://", 16, 0, &n), 0);
     assert_int_equal(hal_host_net_set_self(n, 0), 0);
     assert_int_equal(hal_host_net_set_auth(n, &a), 0);
     assert_int_equal(hal_host_net_expect_type(n, FCH, HAL_HOST_MSG_ROUND_COMPLETE), 0);
@@ -370,6 +371,224 @@ static void test_senders_filter_before_the_tag(void **state)
     hal_host_net_close(n);
 }
 
+/* ---- the receive queue's byte ring (hal_host_net.c) ------------------------------------- */
+#define RING_CH "fleetsim/ring"
+#define E(len) HAL_HOST_NET_ENTRY_BYTES(len)
+
+/* A datagram's bytes: a pattern of its sequence number, so every byte is checked. */
+static void ring_fill(uint8_t *b, uint32_t len, uint32_t seq)
+{
+    for (uint32_t i = 0; i < len; i++)
+        b[i] = (uint8_t)(seq * 131u + i * 7u + (i >> 8));
+}
+
+static void ring_expect(const uint8_t *b, uint32_t len, uint32_t seq)
+{
+    for (uint32_t i = 0; i < len; i++)
+        if (b[i] != (uint8_t)(seq * 131u + i * 7u + (i >> 8)))
+            fail_msg("datagram %u: byte %u of %u differs", seq, i, len);
+}
+
+static hal_host_net_t *ring_open(uint32_t depth, size_t bytes)
+{
+    hal_host_net_t *n = NULL;
+    assert_int_equal(hal_host_net_open("memq://", depth, bytes, &n), 0);
+    assert_int_equal(hal_host_net_subscribe(n, RING_CH), 0);
+    return n;
+}
+
+/* Returns 1 when the datagram was queued, 0 when it was dropped as full. */
+static int ring_push(hal_host_net_t *n, uint32_t len, uint32_t seq)
+{
+    hal_net_stats_t a, b;
+    hal_host_net_get_stats(n, &a);
+    ring_fill(big, len, seq);
+    hal_host_net_on_datagram(n, RING_CH, big, len);
+    hal_host_net_get_stats(n, &b);
+    assert_int_equal(b.rx_dropped_invalid, a.rx_dropped_invalid);
+    return b.rx_dropped_full == a.rx_dropped_full;
+}
+
+static void ring_pop_expect(hal_host_net_t *n, uint32_t len, uint32_t seq)
+{
+    hal_net_rx_info_t info;
+    memset(rx, 0xEE, sizeof rx);
+    assert_int_equal(hal_host_net_receive(n, 0, &info, rx, sizeof rx), 0);
+    assert_string_equal(info.channel, RING_CH);
+    assert_int_equal(info.len, len);
+    ring_expect(rx, len, seq);
+}
+
+/* Mixed sizes (an MTU-sized datagram, a mid one, a small one, an empty one) fill the ring to
+ * its last byte; the next datagram, even an empty one, is dropped and counted; the ring and its
+ * high-water mark say so; everything comes out in order, byte for byte. One byte more than an
+ * MTU is invalid, never queued. */
+static void test_ring_fills_to_the_byte(void **state)
+{
+    (void)state;
+    const uint32_t lens[4] = {(uint32_t)HAL_NET_MTU_BYTES, 1001u, 24u, 0u};
+    size_t cap = 0;
+    for (int i = 0; i < 4; i++)
+        cap += E(lens[i]);
+    hal_host_net_t *n = ring_open(100, cap);
+    hal_net_stats_t s;
+    hal_host_net_get_stats(n, &s);
+    assert_int_equal(s.queue_bytes_cap, cap);
+    assert_int_equal(s.queue_depth, 100);
+    for (uint32_t i = 0; i < 4; i++)
+        assert_true(ring_push(n, lens[i], i));
+    hal_host_net_get_stats(n, &s);
+    assert_int_equal(s.queue_bytes, cap);
+    assert_int_equal(s.queue_fill, 4);
+    assert_false(ring_push(n, 0, 99));
+    assert_false(ring_push(n, 8, 99));
+    hal_host_net_get_stats(n, &s);
+    assert_int_equal(s.rx_dropped_full, 2);
+    assert_int_equal(s.queue_fill, 4);
+    hal_host_net_on_datagram(n, RING_CH, big, HAL_NET_MTU_BYTES + 1u);
+    hal_host_net_get_stats(n, &s);
+    assert_int_equal(s.rx_dropped_invalid, 1);
+    for (uint32_t i = 0; i < 4; i++)
+        ring_pop_expect(n, lens[i], i);
+    hal_net_rx_info_t info;
+    assert_int_equal(hal_host_net_receive(n, 0, &info, rx, sizeof rx), -EAGAIN);
+    hal_host_net_get_stats(n, &s);
+    assert_int_equal(s.queue_bytes, 0);
+    assert_int_equal(s.queue_bytes_max, cap);
+    assert_int_equal(s.rx_messages, 4);
+    /* Empty again: the whole ring is free, an MTU-sized datagram and the rest fit again. */
+    for (uint32_t i = 0; i < 4; i++)
+        assert_true(ring_push(n, lens[i], 10u + i));
+    assert_false(ring_push(n, 0, 99));
+    for (uint32_t i = 0; i < 4; i++)
+        ring_pop_expect(n, lens[i], 10u + i);
+    hal_host_net_close(n);
+}
+
+/* Many cycles of mixed sizes through a ring of an odd size, pushes and pops interleaved at
+ * random (10000 each, about): every queued datagram comes out in FIFO order with its bytes; entries wrapped with a
+ * skip (padding counted in the bytes in use); a drop only when the free bytes could not hold it
+ * in one piece (less than twice its entry, the end and the start together). */
+static void test_ring_wraps_in_order(void **state)
+{
+    (void)state;
+    const size_t cap = 3u * E(HAL_NET_MTU_BYTES) + 4104u;
+    const uint32_t depth = 200;
+    hal_host_net_t *n = ring_open(depth, cap);
+    enum { FIFO = 256 };
+    uint32_t q_len[FIFO], q_seq[FIFO];
+    uint32_t q_head = 0, q_fill = 0, seq = 0, popped = 0, dropped = 0;
+    size_t q_bytes = 0;
+    int padded = 0;
+    uint64_t r = 0x9E3779B97F4A7C15ull;
+    for (int step = 0; step < 20000; step++) {
+        r ^= r << 13;
+        r ^= r >> 7;
+        r ^= r << 17;
+        if ((r & 1u) != 0 || q_fill == 0) { /* push, 1 time in 2 */
+            const uint32_t k = (uint32_t)(r >> 8) % 100u;
+            uint32_t len = k < 70u ? 20u + (uint32_t)(r >> 20) % 281u /* small */
+                           : k < 95u ? (uint32_t)(r >> 20) % 8192u
+                                     : (uint32_t)(r >> 20) % ((uint32_t)HAL_NET_MTU_BYTES + 1u);
+            if (k == 99u)
+                len = (uint32_t)HAL_NET_MTU_BYTES;
+            hal_net_stats_t s;
+            hal_host_net_get_stats(n, &s);
+            const uint64_t in_use = s.queue_bytes;
+            if (ring_push(n, len, seq)) {
+                assert_true(q_fill < FIFO);
+                q_len[(q_head + q_fill) % FIFO] = len;
+                q_seq[(q_head + q_fill) % FIFO] = seq;
+                q_fill++;
+                q_bytes += E(len);
+            } else {
+                assert_true(q_fill == depth || cap - in_use < 2u * E(len));
+                dropped++;
+            }
+            seq++;
+            hal_host_net_get_stats(n, &s);
+            assert_int_equal(s.queue_fill, q_fill);
+            assert_true(s.queue_bytes >= q_bytes && s.queue_bytes <= cap);
+            padded |= s.queue_bytes > q_bytes;
+        } else {
+            ring_pop_expect(n, q_len[q_head], q_seq[q_head]);
+            q_bytes -= E(q_len[q_head]);
+            q_head = (q_head + 1u) % FIFO;
+            q_fill--;
+            popped++;
+        }
+    }
+    while (q_fill > 0) {
+        ring_pop_expect(n, q_len[q_head], q_seq[q_head]);
+        q_head = (q_head + 1u) % FIFO;
+        q_fill--;
+        popped++;
+    }
+    hal_net_stats_t s;
+    hal_host_net_get_stats(n, &s);
+    assert_int_equal(s.queue_bytes, 0);
+    assert_int_equal(s.rx_messages, popped);
+    assert_int_equal(s.rx_dropped_full, dropped);
+    assert_true(padded);
+    assert_true(popped > 5000u && dropped > 0u);
+    print_message("# ring: %u datagrams through %zu B, %u dropped full, high-water mark %llu B\n", popped, cap,
+                  dropped, (unsigned long long)s.queue_bytes_max);
+    hal_host_net_close(n);
+}
+
+/* The message cap holds whatever the bytes: depth 4 of a roomy ring takes 4 small datagrams. A
+ * buffer too small consumes the entry (-EMSGSIZE, rx_dropped_small, its length told) and the
+ * next one comes out whole. The open's and the configuration's bounds. */
+static void test_ring_depth_cap_and_small_buffer(void **state)
+{
+    (void)state;
+    hal_host_net_t *n = ring_open(4, 0);
+    hal_net_stats_t s;
+    hal_host_net_get_stats(n, &s);
+    assert_int_equal(s.queue_bytes_cap, hal_host_net_queue_bytes_default(4));
+    assert_true(s.queue_bytes_cap >= 4u * E(HAL_NET_MTU_BYTES));
+    for (uint32_t i = 0; i < 4; i++)
+        assert_true(ring_push(n, i == 0 ? 100u : 10u, i));
+    assert_false(ring_push(n, 1, 4));
+    hal_host_net_get_stats(n, &s);
+    assert_int_equal(s.rx_dropped_full, 1);
+    assert_int_equal(s.queue_bytes, E(100) + 3u * E(10));
+    hal_net_rx_info_t info;
+    assert_int_equal(hal_host_net_receive(n, 0, &info, rx, 50), -EMSGSIZE);
+    assert_int_equal(info.len, 100);
+    assert_string_equal(info.channel, RING_CH);
+    hal_host_net_get_stats(n, &s);
+    assert_int_equal(s.rx_dropped_small, 1);
+    assert_int_equal(s.queue_fill, 3);
+    assert_int_equal(s.queue_bytes, 3u * E(10));
+    assert_true(ring_push(n, 7, 5)); /* room for one again */
+    for (uint32_t i = 1; i < 4; i++)
+        ring_pop_expect(n, 10u, i);
+    ring_pop_expect(n, 7u, 5);
+    hal_host_net_close(n);
+
+    hal_host_net_t *m = NULL;
+    assert_int_equal(hal_host_net_open("memq://", 8, E(HAL_NET_MTU_BYTES) - 8u, &m), -EINVAL);
+    assert_int_equal(hal_host_net_open("memq://", 8, HAL_HOST_NET_QUEUE_BYTES_MAX + 8u, &m), -EINVAL);
+    assert_int_equal(hal_host_net_open("memq://", HAL_HOST_NET_QUEUE_MAX + 1u, 0, &m), -EINVAL);
+    assert_int_equal(hal_host_net_open("memq://", HAL_HOST_NET_QUEUE_MAX, 0, &m), 0);
+    hal_host_net_close(m);
+    hal_host_config_t cfg = hal_host_config_default();
+    cfg.net_url = "memq://";
+    hal_host_t *h = NULL;
+    cfg.net_queue_bytes = HAL_HOST_NET_QUEUE_BYTES_MIN - 8u;
+    assert_int_equal(hal_host_create(&cfg, &h), -EINVAL);
+    cfg.net_queue_bytes = HAL_HOST_NET_QUEUE_BYTES_MAX + 1u;
+    assert_int_equal(hal_host_create(&cfg, &h), -EINVAL);
+    cfg.net_queue_bytes = 0;
+    cfg.net_queue_depth = HAL_HOST_NET_QUEUE_MAX + 1u;
+    assert_int_equal(hal_host_create(&cfg, &h), -EINVAL);
+    cfg.net_queue_depth = 16;
+    cfg.net_queue_bytes = HAL_HOST_NET_QUEUE_BYTES_MIN;
+    assert_int_equal(hal_host_create(&cfg, &h), 0);
+    hal_host_destroy(h);
+}
+
 /* ---- two processes over udpm:// ---------------------------------------------------------- */
 #define UDPM_CHANNEL "fleetsim/udpm_test"
 #define UDPM_LEN 30000u
@@ -387,7 +606,7 @@ static void child_receiver(const char *url, int ready_fd, int result_fd)
 {
     hal_host_net_t *n = NULL;
     char c = 'E';
-    if (hal_host_net_open(url, 8, &n) != 0 || hal_host_net_subscribe(n, UDPM_CHANNEL) != 0) {
+    if (hal_host_net_open(url, 8, 0, &n) != 0 || hal_host_net_subscribe(n, UDPM_CHANNEL) != 0) {
         (void)!write(ready_fd, &c, 1);
         _exit(2);
     }
@@ -500,7 +719,7 @@ static void test_udpm_two_processes(void **state)
     const char *what = "the receiver did not start";
     if (wait_byte(ch.ready, 10000, &c) == 0 && c == 'R') {
         hal_host_net_t *n = NULL;
-        if (hal_host_net_open(url, 4, &n) == 0) {
+        if (hal_host_net_open(url, 4, 0, &n) == 0) {
             static uint8_t msg[UDPM_LEN];
             fill(msg, UDPM_LEN, 9);
             what = "the message did not arrive within 6 s";
@@ -556,7 +775,7 @@ static void child_craft_receiver(const char *url, int ready_fd, int result_fd)
 {
     hal_host_net_t *n = NULL;
     char c = 'E';
-    if (hal_host_net_open(url, 64, &n) != 0 || hal_host_net_subscribe(n, CRAFT_CHANNEL) != 0 ||
+    if (hal_host_net_open(url, 64, 0, &n) != 0 || hal_host_net_subscribe(n, CRAFT_CHANNEL) != 0 ||
         hal_host_net_expect_type(n, CRAFT_CHANNEL, HAL_HOST_MSG_STATE_CHUNK) != 0) {
         (void)!write(ready_fd, &c, 1);
         _exit(2);
@@ -603,7 +822,7 @@ static void test_udpm_crafted_datagrams(void **state)
     int ok = 0, rounds = 0;
     if (wait_byte(ch.ready, 10000, &c) == 0 && c == 'R') {
         hal_host_net_t *n = NULL;
-        assert_int_equal(hal_host_net_open(url, 4, &n), 0);
+        assert_int_equal(hal_host_net_open(url, 4, 0, &n), 0);
         static uint8_t b[4096];
         for (; rounds < 50 && !ok; rounds++) {
             /* The hostile ones first, then the valid one; repeated until it is confirmed. */
@@ -652,6 +871,9 @@ int main(int argc, char **argv)
         cmocka_unit_test(test_queue_overflow_drops_and_counts),
         cmocka_unit_test(test_senders_filter),
         cmocka_unit_test(test_senders_filter_before_the_tag),
+        cmocka_unit_test(test_ring_fills_to_the_byte),
+        cmocka_unit_test(test_ring_wraps_in_order),
+        cmocka_unit_test(test_ring_depth_cap_and_small_buffer),
         cmocka_unit_test(test_udpm_two_processes),
         cmocka_unit_test(test_udpm_crafted_datagrams),
     };

@@ -49,7 +49,7 @@ static hal_host_net_t *open_robot(int i, unsigned base)
     char url[256];
     url_of(url, sizeof url, i, base);
     hal_host_net_t *n = NULL;
-    assert_int_equal(hal_host_net_open(url, 256, &n), 0);
+    assert_int_equal(hal_host_net_open(url, 256, 0, &n), 0);
     return n;
 }
 
@@ -152,18 +152,18 @@ static void test_bad_urls_and_a_taken_port(void **st)
 {
     (void)st;
     hal_host_net_t *n = NULL;
-    assert_int_equal(hal_host_net_open("zmq://127.0.0.1:7000", 8, &n), -EINVAL); /* no peers= */
-    assert_int_equal(hal_host_net_open("zmq://127.0.0.1?peers=", 8, &n), -EINVAL);
-    assert_int_equal(hal_host_net_open("zmq://127.0.0.1:70000?peers=", 8, &n), -EINVAL);
-    assert_int_equal(hal_host_net_open("zmq://127.0.0.1:7000?peers=a b:1", 8, &n), -EINVAL);
-    assert_int_equal(hal_host_net_open("zmq://127.0.0.1:7000?peers=host", 8, &n), -EINVAL);
+    assert_int_equal(hal_host_net_open("zmq://127.0.0.1:7000", 8, 0, &n), -EINVAL); /* no peers= */
+    assert_int_equal(hal_host_net_open("zmq://127.0.0.1?peers=", 8, 0, &n), -EINVAL);
+    assert_int_equal(hal_host_net_open("zmq://127.0.0.1:70000?peers=", 8, 0, &n), -EINVAL);
+    assert_int_equal(hal_host_net_open("zmq://127.0.0.1:7000?peers=a b:1", 8, 0, &n), -EINVAL);
+    assert_int_equal(hal_host_net_open("zmq://127.0.0.1:7000?peers=host", 8, 0, &n), -EINVAL);
     assert_null(n);
     char url[128];
     const unsigned port = base_port() + 6000u;
     snprintf(url, sizeof url, "zmq://127.0.0.1:%u?peers=", port);
     hal_host_net_t *a = NULL, *b = NULL;
-    assert_int_equal(hal_host_net_open(url, 8, &a), 0); /* a fleet of one: no peers */
-    assert_int_equal(hal_host_net_open(url, 8, &b), -EIO); /* the port is taken */
+    assert_int_equal(hal_host_net_open(url, 8, 0, &a), 0); /* a fleet of one: no peers */
+    assert_int_equal(hal_host_net_open(url, 8, 0, &b), -EIO); /* the port is taken */
     hal_host_net_close(a);
 }
 

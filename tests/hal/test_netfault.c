@@ -411,7 +411,7 @@ static void test_net_delivers_exactly_what_was_decided(void **st)
 {
     (void)st;
     hal_host_net_t *n = NULL;
-    assert_int_equal(hal_host_net_open("memq://", 2u * BATCH + 16u, &n), 0);
+    assert_int_equal(hal_host_net_open("memq://", 2u * BATCH + 16u, 0, &n), 0);
     hal_host_netfault_cfg_t c;
     char err[200];
     assert_int_equal(hal_host_netfault_parse("drop=0.1,dup=0.2,reorder=0.3,delay_ms=3", &c, err, sizeof err), 0);
@@ -480,7 +480,7 @@ static void test_net_reorder_comes_later(void **st)
     (void)st;
     enum { M = 40 };
     hal_host_net_t *n = NULL;
-    assert_int_equal(hal_host_net_open("memq://", 64, &n), 0);
+    assert_int_equal(hal_host_net_open("memq://", 64, 0, &n), 0);
     hal_host_netfault_cfg_t c;
     char err[200];
     assert_int_equal(hal_host_netfault_parse("reorder=0.5", &c, err, sizeof err), 0);
@@ -568,7 +568,7 @@ static void test_net_partition_by_sender_and_time(void **st)
 {
     (void)st;
     hal_host_net_t *n = NULL;
-    assert_int_equal(hal_host_net_open("memq://", 64, &n), 0);
+    assert_int_equal(hal_host_net_open("memq://", 64, 0, &n), 0);
     hal_host_netfault_cfg_t c;
     char err[200];
     /* This is robot 2; robots 0 and 1 are on the other side for the first 0.4 s. */

@@ -72,6 +72,11 @@ typedef struct hal_net_stats {
     uint64_t fault_partitioned; /* lost because sender and receiver were partitioned */
     uint32_t queue_fill;        /* messages waiting now */
     uint32_t queue_depth;       /* capacity of the queue */
+    /* A board whose queue is a byte ring (the host; 0 elsewhere): the messages above share
+       queue_bytes_cap bytes, and a datagram that does not fit them is dropped as full too. */
+    uint64_t queue_bytes;       /* bytes in use now (headers and padding included) */
+    uint64_t queue_bytes_max;   /* high-water mark of queue_bytes since start */
+    uint64_t queue_bytes_cap;   /* the ring's size */
 } hal_net_stats_t;
 
 typedef struct hal_net_ops {
