@@ -120,14 +120,15 @@ int sim_image_run(const sim_plan_t *plan, const sim_path_t *path, const sim_imag
            rounds are in flight, and resends of lost chunks come on top (four rounds covers
            both). A chunk costs its datagram header and the ring entry's header and alignment
            besides its share of the state. Small messages (requests, beacons, completions:
-           20 .. 300 B) come from the whole fleet: 32 per peer of 256 B. 64 KB of slack on top.
-           The message cap counts the same way: four rounds of K peers' chunks, the 32 small
-           messages per peer the bytes allow, 64 more (a message costs only its bytes in the
-           ring, so the cap need not be tighter than the bytes; beacons and requests of the
-           whole fleet pile up while a robot is off the CPU, and a cap of 16 per peer dropped
-           thousands of them in a 16-robot run on a loaded host). The ring's pages are touched only up to its high-water
-           mark (it goes back to offset 0 whenever it empties), so unused room costs address
-           space, not memory. */
+           45 .. 300 B, 128 B with the tag and the entry for most) come from the whole fleet: 64
+           per peer of 128 B. 64 KB of slack on top. The message cap counts the same way: four
+           rounds of K peers' chunks, the 64 small messages per peer the bytes allow, 64 more (a
+           message costs only its bytes in the ring, so the cap need not be tighter than the
+           bytes; beacons and requests of the whole fleet pile up while a robot is off the CPU:
+           a cap of 16 per peer dropped thousands of them in a 16-robot run on a loaded host,
+           32 still hundreds). The ring's pages are touched only up to its high-water mark (it
+           goes back to offset 0 whenever it empties), so unused room costs address space, not
+           memory. */
         const uint32_t chunks = (gp_fleet_state_bytes(cfg->fleet->encoding) + GP_PSE_MAX_CHUNK_BYTES - 1u) /
                                 GP_PSE_MAX_CHUNK_BYTES;
         const uint32_t n_peers = cfg->fleet->n_peers;
@@ -135,13 +136,13 @@ int sim_image_run(const sim_plan_t *plan, const sim_path_t *path, const sim_imag
         const uint32_t k = n_peers > 1u ? (n_peers - 1u < k_max ? n_peers - 1u : k_max) : 0u;
         const size_t chunk_room = GP_PSE_CHUNK_HEADER_ROOM + HAL_HOST_NET_ENTRY_HEADER + 8u;
         size_t bytes = 4u * (size_t)k * ((size_t)gp_fleet_state_bytes(cfg->fleet->encoding) + chunks * chunk_room) +
-                       32u * (size_t)n_peers * 256u + 64u * 1024u;
+                       64u * (size_t)n_peers * 128u + 64u * 1024u;
         if (bytes < HAL_HOST_NET_QUEUE_BYTES_MIN)
             bytes = HAL_HOST_NET_QUEUE_BYTES_MIN;
         if (bytes > HAL_HOST_NET_QUEUE_BYTES_MAX)
             bytes = HAL_HOST_NET_QUEUE_BYTES_MAX;
         hc.net_queue_bytes = bytes;
-        const uint32_t want = 4u * k * chunks + 32u * n_peers + 64u;
+        const uint32_t want = 4u * k * chunks + 64u * n_peers + 64u;
         hc.net_queue_depth = want > HAL_HOST_NET_QUEUE_MAX ? HAL_HOST_NET_QUEUE_MAX : want;
     }
     if ((rc = sim_hal_world_host(hw, cfg->robot, hc, &h, err, errlen)) < 0)

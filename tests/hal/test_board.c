@@ -35,7 +35,7 @@ static void fake_vlog(void *ctx, hal_log_level_t l, const char *f, va_list ap)
 static void fake_entry(void *arg) { (void)arg; }
 static int fake_twist(void *ctx, float v, float w) { (void)ctx; (void)v; (void)w; calls++; return 0; }
 
-static const hal_clock_ops_t fake_clock = {fake_now, fake_sleep};
+static const hal_clock_ops_t fake_clock = {.now_us = fake_now, .sleep_until_us = fake_sleep};
 static const hal_core_ops_t fake_core = {.start = fake_start};
 static const hal_log_ops_t fake_log = {fake_vlog};
 static const hal_motor_ops_t fake_motor = {.set_twist = fake_twist};

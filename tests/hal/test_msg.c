@@ -49,7 +49,7 @@ static void test_valid_messages_pass_and_decode(void **st)
     n = fleetsim_round_complete_t_encode(buf, 0, (int)sizeof buf, &rc);
     assert_int_equal(hal_host_msg_check(HAL_HOST_MSG_ROUND_COMPLETE, buf, (size_t)n), HAL_HOST_MSG_OK);
     int32_t chunks[3] = {0, 4, 7};
-    fleetsim_chunk_request_t rq = {1, 2, 9, 1, 3, chunks};
+    fleetsim_chunk_request_t rq = {1, 2, 9, 1, 1, 0.5, -0.5, 3, chunks};
     n = fleetsim_chunk_request_t_encode(buf, 0, (int)sizeof buf, &rq);
     assert_int_equal(hal_host_msg_check(HAL_HOST_MSG_CHUNK_REQUEST, buf, (size_t)n), HAL_HOST_MSG_OK);
     /* ANY is raw: no check. */
@@ -75,10 +75,10 @@ static void test_crafted_messages_refused(void **st)
     assert_int_equal(hal_host_msg_check(HAL_HOST_MSG_STATE_CHUNK, buf, (size_t)n), HAL_HOST_MSG_FINGERPRINT);
     /* A chunk request that claims INT_MAX chunks. */
     int32_t chunks[2] = {1, 2};
-    fleetsim_chunk_request_t rq = {1, 2, 9, 1, 2, chunks};
+    fleetsim_chunk_request_t rq = {1, 2, 9, 1, 1, 0.5, -0.5, 2, chunks};
     n = fleetsim_chunk_request_t_encode(buf, 0, (int)sizeof buf, &rq);
-    buf[8 + 16] = 0x7f;
-    buf[8 + 17] = buf[8 + 18] = buf[8 + 19] = 0xff;
+    buf[8 + 33] = 0x7f; /* n_chunks: after 4 ints, has_position and the position */
+    buf[8 + 34] = buf[8 + 35] = buf[8 + 36] = 0xff;
     assert_int_equal(hal_host_msg_check(HAL_HOST_MSG_CHUNK_REQUEST, buf, (size_t)n), HAL_HOST_MSG_BAD_LENGTH);
     assert_string_equal(hal_host_msg_reject_name(HAL_HOST_MSG_BAD_LENGTH), "a length field out of range");
 }
@@ -101,7 +101,7 @@ static void test_fuzz_decoder_only_sees_checked_bytes(void **st)
             n = fleetsim_round_complete_t_encode(buf, 0, (int)sizeof buf, &rc);
         } else {
             int32_t c[4] = {0, 1, 2, 3};
-            fleetsim_chunk_request_t rq = {0, 1, it, 1, 4, c};
+            fleetsim_chunk_request_t rq = {0, 1, it, 1, 0, 0.0, 0.0, 4, c};
             n = fleetsim_chunk_request_t_encode(buf, 0, (int)sizeof buf, &rq);
         }
         memcpy(m, buf, (size_t)n);
