@@ -29,8 +29,9 @@ estimate is on the safe side. While a fleet runs, the launcher's progress lines 
 and every --progress-s seconds without one a line says the elapsed time, the fleet's summed RSS
 and its socket buffers. The CSV records the peak RSS per process (max and median, summary.txt),
 the bytes the network delivered per robot and round (summary.txt "network:"; rx_unwanted when
-that line has the field), and the peaks the bench sampled (summed RSS, socket buffers).
-`--strict` is passed to tools/fleet when its --help offers it.
+that line has the field), the peaks the bench sampled (summed RSS, socket buffers), and what the
+fleet lost (run.json: states given up, peer timeouts, full-queue drops; a line warns when any is
+not zero: then the round times are those of a lossy fleet).
 """
 import argparse
 import csv
@@ -51,7 +52,8 @@ FIELDS = ["transport", "robots", "rounds", "round_ms", "sent_per_robot_B", "rece
           "received_total_MB", "net_received_per_robot_B", "cpu_s_per_process", "cpu_ms_per_round_per_process",
           "rss_MB_max", "static_MB_per_image", "wall_s"]
 # Added later: old rows without them are kept (empty cells).
-NEW_FIELDS = ["rss_MB_median", "net_rx_unwanted_per_robot", "fleet_rss_MB_peak", "sock_MB_peak"]
+NEW_FIELDS = ["rss_MB_median", "net_rx_unwanted_per_robot", "fleet_rss_MB_peak", "sock_MB_peak",
+              "states_given_up", "peer_timeouts", "queue_drops"]
 ALL_FIELDS = FIELDS + NEW_FIELDS
 DEFAULT_RSS_MB = 120.0  # per process, when no smaller fleet was measured
 
@@ -235,8 +237,6 @@ def measure(a, transport, n, rounds, preset):
         cmd = [os.path.join(ROOT, "tools/fleet"), "--bin", a.bin, "--robots", str(n), "--rounds", str(rounds),
                "--paths", tours(a.results, n), "--results", a.results, "--name", name, "--transport", transport,
                "--val-every", str(rounds), "--val-poses", "1", "--peer-timeout", "60", "--no-report"]
-        if a.strict:
-            cmd.append("--strict")
         print(f"bench_scaling: {transport}, {n} robots, {rounds} rounds ...", flush=True)
         mem = run_fleet(a, cmd, run_dir, f"{transport} {n} robots")
         with open(os.path.join(run_dir, "bench_mem.json"), "w") as f:
@@ -248,11 +248,17 @@ def measure(a, transport, n, rounds, preset):
         except (OSError, ValueError):
             pass  # measured before the bench sampled memory
     wall = time.time() - t0
+    lost = {}
     try:  # the launcher's own wall time: also right for a fleet measured before and read again
         with open(os.path.join(run_dir, "run.json")) as f:
-            wall = float(json.load(f)["wall_s"])
+            info = json.load(f)
+        wall = float(info["wall_s"])
+        lost = {k: info[k] for k in ("states_given_up", "peer_timeouts", "queue_drops") if isinstance(info.get(k), int)}
     except (OSError, ValueError, KeyError, TypeError):
         pass
+    if any(lost.values()):
+        print(f"bench_scaling: {transport}, {n} robots: the fleet lost data ({lost}): its round times are those "
+              f"of a lossy fleet", flush=True)
     walls, sent, recv, net, cpu, rss, unwanted = [], [], [], [], [], [], []
     static = 0
     for i in range(n):
@@ -270,8 +276,7 @@ def measure(a, transport, n, rounds, preset):
             sys.exit(f"bench_scaling: {rd}/summary.txt has no 'process:' or 'network:' line (an older host_sim?)")
         net.append(float(mn.group(1)))
         line = text[mn.start():text.find("\n", mn.start())]
-        mu = re.search(r"rx_unwanted\W{0,3}?([0-9][0-9.eE+]*)", line) or \
-            re.search(r"([0-9][0-9.eE+]*) (?:B |datagrams )?(?:\w+ )?unwanted", line)
+        mu = re.search(r"([0-9]+) datagrams of senders not asked for", line)
         if mu:
             unwanted.append(float(mu.group(1)))
         cpu.append(float(m.group(1)))
@@ -287,7 +292,9 @@ def measure(a, transport, n, rounds, preset):
            "cpu_ms_per_round_per_process": 1000.0 * statistics.mean(cpu) / rounds, "rss_MB_max": max(rss),
            "static_MB_per_image": static / 1e6, "wall_s": wall, "rss_MB_median": statistics.median(rss),
            "net_rx_unwanted_per_robot": statistics.mean(unwanted) if len(unwanted) == n else "",
-           "fleet_rss_MB_peak": mem.get("fleet_rss_MB_peak", ""), "sock_MB_peak": mem.get("sock_MB_peak", "")}
+           "fleet_rss_MB_peak": mem.get("fleet_rss_MB_peak", ""), "sock_MB_peak": mem.get("sock_MB_peak", ""),
+           "states_given_up": lost.get("states_given_up", ""), "peer_timeouts": lost.get("peer_timeouts", ""),
+           "queue_drops": lost.get("queue_drops", "")}
     print(f"BENCH fleet_round_ms_{transport}_{preset}_{n}proc {row['round_ms']:.6g} ms", flush=True)
     return row
 
@@ -405,9 +412,6 @@ def main():
     if not os.access(a.bin, os.X_OK):
         sys.exit(f"bench_scaling: {a.bin} not found: build first (make)")
     os.makedirs(a.results, exist_ok=True)
-    r = subprocess.run([os.path.join(ROOT, "tools/fleet"), "--help"], stdout=subprocess.PIPE,
-                       stderr=subprocess.STDOUT, text=True)
-    a.strict = "--strict" in r.stdout  # passed on only when this launcher has it
     r = subprocess.run([a.bin, "run", "--help"], stdout=subprocess.PIPE, text=True)
     m = re.search(r"BNN preset '(\w+)'", r.stdout)
     preset = m.group(1) if m else "unknown"  # the build's preset, as host_sim says it
