@@ -19,11 +19,15 @@ static uint32_t chunk_len(const gp_pse_t *p, uint32_t chunk)
     return left < p->cfg.chunk_bytes ? left : p->cfg.chunk_bytes;
 }
 
+/* sent_us is the last message every peer hears: a chunk is not one (a peer that does not keep
+   our state has its network drop our chunks, gp_pse_wanted), so a robot busy re-sending chunks
+   still beacons every resend period, or the peers that filter them would see it silent. */
 static void send_msg(gp_pse_t *p, gp_pse_kind_t kind, const void *msg, uint64_t now_us)
 {
     if (p->cfg.send(p->cfg.send_ctx, kind, msg) != 0)
         p->stats.send_failures++;
-    p->sent_us = now_us;
+    if (kind != GP_PSE_CHUNK)
+        p->sent_us = now_us;
 }
 
 static void send_chunk(gp_pse_t *p, uint32_t chunk, uint64_t now_us)
