@@ -843,21 +843,21 @@ uint32_t gp_pse_neighbours(gp_pse_t *p, uint32_t ids[GP_PSE_MAX_NEIGHBOURS],
 uint32_t gp_pse_wanted(const gp_pse_t *p, uint8_t bits[GP_PSE_WANTED_BYTES])
 {
     memset(bits, 0, GP_PSE_WANTED_BYTES);
+    for (uint32_t par = 0; par < 2u; par++) {
+        const gp_pse_nearest_t *nr = &p->near[par];
+        if (!nr->valid || nr->round + 1u < p->round) /* older than round k - 1: no guide */
+            continue;
+        for (uint32_t m = 0; m < nr->n; m++)
+            bits[nr->id[m] / 8u] |= (uint8_t)(1u << (nr->id[m] % 8u));
+    }
     uint32_t n = 0;
     for (uint32_t i = 0; i < p->cfg.n_peers; i++) {
         const gp_pse_peer_t *q = &p->peer[i];
-        int want = !p->in_round || (!q->has_pos[0] && !q->has_pos[1]); /* never placed: maybe near */
-        for (uint32_t par = 0; par < 2u && !want; par++) {
-            const gp_pse_nearest_t *nr = &p->near[par];
-            if (!nr->valid || nr->round + 1u < p->round) /* older than round k - 1: no guide */
-                continue;
-            for (uint32_t m = 0; m < nr->n && !want; m++)
-                want = nr->id[m] == i;
-        }
-        if (want && i != p->cfg.self) {
+        if (!p->in_round || (!q->has_pos[0] && !q->has_pos[1])) /* never placed: maybe near */
             bits[i / 8u] |= (uint8_t)(1u << (i % 8u));
-            n++;
-        }
+        if (i == p->cfg.self)
+            bits[i / 8u] &= (uint8_t)~(1u << (i % 8u));
+        n += (bits[i / 8u] >> (i % 8u)) & 1u;
     }
     return n;
 }
