@@ -1,5 +1,7 @@
-/* Peers state exchange: see gp_pse.h. */
+/* Peers state exchange: see gp_pse.h. The nearest peers of a round, their buffers and
+   gp_pse_neighbours()/gp_pse_wanted() are in gp_pse_near.c (gp_pse_internal.h). */
 #include "gp/gp_pse.h"
+#include "gp/gp_pse_internal.h"
 
 #include <errno.h>
 #include <math.h>
@@ -75,187 +77,18 @@ int gp_pse_init(gp_pse_t *p, const gp_pse_cfg_t *c)
     return 0;
 }
 
-static void buf_reset(gp_pse_buf_t *b, uint32_t round, uint32_t n_chunks, uint64_t now_us)
-{
-    b->round = round;
-    b->used = 1;
-    b->complete = 0;
-    b->got = 0;
-    b->progress_us = now_us;
-    b->backoff = 0;
-    memset(b->have, 0, n_chunks);
-}
-
 /* The wait before asking again: one resend period, doubled per request that brought nothing. */
 static uint64_t ask_after(const gp_pse_t *p, uint32_t backoff)
 {
     return p->cfg.resend_after_us << (backoff < GP_PSE_BACKOFF_MAX ? backoff : GP_PSE_BACKOFF_MAX);
 }
 
-/* ---- the nearest peers of a round and their buffers ----------------------------------------- */
-
-/* Peer i's buffer of round `round` (parity round & 1), or NULL. */
-static gp_pse_buf_t *buf_of(gp_pse_t *p, uint32_t i, uint32_t round)
-{
-    const uint32_t par = round & 1u, s = p->peer[i].buf[par];
-    if (s == GP_PSE_NO_BUF || p->pool[par][s].round != round)
-        return NULL;
-    return &p->pool[par][s];
-}
-
-static const gp_pse_buf_t *cbuf_of(const gp_pse_t *p, uint32_t i, uint32_t round)
-{
-    return buf_of((gp_pse_t *)p, i, round);
-}
-
 static int state_complete(const gp_pse_t *p, uint32_t i, uint32_t round)
 {
-    const gp_pse_buf_t *b = cbuf_of(p, i, round);
+    const gp_pse_buf_t *b = gp_pse_cbuf_of(p, i, round);
     return b != NULL && b->complete;
 }
 
-static int pos_known(const gp_pse_peer_t *q, uint32_t round)
-{
-    return q->has_pos[round & 1u] && q->pos_round[round & 1u] == round;
-}
-
-static void buf_release(gp_pse_t *p, uint32_t par, uint32_t i)
-{
-    const uint32_t s = p->peer[i].buf[par];
-    if (s != GP_PSE_NO_BUF) {
-        p->pool[par][s].used = 0;
-        p->peer[i].buf[par] = GP_PSE_NO_BUF;
-    }
-}
-
-/* A free buffer of the round's parity for peer i. One always exists for a listed peer: the
-   list holds GP_PSE_MAX_NEIGHBOURS peers at most and only listed peers own buffers. */
-static void buf_attach(gp_pse_t *p, uint32_t i, uint32_t round, uint64_t now_us)
-{
-    const uint32_t par = round & 1u;
-    for (uint32_t s = 0; s < GP_PSE_MAX_NEIGHBOURS; s++) {
-        gp_pse_buf_t *b = &p->pool[par][s];
-        if (b->used)
-            continue;
-        buf_reset(b, round, p->n_chunks, now_us);
-        b->owner = i;
-        p->peer[i].buf[par] = (uint16_t)s;
-        return;
-    }
-}
-
-/* Squared distance of peer i's position of the list's round to ours, and whether it is within
-   the radius: the test of dinno_graph_disk. */
-static int in_reach(const gp_pse_t *p, uint32_t i, uint32_t par, double *d2)
-{
-    const double dx = p->peer[i].x_m[par] - p->x_m, dy = p->peer[i].y_m[par] - p->y_m;
-    *d2 = dx * dx + dy * dy;
-    return p->cfg.radius_m <= 0.0 || *d2 <= p->cfg.radius_m * p->cfg.radius_m;
-}
-
-static int nearer(double d2a, uint32_t a, double d2b, uint32_t b)
-{
-    return d2a < d2b || (d2a == d2b && a < b);
-}
-
-/* Puts peer i (its position of the list's round known) into the list when it is among the
-   nearest; a peer pushed out is returned in *out (else GP_PSE_NO_BUF). 1 when i is listed. */
-static int near_insert(gp_pse_t *p, uint32_t par, uint32_t i, uint32_t *out)
-{
-    gp_pse_nearest_t *nr = &p->near[par];
-    double d2;
-    *out = GP_PSE_NO_BUF;
-    if (!in_reach(p, i, par, &d2))
-        return 0;
-    if (nr->n == GP_PSE_MAX_NEIGHBOURS) {
-        if (!nearer(d2, i, nr->d2[nr->n - 1u], nr->id[nr->n - 1u]))
-            return 0;
-        *out = nr->id[--nr->n];
-    }
-    uint32_t at = nr->n;
-    for (; at > 0 && nearer(d2, i, nr->d2[at - 1u], nr->id[at - 1u]); at--) {
-        nr->d2[at] = nr->d2[at - 1u];
-        nr->id[at] = nr->id[at - 1u];
-    }
-    nr->d2[at] = d2;
-    nr->id[at] = i;
-    nr->n++;
-    return 1;
-}
-
-/* Starts the list of `round` afresh (an older round's list and buffers are free). */
-static void near_reset(gp_pse_t *p, uint32_t round)
-{
-    const uint32_t par = round & 1u;
-    gp_pse_nearest_t *nr = &p->near[par];
-    for (uint32_t s = 0; s < GP_PSE_MAX_NEIGHBOURS; s++) {
-        gp_pse_buf_t *b = &p->pool[par][s];
-        if (b->used) {
-            p->peer[b->owner].buf[par] = GP_PSE_NO_BUF;
-            b->used = 0;
-        }
-    }
-    nr->round = round;
-    nr->valid = 1;
-    nr->n = 0;
-}
-
-/* Peer i's position of `round` became known: it takes a buffer when it is among the nearest,
-   the peer it pushed out gives its own up. */
-static void near_place(gp_pse_t *p, uint32_t i, uint32_t round, uint64_t now_us)
-{
-    const uint32_t par = round & 1u;
-    uint32_t out;
-    if (!near_insert(p, par, i, &out))
-        return;
-    if (out != GP_PSE_NO_BUF) {
-        if (p->peer[out].buf[par] != GP_PSE_NO_BUF)
-            p->stats.evictions++;
-        buf_release(p, par, out);
-    }
-    buf_attach(p, i, round, now_us);
-}
-
-/* Ranks the list of `round` again from every known position (ours moved, or a peer's): the
-   listed peers keep what they hold, the others give their buffers up, a peer newly listed
-   gets one and is asked soon for what it already sent. */
-static void near_rank(gp_pse_t *p, uint32_t round, uint64_t now_us)
-{
-    const uint32_t par = round & 1u;
-    gp_pse_nearest_t *nr = &p->near[par];
-    if (!nr->valid || nr->round != round) {
-        near_reset(p, round);
-    } else {
-        nr->n = 0;
-    }
-    uint32_t out; /* nobody gives a buffer up in the loop: that is settled below */
-    for (uint32_t i = 0; i < p->cfg.n_peers; i++)
-        if (i != p->cfg.self && pos_known(&p->peer[i], round))
-            (void)near_insert(p, par, i, &out);
-    for (uint32_t s = 0; s < GP_PSE_MAX_NEIGHBOURS; s++) {
-        gp_pse_buf_t *b = &p->pool[par][s];
-        if (!b->used)
-            continue;
-        int keep = 0;
-        for (uint32_t m = 0; m < nr->n && !keep; m++)
-            keep = nr->id[m] == b->owner;
-        if (!keep) {
-            p->peer[b->owner].buf[par] = GP_PSE_NO_BUF;
-            b->used = 0;
-        }
-    }
-    for (uint32_t m = 0; m < nr->n; m++) {
-        const uint32_t i = nr->id[m];
-        if (p->peer[i].buf[par] != GP_PSE_NO_BUF)
-            continue;
-        buf_attach(p, i, round, now_us);
-        /* Its chunks came before it was listed and were not kept: it sent them already, so
-           the next poll asks for them (unsigned time: "a resend period ago" also near 0). */
-        gp_pse_buf_t *b = buf_of(p, i, round);
-        if (b != NULL)
-            b->progress_us = now_us - p->cfg.resend_after_us;
-    }
-}
 
 /* Our next `burst` chunks (all of them without a burst). */
 static void send_window(gp_pse_t *p, uint64_t now_us)
@@ -304,9 +137,9 @@ int gp_pse_begin_round(gp_pse_t *p, uint32_t round, const uint8_t *state, double
     p->y_m = y_m;
     memset(p->resent_at, 0, sizeof p->resent_at);
     /* Chunks of this round that came early were ranked against our previous position. */
-    near_rank(p, round, now_us);
+    gp_pse_near_rank(p, round, now_us);
     for (uint32_t m = 0; m < p->near[round & 1u].n; m++) {
-        gp_pse_buf_t *b = buf_of(p, p->near[round & 1u].id[m], round);
+        gp_pse_buf_t *b = gp_pse_buf_of(p, p->near[round & 1u].id[m], round);
         if (b->got > 0) /* its chunks are coming: ask a resend period from now */
             b->progress_us = now_us;
     }
@@ -336,36 +169,6 @@ int gp_pse_begin_round(gp_pse_t *p, uint32_t round, const uint8_t *state, double
     return 0;
 }
 
-/* Peer i's position of `round` (par = its parity), without ranking anything. */
-static void set_position(gp_pse_peer_t *q, uint32_t par, uint32_t round, double x_m, double y_m)
-{
-    q->x_m[par] = x_m;
-    q->y_m[par] = y_m;
-    q->pos_round[par] = round;
-    q->has_pos[par] = 1;
-}
-
-/* Peer i said where it is in `round` (a chunk, or a beacon with its position). The first word
-   places it among the nearest; another position for the same round (corruption, or bytes
-   forged in an unkeyed fleet; a restart changes the incarnation) ranks the round again and
-   counts as invalid. 1 when it moved, else 0. */
-static int note_position(gp_pse_t *p, uint32_t i, uint32_t round, double x_m, double y_m, uint64_t now_us)
-{
-    gp_pse_peer_t *q = &p->peer[i];
-    const uint32_t par = round & 1u;
-    if (!pos_known(q, round)) {
-        set_position(q, par, round, x_m, y_m);
-        near_place(p, i, round, now_us);
-        return 0;
-    }
-    if (q->x_m[par] == x_m && q->y_m[par] == y_m)
-        return 0;
-    p->stats.invalid++;
-    set_position(q, par, round, x_m, y_m);
-    near_rank(p, round, now_us);
-    return 1;
-}
-
 /* Forgets what we held of a peer that restarted: its buffers may hold chunks of a state its new
    incarnation will never finish, and its rounds start again where it resumed. */
 static void peer_restarted(gp_pse_t *p, uint32_t i, uint64_t now_us)
@@ -375,7 +178,7 @@ static void peer_restarted(gp_pse_t *p, uint32_t i, uint64_t now_us)
     q->has_pos[0] = q->has_pos[1] = 0;
     for (uint32_t par = 0; par < 2u; par++)
         if (p->near[par].valid && !(p->taken && p->near[par].round == p->round)) /* the next nearest takes its place */
-            near_rank(p, p->near[par].round, now_us); /* (a handed-out round stays as it is) */
+            gp_pse_near_rank(p, p->near[par].round, now_us); /* (a handed-out round stays as it is) */
     p->stats.restarts++;
 }
 
@@ -431,7 +234,7 @@ static void sender_state_sent(gp_pse_t *p, uint32_t sender, uint32_t round, uint
 {
     if (!p->in_round || round != p->round)
         return;
-    gp_pse_buf_t *b = buf_of(p, sender, round);
+    gp_pse_buf_t *b = gp_pse_buf_of(p, sender, round);
     if (b != NULL && !b->complete)
         ask_soon(p, b, now_us);
 }
@@ -468,27 +271,27 @@ int gp_pse_on_chunk(gp_pse_t *p, const gp_pse_chunk_t *c, uint64_t now_us)
     p->stats.chunks_received++;
     const uint32_t par = c->round & 1u;
     if (!p->near[par].valid || p->near[par].round != c->round)
-        near_reset(p, c->round); /* the first of this round: the list of round - 2 is done */
+        gp_pse_near_reset(p, c->round); /* the first of this round: the list of round - 2 is done */
     gp_pse_peer_t *q = &p->peer[c->sender];
     if (p->taken && c->round == p->round) {
         /* Round k's states were handed out (gp_pse.h): its buffers are the caller's until round
            k + 1 begins. The chunk still places its sender (no request for its position goes
            out), but neither ranks the round again nor reaches a buffer. */
-        if (!pos_known(q, c->round))
-            set_position(q, par, c->round, c->x_m, c->y_m);
+        if (!gp_pse_pos_known(q, c->round))
+            gp_pse_set_position(q, par, c->round, c->x_m, c->y_m);
         p->stats.after_taken++;
         return -EALREADY;
     }
     /* A position that disagrees with the round's earlier word starts its state over, as a CRC
        conflict below does. */
-    const int moved = note_position(p, c->sender, c->round, c->x_m, c->y_m, now_us);
-    gp_pse_buf_t *b = buf_of(p, c->sender, c->round);
+    const int moved = gp_pse_note_position(p, c->sender, c->round, c->x_m, c->y_m, now_us);
+    gp_pse_buf_t *b = gp_pse_buf_of(p, c->sender, c->round);
     if (b == NULL) {
         p->stats.not_nearest++; /* beyond the radius or the nearest: its position was what we needed */
         return 0;
     }
     if (moved)
-        buf_reset(b, c->round, p->n_chunks, now_us);
+        gp_pse_buf_reset(b, c->round, p->n_chunks, now_us);
     if (b->complete) {
         p->stats.duplicates++;
         return -EALREADY;
@@ -500,7 +303,7 @@ int gp_pse_on_chunk(gp_pse_t *p, const gp_pse_chunk_t *c, uint64_t now_us)
            state over and what it displaced is asked for again. One forged chunk costs a
            request, never the round. */
         p->stats.invalid++;
-        buf_reset(b, c->round, p->n_chunks, now_us);
+        gp_pse_buf_reset(b, c->round, p->n_chunks, now_us);
     } else if (b->have[c->chunk] & GP_PSE_HAVE) {
         p->stats.duplicates++;
         return -EALREADY;
@@ -524,7 +327,7 @@ int gp_pse_on_chunk(gp_pse_t *p, const gp_pse_chunk_t *c, uint64_t now_us)
     if (b->got == p->n_chunks) {
         if (crc32_ieee(b->bytes, p->cfg.state_bytes) != b->crc32) {
             p->stats.crc_failures++;
-            buf_reset(b, c->round, p->n_chunks, now_us); /* every chunk is asked for again */
+            gp_pse_buf_reset(b, c->round, p->n_chunks, now_us); /* every chunk is asked for again */
             return -EILSEQ;
         }
         b->complete = 1;
@@ -553,29 +356,6 @@ int gp_pse_on_done(gp_pse_t *p, const gp_pse_done_t *d, uint64_t now_us)
     return 0; /* a round further ahead still tells where the peer is */
 }
 
-/* A beacon that says where its sender is in round k or k + 1 places it (gp_pse.h, "Fleets
-   larger than the neighbour slots"), as its chunk 0 would. */
-static void request_position(gp_pse_t *p, const gp_pse_request_t *r, uint64_t now_us)
-{
-    const uint32_t k = p->in_round ? p->round : 0u;
-    if (!r->has_position || r->round < k || r->round > k + 1u)
-        return;
-    const uint32_t par = r->round & 1u;
-    if (!p->near[par].valid || p->near[par].round != r->round)
-        near_reset(p, r->round);
-    gp_pse_peer_t *q = &p->peer[r->requester];
-    if (p->taken && r->round == p->round) { /* frozen (gp_pse.h): noted, not ranked */
-        if (!pos_known(q, r->round))
-            set_position(q, par, r->round, r->x_m, r->y_m);
-        return;
-    }
-    if (note_position(p, r->requester, r->round, r->x_m, r->y_m, now_us)) {
-        gp_pse_buf_t *b = buf_of(p, r->requester, r->round); /* its state starts over, as for a chunk */
-        if (b != NULL)
-            buf_reset(b, r->round, p->n_chunks, now_us);
-    }
-}
-
 int gp_pse_on_request(gp_pse_t *p, const gp_pse_request_t *r, uint64_t now_us)
 {
     if (r == NULL || r->requester >= p->cfg.n_peers || r->requester == p->cfg.self || r->target >= p->cfg.n_peers ||
@@ -594,7 +374,7 @@ int gp_pse_on_request(gp_pse_t *p, const gp_pse_request_t *r, uint64_t now_us)
     }
     if (note_sender(p, r->requester, r->incarnation, r->round, 0, now_us) != 0)
         return -ESTALE;
-    request_position(p, r, now_us);
+    gp_pse_request_position(p, r, now_us);
     if (r->n == 0 && !r->has_position && p->in_round && r->round == p->round) {
         /* A beacon of our round without a position: its sender has not begun the round (it is
            on its way to it, gp_pse_poll). Its chunks will come by themselves: no request for
@@ -638,9 +418,9 @@ static int waiting_for(const gp_pse_t *p, uint32_t i)
     const gp_pse_peer_t *q = &p->peer[i];
     if (p->later_heard)
         return 0;
-    if (!pos_known(q, p->round))
+    if (!gp_pse_pos_known(q, p->round))
         return 1;
-    const gp_pse_buf_t *b = cbuf_of(p, i, p->round);
+    const gp_pse_buf_t *b = gp_pse_cbuf_of(p, i, p->round);
     return (b != NULL && !b->complete) || (p->completed && !(q->has_done && q->done_round >= p->round));
 }
 
@@ -762,10 +542,10 @@ void gp_pse_poll(gp_pse_t *p, uint64_t now_us)
            peer not heard in the round at all, its chunk 0 tells where it is. */
         if (!q->has_round || q->at_round < p->round)
             continue;
-        gp_pse_buf_t *b = buf_of(p, i, p->round);
+        gp_pse_buf_t *b = gp_pse_buf_of(p, i, p->round);
         if (b != NULL && !b->complete && now_us - b->progress_us >= ask_after(p, b->backoff)) {
             ask_again(p, i, b, now_us);
-        } else if (!pos_known(q, p->round) && now_us - p->round_start_us >= p->cfg.resend_after_us &&
+        } else if (!gp_pse_pos_known(q, p->round) && now_us - p->round_start_us >= p->cfg.resend_after_us &&
                    (q->pos_backoff == 0 || now_us - q->asked_us >= ask_after(p, q->pos_backoff))) {
             const gp_pse_request_t r = {p->cfg.self, i, p->round, 1, {0}, p->cfg.incarnation, 1, p->x_m, p->y_m};
             send_msg(p, GP_PSE_REQUEST, &r, now_us);
@@ -780,8 +560,8 @@ void gp_pse_poll(gp_pse_t *p, uint64_t now_us)
         for (uint32_t i = 0; i < p->cfg.n_peers; i++) {
             /* A listed peer whose state did not arrive, or a peer not heard in the round (its
                state might have been one we needed). */
-            const gp_pse_buf_t *b = cbuf_of(p, i, p->round);
-            if (i != p->cfg.self && ((b != NULL && !b->complete) || !pos_known(&p->peer[i], p->round))) {
+            const gp_pse_buf_t *b = gp_pse_cbuf_of(p, i, p->round);
+            if (i != p->cfg.self && ((b != NULL && !b->complete) || !gp_pse_pos_known(&p->peer[i], p->round))) {
                 p->stats.states_missed++;
                 p->stats.chunks_lost += p->n_chunks - (b != NULL ? b->got : 0u);
             }
@@ -803,7 +583,7 @@ int gp_pse_states_ready(const gp_pse_t *p)
         return 1;
     for (uint32_t i = 0; i < p->cfg.n_peers; i++) {
         const gp_pse_peer_t *q = &p->peer[i];
-        if (i != p->cfg.self && !q->absent && !pos_known(q, p->round))
+        if (i != p->cfg.self && !q->absent && !gp_pse_pos_known(q, p->round))
             return 0; /* it may be nearer than a listed peer */
     }
     const gp_pse_nearest_t *nr = &p->near[p->round & 1u];
@@ -811,55 +591,6 @@ int gp_pse_states_ready(const gp_pse_t *p)
         if (!p->peer[nr->id[m]].absent && !state_complete(p, nr->id[m], p->round))
             return 0;
     return 1;
-}
-
-uint32_t gp_pse_neighbours(gp_pse_t *p, uint32_t ids[GP_PSE_MAX_NEIGHBOURS],
-                           const uint8_t *states[GP_PSE_MAX_NEIGHBOURS])
-{
-    if (!p->in_round)
-        return 0;
-    p->taken = 1; /* from here until begin_round(k + 1), round k's buffers are frozen */
-    /* The list is by distance; the caller gets ascending ids (DiNNO sums its slots in that
-       order, as the in-process fleet does). */
-    const gp_pse_nearest_t *nr = &p->near[p->round & 1u];
-    uint32_t n = 0;
-    for (uint32_t m = 0; m < nr->n; m++) {
-        const uint32_t i = nr->id[m];
-        const gp_pse_buf_t *b = cbuf_of(p, i, p->round);
-        if (b == NULL || !b->complete)
-            continue;
-        uint32_t at = n;
-        for (; at > 0 && ids[at - 1u] > i; at--) {
-            ids[at] = ids[at - 1u];
-            states[at] = states[at - 1u];
-        }
-        ids[at] = i;
-        states[at] = b->bytes;
-        n++;
-    }
-    return n;
-}
-
-uint32_t gp_pse_wanted(const gp_pse_t *p, uint8_t bits[GP_PSE_WANTED_BYTES])
-{
-    memset(bits, 0, GP_PSE_WANTED_BYTES);
-    for (uint32_t par = 0; par < 2u; par++) {
-        const gp_pse_nearest_t *nr = &p->near[par];
-        if (!nr->valid || nr->round + 1u < p->round) /* older than round k - 1: no guide */
-            continue;
-        for (uint32_t m = 0; m < nr->n; m++)
-            bits[nr->id[m] / 8u] |= (uint8_t)(1u << (nr->id[m] % 8u));
-    }
-    uint32_t n = 0;
-    for (uint32_t i = 0; i < p->cfg.n_peers; i++) {
-        const gp_pse_peer_t *q = &p->peer[i];
-        if (!p->in_round || (!q->has_pos[0] && !q->has_pos[1])) /* never placed: maybe near */
-            bits[i / 8u] |= (uint8_t)(1u << (i % 8u));
-        if (i == p->cfg.self)
-            bits[i / 8u] &= (uint8_t)~(1u << (i % 8u));
-        n += (bits[i / 8u] >> (i % 8u)) & 1u;
-    }
-    return n;
 }
 
 uint32_t gp_pse_peer_incarnation(const gp_pse_t *p, uint32_t id)
