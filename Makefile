@@ -38,9 +38,12 @@
 #   CC=gcc|clang, CXX=g++|clang++   baseline that runs on any CPU of its family)
 #   PRECISION=fp32|bf16             the training step's large GEMMs in fp32, or as bf16
 #                                   products with fp32 sums (firmware/ai/README.md)
+#                                   (bf16 is fast only on a CPU with AVX512_BF16: make warns)
 #   V=1 (print whole commands)
 # Objects and programs go to build/<BUILD>-<BOARD>-<PRESET>[-<LA_BACKEND>][-<ARCH>][-bf16][-clang]/;
-# build/bin points at the programs of the last release build.
+# build/bin always points at the default build's programs (build/release-host-<board preset>/bin,
+# what `make` and `make run` build); other configurations keep theirs in their own folder.
+# `build/bin/host_sim --version` says which commit and configuration a program was built from.
 
 .DEFAULT_GOAL := all
 SHELL := /bin/bash
@@ -97,6 +100,23 @@ uc = $(shell echo '$(1)' | tr a-z A-Z)
 
 CC      := gcc
 CXX     := g++
+
+# PRECISION=bf16 is only fast where the AVX512_BF16 kernel runs (firmware/ai/kernels/la_bf16.c
+# picks it at run time on x86-64 with LA_BACKEND=eigen); anywhere else every bf16 product runs on
+# the pure-C reference: the same bits, several times slower than fp32 (4.5x on an AVX2-only CPU).
+# Said here, at build time, for the CPU this build runs on (-march=native's macros), and again by
+# the programs at start (host_sim run and fleet, bench_bnn: host_sim/sim_kernels.h).
+ifeq ($(PRECISION),bf16)
+BF16_WHY := $(if $(filter-out eigen,$(LA_BACKEND)),LA_BACKEND=$(LA_BACKEND) builds only the reference kernels,$(if \
+    $(filter x86_64,$(shell uname -m)),$(if $(shell $(CC) $(BOARD_ARCH_FLAGS_native) -dM -E -x c /dev/null 2>/dev/null \
+    | grep __AVX512BF16__),,this machine's CPU has no AVX512_BF16 instructions ($(BOARD_ARCH_FLAGS_native) defines no \
+    __AVX512BF16__)),there is no bf16 kernel for $(shell uname -m), only x86-64's AVX512_BF16))
+ifneq ($(BF16_WHY),)
+$(warning PRECISION=bf16: $(BF16_WHY), so the training step's bf16 products run on the pure-C reference kernel \
+    (firmware/ai/kernels/la_bf16_ref.c): the same results, but several times slower than PRECISION=fp32 (4.5x on an \
+    AVX2-only CPU). Build with PRECISION=fp32 unless you need a bf16 run's bits (firmware/ai/README.md))
+endif
+endif
 
 BUILD_ROOT ?= build
 # Anything that changes the generated code gets its own objects (no mixing on a switch): a
@@ -252,6 +272,22 @@ MSG_LAYOUT := $(MSG_GEN)/msg/msg_layout.h
 $(MSG_LAYOUT): tools/lcmgen.py $(MSG_LCM)
 	$(call say,GEN,$@)$(PYTHON) tools/lcmgen.py -o $@ $(MSG_LCM)
 
+# What `host_sim --version` says (host_sim/app/cmd_version.c): the commit (`git describe --always
+# --dirty`; "unknown" outside a git tree) and the configuration. Checked at every make, rewritten
+# only when it changed: a commit recompiles that one file and relinks host_sim, nothing else.
+# (Only this tree's own .git: a copy unpacked inside another repository is not that one's commit.)
+GIT_DESCRIBE := $(or $(if $(wildcard .git),$(shell git describe --always --dirty 2>/dev/null)),unknown)
+BUILD_INFO := $(GEN)/build_info.h
+.PHONY: FORCE
+FORCE:
+$(BUILD_INFO): FORCE
+	@mkdir -p $(@D)
+	@printf '%s\n' '/* Written by the Makefile at each make; rewritten only when it changes. */' \
+	    '#define FLEETSIM_GIT_DESCRIBE "$(GIT_DESCRIBE)"' '#define FLEETSIM_BUILD_CONFIG "$(CONFIG)"' \
+	    '#define FLEETSIM_BUILD_ARCH "$(ARCH)"' '#define FLEETSIM_BUILD_ARCH_FLAGS "$(strip $(BOARD_ARCH_FLAGS))"' >$@.tmp
+	@if cmp -s $@.tmp $@; then rm -f $@.tmp; else mv -f $@.tmp $@; printf '  %-4s %s (%s)\n' GEN $@ '$(GIT_DESCRIBE)'; fi
+$(O)/obj/host_sim/app/cmd_version.c.o: $(BUILD_INFO)
+
 # Generated code is not ours to keep warning-free beyond what lcm-gen emits.
 $(LIB)/libmsg.a: $(GEN)/.stamp
 	@mkdir -p $(@D) $(O)/obj/gen
@@ -294,9 +330,15 @@ $(O)/tests/%: $(O)/obj/tests/%.c.o $(LIB)/libtestsupport.a $(LIB)/libhal_stdc.a 
 # ---- targets ----------------------------------------------------------------------------
 .PHONY: experiments all layering deps run run-inproc test test-asan test-tsan test-faults test-slurm tests bench bench-one bench-pse-sim clean help check-portable check-config fuzz fuzz-build fuzz-seeds $(CROSS_GOALS)
 
+# build/bin is the default build's, whatever was built last (a `make bench` builds the paper
+# preset too): `build/bin/host_sim` never silently changes its network. Every other target
+# names its own build folder ($(BIN)).
+DEFAULT_CONFIG := release-host-$(if $(filter host,$(BOARD)),$(BOARD_PRESET),$(shell sed -n 's/^BOARD_PRESET *:= *//p' boards/host/board.mk))
 all: deps layering $(LIBS) $(PROGRAMS)
-ifeq ($(BUILD),release)
+ifeq ($(CONFIG),$(DEFAULT_CONFIG))
 	@ln -sfn $(CONFIG)/bin $(BUILD_ROOT)/bin
+else ifeq ($(BUILD),release)
+	@echo "  programs in $(BIN) (build/bin stays the default build's: build/$(DEFAULT_CONFIG)/bin)"
 endif
 
 deps:

@@ -48,11 +48,8 @@ int hal_host_auth_key_load(const char *path, uint8_t key[HAL_HOST_AUTH_KEY_BYTES
         close(fd);
         return fail(why, why_cap, "%s: not a regular file", path);
     }
-    if ((st.st_mode & 077) != 0) {
-        close(fd);
-        return fail(why, why_cap, "%s: the fleet key is readable by others (mode %04o): chmod 600 %s", path,
-                    (unsigned)(st.st_mode & 07777), path);
-    }
+    /* The contents first, the mode after: a file that is no key at all (a README) is "not a fleet
+       key", whatever its mode; only a key says "chmod 600". */
     char text[KEY_HEX + 3u]; /* the digits, a newline, one byte more to see what is too long */
     ssize_t n = read(fd, text, sizeof text);
     close(fd);
@@ -70,6 +67,11 @@ int hal_host_auth_key_load(const char *path, uint8_t key[HAL_HOST_AUTH_KEY_BYTES
         sodium_memzero(key, HAL_HOST_AUTH_KEY_BYTES);
         return fail(why, why_cap, "%s: not a fleet key (%u hexadecimal digits and a newline; "
                                   "`host_sim key new FILE` writes one)", path, KEY_HEX);
+    }
+    if ((st.st_mode & 077) != 0) {
+        sodium_memzero(key, HAL_HOST_AUTH_KEY_BYTES);
+        return fail(why, why_cap, "%s: the fleet key is readable by others (mode %04o): chmod 600 %s", path,
+                    (unsigned)(st.st_mode & 07777), path);
     }
     return 0;
 }

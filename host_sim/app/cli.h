@@ -90,6 +90,28 @@ static inline int cmd_out_commit(const char *cmd, hal_host_file_t *out)
     return rc < 0 ? -1 : 0;
 }
 
+/* An output file whose format its name says: refused (with "host_sim CMD: OPT PATH: ...", for
+ * exit status 2) unless PATH ends in one of the '|'-separated endings `exts` (".png", or
+ * ".png|.pgm"), which name what the command writes: a picture named x.jpg would hold PNG bytes. */
+static inline int cmd_check_out_ext(const char *cmd, const char *opt, const char *path, const char *exts, const char *what)
+{
+    const size_t n = strlen(path);
+    for (const char *e = exts; *e != '\0';) {
+        const size_t k = strcspn(e, "|");
+        if (n > k && strncmp(path + n - k, e, k) == 0)
+            return 0;
+        e += k + (e[k] == '|');
+    }
+    fprintf(stderr, "host_sim %s: %s %s: the file written is %s: give a name ending in ", cmd, opt, path, what);
+    for (const char *e = exts; *e != '\0';) {
+        const size_t k = strcspn(e, "|");
+        fprintf(stderr, "%s%.*s", e == exts ? "" : " or ", (int)k, e);
+        e += k + (e[k] == '|');
+    }
+    fputc('\n', stderr);
+    return -1;
+}
+
 /* The DiNNO optimiser options `host_sim fleet` and `host_sim run` share (cli_dinno.c): a
  * sub-table over a dinno_cfg_t, included in both commands' tables with CLI_INCLUDE. */
 extern const cli_opt_t cmd_dinno_opts[];

@@ -223,6 +223,10 @@ int cli_opts_parse(const cli_parser_t *p, int argc, char **argv, void *opts, cha
             p->usage(stdout);
             return 1;
         }
+        if (is_opt && strcmp(a, "--version") == 0) {
+            cli_version(stdout);
+            return 1;
+        }
         if (!is_opt) {
             if (p->operands == NULL || operands == NULL) {
                 fprintf(stderr, "host_sim %s: unexpected argument '%s' (see --help)\n", p->cmd, a);

@@ -83,9 +83,13 @@ typedef struct cli_parser {
 
 /* Parses argv[1..argc-1] into `opts` (already holding the defaults). Operands (arguments not
  * starting with '-', or "-", or anything after "--") go to operands[] (room for argc) when the
- * parser takes them, *n_operands counting them. Returns 0, 1 after --help (printed), or -1
- * after printing the reason of a usage error to stderr. */
+ * parser takes them, *n_operands counting them. Returns 0, 1 after --help or --version
+ * (printed), or -1 after printing the reason of a usage error to stderr. */
 int cli_opts_parse(const cli_parser_t *p, int argc, char **argv, void *opts, char **operands, int *n_operands);
+
+/* --version of every command (and `host_sim --version`): the commit and the build's
+ * configuration, on `out` (host_sim/app/cmd_version.c). */
+void cli_version(FILE *out);
 
 /* The option list of --help: one entry per option (aliases together), its help wrapped and
  * followed by "(default X)" read from `defaults` (a struct filled with the defaults; NULL: no

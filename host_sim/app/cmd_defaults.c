@@ -5,6 +5,7 @@
 #include <stdlib.h>
 
 #include "ai/ai_pool.h"
+#include "ai/bnn.h"
 #include "ai/dinno.h"
 #include "cli_opts.h"
 #include "cmd_run_opts.h"
@@ -44,7 +45,9 @@ static const char *const keys_help =
     "  fleet_mode        offline or online\n"
     "  fleet_val_poses   each robot's validation poses (tools/fleet)\n"
     "  fleet_map_res_m   the fleet's final maps: tools/fleet's consensus map (host_sim maps --res),\n"
-    "                    make run-inproc's\n";
+    "                    make run-inproc's\n"
+    "  preset, precision the build's network (PRESET=) and the training step's products (PRECISION=);\n"
+    "                    host_sim --version adds the commit and the kernels\n";
 
 static void defaults_usage(FILE *out)
 {
@@ -111,6 +114,7 @@ static void defaults_print(void)
     printf("fleet_robots=%d\nfleet_rounds=%d\nfleet_mode=%s\nfleet_val_poses=%d\n", SIM_DEF_FLEET_ROBOTS,
            SIM_DEF_FLEET_ROUNDS, SIM_DEF_FLEET_MODE, SIM_DEF_FLEET_VAL_POSES);
     put_double("fleet_map_res_m", SIM_DEF_FLEET_MAP_RES_M);
+    printf("preset=%s\nprecision=%s\n", BNN_PRESET_NAME, BNN_PRECISION_NAME);
 }
 
 static const cli_opt_t defaults_opts[] = {CLI_OPT_END};

@@ -11,6 +11,7 @@
 #include "commands.h"
 #include "sim_defaults.h"
 #include "sim_fleet.h"
+#include "sim_kernels.h"
 #include "sim_maps.h"
 #include "sim_paths.h"
 #include "sim_plan.h"
@@ -601,7 +602,7 @@ static int report(job_t *j)
                                                      : "scaled",
                     hv, hce);
         fprintf(f, "maps: agent 0, %lld MC passes, %.3f m grid, max std %.4f: %s %s\n", o->mc, o->map_res, smax,
-                mean_png, std_png);
+                pass ? mean_png : "map_mean.png", pass ? std_png : "map_std.png"); /* the file: in its folder */
     }
     if (cmd_out_commit("fleet", &out) != 0)
         return -1;
@@ -619,6 +620,8 @@ int cmd_fleet(int argc, char **argv)
         return 0;
     if (pr < 0)
         return 2;
+    if (sim_kernels_bf16_default()) /* PRECISION=bf16: say so when its products run on the reference */
+        (void)sim_kernels_bf16_note(stderr, "host_sim fleet");
     j->n = (int)j->o.robots;
     j->seed = (uint64_t)j->o.seed;
     if (sim_plan_load(j->o.plan, j->o.scale, &j->plan, j->err, sizeof j->err) != 0) {

@@ -637,7 +637,8 @@ static int stage_all(job_t *j)
             tprintf(&t, "%d,", i);
         else
             tprintf(&t, "consensus,");
-        csv_field(&t, i < N ? o->models[i] : j->path[OUT_BNN]);
+        /* The models as given; the consensus by its name in the folder of this file. */
+        csv_field(&t, i < N ? o->models[i] : out_names[OUT_BNN]);
         fmt_num(a, sizeof a, j->val_loss[i], 1);
         fmt_num(b, sizeof b, i < N ? j->cerr[i] : 0.0, 0);
         tprintf(&t, ",%s,%s\n", a, b);

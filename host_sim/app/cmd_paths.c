@@ -143,6 +143,8 @@ static int paths_gen(int argc, char **argv)
     const int pr = cli_opts_parse(&parser, argc, argv, &o, NULL, NULL);
     if (pr != 0)
         return pr > 0 ? 0 : 2;
+    if (o.png != NULL && cmd_check_out_ext("paths gen", "--png", o.png, ".png", "a PNG image") != 0)
+        return 2;
     const char *plan_file = o.plan, *out = o.out, *png = o.png;
     const double scale = o.scale;
     const long long robots = o.robots, seed = o.seed;
@@ -275,6 +277,10 @@ int cmd_paths(int argc, char **argv)
     const char *sub = argv[1];
     if (strcmp(sub, "--help") == 0 || strcmp(sub, "-h") == 0 || strcmp(sub, "help") == 0) {
         paths_usage(stdout);
+        return 0;
+    }
+    if (strcmp(sub, "--version") == 0) {
+        cli_version(stdout);
         return 0;
     }
     if (strcmp(sub, "gen") == 0)

@@ -168,6 +168,8 @@ static int plan_grid(int argc, char **argv)
     const char *file = NULL, *out = o.out;
     if (one_file("plan grid", ops, n_ops, &file) != 0)
         return 2;
+    if (cmd_check_out_ext("plan grid", "--out", out, ".png|.pgm", "a PNG or PGM image") != 0)
+        return 2;
     const double scale = o.scale, res = o.res;
     sim_plan_t plan;
     char err[8192];
@@ -206,6 +208,10 @@ int cmd_plan(int argc, char **argv)
     const char *sub = argv[1];
     if (strcmp(sub, "--help") == 0 || strcmp(sub, "-h") == 0 || strcmp(sub, "help") == 0) {
         plan_usage(stdout);
+        return 0;
+    }
+    if (strcmp(sub, "--version") == 0) {
+        cli_version(stdout);
         return 0;
     }
     if (strcmp(sub, "check") == 0)

@@ -47,7 +47,7 @@ static int add_path(const char *cmd, const char *opt, const char *v, void *field
 
 static const cli_opt_t render_opts[] = {
     {.names = "--plan", .meta = "FILE.svg", CLI_STRING(render_opts_t, plan), .required = 1, .help = "the floor plan"},
-    {.names = "--out", .meta = "SCENE.png", CLI_STRING(render_opts_t, out), .required = 1, .help = "the image written"},
+    {.names = "--out", .meta = "SCENE.png", CLI_STRING(render_opts_t, out), .required = 1, .help = "the image written (PNG: the name must end in .png)"},
     {.names = "--path", .meta = "FILE", CLI_CUSTOM(render_opts_t, path_files, add_path),
      .help = "a waypoint CSV (x_m,y_m); repeat for several robots (max " CLI_STR_(MAX_PATHS) ")"},
     {.names = "--width", .meta = "W", CLI_INT(render_opts_t, cfg.width, 16, SIM_RENDER_MAX_SIDE), .help = "image width"},
@@ -90,6 +90,8 @@ int cmd_render(int argc, char **argv)
     const int pr = cli_opts_parse(&parser, argc, argv, &o, NULL, NULL);
     if (pr != 0)
         return pr > 0 ? 0 : 2;
+    if (cmd_check_out_ext("render", "--out", o.out, ".png", "a PNG image") != 0)
+        return 2;
     const char *plan_file = o.plan, *out = o.out, *const *path_files = o.path_files;
     const int n_paths = o.n_paths;
     const long long sweep_beams = o.sweep_beams, seed = o.seed;

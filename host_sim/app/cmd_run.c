@@ -19,6 +19,7 @@
 #include "sim_fleet.h"
 #include "sim_maps.h"
 #include "sim_image.h"
+#include "sim_kernels.h"
 #include "sim_paths.h"
 #include "sim_plan.h"
 #include "sim_samples.h"
@@ -728,7 +729,7 @@ static int report(job_t *j)
                 (unsigned long long)res->gp.telemetry_sent, (unsigned long long)res->gp.telemetry_failed);
         if (!o->no_maps)
             fprintf(f, "maps: %lld MC passes, %.3f m grid, max std %.4f: %s %s\n", o->mc, o->map_res, smax,
-                    mean_png, std_png);
+                    pass ? mean_png : "map_mean.png", pass ? std_png : "map_std.png"); /* the file: in its folder */
     }
     if (cmd_out_commit("run", &sum) != 0)
         return -1;
@@ -746,6 +747,8 @@ int cmd_run(int argc, char **argv)
         return 0;
     if (pr < 0)
         return 2;
+    if (sim_kernels_bf16_default()) /* PRECISION=bf16: say so when its products run on the reference */
+        (void)sim_kernels_bf16_note(stderr, "host_sim run");
     /* SIGINT/SIGTERM: the image stops at its next lockstep instant and this function ends it in
        good order; once the image is over, a signal stops the report at once (hal_host_stop.h). */
     hal_host_stop_set_mode(HAL_HOST_STOP_ASK);

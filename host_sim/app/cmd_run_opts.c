@@ -60,8 +60,10 @@ static const cli_opt_t run_opts[] = {
     {.names = "--plan", .meta = "FILE.svg", CLI_STRING(run_opts_t, plan), .required = 1, .help = "the floor plan"},
     {.names = "--path", .meta = "FILE.csv", CLI_STRING(run_opts_t, path), .required = 1, .help = "the robot's tour"},
     {.names = "--out", .meta = "DIR", CLI_STRING(run_opts_t, out), .required = 1, .help = "output folder"},
-    {.names = "--online", CLI_FLAG(run_opts_t, offline, 0), .help = "rounds at distance boundaries (default)"},
-    {.names = "--offline", CLI_FLAG(run_opts_t, offline, 1), .help = "the whole tour first, then every round"},
+    {.names = "--online", CLI_FLAG(run_opts_t, offline, 0), CLI_GIVEN(run_opts_t, online_given),
+     .help = "rounds at distance boundaries (default)"},
+    {.names = "--offline", CLI_FLAG(run_opts_t, offline, 1), CLI_GIVEN(run_opts_t, offline_given),
+     .help = "the whole tour first, then every round (not with --online)"},
     {.names = "--resume", CLI_FLAG(run_opts_t, resume, 1),
      .help = "offline: continue from the last complete round_NNNN.bnn in DIR (invalid ones skipped), keeping the "
              "stopped run's rows of metrics.csv and traffic.csv; the tour is driven again (same samples), duals "
@@ -260,6 +262,11 @@ int run_parse(int argc, char **argv, run_opts_t *o, char *url)
     const int pr = cli_opts_parse(&parser, argc, argv, o, NULL, NULL);
     if (pr != 0)
         return pr;
+    /* Two modes on one command line is a mistake in the command, not a choice: no last-wins. */
+    if (o->online_given && o->offline_given) {
+        fprintf(stderr, "host_sim run: --online and --offline are two modes: give one of them\n");
+        return -1;
+    }
     if (o->net_given && strcmp(o->net, "none") == 0)
         o->net = NULL;
     if (o->resume && !o->offline) {

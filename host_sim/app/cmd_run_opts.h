@@ -27,6 +27,7 @@ typedef struct run_opts {
     dinno_codec_t encoding;
     int offline, train_between, no_maps, quiet, net_given, resume;
     int robot_given, fleet_given; /* --id / --fleet on the command line (else SLURM's may say) */
+    int online_given, offline_given; /* --online / --offline given (both: refused) */
     int transport;          /* --transport: RUN_TRANSPORT_LCM or RUN_TRANSPORT_ZMQ */
     const char *peers;      /* --peers HOST:PORT,... (zmq: every member, in id order) */
     const char *net_faults; /* --net-faults SPEC, checked at parse time; NULL: none */

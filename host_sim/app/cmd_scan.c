@@ -28,8 +28,8 @@ static const cli_opt_t scan_opts[] = {
     {.names = "--plan", .meta = "FILE.svg", CLI_STRING(scan_opts_t, plan), .required = 1, .help = "the floor plan"},
     {.names = "--path", .meta = "ROBOT.csv", CLI_STRING(scan_opts_t, path), .required = 1,
      .help = "the robot's waypoints"},
-    {.names = "--out", .meta = "SAMPLES.bin", CLI_STRING(scan_opts_t, out), .required = 1,
-     .help = "the samples file written"},
+    {.names = "--out", .meta = "FILE.samples", CLI_STRING(scan_opts_t, out), .required = 1,
+     .help = "the samples file written (.samples, as every samples file of the project)"},
     {.names = "--seed", .meta = "S", CLI_INT(scan_opts_t, c.seed, 0, INT64_MAX), .help = "run seed for every noise stream"},
     {.names = "--robot", .meta = "I", CLI_INT(scan_opts_t, c.robot, 0, 1000000), .help = "robot index, keys the noise streams"},
     {.names = "--beams", .meta = "B", CLI_INT(scan_opts_t, c.beams, 1, 4096), .help = "beams per scan used for samples"},
@@ -54,13 +54,14 @@ static void scan_usage(FILE *out)
 {
     const scan_opts_t d = scan_defaults();
     fprintf(out,
-            "usage: host_sim scan --plan FILE.svg --path ROBOT.csv --out SAMPLES.bin [options]\n"
+            "usage: host_sim scan --plan FILE.svg --path ROBOT.csv --out FILE.samples [options]\n"
             "\n"
             "Drives one robot along the waypoints of ROBOT.csv in the ODE world with the firmware's\n"
             "own RT core on the host HAL (waypoint follower -> wheel motors -> physics, as in\n"
             "`host_sim run`), takes a lidar scan every 1/scan-hz simulated seconds, turns each into\n"
             "labelled samples (per beam, K points evenly spaced to the hit; the hit 1, the rest 0)\n"
-            "and writes what the RT core produced in the samples format (sim_samples.h).\n"
+            "and writes what the RT core produced in the samples format (sim_samples.h) to FILE.samples\n"
+            "(`host_sim fleet --samples DIR` reads DIR/robot_<i>.samples; tools/samples.py reads any).\n"
             "\n"
             "options:\n");
     cli_opts_help(out, scan_opts, &d);

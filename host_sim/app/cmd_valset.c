@@ -20,7 +20,7 @@ static valset_opts_t valset_defaults(void)
 
 static const cli_opt_t valset_opts[] = {
     {.names = "--plan", .meta = "FILE.svg", CLI_STRING(valset_opts_t, plan), .required = 1, .help = "the floor plan"},
-    {.names = "--out", .meta = "VAL.bin", CLI_STRING(valset_opts_t, out), .required = 1, .help = "the samples file written"},
+    {.names = "--out", .meta = "VAL.samples", CLI_STRING(valset_opts_t, out), .required = 1, .help = "the samples file written"},
     {.names = "--poses", .meta = "N", CLI_INT(valset_opts_t, c.n_poses, 1, 1000000), .help = "number of poses"},
     {.names = "--seed", .meta = "S", CLI_INT(valset_opts_t, c.seed, 0, INT64_MAX), .help = "seed"},
     {.names = "--beams", .meta = "B", CLI_INT(valset_opts_t, c.n_beams, 1, 4096), .help = "beams per pose"},
@@ -36,7 +36,7 @@ static void valset_usage(FILE *out)
 {
     const valset_opts_t d = valset_defaults();
     fprintf(out,
-            "usage: host_sim valset --plan FILE.svg --out VAL.bin [options]\n"
+            "usage: host_sim valset --plan FILE.svg --out VAL.samples [options]\n"
             "\n"
             "Draws N random poses inside the plan's rooms, clear of walls, takes a noise-free\n"
             "lidar scan at each against the ground truth and labels it (per beam, K points evenly\n"

@@ -2,6 +2,7 @@
 #include <stdio.h>
 #include <string.h>
 
+#include "cli_opts.h"
 #include "commands.h"
 #include "hal_host_stop.h"
 
@@ -33,7 +34,8 @@ static const host_sim_cmd_t commands[] = {
 
 static void usage(FILE *out)
 {
-    fprintf(out, "usage: host_sim <command> [options]   (host_sim <command> --help for details)\n\n"
+    fprintf(out, "usage: host_sim <command> [options]   (host_sim <command> --help for details)\n"
+                 "       host_sim --version               (the commit and the build's configuration)\n\n"
                  "commands:\n");
     for (const host_sim_cmd_t *c = commands; c->name != NULL; c++)
         fprintf(out, "  %-10s %s\n", c->name, c->summary);
@@ -48,6 +50,10 @@ int main(int argc, char **argv)
     if (strcmp(argv[1], "--help") == 0 || strcmp(argv[1], "-h") == 0 || strcmp(argv[1], "help") == 0) {
         usage(stdout);
         return 0;
+    }
+    if (strcmp(argv[1], "--version") == 0 || strcmp(argv[1], "version") == 0) {
+        cli_version(stdout);
+        return fflush(stdout) == 0 ? 0 : 1;
     }
     for (const host_sim_cmd_t *c = commands; c->name != NULL; c++) {
         if (strcmp(argv[1], c->name) != 0)

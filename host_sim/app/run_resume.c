@@ -209,7 +209,7 @@ static void carry_rows(const char *out, const char *header, uint32_t before, run
         if (got.n_rows > c->n_rows) {
             free(c->rows);
             *c = got;
-            snprintf(c->from, sizeof c->from, "%s", file);
+            snprintf(c->from, sizeof c->from, "%s", e->d_name); /* in the output folder */
         } else {
             free(got.rows);
         }
@@ -227,7 +227,7 @@ static void carry_rows(const char *out, const char *header, uint32_t before, run
     free(text);
     if (got.n_rows > 0 && got.last < before) {
         *c = got;
-        snprintf(c->from, sizeof c->from, "%s", file);
+        snprintf(c->from, sizeof c->from, "%s", c->name);
     } else {
         free(got.rows);
     }

@@ -28,7 +28,8 @@ enum { RUN_CARRY_METRICS = 0, RUN_CARRY_TRAFFIC = 1, RUN_CARRY_FILES = 2 };
 /* Rows of one per-round file carried over from a killed run. */
 typedef struct run_carry {
     const char *name;     /* "metrics.csv", "traffic.csv"; NULL: this run does not write it */
-    char from[PATH_MAX];  /* the temporary file they came from, "" when none */
+    char from[PATH_MAX];  /* the file they came from, its name in the output folder (summary.txt
+                             names no folder); "" when none */
     char *rows;           /* complete rows, each ending in '\n' (malloc'd), NULL when none */
     size_t len;
     uint32_t n_rows;

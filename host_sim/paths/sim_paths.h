@@ -3,7 +3,8 @@
  * CSV format: a header line `x_m,y_m`, then one waypoint per line `X,Y` in metres (plan
  * frame, see sim_plan.h). Empty lines and lines starting with '#' are skipped. On read every
  * line is validated (two finite numbers, the point FREE in the plan by sim_plan_classify_point)
- * and the file must hold at least 2 waypoints; errors are "FILE:LINE: reason".
+ * and the file must hold at least 2 waypoints; errors are "FILE:LINE: reason", or "FILE: reason"
+ * for the file itself (cannot open, too large, not text).
  *
  * Generator: the plan is rasterised (sim_grid) at cfg->res_m; a cell is traversable when it
  * is FREE, its centre is at least clearance_m + res_m from every solid (exact polygon

@@ -68,7 +68,7 @@ int sim_path_parse_csv(const char *text, const char *name, const sim_plan_t *pla
         name = "<memory>";
     int line_cap = 0;
     if (text == NULL || plan == NULL)
-        return sim_paths_errf(err, errlen, "%s:0: no text or no plan", name);
+        return sim_paths_errf(err, errlen, "%s: no text or no plan", name);
     int cap = 0, line = 0, header = 0, rc = 0;
     const char *s = text;
     while (*s != '\0' && rc == 0) {
@@ -157,11 +157,11 @@ int sim_path_read_csv(const char *file, const sim_plan_t *plan, sim_path_t *path
         return -EINVAL;
     sim_path_init(path);
     if (file == NULL)
-        return sim_paths_errf(err, errlen, "(null):0: no file name");
+        return sim_paths_errf(err, errlen, "(null): no file name");
     FILE *f = NULL;
     int orc = hal_host_file_open_read(file, &f);
     if (orc < 0) {
-        sim_paths_errf(err, errlen, "%s:0: %s", file, strerror(-orc));
+        sim_paths_errf(err, errlen, "%s: cannot open: %s", file, strerror(-orc));
         return orc;
     }
     /* Waypoint files are small: cap at 16 MB. */
@@ -176,11 +176,11 @@ int sim_path_read_csv(const char *file, const sim_plan_t *plan, sim_path_t *path
     fclose(f);
     int rc;
     if (bad) {
-        rc = sim_paths_errf(err, errlen, "%s:0: read error", file);
+        rc = sim_paths_errf(err, errlen, "%s: read error", file);
     } else if (n > max) {
-        rc = sim_paths_errf(err, errlen, "%s:0: file larger than %zu bytes", file, max);
+        rc = sim_paths_errf(err, errlen, "%s: file larger than %zu bytes", file, max);
     } else if (memchr(buf, '\0', n) != NULL) {
-        rc = sim_paths_errf(err, errlen, "%s:0: NUL byte: not a text file", file);
+        rc = sim_paths_errf(err, errlen, "%s: NUL byte: not a text file", file);
     } else {
         buf[n] = '\0';
         rc = sim_path_parse_csv(buf, file, plan, path, err, errlen);

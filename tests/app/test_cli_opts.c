@@ -16,6 +16,14 @@
 
 #include "app/cli_opts.c" /* the module under test (host_sim/app is not a library) */
 
+/* host_sim's --version (cmd_version.c, not linked here): counted. */
+static int g_version_calls;
+void cli_version(FILE *out)
+{
+    (void)out;
+    g_version_calls++;
+}
+
 typedef struct sub {
     int depth;
     double weight;
@@ -308,6 +316,10 @@ static void test_help_and_operands(void **st)
     assert_int_equal(PARSE(&o, "--bogus-later-is-not-seen", "x"), -1);
     assert_int_equal(PARSE(&o, "-h", "--bogus"), 1);
     assert_int_equal(PARSE(&o, "--number", "5", "--help"), 1);
+    assert_int_equal(g_usage_calls, 2);
+    /* --version: the same, with the version instead of the usage. */
+    assert_int_equal(PARSE(&o, "--number", "5", "--version", "--bogus"), 1);
+    assert_int_equal(g_version_calls, 1);
     assert_int_equal(g_usage_calls, 2);
     /* Operands anywhere, "-" is one, "--" ends the options. */
     const cli_parser_t ops_p = {.cmd = "t ops", .opts = t_opts, .usage = t_usage, .operands = "FILE"};

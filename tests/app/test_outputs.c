@@ -347,6 +347,11 @@ static void test_fleet_readings_and_val_modes(void **st)
     assert_non_null(sum);
     assert_non_null(strstr(sum, "kl_form: full\nkl_reduce: mean\nrho_pred_grad: 0\nval_mode: mc\n"));
     assert_non_null(strstr(sum, "strategy: kl\n"));
+    /* Paths as given or by their names in the output folder, never made absolute (this
+       --out is absolute: it would show). */
+    assert_non_null(strstr(sum, ": map_mean.png map_std.png\n"));
+    if (strstr(sum, g_dir) != NULL)
+        fail_msg("summary.txt names the output folder %s:\n%s", g_dir, sum);
     /* robot 1 away in round 1: both neighbour entries of that round dropped */
     assert_non_null(strstr(sum, "links: success 1; away=1 rounds [1, end); 2 of 4 neighbour states dropped\n"));
     free(sum);

@@ -271,6 +271,13 @@ static void test_resume_from_last_good_checkpoint(void **st)
     snap_take(&s, out);
     snap_check(&s, out); /* no temporary file left */
     snap_free(&s);
+    /* summary.txt names the file by its name in the folder, never the folder (absolute here). */
+    char *sum0 = slurp_in(out, "summary.txt", &n);
+    assert_non_null(sum0);
+    expect(sum0, "summary.txt", "carried over from .metrics.csv.2147483646.fstmp\n");
+    if (strstr(sum0, out) != NULL)
+        fail_msg("summary.txt names the output folder %s:\n%s", out, sum0);
+    free(sum0);
 
     /* Again, killed after round 4 without a temporary: the summary names the missing rows. */
     remove_in(out, "final.bnn");

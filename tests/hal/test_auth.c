@@ -123,6 +123,11 @@ static void test_key_files(void **st)
     write_file(path, hex, 0600);
     assert_int_equal(hal_host_auth_key_load(path, k1, why, sizeof why), -1);
     assert_non_null(strstr(why, "not a fleet key"));
+    /* The contents first: no key at all is "not a fleet key" whatever its mode (a README). */
+    write_file(path, hex, 0644);
+    assert_int_equal(hal_host_auth_key_load(path, k1, why, sizeof why), -1);
+    assert_non_null(strstr(why, "not a fleet key"));
+    assert_null(strstr(why, "chmod"));
     hex[63] = 'g';
     hex[64] = '\0';
     write_file(path, hex, 0600);

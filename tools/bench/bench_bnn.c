@@ -74,6 +74,7 @@
 #include "ai/bnn_quant.h"
 #include "ai/kernels/la.h"
 #include "ai/kernels/la_bf16.h"
+#include "sim_kernels.h"
 #include "ai/kernels/la_packed.h"
 #include "ai/kernels/q8_gemm.h"
 #include "fma_probe.h"
@@ -610,6 +611,7 @@ int main(int argc, char **argv)
         static double t32[MAX_REPS], t16[MAX_REPS];
         double g16 = 0.0, all16 = 0.0;
         printf("BENCH bf16_kernel %s -\n", la_bf16_kernel_name());
+        (void)sim_kernels_bf16_note(stderr, "bench_bnn"); /* the bf16 figures: on the reference? */
         for (int r = -3; r < reps; r++)
             for (int p = 0; p < 2; p++) {
                 model.cfg.precision = p ? BNN_PRECISION_BF16 : BNN_PRECISION_FP32;
