@@ -60,7 +60,7 @@ import tempfile
 
 ROOT = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
 PYENV = os.path.join(ROOT, "build", "pyenv", "bin", "python3")
-INSTALL = "tools/install-deps.sh --python (a venv in build/pyenv with tools/requirements-mcap.txt)"
+INSTALL = "tools/install-deps.sh (it makes build/pyenv with tools/requirements-mcap.txt)"
 SCAN_HZ = 10.0        # the RT core's scan rate (firmware default; samples carry no time)
 BEAMS, POINTS = 20, 25  # host_sim run's samples per scan: beams x points per beam
 
@@ -291,7 +291,7 @@ def point_cloud(t_ns, x, y, occ):
     return pc
 
 
-def scans_and_poses(log, i, rdir, metrics):
+def scans_and_poses(log, i, rdir, metrics, tfs):
     import samples
     from foxglove_schemas_protobuf.PoseInFrame_pb2 import PoseInFrame
     from foxglove_schemas_protobuf.FrameTransform_pb2 import FrameTransform
@@ -327,7 +327,7 @@ def scans_and_poses(log, i, rdir, metrics):
         tf.parent_frame_id, tf.child_frame_id = "map", f"robot_{i}"
         tf.translation.x, tf.translation.y = float(ox), float(oy)
         tf.rotation.w, tf.rotation.z = q
-        log.proto("/tf", tf, t)
+        tfs.append((t, i, tf))  # written after every robot's, in time order
 
 
 def scalars(log, i, rdir, metrics):
@@ -444,9 +444,12 @@ def export(run_dir, out, host_sim=None, plan=None):
     try:
         for i, d in robots:
             tour(log, i, d, run_json, run_dir)
+        tfs = []
         for i, d in robots:
-            scans_and_poses(log, i, d, metrics[i])
+            scans_and_poses(log, i, d, metrics[i], tfs)
             scalars(log, i, d, metrics[i])
+        for t, _, tf in sorted(tfs, key=lambda e: e[:2]):
+            log.proto("/tf", tf, t)
         maps(log, run_dir, robots, metrics, run_json, host_sim, plan)
         log.close()
         os.replace(out + ".tmp", out)
