@@ -19,6 +19,9 @@
 #                                     `make fuzz`
 #   tools/install-deps.sh --slurm     also SLURM (slurmctld, slurmd, the clients) and munge, for
 #                                     `make test-slurm` (a one-node cluster on this machine)
+# Every call also makes build/pyenv, a venv over Debian's python3 (--system-site-packages: numpy
+# and matplotlib stay), with the PyPI packages of tools/requirements-mcap.txt (tools/fleet_mcap.py's
+# MCAP export); a failure there only warns: nothing else needs them.
 set -euo pipefail
 
 # package  file-that-proves-it-is-installed
@@ -41,6 +44,8 @@ deps=(
     "python3-numpy        /usr/lib/python3/dist-packages/numpy/__init__.py"
     "python3-scipy        /usr/lib/python3/dist-packages/scipy/__init__.py"
     "python3-matplotlib   /usr/lib/python3/dist-packages/matplotlib/__init__.py"
+    # build/pyenv (below): Debian's python3 makes venvs only with it
+    "python3-venv         /usr/share/doc/python3-venv/copyright"
     # the fleet under the kernel's packet loss (tests/faults, make test-faults)
     "iproute2             /sbin/ip"
     "iptables             /usr/sbin/iptables"
@@ -84,17 +89,39 @@ for arg in "$@"; do
         --cross) deps+=("${cross_deps[@]}") ;;
         --fuzz) deps+=("${fuzz_deps[@]}") ;;
         --slurm) deps+=("${slurm_deps[@]}") ;;
-        -h|--help) sed -n '2,21p' "$0" | sed 's/^# \{0,1\}//'; exit 0 ;;
+        -h|--help) sed -n '2,24p' "$0" | sed 's/^# \{0,1\}//'; exit 0 ;;
         *) echo "install-deps: unknown option '$arg' (see --help)" >&2; exit 2 ;;
     esac
 done
+
+# build/pyenv: the venv of tools/fleet_mcap.py (mcap, foxglove-schemas-protobuf, protobuf from PyPI,
+# pinned). Debian's python is externally managed, so not into it. Ready when every package imports.
+root=$(cd "$(dirname "$0")/.." && pwd)
+pyenv_step() {
+    local py="$root/build/pyenv/bin/python3" req="$root/tools/requirements-mcap.txt"
+    "$py" -c 'import mcap.writer, foxglove_schemas_protobuf, google.protobuf' 2>/dev/null && return 0
+    local cmd="/usr/bin/python3 -m venv --system-site-packages build/pyenv && build/pyenv/bin/pip install -r tools/requirements-mcap.txt"
+    if [ "$check_only" -eq 1 ]; then
+        echo "install-deps: missing the MCAP export's Python packages (build/pyenv): $cmd" >&2
+        return 1
+    fi
+    echo "install-deps: build/pyenv: mcap, foxglove-schemas-protobuf, protobuf (tools/requirements-mcap.txt)"
+    if ! { /usr/bin/python3 -m venv --system-site-packages "$root/build/pyenv" &&
+           "$root/build/pyenv/bin/pip" install -q --disable-pip-version-check -r "$req"; }; then
+        echo "install-deps: WARNING: build/pyenv not made (tools/fleet_mcap.py will not run): $cmd" >&2
+    fi
+    return 0
+}
 
 missing=()
 for d in "${deps[@]}"; do
     read -r pkg file <<<"$d"
     [ -e "$file" ] || missing+=("$pkg")
 done
-[ ${#missing[@]} -eq 0 ] && exit 0
+if [ ${#missing[@]} -eq 0 ]; then
+    pyenv_step
+    exit $?
+fi
 
 if [ "$check_only" -eq 1 ]; then
     echo "install-deps: missing Debian packages: ${missing[*]}" >&2
@@ -126,3 +153,4 @@ for a in "${foreign[@]}"; do
 done
 apt-get update -q
 DEBIAN_FRONTEND=noninteractive apt-get install -y -q --no-install-recommends "${missing[@]}"
+pyenv_step
