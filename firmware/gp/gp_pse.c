@@ -462,6 +462,19 @@ static uint64_t silence_allowed(const gp_pse_t *p, const gp_pse_peer_t *q)
     return rto <= p->cfg.peer_timeout_us ? p->cfg.peer_timeout_us : rto < cap ? rto : cap;
 }
 
+/* How often to repeat what every member hears, `base_us` in a fleet of GP_PSE_CHATTY_FLEET or
+   fewer (gp_pse.h). With 64 processes on one core every robot used to receive about 18,000 small
+   datagrams a round, most of them RoundCompletes repeated while the fleet waited for its slowest
+   member: the CPU that cost is what made the slowest member slow. */
+static uint64_t repeat_every(const gp_pse_t *p, uint64_t base_us)
+{
+    const uint32_t n = p->cfg.n_peers;
+    if (n <= GP_PSE_CHATTY_FLEET)
+        return base_us;
+    const uint64_t every = base_us * n / GP_PSE_CHATTY_FLEET, most = p->cfg.peer_timeout_us / 4u;
+    return every < most ? every : base_us > most ? base_us : most;
+}
+
 /* Time we did not run is not our peers' silence: a robot that waited for the CPU finds its
    peers' messages queued, and on a busy machine they waited as long. A gap between two polls
    beyond one resend period moves every peer's last progress and the round's start forward by
@@ -488,7 +501,7 @@ void gp_pse_poll(gp_pse_t *p, uint64_t now_us)
         /* Not begun yet (starting, or driving the tour first): "on my way to round 0", without
            a position, every resend period, so that the peers already waiting can tell a robot
            that is slow to start (a busy CPU) from one that never will. */
-        if (now_us - p->sent_us >= p->cfg.resend_after_us)
+        if (now_us - p->sent_us >= repeat_every(p, p->cfg.resend_after_us))
             send_beacon(p, p->round, now_us);
         return;
     }
@@ -498,7 +511,7 @@ void gp_pse_poll(gp_pse_t *p, uint64_t now_us)
         /* After the last round: "I am past it" often, so a peer that missed our RoundComplete
            ends its wait at once (a later round heard); requests for our state are still
            answered (on_request). */
-        if (now_us - p->sent_us >= p->cfg.resend_after_us / 4u)
+        if (now_us - p->sent_us >= repeat_every(p, p->cfg.resend_after_us / 4u))
             send_beacon(p, p->round + 1u, now_us);
         return;
     }
@@ -506,7 +519,8 @@ void gp_pse_poll(gp_pse_t *p, uint64_t now_us)
        period while the round is not finished for us (a lost one is what the peers still wait
        for: it is 20 bytes), then every resend period, so that the peers already in the next
        round know we are on our way. */
-    const uint64_t done_every = gp_pse_round_finished(p) ? p->cfg.resend_after_us : p->cfg.resend_after_us / 4u;
+    const uint64_t done_every =
+        repeat_every(p, gp_pse_round_finished(p) ? p->cfg.resend_after_us : p->cfg.resend_after_us / 4u);
     if (p->completed && now_us - p->done_sent_us >= done_every) {
         send_done(p, now_us);
         p->stats.done_resent++;
@@ -571,7 +585,7 @@ void gp_pse_poll(gp_pse_t *p, uint64_t now_us)
     }
     /* Nothing sent for a resend period (computing, or waiting with nothing to ask): say which
        round we are in, so that the peers ahead keep us and the peers behind catch up. */
-    if (now_us - p->sent_us >= p->cfg.resend_after_us)
+    if (now_us - p->sent_us >= repeat_every(p, p->cfg.resend_after_us))
         send_beacon(p, p->round, now_us);
 }
 

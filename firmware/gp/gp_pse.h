@@ -145,6 +145,11 @@ typedef int (*gp_pse_send_fn)(void *ctx, gp_pse_kind_t kind, const void *msg);
 /* A peer's timeout adapts to what the fleet shows (gp_pse_poll), within 1 .. this many of the
  * configured peer timeouts: the bound on what a crashed peer costs. */
 #define GP_PSE_TIMEOUT_STRETCH 4u
+/* What every member hears (RoundCompletes repeated, beacons) is repeated less often in a fleet of
+ * more than this many members, in proportion to its size, as RTCP does (RFC 3550, 6.2): a robot
+ * receives every member's, so the rate it receives stays that of a fleet of this size. Never
+ * less often than four times a peer timeout, so a live robot is always heard in time. */
+#define GP_PSE_CHATTY_FLEET 8u
 /* Bytes of a set of fleet ids, one bit per id (gp_pse_wanted). */
 #define GP_PSE_WANTED_BYTES ((GP_PSE_MAX_FLEET + 7u) / 8u)
 
