@@ -1,7 +1,7 @@
 #!/usr/bin/python3
 """Fleet traffic in an lcm-logger event log, per round and agent (pure Python, no lcm module).
 
-    tools/lcm_traffic.py LOGFILE [--prefix fleetsim/] [--csv FILE] [--totals-only]
+    tools/lcm_traffic.py LOGFILE [--prefix fleetsim/] [--csv FILE] [--totals-only] [--key-file F]
 
 Reads the event log that `lcm-logger` writes (each event: u32 sync word 0xEDA1DA01, i64 event
 number, i64 utime in microseconds, i32 channel length, i32 data length, the channel name
@@ -14,6 +14,15 @@ firmware/msg (through tools/lcmgen.py, as the firmware's are; today's values):
     chunk_request_t   0x1a0ee5130e4fff0d   on <prefix><fleet>/request
 
 Telemetry (<prefix>telemetry/<robot>) is counted per robot; any other channel as "other".
+
+A keyed fleet (tools/fleet's default; host_sim run --key-file) ends every datagram with a
+48-byte trailer (hal/host/hal_host_auth.h): run id (8 bytes, big-endian) | nonce (24) | tag
+(16), tag = XChaCha20-Poly1305 under BLAKE2b-256(key; channel | 0x00) over no plaintext with
+the message and the run id as associated data. A fleet message whose lengths match only
+without those 48 bytes is a keyed one: the trailer is stripped before the message is decoded,
+and the messages that carried one are counted (column keyed_messages, the run ids in the
+summary). With --key-file F (the fleet's key) every tag is checked too, through the system's
+libsodium (ctypes): a message whose tag is not the key's is counted as malformed ("bad tag").
 
 Everything is validated: a bad sync word makes the reader scan forward to the next event and
 count the bytes skipped; event lengths must be non-negative and within the file; a truncated
@@ -29,6 +38,8 @@ totals with round "total") as CSV. Exit status 1 on a missing or unreadable file
 without a single valid event.
 """
 import argparse
+import ctypes
+import ctypes.util
 import datetime
 import mmap
 import os
@@ -54,6 +65,10 @@ FP_DONE = MESSAGES["round_complete_t"].fingerprint
 FP_REQUEST = MESSAGES["chunk_request_t"].fingerprint
 FINGERPRINTS = {MESSAGES[t].fingerprint: k for k, t in KIND_TYPES.items()}
 STATE_CHUNK_MAX = 61440      # firmware/msg/state_chunk.lcm: n_bytes <= 61440
+# A keyed fleet's trailer (hal/host/hal_host_auth.h): run id | nonce | tag.
+RUN_ID_BYTES, NONCE_BYTES, TAG_BYTES = 8, 24, 16
+TRAILER_BYTES = RUN_ID_BYTES + NONCE_BYTES + TAG_BYTES  # 48
+KEY_BYTES = 32
 
 
 def _prefix(msg):
@@ -101,7 +116,62 @@ def decode_fields(msg, buf, off, n):
 
 
 COLUMNS = ["fleet", "round", "agent", "chunks_sent", "state_bytes", "chunks_resent",
-           "requests_sent", "chunks_requested", "done_sent"]
+           "requests_sent", "chunks_requested", "done_sent", "keyed_messages"]
+KEYED_COL = COLUMNS.index("keyed_messages") - 3
+
+
+class TagChecker:
+    """Checks a keyed datagram's tag as hal_host_auth_open does, with the system's libsodium
+    (ctypes). Raises LogError when the key file or libsodium cannot be used."""
+
+    def __init__(self, key_file):
+        try:
+            with open(key_file, "rb") as f:
+                text = f.read(2 * KEY_BYTES + 2)
+        except OSError as e:
+            raise LogError(f"{key_file}: {e.strerror or e}")
+        text = text[:-1] if text.endswith(b"\n") else text
+        try:
+            if len(text) != 2 * KEY_BYTES:
+                raise ValueError
+            self.key = bytes.fromhex(text.decode("ascii"))
+        except (ValueError, UnicodeDecodeError):
+            raise LogError(f"{key_file}: not a fleet key ({2 * KEY_BYTES} hexadecimal digits and a newline)")
+        lib = None
+        for name in ("libsodium.so.23", "libsodium.so", ctypes.util.find_library("sodium")):
+            if not name:
+                continue
+            try:
+                lib = ctypes.CDLL(name)
+                break
+            except OSError:
+                pass
+        if lib is None or lib.sodium_init() < 0:
+            raise LogError("--key-file: libsodium (libsodium23) cannot be loaded: the tags cannot be checked "
+                           "(leave --key-file out to strip and count them only)")
+        u64, sz, p = ctypes.c_ulonglong, ctypes.c_size_t, ctypes.c_char_p
+        lib.crypto_generichash.argtypes = [p, sz, p, u64, p, sz]
+        lib.crypto_aead_xchacha20poly1305_ietf_decrypt_detached.argtypes = [p, p, p, u64, p, p, u64, p, p]
+        self.lib = lib
+        self.channel_keys = {}
+
+    def channel_key(self, channel):
+        ck = self.channel_keys.get(channel)
+        if ck is None:
+            c = channel.encode() + b"\0"
+            out = ctypes.create_string_buffer(KEY_BYTES)
+            self.lib.crypto_generichash(out, KEY_BYTES, c, len(c), self.key, KEY_BYTES)
+            ck = self.channel_keys[channel] = out.raw
+        return ck
+
+    def ok(self, channel, wire):
+        """True when wire (message and trailer) carries a valid tag on channel."""
+        signed = wire[:len(wire) - NONCE_BYTES - TAG_BYTES]
+        nonce = wire[len(signed):len(signed) + NONCE_BYTES]
+        tag = wire[len(wire) - TAG_BYTES:]
+        none = ctypes.create_string_buffer(1)
+        return self.lib.crypto_aead_xchacha20poly1305_ietf_decrypt_detached(
+            none, None, none, 0, tag, signed, len(signed), nonce, self.channel_key(channel)) == 0
 
 
 class LogError(Exception):
@@ -125,6 +195,10 @@ class Stats:
         self.rows = {}               # (fleet, round, agent) -> counts (COLUMNS[3:])
         self.seen_chunks = set()     # (fleet, sender, round, chunk)
         self.fleets = set()
+        self.keyed = 0               # fleet messages that carried a keyed fleet's trailer
+        self.unkeyed = 0             # valid fleet messages without one
+        self.run_ids = {}            # run id (hex) -> keyed messages
+        self.tags_checked = 0        # keyed messages whose tag --key-file's key verified
 
     def bad(self, reason):
         self.malformed[reason] = self.malformed.get(reason, 0) + 1
@@ -209,8 +283,9 @@ def iter_events(buf, size, st):
         yield utime, chan, off, dlen
 
 
-def decode(kind, fleet, buf, off, n, st):
-    """Checks and counts one fleet message of channel kind `kind`: n bytes at buf[off:]."""
+def decode(kind, fleet, buf, off, n, st, chan=None, tags=None):
+    """Checks and counts one fleet message of channel kind `kind`: n bytes at buf[off:], a keyed
+    fleet's trailer stripped first (its tag checked with tags, a TagChecker, on chan)."""
     if n < 8:
         st.bad(f"{kind}: shorter than a fingerprint")
         return
@@ -222,10 +297,22 @@ def decode(kind, fleet, buf, off, n, st):
     if got != kind:
         st.bad(f"{kind}: carries a {got} message (fingerprint does not match the channel)")
         return
-    m, why = decode_fields(MESSAGES[KIND_TYPES[kind]], buf, off, n)
+    msg = MESSAGES[KIND_TYPES[kind]]
+    m, why = decode_fields(msg, buf, off, n)
+    keyed = False
+    if m is None and n >= 8 + TRAILER_BYTES:
+        # A keyed fleet's datagram: the message, then run id | nonce | tag.
+        mk, _ = decode_fields(msg, buf, off, n - TRAILER_BYTES)
+        if mk is not None:
+            m, keyed = mk, True
     if m is None:
         st.bad(f"{kind}: {why}")
         return
+    if keyed:
+        n -= TRAILER_BYTES
+        if tags is not None and not tags.ok(chan, bytes(buf[off:off + n + TRAILER_BYTES])):
+            st.bad(f"{kind}: bad tag (not --key-file's key, or damaged)")
+            return
     if kind == "state":
         if m["n_bytes"] > STATE_CHUNK_MAX:
             st.bad("state: n_bytes above 61440")
@@ -239,6 +326,7 @@ def decode(kind, fleet, buf, off, n, st):
             return
         st.kind_events["state"] += 1
         r = st.row(fleet, rnd, sender)
+        r[KEYED_COL] += keyed
         r[0] += 1
         r[1] += m["n_bytes"]
         key = (fleet, sender, rnd, chunk)
@@ -252,7 +340,9 @@ def decode(kind, fleet, buf, off, n, st):
             st.bad("done: negative sender or round")
             return
         st.kind_events["done"] += 1
-        st.row(fleet, rnd, sender)[5] += 1
+        r = st.row(fleet, rnd, sender)
+        r[KEYED_COL] += keyed
+        r[5] += 1
     else:
         requester, target, rnd = m["requester"], m["target"], m["round"]
         if requester < 0 or target < 0 or rnd < 0:
@@ -263,8 +353,17 @@ def decode(kind, fleet, buf, off, n, st):
             return
         st.kind_events["request"] += 1
         r = st.row(fleet, rnd, requester)
+        r[KEYED_COL] += keyed
         r[3] += 1
         r[4] += m["n_chunks"]
+    if keyed:
+        st.keyed += 1
+        st.tags_checked += tags is not None
+        (run_id,) = struct.unpack_from(">Q", buf, off + n)
+        rid = f"{run_id:016x}"
+        st.run_ids[rid] = st.run_ids.get(rid, 0) + 1
+    else:
+        st.unkeyed += 1
 
 
 def classify(chan, prefix):
@@ -280,7 +379,7 @@ def classify(chan, prefix):
     return "other", None
 
 
-def read_log(path, prefix):
+def read_log(path, prefix, tags=None):
     try:
         with open(path, "rb") as f:
             size = os.fstat(f.fileno()).st_size
@@ -313,7 +412,7 @@ def read_log(path, prefix):
                 c[1] += dlen
             else:
                 st.fleets.add(who)
-                decode(kind, who, buf, off, dlen, st)
+                decode(kind, who, buf, off, dlen, st, chan, tags)
     finally:
         buf.close()
     if st.events == 0:
@@ -394,9 +493,13 @@ def main(argv=None):
     ap.add_argument("--csv", metavar="FILE", help="also write the table as CSV")
     ap.add_argument("--totals-only", action="store_true",
                     help="print only the totals (the CSV still holds every row)")
+    ap.add_argument("--key-file", metavar="F",
+                    help="a keyed fleet's key (host_sim key new): check every keyed message's tag (libsodium); "
+                         "without it the trailers are stripped and counted, not checked")
     a = ap.parse_args(argv)
     try:
-        st = read_log(a.log, a.prefix)
+        tags = TagChecker(a.key_file) if a.key_file else None
+        st = read_log(a.log, a.prefix, tags)
         rows, totals, overall = table(st)
         if a.csv:
             try:
@@ -423,6 +526,15 @@ def main(argv=None):
     out.append(f"events: {st.events} valid: {k['state']} state chunks, {k['done']} RoundComplete, "
                f"{k['request']} chunk requests, {sum(v[0] for v in st.telemetry.values())} telemetry, "
                f"{sum(v[0] for v in st.other.values())} other, {sum(st.malformed.values())} malformed")
+    fleet_msgs = st.keyed + st.unkeyed
+    if st.keyed:
+        ids = ", ".join(f"{r} ({n})" for r, n in sorted(st.run_ids.items(), key=lambda kv: -kv[1]))
+        out.append(f"keyed fleet: {st.keyed} of {fleet_msgs} fleet messages carried the {TRAILER_BYTES}-byte tag "
+                   f"trailer (stripped before decoding); run id{'s' if len(st.run_ids) > 1 else ''} {ids}; tags " +
+                   (f"checked with {a.key_file}: {st.tags_checked} valid" if a.key_file else
+                    "not checked (--key-file F checks them)"))
+    elif fleet_msgs:
+        out.append(f"unkeyed fleet: none of the {fleet_msgs} fleet messages carried a tag trailer")
     if st.telemetry:
         out.append("telemetry per robot: " + ", ".join(
             f"{r}: {v[0]} ({v[1]} B)" for r, v in sorted(st.telemetry.items(), key=lambda kv: _sort_key(kv[0]))))

@@ -76,6 +76,24 @@ if args[:1] == ["defaults"]:  # what the launcher reads (the values of today's b
         sys.exit(2)
     print(DEFAULTS)
     sys.exit(0)
+if args[:1] == ["run"] and "--help" in args:  # the launcher's checks of the robots' options
+    if args[1:] == ["--help"]:  # the option table, as host_sim prints it (a few rows)
+        print("usage: host_sim run ...\n\noptions:\n  --resume                 offline: continue\n"
+              "  --rounds N               DiNNO rounds in all\n  --keep-ckpt K            round checkpoints kept")
+        sys.exit(0)
+    with open(os.environ.get("FAKE_DRY_LOG", os.devnull), "a") as f:  # what was checked
+        f.write(" ".join(args) + "\n")
+    if os.environ.get("FAKE_RUN_REFUSE"):  # host_sim run's reason for a bad value
+        print("host_sim run: " + os.environ["FAKE_RUN_REFUSE"], file=sys.stderr)
+        sys.exit(2)
+    sys.exit(0)
+if args[:2] == ["paths", "check"]:  # the tours against the plan
+    sys.exit(0)
+if args[:1] == ["maps"] and os.environ.get("FAKE_MAPS_SLEEP") and "--help" not in args:
+    print("maps: started", flush=True)  # a consensus map that takes its time (Ctrl-C during it)
+    os.makedirs(args[args.index("--out") + 1], exist_ok=True)
+    time.sleep(float(os.environ["FAKE_MAPS_SLEEP"]))
+    sys.exit(0)
 if args[:1] in (["maps"], ["render"]):  # the consensus map and the scene: nothing to check here
     sys.exit(0)
 if args[:1] == ["key"]:  # host_sim key new|check FILE
@@ -362,8 +380,8 @@ def rerun_moves_earlier_run_aside():
 def refused(tmp, extra, name="bad"):
     rc, out, run_dir = launch(tmp, extra, {}, name)
     check(rc == 2, f"exit {rc}, not 2:\n{out}")
-    check("Traceback" not in out and len(out.strip().splitlines()) == 1 and out.startswith("fleet: "),
-          f"not one line:\n{out}")
+    check("Traceback" not in out and len(out.strip().splitlines()) == 1 and out.startswith("tools/fleet: error: ")
+          and out.rstrip().endswith("(see tools/fleet --help)"), f"not one line:\n{out}")
     check(not os.path.exists(run_dir), "no run folder made")
     return out
 

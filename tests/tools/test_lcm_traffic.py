@@ -110,15 +110,15 @@ def lcm_traffic_counts():
         mode = os.stat(csv).st_mode & 0o777
         check(mode == 0o666 & ~umask, f"the CSV is {oct(mode)}, not {oct(0o666 & ~umask)} like every other output")
         check(header == ["fleet", "round", "agent", "chunks_sent", "state_bytes", "chunks_resent",
-                         "requests_sent", "chunks_requested", "done_sent"], f"header {header}")
+                         "requests_sent", "chunks_requested", "done_sent", "keyed_messages"], f"header {header}")
         got = {(r[0], r[1], r[2]): [int(x) for x in r[3:]] for r in rows}
         want = {
-            ("0", "0", "0"): [3, 200, 1, 0, 0, 1],
-            ("0", "0", "1"): [1, 80, 0, 1, 1, 0],
-            ("0", "1", "1"): [1, 20, 0, 0, 0, 0],
-            ("0", "total", "0"): [3, 200, 1, 0, 0, 1],
-            ("0", "total", "1"): [2, 100, 0, 1, 1, 0],
-            ("all", "total", "all"): [5, 300, 1, 1, 1, 1],
+            ("0", "0", "0"): [3, 200, 1, 0, 0, 1, 0],
+            ("0", "0", "1"): [1, 80, 0, 1, 1, 0, 0],
+            ("0", "1", "1"): [1, 20, 0, 0, 0, 0, 0],
+            ("0", "total", "0"): [3, 200, 1, 0, 0, 1, 0],
+            ("0", "total", "1"): [2, 100, 0, 1, 1, 0, 0],
+            ("all", "total", "all"): [5, 300, 1, 1, 1, 1, 0],
         }
         check(got == want, f"table\n{got}\n!=\n{want}")
         check("time span: 2.500 s" in out, "time span:\n" + out)
@@ -128,11 +128,59 @@ def lcm_traffic_counts():
               "malformed:\n" + out)
         check("1 telemetry, 1 other" in out and "1: 1 (10 B)" in out, "telemetry/other:\n" + out)
         # the same table on stdout: the row of agent 0, round 0
-        check(any(l.split() == ["0", "0", "0", "3", "200", "1", "0", "0", "1"] for l in out.splitlines()),
+        check(any(l.split() == ["0", "0", "0", "3", "200", "1", "0", "0", "1", "0"] for l in out.splitlines()),
               "stdout row:\n" + out)
+        check("unkeyed fleet: none of the 7 fleet messages carried a tag trailer" in out, "unkeyed:\n" + out)
         # --prefix other/: nothing is a fleet message any more, but the log is still valid
         rc, out, err = run([TRAFFIC, log, "--prefix", "other/"])
         check(rc == 0 and "no fleet message" in out, f"prefix: {rc} {out} {err}")
+    finally:
+        shutil.rmtree(d)
+
+
+def keyed(data, run_id=0x7CCB52F6AA0FFAF4):
+    """data as a keyed fleet member sends it (hal/host/hal_host_auth.c): the message, then the
+    48-byte trailer run id (8 bytes, big-endian) | nonce (24) | tag (16). The tag here is not a
+    real one: without --key-file the tool strips and counts trailers, it does not check them."""
+    return data + struct.pack(">Q", run_id) + bytes(range(24)) + b"\xa5" * 16
+
+
+@test
+def lcm_traffic_keyed():
+    """A keyed fleet's datagrams (the default of tools/fleet): each message ends with the 48-byte
+    trailer, which is stripped before decoding; the state chunks, requests and RoundCompletes are
+    counted as in an unkeyed log, the CSV's keyed_messages column and the summary say they were
+    keyed, with the run id. A tag of another key fails --key-file's check (libsodium)."""
+    d = tempfile.mkdtemp(prefix="lcmtest.")
+    try:
+        log = os.path.join(d, "keyed.lcmlog")
+        t0 = 1_700_000_000_000_000
+        ev = [event(0, t0, "fleetsim/7/state", keyed(state_chunk(0, 0, 0, 2, b"a" * 100))),
+              event(1, t0 + 10, "fleetsim/7/state", keyed(state_chunk(0, 0, 1, 2, b"b" * 60))),
+              event(2, t0 + 20, "fleetsim/7/state", keyed(state_chunk(1, 0, 0, 1, b"c" * 80))),
+              event(3, t0 + 30, "fleetsim/7/request", keyed(request(1, 0, 0, [1]))),
+              event(4, t0 + 40, "fleetsim/7/done", keyed(done(0, 0))),
+              event(5, t0 + 50, "fleetsim/7/done", keyed(done(1, 0)))]
+        with open(log, "wb") as f:
+            f.write(b"".join(ev))
+        csv = os.path.join(d, "traffic.csv")
+        rc, out, err = run([TRAFFIC, log, "--csv", csv, "--totals-only"])
+        check(rc == 0, f"exit {rc}: {err}")
+        check("3 state chunks, 2 RoundComplete, 1 chunk requests" in out and "0 malformed" in out, out)
+        check("keyed fleet: 6 of 6 fleet messages carried the 48-byte tag trailer" in out and
+              "run id 7ccb52f6aa0ffaf4 (6)" in out and "tags not checked" in out, out)
+        header, rows = read_csv(csv)
+        got = {(r[0], r[1], r[2]): [int(x) for x in r[3:]] for r in rows}
+        check(got[("all", "total", "all")] == [3, 240, 0, 1, 1, 2, 6], f"totals {got}")
+        check(got[("7", "0", "1")] == [1, 80, 0, 1, 1, 1, 3], f"robot 1 {got}")
+        # A key that did not make the tags: every keyed message is refused as a bad tag.
+        key = os.path.join(d, "other.key")
+        with open(key, "w") as f:
+            f.write("ab" * 32 + "\n")
+        rc, out, err = run([TRAFFIC, log, "--totals-only", "--key-file", key])
+        check(rc == 0 and "6 malformed" in out and "bad tag" in out, f"exit {rc}: {out} {err}")
+        rc, out, err = run([TRAFFIC, log, "--key-file", log])
+        check(rc == 1 and "not a fleet key" in err and len(err.strip().splitlines()) == 1, f"exit {rc}: {err}")
     finally:
         shutil.rmtree(d)
 
