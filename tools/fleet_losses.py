@@ -132,3 +132,29 @@ def verdict(totals, gaps):
         return ("not a lossless run: a busy CPU let receive queues overflow; no state was given up (the "
                 "datagrams were asked for again), so the models should still be the lossless run's")
     return "not all of it could be counted, so the run is not known to be lossless"
+
+
+def main(argv=None):
+    """`tools/fleet_losses.py RUN_DIR N [--strict]`: one line of the totals of robot_0 ..
+    robot_<N-1> in RUN_DIR and what they mean, for fleets not started by tools/fleet (SLURM,
+    by hand). Exit 0; with --strict 3 when the run was not lossless; 2 on bad arguments."""
+    import argparse
+    import sys
+    p = argparse.ArgumentParser(prog="fleet_losses.py", description=main.__doc__.split("\n")[0].strip("`: "))
+    p.add_argument("run_dir", help="the folder holding robot_<i>/")
+    p.add_argument("robots", type=int, help="how many robots (robot_0 .. robot_<N-1>)")
+    p.add_argument("--strict", action="store_true", help="exit 3 when the run lost anything")
+    a = p.parse_args(argv)
+    if a.robots < 1 or not os.path.isdir(a.run_dir):
+        print(f"fleet_losses.py: {a.run_dir}: no such folder" if a.robots >= 1 else
+              "fleet_losses.py: N must be at least 1", file=sys.stderr)
+        return 2
+    totals, gaps = fleet_losses(a.run_dir, range(a.robots))
+    print(f"{totals_text(totals, gaps)}: {verdict(totals, gaps)}")
+    for g in gaps:
+        print(f"  {g}")
+    return 3 if a.strict and not lossless(totals, gaps) else 0
+
+
+if __name__ == "__main__":
+    raise SystemExit(main())
