@@ -820,6 +820,20 @@ def make_strip(run, n, host_sim=None):
     run.strip_rounds = rounds
 
 
+def strip_note(run):
+    """What the strip shows and, when the kept checkpoints cover little of the run, how to keep more."""
+    got = [r for r, _ in run.strip]
+    kept = run.strip_rounds
+    text = (f"Checkpoint rounds {', '.join(str(r) for r in got)} of the {len(kept)} every robot kept "
+            f"({kept[0]}..{kept[-1]}); each map is `host_sim maps` of the robots' round_NNNN.bnn, in "
+            "maps/rounds/.")
+    rounds = (run.settings or {}).get("rounds")
+    if isinstance(rounds, int) and not isinstance(rounds, bool) and rounds > 0 and kept[-1] - kept[0] < rounds / 2:
+        text += (f" They cover little of the run's {rounds} rounds: `host_sim run --keep-ckpt-every M` keeps "
+                 f"every M-th round (tools/fleet --extra=\"--keep-ckpt-every {max(1, rounds // 4)}\").")
+    return text
+
+
 def fig_strip(plt, run, out):
     """map_rounds.png: the consensus MC mean at a few rounds, one colour scale (0 to the largest
     value of all of them), so the map is seen forming."""
@@ -1047,6 +1061,8 @@ def summary(run, figures):
     shown = (["scene.png"] if run.scene else []) + figures
     for name in shown:
         L += [f"### {captions.get(name, name)}", "", f"![{name[:-4]}]({name})", ""]
+        if name == "map_rounds.png":
+            L += [strip_note(run), ""]
     if not shown:
         L += ["(none: see below)", ""]
     if run.has_ros_map:

@@ -433,5 +433,41 @@ def strip_of_kept_checkpoints():
         shutil.rmtree(d)
 
 
+@test
+def traffic_requested_and_resent_both_visible():
+    """Identical requested and re-sent counts: the legend says they coincide, both lines drawn
+    (the re-sent one dashed, with markers where it is not 0)."""
+    import matplotlib
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+    import fleet_report
+    d = tempfile.mkdtemp(prefix="frtest.")
+    try:
+        class Run:
+            pass
+        r = Run()
+        r.np = np
+        r.note = lambda t: None
+        z = np.zeros(4)
+        r.traffic = {0: {"round": np.arange(4.0), "bytes_sent": np.full(4, 5000.0), "chunks_requested":
+                         np.array([3.0, 0, 1, 0]), "chunks_resent": np.array([3.0, 0, 1, 0]), "timeouts": z}}
+        shown = []
+        real_save = fleet_report.save_fig
+        fleet_report.save_fig = lambda plt_, fig, path: (shown.append(fig), real_save(plt_, fig, path))
+        try:
+            check(fleet_report.fig_traffic(plt, r, d) == "traffic.png", "no traffic.png")
+        finally:
+            fleet_report.save_fig = real_save
+        ax = shown[0].axes[1]
+        texts = [t.get_text() for t in ax.get_legend().get_texts()]
+        check(any("the same as re-sent" in t for t in texts) and any("on the requested line" in t for t in texts), texts)
+        lines = {l.get_label(): l for l in ax.get_lines()}
+        check(len(lines) == 2 and len({l.get_linestyle() for l in lines.values()}) == 2, f"{lines}")
+        check(ax.get_xlabel() and ax.get_ylabel().endswith("(count)"), "units")
+        check(os.path.getsize(os.path.join(d, "traffic.png")) > 1000, "file")
+    finally:
+        shutil.rmtree(d)
+
+
 if __name__ == "__main__":
     sys.exit(main())
