@@ -23,11 +23,21 @@ Reads (every file optional: a missing one skips its figure and is named in summa
                                 tools/paper_metrics.py's scores of them against every robot's
                                 robot_<i>/train.samples (seen cells, AUC, AUSE, Spearman vs KDE)
 Writes into RUN_DIR (each file whole or not at all: a temporary file beside it, renamed):
-  map_mean.png, map_std.png, map_single.png   the maps in metres with the robots' tours
-  kde.png                        Gaussian KDE of the lidar hits (occ > 0.5) of all robots
-  val_loss.png                   validation loss per robot and round
-  traffic.png                    fleet bytes sent per round; chunks requested and re-sent
-  summary.md                     settings, final figures, the images
+  map_mean.png, map_std.png, map_single.png   the maps in metres with the robots' tours, colours
+                                0 to the map's largest value (a short run's occupancy peaks far
+                                below 1), map.yaml's occupied_thresh as a contour on the mean, the
+                                legend below the map; one colour map per quantity (tools/palette.py)
+  maps/map_mean.png, map_std.png, map_epistemic.png   host_sim's pictures drawn again the same
+                                way (no tours): axes in metres, colour bar with its unit, title
+  map_rounds.png                the map as it forms: the consensus MC mean at --strip N kept
+                                checkpoint rounds (robot_<i>/round_NNNN.bnn that every robot kept;
+                                host_sim run --keep-ckpt-every M keeps every M-th), evenly spaced,
+                                each made by `host_sim maps` into maps/rounds/round_NNNN/ (kept, made
+                                again only when a checkpoint is newer)
+  kde.png                       the lidar hits (occ > 0.5) of all robots per m² (2-D histogram)
+  val_loss.png                  validation loss per robot and round
+  traffic.png                   fleet bytes sent per round; chunks requested and re-sent
+  summary.md                    settings, final figures, the images
 Tour files named in run.json "paths" are read relative to the current directory, to the
 project root (RUN_DIR/../.., or this tool's ../) or to RUN_DIR; a tour not found is skipped.
 A malformed input stops the report with a one-line reason (FILE:LINE where it applies) and
@@ -41,18 +51,18 @@ import json
 import math
 import os
 import re
+import subprocess
 import sys
 import tempfile
 
 TOOLS_DIR = os.path.dirname(os.path.realpath(__file__))
 sys.path.insert(0, TOOLS_DIR)
-from palette import robot_colour  # noqa: E402  (one colour per robot in every figure)
+from palette import robot_colour, quantity_cmap, THRESHOLD_COLOUR  # noqa: E402  (one colour per robot, one colour map per quantity)
 import fleet_losses  # noqa: E402  (the same totals as tools/fleet's last line)
 sys.path.pop(0)
 TMP_PREFIX = ".fleet_report."
-KDE_MAX_POINTS = 20000
-KDE_GRID = 200
-SCATTER_PER_ROBOT = 3000
+HITS_BIN_M = 0.1          # kde.png's bins (m)
+STRIP_ROUNDS = 4          # map_rounds.png's panels
 
 METRICS_NEED = ("round", "train_loss", "val_loss")
 TRAFFIC_NEED = ("round", "bytes_sent", "chunks_requested", "chunks_resent", "timeouts")
@@ -208,6 +218,9 @@ class Run:
         self.scene = False
         self.knows = None     # paper_metrics.compute of maps/ when it has map_epistemic.npy
         self.train_samples = []
+        self.epistemic = None  # maps/map_epistemic.npy, redrawn as maps/map_epistemic.png
+        self.redrawn = []      # the maps/*.png this report drew over host_sim's
+        self.strip = None      # [(round, mean map)] of the strip "the map as it forms"
 
     def p(self, *parts):
         return os.path.join(self.dir, *parts)
@@ -316,6 +329,12 @@ class Run:
                 if b.shape != a.shape:
                     raise ReportError(f"{g}: shape {a.shape} differs from map_{other}.npy {b.shape}")
             self.maps[kind] = a
+        g = self.p("maps", "map_epistemic.npy")
+        if os.path.isfile(g):
+            a = load_npy(np, g)
+            if self.maps and a.shape != next(iter(self.maps.values())).shape:
+                raise ReportError(f"{g}: shape {a.shape} differs from the other maps")
+            self.epistemic = a
         if self.maps and self.meta is None:
             self.note("maps/map_meta.json is missing: map axes " +
                       ("from the samples' plan box" if self.sample_box else "in grid cells"))
@@ -447,110 +466,192 @@ def md_cell(v):
 
 # ---- figures ---------------------------------------------------------------------------------
 
+# What each map shows: (colour map quantity, colour bar label, title).
+MAP_LABELS = {
+    "mean": ("occupancy", "P(occupied) (probability)", "occupancy: mean of {passes}"),
+    "std": ("std", "MC std of P(occupied) (probability)", "uncertainty: standard deviation of {passes}"),
+    "single": ("occupancy", "P(occupied) (probability)",
+               "one stochastic pass (a single draw of the weights; the mean uses {passes})"),
+    "epistemic": ("epistemic", "share of the prior variance left (fraction; 1 = nothing observed)",
+                  "what the fleet has not seen: epistemic share of the prior variance"),
+}
+
+
+def legend_outside(ax, n_items, below=0.11, **kw):
+    """A legend below the axes (below: its top under the axes' bottom, in axes heights, clear of
+    the x label), never over the map (kw: more ax.legend options)."""
+    ncol = max(1, min(n_items, 4))
+    return ax.legend(loc="upper center", bbox_to_anchor=(0.5, -below), ncol=ncol, fontsize=8,
+                     frameon=False, **kw)
+
+
 def draw_tours(ax, run):
+    """The robots' tours (start: a dot) in their colours; returns the number of legend entries."""
     for i, t in sorted(run.tours.items()):
         c = robot_colour(i)
         ax.plot(t[:, 0], t[:, 1], "-", lw=1.2, color=c, alpha=0.9, label=f"robot {i}")
         ax.plot(t[0, 0], t[0, 1], "o", ms=4, color=c)
-    if run.tours:
-        ax.legend(loc="upper right", fontsize=7, framealpha=0.7)
+    return len(run.tours)
+
+
+def colour_limits(np, a):
+    """(0, top) of a map's colour scale: 0 to the largest finite value, so a map whose values are
+    all small (a short run's occupancy peaks far below 1) is not drawn blank; (0, 1) when the map
+    has no positive finite value."""
+    fin = a[np.isfinite(a)]
+    top = float(fin.max()) if fin.size else 0.0
+    return 0.0, (top if top > 0 else 1.0)
+
+
+def occupied_thresh(run):
+    """maps/map.yaml's occupied_thresh (the cut above which nav2 takes a cell for a wall), or None."""
+    v = yaml_scalars(run.p("maps", "map.yaml")).get("occupied_thresh")
+    try:
+        v = float(v)
+    except (TypeError, ValueError):
+        return None
+    return v if math.isfinite(v) and 0.0 < v < 1.0 else None
+
+
+def cell_centres(np, a, box):
+    """x (W,) and y (H,) of the cell centres of a grid drawn over box, row 0 the top (largest y)."""
+    x0, y0, x1, y1 = box
+    h, w = a.shape
+    return (x0 + (np.arange(w) + 0.5) * (x1 - x0) / w, y1 - (np.arange(h) + 0.5) * (y1 - y0) / h)
+
+
+def draw_threshold(np, ax, a, box, thr):
+    """The contour of the occupancy a at thr (map.yaml's occupied_thresh): the cells inside are
+    the ones a navigation stack reads as walls. Returns (ContourSet or None, legend handle, cells above)."""
+    from matplotlib import patheffects
+    from matplotlib.lines import Line2D
+    fx = [patheffects.withStroke(linewidth=2.6, foreground="black")]
+    fin = a[np.isfinite(a)]
+    above = int((fin > thr).sum())
+    label = f"map.yaml occupied_thresh {thr:.3g}"
+    handle = Line2D([], [], color=THRESHOLD_COLOUR, lw=1.4, path_effects=fx, label=label)
+    if above == 0 or above == fin.size:
+        handle.set_label(label + (" (no cell above)" if above == 0 else " (every cell above)"))
+        return None, handle, above
+    xs, ys = cell_centres(np, a, box)
+    cs = ax.contour(xs, ys, np.where(np.isfinite(a), a, 0.0), levels=[thr], colors=[THRESHOLD_COLOUR],
+                    linewidths=1.4)
+    for c in cs.collections:
+        c.set_path_effects(fx)
+    return cs, handle, above
+
+
+def map_figure(plt, run, kind, a, tours=True):
+    """The figure of one map (kind a key of MAP_LABELS) in metres: colours 0..max (the scale and
+    its range in the colour bar), the map.yaml occupied threshold as a contour on the MC mean, the
+    tours and the legend below the map. Returns (fig, info): info has "clim" and "contour"."""
+    np = run.np
+    x0, y0, x1, y1, unit = run.map_box()
+    mc = run.meta.get("mc") if run.meta else None
+    passes = f"{mc} MC passes" if mc is not None else "the MC passes (count unknown)"
+    quantity, label, title = MAP_LABELS[kind]
+    vmin, vmax = colour_limits(np, a)
+    aspect = (y1 - y0) / (x1 - x0)
+    fig, ax = plt.subplots(figsize=(8, max(3.0, 6.4 * aspect) + 1.5), constrained_layout=True)
+    if kind == "epistemic":
+        # Spans decades (a seen cell keeps 1e-5 of its prior variance, an unseen one 1): a log
+        # scale from the smallest positive value (or host_sim's PNG floor) to the largest.
+        from matplotlib.colors import LogNorm
+        pos = a[np.isfinite(a) & (a > 0)]
+        e = (run.meta or {}).get("epistemic")
+        floor = e.get("png_floor") if isinstance(e, dict) else None
+        floor = floor if isinstance(floor, (int, float)) and not isinstance(floor, bool) and floor > 0 else 1e-6
+        vmin = max(floor, float(pos.min())) if pos.size else floor
+        vmax = max(vmax, vmin * 10)
+        norm, scale = LogNorm(vmin=vmin, vmax=vmax), f"log scale, {vmin:.3g} to the largest value {vmax:.3g}"
+    else:
+        norm, scale = None, f"colours 0 to the map's largest value {vmax:.3g}"
+    im = ax.imshow(a, extent=[x0, x1, y0, y1], origin="upper", cmap=quantity_cmap(quantity), norm=norm,
+                   vmin=None if norm else vmin, vmax=None if norm else vmax, interpolation="nearest")
+    cb = fig.colorbar(im, ax=ax, shrink=0.85)
+    cb.set_label(f"{label}\n{scale}")
+    handles, info = [], {"clim": (vmin, vmax), "contour": None}
+    thr = occupied_thresh(run) if kind == "mean" else None
+    if thr is not None:
+        info["contour"], h, above = draw_threshold(np, ax, a, (x0, y0, x1, y1), thr)
+        handles.append(h)
+        title += f"\ngold line: occupied_thresh {thr:.3g} (map.yaml); {above:,} cells above it are walls for nav2"
+        cb.ax.axhline(thr, color=THRESHOLD_COLOUR, lw=2) if thr <= vmax else None
+    n = draw_tours(ax, run) if tours and unit == "m" else 0
+    if n or handles:
+        h0, l0 = ax.get_legend_handles_labels()
+        legend_outside(ax, n + len(handles), handles=h0 + handles, labels=l0 + [h.get_label() for h in handles])
+    ax.set_xlim(x0, x1)
+    ax.set_ylim(y0, y1)
+    ax.set_xlabel(f"x ({unit})")
+    ax.set_ylabel(f"y ({unit})")
+    ax.set_title(title.format(passes=passes), fontsize=10)
+    return fig, info
 
 
 def fig_maps(plt, run, out):
-    np = run.np
+    """map_<kind>.png at the top of the run's folder (with the tours) and the same pictures
+    without the tours over host_sim's maps/map_mean.png, map_std.png, map_epistemic.png: one
+    colour map per quantity (tools/palette.py), axes in metres, a colour bar with its unit."""
     made = []
-    if not run.maps:
-        return made
-    x0, y0, x1, y1, unit = run.map_box()
-    mc = run.meta.get("mc") if run.meta else None
-    passes = f"{mc} MC passes" if mc is not None else "MC passes: unknown"
-    aspect = (y1 - y0) / (x1 - x0)
     for kind in MAP_KINDS:
         a = run.maps.get(kind)
         if a is None:
             continue
-        if kind == "mean":
-            cmap, vmin, vmax, label = "gray_r", 0.0, 1.0, "P(occupied)"
-            title = f"occupancy: mean of {passes}"
-        elif kind == "std":
-            fin = a[np.isfinite(a)]
-            smax = run.meta.get("std_max") if run.meta else None
-            if isinstance(smax, bool) or not isinstance(smax, (int, float)) or not math.isfinite(smax) or smax <= 0:
-                smax = float(fin.max()) if fin.size and fin.max() > 0 else 1.0
-            cmap, vmin, vmax, label = "viridis", 0.0, float(smax), "MC std"
-            title = f"uncertainty: standard deviation of {passes}"
-        else:
-            cmap, vmin, vmax, label = "gray_r", 0.0, 1.0, "one stochastic pass"
-            title = f"one stochastic pass (the mean uses {passes})"
-        fig, ax = plt.subplots(figsize=(8, max(3.0, 8 * aspect) + 0.6), constrained_layout=True)
-        im = ax.imshow(a, extent=[x0, x1, y0, y1], origin="upper", cmap=cmap, vmin=vmin, vmax=vmax,
-                       interpolation="nearest")
-        fig.colorbar(im, ax=ax, label=label, shrink=0.85)
-        if unit == "m":
-            draw_tours(ax, run)
-        ax.set_xlim(x0, x1)
-        ax.set_ylim(y0, y1)
-        ax.set_xlabel(f"x ({unit})")
-        ax.set_ylabel(f"y ({unit})")
-        ax.set_title(title)
+        fig, _ = map_figure(plt, run, kind, a)
         name = f"map_{kind}.png"
         save_fig(plt, fig, os.path.join(out, name))
         made.append(name)
+    if os.path.isdir(run.p("maps")):
+        for kind in ("mean", "std", "epistemic"):
+            a = run.maps.get(kind) if kind != "epistemic" else run.epistemic
+            if a is None:
+                continue
+            fig, _ = map_figure(plt, run, kind, a, tours=False)
+            save_fig(plt, fig, run.p("maps", f"map_{kind}.png"))
+            run.redrawn.append(f"maps/map_{kind}.png")
     return made
 
 
-def fig_kde(plt, run, out):
+def fig_hits(plt, run, out):
+    """kde.png: where the lidar hits the robots trained on are, as a 2-D histogram in HITS_BIN_M
+    bins (every hit counted, none drawn at random), in hits per square metre on a log scale."""
     np = run.np
-    from scipy.stats import gaussian_kde
+    from matplotlib.colors import LogNorm
     if not run.hits:
         run.note("kde.png: no robot_<i>/train.samples")
         return None
     xs = np.concatenate([h[0] for h in run.hits.values()])
     ys = np.concatenate([h[1] for h in run.hits.values()])
     n = xs.size
-    if n < 3:
-        run.note(f"kde.png: only {n} lidar hits in the training samples, too few for a KDE")
+    if n < 1:
+        run.note("kde.png: no lidar hit in the training samples")
         return None
-    pts = np.vstack([xs, ys])
-    if n > KDE_MAX_POINTS:
-        idx = np.random.default_rng(0).choice(n, KDE_MAX_POINTS, replace=False)
-        pts = pts[:, np.sort(idx)]
     box = run.plan_box() or (float(xs.min()), float(ys.min()), float(xs.max()), float(ys.max()))
     x0, y0, x1, y1 = box
     if not (x1 > x0 and y1 > y0):
         run.note("kde.png: the lidar hits span an empty box")
         return None
-    try:
-        kde = gaussian_kde(pts)
-    except (np.linalg.LinAlgError, ValueError) as e:
-        run.note(f"kde.png: no KDE of the lidar hits ({str(e).splitlines()[0]})")
-        return None
+    nx, ny = max(1, int(round((x1 - x0) / HITS_BIN_M))), max(1, int(round((y1 - y0) / HITS_BIN_M)))
+    counts, _, _ = np.histogram2d(xs, ys, bins=(nx, ny), range=((x0, x1), (y0, y1)))
+    area = ((x1 - x0) / nx) * ((y1 - y0) / ny)
+    dens = counts.T / area  # rows y up, as origin="lower" draws them
+    shown = np.ma.masked_where(dens <= 0, dens)
     w, h = x1 - x0, y1 - y0
-    nx = KDE_GRID if w >= h else max(20, int(round(KDE_GRID * w / h)))
-    ny = KDE_GRID if h > w else max(20, int(round(KDE_GRID * h / w)))
-    gx, gy = np.linspace(x0, x1, nx), np.linspace(y0, y1, ny)
-    X, Y = np.meshgrid(gx, gy)
-    dens = kde(np.vstack([X.ravel(), Y.ravel()])).reshape(ny, nx)
-    fig, ax = plt.subplots(figsize=(8, max(3.0, 8 * h / w) + 0.6), constrained_layout=True)
-    im = ax.imshow(dens, extent=[x0, x1, y0, y1], origin="lower", cmap="magma", interpolation="bilinear")
-    fig.colorbar(im, ax=ax, label="density", shrink=0.85)
-    rng = np.random.default_rng(0)
-    for i, (hx, hy) in sorted(run.hits.items()):
-        if hx.size == 0:
-            continue
-        sel = rng.choice(hx.size, SCATTER_PER_ROBOT, replace=False) if hx.size > SCATTER_PER_ROBOT else slice(None)
-        ax.scatter(hx[sel], hy[sel], s=0.6, alpha=0.25, color=robot_colour(i), lw=0, label=f"robot {i}")
-    if len(run.hits) > 0:
-        leg = ax.legend(loc="upper right", fontsize=7, markerscale=8, framealpha=0.7)
-        for lh in leg.legend_handles if hasattr(leg, "legend_handles") else leg.legendHandles:
-            lh.set_alpha(1)
+    fig, ax = plt.subplots(figsize=(8, max(3.0, 6.4 * h / w) + 0.8), constrained_layout=True)
+    cmap = plt.get_cmap(quantity_cmap("hits")).copy()
+    cmap.set_bad("white")
+    top = float(dens.max())
+    im = ax.imshow(shown, extent=[x0, x1, y0, y1], origin="lower", cmap=cmap, interpolation="nearest",
+                   norm=LogNorm(vmin=1.0 / area, vmax=max(top, 1.0 / area * 1.01)))
+    fig.colorbar(im, ax=ax, shrink=0.85,
+                 label=f"lidar hits per m² (log scale; {HITS_BIN_M:g} m bins; white: none)")
     ax.set_xlim(x0, x1)
     ax.set_ylim(y0, y1)
     ax.set_xlabel("x (m)")
     ax.set_ylabel("y (m)")
-    used = pts.shape[1]
-    ax.set_title(f"KDE of the lidar hits used for training: {n} hits of {len(run.hits)} robots"
-                 + (f" ({used} drawn)" if used < n else ""), fontsize=10)
+    ax.set_title(f"where the lidar hits the robots trained on are: {n:,} hits of {len(run.hits)} robots",
+                 fontsize=10)
     save_fig(plt, fig, os.path.join(out, "kde.png"))
     return "kde.png"
 
@@ -560,7 +661,7 @@ def fig_val_loss(plt, run, out):
     if not run.metrics:
         run.note("val_loss.png: no robot_<i>/metrics.csv")
         return None
-    fig, ax = plt.subplots(figsize=(7, 4), constrained_layout=True)
+    fig, ax = plt.subplots(figsize=(7, 4.6), constrained_layout=True)
     lo, hi, lines = math.inf, -math.inf, 0
     for i, m in sorted(run.metrics.items()):
         r, v = m["round"], m["val_loss"]
@@ -576,11 +677,11 @@ def fig_val_loss(plt, run, out):
         return None
     if lo > 0 and hi / lo > 10:
         ax.set_yscale("log")
-    ax.set_xlabel("round")
-    ax.set_ylabel("validation loss")
+    ax.set_xlabel("DiNNO round (count)")
+    ax.set_ylabel("validation loss (binary cross-entropy, nats per point)")
     ax.set_title("validation loss per robot")
     ax.grid(alpha=0.3)
-    ax.legend(fontsize=7, ncol=2 if lines > 6 else 1)
+    legend_outside(ax, lines, below=0.15)
     save_fig(plt, fig, os.path.join(out, "val_loss.png"))
     return "val_loss.png"
 
@@ -613,24 +714,150 @@ def fig_traffic(plt, run, out):
         if sent.max() >= 10 * s:
             scale, unit = s, u
             break
-    fig, (a1, a2) = plt.subplots(2, 1, figsize=(7, 5.5), sharex=True, constrained_layout=True)
+    fig, (a1, a2) = plt.subplots(2, 1, figsize=(7, 6), sharex=True, constrained_layout=True)
     a1.plot(rounds, sent / scale, "-", lw=1.0, color="tab:blue")
-    a1.set_ylabel(f"bytes sent ({unit})")
+    a1.set_ylabel(f"bytes sent per round ({unit})")
     a1.set_ylim(bottom=0, top=max(1.0, float(sent.max()) / scale) * 1.08)
     a1.set_title(f"fleet traffic per round (sum over {len(tables)} robots)")
     a1.grid(alpha=0.3)
-    a2.plot(rounds, req, "-", lw=1.0, color="tab:red", label="chunks requested (lost)")
-    a2.plot(rounds, res, "-", lw=1.0, color="tab:green", label="chunks re-sent")
+    same = bool(np.array_equal(req, res))
+    a2.plot(rounds, req, "-", lw=2.4, color="tab:red", alpha=0.55,
+            label="chunks requested (lost)" + (": the same as re-sent in every round" if same else ""))
+    a2.plot(rounds, res, "--", lw=1.1, color="black", marker="x", ms=4, markevery=[int(k) for k in np.flatnonzero(res)],
+            label="chunks re-sent" + (": on the requested line" if same else ""))
     if tmo.any():
         a2.plot(rounds, tmo, ":", lw=1.0, color="0.3", label="timeouts")
-    a2.set_xlabel("round")
-    a2.set_ylabel("chunks")
+    a2.set_xlabel("DiNNO round (count)")
+    a2.set_ylabel("chunks per round (count)")
     a2.set_ylim(bottom=0)
     a2.yaxis.set_major_locator(MaxNLocator(integer=True))
     a2.grid(alpha=0.3)
-    a2.legend(fontsize=7)
+    legend_outside(a2, 1, below=0.2)
     save_fig(plt, fig, os.path.join(out, "traffic.png"))
     return "traffic.png"
+
+
+def checkpoint_rounds(run):
+    """The rounds of the checkpoints every robot kept (robot_<i>/round_NNNN.bnn), sorted."""
+    common = None
+    for i in run.robots:
+        r = set()
+        for f in glob.glob(run.p(f"robot_{i}", "round_*.bnn")):
+            m = re.fullmatch(r"round_(\d+)\.bnn", os.path.basename(f))
+            if m:
+                r.add(int(m.group(1)))
+        common = r if common is None else common & r
+    return sorted(common or ())
+
+
+def pick_evenly(rounds, n):
+    """At most n of the sorted rounds, nearest to n values evenly spaced from the first to the last."""
+    if len(rounds) <= n or n < 2:
+        return list(rounds[-n:]) if n >= 1 else []
+    lo, hi = rounds[0], rounds[-1]
+    out = []
+    for k in range(n):
+        want = lo + k * (hi - lo) / (n - 1)
+        best = min((r for r in rounds if r not in out), key=lambda r: (abs(r - want), r))
+        out.append(best)
+    return sorted(out)
+
+
+def resolve_file(p, run_dir):
+    """A file named in run.json (relative to the current directory, the project root, RUN_DIR)."""
+    return resolve_tour(p, run_dir)
+
+
+def make_strip(run, n, host_sim=None):
+    """The consensus MC mean map at n kept checkpoint rounds, evenly spaced: `host_sim maps` on
+    every robot's robot_<i>/round_NNNN.bnn, into maps/rounds/round_NNNN/ (kept; made again only
+    when a checkpoint is newer). Sets run.strip to [(round, map_mean)]; a missing piece is a note."""
+    np = run.np
+    if n < 1 or not run.robots:
+        return
+    rounds = checkpoint_rounds(run)
+    if not rounds:
+        run.note("map_rounds.png: no round checkpoint (robot_<i>/round_NNNN.bnn) kept by every robot")
+        return
+    s = run.settings or {}
+    plan = resolve_file(s["plan"], run.dir) if isinstance(s.get("plan"), str) else None
+    if plan is None:
+        run.note("map_rounds.png: run.json names no plan that is here (host_sim maps needs it)")
+        return
+    exe = host_sim
+    if exe is None:
+        for cand in ([s["host_sim"]] if isinstance(s.get("host_sim"), str) else []) + ["build/bin/host_sim"]:
+            exe = resolve_file(cand, run.dir)
+            if exe is not None:
+                break
+    if exe is None or not os.access(exe, os.X_OK):
+        run.note("map_rounds.png: no host_sim binary (run.json \"host_sim\", build/bin/host_sim or --host-sim)")
+        return
+    meta = run.meta or {}
+    res = meta.get("res") or s.get("map_res_m") or 0.05
+    mc, seed = meta.get("mc") or s.get("mc") or 50, meta.get("seed") or s.get("seed") or 1
+    strip = []
+    for r in pick_evenly(rounds, n):
+        models = [run.p(f"robot_{i}", f"round_{r:04d}.bnn") for i in run.robots]
+        out = run.p("maps", "rounds", f"round_{r:04d}")
+        npy = os.path.join(out, "map_mean.npy")
+        fresh = os.path.isfile(npy) and os.path.getmtime(npy) >= max(os.path.getmtime(m) for m in models)
+        if not fresh:
+            cmd = [exe, "maps", "--plan", plan, "--out", out, "--res", str(res), "--mc", str(mc),
+                   "--seed", str(seed)] + models
+            try:
+                p = subprocess.run(cmd, capture_output=True, text=True, timeout=600)
+            except (OSError, subprocess.TimeoutExpired) as e:
+                run.note(f"map_rounds.png: host_sim maps of round {r} did not run ({e})")
+                return
+            if p.returncode != 0 or not os.path.isfile(npy):
+                why = (p.stderr or p.stdout).strip().splitlines()
+                run.note(f"map_rounds.png: host_sim maps of round {r} failed (exit {p.returncode}"
+                         + (f": {why[-1]}" if why else "") + ")")
+                return
+        strip.append((r, load_npy(np, npy)))
+    run.strip = strip
+    run.strip_rounds = rounds
+
+
+def strip_note(run):
+    """What the strip shows and, when the kept checkpoints cover little of the run, how to keep more."""
+    got = [r for r, _ in run.strip]
+    kept = run.strip_rounds
+    text = (f"Checkpoint rounds {', '.join(str(r) for r in got)} of the {len(kept)} every robot kept "
+            f"({kept[0]}..{kept[-1]}); each map is `host_sim maps` of the robots' round_NNNN.bnn, in "
+            "maps/rounds/.")
+    rounds = (run.settings or {}).get("rounds")
+    if isinstance(rounds, int) and not isinstance(rounds, bool) and rounds > 0 and kept[-1] - kept[0] < rounds / 2:
+        text += (f" They cover little of the run's {rounds} rounds: `host_sim run --keep-ckpt-every M` keeps "
+                 f"every M-th round (tools/fleet --extra=\"--keep-ckpt-every {max(1, rounds // 4)}\").")
+    return text
+
+
+def fig_strip(plt, run, out):
+    """map_rounds.png: the consensus MC mean at a few rounds, one colour scale (0 to the largest
+    value of all of them), so the map is seen forming."""
+    if not run.strip:
+        return None
+    np = run.np
+    x0, y0, x1, y1, unit = run.map_box()
+    top = max(colour_limits(np, a)[1] for _, a in run.strip)
+    k = len(run.strip)
+    aspect = (y1 - y0) / (x1 - x0)
+    fig, axes = plt.subplots(1, k, figsize=(3.4 * k + 1.2, 3.4 * aspect + 1.4), constrained_layout=True,
+                             squeeze=False)
+    for ax, (r, a) in zip(axes[0], run.strip):
+        im = ax.imshow(a, extent=[x0, x1, y0, y1], origin="upper", cmap=quantity_cmap("occupancy"), vmin=0.0,
+                       vmax=top, interpolation="nearest")
+        ax.set_title(f"checkpoint round_{r:04d}", fontsize=9)
+        ax.set_xlabel(f"x ({unit})", fontsize=8)
+        ax.tick_params(labelsize=7)
+    axes[0][0].set_ylabel(f"y ({unit})", fontsize=8)
+    fig.colorbar(im, ax=list(axes[0]), shrink=0.9,
+                 label=f"P(occupied) (probability)\ncolours 0 to the largest value {top:.3g}")
+    fig.suptitle("the consensus map as it forms: MC mean of the robots' checkpoints (host_sim maps)", fontsize=10)
+    save_fig(plt, fig, os.path.join(out, "map_rounds.png"))
+    return "map_rounds.png"
 
 
 # ---- summary.md ------------------------------------------------------------------------------
@@ -814,7 +1041,7 @@ def summary(run, figures):
         L.append(f"- wall time: not in run.json; largest last `wall_s` of metrics.csv: {fmt(max(walls))} s"
                  if walls else "- wall time: not recorded")
     if run.meta is not None:
-        meta = ", ".join(f"{k} {md_cell(run.meta[k])}" for k in ("res", "width", "height", "mc", "seed", "std_max", "models")
+        meta = ", ".join(f"{k} {fmt(run.meta[k], 3) if isinstance(run.meta[k], float) else md_cell(run.meta[k])}" for k in ("res", "width", "height", "mc", "seed", "std_max", "models")
                          if k in run.meta)
         L.append(f"- maps: {meta}")
     L.append("")
@@ -823,16 +1050,19 @@ def summary(run, figures):
     L += ["## Figures", ""]
     captions = {
         "scene.png": "the plan (OSMesa rendering)",
-        "map_mean.png": "occupancy: MC mean, the robots' tours on top",
+        "map_mean.png": "occupancy: MC mean, the robots' tours and map.yaml's occupied threshold on top",
         "map_std.png": "uncertainty: MC standard deviation",
-        "map_single.png": "one stochastic pass",
-        "kde.png": "density of the lidar hits the robots trained on",
+        "map_single.png": "one stochastic pass: P(occupied) of a single draw of the weights",
+        "map_rounds.png": "the map as it forms: the consensus MC mean at kept checkpoint rounds",
+        "kde.png": "where the lidar hits the robots trained on are (hits per m²)",
         "val_loss.png": "validation loss per robot",
         "traffic.png": "fleet traffic per round",
     }
     shown = (["scene.png"] if run.scene else []) + figures
     for name in shown:
         L += [f"### {captions.get(name, name)}", "", f"![{name[:-4]}]({name})", ""]
+        if name == "map_rounds.png":
+            L += [strip_note(run), ""]
     if not shown:
         L += ["(none: see below)", ""]
     if run.has_ros_map:
@@ -889,6 +1119,11 @@ def main(argv=None):
                                  formatter_class=argparse.RawDescriptionHelpFormatter)
     ap.add_argument("run_dir", metavar="RUN_DIR", help="folder of one fleet run")
     ap.add_argument("-q", "--quiet", action="store_true", help="print nothing but errors")
+    ap.add_argument("--strip", type=int, default=STRIP_ROUNDS, metavar="N",
+                    help=f"map_rounds.png: the map at N kept checkpoint rounds, evenly spaced (0: none; "
+                         f"default {STRIP_ROUNDS})")
+    ap.add_argument("--host-sim", metavar="BIN", help="the host_sim that makes the strip's maps "
+                    "(default: run.json's \"host_sim\", else build/bin/host_sim)")
     a = ap.parse_args(argv)
     try:
         if not os.path.isdir(a.run_dir):
@@ -909,7 +1144,11 @@ def main(argv=None):
         run = Run(np, a.run_dir)
         run.load()  # every input validated before any output is written
         figures = fig_maps(plt, run, a.run_dir)
-        for f in (fig_kde, fig_val_loss, fig_traffic):
+        make_strip(run, a.strip, a.host_sim)
+        name = fig_strip(plt, run, a.run_dir)
+        if name:
+            figures.insert(1 if figures[:1] == ["map_mean.png"] else 0, name)
+        for f in (fig_hits, fig_val_loss, fig_traffic):
             name = f(plt, run, a.run_dir)
             if name:
                 figures.append(name)
@@ -919,7 +1158,7 @@ def main(argv=None):
         print(f"fleet_report: {e}", file=sys.stderr)
         return 1
     if not a.quiet:
-        for f in figures:
+        for f in figures + run.redrawn:
             print(f"fleet_report: wrote {os.path.join(a.run_dir, f)}")
         print(f"fleet_report: wrote {os.path.join(a.run_dir, 'summary.md')}"
               + (f" ({len(run.notes)} item(s) missing, listed there)" if run.notes else ""))

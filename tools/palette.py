@@ -29,3 +29,24 @@ def robot_rgb(i):
 def robot_colour(i):
     """Robot i's colour as matplotlib takes it: (r, g, b) in [0, 1]."""
     return tuple(c / 255.0 for c in robot_rgb(i))
+
+
+# One colour map per quantity, the same in every figure tools/fleet_report.py draws (the pictures
+# at the top of a run's folder and the ones it redraws in maps/): a quantity never changes colours
+# from one picture to the next. tests/tools/test_palette.py checks fleet_report.py names no colour
+# map of its own.
+QUANTITY_CMAP = {
+    "occupancy": "gray_r",   # P(occupied): white free, black walls, as map.pgm shows it
+    "std": "viridis",        # MC standard deviation of P(occupied)
+    "epistemic": "magma",    # share of the prior variance left (1 = nothing observed there)
+    "hits": "inferno",       # lidar hits per square metre
+}
+
+# The map.yaml occupied threshold drawn as a contour on the occupancy maps: a gold line with a
+# black edge, visible on white and black cells and unlike every robot colour above.
+THRESHOLD_COLOUR = "#ffd000"
+
+
+def quantity_cmap(quantity):
+    """The matplotlib colour map name of a quantity (a key of QUANTITY_CMAP)."""
+    return QUANTITY_CMAP[quantity]

@@ -79,7 +79,7 @@ static void paths_usage(FILE *out)
             "      each robot sweeping its share of its room from a start cell of its own (up to %d\n"
             "      robots); prints waypoints, length and start room per robot, the clearance kept\n"
             "      and the coverage of the free cells (line of sight within 1.5 m and 3.5 m);\n"
-            "      --png draws the ground truth with the tours.\n"
+            "      --png draws the ground truth with the tours, axes in metres and a legend.\n"
             "      --rooms own: each robot sweeps only its start room (same seeded start rooms), so\n"
             "      with fewer robots than rooms part of the building stays unvisited: the rooms\n"
             "      without a waypoint are listed and the coverage line says how much was seen\n"

@@ -24,10 +24,17 @@ static inline int sim_figure_row(double y, double y0, double pix, int rows)
 
 /* Writes the ground truth g (free white, wall black, outside grey) with the tours on top,
  * each in its robot's colour (waypoints as crosses, the start as a filled square), as an RGB
- * PNG of k x k pixels per cell, k chosen so the long side is about 1000 px; y up. Returns 0
- * or a negative code with the reason in err. */
+ * PNG of k x k pixels per cell, k chosen so the map's long side is about 1000 px; y up. Around
+ * the map, on white: a frame, axis ticks every 1, 2 or 5 m labelled in metres on the left and
+ * below ("m" at the ends of the axes), and under them a legend, one coloured square and
+ * "robot i" per tour. The map's place in the picture: sim_figure_paths_frame. Returns 0 or a
+ * negative code with the reason in err. */
 FS_MUST_CHECK
 int sim_figure_paths_png(const sim_grid_t *g, const sim_path_t *paths, int n, const char *file, char *err,
                          size_t errlen);
+
+/* The layout of sim_figure_paths_png's picture of g with n tours: the whole picture is *w x *h
+ * pixels, the map (g->w x g->h cells of *k x *k pixels) starts at column *x0, row *y0. */
+void sim_figure_paths_frame(const sim_grid_t *g, int n, int *w, int *h, int *x0, int *y0, int *k);
 
 #endif /* SIM_FIGURE_H */

@@ -34,4 +34,12 @@ static inline const uint8_t *sim_palette_rgb(int k)
     return rgb[i];
 }
 
+/* The lidar sweep of the 3D scene (host_sim render): neutral greys, unlike every robot colour
+ * above, so the sweep is not taken for a robot's (robot 3's red was). A ray that hit a wall is
+ * dark grey, one that reached the range light grey; the hits are black dots. tests/sim/test_render.c
+ * checks they stay apart from the robot colours. */
+#define SIM_LIDAR_HIT_RGB 64, 64, 64
+#define SIM_LIDAR_MISS_RGB 176, 176, 176
+#define SIM_LIDAR_DOT_RGB 0, 0, 0
+
 #endif /* SIM_PALETTE_H */

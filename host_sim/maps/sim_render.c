@@ -110,6 +110,10 @@ sim_render_cfg_t sim_render_default_cfg(void)
     return c;
 }
 
+/* An "r, g, b" of 8-bit channels (sim_palette.h's SIM_LIDAR_*) as glColor3f takes it. */
+#define RGB_F(c) RGB_F_(c)
+#define RGB_F_(r, g, b) (r) / 255.0f, (g) / 255.0f, (b) / 255.0f
+
 /* Robot k's colour (sim_palette.h), as OpenGL takes it. */
 static void robot_colour(int k, float col[3])
 {
@@ -373,16 +377,17 @@ int sim_render_rgb(const sim_render_scene_t *scene, const sim_render_cfg_t *cfg,
             double a = sw->pose.theta + i * 2 * 3.14159265358979323846 / sw->n;
             int hit = isfinite(sw->ranges[i]) && sw->ranges[i] < sw->range_max;
             double d = hit ? sw->ranges[i] : sw->range_max;
+            /* Neutral greys, unlike every robot colour (sim_palette.h). */
             if (hit)
-                gl.glColor3f(0.95f, 0.15f, 0.10f);
+                gl.glColor3f(RGB_F(SIM_LIDAR_HIT_RGB));
             else
-                gl.glColor3f(1.0f, 0.70f, 0.65f);
+                gl.glColor3f(RGB_F(SIM_LIDAR_MISS_RGB));
             gl.glVertex3d(sw->pose.x, sw->pose.y, sw->height);
             gl.glVertex3d(sw->pose.x + d * cos(a), sw->pose.y + d * sin(a), sw->height);
         }
         gl.glEnd();
         gl.glPointSize(4.0f);
-        gl.glColor3f(0.7f, 0.0f, 0.0f);
+        gl.glColor3f(RGB_F(SIM_LIDAR_DOT_RGB));
         gl.glBegin(GL_POINTS);
         for (int i = 0; i < sw->n; i++) {
             double a = sw->pose.theta + i * 2 * 3.14159265358979323846 / sw->n;

@@ -88,9 +88,34 @@ static void test_paths_png_y_up_and_colours(void **state)
     sim_path_t paths[2] = {{2, top_left, -1, NULL}, {2, bottom_right, -1, NULL}};
     tmp_name(out, sizeof out, "paths");
     assert_int_equal(sim_figure_paths_png(&g, paths, 2, out, err, sizeof err), 0);
-    int w = 0, h = 0;
-    uint8_t *rgb = tpng_read_rgb(out, &w, &h);
+    int W = 0, H = 0;
+    uint8_t *pic = tpng_read_rgb(out, &W, &H);
+    assert_non_null(pic);
+    /* The frame: the map inside a white margin with ticks, labels and the legend below. */
+    int fw, fh, x0, y0, k;
+    sim_figure_paths_frame(&g, 2, &fw, &fh, &x0, &y0, &k);
+    assert_int_equal(W, fw);
+    assert_int_equal(H, fh);
+    const int w = g.w * k, h = g.h * k;
+    assert_true(x0 > 10 && y0 > 10 && x0 + w < W && y0 + h + 40 < H);
+    /* Below the map: black tick marks and labels, and each robot's legend square. */
+    const uint8_t ink[3] = {0, 0, 0};
+    long below = 0;
+    for (int y = y0 + h + 1; y < H; y++)
+        for (int x = 0; x < W; x++)
+            below += memcmp(pic + 3 * ((size_t)y * W + x), ink, 3) == 0;
+    assert_true(below > 100);
+    for (int r = 0; r < 2; r++) {
+        double lx = -1.0, ly = -1.0;
+        assert_true(tpng_find(pic + 3 * (size_t)(y0 + h + 1) * W, W, H - (y0 + h + 1), sim_palette_rgb(r), 0, &lx, &ly)
+                    >= 9);
+    }
+    /* The map alone, for the orientation checks. */
+    uint8_t *rgb = malloc((size_t)w * h * 3);
     assert_non_null(rgb);
+    for (int y = 0; y < h; y++)
+        memcpy(rgb + 3 * (size_t)y * w, pic + 3 * ((size_t)(y0 + y) * W + x0), 3 * (size_t)w);
+    free(pic);
     double fx = -1.0, fy = -1.0;
     assert_true(tpng_find(rgb, w, h, sim_palette_rgb(0), 0, &fx, &fy) > 50);
     assert_true(fx < 0.5 && fy < 0.25);

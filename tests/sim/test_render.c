@@ -73,11 +73,25 @@ static void test_render_image(void **st)
             distinct++;
     }
     assert_true(distinct >= 4);
-    /* Red lidar rays are present (r high, g and b low). */
-    int red = 0;
-    for (int i = 0; i < 160 * 120; i++)
+    /* The lidar rays are present in their neutral grey (sim_palette.h; unlit: the exact colour)
+     * and no pixel is red (the rays were once robot 3's red). */
+    const uint8_t ray[3] = {SIM_LIDAR_HIT_RGB};
+    int grey = 0, red = 0;
+    for (int i = 0; i < 160 * 120; i++) {
+        grey += abs(rgb[3 * i] - ray[0]) <= 2 && abs(rgb[3 * i + 1] - ray[1]) <= 2 && abs(rgb[3 * i + 2] - ray[2]) <= 2;
         red += rgb[3 * i] > 200 && rgb[3 * i + 1] < 80 && rgb[3 * i + 2] < 80;
-    assert_true(red > 10);
+    }
+    assert_true(grey > 10);
+    assert_int_equal(red, 0);
+    /* Every lidar colour is far from every robot colour (at least 60 of 255 in some channel sum). */
+    const uint8_t lidar[3][3] = {{SIM_LIDAR_HIT_RGB}, {SIM_LIDAR_MISS_RGB}, {SIM_LIDAR_DOT_RGB}};
+    for (int l = 0; l < 3; l++)
+        for (int k = 0; k < SIM_PALETTE_N; k++) {
+            const uint8_t *r = sim_palette_rgb(k);
+            const int d = abs(r[0] - lidar[l][0]) + abs(r[1] - lidar[l][1]) + abs(r[2] - lidar[l][2]);
+            if (d < 60)
+                fail_msg("lidar colour %d is close to robot %d's (%d)", l, k, d);
+        }
 
     /* Top view, no overlays: the image centre shows the room's floor, a different colour
      * from the background in the corner (the camera framed the plan). */

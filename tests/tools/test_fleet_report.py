@@ -111,8 +111,10 @@ def section_with_epistemic():
         s = summary(run)
         check(SECTION in s and s.index(SECTION) < s.index("## Figures"), "section before the figures")
         sec = s[s.index(SECTION):s.index("## Figures")]
-        # maps/ has no PNGs here: the std is the report's own, the epistemic one is said missing
-        check("![map_std](map_std.png)" in sec and "maps/map_epistemic.png is missing" in sec, sec)
+        # the report draws maps/map_std.png and maps/map_epistemic.png itself (host_sim's are redrawn)
+        check("| ![map_std](maps/map_std.png) | ![map_epistemic](maps/map_epistemic.png) |" in sec, sec)
+        for name in ("map_mean.png", "map_std.png", "map_epistemic.png"):
+            check(os.path.getsize(os.path.join(run, "maps", name)) > 1000, f"maps/{name} not drawn")
         check("| score | AUC unseen/seen | AUSE | Spearman vs KDE |" in sec, sec)
         table = sec[sec.index("| score |"):].split("\n\n")[0].splitlines()
         rows = table[2:]
@@ -122,9 +124,7 @@ def section_with_epistemic():
               f"AUC 1 for the epistemic and the distance: {rows}")
         check("within 0.15 m" in sec and "of the 72 cells" in sec and "55.6 %" in sec, sec)
         check("maps/map_epistemic.npy is missing" not in s, "not named missing")
-        # with host_sim's PNGs in maps/ and the epistemic object of map_meta.json
-        for name in ("map_std.png", "map_epistemic.png"):
-            shutil.copy(os.path.join(run, "map_std.png"), os.path.join(run, "maps", name))
+        # with the epistemic object of map_meta.json
         meta = os.path.join(run, "maps", "map_meta.json")
         text = open(meta).read().rstrip().rstrip("}") + ', "epistemic": {"method": "test", "robots": 1}}\n'
         with open(meta, "w") as f:
@@ -293,6 +293,178 @@ def losses_without_summary_or_alone():
         robot_folder(run, 0, None, (0, 0, 0), fleet=1)  # a fleet of one: no fleet lines, nothing exchanged
         totals, gaps = losses(run, 1)
         check(fleet_losses.lossless(totals, gaps), f"{totals} {gaps}")
+    finally:
+        shutil.rmtree(d)
+
+
+# ---- figures: colour scales that fit the data, the occupied threshold, the strip -------------
+
+def short_run_maps(run, peak=0.19, thresh=0.1):
+    """The MC mean of a short run: every value far below 1 (peak), and map.yaml's occupied_thresh."""
+    m = os.path.join(run, "maps")
+    mean = np.load(os.path.join(m, "map_mean.npy")) * np.float32(peak)
+    np.save(os.path.join(m, "map_mean.npy"), mean.astype(np.float32))
+    np.save(os.path.join(m, "map_single.npy"), (mean * 0.9).astype(np.float32))
+    with open(os.path.join(m, "map.yaml"), "w") as f:
+        f.write(f"image: map.pgm\nmode: trinary\nresolution: 0.5\norigin: [0, 0, 0.0]\nnegate: 0\n"
+                f"occupied_thresh: {thresh}\nfree_thresh: 0.05\n")
+    return mean
+
+
+def load_run(run):
+    import fleet_report
+    r = fleet_report.Run(np, run)
+    r.load()
+    return fleet_report, r
+
+
+@test
+def map_colours_fit_the_data_and_threshold_contour():
+    import matplotlib
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+    d = tempfile.mkdtemp(prefix="frtest.")
+    try:
+        run = synthetic_run(d)
+        mean = short_run_maps(run)
+        fr, r = load_run(run)
+        fig, info = fr.map_figure(plt, r, "mean", r.maps["mean"])
+        ax = fig.axes[0]
+        lo, hi = ax.images[0].get_clim()
+        check(lo == 0.0 and abs(hi - float(mean.max())) < 1e-6 and hi < 0.25, f"colours {lo}..{hi}, max {mean.max()}")
+        check(info["clim"] == (lo, hi), f"{info}")
+        cs = info["contour"]
+        check(cs is not None and list(cs.levels) == [0.1], "occupied_thresh contour")
+        check(any(len(p.vertices) > 1 for c in cs.collections for p in c.get_paths()), "contour drawn")
+        leg = ax.get_legend()
+        check(leg is not None and any("occupied_thresh 0.1" in t.get_text() for t in leg.get_texts()), "legend")
+        # outside the map: the legend's box is below the axes
+        fig.canvas.draw()
+        lb, ab = leg.get_window_extent(), ax.get_window_extent()
+        check(lb.y1 <= ab.y0, f"legend {lb} over the axes {ab}")
+        cb = fig.axes[1].get_ylabel()
+        check("P(occupied)" in cb and f"{float(mean.max()):.3g}" in cb, cb)
+        plt.close(fig)
+        # the single pass: the quantity in the colour bar, "one stochastic pass" in the title only
+        fig, info = fr.map_figure(plt, r, "single", r.maps["single"])
+        check(fig.axes[1].get_ylabel().startswith("P(occupied)") and "stochastic" not in fig.axes[1].get_ylabel()
+              and "one stochastic pass" in fig.axes[0].get_title() and info["contour"] is None, "map_single")
+        plt.close(fig)
+        # the std's colours fit too; a threshold no cell reaches draws no contour
+        fig, info = fr.map_figure(plt, r, "std", r.maps["std"])
+        check(info["clim"] == (0.0, float(np.load(os.path.join(run, "maps", "map_std.npy")).max())), f"{info}")
+        plt.close(fig)
+        short_run_maps(run, peak=1.0, thresh=0.99)
+        fr, r = load_run(run)
+        fig, info = fr.map_figure(plt, r, "mean", np.zeros((H, W)))
+        check(info["contour"] is None and info["clim"] == (0.0, 1.0), f"{info}")
+        plt.close(fig)
+    finally:
+        shutil.rmtree(d)
+
+
+@test
+def figures_written_with_units():
+    """Every figure file written (the maps/ ones redrawn), one colour map per quantity."""
+    d = tempfile.mkdtemp(prefix="frtest.")
+    try:
+        run = synthetic_run(d)
+        add_epistemic(run)
+        short_run_maps(run)
+        with open(os.path.join(run, "maps", "map_meta.json")) as f:
+            meta = f.read().replace('"std_max": 0.3', '"std_max": 0.17980554699897766')
+        with open(os.path.join(run, "maps", "map_meta.json"), "w") as f:
+            f.write(meta)
+        rc, err = report(run)
+        check(rc == 0 and err == "", f"exit {rc}: {err}")
+        for name in ("map_mean.png", "map_std.png", "map_single.png", "kde.png", "maps/map_mean.png",
+                     "maps/map_std.png", "maps/map_epistemic.png"):
+            f = os.path.join(run, name)
+            check(os.path.isfile(f) and os.path.getsize(f) > 1000, f"{name} not written")
+        s = summary(run)
+        check("std_max 0.18," in s and "0.1798055" not in s, "std_max to 3 significant digits")
+        check("no round checkpoint" in s, "the strip's absence named")
+    finally:
+        shutil.rmtree(d)
+
+
+@test
+def strip_of_kept_checkpoints():
+    """map_rounds.png from the rounds every robot kept, evenly spaced, each made by host_sim maps
+    (here a stand-in that writes a map_mean.npy whose values are the round / 1000)."""
+    import fleet_report
+    check(fleet_report.pick_evenly([29, 59, 89, 113, 115, 117, 119], 4) == [29, 59, 89, 119],
+          fleet_report.pick_evenly([29, 59, 89, 113, 115, 117, 119], 4))
+    check(fleet_report.pick_evenly([5, 6], 4) == [5, 6] and fleet_report.pick_evenly([1, 2, 3], 1) == [3], "few")
+    d = tempfile.mkdtemp(prefix="frtest.")
+    try:
+        run = synthetic_run(d)
+        os.makedirs(os.path.join(run, "robot_1"))
+        for i, rounds in ((0, (9, 19, 29, 39, 41)), (1, (9, 19, 29, 39, 40, 41))):
+            for k in rounds:
+                open(os.path.join(run, f"robot_{i}", f"round_{k:04d}.bnn"), "wb").close()
+        with open(os.path.join(run, "plan.svg"), "w") as f:
+            f.write("<svg/>\n")
+        with open(os.path.join(run, "run.json"), "w") as f:
+            f.write('{"robots": 2, "plan": "plan.svg"}\n')
+        fake = os.path.join(d, "host_sim")
+        with open(fake, "w") as f:
+            f.write(f"#!{sys.executable}\nimport os, re, sys\nimport numpy as np\n"
+                    "a = sys.argv\nout = a[a.index('--out') + 1]\nos.makedirs(out, exist_ok=True)\n"
+                    "k = int(re.search(r'round_(\\d+)', a[-1]).group(1))\n"
+                    f"np.save(os.path.join(out, 'map_mean.npy'), np.full(({H}, {W}), k / 1000, np.float32))\n")
+        os.chmod(fake, 0o755)
+        check(fleet_report.checkpoint_rounds(load_run(run)[1]) == [9, 19, 29, 39, 41], "common rounds")
+        p = subprocess.run([sys.executable, TOOL, run, "--quiet", "--host-sim", fake], capture_output=True,
+                           text=True, timeout=120)
+        check(p.returncode == 0 and p.stderr == "", p.stderr)
+        for k in (9, 19, 29, 41):
+            a = np.load(os.path.join(run, "maps", "rounds", f"round_{k:04d}", "map_mean.npy"))
+            check(abs(float(a[0, 0]) - k / 1000) < 1e-6, f"round {k}")
+        check(not os.path.exists(os.path.join(run, "maps", "rounds", "round_0039")), "4 rounds only")
+        check(os.path.getsize(os.path.join(run, "map_rounds.png")) > 1000 and
+              "![map_rounds](map_rounds.png)" in summary(run), "map_rounds.png in summary.md")
+        # a host_sim that fails: named, no strip, the rest of the report written
+        shutil.rmtree(os.path.join(run, "maps", "rounds"))
+        p = subprocess.run([sys.executable, TOOL, run, "--quiet", "--host-sim", "/bin/false"], capture_output=True,
+                           text=True, timeout=120)
+        check(p.returncode == 0 and "host_sim maps of round 9 failed" in summary(run), p.stderr)
+    finally:
+        shutil.rmtree(d)
+
+
+@test
+def traffic_requested_and_resent_both_visible():
+    """Identical requested and re-sent counts: the legend says they coincide, both lines drawn
+    (the re-sent one dashed, with markers where it is not 0)."""
+    import matplotlib
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+    import fleet_report
+    d = tempfile.mkdtemp(prefix="frtest.")
+    try:
+        class Run:
+            pass
+        r = Run()
+        r.np = np
+        r.note = lambda t: None
+        z = np.zeros(4)
+        r.traffic = {0: {"round": np.arange(4.0), "bytes_sent": np.full(4, 5000.0), "chunks_requested":
+                         np.array([3.0, 0, 1, 0]), "chunks_resent": np.array([3.0, 0, 1, 0]), "timeouts": z}}
+        shown = []
+        real_save = fleet_report.save_fig
+        fleet_report.save_fig = lambda plt_, fig, path: (shown.append(fig), real_save(plt_, fig, path))
+        try:
+            check(fleet_report.fig_traffic(plt, r, d) == "traffic.png", "no traffic.png")
+        finally:
+            fleet_report.save_fig = real_save
+        ax = shown[0].axes[1]
+        texts = [t.get_text() for t in ax.get_legend().get_texts()]
+        check(any("the same as re-sent" in t for t in texts) and any("on the requested line" in t for t in texts), texts)
+        lines = {l.get_label(): l for l in ax.get_lines()}
+        check(len(lines) == 2 and len({l.get_linestyle() for l in lines.values()}) == 2, f"{lines}")
+        check(ax.get_xlabel() and ax.get_ylabel().endswith("(count)"), "units")
+        check(os.path.getsize(os.path.join(d, "traffic.png")) > 1000, "file")
     finally:
         shutil.rmtree(d)
 

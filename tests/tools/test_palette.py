@@ -88,5 +88,21 @@ def fleet_report_tours_in_robot_colours():
     plt.close(fig)
 
 
+@test
+def one_colour_map_per_quantity():
+    """fleet_report.py takes every colour map from palette.QUANTITY_CMAP (none of its own), and no
+    two quantities share one."""
+    with open(os.path.join(ROOT, "tools", "fleet_report.py")) as f:
+        text = f.read()
+    for name in set(palette.QUANTITY_CMAP.values()) | {"magma", "viridis", "gray_r", "inferno", "gray"}:
+        check(f'"{name}"' not in text and f"'{name}'" not in text, f"fleet_report.py names colour map {name}")
+    check(len(set(palette.QUANTITY_CMAP.values())) == len(palette.QUANTITY_CMAP), "two quantities share a map")
+    import matplotlib
+    for q, name in palette.QUANTITY_CMAP.items():
+        check(name in matplotlib.colormaps, f"{q}: {name} is no matplotlib colour map")
+    check(tuple(round(v * 255) for v in matplotlib.colors.to_rgb(palette.THRESHOLD_COLOUR)) not in palette.ROBOT_RGB,
+          "the threshold contour in a robot's colour")
+
+
 if __name__ == "__main__":
     sys.exit(main())
