@@ -216,7 +216,8 @@ def version_says_the_commit():
     tmp = tempfile.mkdtemp()  # a tree that is not a git clone: its VERSION file, else 'unknown'
     try:
         os.makedirs(os.path.join(tmp, "tools"))
-        for f in ("fleet", "fleet_losses.py"):
+        for f in ("fleet", "fleet_losses.py", "fleet_common.py", "fleet_checks.py", "fleet_machine.py",
+                  "fleet_robots.py"):
             shutil.copy(os.path.join(ROOT, "tools", f), os.path.join(tmp, "tools", f))
         res = subprocess.run(["/usr/bin/python3", os.path.join(tmp, "tools", "fleet"), "--version"],
                              stdout=subprocess.PIPE, stderr=subprocess.STDOUT, text=True, timeout=TIMEOUT, cwd=tmp)
