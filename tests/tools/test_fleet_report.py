@@ -323,12 +323,13 @@ def map_colours_fit_the_data_and_threshold_contour():
     import matplotlib
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
+    import fleet_figures
     d = tempfile.mkdtemp(prefix="frtest.")
     try:
         run = synthetic_run(d)
         mean = short_run_maps(run)
-        fr, r = load_run(run)
-        fig, info = fr.map_figure(plt, r, "mean", r.maps["mean"])
+        _, r = load_run(run)
+        fig, info = fleet_figures.map_figure(plt, r, "mean", r.maps["mean"])
         ax = fig.axes[0]
         lo, hi = ax.images[0].get_clim()
         check(lo == 0.0 and abs(hi - float(mean.max())) < 1e-6 and hi < 0.25, f"colours {lo}..{hi}, max {mean.max()}")
@@ -346,17 +347,17 @@ def map_colours_fit_the_data_and_threshold_contour():
         check("P(occupied)" in cb and f"{float(mean.max()):.3g}" in cb, cb)
         plt.close(fig)
         # the single pass: the quantity in the colour bar, "one stochastic pass" in the title only
-        fig, info = fr.map_figure(plt, r, "single", r.maps["single"])
+        fig, info = fleet_figures.map_figure(plt, r, "single", r.maps["single"])
         check(fig.axes[1].get_ylabel().startswith("P(occupied)") and "stochastic" not in fig.axes[1].get_ylabel()
               and "one stochastic pass" in fig.axes[0].get_title() and info["contour"] is None, "map_single")
         plt.close(fig)
         # the std's colours fit too; a threshold no cell reaches draws no contour
-        fig, info = fr.map_figure(plt, r, "std", r.maps["std"])
+        fig, info = fleet_figures.map_figure(plt, r, "std", r.maps["std"])
         check(info["clim"] == (0.0, float(np.load(os.path.join(run, "maps", "map_std.npy")).max())), f"{info}")
         plt.close(fig)
         short_run_maps(run, peak=1.0, thresh=0.99)
-        fr, r = load_run(run)
-        fig, info = fr.map_figure(plt, r, "mean", np.zeros((H, W)))
+        _, r = load_run(run)
+        fig, info = fleet_figures.map_figure(plt, r, "mean", np.zeros((H, W)))
         check(info["contour"] is None and info["clim"] == (0.0, 1.0), f"{info}")
         plt.close(fig)
     finally:
@@ -392,10 +393,10 @@ def figures_written_with_units():
 def strip_of_kept_checkpoints():
     """map_rounds.png from the rounds every robot kept, evenly spaced, each made by host_sim maps
     (here a stand-in that writes a map_mean.npy whose values are the round / 1000)."""
-    import fleet_report
-    check(fleet_report.pick_evenly([29, 59, 89, 113, 115, 117, 119], 4) == [29, 59, 89, 119],
-          fleet_report.pick_evenly([29, 59, 89, 113, 115, 117, 119], 4))
-    check(fleet_report.pick_evenly([5, 6], 4) == [5, 6] and fleet_report.pick_evenly([1, 2, 3], 1) == [3], "few")
+    import fleet_figures
+    check(fleet_figures.pick_evenly([29, 59, 89, 113, 115, 117, 119], 4) == [29, 59, 89, 119],
+          fleet_figures.pick_evenly([29, 59, 89, 113, 115, 117, 119], 4))
+    check(fleet_figures.pick_evenly([5, 6], 4) == [5, 6] and fleet_figures.pick_evenly([1, 2, 3], 1) == [3], "few")
     d = tempfile.mkdtemp(prefix="frtest.")
     try:
         run = synthetic_run(d)
@@ -414,7 +415,7 @@ def strip_of_kept_checkpoints():
                     "k = int(re.search(r'round_(\\d+)', a[-1]).group(1))\n"
                     f"np.save(os.path.join(out, 'map_mean.npy'), np.full(({H}, {W}), k / 1000, np.float32))\n")
         os.chmod(fake, 0o755)
-        check(fleet_report.checkpoint_rounds(load_run(run)[1]) == [9, 19, 29, 39, 41], "common rounds")
+        check(fleet_figures.checkpoint_rounds(load_run(run)[1]) == [9, 19, 29, 39, 41], "common rounds")
         p = subprocess.run([sys.executable, TOOL, run, "--quiet", "--host-sim", fake], capture_output=True,
                            text=True, timeout=120)
         check(p.returncode == 0 and p.stderr == "", p.stderr)
@@ -440,7 +441,7 @@ def traffic_requested_and_resent_both_visible():
     import matplotlib
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
-    import fleet_report
+    import fleet_figures
     d = tempfile.mkdtemp(prefix="frtest.")
     try:
         class Run:
@@ -452,12 +453,12 @@ def traffic_requested_and_resent_both_visible():
         r.traffic = {0: {"round": np.arange(4.0), "bytes_sent": np.full(4, 5000.0), "chunks_requested":
                          np.array([3.0, 0, 1, 0]), "chunks_resent": np.array([3.0, 0, 1, 0]), "timeouts": z}}
         shown = []
-        real_save = fleet_report.save_fig
-        fleet_report.save_fig = lambda plt_, fig, path: (shown.append(fig), real_save(plt_, fig, path))
+        real_save = fleet_figures.save_fig
+        fleet_figures.save_fig = lambda plt_, fig, path: (shown.append(fig), real_save(plt_, fig, path))
         try:
-            check(fleet_report.fig_traffic(plt, r, d) == "traffic.png", "no traffic.png")
+            check(fleet_figures.fig_traffic(plt, r, d) == "traffic.png", "no traffic.png")
         finally:
-            fleet_report.save_fig = real_save
+            fleet_figures.save_fig = real_save
         ax = shown[0].axes[1]
         texts = [t.get_text() for t in ax.get_legend().get_texts()]
         check(any("the same as re-sent" in t for t in texts) and any("on the requested line" in t for t in texts), texts)

@@ -1,8 +1,9 @@
 #!/usr/bin/python3
 """One colour per robot in every figure: the C palette (host_sim/maps/sim_palette.h, used by the
 paths PNG, the map PNGs and the 3D scene) and the Python one (tools/palette.py, used by
-tools/fleet_report.py, tools/plot_partition.py, tools/paper_report.py) must be the same table,
-and the Python plots must take their robot colours from it.
+tools/fleet_figures.py (the figures of tools/fleet_report.py), tools/plot_partition.py,
+tools/paper_report.py) must be the same table, and the Python plots must take their robot colours
+from it.
 
     python3 tests/tools/test_palette.py      prints "N passed, M failed", exit 1 on failure
 """
@@ -61,7 +62,7 @@ def python_plots_take_robot_colours_from_the_palette():
             text = f.read()
         check('get_cmap("tab10")' not in text and "get_cmap('tab10')" not in text,
               f"{os.path.basename(p)}: a colour map of its own for the robots; use palette.robot_colour")
-    for name in ("fleet_report.py", "plot_partition.py", "paper_report.py"):
+    for name in ("fleet_figures.py", "plot_partition.py", "paper_report.py"):
         with open(os.path.join(ROOT, "tools", name)) as f:
             check("from palette import robot_colour" in f.read(), f"{name} does not use tools/palette.py")
 
@@ -72,13 +73,13 @@ def fleet_report_tours_in_robot_colours():
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
     import numpy as np
-    import fleet_report
+    import fleet_figures
 
     class Run:
         tours = {i: np.array([[0.0, float(i)], [1.0, float(i)]]) for i in range(3)}
 
     fig, ax = plt.subplots()
-    fleet_report.draw_tours(ax, Run())
+    fleet_figures.draw_tours(ax, Run())
     lines = [l for l in ax.get_lines() if l.get_label().startswith("robot ")]
     check(len(lines) == 3, f"{len(lines)} tour lines")
     for line in lines:
@@ -90,12 +91,13 @@ def fleet_report_tours_in_robot_colours():
 
 @test
 def one_colour_map_per_quantity():
-    """fleet_report.py takes every colour map from palette.QUANTITY_CMAP (none of its own), and no
-    two quantities share one."""
-    with open(os.path.join(ROOT, "tools", "fleet_report.py")) as f:
-        text = f.read()
-    for name in set(palette.QUANTITY_CMAP.values()) | {"magma", "viridis", "gray_r", "inferno", "gray"}:
-        check(f'"{name}"' not in text and f"'{name}'" not in text, f"fleet_report.py names colour map {name}")
+    """fleet_report.py and fleet_figures.py (its figures) take every colour map from
+    palette.QUANTITY_CMAP (none of their own), and no two quantities share one."""
+    for tool in ("fleet_report.py", "fleet_figures.py"):
+        with open(os.path.join(ROOT, "tools", tool)) as f:
+            text = f.read()
+        for name in set(palette.QUANTITY_CMAP.values()) | {"magma", "viridis", "gray_r", "inferno", "gray"}:
+            check(f'"{name}"' not in text and f"'{name}'" not in text, f"{tool} names colour map {name}")
     check(len(set(palette.QUANTITY_CMAP.values())) == len(palette.QUANTITY_CMAP), "two quantities share a map")
     import matplotlib
     for q, name in palette.QUANTITY_CMAP.items():
