@@ -7,7 +7,7 @@ import os
 import re
 import subprocess
 
-from fleet_common import DEFAULT_PATHS, DEFAULT_PLAN, fail, oserror, refuse, run_quiet, shown
+from fleet_common import DEFAULT_PATHS, DEFAULT_PLAN, fail, oserror, refuse, shown
 
 class Parser(argparse.ArgumentParser):
     """argparse with a one-line error (no usage block before it), exit 2."""
@@ -97,47 +97,48 @@ def check_extra(a, hs):
         i += 1
 
 
+def host_refusal_of(cmd, sub, cannot, timeout=30, stdout=subprocess.DEVNULL):
+    """host_sim's one-line reason when it refuses cmd (a check: a parse ended by --help, a file
+    checked), None when it accepts it; exit 2 saying `cannot` when it does not run within timeout."""
+    try:
+        res = subprocess.run(cmd, stdout=stdout, stderr=subprocess.PIPE, text=True, timeout=timeout)
+    except (OSError, subprocess.TimeoutExpired) as e:
+        fail(f"{cannot} ({e})", 2)
+    return host_refusal(res, sub) if res.returncode != 0 else None
+
+
 def check_run_options(a, hs, cmd):
     """The robots' command line (cmd: host_sim run and its options, with --extra's) as host_sim run
     parses it, each value checked against its range and syntax (--rounds, --net-faults, ...), but
     not run: --help ends the parse after them. Exit 2 with host_sim's reason."""
-    try:
-        res = subprocess.run(cmd + ["--help"], stdout=subprocess.DEVNULL, stderr=subprocess.PIPE, text=True,
-                             timeout=30)
-    except (OSError, subprocess.TimeoutExpired) as e:
-        fail(f"{hs} run cannot check the robots' options ({e})", 2)
-    if res.returncode != 0:
-        refuse(f"{host_refusal(res, 'run')} (host_sim run refuses it)")
+    why = host_refusal_of(cmd + ["--help"], "run", f"{hs} run cannot check the robots' options")
+    if why is not None:
+        refuse(f"{why} (host_sim run refuses it)")
 
 
 def check_maps_options(a, hs):
     """The consensus map's options as `host_sim maps` parses them (not run); exit 2 with its reason."""
-    try:
-        res = subprocess.run([hs, "maps", "--res", str(a.map_res), "--mc", str(a.mc), "--seed", str(a.seed), "--help"],
-                             stdout=subprocess.DEVNULL, stderr=subprocess.PIPE, text=True, timeout=30)
-    except (OSError, subprocess.TimeoutExpired) as e:
-        fail(f"{hs} maps cannot check the map's options ({e})", 2)
-    if res.returncode != 0:
-        refuse(f"{host_refusal(res, 'maps').replace('--res', '--map-res')} (host_sim maps refuses it)")
+    why = host_refusal_of([hs, "maps", "--res", str(a.map_res), "--mc", str(a.mc), "--seed", str(a.seed), "--help"],
+                          "maps", f"{hs} maps cannot check the map's options")
+    if why is not None:
+        refuse(f"{why.replace('--res', '--map-res')} (host_sim maps refuses it)")
 
 
 def check_tour_files(a, hs, paths):
     """The tours against the plan (`host_sim paths check`: every waypoint free, every segment
     clear of the walls); exit 2 with the first reason (FILE:LINE)."""
-    try:
-        res = subprocess.run([hs, "paths", "check", "--plan", a.plan] + paths, stdout=subprocess.PIPE,
-                             stderr=subprocess.PIPE, text=True, timeout=120)
-    except (OSError, subprocess.TimeoutExpired) as e:
-        fail(f"cannot check the tours ({e})", 2)
-    if res.returncode != 0:
-        refuse(f"--paths {a.paths}: not tours of --plan {shown(a.plan)}: {host_refusal(res, 'paths check')}")
+    why = host_refusal_of([hs, "paths", "check", "--plan", a.plan] + paths, "paths check", "cannot check the tours",
+                          timeout=120, stdout=subprocess.PIPE)
+    if why is not None:
+        refuse(f"--paths {a.paths}: not tours of --plan {shown(a.plan)}: {why}")
 
 
 def check_key(a, hs):
     """--key-file as the robots will read it (`host_sim key check`); exit 2 with the reason."""
-    res = run_quiet([hs, "key", "check", a.key_file])
-    if res.returncode != 0:
-        refuse(f"--key-file: {host_refusal(res, 'key')}")
+    why = host_refusal_of([hs, "key", "check", a.key_file], "key", f"{hs} key cannot check --key-file",
+                          stdout=subprocess.PIPE)
+    if why is not None:
+        refuse(f"--key-file: {why}")
 
 
 def tour_count(folder):
