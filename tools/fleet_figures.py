@@ -7,12 +7,11 @@ import glob
 import math
 import os
 import re
-import subprocess
 import sys
 
 sys.path.insert(0, os.path.dirname(os.path.realpath(__file__)))
 from palette import robot_colour, quantity_cmap, THRESHOLD_COLOUR  # noqa: E402  (one colour per robot, one colour map per quantity)
-from fleet_io import MAP_KINDS, load_npy, resolve_tour, write_atomic, yaml_scalars  # noqa: E402
+from fleet_io import MAP_KINDS, load_npy, resolve_tour, round_map, write_atomic, yaml_scalars  # noqa: E402
 sys.path.pop(0)
 
 HITS_BIN_M = 0.1          # kde.png's bins (m)
@@ -361,21 +360,11 @@ def make_strip(run, n, host_sim=None):
     for r in pick_evenly(rounds, n):
         models = [run.p(f"robot_{i}", f"round_{r:04d}.bnn") for i in run.robots]
         out = run.p("maps", "rounds", f"round_{r:04d}")
+        why = round_map(exe, plan, models, out, res, mc, seed)
+        if why is not None:
+            run.note(f"map_rounds.png: host_sim maps of round {r} {why}")
+            return
         npy = os.path.join(out, "map_mean.npy")
-        fresh = os.path.isfile(npy) and os.path.getmtime(npy) >= max(os.path.getmtime(m) for m in models)
-        if not fresh:
-            cmd = [exe, "maps", "--plan", plan, "--out", out, "--res", str(res), "--mc", str(mc),
-                   "--seed", str(seed)] + models
-            try:
-                p = subprocess.run(cmd, capture_output=True, text=True, timeout=600)
-            except (OSError, subprocess.TimeoutExpired) as e:
-                run.note(f"map_rounds.png: host_sim maps of round {r} did not run ({e})")
-                return
-            if p.returncode != 0 or not os.path.isfile(npy):
-                why = (p.stderr or p.stdout).strip().splitlines()
-                run.note(f"map_rounds.png: host_sim maps of round {r} failed (exit {p.returncode}"
-                         + (f": {why[-1]}" if why else "") + ")")
-                return
         strip.append((r, load_npy(np, npy)))
     run.strip = strip
     run.strip_rounds = rounds

@@ -97,3 +97,31 @@ def _unlink(p):
         os.unlink(p)
     except OSError:
         pass
+
+
+def round_map(exe, plan, models, out, res, mc, seed, timeout=600):
+    """The consensus map of one round's checkpoints (`host_sim maps` of `models` into `out`), made
+    once for the report's strip and the MCAP log alike: kept while its map_mean.npy is newer than
+    every model and its map_meta.json names the same res, mc and seed. None when the map is there,
+    else why it could not be made (one line)."""
+    import json
+    import subprocess
+    npy, meta_path = os.path.join(out, "map_mean.npy"), os.path.join(out, "map_meta.json")
+    try:
+        with open(meta_path) as f:
+            meta = json.load(f)
+        fresh = (os.path.getmtime(npy) >= max(os.path.getmtime(m) for m in models) and
+                 (meta.get("res"), meta.get("mc"), meta.get("seed")) == (float(res), int(mc), int(seed)))
+    except (OSError, ValueError, AttributeError):
+        fresh = False
+    if fresh:
+        return None
+    cmd = [exe, "maps", "--plan", plan, "--out", out, "--res", str(res), "--mc", str(mc), "--seed", str(seed)] + models
+    try:
+        p = subprocess.run(cmd, capture_output=True, text=True, timeout=timeout)
+    except (OSError, subprocess.TimeoutExpired) as e:
+        return f"did not run ({e})"
+    if p.returncode != 0 or not os.path.isfile(npy):
+        why = (p.stderr or p.stdout).strip().splitlines()
+        return f"failed (exit {p.returncode}" + (f": {why[-1]}" if why else "") + ")"
+    return None

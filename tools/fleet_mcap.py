@@ -54,7 +54,6 @@ import math
 import os
 import re
 import shutil
-import subprocess
 import sys
 import tempfile
 
@@ -384,11 +383,13 @@ def maps_from(log, mdir, t_ns):
 
 
 def run_maps(host_sim, plan, models, out, run_json):
-    cmd = [host_sim, "maps", "--plan", plan, "--out", out, "--res", str(run_json.get("map_res_m", 0.05)),
-           "--mc", str(run_json.get("mc", 50)), "--seed", str(run_json.get("seed", 1))] + models
-    res = subprocess.run(cmd, stdout=subprocess.PIPE, stderr=subprocess.STDOUT, text=True)
-    if res.returncode != 0:
-        raise RunError(f"{' '.join(cmd)} failed:\n{res.stdout.rstrip()}")
+    """host_sim maps of models into out, with the run's grid, MC passes and seed; a map already
+    there of the same models and settings (the report's strip, maps/rounds/) is used as it is."""
+    from fleet_io import round_map
+    why = round_map(host_sim, plan, models, out, run_json.get("map_res_m", 0.05), run_json.get("mc", 50),
+                    run_json.get("seed", 1))
+    if why is not None:
+        raise RunError(f"host_sim maps of {len(models)} checkpoint(s) into {out} {why}")
 
 
 def maps(log, run_dir, robots, metrics, run_json, host_sim, plan):
@@ -412,7 +413,7 @@ def maps(log, run_dir, robots, metrics, run_json, host_sim, plan):
             rounds = sorted(k for k in (kept or ()) if k in per_round)
             skipped = sorted((kept or set()) - set(rounds))
             for k in rounds:
-                out = os.path.join(tmp, f"r{k}")
+                out = os.path.join(run_dir, "maps", "rounds", f"round_{k:04d}")
                 run_maps(host_sim, plan, [os.path.join(d, f"round_{k:04d}.bnn") for _, d in robots], out, run_json)
                 maps_from(log, out, ns(per_round[k]))
             say(f"maps of rounds {rounds or 'none'} (the checkpoints every robot kept)" +
