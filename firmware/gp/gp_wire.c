@@ -53,14 +53,18 @@ typedef struct wire_msg {
 #define CHUNK_CHECK(...) CHECK(gp_pse_chunk_t, __VA_ARGS__)
 #define DONE_CHECK(...) CHECK(gp_pse_done_t, __VA_ARGS__)
 #define REQUEST_CHECK(...) CHECK(gp_pse_request_t, __VA_ARGS__)
+#define CLAIM_FIELD(...) FIELD(gp_goal_claim_t, __VA_ARGS__)
+#define CLAIM_CHECK(...) CHECK(gp_goal_claim_t, __VA_ARGS__)
 
 MSG_STATE_CHUNK_FIELDS(CHUNK_CHECK)
 MSG_ROUND_COMPLETE_FIELDS(DONE_CHECK)
 MSG_CHUNK_REQUEST_FIELDS(REQUEST_CHECK)
+MSG_GOAL_CLAIM_FIELDS(CLAIM_CHECK)
 
 static const wire_field_t CHUNK_FIELDS[] = {MSG_STATE_CHUNK_FIELDS(CHUNK_FIELD)};
 static const wire_field_t DONE_FIELDS[] = {MSG_ROUND_COMPLETE_FIELDS(DONE_FIELD)};
 static const wire_field_t REQUEST_FIELDS[] = {MSG_CHUNK_REQUEST_FIELDS(REQUEST_FIELD)};
+static const wire_field_t CLAIM_FIELDS[] = {MSG_GOAL_CLAIM_FIELDS(CLAIM_FIELD)};
 
 static const wire_msg_t CHUNK = {MSG_STATE_CHUNK_FINGERPRINT, MSG_STATE_CHUNK_FIXED_BYTES, MSG_STATE_CHUNK_N_FIELDS,
                                  CHUNK_FIELDS};
@@ -68,10 +72,14 @@ static const wire_msg_t DONE = {MSG_ROUND_COMPLETE_FINGERPRINT, MSG_ROUND_COMPLE
                                 MSG_ROUND_COMPLETE_N_FIELDS, DONE_FIELDS};
 static const wire_msg_t REQUEST = {MSG_CHUNK_REQUEST_FINGERPRINT, MSG_CHUNK_REQUEST_FIXED_BYTES,
                                    MSG_CHUNK_REQUEST_N_FIELDS, REQUEST_FIELDS};
+static const wire_msg_t CLAIM = {MSG_GOAL_CLAIM_FINGERPRINT, MSG_GOAL_CLAIM_FIXED_BYTES, MSG_GOAL_CLAIM_N_FIELDS,
+                                 CLAIM_FIELDS};
 
 _Static_assert(sizeof CHUNK_FIELDS / sizeof CHUNK_FIELDS[0] == MSG_STATE_CHUNK_N_FIELDS, "one entry per field");
 _Static_assert(sizeof DONE_FIELDS / sizeof DONE_FIELDS[0] == MSG_ROUND_COMPLETE_N_FIELDS, "one entry per field");
 _Static_assert(sizeof REQUEST_FIELDS / sizeof REQUEST_FIELDS[0] == MSG_CHUNK_REQUEST_N_FIELDS, "one entry per field");
+_Static_assert(sizeof CLAIM_FIELDS / sizeof CLAIM_FIELDS[0] == MSG_GOAL_CLAIM_N_FIELDS, "one entry per field");
+_Static_assert(MSG_GOAL_CLAIM_N_FIELDS <= 16, "a message has at most MAX_FIELDS fields");
 /* Length fields index a small array below; a walk may count on at most this many fields. */
 #define MAX_FIELDS 16
 _Static_assert(MSG_STATE_CHUNK_N_FIELDS <= MAX_FIELDS && MSG_ROUND_COMPLETE_N_FIELDS <= MAX_FIELDS &&
@@ -287,5 +295,24 @@ int gp_wire_decode_request(const uint8_t *buf, size_t len, gp_pse_request_t *out
         if (!NONNEG(r.chunks[i]))
             return -EBADMSG;
     *out = r;
+    return 0;
+}
+
+int gp_wire_encode_claim(const gp_goal_claim_t *c, uint8_t *buf, size_t cap)
+{
+    return encode(&CLAIM, c, buf, cap);
+}
+
+int gp_wire_decode_claim(const uint8_t *buf, size_t len, gp_goal_claim_t *out)
+{
+    gp_goal_claim_t c;
+    memset(&c, 0, sizeof c);
+    if (out == NULL || decode(&CLAIM, buf, len, &c) != 0)
+        return -EBADMSG;
+    /* expiry_us is an int64 on the wire: the top bit set is a negative time. */
+    if (!NONNEG(c.sender) || !NONNEG(c.seq) || !isfinite(c.x_m) || !isfinite(c.y_m) || !isfinite(c.cost_m) ||
+        c.cost_m < 0.0 || (c.expiry_us >> 63) != 0u)
+        return -EBADMSG;
+    *out = c;
     return 0;
 }

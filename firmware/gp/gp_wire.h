@@ -19,6 +19,7 @@
 #include <stddef.h>
 #include <stdint.h>
 
+#include "gp/gp_goal.h"
 #include "gp/gp_pse.h"
 
 /* gp_pse_request_t calls chunk_request_t's n_chunks `n`; every other field is its member's name. */
@@ -28,20 +29,27 @@
 #define GP_WIRE_FP_STATE_CHUNK MSG_STATE_CHUNK_FINGERPRINT
 #define GP_WIRE_FP_ROUND_COMPLETE MSG_ROUND_COMPLETE_FINGERPRINT
 #define GP_WIRE_FP_CHUNK_REQUEST MSG_CHUNK_REQUEST_FINGERPRINT
+#define GP_WIRE_FP_GOAL_CLAIM MSG_GOAL_CLAIM_FINGERPRINT
 
 /* Bytes of each message on the wire: a chunk's header (its data follows), a RoundComplete, a
  * request naming n chunks (4 bytes each: gp_wire.c checks the element size). */
 #define GP_WIRE_CHUNK_HEADER_BYTES MSG_STATE_CHUNK_FIXED_BYTES
 #define GP_WIRE_DONE_BYTES MSG_ROUND_COMPLETE_FIXED_BYTES
 #define GP_WIRE_REQUEST_BYTES(n) (MSG_CHUNK_REQUEST_FIXED_BYTES + 4u * (uint32_t)(n))
+/* An exploration claim (gp_goal.h): fixed size, 48 bytes (plus the keyed fleet's trailer). */
+#define GP_WIRE_CLAIM_BYTES MSG_GOAL_CLAIM_FIXED_BYTES
 
 /* Writes the message into buf: its length, or -EMSGSIZE when cap is too small. */
 int gp_wire_encode_chunk(const gp_pse_chunk_t *c, uint8_t *buf, size_t cap);
 int gp_wire_encode_done(const gp_pse_done_t *d, uint8_t *buf, size_t cap);
 int gp_wire_encode_request(const gp_pse_request_t *r, uint8_t *buf, size_t cap);
+int gp_wire_encode_claim(const gp_goal_claim_t *c, uint8_t *buf, size_t cap);
 
 FS_MUST_CHECK int gp_wire_decode_chunk(const uint8_t *buf, size_t len, gp_pse_chunk_t *c);
 FS_MUST_CHECK int gp_wire_decode_done(const uint8_t *buf, size_t len, gp_pse_done_t *d);
 FS_MUST_CHECK int gp_wire_decode_request(const uint8_t *buf, size_t len, gp_pse_request_t *r);
+/* A claim's own checks here: sender and seq non-negative, x_m, y_m, cost_m finite, cost_m >= 0,
+ * expiry_us non-negative; the fleet's, the map's and the clock's are gp_goal_on_claim's. */
+FS_MUST_CHECK int gp_wire_decode_claim(const uint8_t *buf, size_t len, gp_goal_claim_t *c);
 
 #endif /* GP_GP_WIRE_H */

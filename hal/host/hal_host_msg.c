@@ -26,8 +26,9 @@ typedef struct layout {
 static const field_t STATE_CHUNK[] = {MSG_STATE_CHUNK_FIELDS(FIELD)};
 static const field_t ROUND_COMPLETE[] = {MSG_ROUND_COMPLETE_FIELDS(FIELD)};
 static const field_t CHUNK_REQUEST[] = {MSG_CHUNK_REQUEST_FIELDS(FIELD)};
+static const field_t GOAL_CLAIM[] = {MSG_GOAL_CLAIM_FIELDS(FIELD)};
 _Static_assert(MSG_STATE_CHUNK_N_FIELDS <= MAX_FIELDS && MSG_ROUND_COMPLETE_N_FIELDS <= MAX_FIELDS &&
-                   MSG_CHUNK_REQUEST_N_FIELDS <= MAX_FIELDS,
+                   MSG_CHUNK_REQUEST_N_FIELDS <= MAX_FIELDS && MSG_GOAL_CLAIM_N_FIELDS <= MAX_FIELDS,
                "a message has at most MAX_FIELDS fields");
 
 /* A field's big-endian value as its signed integer (a count; only scalars are read). */
@@ -47,6 +48,7 @@ hal_host_msg_reject_t hal_host_msg_check(hal_host_msg_type_t type, const void *d
         [HAL_HOST_MSG_STATE_CHUNK] = {MSG_STATE_CHUNK_FINGERPRINT, MSG_STATE_CHUNK_N_FIELDS, STATE_CHUNK},
         [HAL_HOST_MSG_ROUND_COMPLETE] = {MSG_ROUND_COMPLETE_FINGERPRINT, MSG_ROUND_COMPLETE_N_FIELDS, ROUND_COMPLETE},
         [HAL_HOST_MSG_CHUNK_REQUEST] = {MSG_CHUNK_REQUEST_FINGERPRINT, MSG_CHUNK_REQUEST_N_FIELDS, CHUNK_REQUEST},
+        [HAL_HOST_MSG_GOAL_CLAIM] = {MSG_GOAL_CLAIM_FINGERPRINT, MSG_GOAL_CLAIM_N_FIELDS, GOAL_CLAIM},
     };
     if (type == HAL_HOST_MSG_ANY)
         return HAL_HOST_MSG_OK;

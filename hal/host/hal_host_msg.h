@@ -22,6 +22,7 @@ typedef enum hal_host_msg_type {
     HAL_HOST_MSG_STATE_CHUNK,      /* fleetsim.state_chunk_t */
     HAL_HOST_MSG_ROUND_COMPLETE,   /* fleetsim.round_complete_t */
     HAL_HOST_MSG_CHUNK_REQUEST,    /* fleetsim.chunk_request_t */
+    HAL_HOST_MSG_GOAL_CLAIM,       /* fleetsim.goal_claim_t (gp_goal.h's exploration claims) */
     HAL_HOST_MSG_TYPE_COUNT
 } hal_host_msg_type_t;
 

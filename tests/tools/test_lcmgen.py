@@ -74,7 +74,7 @@ def fingerprints_are_lcm_gens():
         paths = FLEET_LCM + [every]
         theirs = lcm_gen_fingerprints(paths, d)
         ours = {m.name: m.fingerprint for m in lcmgen.parse(paths).values()}
-        check(set(theirs) == {"state_chunk_t", "round_complete_t", "chunk_request_t", "every_t"}, theirs)
+        check(set(theirs) == {"state_chunk_t", "round_complete_t", "chunk_request_t", "goal_claim_t", "every_t"}, theirs)
         check(ours == theirs, f"ours {ours}\nlcm-gen {theirs}")
         # the constants the fleet has always used (firmware, logs, peers of older builds)
         check(ours["state_chunk_t"] == 0xDF65602B2D04BF15, hex(ours["state_chunk_t"]))

@@ -1,0 +1,299 @@
+/* Exploration goals and their claims: see gp_goal.h for the contract. */
+#include "gp/gp_goal.h"
+
+#include <errno.h>
+#include <math.h>
+#include <string.h>
+
+#define UNREACHED 0xFFFFu
+/* Seq is an int32 on the wire, non-negative: 2^31 claims are 6.8 years at 10 Hz. */
+#define SEQ_MAX 0x7FFFFFFFu
+
+static int finite_nonneg(double v)
+{
+    return isfinite(v) && v >= 0.0;
+}
+
+int gp_goal_init(gp_goal_t *g, const gp_goal_cfg_t *cfg)
+{
+    if (g == NULL || cfg == NULL)
+        return -EINVAL;
+    if (cfg->n_peers < 1u || cfg->n_peers > GP_GOAL_MAX_FLEET || cfg->self >= cfg->n_peers || cfg->w < 1u ||
+        cfg->w > GP_GOAL_MAX_W || cfg->h < 1u || cfg->h > GP_GOAL_MAX_H || !isfinite(cfg->res_m) ||
+        cfg->res_m <= 0.0 || !isfinite(cfg->origin_x_m) || !isfinite(cfg->origin_y_m) || cfg->occ_max == 0u ||
+        !finite_nonneg(cfg->sensor_radius_m) || !finite_nonneg(cfg->lambda) || !isfinite(cfg->min_info_m2) ||
+        cfg->min_info_m2 <= 0.0 || !finite_nonneg(cfg->claim_radius_m) || !finite_nonneg(cfg->claim_discount) ||
+        cfg->claim_discount > 1.0 || cfg->claim_period_us == 0u || cfg->claim_lifetime_us <= cfg->claim_period_us ||
+        cfg->claim_lifetime_us > cfg->claim_max_lifetime_us || cfg->claim_max_lifetime_us > GP_GOAL_MAX_LIFETIME_US)
+        return -EINVAL;
+    /* The map's corners must stay finite too (a huge origin or cell would overflow them). */
+    if (!isfinite(cfg->origin_x_m + cfg->res_m * cfg->w) || !isfinite(cfg->origin_y_m + cfg->res_m * cfg->h))
+        return -EINVAL;
+    memset(g, 0, sizeof *g);
+    g->cfg = *cfg;
+    return 0;
+}
+
+/* The cell holding (x, y), or -EINVAL outside the map. The half-open bounds [origin, origin +
+ * w res) make every point belong to exactly one cell. */
+static int cell_of(const gp_goal_cfg_t *cfg, double x_m, double y_m, uint32_t *cell)
+{
+    if (!isfinite(x_m) || !isfinite(y_m))
+        return -EINVAL;
+    const double fx = (x_m - cfg->origin_x_m) / cfg->res_m, fy = (y_m - cfg->origin_y_m) / cfg->res_m;
+    if (!(fx >= 0.0 && fx < (double)cfg->w && fy >= 0.0 && fy < (double)cfg->h))
+        return -EINVAL;
+    uint32_t cx = (uint32_t)fx, cy = (uint32_t)fy;
+    /* Rounding of the division may land exactly on w or h for a point just inside. */
+    if (cx >= cfg->w)
+        cx = cfg->w - 1u;
+    if (cy >= cfg->h)
+        cy = cfg->h - 1u;
+    *cell = cy * cfg->w + cx;
+    return 0;
+}
+
+static double centre(double origin, double res, uint32_t i)
+{
+    return origin + ((double)i + 0.5) * res;
+}
+
+/* Breadth-first search from our cell over traversable cells, neighbours in a fixed order
+ * (-x, +x, -y, +y), so the steps are a pure function of the grid: 4-connected steps of one
+ * cell are the cost, which a coarse grid makes good enough for ranking goals and cheap
+ * (one pass, no heap). */
+static void search(gp_goal_t *g, const gp_goal_grid_t *grid, uint32_t start)
+{
+    const uint32_t w = g->cfg.w, n = w * g->cfg.h;
+    for (uint32_t i = 0; i < n; i++)
+        g->steps[i] = UNREACHED;
+    g->steps[start] = 0;
+    g->queue[0] = (uint16_t)start;
+    uint32_t head = 0, tail = 1;
+    while (head < tail) {
+        const uint32_t c = g->queue[head++], cx = c % w, cy = c / w;
+        const uint32_t nb[4] = {cx > 0u ? c - 1u : UINT32_MAX, cx + 1u < w ? c + 1u : UINT32_MAX,
+                                cy > 0u ? c - w : UINT32_MAX, cy + 1u < g->cfg.h ? c + w : UINT32_MAX};
+        for (int k = 0; k < 4; k++) {
+            const uint32_t m = nb[k];
+            if (m == UINT32_MAX || g->steps[m] != UNREACHED || grid->occ[m] >= g->cfg.occ_max)
+                continue;
+            g->steps[m] = (uint16_t)(g->steps[c] + 1u);
+            g->queue[tail++] = (uint16_t)m;
+        }
+    }
+}
+
+/* sat[(y + 1) (w + 1) + x + 1] = the sum of known over cells [0, x] x [0, y]: any window's sum
+ * in four reads, so the info of every cell costs O(cells), whatever the sensor radius. */
+static void summed_area(gp_goal_t *g, const gp_goal_grid_t *grid)
+{
+    const uint32_t w = g->cfg.w, h = g->cfg.h, s = w + 1u;
+    memset(g->sat, 0, sizeof g->sat[0] * s * (h + 1u));
+    for (uint32_t y = 0; y < h; y++)
+        for (uint32_t x = 0; x < w; x++)
+            g->sat[(y + 1u) * s + x + 1u] =
+                grid->known[y * w + x] + g->sat[y * s + x + 1u] + g->sat[(y + 1u) * s + x] - g->sat[y * s + x];
+}
+
+static uint32_t window_sum(const gp_goal_t *g, uint32_t cx, uint32_t cy, uint32_t r)
+{
+    const uint32_t w = g->cfg.w, h = g->cfg.h, s = w + 1u;
+    const uint32_t x0 = cx > r ? cx - r : 0u, y0 = cy > r ? cy - r : 0u;
+    const uint32_t x1 = cx + r < w ? cx + r + 1u : w, y1 = cy + r < h ? cy + r + 1u : h;
+    return g->sat[y1 * s + x1] - g->sat[y0 * s + x1] - g->sat[y1 * s + x0] + g->sat[y0 * s + x0];
+}
+
+/* Drops the claims whose expiry passed (expiry <= now: a claim lives until its expiry). */
+static void expire(gp_goal_t *g, uint64_t now_us)
+{
+    for (uint32_t i = 0; i < GP_GOAL_MAX_CLAIMS; i++)
+        if (g->claims[i].used && g->claims[i].c.expiry_us <= now_us) {
+            g->claims[i].used = 0;
+            g->stats.claims_expired++;
+        }
+}
+
+/* The discount of every cell from the claims their claimants keep against us (see the header's
+ * rule): the claimant compares its own cost with ours to the same goal, so both robots reach
+ * the same verdict from the same two costs, and the lower id settles a tie the same way on
+ * both sides. */
+static void apply_claims(gp_goal_t *g)
+{
+    const gp_goal_cfg_t *cfg = &g->cfg;
+    const uint32_t n = cfg->w * cfg->h;
+    for (uint32_t i = 0; i < n; i++)
+        g->discount[i] = 1.0;
+    const double r = cfg->claim_radius_m, r2 = r * r;
+    for (uint32_t k = 0; k < GP_GOAL_MAX_CLAIMS; k++) {
+        const gp_goal_held_t *hc = &g->claims[k];
+        uint32_t gc;
+        if (!hc->used || cell_of(cfg, hc->c.x_m, hc->c.y_m, &gc) != 0)
+            continue;
+        if (g->steps[gc] != UNREACHED) {
+            const double ours = g->steps[gc] * cfg->res_m;
+            if (hc->c.cost_m > ours || (hc->c.cost_m == ours && hc->c.sender > cfg->self))
+                continue; /* we are nearer: the claim does not hold against us */
+        }
+        /* Cells whose centre lies within the claim radius of the claimed point. */
+        const double fx0 = floor((hc->c.x_m - r - cfg->origin_x_m) / cfg->res_m);
+        const double fy0 = floor((hc->c.y_m - r - cfg->origin_y_m) / cfg->res_m);
+        const uint32_t x0 = fx0 > 0.0 ? (uint32_t)fx0 : 0u, y0 = fy0 > 0.0 ? (uint32_t)fy0 : 0u;
+        for (uint32_t y = y0; y < cfg->h; y++) {
+            const double dy = centre(cfg->origin_y_m, cfg->res_m, y) - hc->c.y_m;
+            if (dy > r)
+                break;
+            for (uint32_t x = x0; x < cfg->w; x++) {
+                const double dx = centre(cfg->origin_x_m, cfg->res_m, x) - hc->c.x_m;
+                if (dx > r)
+                    break;
+                if (dx * dx + dy * dy <= r2)
+                    g->discount[y * cfg->w + x] *= cfg->claim_discount;
+            }
+        }
+    }
+}
+
+/* Our claim of our current goal, with the next seq and a fresh expiry. */
+static void send_claim(gp_goal_t *g, uint64_t now_us)
+{
+    if (g->sent_any && g->seq < SEQ_MAX)
+        g->seq++;
+    g->sent_any = 1;
+    g->sent_us = now_us;
+    if (g->cfg.send == NULL)
+        return;
+    const gp_goal_claim_t c = {g->cfg.self, g->seq, g->goal.x_m, g->goal.y_m, g->goal.cost_m,
+                               now_us + g->cfg.claim_lifetime_us};
+    if (g->cfg.send(g->cfg.send_ctx, &c) == 0)
+        g->stats.claims_sent++;
+    else
+        g->stats.send_failures++;
+}
+
+int gp_goal_select(gp_goal_t *g, const gp_goal_grid_t *grid, double x_m, double y_m, uint64_t now_us,
+                                 gp_goal_pick_t *out)
+{
+    uint32_t start;
+    if (g == NULL || grid == NULL || out == NULL || cell_of(&g->cfg, x_m, y_m, &start) != 0)
+        return -EINVAL;
+    const gp_goal_cfg_t *cfg = &g->cfg;
+    expire(g, now_us);
+    search(g, grid, start);
+    summed_area(g, grid);
+    apply_claims(g);
+    /* The window's half side in cells; beyond the grid it changes nothing, so it is capped
+     * there (which also keeps the sums' indices small). */
+    double rr = floor(cfg->sensor_radius_m / cfg->res_m + 0.5);
+    const uint32_t r = rr > (double)GP_GOAL_MAX_W + GP_GOAL_MAX_H ? GP_GOAL_MAX_W + GP_GOAL_MAX_H : (uint32_t)rr;
+    const double cell_m2 = cfg->res_m * cfg->res_m;
+    int found = 0;
+    gp_goal_pick_t best = {0};
+    for (uint32_t c = 0; c < cfg->w * cfg->h; c++) {
+        if (g->steps[c] == UNREACHED || grid->occ[c] >= cfg->occ_max || g->discount[c] <= 0.0)
+            continue;
+        const uint32_t cx = c % cfg->w, cy = c / cfg->w;
+        const double info = window_sum(g, cx, cy, r) / 255.0 * cell_m2;
+        if (info < cfg->min_info_m2)
+            continue;
+        const double cost = g->steps[c] * cfg->res_m, info_d = info * g->discount[c];
+        const double u = info_d - cfg->lambda * cost;
+        /* Strictly greater: the first (lowest) index wins a tie. */
+        if (!found || u > best.utility) {
+            found = 1;
+            best = (gp_goal_pick_t){c,      centre(cfg->origin_x_m, cfg->res_m, cx),
+                                    centre(cfg->origin_y_m, cfg->res_m, cy),
+                                    info_d, cost, u};
+        }
+    }
+    if (!found) {
+        g->has_goal = 0;
+        return -ENOENT;
+    }
+    const int changed = !g->has_goal || g->goal.cell != best.cell;
+    g->goal = best;
+    g->has_goal = 1;
+    if (changed) {
+        g->stats.goal_changes++;
+        send_claim(g, now_us);
+    } else if (now_us - g->sent_us >= cfg->claim_period_us) {
+        send_claim(g, now_us);
+    }
+    *out = best;
+    return 0;
+}
+
+void gp_goal_poll(gp_goal_t *g, uint64_t now_us)
+{
+    if (g == NULL)
+        return;
+    expire(g, now_us);
+    if (g->has_goal && g->sent_any && now_us - g->sent_us >= g->cfg.claim_period_us)
+        send_claim(g, now_us);
+}
+
+int gp_goal_on_claim(gp_goal_t *g, const gp_goal_claim_t *c, uint64_t now_us)
+{
+    if (g == NULL || c == NULL)
+        return -EINVAL;
+    const gp_goal_cfg_t *cfg = &g->cfg;
+    uint32_t cell;
+    /* The longest path a claimant can have on the grid: every cell once. */
+    const double max_cost = (double)cfg->w * cfg->h * cfg->res_m;
+    if (c->sender >= cfg->n_peers || c->sender == cfg->self || c->seq > SEQ_MAX ||
+        cell_of(cfg, c->x_m, c->y_m, &cell) != 0 || !finite_nonneg(c->cost_m) || c->cost_m > max_cost ||
+        (c->expiry_us > now_us && c->expiry_us - now_us > cfg->claim_max_lifetime_us)) {
+        g->stats.claims_invalid++;
+        return -EBADMSG;
+    }
+    if (c->expiry_us <= now_us) {
+        g->stats.claims_late++;
+        return -ESTALE;
+    }
+    /* Expired claims go first: an older seq of the same robot then gets in only with an
+     * expiry still ahead, which its newer claim (sent later, expiring later) would beat. */
+    expire(g, now_us);
+    uint32_t slot = GP_GOAL_MAX_CLAIMS, soonest = GP_GOAL_MAX_CLAIMS;
+    for (uint32_t i = 0; i < GP_GOAL_MAX_CLAIMS; i++) {
+        const gp_goal_held_t *hc = &g->claims[i];
+        if (hc->used && hc->c.sender == c->sender) {
+            if (c->seq < hc->c.seq) {
+                g->stats.claims_reordered++;
+                return -ESTALE;
+            }
+            if (c->seq == hc->c.seq) {
+                g->stats.claims_duplicate++;
+                return -EALREADY;
+            }
+            slot = i;
+            break;
+        }
+        if (!hc->used && slot == GP_GOAL_MAX_CLAIMS)
+            slot = i; /* the first free one, unless the sender is held further on */
+        if (hc->used && (soonest == GP_GOAL_MAX_CLAIMS || hc->c.expiry_us < g->claims[soonest].c.expiry_us))
+            soonest = i;
+    }
+    if (slot == GP_GOAL_MAX_CLAIMS) {
+        if (soonest == GP_GOAL_MAX_CLAIMS || g->claims[soonest].c.expiry_us >= c->expiry_us) {
+            g->stats.claims_full++;
+            return -ENOSPC;
+        }
+        slot = soonest;
+    }
+    g->claims[slot].c = *c;
+    g->claims[slot].used = 1;
+    g->stats.claims_taken++;
+    return 0;
+}
+
+int gp_goal_claim_of(const gp_goal_t *g, uint32_t id, uint64_t now_us, gp_goal_claim_t *out)
+{
+    if (g == NULL || out == NULL)
+        return -EINVAL;
+    for (uint32_t i = 0; i < GP_GOAL_MAX_CLAIMS; i++)
+        if (g->claims[i].used && g->claims[i].c.sender == id && g->claims[i].c.expiry_us > now_us) {
+            *out = g->claims[i].c;
+            return 0;
+        }
+    return -ENOENT;
+}
