@@ -246,6 +246,31 @@ def fig_val_loss(plt, run, out):
     return "val_loss.png"
 
 
+def fig_coverage(plt, run, out):
+    """Share of the free space seen (coverage.csv) against simulated time: the fleet's union and
+    each robot alone, in its colour."""
+    if run.coverage is None and not run.robot_coverage:
+        return None
+    fig, ax = plt.subplots(figsize=(7, 4.6), constrained_layout=True)
+    lines = 0
+    for i, c in sorted(run.robot_coverage.items()):
+        ax.plot(c["sim_time_s"], c["coverage"], "-", lw=1.0, color=robot_colour(i), label=f"robot {i} alone")
+        lines += 1
+    if run.coverage is not None:
+        c = run.coverage
+        ax.plot(c["sim_time_s"], c["coverage"], "-", lw=2.2, color="black",
+                label=f"fleet (union): {float(c['coverage'][-1]):.3f} at {float(c['sim_time_s'][-1]):.0f} s")
+        lines += 1
+    ax.set_ylim(0, 1)
+    ax.set_xlabel("simulated time (s)")
+    ax.set_ylabel("coverage (share of free cells seen, 0.1 m grid)")
+    ax.set_title("coverage: free space seen by some lidar ray")
+    ax.grid(alpha=0.3)
+    legend_outside(ax, lines, below=0.15)
+    save_fig(plt, fig, os.path.join(out, "coverage.png"))
+    return "coverage.png"
+
+
 def per_round_sum(np, tables, col):
     """Rounds (sorted) and the sum of `col` over the robots at each round."""
     rounds = np.unique(np.concatenate([t["round"] for t in tables])).astype(np.int64)

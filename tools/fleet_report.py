@@ -37,6 +37,8 @@ Writes into RUN_DIR (each file whole or not at all: a temporary file beside it, 
   kde.png                       the lidar hits (occ > 0.5) of all robots per m² (2-D histogram)
   val_loss.png                  validation loss per robot and round
   traffic.png                   fleet bytes sent per round; chunks requested and re-sent
+  coverage.png                  share of the free space seen against simulated time: the fleet's
+                                union (coverage.csv) and each robot alone (robot_<i>/coverage.csv)
   summary.md                    settings, final figures, the images
 Tour files named in run.json "paths" are read relative to the current directory, to the
 project root (RUN_DIR/../.., or this tool's ../) or to RUN_DIR; a tour not found is skipped.
@@ -58,13 +60,14 @@ sys.path.insert(0, TOOLS_DIR)
 import fleet_losses  # noqa: E402  (the same totals as tools/fleet's last line)
 from fleet_io import (MAP_KINDS, ReportError, clear_stale_temps, load_npy,  # noqa: E402  (shared with fleet_figures)
                       resolve_tour, write_atomic, yaml_scalars)
-from fleet_figures import (fig_hits, fig_maps, fig_strip, fig_traffic, fig_val_loss,  # noqa: E402  (the figures)
+from fleet_figures import (fig_coverage, fig_hits, fig_maps, fig_strip, fig_traffic, fig_val_loss,  # noqa: E402  (the figures)
                            make_strip, strip_note)
 sys.path.pop(0)
 STRIP_ROUNDS = 4          # map_rounds.png's panels
 
 METRICS_NEED = ("round", "train_loss", "val_loss")
 TRAFFIC_NEED = ("round", "bytes_sent", "chunks_requested", "chunks_resent", "timeouts")
+COVERAGE_NEED = ("sim_time_s", "robot_seconds", "coverage")
 CONSENSUS_NEED = ("model", "val_loss", "consensus_error")
 
 
@@ -193,6 +196,8 @@ class Run:
         self.epistemic = None  # maps/map_epistemic.npy, redrawn as maps/map_epistemic.png
         self.redrawn = []      # the maps/*.png this report drew over host_sim's
         self.strip = None      # [(round, mean map)] of the strip "the map as it forms"
+        self.coverage = None   # coverage.csv (the fleet's union, host_sim coverage merge)
+        self.robot_coverage = {}  # robot -> its robot_<i>/coverage.csv
 
     def p(self, *parts):
         return os.path.join(self.dir, *parts)
@@ -247,6 +252,7 @@ class Run:
             else:
                 self.note(f"{rd}/train.samples is missing")
 
+        self.load_coverage()
         self.load_maps()
         self.load_knowledge()
 
@@ -268,6 +274,33 @@ class Run:
         self.scene = os.path.isfile(self.p("scene.png"))
         if not self.scene:
             self.note("scene.png is missing: no rendering of the plan")
+
+    def load_coverage(self):
+        """coverage.csv of the fleet and of each robot: share of the free space seen, in [0, 1],
+        never falling, against simulated time (host_sim/world/sim_coverage.h)."""
+        np = self.np
+
+        def one(rel):
+            f = self.p(rel)
+            if not os.path.isfile(f):
+                return None
+            c = {k: np.asarray(v) for k, v in read_csv(f, COVERAGE_NEED).items()}
+            v = c["coverage"]
+            if v.size == 0:
+                raise ReportError(f"{f}: no rows")
+            if not (np.all(np.isfinite(v)) and v.min() >= 0 and v.max() <= 1):
+                raise ReportError(f"{f}: a coverage outside [0, 1]")
+            if np.any(np.diff(v) < 0) or np.any(np.diff(c["sim_time_s"]) <= 0):
+                raise ReportError(f"{f}: coverage falls or time does not rise")
+            return c
+
+        self.coverage = one("coverage.csv")
+        if self.coverage is None:
+            self.note("coverage.csv is missing (host_sim coverage merge): no fleet coverage")
+        for i in self.robots:
+            c = one(os.path.join(f"robot_{i}", "coverage.csv"))
+            if c is not None:
+                self.robot_coverage[i] = c
 
     def load_maps(self):
         np = self.np
@@ -560,6 +593,12 @@ def summary(run, figures):
                     if math.isfinite(cons_model["consensus_error"]) else ""))
     elif run.consensus is not None:
         L.append("- consensus model: no `consensus` row in maps/consensus.csv")
+    if run.coverage is not None:
+        c = run.coverage
+        each = ", ".join(f"robot {i} {float(r['coverage'][-1]):.3f}" for i, r in sorted(run.robot_coverage.items()))
+        L.append(f"- coverage: {float(c['coverage'][-1]):.3f} of the free space seen by some lidar ray at "
+                 f"{float(c['sim_time_s'][-1]):.1f} s simulated ({float(c['robot_seconds'][-1]):.0f} robot-seconds; "
+                 f"coverage.csv, 0.1 m grid)" + (f"; alone: {each}" if each else ""))
     if s is not None and "wall_s" in s:
         L.append(f"- wall time: {md_cell(s['wall_s'])} s (run.json)")
     else:
@@ -584,6 +623,7 @@ def summary(run, figures):
         "kde.png": "where the lidar hits the robots trained on are (hits per m²)",
         "val_loss.png": "validation loss per robot",
         "traffic.png": "fleet traffic per round",
+        "coverage.png": "coverage: share of the free space seen against simulated time",
     }
     shown = (["scene.png"] if run.scene else []) + figures
     for name in shown:
@@ -661,7 +701,7 @@ def main(argv=None):
         name = fig_strip(plt, run, a.run_dir)
         if name:
             figures.insert(1 if figures[:1] == ["map_mean.png"] else 0, name)
-        for f in (fig_hits, fig_val_loss, fig_traffic):
+        for f in (fig_hits, fig_val_loss, fig_traffic, fig_coverage):
             name = f(plt, run, a.run_dir)
             if name:
                 figures.append(name)

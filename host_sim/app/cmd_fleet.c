@@ -7,6 +7,7 @@
 #include <sys/stat.h>
 
 #include "ai/bnn_ckpt.h"
+#include "cmd_coverage.h"
 #include "cli.h"
 #include "commands.h"
 #include "sim_defaults.h"
@@ -170,6 +171,8 @@ static void fleet_usage(FILE *out)
             "seed S, robot i) unless --samples gives host_sim sample files. Validation: host_sim valset\n"
             "(seed S) unless --valset.\n"
             "Writes into --out: samples/robot_<i>.samples (training data, unless --samples), valset.samples,\n"
+            "coverage.csv and coverage.bin (the union of the tours' scans, each tour from t = 0; unless\n"
+            "--samples: see host_sim coverage --help),\n"
             "metrics.csv (round,agent,train_loss,val_loss,kl_loss,consensus_error,occ_mse,occ_iou,\n"
             "reg_mu,reg_rho,neighbours,val_mean,val_sample,val_mc,sigma_mean; val_loss is the --val-mode one,\n"
             "sigma_mean the mean softplus(rho) of the Bayesian weights),\n"
@@ -277,11 +280,13 @@ typedef struct job {
     sim_fleet_metrics_t last[SIM_FLEET_MAX_AGENTS]; /* metrics of the final round */
     uint64_t isolated_rounds, split_rounds;
     uint64_t rejoined, stale; /* dinno_round_stats_t, summed over the rounds and models */
+    sim_coverage_t cov;       /* the union of the tours' scans (empty with --samples) */
     char err[8192];
 } job_t;
 
 static void job_free(job_t *j)
 {
+    sim_coverage_free(&j->cov);
     sim_fleet_destroy(j->fleet);
     sim_occ_eval_free(&j->ev);
     for (int i = 0; i < SIM_FLEET_MAX_AGENTS; i++) {
@@ -300,6 +305,12 @@ static int load_training_data(job_t *j)
     snprintf(sdir, sizeof sdir, "%s/samples", o->out);
     if (!o->samples && cmd_prepare_out_dir("fleet", sdir) != 0)
         return -1;
+    /* Every robot's tour starts at t = 0 on its own clock, as the fleet's robots drive at once:
+       one grid of first-seen times over them all is the fleet's union (sim_coverage.h). */
+    if (!o->samples && sim_coverage_from_plan(&j->cov, &j->plan, SIM_COVERAGE_RES_M) != 0) {
+        fprintf(stderr, "host_sim fleet: %s: cannot make its %.2f m coverage grid\n", o->plan, SIM_COVERAGE_RES_M);
+        return -1;
+    }
     for (int i = 0; i < j->n; i++) {
         if (o->samples) {
             snprintf(file, sizeof file, "%s/robot_%d.samples", o->samples, i);
@@ -307,6 +318,7 @@ static int load_training_data(job_t *j)
             sim_scan_cfg_t sc = sim_scan_default_cfg();
             sc.seed = j->seed;
             sc.robot = (uint32_t)i;
+            sc.coverage = &j->cov;
             char src[160];
             snprintf(src, sizeof src, "scan (fleet) path=%s/robot_%d.csv seed=%llu robot=%d", o->paths, i,
                      (unsigned long long)j->seed, i);
@@ -320,6 +332,14 @@ static int load_training_data(job_t *j)
         if (read_samples(file, &j->plan, &j->data[i], &j->n_data[i]) != 0)
             return -1;
         printf("agent %d: %zu samples\n", i, j->n_data[i]);
+    }
+    if (!o->samples) {
+        char bin[4096];
+        snprintf(file, sizeof file, "%s/coverage.csv", o->out);
+        snprintf(bin, sizeof bin, "%s/coverage.bin", o->out);
+        if (cmd_coverage_write("fleet", &j->cov, j->n, file, bin) != 0)
+            return -1;
+        cmd_coverage_line(stdout, &j->cov, j->n);
     }
     return 0;
 }
@@ -589,6 +609,8 @@ static int report(job_t *j)
         fprintf(f, "final train_loss (mean): %.5f\n", tl);
         fprintf(f, "final occ_mse (mean, %.2f m grid): %.5f\nfinal occ_iou (mean): %.4f\n", o->occ_res, mse, io);
         fprintf(f, "final consensus_error (max): %.6f\n", ce);
+        if (j->cov.first_seen != NULL) /* the tours' scans (not with --samples) */
+            cmd_coverage_line(f, &j->cov, j->n);
         if (o->mode == SIM_FLEET_DINNO)
             fprintf(f, "screen: radius %g x ||theta||: %llu neighbour states left out; largest honest neighbour "
                        "distance %.4f x ||theta||\n",

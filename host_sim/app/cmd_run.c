@@ -13,6 +13,7 @@
 #include "hal_host_file.h"
 #include "hal_host_stop.h"
 #include "cli.h"
+#include "cmd_coverage.h"
 #include "cmd_run_opts.h"
 #include "commands.h"
 #include "run_resume.h"
@@ -276,6 +277,7 @@ typedef struct job {
     hal_host_auth_t auth;    /* --key-file: the fleet key and --run-id */
     char net_url[RUN_NET_URL_MAX]; /* --transport zmq: the URL --peers makes */
     run_ctx_t ctx;
+    sim_coverage_t cov;      /* what the robot's lidar saw (coverage.bin, coverage.csv) */
     char err[8192];
 } job_t;
 
@@ -284,6 +286,7 @@ static void job_free(job_t *j)
     hal_host_file_abort(&j->csv); /* a no-op after a commit */
     hal_host_file_abort(&j->traffic);
     run_resume_free(&j->resume);
+    sim_coverage_free(&j->cov);
     hal_host_auth_wipe(&j->auth);
     free(j->tour);
     free(j->res);
@@ -333,6 +336,10 @@ static int prepare(job_t *j)
     if (sim_plan_load(o->plan, o->scale, &j->plan, j->err, sizeof j->err) != 0 ||
         sim_path_read_csv(o->path, &j->plan, &j->path, j->err, sizeof j->err) != 0) {
         fprintf(stderr, "host_sim run: %s\n", j->err);
+        return -1;
+    }
+    if (sim_coverage_from_plan(&j->cov, &j->plan, SIM_COVERAGE_RES_M) != 0) {
+        fprintf(stderr, "host_sim run: %s: cannot make its %.2f m coverage grid\n", o->plan, SIM_COVERAGE_RES_M);
         return -1;
     }
     if (j->path.n > RT_CORE_MAX_WAYPOINTS) {
@@ -486,6 +493,7 @@ static int run_image(job_t *j)
     ic.on_round = on_round;
     ic.on_fleet_round = on_fleet_round;
     ic.user = c;
+    ic.coverage = &j->cov;
     if (o->fleet > 1) {
         j->tour = malloc(sizeof(rt_waypoint_t) * (size_t)j->path.n);
         if (j->tour == NULL) {
@@ -584,6 +592,13 @@ static int report(job_t *j)
     }
     if (cmd_out_commit("run", &j->csv) != 0 || (o->fleet > 1 && cmd_out_commit("run", &j->traffic) != 0))
         return -1;
+    /* Coverage up to the end of the run (the robot stood still after its tour: no new cells). */
+    if (j->cov.t_end < (double)res->sim_time_us * 1e-6)
+        j->cov.t_end = (double)res->sim_time_us * 1e-6;
+    snprintf(file, sizeof file, "%s/coverage.csv", o->out);
+    snprintf(f2, sizeof f2, "%s/coverage.bin", o->out);
+    if (cmd_coverage_write("run", &j->cov, 1, file, f2) != 0)
+        return -1;
     /* The samples the robot trained on (its pool at the end), for the fleet's density plot. */
     const ai_core_t *ai = fw_robot_ai();
     sim_samples_writer_t wr;
@@ -641,6 +656,7 @@ static int report(job_t *j)
         fprintf(f, "final train loss: %.5f; final val loss: %.5f\n", (double)res->ai_status.loss_train,
                 j->ctx.last_val);
         fprintf(f, "occupancy MSE within 1 m of the path (0.1 m grid, %zu cells): %.5f\n", cells, occ);
+        cmd_coverage_line(f, &j->cov, 1);
         if (o->fleet > 1) {
             const gp_pse_stats_t *p = &res->pse; /* the whole run, start-up included */
             const double R = (double)(o->rounds - (long long)j->resume.start_round); /* run by this start */

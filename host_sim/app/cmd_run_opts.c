@@ -184,7 +184,9 @@ static void run_usage(FILE *out)
             "--val-every rounds; the newest --keep-ckpt and every --keep-ckpt-every-th kept), final.bnn,\n"
             "train.samples (the pool trained on), valset.samples, map_mean.png and map_std.png (MC mean / std of the final model, path on top), profile.txt and\n"
             "profile.csv (per core: ticks, lateness, wall time per tick, stack high-water; static memory),\n"
-            "summary.txt.\n"
+            "coverage.csv (sim_time_s,robot_seconds,coverage: the share of the plan's free 0.1 m cells some\n"
+            "lidar ray crossed, every simulated second) and coverage.bin (each free cell's first-seen time,\n"
+            "for host_sim coverage merge), summary.txt.\n"
             "\n"
             "options:\n",
             BNN_PRESET_NAME);

@@ -16,6 +16,7 @@ int cmd_run(int argc, char **argv);   /* cmd_run.c */
 int cmd_maps(int argc, char **argv);  /* cmd_maps.c */
 int cmd_key(int argc, char **argv);   /* cmd_key.c */
 int cmd_defaults(int argc, char **argv); /* cmd_defaults.c */
+int cmd_coverage(int argc, char **argv); /* cmd_coverage.c */
 
 /* One row per sub-command, in the order `--help` lists them. */
 static const host_sim_cmd_t commands[] = {
@@ -28,6 +29,7 @@ static const host_sim_cmd_t commands[] = {
     {"run", cmd_run, "one robot's firmware image (RT/AI/GP cores) in lockstep with the world, online learning"},
     {"key", cmd_key, "the fleet key of a keyed fleet: write a new one, check one"},
     {"maps", cmd_maps, "consensus of a fleet's final models: consensus.bnn, maps as .npy, ROS map (PGM+YAML), PNGs"},
+    {"coverage", cmd_coverage, "unite robots' coverage.bin files: the fleet's coverage.csv (share of free space seen)"},
     {"defaults", cmd_defaults, "this build's defaults as key=value lines (what tools/fleet and run-fleet.sh read)"},
     {NULL, NULL, NULL},
 };

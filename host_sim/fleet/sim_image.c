@@ -97,6 +97,7 @@ int sim_image_run(const sim_plan_t *plan, const sim_path_t *path, const sim_imag
     sim_hal_world_cfg_t wc = sim_hal_world_default_cfg();
     wc.robot = cfg->robot;
     wc.seed = cfg->seed;
+    wc.coverage = cfg->coverage;
     rc = sim_hal_world_create(plan, path, &wc, &hw, err, errlen);
     if (rc < 0)
         goto out;

@@ -71,6 +71,7 @@ typedef struct sim_image_cfg {
     sim_image_round_fn on_round;  /* may be NULL */
     sim_image_fleet_round_fn on_fleet_round; /* may be NULL: each round's traffic record */
     void *user;
+    sim_coverage_t *coverage;    /* NULL, or every scan the world takes is added to it (sim_hal_world.h) */
 } sim_image_cfg_t;
 
 typedef struct sim_image_result {

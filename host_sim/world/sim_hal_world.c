@@ -72,6 +72,9 @@ static int take_scan(sim_hal_world_t *hw)
     s->count = (uint32_t)lc->n_beams;
     hw->have_scan = 1;
     hw->st.scans++;
+    /* After the scan and its noise are fixed: coverage only reads them (no stream changes). */
+    if (hw->cfg.coverage != NULL)
+        return sim_coverage_add_scan(hw->cfg.coverage, (double)s->stamp_us * 1e-6, p->x, p->y, p->theta, s);
     return 0;
 }
 

@@ -26,6 +26,7 @@
 
 #include "hal_host.h"
 #include "rt/rt_core.h"
+#include "sim_coverage.h"
 #include "sim_lidar.h"
 #include "sim_paths.h"
 #include "sim_plan.h"
@@ -39,6 +40,8 @@ typedef struct sim_hal_world_cfg {
     double gps_sigma_xy;      /* m, default 0.01 (as host_sim scan) */
     double gps_sigma_theta;   /* rad, default 0.005 */
     uint32_t scan_period_us;  /* default 100000 (10 Hz); a multiple of the physics step */
+    sim_coverage_t *coverage; /* NULL (default), or every scan taken is added to it at the true
+                                 pose and its time (the caller owns it; read it after the run) */
 } sim_hal_world_cfg_t;
 
 typedef struct sim_hal_world_stats {

@@ -131,6 +131,7 @@ int sim_scan_run(const sim_plan_t *plan, const sim_path_t *path, const sim_scan_
     wc.gps_sigma_xy = c->gps_sigma_xy;
     wc.gps_sigma_theta = c->gps_sigma_theta;
     wc.scan_period_us = (uint32_t)scan_steps * (uint32_t)llround(c->dt * 1e6);
+    wc.coverage = c->coverage;
     rc = sim_hal_world_create(plan, path, &wc, &hw, err, errlen);
     if (rc < 0)
         goto out;

@@ -34,6 +34,7 @@ typedef struct sim_scan_cfg {
     double gps_sigma_xy;   /* default 0.01 m */
     double gps_sigma_theta;/* default 0.005 rad */
     double max_time_s;     /* default 3600 */
+    struct sim_coverage *coverage; /* NULL (default), or every scan is added to it (sim_coverage.h) */
 } sim_scan_cfg_t;
 
 typedef struct sim_scan_stats {
