@@ -123,11 +123,19 @@ static void coordinate(gp_core_t *gp, uint64_t now_us)
 
 /* Round k's checkpoint is written: the one ckpt_keep checkpoints before it falls out of the
  * newest, and goes unless it is one of the every-ckpt_keep_every kept for good. A robot that
- * skipped rounds may leave a few older ones behind (never more than ckpt_keep per skip). */
+ * skipped rounds leaves the ones before the skip behind (never more than ckpt_keep per skip):
+ * the host reads a round's checkpoint after the round's record (a slice of simulated time
+ * later, host_sim run's validation), and a skip writes the next checkpoint at once, so
+ * "ckpt_keep rounds ago" would be the one just written and not yet read (a 256-robot fleet
+ * lost a robot to that). */
 static void drop_old_ckpt(gp_core_t *gp, uint32_t k)
 {
+    if (gp->ckpt_any && k != gp->ckpt_last + gp->cfg.ckpt_every)
+        gp->ckpt_run_from = k; /* rounds were skipped (a resume's first write is none) */
+    gp->ckpt_any = 1;
+    gp->ckpt_last = k;
     const uint64_t span = (uint64_t)gp->cfg.ckpt_keep * gp->cfg.ckpt_every;
-    if (gp->cfg.ckpt_keep == 0 || k < span)
+    if (gp->cfg.ckpt_keep == 0 || k < span || k - (uint32_t)span < gp->ckpt_run_from)
         return;
     const uint32_t old = k - (uint32_t)span;
     if (gp->cfg.ckpt_keep_every > 0 && (old + 1u) % gp->cfg.ckpt_keep_every == 0)

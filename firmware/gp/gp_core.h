@@ -108,6 +108,9 @@ typedef struct gp_core {
     _Atomic uint32_t n_log;    /* records written so far (log[] keeps the latest) */
     _Atomic uint32_t done;     /* 1 once the final checkpoint was handled */
     int32_t final_ckpt_status; /* 0 or the storage error of final.bnn */
+    int ckpt_any;              /* a round checkpoint was written (the last: ckpt_last) */
+    uint32_t ckpt_last;
+    uint32_t ckpt_run_from;    /* the first round written after the last skip (0: none) */
     ai_round_info_t log[GP_CORE_LOG_ROUNDS];
     uint8_t tele[GP_TELEMETRY_WIRE_BYTES];
     char channel[64];

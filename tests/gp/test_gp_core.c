@@ -52,7 +52,7 @@ static int exchange(void *ctx, const gp_exchange_req_t *req, dinno_nbrs_t *nbrs)
     return a;
 }
 
-static void start(int with_hook, int telemetry_every)
+static void start_keep(int with_hook, int telemetry_every, uint32_t keep)
 {
     fake_board_init(&fb);
     fake_board_install(&fb);
@@ -63,9 +63,15 @@ static void start(int with_hook, int telemetry_every)
     c.telemetry_every = (uint32_t)telemetry_every;
     static const gp_peers_ops_t peers = {.exchange = exchange};
     c.peers = with_hook ? &peers : NULL;
+    if (keep > 0) {
+        c.ckpt_keep = keep;
+        c.ckpt_keep_every = 0;
+    }
     assert_int_equal(gp_core_init(&gp, &c, link_), 0);
     memset(&hook, 0, sizeof hook);
 }
+
+static void start(int with_hook, int telemetry_every) { start_keep(with_hook, telemetry_every, 0); }
 
 static int teardown(void **st)
 {
@@ -198,12 +204,38 @@ static void test_checkpoints_and_round_log(void **st)
     assert_int_equal(gp_core_round(&gp, 1)->ckpt_status, -ENOSPC);
 }
 
+/* Only the newest ckpt_keep checkpoints stay; but a robot that skips rounds writes the next
+   one at once, before the host read the one of the round it skipped from (its validation), so
+   the checkpoints before a skip stay. */
+static void test_checkpoints_kept_across_a_skip(void **st)
+{
+    (void)st;
+    start_keep(0, 1000, 2);
+    const uint32_t rounds[] = {0, 1, 2, 3, 5, 6, 7, 8};
+    for (uint32_t i = 0; i < sizeof rounds / sizeof rounds[0]; i++) {
+        publish_ckpt(rounds[i], 0);
+        tick(i);
+    }
+    /* 0 and 1 went when 2 and 3 were written; 3 stays although 5 is two rounds after it (it
+       came just before the skip to 5), and so does 2; 5 and 6 went when 7 and 8 were written. */
+    assert_null(fake_board_file(&fb, "round_0000.bnn"));
+    assert_null(fake_board_file(&fb, "round_0001.bnn"));
+    assert_non_null(fake_board_file(&fb, "round_0002.bnn"));
+    assert_non_null(fake_board_file(&fb, "round_0003.bnn"));
+    assert_null(fake_board_file(&fb, "round_0005.bnn"));
+    assert_null(fake_board_file(&fb, "round_0006.bnn"));
+    assert_non_null(fake_board_file(&fb, "round_0007.bnn"));
+    assert_non_null(fake_board_file(&fb, "round_0008.bnn"));
+    assert_int_equal(gp.stats.ckpt_removed, 4);
+}
+
 int main(void)
 {
     const struct CMUnitTest tests[] = {
         cmocka_unit_test_teardown(test_telemetry_every_n_ticks, teardown),
         cmocka_unit_test_teardown(test_round_hand_over_and_exchange, teardown),
         cmocka_unit_test_teardown(test_checkpoints_and_round_log, teardown),
+        cmocka_unit_test_teardown(test_checkpoints_kept_across_a_skip, teardown),
     };
     return cmocka_run_group_tests_name("gp/core", tests, NULL, NULL);
 }
