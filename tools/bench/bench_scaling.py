@@ -18,7 +18,8 @@ in --results are read again, not rerun (a run without run.json, with a "failed" 
 a robot's summary.txt missing is run again), and rows of --csv for fleets not in this sweep are
 kept, so a table grows one size at a time.
 
-Memory: before a fleet starts, its need is estimated as N x the peak RSS per process of the
+Memory: before a fleet starts, its need is estimated as N x the peak RSS per process (the
+fleet's sampled peak sum over its N when known, else the largest process's) of the
 largest smaller fleet measured (this sweep, --csv or --results; the same transport first),
 extrapolated linearly in N when two smaller fleets are known (the receive queue grows with the
 fleet), else N x 120 MB; plus the kernel's socket buffers (not in any process's RSS) of that
@@ -150,14 +151,18 @@ def measured(run_dir, n):
 
 def known_fleets(a):
     """(transport, N) -> (peak RSS per process MB, socket buffers peak MB or None) of the fleets
-    measured so far: --csv's rows and --results' finished runs."""
+    measured so far: --csv's rows and --results' finished runs. Per process: the fleet's summed
+    RSS at its sampled peak over N when the bench sampled it (the processes do not all peak at
+    once: at 128 robots N x the largest peak was 1.4x the sampled sum), else the largest."""
     known = {}
     if a.csv and os.path.exists(a.csv):
         with open(a.csv) as f:
             for r in csv.DictReader(f):
                 try:
                     sock = float(r["sock_MB_peak"]) if r.get("sock_MB_peak") else None
-                    known[(r["transport"], int(r["robots"]))] = (float(r["rss_MB_max"]), sock)
+                    n = int(r["robots"])
+                    per = float(r["fleet_rss_MB_peak"]) / n if r.get("fleet_rss_MB_peak") else float(r["rss_MB_max"])
+                    known[(r["transport"], n)] = (per, sock)
                 except (KeyError, ValueError):
                     pass
     if os.path.isdir(a.results):
@@ -171,15 +176,18 @@ def known_fleets(a):
                     mm = re.search(r"peak RSS (\S+) MB", f.read())
                 if mm:
                     rss.append(float(mm.group(1)))
-            sock = None
+            sock = fleet_peak = None
             try:
                 with open(os.path.join(a.results, d, "bench_mem.json")) as f:
-                    sock = json.load(f).get("sock_MB_peak")
-            except (OSError, ValueError):
+                    mem = json.load(f)
+                sock, fleet_peak = mem.get("sock_MB_peak"), mem.get("fleet_rss_MB_peak")
+            except (OSError, ValueError, AttributeError):
                 pass
             key = (m.group(1), int(m.group(2)))
-            if rss and (key not in known or max(rss) > known[key][0]):
-                known[key] = (max(rss), sock if sock is not None else known.get(key, (0, None))[1])
+            per = fleet_peak / key[1] if isinstance(fleet_peak, (int, float)) and fleet_peak > 0 else \
+                (max(rss) if rss else None)
+            if per is not None and (key not in known or per > known[key][0]):
+                known[key] = (per, sock if sock is not None else known.get(key, (0, None))[1])
     return known
 
 
@@ -192,14 +200,14 @@ def memory_need(a, transport, n):
         return n * DEFAULT_RSS_MB, f"{n} x {DEFAULT_RSS_MB:.0f} MB (no smaller fleet measured)"
     k1 = smaller[-1]
     per = known[k1][0]
-    how = f"{n} x {per:.1f} MB (peak RSS per process at {k1[0]} {k1[1]} robots)"
+    how = f"{n} x {per:.1f} MB (RSS per process at the peak of {k1[0]} {k1[1]} robots)"
     two = [k for k in smaller if k[0] == k1[0] and k[1] < k1[1]]
     if two:
         k0 = two[-1]
         slope = (known[k1][0] - known[k0][0]) / (k1[1] - k0[1])
         if slope > 0:
             per = known[k1][0] + slope * (n - k1[1])
-            how = (f"{n} x {per:.1f} MB (peak RSS per process {known[k1][0]:.1f} MB at {k1[1]} robots, "
+            how = (f"{n} x {per:.1f} MB (RSS per process at the peak {known[k1][0]:.1f} MB at {k1[1]} robots, "
                    f"+{slope:.2f} MB per robot as from {k0[1]} robots)")
     need = n * per
     if known[k1][1]:
