@@ -190,6 +190,30 @@ def interrupt_during_post_processing():
 
 
 @test
+def post_step_bounded():
+    """A step after the rounds that hangs is stopped at its bound, with one message naming it,
+    exit 1, and the robots' results kept."""
+    tmp = tempfile.mkdtemp()
+    try:
+        p, run_dir = launch_bg(tmp, ["--rounds", "5"], {"FAKE_MAPS_SLEEP": "60", "FLEETSIM_POST_STEP_TIMEOUT_S": "2"},
+                               "post-bound")
+        t = time.time()
+        try:
+            out, err = p.communicate(timeout=40)
+        except subprocess.TimeoutExpired:
+            p.kill()
+            out, err = p.communicate()
+        took = time.time() - t
+        said = f"exit {p.returncode} after {took:.1f} s\nstdout:\n{out}\nstderr:\n{err}"
+        check(p.returncode == 1 and took < 30, f"not stopped at its bound: {said}")
+        check("consensus map took longer than 2 s and was stopped" in out + err, f"no message naming the step: {said}")
+        check("Traceback" not in err, f"a traceback: {said}")
+        check(os.path.isfile(os.path.join(run_dir, "robot_0", "summary.txt")), "the robots' results kept")
+    finally:
+        shutil.rmtree(tmp, ignore_errors=True)
+
+
+@test
 def interrupt_during_rounds():
     tmp = tempfile.mkdtemp()
     try:
