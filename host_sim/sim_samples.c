@@ -1,6 +1,7 @@
 /* Sample files: format in sim_samples.h. Fields are (de)serialised byte by byte, so the
  * file is little-endian whatever the host. */
 #include "sim_samples.h"
+#include "common/le_bytes.h"
 
 #include <errno.h>
 #include <math.h>
@@ -31,73 +32,22 @@ uint32_t sim_crc32_update(uint32_t crc, const void *data, size_t n)
     return ~crc;
 }
 
-static void put_u32(uint8_t *p, uint32_t v)
-{
-    for (int i = 0; i < 4; i++)
-        p[i] = (uint8_t)(v >> (8 * i));
-}
-static void put_u64(uint8_t *p, uint64_t v)
-{
-    for (int i = 0; i < 8; i++)
-        p[i] = (uint8_t)(v >> (8 * i));
-}
-static void put_f64(uint8_t *p, double d)
-{
-    uint64_t v;
-    memcpy(&v, &d, 8);
-    put_u64(p, v);
-}
-static void put_f32(uint8_t *p, float f)
-{
-    uint32_t v;
-    memcpy(&v, &f, 4);
-    put_u32(p, v);
-}
-static uint32_t get_u32(const uint8_t *p)
-{
-    uint32_t v = 0;
-    for (int i = 3; i >= 0; i--)
-        v = (v << 8) | p[i];
-    return v;
-}
-static uint64_t get_u64(const uint8_t *p)
-{
-    uint64_t v = 0;
-    for (int i = 7; i >= 0; i--)
-        v = (v << 8) | p[i];
-    return v;
-}
-static double get_f64(const uint8_t *p)
-{
-    uint64_t v = get_u64(p);
-    double d;
-    memcpy(&d, &v, 8);
-    return d;
-}
-static float get_f32(const uint8_t *p)
-{
-    uint32_t v = get_u32(p);
-    float f;
-    memcpy(&f, &v, 4);
-    return f;
-}
-
 static void encode_header(const sim_samples_header_t *h, uint8_t out[SIM_SAMPLES_HEADER_SIZE])
 {
     memset(out, 0, SIM_SAMPLES_HEADER_SIZE);
     memcpy(out, SIM_SAMPLES_MAGIC, 8);
-    put_u32(out + 8, SIM_SAMPLES_VERSION);
-    put_u32(out + 12, SIM_SAMPLES_HEADER_SIZE);
-    put_u32(out + 16, (uint32_t)sizeof(ai_sample_t));
-    put_u32(out + 20, 0);
-    put_u64(out + 24, h->count);
-    put_f64(out + 32, h->min_x);
-    put_f64(out + 40, h->min_y);
-    put_f64(out + 48, h->max_x);
-    put_f64(out + 56, h->max_y);
-    put_u64(out + 64, h->seed);
+    le_put_u32(out + 8, SIM_SAMPLES_VERSION);
+    le_put_u32(out + 12, SIM_SAMPLES_HEADER_SIZE);
+    le_put_u32(out + 16, (uint32_t)sizeof(ai_sample_t));
+    le_put_u32(out + 20, 0);
+    le_put_u64(out + 24, h->count);
+    le_put_f64(out + 32, h->min_x);
+    le_put_f64(out + 40, h->min_y);
+    le_put_f64(out + 48, h->max_x);
+    le_put_f64(out + 56, h->max_y);
+    le_put_u64(out + 64, h->seed);
     memcpy(out + 72, h->source, strnlen(h->source, SIM_SAMPLES_SOURCE_MAX));
-    put_u32(out + 204, sim_crc32_update(0, out, 204));
+    le_put_u32(out + 204, sim_crc32_update(0, out, 204));
 }
 
 static int record_ok(float x, float y, float occ)
@@ -149,9 +99,9 @@ int sim_samples_append(sim_samples_writer_t *w, const ai_sample_t *s, size_t n)
         for (size_t i = 0; i < m; i++) {
             if (!record_ok(s[i].x, s[i].y, s[i].occ))
                 return -EINVAL;
-            put_f32(buf + 12 * i, s[i].x);
-            put_f32(buf + 12 * i + 4, s[i].y);
-            put_f32(buf + 12 * i + 8, s[i].occ);
+            le_put_f32(buf + 12 * i, s[i].x);
+            le_put_f32(buf + 12 * i + 4, s[i].y);
+            le_put_f32(buf + 12 * i + 8, s[i].occ);
         }
         int rc = hal_host_file_write(&w->file, buf, 12 * m);
         if (rc < 0)
@@ -170,7 +120,7 @@ int sim_samples_close(sim_samples_writer_t *w)
         return -EINVAL;
     w->open = 0;
     uint8_t t[4], h[SIM_SAMPLES_HEADER_SIZE];
-    put_u32(t, w->crc);
+    le_put_u32(t, w->crc);
     encode_header(&w->hdr, h);
     int rc = hal_host_file_write(&w->file, t, 4);
     FILE *f = hal_host_file_stream(&w->file);
@@ -233,23 +183,23 @@ int sim_samples_read(const char *path, sim_samples_header_t *hdr, ai_sample_t **
              SIM_SAMPLES_HEADER_SIZE + 4u);
     if (fread(h + 8, 1, SIM_SAMPLES_HEADER_SIZE - 8, f) != SIM_SAMPLES_HEADER_SIZE - 8)
         FAIL(-EIO, "%s: read error in header", path);
-    uint32_t version = get_u32(h + 8);
+    uint32_t version = le_get_u32(h + 8);
     if (version != SIM_SAMPLES_VERSION)
         FAIL(-EINVAL, "%s: unsupported version %u (this reader knows %u)", path, version,
              SIM_SAMPLES_VERSION);
-    if (get_u32(h + 12) != SIM_SAMPLES_HEADER_SIZE || get_u32(h + 16) != sizeof(ai_sample_t))
+    if (le_get_u32(h + 12) != SIM_SAMPLES_HEADER_SIZE || le_get_u32(h + 16) != sizeof(ai_sample_t))
         FAIL(-EINVAL, "%s: bad header size %u or record size %u (expected %u, %zu)", path,
-             get_u32(h + 12), get_u32(h + 16), SIM_SAMPLES_HEADER_SIZE, sizeof(ai_sample_t));
-    if (get_u32(h + 204) != sim_crc32_update(0, h, 204))
+             le_get_u32(h + 12), le_get_u32(h + 16), SIM_SAMPLES_HEADER_SIZE, sizeof(ai_sample_t));
+    if (le_get_u32(h + 204) != sim_crc32_update(0, h, 204))
         FAIL(-EINVAL, "%s: header CRC mismatch (corrupted header)", path);
     memset(hdr, 0, sizeof *hdr);
     hdr->version = version;
-    hdr->count = get_u64(h + 24);
-    hdr->min_x = get_f64(h + 32);
-    hdr->min_y = get_f64(h + 40);
-    hdr->max_x = get_f64(h + 48);
-    hdr->max_y = get_f64(h + 56);
-    hdr->seed = get_u64(h + 64);
+    hdr->count = le_get_u64(h + 24);
+    hdr->min_x = le_get_f64(h + 32);
+    hdr->min_y = le_get_f64(h + 40);
+    hdr->max_x = le_get_f64(h + 48);
+    hdr->max_y = le_get_f64(h + 56);
+    hdr->seed = le_get_u64(h + 64);
     memcpy(hdr->source, h + 72, SIM_SAMPLES_SOURCE_MAX);
     hdr->source[SIM_SAMPLES_SOURCE_MAX] = '\0';
     if (!box_ok(hdr->min_x, hdr->min_y, hdr->max_x, hdr->max_y))
@@ -270,7 +220,7 @@ int sim_samples_read(const char *path, sim_samples_header_t *hdr, ai_sample_t **
         FAIL(-ENOMEM, "%s: out of memory for %zu bytes", path, nbytes);
     if (fread(buf, 1, nbytes, f) != nbytes)
         FAIL(-EIO, "%s: read error in records", path);
-    if (get_u32(buf + data) != sim_crc32_update(0, buf, (size_t)data))
+    if (le_get_u32(buf + data) != sim_crc32_update(0, buf, (size_t)data))
         FAIL(-EINVAL, "%s: data CRC mismatch (corrupted records)", path);
     if (hdr->count > 0) {
         rec = malloc(sizeof(ai_sample_t) * (size_t)hdr->count);
@@ -280,9 +230,9 @@ int sim_samples_read(const char *path, sim_samples_header_t *hdr, ai_sample_t **
     }
     for (uint64_t i = 0; i < hdr->count; i++) {
         const uint8_t *p = buf + 12 * i;
-        rec[i].x = get_f32(p);
-        rec[i].y = get_f32(p + 4);
-        rec[i].occ = get_f32(p + 8);
+        rec[i].x = le_get_f32(p);
+        rec[i].y = le_get_f32(p + 4);
+        rec[i].occ = le_get_f32(p + 8);
         if (!record_ok(rec[i].x, rec[i].y, rec[i].occ))
             FAIL(-EINVAL, "%s: record %llu out of range (x, y in [-1, 1], occ in [0, 1])",
                  path, (unsigned long long)i);

@@ -8,6 +8,7 @@
 #include "ai/bnn_int.h"
 #include "ai/dinno.h"
 #include "ai/kernels/la.h"
+#include "common/le_bytes.h"
 
 /* P's S x S block is summed a chunk at a time as one float GEMM, phi^T phi, in the backward
  * buffers of the arena (free outside a training step, B x max(S, H) floats each, B >= S), then
@@ -335,35 +336,6 @@ size_t bnn_post_wire_size(const bnn_post_t *p)
     return p ? BNN_POST_WIRE_BYTES(p->dim) : 0;
 }
 
-static void put_u32(uint8_t *b, uint32_t v)
-{
-    for (int i = 0; i < 4; i++)
-        b[i] = (uint8_t)(v >> (8 * i));
-}
-
-static void put_f64(uint8_t *b, double d)
-{
-    uint64_t v;
-    memcpy(&v, &d, 8);
-    for (int i = 0; i < 8; i++)
-        b[i] = (uint8_t)(v >> (8 * i));
-}
-
-static uint32_t get_u32(const uint8_t *b)
-{
-    return (uint32_t)b[0] | (uint32_t)b[1] << 8 | (uint32_t)b[2] << 16 | (uint32_t)b[3] << 24;
-}
-
-static double get_f64(const uint8_t *b)
-{
-    uint64_t v = 0;
-    for (int i = 7; i >= 0; i--)
-        v = v << 8 | b[i];
-    double d;
-    memcpy(&d, &v, 8);
-    return d;
-}
-
 int bnn_post_write(const bnn_post_t *p, uint8_t *buf, size_t cap, size_t *written)
 {
     if (!p || !buf || p->dim == 0)
@@ -371,18 +343,18 @@ int bnn_post_write(const bnn_post_t *p, uint8_t *buf, size_t cap, size_t *writte
     const size_t need = bnn_post_wire_size(p);
     if (cap < need)
         return -ENOSPC;
-    put_u32(buf, p->dim);
-    put_f64(buf + 4, p->n_obs);
-    put_f64(buf + 12, p->robots);
+    le_put_u32(buf, p->dim);
+    le_put_f64(buf + 4, p->n_obs);
+    le_put_f64(buf + 12, p->robots);
     uint8_t *at = buf + 20;
     const size_t nf = 3u * (p->dim - 1u);
     for (size_t i = 0; i <= nf; i++, at += 4) {
         uint32_t u;
         memcpy(&u, i == 0 ? &p->w0 : &p->siren[i - 1], 4);
-        put_u32(at, u);
+        le_put_u32(at, u);
     }
     for (size_t i = 0; i < BNN_POST_PACKED(p->dim); i++)
-        put_f64(at + 8 * i, p->prec[i]);
+        le_put_f64(at + 8 * i, p->prec[i]);
     if (written)
         *written = need;
     return 0;
@@ -397,28 +369,28 @@ int bnn_post_read(bnn_post_t *p, const bnn_model_t *m, const uint8_t *buf, size_
     const uint32_t want = m->cfg.siren_width + 1u;
     if (len < 20u) {
         why = "posterior truncated (no header)", rc = -ENODATA;
-    } else if (get_u32(buf) != want) {
+    } else if (le_get_u32(buf) != want) {
         why = "posterior of another network (dimension != SIREN width + 1)", rc = -ENOEXEC;
     } else if (len < BNN_POST_WIRE_BYTES(want)) {
         why = "posterior truncated", rc = -ENODATA;
     } else {
-        const double n_obs = get_f64(buf + 4), robots = get_f64(buf + 12);
+        const double n_obs = le_get_f64(buf + 4), robots = le_get_f64(buf + 12);
         const size_t nf = 3u * (want - 1u);
         const uint8_t *pr = buf + 20 + 4 * (nf + 1);
         if (!isfinite(n_obs) || n_obs < 0.0 || !isfinite(robots) || robots < 0.0)
             why = "posterior's counts not finite or negative", rc = -EBADMSG;
         for (size_t i = 0; rc == 0 && i <= nf; i++) {
-            const uint32_t u = get_u32(buf + 20 + 4 * i);
+            const uint32_t u = le_get_u32(buf + 20 + 4 * i);
             float f;
             memcpy(&f, &u, 4);
             if (!isfinite(f) || (i == 0 && !(f > 0.0f)))
                 why = "posterior's features not finite (or w0 <= 0)", rc = -EBADMSG;
         }
         for (size_t i = 0; rc == 0 && i < BNN_POST_PACKED(want); i++)
-            if (!isfinite(get_f64(pr + 8 * i)))
+            if (!isfinite(le_get_f64(pr + 8 * i)))
                 why = "posterior holds a non-finite value", rc = -EBADMSG;
         for (size_t i = 0; rc == 0 && i < want; i++)
-            if (get_f64(pr + 8 * pk(i, i)) < 0.0)
+            if (le_get_f64(pr + 8 * pk(i, i)) < 0.0)
                 why = "posterior's precision has a negative diagonal", rc = -EBADMSG;
         if (rc == 0) {
             memset(p, 0, sizeof *p);
@@ -426,11 +398,11 @@ int bnn_post_read(bnn_post_t *p, const bnn_model_t *m, const uint8_t *buf, size_
             p->n_obs = n_obs;
             p->robots = robots;
             for (size_t i = 0; i <= nf; i++) {
-                const uint32_t u = get_u32(buf + 20 + 4 * i);
+                const uint32_t u = le_get_u32(buf + 20 + 4 * i);
                 memcpy(i == 0 ? &p->w0 : &p->siren[i - 1], &u, 4);
             }
             for (size_t i = 0; i < BNN_POST_PACKED(want); i++)
-                p->prec[i] = get_f64(pr + 8 * i);
+                p->prec[i] = le_get_f64(pr + 8 * i);
         }
     }
     if (reason)

@@ -9,6 +9,7 @@
 
 #include "common/crc32.h"
 #include "hal_host_file.h"
+#include "common/le_bytes.h"
 
 static const char cov_magic[8] = {'F', 'S', 'C', 'O', 'V', 'B', 'I', 'N'};
 
@@ -171,45 +172,6 @@ int sim_coverage_merge(sim_coverage_t *dst, const sim_coverage_t *src)
     return 0;
 }
 
-/* Little-endian fields, whatever the host's byte order. */
-static void put_u32(uint8_t *p, uint32_t v)
-{
-    for (int i = 0; i < 4; i++)
-        p[i] = (uint8_t)(v >> (8 * i));
-}
-static void put_u64(uint8_t *p, uint64_t v)
-{
-    for (int i = 0; i < 8; i++)
-        p[i] = (uint8_t)(v >> (8 * i));
-}
-static void put_f64(uint8_t *p, double d)
-{
-    uint64_t v;
-    memcpy(&v, &d, sizeof v);
-    put_u64(p, v);
-}
-static uint32_t get_u32(const uint8_t *p)
-{
-    uint32_t v = 0;
-    for (int i = 0; i < 4; i++)
-        v |= (uint32_t)p[i] << (8 * i);
-    return v;
-}
-static uint64_t get_u64(const uint8_t *p)
-{
-    uint64_t v = 0;
-    for (int i = 0; i < 8; i++)
-        v |= (uint64_t)p[i] << (8 * i);
-    return v;
-}
-static double get_f64(const uint8_t *p)
-{
-    uint64_t v = get_u64(p);
-    double d;
-    memcpy(&d, &v, sizeof d);
-    return d;
-}
-
 int sim_coverage_encode(const sim_coverage_t *c, uint8_t **buf, size_t *len)
 {
     if (c == NULL || c->first_seen == NULL || buf == NULL || len == NULL)
@@ -222,18 +184,18 @@ int sim_coverage_encode(const sim_coverage_t *c, uint8_t **buf, size_t *len)
     for (size_t i = 0; i < n; i++) {
         uint32_t v;
         memcpy(&v, &c->first_seen[i], sizeof v);
-        put_u32(b + SIM_COVERAGE_HEADER_BYTES + 4 * i, v);
+        le_put_u32(b + SIM_COVERAGE_HEADER_BYTES + 4 * i, v);
     }
     memcpy(b, cov_magic, sizeof cov_magic);
-    put_u32(b + 8, SIM_COVERAGE_VERSION);
-    put_u32(b + 12, (uint32_t)c->w);
-    put_u32(b + 16, (uint32_t)c->h);
-    put_u32(b + 20, crc32_ieee(b + SIM_COVERAGE_HEADER_BYTES, 4 * n));
-    put_f64(b + 24, c->res);
-    put_f64(b + 32, c->origin.x);
-    put_f64(b + 40, c->origin.y);
-    put_f64(b + 48, c->t_end);
-    put_u64(b + 56, c->n_free);
+    le_put_u32(b + 8, SIM_COVERAGE_VERSION);
+    le_put_u32(b + 12, (uint32_t)c->w);
+    le_put_u32(b + 16, (uint32_t)c->h);
+    le_put_u32(b + 20, crc32_ieee(b + SIM_COVERAGE_HEADER_BYTES, 4 * n));
+    le_put_f64(b + 24, c->res);
+    le_put_f64(b + 32, c->origin.x);
+    le_put_f64(b + 40, c->origin.y);
+    le_put_f64(b + 48, c->t_end);
+    le_put_u64(b + 56, c->n_free);
     *buf = b;
     *len = total;
     return 0;
@@ -246,17 +208,17 @@ static int check_header(const uint8_t *b, size_t len, size_t *cells, const char 
         return *why = "truncated: shorter than the 64-byte header", -EINVAL;
     if (memcmp(b, cov_magic, sizeof cov_magic) != 0)
         return *why = "not a coverage file (bad magic)", -EINVAL;
-    if (get_u32(b + 8) != SIM_COVERAGE_VERSION)
+    if (le_get_u32(b + 8) != SIM_COVERAGE_VERSION)
         return *why = "unsupported coverage file version", -EINVAL;
-    const uint32_t w = get_u32(b + 12), h = get_u32(b + 16);
+    const uint32_t w = le_get_u32(b + 12), h = le_get_u32(b + 16);
     if (w < 1 || h < 1 || w > SIM_GRID_MAX_SIDE || h > SIM_GRID_MAX_SIDE)
         return *why = "bad grid dimensions", -EINVAL;
-    const double res = get_f64(b + 24), ox = get_f64(b + 32), oy = get_f64(b + 40), t_end = get_f64(b + 48);
+    const double res = le_get_f64(b + 24), ox = le_get_f64(b + 32), oy = le_get_f64(b + 40), t_end = le_get_f64(b + 48);
     if (!isfinite(res) || !(res > 0) || !isfinite(ox) || !isfinite(oy))
         return *why = "bad resolution or origin", -EINVAL;
     if (!isfinite(t_end) || t_end < 0)
         return *why = "bad end time", -EINVAL;
-    if (get_u64(b + 56) > (uint64_t)w * h)
+    if (le_get_u64(b + 56) > (uint64_t)w * h)
         return *why = "more free cells than cells", -EINVAL;
     *cells = (size_t)w * (size_t)h;
     return 0;
@@ -279,16 +241,16 @@ int sim_coverage_decode(sim_coverage_t *c, const uint8_t *b, size_t len, const c
                                                               : "trailing bytes after the cells",
                -EINVAL;
     const uint8_t *cells = b + SIM_COVERAGE_HEADER_BYTES;
-    if (crc32_ieee(cells, 4 * n) != get_u32(b + 20))
+    if (crc32_ieee(cells, 4 * n) != le_get_u32(b + 20))
         return *why = "CRC mismatch: the cells are corrupt", -EINVAL;
-    const double t_end = get_f64(b + 48);
+    const double t_end = le_get_f64(b + 48);
     const float t_max = up_f(t_end);
     float *fs = malloc(n * sizeof *fs);
     if (fs == NULL)
         return *why = "out of memory", -ENOMEM;
     uint64_t n_free = 0;
     for (size_t i = 0; i < n; i++) {
-        const uint32_t u = get_u32(cells + 4 * i);
+        const uint32_t u = le_get_u32(cells + 4 * i);
         float v;
         memcpy(&v, &u, sizeof v);
         if (isnan(v) || (v < 0 && v != SIM_COVERAGE_NOT_FREE) || (isfinite(v) && v > t_max)) {
@@ -298,14 +260,14 @@ int sim_coverage_decode(sim_coverage_t *c, const uint8_t *b, size_t len, const c
         n_free += (uint64_t)(v >= 0);
         fs[i] = v;
     }
-    if (n_free != get_u64(b + 56)) {
+    if (n_free != le_get_u64(b + 56)) {
         free(fs);
         return *why = "free-cell count does not match the cells", -EINVAL;
     }
-    c->w = (int)get_u32(b + 12);
-    c->h = (int)get_u32(b + 16);
-    c->res = get_f64(b + 24);
-    c->origin = (sim_vec2_t){get_f64(b + 32), get_f64(b + 40)};
+    c->w = (int)le_get_u32(b + 12);
+    c->h = (int)le_get_u32(b + 16);
+    c->res = le_get_f64(b + 24);
+    c->origin = (sim_vec2_t){le_get_f64(b + 32), le_get_f64(b + 40)};
     c->t_end = t_end;
     c->n_free = n_free;
     c->first_seen = fs;
