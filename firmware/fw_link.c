@@ -4,6 +4,8 @@
 #include "ai/ai_link.h"
 #include "gp/gp_link.h"
 #include "rt/rt_link.h"
+#include "ai/ai_belief.h"
+#include "gp/gp_goal.h"
 
 #include <string.h>
 
@@ -15,7 +17,13 @@ MBOX_DEFINE(fw_ai_state, sizeof(ai_state_msg_t));
 MBOX_DEFINE(fw_ai_ckpt, sizeof(ai_ckpt_msg_t));
 MBOX_DEFINE(fw_gp_ready, sizeof(gp_ready_t));
 static dinno_nbrs_t fw_nbrs;
+MBOX_DEFINE(fw_ai_belief, sizeof(ai_belief_msg_t));
+MBOX_DEFINE(fw_rt_seen, sizeof(rt_seen_t));
+MBOX_DEFINE(fw_gp_goal, sizeof(gp_goal_msg_t));
 
+_Static_assert(RT_SEEN_MAX_CELLS == GP_GOAL_MAX_CELLS && AI_BELIEF_MSG_MAX_CELLS == GP_GOAL_MAX_CELLS &&
+                   AI_BELIEF_MSG_MAX_CELLS == AI_BELIEF_MAX_CELLS,
+               "the seen grid, the belief message and the goal grid have one geometry");
 _Static_assert(RT_LINK_BYTES <= BOARD_RAM_RT_BYTES, "RT links exceed the board's RT RAM");
 _Static_assert(GP_LINK_BYTES <= BOARD_RAM_GP_BYTES, "GP links exceed the board's GP RAM");
 _Static_assert(AI_LINK_BYTES <= BOARD_RAM_AI_BYTES, "AI links exceed the board's AI RAM");
@@ -29,6 +37,9 @@ static const fw_link_t fw_link = {
     .ai_ckpt = &fw_ai_ckpt,
     .gp_ready = &fw_gp_ready,
     .nbrs = &fw_nbrs,
+    .ai_belief = &fw_ai_belief,
+    .rt_seen = &fw_rt_seen,
+    .gp_goal = &fw_gp_goal,
 };
 
 const fw_link_t *fw_link_get(void)
@@ -46,6 +57,9 @@ void fw_link_reset(void)
     mbox_reset(&fw_ai_ckpt);
     mbox_reset(&fw_gp_ready);
     memset(&fw_nbrs, 0, sizeof fw_nbrs);
+    mbox_reset(&fw_ai_belief);
+    mbox_reset(&fw_rt_seen);
+    mbox_reset(&fw_gp_goal);
 }
 
 size_t fw_link_bytes_rt(void)

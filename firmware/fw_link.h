@@ -24,6 +24,10 @@
  *                       GP core begins round k+1 only after it took that publish. The
  *                       ownership passes with the mailboxes' acquire/release exchanges, so the
  *                       bytes are never written and read at the same time.
+ * Exploration (docs/exploration.md), unused on a fixed tour:
+ *   AI -> GP  belief    mbox of ai_belief_msg_t: the model's coarse occupancy and unknown share
+ *   RT -> GP  seen      mbox of rt_seen_t: the robot's own lidar grid, coarse
+ *   GP -> RT  goal      mbox of gp_goal_msg_t: the goal to plan to (or: done, stop)
  *
  * Round protocol (one communication round k, 0 <= k < C):
  *   1. AI: the path progress reached boundary k: publish state(k) = theta.
@@ -59,6 +63,7 @@ typedef struct fw_link {
     mbox_t *ai_status, *ai_state, *ai_ckpt;
     mbox_t *gp_ready;
     struct dinno_nbrs *nbrs;
+    mbox_t *ai_belief, *rt_seen, *gp_goal;
 } fw_link_t;
 
 /* The image's links (static storage). */

@@ -54,7 +54,7 @@ int ai_belief_init(ai_belief_t *b, const ai_belief_cfg_t *cfg)
     /* Before any update the grid says "no opinion, never seen": 128 is the occupancy of a
      * logit of 0, and 255 is what a fresh posterior gives everywhere. */
     memset(b->occ, 128, sizeof b->occ);
-    memset(b->known, 255, sizeof b->known);
+    memset(b->unknown, 255, sizeof b->unknown);
     b->unknown_mean = 1.0;
     return 0;
 }
@@ -94,7 +94,7 @@ int ai_belief_update(ai_belief_t *b, bnn_model_t *m, bnn_post_t *post)
             b->xy[2u * k] = norm_coord(centre(c->origin_x_m, c->res_m, col), c->min_x, c->max_x);
             b->xy[2u * k + 1u] = norm_coord(centre(c->origin_y_m, c->res_m, row), c->min_y, c->max_y);
         }
-        const int rc = bnn_post_predict(post, m, b->xy, nb, b->logit, b->unknown);
+        const int rc = bnn_post_predict(post, m, b->xy, nb, b->logit, b->share);
         if (rc != 0)
             return rc;
         for (uint32_t k = 0; k < nb; k++) {
@@ -102,8 +102,8 @@ int ai_belief_update(ai_belief_t *b, bnn_model_t *m, bnn_post_t *post)
             if (isnan(b->logit[k]))
                 return -EDOM;
             b->occ[i0 + k] = quant_share(sigmoid((double)b->logit[k]));
-            b->known[i0 + k] = quant_share((double)b->unknown[k]);
-            sum += (double)b->unknown[k];
+            b->unknown[i0 + k] = quant_share((double)b->share[k]);
+            sum += (double)b->share[k];
         }
     }
     b->unknown_mean = sum / (double)n;
@@ -140,7 +140,7 @@ int ai_belief_to_goal_grid(const ai_belief_t *b, const gp_goal_cfg_t *gcfg, gp_g
         return -EINVAL;
     const size_t n = (size_t)b->cfg.w * b->cfg.h;
     memcpy(g->occ, b->occ, n);
-    memcpy(g->known, b->known, n);
+    memcpy(g->unknown, b->unknown, n);
     return 0;
 }
 
@@ -157,7 +157,7 @@ int ai_belief_to_rt_grid(const ai_belief_t *b, uint8_t seen_max, rt_grid_t *g)
     /* rt counts observation up from 0 (0 = never observed), the belief counts what is left
      * down to 0: invert, and keep a barely seen cell unknown to the planner. */
     for (size_t i = 0; i < n; i++) {
-        const uint8_t k = b->known[i];
+        const uint8_t k = b->unknown[i];
         g->known[i] = k > seen_max ? 0u : (k == 255u ? 1u : (uint8_t)(255u - k));
     }
     return 0;

@@ -9,9 +9,9 @@
  * row r spans y in [origin_y + r res, ...) (rows grow with y). Units: metres. Per cell:
  *   occ    round(255 sigmoid(logit)), logit of the model's mean weights at the cell centre:
  *          0 free .. 255 occupied (gp_goal.h's and rt_grid.h's occ);
- *   known  round(255 unknown), unknown = bnn_post.h's known(x) in (0, 1] at the centre, the
+ *   unknown  round(255 u), u = bnn_post.h's known(x) in (0, 1] at the centre, the
  *          share of the read-out's prior variance left: 255 never seen .. 0 nothing left to
- *          learn (gp_goal.h's known, byte for byte; rt_grid.h's known is the other way round,
+ *          learn (gp_goal.h's unknown, byte for byte; rt_grid.h's known is the other way round,
  *          see ai_belief_to_rt_grid).
  * The model sees positions normalised over the plan's bounding box (ai/ai_sample.h):
  * x_n = 2 (x - min_x) / (max_x - min_x) - 1, likewise y; cells outside the box are evaluated
@@ -68,13 +68,13 @@ typedef struct ai_belief_cfg {
 typedef struct ai_belief {
     ai_belief_cfg_t cfg;
     uint32_t updates;              /* successful ai_belief_update calls since init */
-    uint32_t valid;                /* 1: occ and known are the last update's; 0 before it or after a failed one */
+    uint32_t valid;                /* 1: occ and unknown are the last update's; 0 before it or after a failed one */
     double unknown_mean;           /* mean unknown share of the last update (exact floats, not the bytes) */
     uint8_t occ[AI_BELIEF_MAX_CELLS];   /* first w * h used */
-    uint8_t known[AI_BELIEF_MAX_CELLS];
+    uint8_t unknown[AI_BELIEF_MAX_CELLS];
     float xy[2u * AI_BELIEF_BATCH];     /* scratch: a batch's normalised centres */
     float logit[AI_BELIEF_BATCH];
-    float unknown[AI_BELIEF_BATCH];
+    float share[AI_BELIEF_BATCH];
 } ai_belief_t;
 
 #define AI_BELIEF_BYTES sizeof(ai_belief_t)
@@ -82,7 +82,7 @@ _Static_assert(sizeof(((ai_belief_t *)0)->occ) == AI_BELIEF_MAX_CELLS, "one occu
 _Static_assert(sizeof(ai_belief_t) <= 16u * 1024u, "the belief grid stays a small fixed block");
 _Static_assert(sizeof(ai_belief_t) <= BOARD_RAM_AI_BYTES / 16u, "the belief grid must stay a small part of the AI RAM");
 
-/* Checks cfg and sets the geometry; every cell occ 128 (no opinion), known 255 (never seen),
+/* Checks cfg and sets the geometry; every cell occ 128 (no opinion), unknown 255 (never seen),
  * valid 0, updates 0. 0, or -EINVAL (NULL, a bound above broken); b untouched on error. */
 FS_MUST_CHECK int ai_belief_init(ai_belief_t *b, const ai_belief_cfg_t *cfg);
 
@@ -104,14 +104,14 @@ FS_MUST_CHECK int ai_belief_cell_xy(const ai_belief_t *b, uint32_t col, uint32_t
  * (1 - it: the share of the map's prior uncertainty the data removed). -1 for a NULL b. */
 double ai_belief_known_share(const ai_belief_t *b);
 
-/* Copies occ and known into the GP core's grid (identical layout and meaning: w * h bytes of
+/* Copies occ and unknown into the GP core's grid (identical layout and meaning: w * h bytes of
  * each; the rest of g is left alone). gcfg: the goal selection's configuration, whose geometry
  * must be this grid's (w, h equal; res_m, origin equal as floats). 0 or -EINVAL (NULL, a
  * different geometry, no valid update). */
 FS_MUST_CHECK int ai_belief_to_goal_grid(const ai_belief_t *b, const gp_goal_cfg_t *gcfg, gp_goal_grid_t *g);
 
 /* Initialises g to this grid's geometry (rt_grid_init) and copies occ; rt's known counts what
- * was observed: 0 (never observed) where known > seen_max, else 255 - known, at least 1. E.g.
+ * was observed: 0 (never observed) where unknown > seen_max, else 255 - unknown, at least 1. E.g.
  * seen_max 230: a cell whose prior variance dropped by 10 % or more counts as seen. (The RT
  * core plans on a finer grid; this coarse one is for a consumer to resample.) 0, -EINVAL (NULL,
  * no valid update) or rt_grid_init's error. */

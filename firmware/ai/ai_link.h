@@ -68,9 +68,21 @@ typedef struct ai_state_msg {
     _Alignas(64) float theta[BNN_N_PARAMS];
 } ai_state_msg_t;
 
-/* Static bytes of the AI core's links: its status, state and ckpt mailboxes. */
+/* AI -> GP: the coarse belief grid (ai/ai_belief.h), after each round while exploring: the
+ * model's occupancy and the share of its prior variance left, per cell of the GP goal grid. */
+#define AI_BELIEF_MSG_MAX_CELLS 4096u
+typedef struct ai_belief_msg {
+    uint64_t stamp_us;
+    uint32_t round;          /* the round whose model it shows */
+    uint32_t w, h;
+    float unknown_mean;      /* mean unknown share over the cells, [0, 1] */
+    uint8_t occ[AI_BELIEF_MSG_MAX_CELLS];
+    uint8_t unknown[AI_BELIEF_MSG_MAX_CELLS];
+} ai_belief_msg_t;
+
+/* Static bytes of the AI core's links: its status, state, ckpt and belief mailboxes. */
 #define AI_LINK_BYTES                                                                         \
     (MBOX_STORAGE_BYTES(sizeof(ai_status_t)) + MBOX_STORAGE_BYTES(sizeof(ai_state_msg_t)) +    \
-     MBOX_STORAGE_BYTES(sizeof(ai_ckpt_msg_t)))
+     MBOX_STORAGE_BYTES(sizeof(ai_ckpt_msg_t)) + MBOX_STORAGE_BYTES(sizeof(ai_belief_msg_t)))
 
 #endif /* AI_AI_LINK_H */

@@ -93,7 +93,7 @@ static void summed_area(gp_goal_t *g, const gp_goal_grid_t *grid)
     for (uint32_t y = 0; y < h; y++)
         for (uint32_t x = 0; x < w; x++)
             g->sat[(y + 1u) * s + x + 1u] =
-                grid->known[y * w + x] + g->sat[y * s + x + 1u] + g->sat[(y + 1u) * s + x] - g->sat[y * s + x];
+                grid->unknown[y * w + x] + g->sat[y * s + x + 1u] + g->sat[(y + 1u) * s + x] - g->sat[y * s + x];
 }
 
 static uint32_t window_sum(const gp_goal_t *g, uint32_t cx, uint32_t cy, uint32_t r)

@@ -6,13 +6,13 @@
  *
  * The grid (gp_goal_cfg_t's geometry, row-major, cell (0, 0) at the origin's corner): per cell
  *   occ    0 free .. 255 occupied; a cell is traversable and a candidate goal when occ < occ_max;
- *   known  the share of the model's prior (epistemic) variance left, ai/bnn_post.h's known(x)
+ *   unknown  the share of the model's prior (epistemic) variance left, ai/bnn_post.h's known(x)
  *          in (0, 1] quantised to 0 .. 255 (255: never seen, 0: nothing left to learn).
  *
  * gp_goal_select(grid, x, y, now), in this order:
  *   cost    a breadth-first search over traversable cells (4-neighbours) from the robot's cell:
  *           cost_m(c) = res_m x steps (the robot's own cell counts as traversable);
- *   info    info_m2(c) = res_m^2 x sum(known / 255) over the square of half side
+ *   info    info_m2(c) = res_m^2 x sum(unknown / 255) over the square of half side
  *           round(sensor_radius_m / res_m) cells around c (a summed-area table: one pass):
  *           the area of prior uncertainty a visit could remove, m^2;
  *   claims  for every live claim (peer p, goal g, its cost cp): p keeps g against us when
@@ -60,7 +60,7 @@ _Static_assert(GP_GOAL_MAX_CELLS <= 0xFFFFu, "cell indices and BFS steps fit uin
 /* The coarse belief grid of the AI core (see above): cells [y * w + x], w x h of the cfg. */
 typedef struct gp_goal_grid {
     uint8_t occ[GP_GOAL_MAX_CELLS];
-    uint8_t known[GP_GOAL_MAX_CELLS];
+    uint8_t unknown[GP_GOAL_MAX_CELLS];
 } gp_goal_grid_t;
 
 /* A claim (fleetsim.goal_claim_t, firmware/msg/goal_claim.lcm): robot `sender` heads for
@@ -116,7 +116,7 @@ typedef struct gp_goal {
     gp_goal_held_t claims[GP_GOAL_MAX_CLAIMS];
     uint16_t steps[GP_GOAL_MAX_CELLS];                /* BFS steps from our cell; 0xFFFF unreached */
     uint16_t queue[GP_GOAL_MAX_CELLS];
-    uint32_t sat[(GP_GOAL_MAX_W + 1u) * (GP_GOAL_MAX_H + 1u)]; /* summed-area table of known */
+    uint32_t sat[(GP_GOAL_MAX_W + 1u) * (GP_GOAL_MAX_H + 1u)]; /* summed-area table of unknown */
     double discount[GP_GOAL_MAX_CELLS];              /* per candidate, from the claims */
     int has_goal;
     gp_goal_pick_t goal;                             /* ours (with has_goal) */

@@ -16,7 +16,20 @@ typedef struct gp_ready {
                                 behind its fleet and skips ahead (<= k + 1 or >= C: k + 1) */
 } gp_ready_t;
 
-/* Static bytes of the GP core's links: the ready mailbox and the neighbour view (pointers). */
-#define GP_LINK_BYTES (MBOX_STORAGE_BYTES(sizeof(gp_ready_t)) + sizeof(dinno_nbrs_t))
+/* GP -> RT: where to explore next (gp/gp_goal.h picks it). A new seq is a new goal; the RT
+ * core plans to it on its own grid and reports the seq back reached or given up (rt_status_t). */
+#define GP_GOAL_MSG_GO 1u   /* drive to (x_m, y_m) */
+#define GP_GOAL_MSG_DONE 2u /* nothing left to learn within reach: stop */
+typedef struct gp_goal_msg {
+    uint64_t stamp_us;
+    uint32_t seq;            /* 1, 2, ...: one per new goal */
+    uint32_t mode;           /* GP_GOAL_MSG_GO or GP_GOAL_MSG_DONE */
+    float x_m, y_m;          /* the goal, metres (GO) */
+} gp_goal_msg_t;
+
+/* Static bytes of the GP core's links: the ready and goal mailboxes and the neighbour view. */
+#define GP_LINK_BYTES                                                                          \
+    (MBOX_STORAGE_BYTES(sizeof(gp_ready_t)) + MBOX_STORAGE_BYTES(sizeof(gp_goal_msg_t)) +      \
+     sizeof(dinno_nbrs_t))
 
 #endif /* GP_GP_LINK_H */

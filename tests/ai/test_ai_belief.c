@@ -57,7 +57,7 @@ static double mean_known(const ai_belief_t *b, uint32_t c0, uint32_t c1, uint32_
     double s = 0.0;
     for (uint32_t r = r0; r < r1; r++)
         for (uint32_t c = c0; c < c1; c++)
-            s += b->known[r * b->cfg.w + c];
+            s += b->unknown[r * b->cfg.w + c];
     return s / (double)((c1 - c0) * (r1 - r0));
 }
 
@@ -72,7 +72,7 @@ static void test_fresh_posterior_knows_nothing(void **state)
     assert_int_equal(ai_belief_update(&bel, &model, &post), 0);
     assert_int_equal(bel.updates, 1);
     for (uint32_t i = 0; i < GW * GH; i++)
-        assert_true(bel.known[i] >= 254);
+        assert_true(bel.unknown[i] >= 254);
     assert_true(ai_belief_known_share(&bel) > 0.995 && ai_belief_known_share(&bel) <= 1.0);
 }
 
@@ -96,7 +96,7 @@ static void test_observed_corner_is_known_far_cells_are_not(void **state)
     /* distance aware: every cell of the far corner is less known than the observed corner's mean */
     for (uint32_t r = 22; r < GH; r++)
         for (uint32_t col = 22; col < GW; col++)
-            assert_true(bel.known[r * GW + col] > near);
+            assert_true(bel.unknown[r * GW + col] > near);
 }
 
 static void test_occ_is_the_mean_forward_pass(void **state)
@@ -151,14 +151,14 @@ static void test_deterministic_and_copies(void **state)
     assert_int_equal(ai_belief_update(&bel, &model, &post), 0);
     static uint8_t occ[AI_BELIEF_MAX_CELLS], known[AI_BELIEF_MAX_CELLS];
     memcpy(occ, bel.occ, sizeof occ);
-    memcpy(known, bel.known, sizeof known);
+    memcpy(known, bel.unknown, sizeof known);
     const double share = bel.unknown_mean;
     assert_int_equal(ai_belief_update(&bel, &model, &post), 0);
     assert_int_equal(ai_belief_update(&bel2, &model, &post), 0);
     assert_memory_equal(occ, bel.occ, sizeof occ);
-    assert_memory_equal(known, bel.known, sizeof known);
+    assert_memory_equal(known, bel.unknown, sizeof known);
     assert_memory_equal(occ, bel2.occ, sizeof occ);
-    assert_memory_equal(known, bel2.known, sizeof known);
+    assert_memory_equal(known, bel2.unknown, sizeof known);
     assert_memory_equal(&share, &bel.unknown_mean, sizeof share);
     assert_int_equal(bel.updates, 2);
 
@@ -169,7 +169,7 @@ static void test_deterministic_and_copies(void **state)
     memset(&ggrid, 0xA5, sizeof ggrid);
     assert_int_equal(ai_belief_to_goal_grid(&bel, &g, &ggrid), 0);
     assert_memory_equal(ggrid.occ, bel.occ, GW * GH);
-    assert_memory_equal(ggrid.known, bel.known, GW * GH);
+    assert_memory_equal(ggrid.unknown, bel.unknown, GW * GH);
     g.res_m = 0.26;
     assert_int_equal(ai_belief_to_goal_grid(&bel, &g, &ggrid), -EINVAL);
     g.res_m = 0.25, g.w = GW + 1;
@@ -187,7 +187,7 @@ static void test_deterministic_and_copies(void **state)
     assert_memory_equal(rgrid.occ, bel.occ, GW * GH);
     uint32_t seen = 0;
     for (uint32_t i = 0; i < GW * GH; i++) {
-        const uint8_t k = bel.known[i];
+        const uint8_t k = bel.unknown[i];
         assert_int_equal(rgrid.known[i], k > 128 ? 0 : 255 - k);
         seen += rgrid.known[i] != 0;
     }
@@ -279,7 +279,7 @@ static void test_full_grid_no_allocation(void **state)
     alloc_count_reset();
     assert_int_equal(ai_belief_update(&bel, &model, &post), 0);
     assert_int_equal(alloc_count_allocations(), 0);
-    assert_true(bel.known[0] < bel.known[AI_BELIEF_MAX_CELLS - 1u]);
+    assert_true(bel.unknown[0] < bel.unknown[AI_BELIEF_MAX_CELLS - 1u]);
     print_message("ai_belief_t: %zu bytes\n", (size_t)AI_BELIEF_BYTES);
 }
 

@@ -40,7 +40,7 @@ static void patch(uint32_t cx, uint32_t cy, uint8_t known)
 {
     for (uint32_t y = cy - 1u; y <= cy + 1u; y++)
         for (uint32_t x = cx - 1u; x <= cx + 1u; x++)
-            grid.known[y * 16u + x] = known;
+            grid.unknown[y * 16u + x] = known;
 }
 
 static gp_goal_cfg_t config(uint32_t self, outbox_t *o)
@@ -273,7 +273,7 @@ static void test_nothing_left_to_learn(void **st)
     gp_goal_poll(&ga, 10 * S);
     assert_int_equal(oa.n, 0);
     /* Nothing is learnt either from a patch below min_info_m2 (0.5 m^2): 3 cells of 30/255. */
-    grid.known[CELL(3, 3)] = grid.known[CELL(3, 4)] = grid.known[CELL(3, 5)] = 30;
+    grid.unknown[CELL(3, 3)] = grid.unknown[CELL(3, 4)] = grid.unknown[CELL(3, 5)] = 30;
     assert_int_equal(gp_goal_select(&ga, &grid, AX, Y, 0, &p), -ENOENT);
     /* Bad arguments. */
     assert_int_equal(gp_goal_select(&ga, &grid, -0.5, Y, 0, &p), -EINVAL);
@@ -308,7 +308,7 @@ static void test_deterministic(void **st)
     assert_int_equal(p[0][2].cell, CELL(2, 1));
     /* An exact tie (all equal: one unknown cell at each end, robot in the middle): the lower index. */
     memset(&grid, 0, sizeof grid);
-    grid.known[0] = grid.known[14] = 255; /* a 15 x 1 grid */
+    grid.unknown[0] = grid.unknown[14] = 255; /* a 15 x 1 grid */
     gp_goal_cfg_t c = config(0, &oa);
     c.w = 15;
     c.h = 1;
