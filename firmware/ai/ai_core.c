@@ -48,7 +48,8 @@ int ai_core_init(ai_core_t *ai, const ai_core_cfg_t *cfg, const fw_link_t *link)
         cfg->offline < 0 || cfg->offline > 1 || cfg->post_rounds > AI_CORE_MAX_POST_ROUNDS ||
         cfg->start_round >= cfg->rounds + cfg->post_rounds || (cfg->post_rounds > 0 && cfg->fleet_size < 1) ||
         (cfg->resume_ckpt == NULL && cfg->resume_ckpt_bytes != 0) ||
-        (cfg->rounds_per_boundary > 0 && cfg->rounds % cfg->rounds_per_boundary != 0))
+        (cfg->rounds_per_boundary > 0 && cfg->rounds % cfg->rounds_per_boundary != 0) ||
+        (cfg->explore_budget_us > 0 && (cfg->belief == NULL || cfg->belief_period_us == 0 || cfg->offline)))
         return -EINVAL;
     /* The big members are left as they are: dinno_node_init and the pool set what they use. */
     ai->cfg = *cfg;
@@ -73,6 +74,13 @@ int ai_core_init(ai_core_t *ai, const ai_core_cfg_t *cfg, const fw_link_t *link)
     ai->post_fleet = 0;
     if (r == 0)
         r = resume_node(ai, cfg);
+    if (r == 0 && cfg->explore_budget_us > 0) {
+        ai->belief_cfg = *cfg->belief;
+        ai->cfg.belief = &ai->belief_cfg;
+        r = ai_belief_init(&ai->belief, &ai->belief_cfg);
+    }
+    ai->belief_next_us = 0;
+    ai->belief_errors = 0;
     if (r != 0)
         return r;
     r = ai_pool_init(&ai->pool, ai->pool_data, AI_POOL_CAPACITY, cfg->policy,
@@ -99,9 +107,13 @@ static uint32_t rounds_due(const ai_core_t *ai)
     const uint32_t C = ai->cfg.rounds / R; /* boundaries */
     if (ai->rt.finished)
         return total_rounds(ai);
-    if (ai->cfg.offline || !(ai->rt.path_length_m > 0.0f))
+    double f;
+    if (ai->cfg.explore_budget_us > 0)
+        f = (double)ai->rt.stamp_us / (double)ai->cfg.explore_budget_us * (double)C;
+    else if (ai->cfg.offline || !(ai->rt.path_length_m > 0.0f))
         return 0;
-    double f = (double)ai->rt.progress_m / (double)ai->rt.path_length_m * (double)C;
+    else
+        f = (double)ai->rt.progress_m / (double)ai->rt.path_length_m * (double)C;
     uint32_t due = f >= (double)C ? C : (uint32_t)f;
     return due >= C ? total_rounds(ai) : due * R;
 }
@@ -288,6 +300,30 @@ publish:;
     return rc;
 }
 
+/* Exploring: the coarse belief of the model and posterior as they are now, for the GP core's
+ * goal choice (the staged samples summed in first, so the belief knows what the robot saw). */
+static int publish_belief(ai_core_t *ai, uint64_t now_us)
+{
+    int r = observe_staged(ai);
+    if (r == 0)
+        r = ai_belief_update(&ai->belief, &ai->node.model, &ai->post);
+    if (r != 0) {
+        ai->belief_errors++;
+        return r;
+    }
+    const uint32_t n = ai->belief_cfg.w * ai->belief_cfg.h;
+    ai_belief_msg_t *m = mbox_write_buffer(ai->link->ai_belief);
+    m->stamp_us = now_us;
+    m->round = ai->next_round;
+    m->w = ai->belief_cfg.w;
+    m->h = ai->belief_cfg.h;
+    m->unknown_mean = (float)ai->belief.unknown_mean;
+    memcpy(m->occ, ai->belief.occ, n);
+    memcpy(m->unknown, ai->belief.unknown, n);
+    (void)mbox_publish(ai->link->ai_belief);
+    return 0;
+}
+
 int ai_core_tick(void *arg, const fw_tick_t *tick)
 {
     ai_core_t *ai = arg;
@@ -306,6 +342,10 @@ int ai_core_tick(void *arg, const fw_tick_t *tick)
     }
     if (mbox_get(ai->link->rt_to_ai, &ai->rt, NULL) < 0)
         rc = -EINVAL;
+    if (ai->cfg.explore_budget_us > 0 && ai->phase == AI_PHASE_COLLECT && tick->now_us >= ai->belief_next_us) {
+        ai->belief_next_us = tick->now_us + ai->cfg.belief_period_us;
+        (void)publish_belief(ai, tick->now_us); /* counted; the GP core keeps the last one */
+    }
     if (ai->phase == AI_PHASE_COLLECT) {
         if (ai->next_round < rounds_due(ai)) {
             publish_state(ai, tick->now_us);

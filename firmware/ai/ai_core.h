@@ -48,6 +48,7 @@
 
 #include <stdint.h>
 
+#include "ai/ai_belief.h"
 #include "ai/ai_link.h"
 #include "ai/ai_pool.h"
 #include "ai/bnn_post.h"
@@ -79,6 +80,13 @@ typedef struct ai_core_cfg {
     uint32_t fleet_size;      /* N, the weights 1/N of that consensus; >= 1 when post_rounds > 0 */
     const uint8_t *resume_ckpt; /* NULL (theta from model_seed), or the checkpoint to start from */
     uint32_t resume_ckpt_bytes;
+    /* Exploration (docs/exploration.md): no tour, so the rounds are cut by simulated time,
+       boundary k at (k + 1) x explore_budget_us / C (or when the RT core says it finished);
+       every belief_period_us the coarse belief grid (ai_belief.h) of the current model and
+       posterior goes to the GP core (fw_link_t.ai_belief). 0: a tour, cut by path progress. */
+    uint64_t explore_budget_us;
+    const ai_belief_cfg_t *belief;  /* with explore_budget_us: the grid's geometry (copied) */
+    uint64_t belief_period_us;      /* > 0 with explore_budget_us */
 } ai_core_cfg_t;
 
 typedef enum ai_core_phase {
@@ -105,6 +113,10 @@ typedef struct ai_core {
     float post_xy[2u * AI_POST_STAGE]; /* samples not yet summed in */
     uint32_t post_staged;
     int post_fleet;           /* 1: post holds this robot's estimate of the fleet's posterior */
+    ai_belief_cfg_t belief_cfg;
+    ai_belief_t belief;       /* exploring: the grid last published */
+    uint64_t belief_next_us;  /* the next belief update is due then */
+    uint64_t belief_errors;
 } ai_core_t;
 
 #define AI_CORE_BYTES (sizeof(ai_core_t))

@@ -35,6 +35,13 @@ int gp_core_init(gp_core_t *gp, const gp_core_cfg_t *cfg, const fw_link_t *link)
         return -EINVAL;
     atomic_store(&gp->n_log, 0u);
     atomic_store(&gp->done, 0u);
+    if (cfg->explore != NULL) {
+        int r = gp_explore_init(&gp->explore, cfg->explore);
+        if (r != 0)
+            return r;
+        gp->exploring = 1;
+        gp->cfg.explore = &gp->explore.cfg;
+    }
     return 0;
 }
 
@@ -220,6 +227,8 @@ int gp_core_tick(void *arg, const fw_tick_t *tick)
         gp->cfg.peers->service(gp->cfg.peers_ctx);
     handle_ckpt(gp, tick->now_us);
     coordinate(gp, tick->now_us);
+    if (gp->exploring && gp_explore_tick(&gp->explore, gp->link, gp->have_rt ? &gp->rt : NULL, tick->now_us) != 0)
+        gp->stats.explore_errors++;
     if (tick->index % gp->cfg.telemetry_every == 0)
         send_telemetry(gp, tick->now_us);
     return 0;

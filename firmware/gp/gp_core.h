@@ -34,6 +34,7 @@
 #include "ai/ai_link.h"
 #include "common/fw_core.h"
 #include "fw_link.h"
+#include "gp/gp_explore.h"
 #include "gp/gp_link.h"
 #include "gp/gp_telemetry.h"
 #include "rt/rt_link.h"
@@ -76,6 +77,8 @@ typedef struct gp_core_cfg {
                                   GP_CORE_CKPT_KEEP_DEFAULT; 0: all), plus ... */
     uint32_t ckpt_keep_every;  /* ... every round k with (k + 1) % ckpt_keep_every == 0 (default
                                   GP_CORE_CKPT_KEEP_EVERY_DEFAULT; 0: none of the older ones) */
+    const gp_explore_cfg_t *explore; /* NULL: a fixed tour; else goals chosen each tick
+                                        (gp_explore.h; copied at init) */
 } gp_core_cfg_t;
 
 /* Storage is finite on a board (and 3000 rounds of a lone run were 400 MB on the host): the
@@ -93,6 +96,7 @@ typedef struct gp_core_stats {
     uint64_t ckpt_failed;
     uint64_t exchange_errors;
     uint64_t rounds_coordinated;
+    uint64_t explore_errors;    /* gp_explore_tick failures */
 } gp_core_stats_t;
 
 typedef struct gp_core {
@@ -114,6 +118,8 @@ typedef struct gp_core {
     ai_round_info_t log[GP_CORE_LOG_ROUNDS];
     uint8_t tele[GP_TELEMETRY_WIRE_BYTES];
     char channel[64];
+    int exploring;
+    gp_explore_t explore;      /* used with cfg.explore */
 } gp_core_t;
 
 gp_core_cfg_t gp_core_default_cfg(void);
