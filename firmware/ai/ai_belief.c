@@ -70,6 +70,19 @@ static uint8_t quant_share(double v)
     return (uint8_t)lround(255.0 * v);
 }
 
+/* The information a look at the cell could still give, on the byte scale (ai_belief.h):
+ * 0.5 log(1 + S u) nats for a read-out whose prior variance is S times the observation's, over
+ * its largest, 0.5 log(1 + S). Shares far below 1/255 keep their order (a linear byte would
+ * round every well-seen cell to 0 and drop the contrast that says where to look next). */
+static uint8_t quant_info(double u)
+{
+    if (!(u >= 0.0))
+        return u < 0.0 ? 0u : 255u;
+    if (u >= 1.0)
+        return 255u;
+    return (uint8_t)lround(255.0 * log1p(AI_BELIEF_INFO_SNR * u) / log1p(AI_BELIEF_INFO_SNR));
+}
+
 /* sigmoid in double: exp of a large -logit saturates to inf and the share to 0, no NaN. */
 static double sigmoid(double z)
 {
@@ -102,7 +115,7 @@ int ai_belief_update(ai_belief_t *b, bnn_model_t *m, bnn_post_t *post)
             if (isnan(b->logit[k]))
                 return -EDOM;
             b->occ[i0 + k] = quant_share(sigmoid((double)b->logit[k]));
-            b->unknown[i0 + k] = quant_share((double)b->share[k]);
+            b->unknown[i0 + k] = quant_info((double)b->share[k]);
             sum += (double)b->share[k];
         }
     }

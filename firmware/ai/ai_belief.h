@@ -9,9 +9,13 @@
  * row r spans y in [origin_y + r res, ...) (rows grow with y). Units: metres. Per cell:
  *   occ    round(255 sigmoid(logit)), logit of the model's mean weights at the cell centre:
  *          0 free .. 255 occupied (gp_goal.h's and rt_grid.h's occ);
- *   unknown  round(255 u), u = bnn_post.h's known(x) in (0, 1] at the centre, the
- *          share of the read-out's prior variance left: 255 never seen .. 0 nothing left to
- *          learn (gp_goal.h's unknown, byte for byte; rt_grid.h's known is the other way round,
+ *   unknown  round(255 log(1 + S u) / log(1 + S)), u = bnn_post.h's known(x) in (0, 1] at the
+ *          centre, the share of the read-out's prior variance left, S = AI_BELIEF_INFO_SNR:
+ *          the information a look could still give (0.5 log(1 + S u) nats for a prior variance
+ *          S times the observation noise's) over its largest. 255 never seen .. 0 nothing left
+ *          to learn. A log scale, because u falls everywhere as data come (the SIREN features
+ *          are global) while its contrast between seen and unseen cells stays: a linear byte
+ *          rounded the whole building to a few LSB within a minute of driving (gp_goal.h's unknown, byte for byte; rt_grid.h's known is the other way round,
  *          see ai_belief_to_rt_grid).
  * The model sees positions normalised over the plan's bounding box (ai/ai_sample.h):
  * x_n = 2 (x - min_x) / (max_x - min_x) - 1, likewise y; cells outside the box are evaluated
@@ -49,6 +53,7 @@
 #define AI_BELIEF_MAX_H 64u
 #define AI_BELIEF_MAX_CELLS (AI_BELIEF_MAX_W * AI_BELIEF_MAX_H)
 #define AI_BELIEF_BATCH 256u /* cell centres per bnn_post_predict call */
+#define AI_BELIEF_INFO_SNR 1000.0 /* S of the unknown byte's scale (above) */
 
 _Static_assert(AI_BELIEF_MAX_W <= GP_GOAL_MAX_W && AI_BELIEF_MAX_H <= GP_GOAL_MAX_H,
                "a belief grid must fit gp_goal_grid_t");
@@ -112,7 +117,7 @@ FS_MUST_CHECK int ai_belief_to_goal_grid(const ai_belief_t *b, const gp_goal_cfg
 
 /* Initialises g to this grid's geometry (rt_grid_init) and copies occ; rt's known counts what
  * was observed: 0 (never observed) where unknown > seen_max, else 255 - unknown, at least 1. E.g.
- * seen_max 230: a cell whose prior variance dropped by 10 % or more counts as seen. (The RT
+ * seen_max 230: a cell whose prior variance dropped to about half or less counts as seen. (The RT
  * core plans on a finer grid; this coarse one is for a consumer to resample.) 0, -EINVAL (NULL,
  * no valid update) or rt_grid_init's error. */
 FS_MUST_CHECK int ai_belief_to_rt_grid(const ai_belief_t *b, uint8_t seen_max, rt_grid_t *g);

@@ -81,6 +81,32 @@ static void send_telemetry(gp_core_t *gp, uint64_t now_us)
 
 static void handle_ckpt(gp_core_t *gp, uint64_t now_us);
 
+/* Exploring with claims: our goal goes to the peers with the round's state, its seq the round
+ * (so a receiver takes the claims of rounds up to its own at its round, the same ones on every
+ * run), alive until a round and a half later at most (gp_goal's limit). */
+static const gp_goal_claim_t *our_claim(gp_core_t *gp, uint64_t now_us)
+{
+    const gp_explore_t *x = &gp->explore;
+    if (!gp->exploring || x->cfg.policy == GP_EXPLORE_FRONTIER || !x->goal.has_goal)
+        return NULL;
+    gp->claim_out = (gp_goal_claim_t){gp->cfg.robot_id, gp->exchange_round, x->goal.goal.x_m, x->goal.goal.y_m,
+                                      x->goal.goal.cost_m, now_us + x->cfg.goal.claim_lifetime_us};
+    return &gp->claim_out;
+}
+
+static void take_claims(gp_core_t *gp, uint64_t now_us)
+{
+    if (!gp->exploring || gp->cfg.peers == NULL || gp->cfg.peers->claims == NULL)
+        return;
+    const uint32_t n = gp->cfg.peers->claims(gp->cfg.peers_ctx, gp->exchange_round, gp->claims_in, GP_GOAL_MAX_CLAIMS);
+    for (uint32_t i = 0; i < n; i++) {
+        const int r = gp_explore_on_claim(&gp->explore, &gp->claims_in[i], now_us);
+        if (r != 0 && r != -EALREADY && r != -ESTALE)
+            hal_log(HAL_LOG_WARN, "round %" PRIu32 ": robot %" PRIu32 "'s goal claim refused (%d)", gp->exchange_round,
+                    gp->claims_in[i].sender, r);
+    }
+}
+
 static void coordinate(gp_core_t *gp, uint64_t now_us)
 {
     if (!gp->exchange_pending) {
@@ -98,7 +124,8 @@ static void coordinate(gp_core_t *gp, uint64_t now_us)
     int n = 0;
     if (gp->cfg.peers != NULL && gp->cfg.peers->exchange != NULL) {
         const ai_state_msg_t *st = mbox_read_buffer(gp->link->ai_state, NULL);
-        const gp_exchange_req_t req = {gp->exchange_round, st->theta, st->n_params, gp->rt.x_m, gp->rt.y_m};
+        const gp_exchange_req_t req = {gp->exchange_round, st->theta, st->n_params, gp->rt.x_m, gp->rt.y_m,
+                                       our_claim(gp, now_us)};
         n = gp->cfg.peers->exchange(gp->cfg.peers_ctx, &req, nbrs);
         if (n == -EAGAIN)
             return;
@@ -113,6 +140,7 @@ static void coordinate(gp_core_t *gp, uint64_t now_us)
         nbrs->count = 0;
         nbrs->round = gp->exchange_round;
     }
+    take_claims(gp, now_us);
     uint32_t next = gp->exchange_round + 1u;
     if (gp->cfg.peers != NULL && gp->cfg.peers->next_round != NULL) {
         next = gp->cfg.peers->next_round(gp->cfg.peers_ctx, gp->exchange_round);

@@ -47,6 +47,8 @@ typedef struct gp_exchange_req {
     const float *theta;        /* n_params floats, stable until the hook returned >= 0 */
     uint32_t n_params;
     double x_m, y_m;
+    const gp_goal_claim_t *claim; /* exploring: our goal claim of this round (seq = round), sent
+                                     before the state; NULL: none */
 } gp_exchange_req_t;
 
 /* How the GP core reaches its peers. Every hook is optional; ctx is gp_core_cfg_t.peers_ctx. */
@@ -64,6 +66,9 @@ typedef struct gp_peers_ops {
     /* After the exchange of `round`: the round the AI core runs next, round + 1 unless the
      * robot fell behind its fleet and skips ahead (a paused or restarted robot). NULL: + 1. */
     uint32_t (*next_round)(void *ctx, uint32_t round);
+    /* After the exchange of `round`: the peers' goal claims of rounds <= round received since the
+     * last call (at most max into out, the latest per peer), to hand to gp_explore. NULL: none. */
+    uint32_t (*claims)(void *ctx, uint32_t round, gp_goal_claim_t *out, uint32_t max);
 } gp_peers_ops_t;
 
 typedef struct gp_core_cfg {
@@ -120,6 +125,8 @@ typedef struct gp_core {
     char channel[64];
     int exploring;
     gp_explore_t explore;      /* used with cfg.explore */
+    gp_goal_claim_t claim_out; /* our claim of the round being exchanged */
+    gp_goal_claim_t claims_in[GP_GOAL_MAX_CLAIMS];
 } gp_core_t;
 
 gp_core_cfg_t gp_core_default_cfg(void);

@@ -26,7 +26,7 @@ _Static_assert(GP_PSE_MAX_CHUNK_BYTES + GP_WIRE_CHUNK_HEADER_BYTES <= HAL_NET_MT
                "a chunk and its header fit one datagram");
 _Static_assert(GP_WIRE_REQUEST_BYTES(GP_PSE_MAX_REQUEST) <= HAL_NET_MTU_BYTES, "a request fits one datagram");
 
-static const char *const channel_suffix[3] = {"state", "done", "request"};
+static const char *const channel_suffix[4] = {"state", "done", "request", "claim"};
 
 gp_fleet_cfg_t gp_fleet_default_cfg(void)
 {
@@ -45,7 +45,7 @@ gp_fleet_cfg_t gp_fleet_default_cfg(void)
 
 int gp_fleet_channel_name(uint32_t fleet_id, gp_fleet_channel_t which, char *buf, size_t cap)
 {
-    if (buf == NULL || (unsigned)which > GP_FLEET_CH_REQUEST)
+    if (buf == NULL || (unsigned)which > GP_FLEET_CH_CLAIM)
         return -EINVAL;
     int n = snprintf(buf, cap, "%s%" PRIu32 "/%s", GP_FLEET_CHANNEL_PREFIX, fleet_id, channel_suffix[which]);
     return n > 0 && (size_t)n < cap && hal_net_channel_valid(buf) ? 0 : -EINVAL;
@@ -131,7 +131,8 @@ int gp_fleet_init(gp_fleet_t *f, const gp_fleet_cfg_t *cfg)
     if (r != 0)
         return r;
     memset(&f->mark, 0, sizeof f->mark);
-    for (int c = 0; c < 3; c++) {
+    memset(f->claim_held, 0, sizeof f->claim_held);
+    for (int c = 0; c < (cfg->claims ? 4 : 3); c++) {
         if ((r = gp_fleet_channel_name(cfg->fleet_id, (gp_fleet_channel_t)c, f->channel[c], sizeof f->channel[c])) != 0 ||
             (r = hal_net_subscribe(f->channel[c])) != 0)
             return r;
@@ -150,6 +151,26 @@ static uint64_t net_now(void)
    it reads still sends its beacons and requests (a drain that ran until the queue was empty
    could go on as long as the peers kept sending, silent meanwhile, and be timed out). */
 #define GP_FLEET_DRAIN_BATCH 64u
+
+/* A peer's claim, kept until our round reaches its seq (gp_fleet_cfg_t.claims): the newest per
+   peer; gp_goal_on_claim checks the rest when it is handed over. */
+static void take_claim(gp_fleet_t *f, size_t len)
+{
+    gp_goal_claim_t c;
+    if (gp_wire_decode_claim(f->rx, len, &c) != 0 || c.sender >= f->cfg.n_peers) {
+        f->stats.rx_undecodable++;
+        return;
+    }
+    if (c.sender == f->cfg.self) {
+        f->stats.own_echoes++;
+        return;
+    }
+    f->stats.claims_received++;
+    if (!f->claim_held[c.sender] || c.seq >= f->claim_in[c.sender].seq) {
+        f->claim_in[c.sender] = c;
+        f->claim_held[c.sender] = 1;
+    }
+}
 
 /* Hands up to GP_FLEET_DRAIN_BATCH queued messages to the protocol; returns how many it took. */
 static uint32_t drain(gp_fleet_t *f)
@@ -191,6 +212,8 @@ static uint32_t drain(gp_fleet_t *f)
                 f->stats.own_echoes++;
             else /* a request to another peer still tells where its sender is */
                 (void)gp_pse_on_request(&f->drv.pse, &q, now);
+        } else if (f->cfg.claims && strcmp(info.channel, f->channel[GP_FLEET_CH_CLAIM]) == 0) {
+            take_claim(f, info.len);
         } else {
             f->stats.rx_undecodable++;
         }
@@ -413,6 +436,13 @@ static int begin(gp_fleet_t *f, const gp_exchange_req_t *req)
     f->cur_started_us = net_now();
     f->have_cur = 1;
     f->view_filled = 0;
+    if (f->cfg.claims && req->claim != NULL) { /* before the state: it arrives first on an ordered link */
+        const int n = gp_wire_encode_claim(req->claim, f->tx, sizeof f->tx);
+        if (n < 0 || hal_net_publish(f->channel[GP_FLEET_CH_CLAIM], f->tx, (size_t)n) != 0)
+            f->stats.tx_failed++;
+        else
+            f->stats.claims_sent++;
+    }
     return gp_round_begin(&f->drv, f->mine, x, y, net_now());
 }
 
@@ -455,6 +485,19 @@ static uint32_t fleet_next_round(void *ctx, uint32_t round)
     return gp_round_next_round(&f->drv, round, net_now());
 }
 
+static uint32_t fleet_claims(void *ctx, uint32_t round, gp_goal_claim_t *out, uint32_t max)
+{
+    gp_fleet_t *f = ctx;
+    uint32_t n = 0;
+    for (uint32_t p = 0; f->cfg.claims && p < f->cfg.n_peers && n < max; p++)
+        if (f->claim_held[p] && f->claim_in[p].seq <= round) {
+            out[n++] = f->claim_in[p];
+            f->claim_held[p] = 0;
+        }
+    f->stats.claims_handed += n;
+    return n;
+}
+
 static void fleet_service(void *ctx)
 {
     gp_fleet_t *f = ctx;
@@ -469,4 +512,5 @@ const gp_peers_ops_t gp_fleet_peers_ops = {
     .round_done = fleet_round_done,
     .service = fleet_service,
     .next_round = fleet_next_round,
+    .claims = fleet_claims,
 };

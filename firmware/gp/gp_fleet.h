@@ -46,6 +46,7 @@
 #include "ai/bnn_quant.h"
 #include "ai/dinno_codec.h"
 #include "gp/gp_core.h"
+#include "gp/gp_goal.h"
 #include "gp/gp_pse.h"
 #include "gp/gp_round.h"
 #include "hal/hal_net.h"
@@ -79,7 +80,12 @@ typedef dinno_codec_t gp_fleet_encoding_t;
 _Static_assert(GP_FLEET_PEER_TIMEOUT_US_DEFAULT > 2u * GP_FLEET_RESEND_AFTER_US_DEFAULT,
                "a live peer speaks once per resend period: the timeout must exceed two");
 _Static_assert(GP_FLEET_JOIN_TIMEOUT_US_DEFAULT >= GP_FLEET_PEER_TIMEOUT_US_DEFAULT, "gp_pse's check");
-typedef enum gp_fleet_channel { GP_FLEET_CH_STATE = 0, GP_FLEET_CH_DONE = 1, GP_FLEET_CH_REQUEST = 2 } gp_fleet_channel_t;
+typedef enum gp_fleet_channel {
+    GP_FLEET_CH_STATE = 0,
+    GP_FLEET_CH_DONE = 1,
+    GP_FLEET_CH_REQUEST = 2,
+    GP_FLEET_CH_CLAIM = 3, /* exploring fleets only (gp_fleet_cfg_t.claims) */
+} gp_fleet_channel_t;
 
 typedef struct gp_fleet_cfg {
     uint32_t fleet_id;
@@ -100,6 +106,11 @@ typedef struct gp_fleet_cfg {
                                         0: the robot's pose when the round starts (online) */
     const rt_waypoint_t *tour;       /* copied; needed with positions_from_tour */
     int32_t n_tour;
+    int claims;                      /* 1: exploring with goal claims: the claim channel is used.
+                                        A claim goes out just before the round's first chunk (so
+                                        it arrives before the state on an ordered link), seq =
+                                        its round; received ones are kept per peer (the newest)
+                                        and handed over at our round k for seq <= k. */
 } gp_fleet_cfg_t;
 
 /* One round as this robot saw it (traffic counts are the round's own). */
@@ -126,6 +137,7 @@ typedef struct gp_fleet_stats {
     uint64_t decode_failures;        /* neighbour states that did not decode (fp32 values, scales) */
     uint64_t wait_us;                /* total real time spent waiting */
     uint64_t senders_set;            /* the set of peers whose chunks we take, handed to hal_net */
+    uint64_t claims_sent, claims_received, claims_handed;
 } gp_fleet_stats_t;
 
 typedef struct gp_fleet {
@@ -136,7 +148,9 @@ typedef struct gp_fleet {
     uint32_t state_bytes;
     int final_done;
     int view_filled;                 /* the neighbour view holds the states of the round begun */
-    char channel[3][HAL_NET_CHANNEL_MAX];
+    char channel[4][HAL_NET_CHANNEL_MAX];
+    gp_goal_claim_t claim_in[GP_PSE_MAX_FLEET]; /* per peer: its newest claim not handed over yet */
+    uint8_t claim_held[GP_PSE_MAX_FLEET];
     /* The peers whose chunks the network delivers (gp_pse_wanted); all of them while
        senders_all, and always when the board cannot filter (senders_off). */
     uint8_t senders[GP_PSE_WANTED_BYTES];

@@ -21,6 +21,7 @@
 #include "sim_maps.h"
 #include "sim_image.h"
 #include "sim_kernels.h"
+#include "sim_explore.h"
 #include "sim_paths.h"
 #include "sim_plan.h"
 #include "sim_samples.h"
@@ -264,6 +265,7 @@ typedef struct job {
     run_opts_t o;
     sim_plan_t plan;
     sim_path_t path;
+    sim_explore_trace_t trace; /* --explore: explore.csv */
     ai_sample_t *val;
     size_t n_val;
     bnn_model_t *model;
@@ -334,7 +336,10 @@ static int prepare(job_t *j)
         j->auth.run_id = o->run_id;
     }
     if (sim_plan_load(o->plan, o->scale, &j->plan, j->err, sizeof j->err) != 0 ||
-        sim_path_read_csv(o->path, &j->plan, &j->path, j->err, sizeof j->err) != 0) {
+        (o->explore ? sim_explore_start(&j->plan, (uint64_t)o->seed, (int)o->robot, o->fleet > o->robot ? (int)o->fleet
+                                                                                                         : (int)o->robot + 1,
+                                        &j->path, j->err, sizeof j->err)
+                    : sim_path_read_csv(o->path, &j->plan, &j->path, j->err, sizeof j->err)) != 0) {
         fprintf(stderr, "host_sim run: %s\n", j->err);
         return -1;
     }
@@ -494,6 +499,17 @@ static int run_image(job_t *j)
     ic.on_fleet_round = on_fleet_round;
     ic.user = c;
     ic.coverage = &j->cov;
+    sim_explore_opts_t xo = {(gp_explore_policy_t)o->explore_policy, o->explore_time,
+                             SIM_EXPLORE_BELIEF_PERIOD_S_DEFAULT};
+    if (o->explore) {
+        ic.explore = &xo;
+        if (sim_explore_trace_open(&j->trace, o->out, (int)o->robot) != 0) {
+            fprintf(stderr, "host_sim run: %s/explore.csv: cannot write\n", o->out);
+            return -1;
+        }
+        ic.on_second = sim_explore_trace_row;
+        ic.second_user = &j->trace;
+    }
     if (o->fleet > 1) {
         j->tour = malloc(sizeof(rt_waypoint_t) * (size_t)j->path.n);
         if (j->tour == NULL) {
@@ -522,7 +538,12 @@ static int run_image(job_t *j)
         ic.fleet = f;
     }
     const sim_image_result_t *res = j->res;
-    if (sim_image_run(&j->plan, &j->path, &ic, j->res, j->err, sizeof j->err) != 0) {
+    const int ran = sim_image_run(&j->plan, &j->path, &ic, j->res, j->err, sizeof j->err);
+    if (sim_explore_trace_close(&j->trace) != 0) {
+        fprintf(stderr, "host_sim run: %s/explore.csv: write failed\n", o->out);
+        return -1;
+    }
+    if (ran != 0) {
         fprintf(stderr, "host_sim run: %s\n", j->err);
         return -1;
     }
@@ -640,8 +661,12 @@ static int report(job_t *j)
                 o->seed, BNN_PRESET_NAME, bnn_n_params(j->model), o->rounds, ai_pool_policy_name(o->pool),
                 (unsigned)AI_POOL_CAPACITY, o->d.primal_steps, o->d.batch, (double)o->d.kl_weight, o->train_between,
                 o->offline ? "offline" : "online", dinno_strategy_name(o->d.strategy));
-        fprintf(f, "path: %s (%d waypoints, %.2f m)\nsimulated: %.2f s; wall: %.2f s\n", o->path, j->path.n,
-                (double)res->path_length_m, (double)res->sim_time_us * 1e-6, res->wall_s);
+        if (o->explore)
+            fprintf(f, "path: none (explore, from (%.2f, %.2f))\nsimulated: %.2f s; wall: %.2f s\n", j->path.p[0].x,
+                    j->path.p[0].y, (double)res->sim_time_us * 1e-6, res->wall_s);
+        else
+            fprintf(f, "path: %s (%d waypoints, %.2f m)\nsimulated: %.2f s; wall: %.2f s\n", o->path, j->path.n,
+                    (double)res->path_length_m, (double)res->sim_time_us * 1e-6, res->wall_s);
         fprintf(f, "incarnation: %u\n", j->incarnation);
         if (j->resume.start_round > 0) {
             fprintf(f, "resumed: from %s (round %u), rounds %u .. %lld run by this start\n", j->resume.ckpt_name,
@@ -657,6 +682,11 @@ static int report(job_t *j)
                 j->ctx.last_val);
         fprintf(f, "occupancy MSE within 1 m of the path (0.1 m grid, %zu cells): %.5f\n", cells, occ);
         cmd_coverage_line(f, &j->cov, 1);
+        if (o->explore) {
+            const sim_explore_opts_t xo = {(gp_explore_policy_t)o->explore_policy, o->explore_time,
+                                           SIM_EXPLORE_BELIEF_PERIOD_S_DEFAULT};
+            sim_explore_summary(f, &xo, &res->rt_status, &res->explore, &res->claims, o->fleet > 1 ? &res->fleet : NULL);
+        }
         if (o->fleet > 1) {
             const gp_pse_stats_t *p = &res->pse; /* the whole run, start-up included */
             const double R = (double)(o->rounds - (long long)j->resume.start_round); /* run by this start */

@@ -13,6 +13,7 @@
 #include "gp/gp_core.h"
 #include "gp/gp_pse.h"
 #include "sim_defaults.h"
+#include "sim_explore.h"
 #include "sim_plan.h"
 
 void run_defaults(run_opts_t *o)
@@ -40,6 +41,8 @@ void run_defaults(run_opts_t *o)
     o->encoding = GP_FLEET_ENCODING_DEFAULT;
     o->ckpt_keep = GP_CORE_CKPT_KEEP_DEFAULT;
     o->ckpt_keep_every = GP_CORE_CKPT_KEEP_EVERY_DEFAULT;
+    o->explore_policy = GP_EXPLORE_UNCERTAINTY;
+    o->explore_time = SIM_EXPLORE_BUDGET_S_DEFAULT;
 }
 
 /* --net-faults SPEC: checked now, applied when the network opens. */
@@ -58,7 +61,16 @@ static int parse_net_faults(const char *cmd, const char *opt, const char *v, voi
 
 static const cli_opt_t run_opts[] = {
     {.names = "--plan", .meta = "FILE.svg", CLI_STRING(run_opts_t, plan), .required = 1, .help = "the floor plan"},
-    {.names = "--path", .meta = "FILE.csv", CLI_STRING(run_opts_t, path), .required = 1, .help = "the robot's tour"},
+    {.names = "--path", .meta = "FILE.csv", CLI_STRING(run_opts_t, path), .help = "the robot's tour (not with --explore)"},
+    {.names = "--explore", CLI_FLAG(run_opts_t, explore, 1),
+     .help = "no tour: the robot starts in a room of its own (as `paths gen` places it) and chooses its goals itself "
+             "(docs/exploration.md); the rounds are cut by simulated time over --explore-time"},
+    {.names = "--explore-policy", CLI_CHOICE(run_opts_t, explore_policy, "uncertainty|frontier|coordinated"),
+     .values = (const int[]){GP_EXPLORE_UNCERTAINTY, GP_EXPLORE_FRONTIER, GP_EXPLORE_COORDINATED},
+     .help = "explore: goals where the model's epistemic uncertainty is, or at the nearest frontier of the robot's own "
+             "scans, or at frontiers coordinated by claims"},
+    {.names = "--explore-time", .meta = "S", CLI_DOUBLE(run_opts_t, explore_time, 1.0, 1e6),
+     .help = "explore: simulated seconds of exploration"},
     {.names = "--out", .meta = "DIR", CLI_STRING(run_opts_t, out), .required = 1, .help = "output folder"},
     {.names = "--online", CLI_FLAG(run_opts_t, offline, 0), CLI_GIVEN(run_opts_t, online_given),
      .help = "rounds at distance boundaries (default)"},
@@ -151,6 +163,7 @@ static void run_usage(FILE *out)
 {
     fprintf(out,
             "usage: host_sim run --plan FILE.svg --path FILE.csv --out DIR [options]\n"
+            "       host_sim run --plan FILE.svg --explore [--explore-policy P] --out DIR [options]\n"
             "       host_sim run ... --fleet N --id I [--fleet-id F] [--transport lcm] [--lcm-url URL]\n"
             "       host_sim run ... --fleet N --id I --transport zmq --peers HOST:PORT,HOST:PORT,...\n"
             "\n"
@@ -271,6 +284,20 @@ int run_parse(int argc, char **argv, run_opts_t *o, char *url)
     }
     if (o->net_given && strcmp(o->net, "none") == 0)
         o->net = NULL;
+    if (o->explore ? o->path != NULL : o->path == NULL) {
+        fprintf(stderr, "host_sim run: %s\n", o->explore ? "--explore chooses its own goals: give no --path"
+                                                          : "--path FILE.csv (the tour) is needed, or --explore");
+        return -1;
+    }
+    if (o->explore && (o->offline || o->resume)) {
+        fprintf(stderr, "host_sim run: --explore learns online: not with --offline or --resume\n");
+        return -1;
+    }
+    if (o->explore && o->time_limit <= o->explore_time) {
+        fprintf(stderr, "host_sim run: --time-limit %g must exceed --explore-time %g (the last rounds come after it)\n",
+                o->time_limit, o->explore_time);
+        return -1;
+    }
     if (o->resume && !o->offline) {
         fprintf(stderr, "host_sim run: --resume needs --offline: an online robot's pose and sample pool are not "
                         "in a checkpoint, so it cannot continue where it stopped (start it again without --resume)\n");

@@ -35,6 +35,9 @@ typedef struct run_opts {
     uint64_t run_id;
     int run_id_given;
     long long ckpt_keep, ckpt_keep_every; /* --keep-ckpt K, --keep-ckpt-every M */
+    int explore;            /* --explore: no tour, the robot chooses its goals (docs/exploration.md) */
+    int explore_policy;     /* --explore-policy: gp_explore_policy_t */
+    double explore_time;    /* --explore-time: simulated seconds */
 } run_opts_t;
 
 /* o = the defaults (sim_defaults.h, gp_fleet.h's GP_FLEET_*_DEFAULT, dinno_default_cfg). */

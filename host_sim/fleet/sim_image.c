@@ -1,6 +1,8 @@
 /* Host driver of one robot's firmware image: see sim_image.h. */
 #include "sim_image.h"
 
+#include "sim_explore.h"
+
 #include <errno.h>
 #include <math.h>
 #include <stdio.h>
@@ -39,9 +41,10 @@ static double wall_now(void)
 
 static int join_fleet(hal_host_t *h, const gp_fleet_cfg_t *fc, char *err, size_t errlen)
 {
-    static const int types[3] = {HAL_HOST_MSG_STATE_CHUNK, HAL_HOST_MSG_ROUND_COMPLETE, HAL_HOST_MSG_CHUNK_REQUEST};
+    static const int types[4] = {HAL_HOST_MSG_STATE_CHUNK, HAL_HOST_MSG_ROUND_COMPLETE, HAL_HOST_MSG_CHUNK_REQUEST,
+                                 HAL_HOST_MSG_GOAL_CLAIM};
     hal_host_net_t *net = hal_host_get_net(h);
-    for (int c = 0; c < 3; c++) {
+    for (int c = 0; c < (fc->claims ? 4 : 3); c++) {
         char ch[HAL_NET_CHANNEL_MAX];
         int rc = gp_fleet_channel_name(fc->fleet_id, (gp_fleet_channel_t)c, ch, sizeof ch);
         if (rc == 0)
@@ -148,8 +151,14 @@ int sim_image_run(const sim_plan_t *plan, const sim_path_t *path, const sim_imag
     }
     if ((rc = sim_hal_world_host(hw, cfg->robot, hc, &h, err, errlen)) < 0)
         goto out;
-    if (cfg->fleet != NULL && (rc = join_fleet(h, cfg->fleet, err, errlen)) < 0)
-        goto out;
+    gp_fleet_cfg_t fleet_cfg;
+    if (cfg->fleet != NULL) {
+        fleet_cfg = *cfg->fleet;
+        /* exploring fleets claim their goals, but for the frontier policy (each on its own) */
+        fleet_cfg.claims = cfg->explore != NULL && cfg->explore->policy != GP_EXPLORE_FRONTIER;
+        if ((rc = join_fleet(h, &fleet_cfg, err, errlen)) < 0)
+            goto out;
+    }
 
     fw_robot_cfg_t fc = fw_robot_default_cfg();
     sim_hal_world_rt_cfg(plan, path, wps, &fc.rt);
@@ -175,6 +184,27 @@ int sim_image_run(const sim_plan_t *plan, const sim_path_t *path, const sim_imag
         fc.gp.peers_ctx = fw_robot_fleet();
         fc.ai.post_rounds = cfg->fleet->post_rounds; /* the fleet's posterior, after the DiNNO rounds */
         fc.ai.fleet_size = cfg->fleet->n_peers;
+    }
+    /* Exploring: the three cores' grids over the plan (sim_explore.h); the path is only the start. */
+    static gp_explore_cfg_t gx;     /* read by the cores' init only: copied there */
+    static ai_belief_cfg_t bx;
+    static rt_explore_cfg_t rx;
+    if (cfg->explore != NULL) {
+        sim_explore_geom_t geom;
+        const uint32_t n_peers = cfg->fleet != NULL ? cfg->fleet->n_peers : 1u;
+        if (sim_explore_geometry(plan, &geom) != 0 ||
+            sim_explore_gp_cfg(&geom, cfg->explore, cfg->robot, n_peers,
+                               cfg->rounds / (cfg->rounds_per_boundary ? cfg->rounds_per_boundary : 1u), &gx) != 0 ||
+            sim_explore_rt_cfg(&geom, cfg->explore, &fc.rt, &rx) != 0) {
+            snprintf(err, errlen, "image: the plan's box is too large for the exploration grids");
+            rc = -EINVAL;
+            goto out;
+        }
+        sim_explore_belief_cfg(plan, &geom, &bx);
+        fc.gp.explore = &gx;
+        fc.ai.explore_budget_us = (uint64_t)llround(cfg->explore->budget_s * 1e6);
+        fc.ai.belief = &bx;
+        fc.ai.belief_period_us = (uint64_t)llround(cfg->explore->belief_period_s * 1e6);
     }
     rc = fw_robot_start(&fc);
     if (rc < 0) {
@@ -208,6 +238,8 @@ int sim_image_run(const sim_plan_t *plan, const sim_path_t *path, const sim_imag
             if (cfg->on_round)
                 cfg->on_round(r, cfg->user);
         }
+        if (cfg->on_second)
+            cfg->on_second(hal_host_now_us(h), &fw_robot_rt()->status, gp, cfg->second_user);
         if (gp_core_done(gp))
             res->completed = 1;
         res->stop_signal = hal_host_stop_signal();
@@ -229,6 +261,8 @@ int sim_image_run(const sim_plan_t *plan, const sim_path_t *path, const sim_imag
     res->ai_status = fw_robot_ai()->status;
     res->ai_empty_rounds = fw_robot_ai()->empty_rounds;
     res->gp = gp->stats;
+    res->explore = gp->explore.stats;
+    res->claims = gp->explore.goal.stats;
     res->final_ckpt_status = gp->final_ckpt_status;
     res->rounds_done = fw_robot_ai()->next_round;
     fw_robot_memory(&res->mem);

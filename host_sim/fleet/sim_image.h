@@ -41,6 +41,8 @@
 
 typedef void (*sim_image_round_fn)(const ai_round_info_t *info, void *user);
 typedef void (*sim_image_fleet_round_fn)(const gp_fleet_round_t *r, void *user);
+/* After every simulated second: the RT core's status and the GP core's (exploration state). */
+typedef void (*sim_image_second_fn)(uint64_t now_us, const rt_status_t *rt, const gp_core_t *gp, void *user);
 
 typedef struct sim_image_cfg {
     uint64_t seed;
@@ -70,8 +72,12 @@ typedef struct sim_image_cfg {
     const gp_fleet_cfg_t *fleet; /* NULL: no peers; else a fleet member over net_url */
     sim_image_round_fn on_round;  /* may be NULL */
     sim_image_fleet_round_fn on_fleet_round; /* may be NULL: each round's traffic record */
+    sim_image_second_fn on_second; /* may be NULL */
+    void *second_user;
     void *user;
     sim_coverage_t *coverage;    /* NULL, or every scan the world takes is added to it (sim_hal_world.h) */
+    const struct sim_explore_opts *explore; /* NULL: follow the path; else explore from its start
+                                               (sim_explore.h; the path's first point) */
 } sim_image_cfg_t;
 
 typedef struct sim_image_result {
@@ -92,6 +98,8 @@ typedef struct sim_image_result {
     ai_status_t ai_status;
     uint64_t ai_empty_rounds;
     gp_core_stats_t gp;
+    gp_explore_stats_t explore;   /* exploring: the GP core's goal counters */
+    gp_goal_stats_t claims;       /* exploring: the peers' claims taken, refused, expired */
     int32_t final_ckpt_status;
     fw_robot_memory_t mem;
     gp_fleet_stats_t fleet;       /* with cfg->fleet */

@@ -1,0 +1,206 @@
+/* Exploration settings from the plan: see sim_explore.h. */
+#include "sim_explore.h"
+
+#include <errno.h>
+#include <math.h>
+#include <stdio.h>
+#include <stdlib.h>
+#include <string.h>
+
+int sim_explore_geometry(const sim_plan_t *plan, sim_explore_geom_t *g)
+{
+    if (plan == NULL || g == NULL)
+        return -EINVAL;
+    const double wx = plan->max.x - plan->min.x, wy = plan->max.y - plan->min.y;
+    if (!(wx > 0) || !(wy > 0) || !isfinite(wx) || !isfinite(wy))
+        return -EINVAL;
+    memset(g, 0, sizeof *g);
+    for (int cm = 5; cm <= 100; cm++) { /* 0.05 m .. 1 m in centimetre steps */
+        const double res = cm * 0.01;
+        const double fw = ceil(wx / res), fh = ceil(wy / res);
+        if (fw > RT_GRID_MAX_SIDE || fh > RT_GRID_MAX_SIDE || fw * fh > RT_GRID_MAX_CELLS)
+            continue;
+        g->fine_res_m = (float)res;
+        g->fine_w = (int32_t)fw;
+        g->fine_h = (int32_t)fh;
+        const uint32_t side = (uint32_t)(fw > fh ? fw : fh);
+        g->factor = (side + GP_GOAL_MAX_W - 1u) / GP_GOAL_MAX_W;
+        g->w = ((uint32_t)fw + g->factor - 1u) / g->factor;
+        g->h = ((uint32_t)fh + g->factor - 1u) / g->factor;
+        g->origin_x_m = (float)plan->min.x;
+        g->origin_y_m = (float)plan->min.y;
+        return 0;
+    }
+    return -EINVAL;
+}
+
+int sim_explore_gp_cfg(const sim_explore_geom_t *g, const sim_explore_opts_t *o, uint32_t self, uint32_t n_peers,
+                       uint32_t boundaries, gp_explore_cfg_t *out)
+{
+    if (g == NULL || o == NULL || out == NULL || boundaries < 1 || !(o->budget_s > 0))
+        return -EINVAL;
+    memset(out, 0, sizeof *out);
+    gp_goal_cfg_t *c = &out->goal;
+    c->self = self;
+    c->n_peers = n_peers;
+    c->w = g->w;
+    c->h = g->h;
+    c->res_m = (double)g->fine_res_m * g->factor;
+    c->origin_x_m = g->origin_x_m;
+    c->origin_y_m = g->origin_y_m;
+    c->occ_max = 128;           /* more than half of what the lidar saw there was wall */
+    c->sensor_radius_m = 2.5;   /* what a visit reveals: inside the 3.5 m lidar's reach, walls aside */
+    /* m^2 of unknown area one metre of path is worth: the frontier policies go to the nearest
+       frontier (Yamauchi), the uncertainty policy trades the two */
+    c->lambda = o->policy == GP_EXPLORE_UNCERTAINTY ? 0.5 : 2.0;
+    c->min_info_m2 = 0.5;
+    c->claim_radius_m = 2.0;
+    c->claim_discount = 0.1;
+    const double life_s = fmin(1.5 * o->budget_s / boundaries, 50.0);
+    c->claim_lifetime_us = (uint64_t)llround(fmax(life_s, 2.0) * 1e6);
+    c->claim_period_us = c->claim_lifetime_us / 2u; /* gp_goal's own resend; the fleet sends per round */
+    c->claim_max_lifetime_us = GP_GOAL_MAX_LIFETIME_US;
+    out->policy = o->policy;
+    out->reselect_us = 10000000u; /* between goals reached: new information may make another better */
+    return 0;
+}
+
+int sim_explore_rt_cfg(const sim_explore_geom_t *g, const sim_explore_opts_t *o, rt_core_cfg_t *rc,
+                       rt_explore_cfg_t *out)
+{
+    if (g == NULL || o == NULL || rc == NULL || out == NULL || !(o->budget_s > 0))
+        return -EINVAL;
+    *out = rt_explore_default_cfg();
+    out->res_m = g->fine_res_m;
+    out->origin_x_m = g->origin_x_m;
+    out->origin_y_m = g->origin_y_m;
+    out->w = g->fine_w;
+    out->h = g->fine_h;
+    out->seen_factor = g->factor;
+    out->seen_w = g->w;
+    out->seen_h = g->h;
+    out->budget_us = (uint64_t)llround(o->budget_s * 1e6);
+    rc->explore = out;
+    rc->waypoints = NULL;
+    rc->n_waypoints = 0;
+    return rt_explore_check_cfg(out);
+}
+
+void sim_explore_belief_cfg(const sim_plan_t *plan, const sim_explore_geom_t *g, ai_belief_cfg_t *out)
+{
+    memset(out, 0, sizeof *out);
+    out->w = g->w;
+    out->h = g->h;
+    out->res_m = g->fine_res_m * (float)g->factor;
+    out->origin_x_m = g->origin_x_m;
+    out->origin_y_m = g->origin_y_m;
+    out->min_x = (float)plan->min.x;
+    out->min_y = (float)plan->min.y;
+    out->max_x = (float)plan->max.x;
+    out->max_y = (float)plan->max.y;
+}
+
+int sim_explore_start(const sim_plan_t *plan, uint64_t seed, int robot, int n_robots, sim_path_t *out, char *err,
+                      size_t errlen)
+{
+    if (plan == NULL || out == NULL || robot < 0 || n_robots < 1 || robot >= n_robots ||
+        n_robots > SIM_PATHS_MAX_ROBOTS) {
+        snprintf(err, errlen, "explore: robot %d of %d: bad arguments", robot, n_robots);
+        return -EINVAL;
+    }
+    sim_paths_cfg_t pc;
+    sim_paths_cfg_default(&pc);
+    pc.n_robots = n_robots;
+    pc.seed = seed;
+    sim_path_t *all = calloc((size_t)n_robots, sizeof *all);
+    if (all == NULL) {
+        snprintf(err, errlen, "explore: out of memory");
+        return -ENOMEM;
+    }
+    int rc = sim_paths_generate(plan, &pc, all, err, errlen);
+    if (rc == 0 && all[robot].n < 2) {
+        snprintf(err, errlen, "explore: robot %d has no start pose in this plan", robot);
+        rc = -ENOENT;
+    }
+    if (rc == 0) {
+        *out = all[robot];
+        out->n = 2; /* the start and the point it faces; the rest of the tour is not driven */
+        sim_path_init(&all[robot]);
+    }
+    for (int i = 0; i < n_robots; i++)
+        sim_path_free(&all[i]);
+    free(all);
+    return rc;
+}
+
+int sim_explore_trace_open(sim_explore_trace_t *t, const char *dir, int robot)
+{
+    memset(t, 0, sizeof *t);
+    t->robot = robot;
+    char file[4096];
+    int n = snprintf(file, sizeof file, "%s/explore.csv", dir);
+    if (n < 0 || (size_t)n >= sizeof file)
+        return -ENAMETOOLONG;
+    t->f = fopen(file, "w");
+    if (t->f == NULL)
+        return -errno;
+    fprintf(t->f, "sim_time_s,x_m,y_m,heading_rad,distance_m,goal_seq,goal_x_m,goal_y_m,goals_reached,goals_failed,"
+                  "stuck_events,plans,plan_failures,avoid_stops,finished,belief_unknown_mean,belief_unknown_max\n");
+    return 0;
+}
+
+void sim_explore_trace_row(uint64_t now_us, const rt_status_t *rt, const gp_core_t *gp, void *user)
+{
+    sim_explore_trace_t *t = user;
+    if (t == NULL || t->f == NULL)
+        return;
+    const gp_explore_t *x = &gp->explore;
+    const int has = x->goal.has_goal;
+    const double t_s = (double)now_us * 1e-6;
+    uint32_t umax = 0;
+    for (uint32_t i = 0; x->have_belief && i < x->belief.w * x->belief.h; i++)
+        umax = x->belief.unknown[i] > umax ? x->belief.unknown[i] : umax;
+    fprintf(t->f, "%.1f,%.4f,%.4f,%.4f,%.3f,%u,%.3f,%.3f,%llu,%llu,%u,%u,%u,%u,%u,%.4f,%u\n", t_s, (double)rt->x_m,
+            (double)rt->y_m, (double)rt->heading_rad, (double)rt->distance_m, x->seq,
+            has ? x->goal.goal.x_m : NAN, has ? x->goal.goal.y_m : NAN, (unsigned long long)x->stats.reached,
+            (unsigned long long)x->stats.failed, rt->stuck_events, rt->plans, rt->plan_failures, rt->avoid_stops,
+            rt->finished, x->have_belief ? (double)x->belief.unknown_mean : NAN, umax);
+    t->rows++;
+    if (rt->stuck_events > t->stuck_seen)
+        printf("explore: robot %d stuck near (%.2f, %.2f) at %.0f s (%u so far): backing off and re-planning\n",
+               t->robot, (double)rt->x_m, (double)rt->y_m, t_s, rt->stuck_events);
+    if (x->stats.failed > t->failed_seen)
+        printf("explore: robot %d gave up goal %u (unreachable or stuck there) at %.0f s; choosing another\n",
+               t->robot, rt->goal_failed, t_s);
+    t->stuck_seen = rt->stuck_events;
+    t->failed_seen = (uint32_t)x->stats.failed;
+}
+
+int sim_explore_trace_close(sim_explore_trace_t *t)
+{
+    if (t->f == NULL)
+        return 0;
+    const int bad = ferror(t->f);
+    const int rc = fclose(t->f);
+    t->f = NULL;
+    return bad || rc != 0 ? -EIO : 0;
+}
+
+void sim_explore_summary(FILE *f, const sim_explore_opts_t *o, const rt_status_t *rt, const gp_explore_stats_t *x,
+                         const gp_goal_stats_t *claims, const gp_fleet_stats_t *fleet)
+{
+    fprintf(f, "explore: policy %s, %.0f s budget; %llu goals (%llu reached, %llu given up)%s; %u plans (%u failed); "
+               "%u stuck events; %u avoidance stops\n",
+            gp_explore_policy_name(o->policy), o->budget_s, (unsigned long long)x->goals,
+            (unsigned long long)x->reached, (unsigned long long)x->failed,
+            x->done ? ", then nothing left to learn within reach" : "", rt->plans, rt->plan_failures, rt->stuck_events,
+            rt->avoid_stops);
+    if (fleet != NULL && o->policy != GP_EXPLORE_FRONTIER)
+        fprintf(f, "claims: %llu sent, %llu received, %llu taken; refused: %llu invalid, %llu late, %llu reordered, "
+                   "%llu duplicates, %llu table full; %llu expired\n",
+                (unsigned long long)fleet->claims_sent, (unsigned long long)fleet->claims_received,
+                (unsigned long long)claims->claims_taken, (unsigned long long)claims->claims_invalid,
+                (unsigned long long)claims->claims_late, (unsigned long long)claims->claims_reordered,
+                (unsigned long long)claims->claims_duplicate, (unsigned long long)claims->claims_full,
+                (unsigned long long)claims->claims_expired);
+}

@@ -1,0 +1,179 @@
+/* The robot image exploring (docs/exploration.md): no tour, the three cores choose, plan and
+ * drive to goals against the ODE world. A minute of the default plan per run: the robot reaches
+ * goals and sees more of the building, never touches a wall, allocates nothing across a round,
+ * and the same seed gives the same trajectory and model; the frontier policy works as well. */
+#include <setjmp.h>
+#include <stdarg.h>
+#include <stddef.h>
+#include <stdint.h>
+#include <errno.h>
+#include <math.h>
+#include <stdio.h>
+#include <stdlib.h>
+#include <string.h>
+#include <cmocka.h>
+
+#include "alloc_count.h"
+#include "sim_coverage.h"
+#include "sim_explore.h"
+#include "sim_image.h"
+#include "sim_paths.h"
+#include "sim_plan.h"
+
+#define PLAN "host_sim/plans/apartment.svg"
+#define BUDGET_S 60.0
+
+static sim_plan_t g_plan;
+static sim_path_t g_start;
+
+static int setup(void **st)
+{
+    (void)st;
+    char err[512];
+    sim_path_init(&g_start);
+    if (sim_plan_load(PLAN, 0, &g_plan, err, sizeof err) != 0 ||
+        sim_explore_start(&g_plan, 11, 0, 1, &g_start, err, sizeof err) != 0) {
+        fprintf(stderr, "%s\n", err);
+        return -1;
+    }
+    return 0;
+}
+
+static int teardown(void **st)
+{
+    (void)st;
+    sim_path_free(&g_start);
+    sim_plan_free(&g_plan);
+    return 0;
+}
+
+/* A hash of the pose every simulated second, and the allocations across round 1. */
+typedef struct probe {
+    uint64_t hash;
+    uint32_t seconds;
+    int rounds;
+    uint64_t alloc_at_round[4];
+} probe_t;
+
+static void on_second(uint64_t now_us, const rt_status_t *rt, const gp_core_t *gp, void *user)
+{
+    probe_t *p = user;
+    const float v[3] = {rt->x_m, rt->y_m, rt->heading_rad};
+    uint32_t w[3];
+    memcpy(w, v, sizeof w);
+    for (int i = 0; i < 3; i++)
+        p->hash = (p->hash ^ w[i]) * 0x100000001B3ull;
+    p->hash ^= now_us + gp->explore.seq;
+    p->seconds++;
+}
+
+static void on_round(const ai_round_info_t *in, void *user)
+{
+    probe_t *p = user;
+    (void)in;
+    if (p->rounds < 4)
+        p->alloc_at_round[p->rounds] = alloc_count_allocations();
+    if (p->rounds == 0)
+        alloc_count_reset();
+    p->rounds++;
+}
+
+static void run(gp_explore_policy_t policy, sim_image_result_t *r, probe_t *p, double *coverage)
+{
+    static sim_coverage_t cov;
+    assert_int_equal(sim_coverage_from_plan(&cov, &g_plan, SIM_COVERAGE_RES_M), 0);
+    const sim_explore_opts_t xo = {policy, BUDGET_S, SIM_EXPLORE_BELIEF_PERIOD_S_DEFAULT};
+    sim_image_cfg_t c;
+    sim_image_cfg_default(&c);
+    c.seed = 11;
+    c.rounds = 3;
+    c.steps_per_round = 3;
+    c.dinno.batch = 256;
+    c.time_limit_s = BUDGET_S + 60.0;
+    c.log_level = HAL_LOG_WARN;
+    c.explore = &xo;
+    char dir[] = "/tmp/fleetsim_explore_XXXXXX";
+    assert_non_null(mkdtemp(dir));
+    c.storage_dir = dir; /* the checkpoints: a robot whose storage fails stops */
+    c.coverage = &cov;
+    c.on_second = on_second;
+    c.second_user = p;
+    c.on_round = on_round;
+    c.user = p;
+    memset(p, 0, sizeof *p);
+    char err[512];
+    const int rc = sim_image_run(&g_plan, &g_start, &c, r, err, sizeof err);
+    if (rc != 0)
+        fprintf(stderr, "%s\n", err);
+    assert_int_equal(rc, 0);
+    char cmd[128];
+    snprintf(cmd, sizeof cmd, "rm -rf %s", dir);
+    assert_int_equal(system(cmd), 0);
+    coverage[0] = sim_coverage_at(&cov, 0.0);
+    coverage[1] = sim_coverage_at(&cov, BUDGET_S);
+    sim_coverage_free(&cov);
+}
+
+static void test_explores_without_touching_a_wall(void **st)
+{
+    (void)st;
+    static sim_image_result_t r;
+    probe_t p;
+    double cov[2];
+    run(GP_EXPLORE_UNCERTAINTY, &r, &p, cov);
+    print_message("uncertainty: coverage %.3f -> %.3f in %.0f s; %llu goals, %u reached, %u plans, %u stuck; "
+                  "%.2f m driven\n", cov[0], cov[1], BUDGET_S, (unsigned long long)r.explore.goals,
+                  r.rt_status.goal_reached, r.rt_status.plans, r.rt_status.stuck_events, r.world.distance_m);
+    assert_true(r.completed);
+    assert_int_equal(r.rounds_done, 3);
+    assert_true(r.rt_status.finished);
+    assert_true(r.explore.goals >= 2);
+    assert_true(r.rt_status.goal_reached >= 1);
+    assert_int_equal(r.rt_status.plan_failures, 0);
+    assert_int_equal(r.world.collisions, 0); /* the ODE world saw no contact with a wall */
+    assert_true(r.world.distance_m > 5.0);
+    assert_true(cov[1] > cov[0] + 0.2);
+    assert_int_equal(r.rt_status.ring_drops, 0);
+    /* the belief, the goal choice and the planner allocate nothing in the steady state */
+    assert_true(p.rounds >= 2);
+    assert_int_equal(p.alloc_at_round[1], 0);
+}
+
+static void test_same_seed_same_exploration(void **st)
+{
+    (void)st;
+    static sim_image_result_t a, b;
+    probe_t pa, pb;
+    double ca[2], cb[2];
+    run(GP_EXPLORE_UNCERTAINTY, &a, &pa, ca);
+    run(GP_EXPLORE_UNCERTAINTY, &b, &pb, cb);
+    assert_int_equal(pa.seconds, pb.seconds);
+    assert_true(pa.hash == pb.hash);
+    assert_true(ca[1] == cb[1]);
+    assert_int_equal(a.rt_status.plans, b.rt_status.plans);
+    assert_true(a.ai_status.loss_train == b.ai_status.loss_train);
+}
+
+static void test_frontier_policy(void **st)
+{
+    (void)st;
+    static sim_image_result_t r;
+    probe_t p;
+    double cov[2];
+    run(GP_EXPLORE_FRONTIER, &r, &p, cov);
+    print_message("frontier: coverage %.3f -> %.3f; %u goals reached\n", cov[0], cov[1], r.rt_status.goal_reached);
+    assert_true(r.completed);
+    assert_true(r.rt_status.goal_reached >= 1);
+    assert_int_equal(r.world.collisions, 0);
+    assert_true(cov[1] > cov[0] + 0.2);
+}
+
+int main(void)
+{
+    const struct CMUnitTest tests[] = {
+        cmocka_unit_test(test_explores_without_touching_a_wall),
+        cmocka_unit_test(test_same_seed_same_exploration),
+        cmocka_unit_test(test_frontier_policy),
+    };
+    return cmocka_run_group_tests(tests, setup, teardown);
+}
