@@ -12,7 +12,9 @@ an exploration policy with --explore --explore-policy P --explore-time S, "tours
 `host_sim paths gen --plan P --robots N --seed S` into DIR/tours/). Plans: apartment and office64
 (host_sim/plans/), gen (`host_sim plan gen --seed --gen-seed --rooms --gen-rooms` into DIR/plans/),
 or a path to an SVG. Resumable: a run whose folder already has a coverage.csv with rows and every
-robot's summary.txt is not run again. One progress line per run.
+robot's summary.txt, made with the same settings (run.json: robots, seed, plan, policy, exploration
+time, rounds), is not run again; one made with others is run again (tools/fleet moves it aside).
+One progress line per run.
 
 Writes (DIR by default):
   OUT.csv (--csv, default DIR/explore_compare.csv): a row per run: plan, policy, seed, robots,
@@ -124,6 +126,25 @@ def finished(run_dir, robots):
     except OSError:
         return False
     return True
+
+
+def settings_differ(run_dir, plan, policy, seed, a):
+    """Why a finished run's run.json does not match this comparison's settings (None: it does)."""
+    import json
+    try:
+        with open(os.path.join(run_dir, "run.json")) as f:
+            s = json.load(f)
+    except (OSError, ValueError):
+        return "no readable run.json"
+    e = s.get("explore") if isinstance(s, dict) else None
+    want = {"robots": a.robots, "seed": seed, "plan": os.path.basename(plan),
+            "explore": None if policy == "tours" else (policy, float(a.explore_time))}
+    got = {"robots": s.get("robots"), "seed": s.get("seed"), "plan": os.path.basename(str(s.get("plan"))),
+           "explore": (e.get("policy"), float(e.get("time_s", -1))) if isinstance(e, dict) else None}
+    if a.rounds is not None:
+        want["rounds"], got["rounds"] = a.rounds, s.get("rounds")
+    bad = [k for k in want if want[k] != got[k]]
+    return ", ".join(f"{k} {got[k]} not {want[k]}" for k in bad) or None
 
 
 def run_row(run_dir, plan, policy, seed, robots):
@@ -399,6 +420,9 @@ def main(argv=None):
         return 1
     rows, failed, labels = [], 0, []
     try:
+        for p in a.plans:  # every name checked before anything is made
+            if p not in PLANS and p != "gen" and not (p.endswith(".svg") and os.path.isfile(p)):
+                raise ReportError(f"--plans: '{p}' is not apartment, office64, gen or an SVG file")
         os.makedirs(a.results, exist_ok=True)
         plans = [(plan_label(p), plan_file(a, p)) for p in a.plans]
         total = len(plans) * len(a.policies) * len(a.seeds)
@@ -413,6 +437,11 @@ def main(argv=None):
                     head = f"[{k}/{total}] {label} {policy} seed {seed}:"
                     t0 = time.monotonic()
                     kept = finished(d, a.robots)
+                    if kept:
+                        why = settings_differ(d, plan, policy, seed, a)
+                        if why:
+                            print(f"{head} the run there has other settings ({why}): running it again", flush=True)
+                            kept = False
                     if not kept:
                         cmd = fleet_cmd(a, label, plan, policy, seed, name)
                         log = os.path.join(a.results, name + ".log")

@@ -425,7 +425,7 @@ def human(n):
 
 def main(argv=None):
     ap = Parser(prog="explore_figures.py", description=__doc__.split("\n\n")[0],
-                formatter_class=argparse.RawDescriptionHelpFormatter)
+                epilog=__doc__.split("\n\n", 1)[1], formatter_class=argparse.RawDescriptionHelpFormatter)
     ap.add_argument("run_dir", metavar="RUN_DIR", help="an exploration run's folder (run.json, coverage.bin, robot_<i>/)")
     ap.add_argument("--plan", help="the floor plan (default: run.json's plan)")
     ap.add_argument("--bin", help="host_sim for the map panels (default: run.json's host_sim, else build/bin/host_sim)")

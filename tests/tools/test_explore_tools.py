@@ -179,6 +179,17 @@ def run_row_from_a_synthetic_run():
         check(abs(r["robot_seconds_to_90"] - 40.0) < 1e-9 and abs(r["robot_seconds_to_95"] - 50.0) < 1e-9, r)
         check(r["distance_m_mean"] == 15.0 and abs(r["visited_share_mean"] - 0.6) < 1e-9, r)
         check((r["stuck_events"], r["collisions"], r["goals_failed"]) == (3, 1, 3), r)
+        with open(os.path.join(run, "run.json"), "w") as f:
+            json.dump({"robots": 2, "seed": 1, "rounds": 6, "plan": "host_sim/plans/apartment.svg",
+                       "explore": {"policy": "frontier", "time_s": 30.0}}, f)
+
+        class A:
+            robots, explore_time, rounds = 2, 30.0, 6
+        differ = explore_compare.settings_differ
+        check(differ(run, "/x/apartment.svg", "frontier", 1, A) is None, "the same settings taken for others")
+        A.explore_time = 60.0
+        check("explore" in (differ(run, "/x/apartment.svg", "frontier", 1, A) or ""), "another time not seen")
+        check(differ(run, "/x/apartment.svg", "tours", 1, A) is not None, "an exploration run taken for the tours")
         text = explore_compare.csv_text([r])
         check(text.splitlines()[0] == ",".join(explore_compare.CSV_COLUMNS), text)
         check(text.splitlines()[1].startswith("apartment,frontier,1,2,1,40,50,15,0.6,3,1,3"), text)
