@@ -246,26 +246,40 @@ def fig_val_loss(plt, run, out):
     return "val_loss.png"
 
 
+COVERAGE_X = {
+    "sim_time_s": ("simulated time (s)", "s"),
+    "robot_seconds": ("robot-seconds (robots x simulated seconds)", "robot-s"),
+}
+
+
+def draw_coverage(ax, fleet, robots, x="sim_time_s"):
+    """Share of the free space seen (coverage.csv columns) against x (a key of COVERAGE_X): each
+    robot alone (robots: {i: columns}) in its colour, the fleet's union (fleet, or None) in black.
+    Returns the number of lines drawn (legend entries)."""
+    xlabel, unit = COVERAGE_X[x]
+    lines = 0
+    for i, c in sorted(robots.items()):
+        ax.plot(c[x], c["coverage"], "-", lw=1.0, color=robot_colour(i), label=f"robot {i} alone")
+        lines += 1
+    if fleet is not None:
+        ax.plot(fleet[x], fleet["coverage"], "-", lw=2.2, color="black",
+                label=f"fleet (union): {float(fleet['coverage'][-1]):.3f} at {float(fleet[x][-1]):.0f} {unit}")
+        lines += 1
+    ax.set_ylim(0, 1)
+    ax.set_xlabel(xlabel)
+    ax.set_ylabel("coverage (share of free cells seen, 0.1 m grid)")
+    ax.grid(alpha=0.3)
+    return lines
+
+
 def fig_coverage(plt, run, out):
     """Share of the free space seen (coverage.csv) against simulated time: the fleet's union and
     each robot alone, in its colour."""
     if run.coverage is None and not run.robot_coverage:
         return None
     fig, ax = plt.subplots(figsize=(7, 4.6), constrained_layout=True)
-    lines = 0
-    for i, c in sorted(run.robot_coverage.items()):
-        ax.plot(c["sim_time_s"], c["coverage"], "-", lw=1.0, color=robot_colour(i), label=f"robot {i} alone")
-        lines += 1
-    if run.coverage is not None:
-        c = run.coverage
-        ax.plot(c["sim_time_s"], c["coverage"], "-", lw=2.2, color="black",
-                label=f"fleet (union): {float(c['coverage'][-1]):.3f} at {float(c['sim_time_s'][-1]):.0f} s")
-        lines += 1
-    ax.set_ylim(0, 1)
-    ax.set_xlabel("simulated time (s)")
-    ax.set_ylabel("coverage (share of free cells seen, 0.1 m grid)")
+    lines = draw_coverage(ax, run.coverage, run.robot_coverage)
     ax.set_title("coverage: free space seen by some lidar ray")
-    ax.grid(alpha=0.3)
     legend_outside(ax, lines, below=0.15)
     save_fig(plt, fig, os.path.join(out, "coverage.png"))
     return "coverage.png"

@@ -44,6 +44,8 @@ deps=(
     "python3-numpy        /usr/lib/python3/dist-packages/numpy/__init__.py"
     "python3-scipy        /usr/lib/python3/dist-packages/scipy/__init__.py"
     "python3-matplotlib   /usr/lib/python3/dist-packages/matplotlib/__init__.py"
+    # tools/explore_figures.py: explore.gif (matplotlib's frames written by Pillow)
+    "python3-pil          /usr/lib/python3/dist-packages/PIL/__init__.py"
     # build/pyenv (below): Debian's python3 makes venvs only with it
     "python3-venv         /usr/share/doc/python3-venv/copyright"
     # the fleet under the kernel's packet loss (tests/faults, make test-faults)
