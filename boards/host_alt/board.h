@@ -7,7 +7,7 @@
 #define BOARD_NAME "host_alt"
 #define BOARD_HOST_ALT 1
 
-#define BOARD_RAM_RT_BYTES (1u * 1024u * 1024u)
+#define BOARD_RAM_RT_BYTES (4u * 1024u * 1024u)
 #define BOARD_RAM_GP_BYTES (64u * 1024u * 1024u)
 #define BOARD_RAM_AI_BYTES (512u * 1024u * 1024u)
 #define BOARD_STACK_RT_BYTES (256u * 1024u)
