@@ -47,7 +47,7 @@ const fw_image_t *fw_robot_image(void);
 
 /* Static memory of the image, bytes (sizeof of each piece). */
 typedef struct fw_robot_memory {
-    size_t rt_state;        /* rt_core_t: waypoints, scan buffer, sample scratch */
+    size_t rt_state;        /* rt_core_t: waypoints, scan buffer, sample scratch, exploration state */
     size_t rt_links;        /* sample ring + RT status mailboxes */
     size_t ring;            /* of which: the sample ring */
     size_t ai_state;        /* ai_core_t total */

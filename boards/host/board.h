@@ -12,8 +12,10 @@
 /* Static RAM each core may use for its own buffers (arena, pools, rings it owns).
  * The host is generous so that the `paper` preset (527,361 parameters) fits with its
  * gradients, Adam moments, duals, neighbour slots and a 1024-point batch, and the GP core
- * the states of two rounds of BOARD_MAX_PEERS neighbours (gp_pse). */
-#define BOARD_RAM_RT_BYTES (1u * 1024u * 1024u)
+ * the states of two rounds of BOARD_MAX_PEERS neighbours (gp_pse). The RT core's 4 MB hold
+ * its exploration state (rt/rt_explore.h: the 65,536-cell fine grid and the planner's
+ * workspace, about 1.6 MB) beside the tour's tables. */
+#define BOARD_RAM_RT_BYTES (4u * 1024u * 1024u)
 #define BOARD_RAM_GP_BYTES (256u * 1024u * 1024u)
 #define BOARD_RAM_AI_BYTES (512u * 1024u * 1024u)
 

@@ -7,7 +7,7 @@
 #define BOARD_NAME "host_alt"
 #define BOARD_HOST_ALT 1
 
-#define BOARD_RAM_RT_BYTES (1u * 1024u * 1024u)
+#define BOARD_RAM_RT_BYTES (4u * 1024u * 1024u)
 #define BOARD_RAM_GP_BYTES (64u * 1024u * 1024u)
 #define BOARD_RAM_AI_BYTES (512u * 1024u * 1024u)
 #define BOARD_STACK_RT_BYTES (256u * 1024u)
@@ -27,6 +27,8 @@
 #define FW_LINK_RING_CAPACITY 4096u
 #define AI_POOL_CAPACITY (1u << 15)
 #define GP_CORE_LOG_ROUNDS 64u
+#define RT_GRID_MAX_CELLS 16384
+#define RT_GRID_MAX_SIDE 256
 #define CRC32_SLICE8 0
 
 #endif /* BOARD_HOST_ALT_BOARD_H */

@@ -31,6 +31,13 @@
 #define BOARD_RAM_GP_BYTES (4096 * 1024)
 #define BOARD_RAM_AI_BYTES (10240 * 1024)
 
+/* The RT core's exploration grid (rt/rt_grid.h): 512 cells (e.g. 22 x 22, a 2.2 m square at
+ * 0.1 m), at most 64 a side: the grid, the planner's workspace (21 bytes a cell plus its
+ * per-line scratch) and the scan marks take about 14 KB, so the RT core's state and links
+ * (about 119 KB) stay within its 128 KB. */
+#define RT_GRID_MAX_CELLS 512
+#define RT_GRID_MAX_SIDE 64
+
 /* Stacks per core; the image runs the AI core's work on the main stack, of the AI's size. */
 #define BOARD_STACK_RT_BYTES (4 * 1024)
 #define BOARD_STACK_GP_BYTES (8 * 1024)

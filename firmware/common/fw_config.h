@@ -87,6 +87,14 @@
 #ifndef GP_CORE_LOG_ROUNDS
 #define GP_CORE_LOG_ROUNDS 1024u
 #endif
+/* The RT core's occupancy grid (rt/rt_grid.h, the exploration grid and the planner's
+ * workspace: about 24 bytes a cell): cells in all, and per side (at most 1024). */
+#ifndef RT_GRID_MAX_CELLS
+#define RT_GRID_MAX_CELLS 65536
+#endif
+#ifndef RT_GRID_MAX_SIDE
+#define RT_GRID_MAX_SIDE 1024
+#endif
 
 /* The model state the peers exchange, from the network preset (BNN_PRESET_*, set by the
  * Makefile): its fp32 parameters and bytes. The GP core sizes its state buffers with it without
@@ -144,6 +152,10 @@
 #endif
 #if GP_CORE_LOG_ROUNDS < 1
 #error "GP_CORE_LOG_ROUNDS must be >= 1"
+#endif
+#if RT_GRID_MAX_SIDE < 1 || RT_GRID_MAX_SIDE > 1024 || RT_GRID_MAX_CELLS < 1 || \
+    RT_GRID_MAX_CELLS > RT_GRID_MAX_SIDE * RT_GRID_MAX_SIDE
+#error "RT_GRID_MAX_SIDE must be 1 .. 1024 and RT_GRID_MAX_CELLS 1 .. RT_GRID_MAX_SIDE^2"
 #endif
 
 #endif /* COMMON_FW_CONFIG_H */

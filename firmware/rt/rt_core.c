@@ -2,23 +2,53 @@
 #include "rt/rt_core.h"
 
 #include <math.h>
+#include <stddef.h>
 #include <string.h>
 
 #include "hal/hal.h"
 
 _Static_assert(sizeof(rt_core_t) <= BOARD_RAM_RT_BYTES, "RT core state exceeds the board's RT RAM");
+/* With the links it writes (sample ring, status and seen mailboxes), as the GP core's check. */
+_Static_assert(sizeof(rt_core_t) + RT_LINK_BYTES <= BOARD_RAM_RT_BYTES,
+               "RT core state and links exceed the board's RT RAM");
+
+static int samples_cfg_ok(const rt_samples_cfg_t *s)
+{
+    return s->n_beams >= 1 && s->points_per_beam >= 1 &&
+           RT_SAMPLES_MAX_OUT(s->n_beams, s->points_per_beam) <= RT_CORE_MAX_SCAN_SAMPLES &&
+           s->max_x > s->min_x && s->max_y > s->min_y;
+}
+
+/* Exploration: no waypoints; the explore cfg is copied into the core's own rt_explore_t. */
+static int init_explore(rt_core_t *rt, const rt_core_cfg_t *cfg, const fw_link_t *link)
+{
+    if (link->gp_goal == NULL || link->rt_seen == NULL)
+        return -EINVAL;
+    /* Everything before the exploration state (which rt_explore_init resets itself: its
+     * planner workspace is scratch and is never cleared). */
+    memset(rt, 0, offsetof(rt_core_t, explore));
+    rt->cfg = *cfg;
+    rt->link = link;
+    int r = rt_explore_init(&rt->explore, cfg->explore);
+    if (r != 0)
+        return r;
+    rt->cfg.explore = &rt->explore.cfg;
+    rt->cfg.waypoints = NULL;
+    rt->cfg.n_waypoints = 0;
+    return rt_follow_init(&rt->follow, &cfg->follow);
+}
 
 int rt_core_init(rt_core_t *rt, const rt_core_cfg_t *cfg, const fw_link_t *link)
 {
-    if (rt == NULL || cfg == NULL || link == NULL || cfg->waypoints == NULL ||
-        cfg->n_waypoints < 2 || cfg->n_waypoints > RT_CORE_MAX_WAYPOINTS || cfg->period_us == 0)
+    if (rt == NULL || cfg == NULL || link == NULL || cfg->period_us == 0 ||
+        !samples_cfg_ok(&cfg->samples))
         return -EINVAL;
-    if (cfg->samples.n_beams < 1 || cfg->samples.points_per_beam < 1 ||
-        RT_SAMPLES_MAX_OUT(cfg->samples.n_beams, cfg->samples.points_per_beam) >
-            RT_CORE_MAX_SCAN_SAMPLES ||
-        !(cfg->samples.max_x > cfg->samples.min_x) || !(cfg->samples.max_y > cfg->samples.min_y))
+    if (cfg->explore != NULL)
+        return init_explore(rt, cfg, link);
+    if (cfg->waypoints == NULL || cfg->n_waypoints < 2 || cfg->n_waypoints > RT_CORE_MAX_WAYPOINTS)
         return -EINVAL;
-    memset(rt, 0, sizeof *rt);
+    /* A tour leaves the exploration state alone: its pages are never touched. */
+    memset(rt, 0, offsetof(rt_core_t, explore));
     rt->cfg = *cfg;
     rt->link = link;
     for (int32_t i = 0; i < cfg->n_waypoints; i++) {
@@ -39,6 +69,8 @@ int rt_core_init(rt_core_t *rt, const rt_core_cfg_t *cfg, const fw_link_t *link)
 
 float rt_core_path_length(const rt_core_t *rt)
 {
+    if (rt->cfg.explore != NULL)
+        return 0.0f;
     return rt->cum[rt->cfg.n_waypoints - 1];
 }
 
@@ -99,6 +131,94 @@ static void process_scan(rt_core_t *rt, const hal_pose_t *pose)
     }
 }
 
+/* ---- exploration -------------------------------------------------------------------------- */
+
+static rt_scan_view_t scan_view(const rt_core_t *rt)
+{
+    rt_scan_view_t v = {rt->scan.ranges_m, (int32_t)rt->scan.count, rt->scan.angle_min_rad,
+                        rt->scan.angle_step_rad, rt->scan.range_max_m};
+    return v;
+}
+
+static int publish_status(rt_core_t *rt, uint64_t now_us)
+{
+    rt->status.stamp_us = now_us;
+    if (mbox_put(rt->link->rt_to_ai, &rt->status) != 0 ||
+        mbox_put(rt->link->rt_to_gp, &rt->status) != 0)
+        return -EINVAL;
+    return 0;
+}
+
+/* One tick of exploration mode (rt_core.h): goal, pose, scan (samples as on a tour, then the
+ * grid), the explore step, the seen view, the status. */
+static int explore_tick(rt_core_t *rt, const fw_tick_t *tick)
+{
+    rt_explore_t *x = &rt->explore;
+    rt_core_stats_t *st = &rt->stats;
+    int rc = 0;
+    int over = rt_explore_clock(x, tick->now_us) == 1;
+    if (mbox_get(rt->link->gp_goal, &rt->goal, NULL) == 1)
+        rt->have_goal = 1;
+    hal_pose_t pose;
+    int r = hal_pose_read(&pose);
+    if (r == 0) {
+        rt->status.x_m = pose.x_m;
+        rt->status.y_m = pose.y_m;
+        rt->status.heading_rad = pose.heading_rad;
+    } else if (r != -EAGAIN) {
+        rt->status.errors++;
+        rc = r;
+    }
+    if (!rt->status.finished) {
+        if (r == 0 && !over) {
+            if (tick->sub) {
+                st->scan_ticks++;
+                const int had = rt->have_scan;
+                const uint64_t before = rt->last_scan_stamp;
+                process_scan(rt, &pose);
+                if (rt->have_scan && (!had || rt->last_scan_stamp != before)) {
+                    rt_scan_view_t v = scan_view(rt);
+                    /* Only a malformed scan fails here; it then adds nothing to the grid. */
+                    if (rt_explore_integrate_scan(x, &v, pose.x_m, pose.y_m, pose.heading_rad,
+                                                  rt->scan.stamp_us) < 0)
+                        rt->status.sample_errors++;
+                }
+            }
+            rt_scan_view_t v = scan_view(rt);
+            rt_follow_cmd_t cmd;
+            r = rt_explore_step(x, rt->have_goal ? &rt->goal : NULL, pose.x_m, pose.y_m,
+                                pose.heading_rad, rt->have_scan ? &v : NULL, tick->now_us,
+                                &rt->cfg.follow, &cmd);
+            if (r != 0) {
+                rt->status.errors++;
+                rc = r;
+            } else if (cmd.finished) {
+                over = 1;
+            } else {
+                if (hal_motor_set_wheels(cmd.wheel_left, cmd.wheel_right) != 0)
+                    rt->status.errors++;
+                rt->status.distance_m += fabsf(cmd.v) * (float)rt->cfg.period_us * 1e-6f;
+                rt->status.waypoint = (uint32_t)cmd.target;
+            }
+        }
+        if (over) {
+            /* The end of exploration: the wheels stopped once, then nothing more. */
+            if (hal_motor_set_wheels(0.0f, 0.0f) != 0)
+                rt->status.errors++;
+            rt->status.finished = 1;
+        }
+    }
+    rt_seen_t *seen = mbox_write_buffer(rt->link->rt_seen);
+    if (rt_explore_seen(x, tick->now_us, seen) == 1)
+        (void)mbox_publish(rt->link->rt_seen);
+    rt_explore_status(x, &rt->status);
+    rt->status.path_length_m = 0.0f; /* no fixed path: rounds are cut by time */
+    rt->status.progress_m = 0.0f;
+    if (publish_status(rt, tick->now_us) != 0)
+        rc = -EINVAL;
+    return rc;
+}
+
 int rt_core_tick(void *arg, const fw_tick_t *tick)
 {
     rt_core_t *rt = arg;
@@ -110,6 +230,8 @@ int rt_core_tick(void *arg, const fw_tick_t *tick)
         st->clock_mismatch++;
     st->last_tick_us = tick->now_us;
     st->ticks++;
+    if (rt->cfg.explore != NULL)
+        return explore_tick(rt, tick);
 
     hal_pose_t pose;
     int r = hal_pose_read(&pose);

@@ -17,8 +17,9 @@
  * Size: at most RT_GRID_MAX_SIDE cells per side and RT_GRID_MAX_CELLS cells in all. The
  * default 65,536 cells (e.g. 256 x 256) hold a 12.8 m square at 0.05 m per cell (the default
  * apartment, 12 x 9 m, is 240 x 180 cells at 0.05 m) or a 25.6 m square at 0.1 m, for
- * 128 KiB of grid; a board may define a smaller RT_GRID_MAX_CELLS in its board.h. Sides up to
- * 1024 keep every squared cell distance (< 2^21) exact in a float (rt_plan.c relies on it).
+ * 128 KiB of grid; a board may define a smaller RT_GRID_MAX_CELLS (and RT_GRID_MAX_SIDE) in its
+ * board.h (common/fw_config.h). Sides up to 1024 keep every squared cell distance (< 2^21)
+ * exact in a float (rt_plan.c relies on it).
  *
  * Units: metres. Not thread-safe per grid (the writer and the planner must not overlap). */
 #ifndef RT_GRID_H
@@ -26,11 +27,11 @@
 
 #include <stdint.h>
 
-#ifndef RT_GRID_MAX_CELLS
-#define RT_GRID_MAX_CELLS 65536
-#endif
-#define RT_GRID_MAX_SIDE 1024
+/* RT_GRID_MAX_CELLS (default 65,536) and RT_GRID_MAX_SIDE (default 1024; rt_plan's per-line
+ * scratch is sized by it, 16 KiB at 1024) come from common/fw_config.h: a board may lower
+ * both in its board.h. */
 
+_Static_assert(RT_GRID_MAX_SIDE >= 1 && RT_GRID_MAX_SIDE <= 1024, "RT_GRID_MAX_SIDE must be 1 .. 1024");
 _Static_assert(RT_GRID_MAX_CELLS >= 1 && RT_GRID_MAX_CELLS <= RT_GRID_MAX_SIDE * RT_GRID_MAX_SIDE,
                "RT_GRID_MAX_CELLS must be in 1 .. RT_GRID_MAX_SIDE^2");
 _Static_assert(2 * (RT_GRID_MAX_SIDE - 1) * (RT_GRID_MAX_SIDE - 1) < (1 << 24),

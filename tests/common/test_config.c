@@ -8,6 +8,7 @@
 #include <cmocka.h>
 
 #include "fw_config_sizes.h"
+#include "rt/rt_grid.h"
 
 #if defined(BOARD_HOST_ALT)
 /* The board's values reached this file... */
@@ -18,6 +19,9 @@ _Static_assert(FW_LINK_RING_CAPACITY == 4096u && AI_POOL_CAPACITY == (1u << 15) 
 _Static_assert(HAL_NET_MTU_BYTES == 8u * 1024u && DINNO_MAX_PEERS == 8u && BOARD_MAX_FLEET == 64u,
                "host_alt: MTU, neighbours and fleet");
 _Static_assert(CRC32_SLICE8 == 0, "host_alt: the small CRC table");
+_Static_assert(RT_GRID_MAX_CELLS == 16384 && RT_GRID_MAX_SIDE == 256 &&
+                   sizeof(((rt_grid_t *)0)->occ) == 16384u,
+               "host_alt: the RT core's grid follows the board");
 #endif
 
 static void test_library_and_program_agree(void **st)
