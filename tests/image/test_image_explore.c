@@ -127,8 +127,8 @@ static void test_explores_without_touching_a_wall(void **st)
     assert_true(r.completed);
     assert_int_equal(r.rounds_done, 3);
     assert_true(r.rt_status.finished);
-    assert_true(r.explore.goals >= 2);
-    assert_true(r.rt_status.goal_reached >= 1);
+    assert_true(r.explore.goals >= 3); /* chosen again as the belief changes (reached: the frontier test) */
+    assert_true(r.rt_status.plans >= r.explore.goals);
     assert_int_equal(r.rt_status.plan_failures, 0);
     assert_int_equal(r.world.collisions, 0); /* the ODE world saw no contact with a wall */
     assert_true(r.world.distance_m > 5.0);
