@@ -50,23 +50,28 @@ int gp_explore_on_claim(gp_explore_t *x, const gp_goal_claim_t *c, uint64_t now_
 }
 
 /* The grid gp_goal_select sees (gp_explore.h): occ from the robot's own scans, unknown by
- * policy, nothing to learn around the goals given up. */
+ * policy, nothing to learn on the spent cells. */
 static void build_grid(gp_explore_t *x)
 {
-    const uint32_t w = x->cfg.goal.w, h = x->cfg.goal.h, n = w * h;
+    const uint32_t n = x->cfg.goal.w * x->cfg.goal.h;
     const int use_belief = x->cfg.policy == GP_EXPLORE_UNCERTAINTY && x->have_belief;
     memcpy(x->grid.occ, x->seen.occ, n);
-    memcpy(x->grid.unknown, use_belief ? x->belief.unknown : x->seen.unknown, n);
-    const double res = x->cfg.goal.res_m, r = x->cfg.goal.sensor_radius_m;
-    for (uint32_t f = 0; f < x->n_failed; f++) {
-        for (uint32_t row = 0; row < h; row++)
-            for (uint32_t col = 0; col < w; col++) {
-                const double cx = x->cfg.goal.origin_x_m + ((double)col + 0.5) * res;
-                const double cy = x->cfg.goal.origin_y_m + ((double)row + 0.5) * res;
-                if (fabs(cx - x->failed_xy[f][0]) <= r && fabs(cy - x->failed_xy[f][1]) <= r)
-                    x->grid.unknown[row * w + col] = 0u;
-            }
-    }
+    const uint8_t *u = use_belief ? x->belief.unknown : x->seen.unknown;
+    for (uint32_t i = 0; i < n; i++)
+        x->grid.unknown[i] = x->spent[i] ? 0u : u[i];
+}
+
+/* The goal's window: the cells gp_goal sums its information over (half side round(sensor radius
+ * / res) cells around the goal's cell), in cells, so that none is left out by rounding. */
+static void spend(gp_explore_t *x, uint32_t goal_cell)
+{
+    const gp_goal_cfg_t *c = &x->cfg.goal;
+    const int64_t r = (int64_t)floor(c->sensor_radius_m / c->res_m + 0.5);
+    const int64_t gc = goal_cell % c->w, gr = goal_cell / c->w;
+    for (int64_t row = gr - r; row <= gr + r; row++)
+        for (int64_t col = gc - r; col <= gc + r; col++)
+            if (row >= 0 && row < (int64_t)c->h && col >= 0 && col < (int64_t)c->w)
+                x->spent[row * c->w + col] = 1u;
 }
 
 static int send_goal(gp_explore_t *x, const fw_link_t *link, uint32_t mode, float gx, float gy, uint64_t now_us)
@@ -123,10 +128,7 @@ int gp_explore_tick(gp_explore_t *x, const fw_link_t *link, const rt_status_t *r
         spent = 1;
     }
     if (spent) {
-        const uint64_t k = x->stats.reached + x->stats.failed;
-        const uint32_t slot = x->n_failed < GP_EXPLORE_MAX_FAILED ? x->n_failed++ : (uint32_t)(k % GP_EXPLORE_MAX_FAILED);
-        x->failed_xy[slot][0] = (float)x->goal.goal.x_m;
-        x->failed_xy[slot][1] = (float)x->goal.goal.y_m;
+        spend(x, x->goal.goal.cell);
         x->changed = 1;
         again = 1;
     }

@@ -13,9 +13,13 @@
  *            GP_EXPLORE_COORDINATED the seen grid's never-observed share (frontier
  *            exploration on the robot's own scans, Yamauchi 1997; coordinated: with the
  *            peers' claims, Burgard et al. 2005);
- * and, around the last GP_EXPLORE_MAX_FAILED goals the RT core reached or gave up
- * (rt_status_t.goal_reached, goal_failed: unreachable, or stuck there), unknown 0 within the
- * sensor radius: a spent goal is not chosen again (the belief lags the robot by a belief period).
+ * and unknown 0 on every spent cell: the cells of the window gp_goal sums around each goal the RT
+ * core reached or gave up (rt_status_t.goal_reached, goal_failed: unreachable, or stuck
+ * there). A spent goal is not chosen again: the belief lags the robot by a belief period, and a
+ * goal the robot cannot get near (outside the building, inside a wall block: the coarse grid's
+ * search may leak there, the RT core's planner then stops at the nearest reachable cell and
+ * says reached) would otherwise be chosen again and again. A mask, not a list: however many
+ * goals are spent, none comes back.
  * A goal is chosen again when the RT core reached or gave up the current one, when none is set,
  * and every reselect_us (new information may make another goal better); a different cell goes
  * out to the RT core as a new goal (gp_goal_msg_t, seq + 1), the same cell does not.
@@ -33,8 +37,6 @@
 #include "gp/gp_goal.h"
 #include "gp/gp_link.h"
 #include "rt/rt_link.h"
-
-#define GP_EXPLORE_MAX_FAILED 32u
 
 typedef enum gp_explore_policy {
     GP_EXPLORE_UNCERTAINTY = 0,
@@ -68,8 +70,7 @@ typedef struct gp_explore {
     uint32_t cell;                   /* its cell */
     uint64_t selected_us;
     uint32_t last_reached, last_failed;
-    uint32_t n_failed;
-    float failed_xy[GP_EXPLORE_MAX_FAILED][2];
+    uint8_t spent[GP_GOAL_MAX_CELLS]; /* 1: nothing left to learn there for us (above) */
     gp_explore_stats_t stats;
 } gp_explore_t;
 
