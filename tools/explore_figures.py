@@ -25,10 +25,8 @@ alone). Prints one line per file written; a missing or invalid input stops it wi
 stderr and exit 1. Each file is written whole or not at all (fleet_io.write_atomic).
 """
 import argparse
-import glob
 import math
 import os
-import re
 import shutil
 import struct
 import sys
@@ -39,7 +37,7 @@ TOOLS_DIR = os.path.dirname(os.path.realpath(__file__))
 sys.path.insert(0, TOOLS_DIR)
 from fleet_io import ReportError, load_npy, resolve_tour, round_map, write_atomic  # noqa: E402
 from fleet_report import read_csv, read_json_object  # noqa: E402  (the report's checked readers)
-from fleet_figures import colour_limits, draw_coverage, pick_evenly, save_fig  # noqa: E402
+from fleet_figures import checkpoint_rounds, colour_limits, draw_coverage, pick_evenly, save_fig  # noqa: E402
 from palette import quantity_cmap, robot_colour  # noqa: E402
 sys.path.pop(0)
 
@@ -167,18 +165,6 @@ class ExploreRun:
         m = read_csv(f, ("round", "sim_time_s"))
         return {int(r): t for r, t in zip(m["round"], m["sim_time_s"]) if math.isfinite(t)}
 
-    def checkpoint_rounds(self):
-        """Rounds whose robot_<i>/round_NNNN.bnn every robot kept, sorted."""
-        common = None
-        for i in self.robots:
-            r = set()
-            for f in glob.glob(self.p(f"robot_{i}", "round_*.bnn")):
-                m = re.fullmatch(r"round_(\d+)\.bnn", os.path.basename(f))
-                if m:
-                    r.add(int(m.group(1)))
-            common = r if common is None else common & r
-        return sorted(common or ())
-
 
 # ---- the per-round consensus maps ------------------------------------------------------------
 
@@ -186,7 +172,7 @@ def round_maps(run, tmp, mc, seed, note):
     """[(time_s, round, occupancy, uncertainty, kind)] sorted by time, kind "epistemic" or "std",
     rendered by `host_sim maps` into tmp; [] (and a note) when they cannot be made."""
     np = run.np
-    rounds = run.checkpoint_rounds()
+    rounds = checkpoint_rounds(run)
     if not rounds:
         note("no round checkpoints (robot_<i>/round_NNNN.bnn) kept by every robot: no map panels")
         return [], None

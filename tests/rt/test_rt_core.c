@@ -14,6 +14,7 @@
 
 #include "alloc_count.h"
 #include "fake_board.h"
+#include "rt_core_test_util.h"
 #include "fw_link.h"
 #include "rt/rt_core.h"
 
@@ -50,32 +51,20 @@ static int teardown(void **st)
     return 0;
 }
 
-/* Tick k at its simulated time; sub = scan tick. */
 static int tick(uint64_t k, int sub)
 {
-    fb.now_us = k * PERIOD_US;
-    fw_tick_t t = {.now_us = fb.now_us, .index = k, .sub = (uint32_t)sub};
-    return rt_core_tick(&rt, &t);
+    return rt_test_tick(&rt, &fb, PERIOD_US, k, sub);
 }
 
 static void set_pose(float x, float y, float heading)
 {
-    fb.pose = (hal_pose_t){fb.now_us, x, y, heading};
-    fb.pose_rc = 0;
+    rt_test_set_pose(&fb, x, y, heading);
 }
 
+/* A round room of radius `range` around the robot (beyond range_max: no return). */
 static void set_scan(uint64_t stamp, float range)
 {
-    memset(&fb.scan, 0, sizeof fb.scan);
-    fb.scan.stamp_us = stamp;
-    fb.scan.angle_min_rad = -PI_F;
-    fb.scan.angle_step_rad = (2.0f * PI_F / 360.0f);
-    fb.scan.range_min_m = 0.12f;
-    fb.scan.range_max_m = 3.5f;
-    fb.scan.count = 360;
-    for (int i = 0; i < 360; i++)
-        fb.scan.ranges_m[i] = range;
-    fb.lidar_rc = 0;
+    rt_test_set_scan(&fb, stamp, range);
 }
 
 static rt_status_t status(void)
