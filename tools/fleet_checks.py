@@ -42,7 +42,8 @@ LAUNCHER_SETS = {"--plan": "--plan", "--path": "--paths", "--out": "--results/--
                  "--encoding": "--encoding", "--val-every": "--val-every", "--val-poses": "--val-poses",
                  "--peer-timeout": "--peer-timeout", "--resend-ms": "--resend-ms", "--quiet": None,
                  "--no-maps": "--no-report", "--net-faults": "--net-faults", "--key-file": "--key-file",
-                 "--run-id": None}
+                 "--run-id": None, "--explore": "--explore", "--explore-policy": "--explore-policy",
+                 "--explore-time": "--explore-time"}
 
 
 OPT_ROW = re.compile(r"^  (--[\w-]+(?:, --[\w-]+)*)(?: (\S+))?(?:\s{2,}|$)")

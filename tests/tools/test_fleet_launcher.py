@@ -16,7 +16,9 @@
     paths relative;
   - --record on a keyed fleet (the default) with the real host_sim: the traffic table counts the
     state chunks, every fleet message keyed, every tag valid under the run's key (skipped, said,
-    where multicast or lcm-logger is missing).
+    where multicast or lcm-logger is missing);
+  - --explore with the real host_sim over udpm: goal claims taken between real processes, the
+    same trajectories and models on two runs of one seed.
 The stand-in for host_sim is tests/tools/test_fleet.py's.
 
     python3 tests/tools/test_fleet_launcher.py      prints "N passed, M failed", exit 1 on failure
@@ -95,6 +97,10 @@ def bad_options_touch_nothing():
             (["--extra", "--rounds 3"], "the launcher sets --rounds"),
             (["--extra", "--resume", "--mode", "online"], "--extra=--resume needs --mode offline"),
             (["--paths", tours], f"--paths {tours}: not tours of --plan"),
+            (["--explore", "--paths", tours], "--explore drives no tours"),
+            (["--explore", "--mode", "offline"], "--explore learns online"),
+            (["--explore", "--explore-time", "0"], "--explore-time must be"),
+            (["--explore", "--extra", "--explore-time 5"], "the launcher sets --explore-time"),
             (["--map-res", "0"], "--map-res: "),
             (["--fleet-id", "99999999"], "--fleet-id: "),
             (["--lcm-url", "xx"], "--lcm-url xx: not an LCM multicast URL"),
@@ -301,6 +307,41 @@ def record_keyed_fleet():
         check(int(t["keyed_messages"]) == chunks + done + req, f"not every message keyed: {t}")
         check(" 0 malformed" in out and "keyed fleet: " in out and "valid" in out and
               "tags checked with fleet.key" in out, said)
+    finally:
+        shutil.rmtree(tmp, ignore_errors=True)
+
+
+@test
+def explore_fleet_claims_same_twice():
+    """A real 2-robot exploring fleet over LCM udpm (keyed), twice with one seed: each robot takes
+    its peer's goal claims, and both runs drive the same trajectories and train the same models."""
+    if not os.access(HOST_SIM, os.X_OK):
+        raise AssertionError(f"{HOST_SIM} not built (make)")
+    tmp = tempfile.mkdtemp()
+    try:
+        runs = []
+        for name in ("ex1", "ex2"):
+            rc, out, err = fleet(["--bin", HOST_SIM, "--explore", "--explore-policy", "coordinated", "--robots", "2",
+                                  "--rounds", "4", "--explore-time", "40", "--val-poses", "1", "--no-report",
+                                  "--results", tmp, "--name", name], timeout=120)
+            if rc == 1 and "multicast does not work" in err:
+                print("  (explore_fleet_claims_same_twice: no UDP multicast on this host: not tested)")
+                return
+            said = f"exit {rc}\nstdout:\n{out}\nstderr:\n{err}"
+            check(rc == 0 and "0 states given up" in out, said)
+            runs.append(os.path.join(tmp, name))
+        for i in range(2):
+            with open(os.path.join(runs[0], f"robot_{i}", "summary.txt")) as f:
+                summary = f.read()
+            claims = [l for l in summary.splitlines() if l.startswith("claims: ")]
+            check(len(claims) == 1, f"robot {i}: no claims line:\n{summary}")
+            taken = int(claims[0].split(" received, ")[1].split(" taken")[0])
+            check(taken >= 1 and "0 invalid" in claims[0], f"robot {i} took no claim: {claims[0]}")
+            check("explore: policy coordinated" in summary and "collisions: 0" in summary, summary)
+            for f in ("final.bnn", "explore.csv"):
+                with open(os.path.join(runs[0], f"robot_{i}", f), "rb") as a, \
+                        open(os.path.join(runs[1], f"robot_{i}", f), "rb") as b:
+                    check(a.read() == b.read(), f"robot {i}'s {f} differs between two runs of one seed")
     finally:
         shutil.rmtree(tmp, ignore_errors=True)
 
