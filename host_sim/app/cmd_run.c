@@ -239,16 +239,16 @@ static void write_profile(const run_opts_t *o, const sim_image_result_t *r, FILE
                 (unsigned long long)s->lateness_max_us, mn, mean, mx, stk, mem_core[i]);
     }
     fprintf(txt, "\nstatic memory (bytes, sizeof / _get_buffer_size):\n");
-    fprintf(txt, "  RT  core state (waypoints, scan, sample scratch) %12zu\n", m->rt_state);
-    fprintf(txt, "  RT  links (sample ring %zu + 2 status mailboxes) %12zu\n", m->ring, m->rt_links);
+    fprintf(txt, "  RT  core state (tour, scan, samples, explore grid) %10zu\n", m->rt_state);
+    fprintf(txt, "  RT  links (sample ring %zu + status, seen mailboxes) %6zu\n", m->ring, m->rt_links);
     fprintf(txt, "  AI  core state total                             %12zu\n", m->ai_state);
     fprintf(txt, "        DiNNO node (model, duals, view, batch)     %12zu\n", m->ai_node);
     fprintf(txt, "          BNN arena (bnn_get_buffer_size)          %12zu\n", m->ai_model_arena);
     fprintf(txt, "        sample pool (%u samples)               %12zu\n", (unsigned)AI_POOL_CAPACITY,
             m->ai_pool);
-    fprintf(txt, "  AI  links (status, state, ckpt mailboxes)        %12zu\n", m->ai_links);
-    fprintf(txt, "  GP  core state (round log, telemetry)            %12zu\n", m->gp_state);
-    fprintf(txt, "  GP  links (ready mailbox + neighbour view)       %12zu\n", m->gp_links);
+    fprintf(txt, "  AI  links (status, state, ckpt, belief mailboxes) %10zu\n", m->ai_links);
+    fprintf(txt, "  GP  core state (round log, telemetry, goals)     %12zu\n", m->gp_state);
+    fprintf(txt, "  GP  links (ready, goal mailboxes + neighbour view) %10zu\n", m->gp_links);
     fprintf(txt, "  GP  fleet exchange (state buffers of 2 rounds)   %12zu\n", m->gp_fleet);
     fprintf(txt, "  board budgets: RT %u, GP %u, AI %u; stacks RT %u, GP %u, AI %u\n",
             (unsigned)BOARD_RAM_RT_BYTES, (unsigned)BOARD_RAM_GP_BYTES, (unsigned)BOARD_RAM_AI_BYTES,
