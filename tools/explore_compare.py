@@ -183,15 +183,29 @@ def csv_text(rows):
 
 # ---- running ---------------------------------------------------------------------------------
 
-def sh(cmd, log=None, timeout=None):
-    """Runs cmd (a list); its output into log (a path) or captured. (returncode, output tail)."""
+# Every child has a bound: making a plan or tours takes seconds, a fleet run minutes (office64's
+# 600 s with 3 robots: 20 s here); one that passes it is stopped and counted as failed.
+STEP_TIMEOUT_S = 600
+RUN_TIMEOUT_S = float(os.environ.get("EXPLORE_COMPARE_RUN_TIMEOUT_S", "7200"))
+
+
+def sh(cmd, log=None, timeout=STEP_TIMEOUT_S):
+    """Runs cmd (a list); its output into log (a path) or captured. (returncode, output tail);
+    past timeout seconds the child is stopped: (124, a line saying so)."""
+    late = f"stopped after {timeout:g} s: {' '.join(cmd)}"
     if log:
         with open(log, "w") as f:
-            p = subprocess.run(cmd, stdout=f, stderr=subprocess.STDOUT, timeout=timeout)
+            try:
+                p = subprocess.run(cmd, stdout=f, stderr=subprocess.STDOUT, timeout=timeout)
+            except subprocess.TimeoutExpired:
+                return 124, late
         with open(log) as f:
             tail = f.read().splitlines()[-8:]
         return p.returncode, "\n".join(tail)
-    p = subprocess.run(cmd, capture_output=True, text=True, timeout=timeout)
+    try:
+        p = subprocess.run(cmd, capture_output=True, text=True, timeout=timeout)
+    except subprocess.TimeoutExpired:
+        return 124, late
     return p.returncode, (p.stdout + p.stderr).strip()
 
 
@@ -445,7 +459,7 @@ def main(argv=None):
                     if not kept:
                         cmd = fleet_cmd(a, label, plan, policy, seed, name)
                         log = os.path.join(a.results, name + ".log")
-                        rc, tail = sh(cmd, log=log)
+                        rc, tail = sh(cmd, log=log, timeout=RUN_TIMEOUT_S)
                         if rc != 0 or not finished(d, a.robots):
                             failed += 1
                             print(f"{head} FAILED (exit {rc}; {log}):\n  " + tail.replace("\n", "\n  "), flush=True)
