@@ -95,7 +95,6 @@ int gp_explore_tick(gp_explore_t *x, const fw_link_t *link, const rt_status_t *r
             return -EINVAL;
         }
         x->have_seen = 1;
-        x->changed = 1;
         x->stats.seen_updates++;
     }
     r = mbox_get(link->ai_belief, &x->belief, NULL);
@@ -108,7 +107,6 @@ int gp_explore_tick(gp_explore_t *x, const fw_link_t *link, const rt_status_t *r
             return -EINVAL;
         }
         x->have_belief = 1;
-        x->changed = 1;
         x->stats.belief_updates++;
     }
     if (!x->have_seen || rt == NULL || x->stats.done)
@@ -129,7 +127,6 @@ int gp_explore_tick(gp_explore_t *x, const fw_link_t *link, const rt_status_t *r
     }
     if (spent) {
         spend(x, x->goal.goal.cell);
-        x->changed = 1;
         again = 1;
     }
     if (!again) {
@@ -137,7 +134,6 @@ int gp_explore_tick(gp_explore_t *x, const fw_link_t *link, const rt_status_t *r
         return 0;
     }
     build_grid(x);
-    x->changed = 0;
     x->selected_us = now_us;
     x->stats.selections++;
     /* the pose clamped into the map: GPS noise at a wall may put it a hair outside */

@@ -65,7 +65,7 @@ typedef struct gp_explore {
     gp_goal_grid_t grid;
     rt_seen_t seen;
     ai_belief_msg_t belief;
-    int have_seen, have_belief, changed;
+    int have_seen, have_belief;
     uint32_t seq;                    /* of the goal last sent (0: none) */
     uint32_t cell;                   /* its cell */
     uint64_t selected_us;

@@ -165,7 +165,6 @@ void sim_explore_trace_row(uint64_t now_us, const rt_status_t *rt, const gp_core
             has ? x->goal.goal.x_m : NAN, has ? x->goal.goal.y_m : NAN, (unsigned long long)x->stats.reached,
             (unsigned long long)x->stats.failed, rt->stuck_events, rt->plans, rt->plan_failures, rt->avoid_stops,
             rt->finished, x->have_belief ? (double)x->belief.unknown_mean : NAN, umax);
-    t->rows++;
     if (rt->stuck_events > t->stuck_seen)
         printf("explore: robot %d stuck near (%.2f, %.2f) at %.0f s (%u so far): backing off and re-planning\n",
                t->robot, (double)rt->x_m, (double)rt->y_m, t_s, rt->stuck_events);

@@ -67,7 +67,6 @@ typedef struct sim_explore_trace {
     FILE *f;
     int robot;
     uint32_t stuck_seen, failed_seen;
-    uint32_t rows;
 } sim_explore_trace_t;
 
 int sim_explore_trace_open(sim_explore_trace_t *t, const char *dir, int robot);
