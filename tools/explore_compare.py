@@ -3,7 +3,7 @@
 (tools/fleet) with the same seeds, plan by plan:
 
     tools/explore_compare.py [--plans apartment,office64,gen] [--seeds 1,2,3] [--robots 3]
-        [--policies uncertainty,coordinated,frontier,tours] [--explore-time S] [--rounds R]
+        [--policies uncertainty,uncertainty-own,coordinated,frontier,tours] [--explore-time S] [--rounds R]
         [--bin host_sim] [--results DIR] [--csv OUT.csv] [--fleet tools/fleet]
 
 Each run is `tools/fleet ... --no-report --results DIR --name <plan>-<policy>-<N>robots-seed<S>`:
@@ -46,7 +46,9 @@ from fleet_figures import save_fig  # noqa: E402
 sys.path.pop(0)
 
 PROG = "explore_compare"
-EXPLORE_POLICIES = ("uncertainty", "coordinated", "frontier")
+# "uncertainty-own": the uncertainty policy with each robot's own posterior (--explore-own-posterior),
+# the ablation of the fleet's shared one.
+EXPLORE_POLICIES = ("uncertainty", "uncertainty-own", "coordinated", "frontier")
 POLICIES = EXPLORE_POLICIES + ("tours",)
 PLANS = {"apartment": "host_sim/plans/apartment.svg", "office64": "host_sim/plans/office64.svg"}
 THRESHOLDS = (0.90, 0.95)
@@ -55,6 +57,7 @@ CSV_COLUMNS = ("plan", "policy", "seed", "robots", "coverage_final", "robot_seco
 # One colour and line per policy (not the robots' colours of tools/palette.py: these are policies).
 POLICY_STYLE = {
     "uncertainty": ("#7b2cbf", "-"),
+    "uncertainty-own": ("#c77dff", ":"),
     "coordinated": ("#1f77b4", "-"),
     "frontier": ("#e67e22", "-."),
     "tours": ("#444444", "--"),
@@ -138,9 +141,11 @@ def settings_differ(run_dir, plan, policy, seed, a):
         return "no readable run.json"
     e = s.get("explore") if isinstance(s, dict) else None
     want = {"robots": a.robots, "seed": seed, "plan": os.path.basename(plan),
-            "explore": None if policy == "tours" else (policy, float(a.explore_time))}
+            "explore": None if policy == "tours" else (explore_policy(policy), float(a.explore_time),
+                                                        policy.endswith("-own"))}
     got = {"robots": s.get("robots"), "seed": s.get("seed"), "plan": os.path.basename(str(s.get("plan"))),
-           "explore": (e.get("policy"), float(e.get("time_s", -1))) if isinstance(e, dict) else None}
+           "explore": (e.get("policy"), float(e.get("time_s", -1)), bool(e.get("own_posterior")))
+           if isinstance(e, dict) else None}
     if a.rounds is not None:
         want["rounds"], got["rounds"] = a.rounds, s.get("rounds")
     bad = [k for k in want if want[k] != got[k]]
@@ -254,8 +259,15 @@ def fleet_cmd(a, label, plan, policy, seed, name):
         if paths:
             cmd += ["--paths", paths]
     else:
-        cmd += ["--explore", "--explore-policy", policy, "--explore-time", f"{a.explore_time:g}"]
+        cmd += ["--explore", "--explore-policy", explore_policy(policy), "--explore-time", f"{a.explore_time:g}"]
+        if policy.endswith("-own"):
+            cmd += ["--explore-own-posterior"]
     return cmd
+
+
+def explore_policy(policy):
+    """tools/fleet's --explore-policy of one of EXPLORE_POLICIES."""
+    return policy[:-len("-own")] if policy.endswith("-own") else policy
 
 
 # ---- figures and table -----------------------------------------------------------------------

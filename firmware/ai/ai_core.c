@@ -49,7 +49,9 @@ int ai_core_init(ai_core_t *ai, const ai_core_cfg_t *cfg, const fw_link_t *link)
         cfg->start_round >= cfg->rounds + cfg->post_rounds || (cfg->post_rounds > 0 && cfg->fleet_size < 1) ||
         (cfg->resume_ckpt == NULL && cfg->resume_ckpt_bytes != 0) ||
         (cfg->rounds_per_boundary > 0 && cfg->rounds % cfg->rounds_per_boundary != 0) ||
-        (cfg->explore_budget_us > 0 && (cfg->belief == NULL || cfg->belief_period_us == 0 || cfg->offline)))
+        (cfg->explore_budget_us > 0 && (cfg->belief == NULL || cfg->belief_period_us == 0 || cfg->offline)) ||
+        cfg->explore_share_post < 0 || cfg->explore_share_post > 1 ||
+        (cfg->explore_share_post && (cfg->explore_budget_us == 0 || cfg->fleet_size < 1)))
         return -EINVAL;
     /* The big members are left as they are: dinno_node_init and the pool set what they use. */
     ai->cfg = *cfg;
@@ -99,6 +101,13 @@ static int observe_staged(ai_core_t *ai);
 static uint32_t total_rounds(const ai_core_t *ai) /* DiNNO rounds, then the posterior's */
 {
     return ai->cfg.rounds + ai->cfg.post_rounds;
+}
+
+/* Round k's state is the posterior: after the DiNNO rounds, or every odd round while a fleet
+   explores with a shared posterior (ai_core.h). */
+static int is_post_round(const ai_core_t *ai, uint32_t k)
+{
+    return k >= ai->cfg.rounds || (ai->cfg.explore_share_post && (k & 1u) != 0u);
 }
 
 static uint32_t rounds_due(const ai_core_t *ai)
@@ -153,7 +162,7 @@ static void publish_state(ai_core_t *ai, uint64_t now_us)
     ai_state_msg_t *st = mbox_write_buffer(ai->link->ai_state);
     st->round = k;
     st->n_params = (uint32_t)bnn_n_params(&ai->node.model);
-    if (k < ai->cfg.rounds) {
+    if (!is_post_round(ai, k)) {
         /* theta, or with an EF codec the difference against our public copy (dinno.h) */
         if (dinno_node_outgoing(&ai->node, st->theta) != 0) {
             hal_log(HAL_LOG_WARN, "round %" PRIu32 ": no state to send", k);
@@ -183,7 +192,8 @@ static void publish_state(ai_core_t *ai, uint64_t now_us)
  * update per sample). The arena's activations are scratch between training steps. */
 static int observe_staged(ai_core_t *ai)
 {
-    const int rc = bnn_post_observe(&ai->post, &ai->node.model, ai->post_xy, ai->post_staged);
+    const double w = ai->post_fleet ? (double)ai->cfg.fleet_size : 1.0; /* N: the fleet's estimate */
+    const int rc = bnn_post_observe_weighted(&ai->post, &ai->node.model, ai->post_xy, ai->post_staged, w);
     ai->post_staged = 0;
     return rc;
 }
@@ -212,7 +222,10 @@ static int run_round(ai_core_t *ai, const gp_ready_t *ready)
     const uint32_t k = ai->next_round;
     ai_round_info_t *p = &ai->pending;
     int rc = 0;
-    if (k >= ai->cfg.rounds) {
+    p->pool_fill = ai->pool.fill;
+    p->pool_capacity = ai->pool.capacity;
+    p->pool_offered = ai->pool.offered;
+    if (is_post_round(ai, k)) {
         rc = post_round(ai, ready);
         goto publish;
     }
@@ -225,9 +238,6 @@ static int run_round(ai_core_t *ai, const gp_ready_t *ready)
         rc = r0;
         r0 = dinno_node_set_nbrs(&ai->node, NULL);
     }
-    p->pool_fill = ai->pool.fill;
-    p->pool_capacity = ai->pool.capacity;
-    p->pool_offered = ai->pool.offered;
     if (ai->pool.fill > 0) {
         dinno_round_stats_t st;
         int r = dinno_node_round(&ai->node, ai->pool.data, ai->pool.fill, &st);

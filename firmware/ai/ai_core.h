@@ -40,6 +40,13 @@
  * robots' estimates of the fleet's posterior, each starting at N times its own (robots = N),
  * so that every robot's map comes to know what any robot observed. theta does not change; the
  * last of these rounds is the final one.
+ * Exploring in a fleet (explore_share_post): the posterior is shared while the robots explore,
+ * so that each robot's belief, and the goals its GP core draws from it, are the fleet's: every
+ * odd round below rounds is a posterior round (the DiNNO node skips it, as it skips rounds it
+ * missed), and the estimate follows the robots' growing data by dynamic average consensus:
+ * from the first such round on, the robot's new points go in with weight N (bnn_post_observe_
+ * weighted), so the mean of the estimates stays the sum of the robots' posteriors while each
+ * one is mixed towards it. The posterior rounds after the DiNNO rounds continue the same.
  * Storage: ai_core_t is static (the image declares it): the DiNNO node (model, duals, the
  * view of the neighbours), the pool of AI_POOL_CAPACITY samples and a minibatch buffer, checked with the
  * AI core's links against BOARD_RAM_AI_BYTES. No allocation. One AI core per image. */
@@ -87,6 +94,8 @@ typedef struct ai_core_cfg {
     uint64_t explore_budget_us;
     const ai_belief_cfg_t *belief;  /* with explore_budget_us: the grid's geometry (copied) */
     uint64_t belief_period_us;      /* > 0 with explore_budget_us */
+    int explore_share_post;         /* 0/1, with explore_budget_us and fleet_size >= 1: every odd
+                                       round shares the posterior (above) */
 } ai_core_cfg_t;
 
 typedef enum ai_core_phase {

@@ -55,7 +55,13 @@ static const float *features(const bnn_post_t *p, bnn_model_t *m, const bnn_layo
 
 int bnn_post_observe(bnn_post_t *p, bnn_model_t *m, const float *xy, size_t n)
 {
-    if (!p || !m || (n > 0 && !xy) || p->dim != m->cfg.siren_width + 1u || !xy_finite(xy, n))
+    return bnn_post_observe_weighted(p, m, xy, n, 1.0);
+}
+
+int bnn_post_observe_weighted(bnn_post_t *p, bnn_model_t *m, const float *xy, size_t n, double w)
+{
+    if (!p || !m || (n > 0 && !xy) || p->dim != m->cfg.siren_width + 1u || !xy_finite(xy, n) || !isfinite(w) ||
+        w <= 0.0)
         return -EINVAL;
     bnn_layout_t y;
     bnn_make_layout(&m->cfg, &y);
@@ -74,17 +80,17 @@ int bnn_post_observe(bnn_post_t *p, bnn_model_t *m, const float *xy, size_t n)
         }
         for (size_t i = 0; i < S; i++)
             for (size_t j = 0; j <= i; j++)
-                p->prec[pk(i, j)] += (double)gram[i * S + j];
+                p->prec[pk(i, j)] += w * (double)gram[i * S + j];
         /* the constant feature: its row is the column sums, its diagonal the count */
         for (size_t j = 0; j < S; j++) {
             double s = 0.0;
             for (size_t k = 0; k < nc; k++)
                 s += phi[k * S + j];
-            p->prec[pk(S, j)] += s;
+            p->prec[pk(S, j)] += w * s;
         }
-        p->prec[pk(S, S)] += (double)nc;
+        p->prec[pk(S, S)] += w * (double)nc;
     }
-    p->n_obs += (double)n;
+    p->n_obs += w * (double)n;
     if (n > 0 && p->robots == 0.0)
         p->robots = 1.0;
     p->factored = 0;

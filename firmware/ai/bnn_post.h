@@ -66,6 +66,9 @@ FS_MUST_CHECK int bnn_post_init(bnn_post_t *p, const bnn_model_t *m);
  * (chunks of max_batch). m: a model of the same configuration, whose activation scratch is
  * clobbered (as inference does), not theta. 0 or -EINVAL (non-finite input, wrong dimension). */
 FS_MUST_CHECK int bnn_post_observe(bnn_post_t *p, bnn_model_t *m, const float *xy, size_t n);
+/* P += w phi phi^T (and n_obs += w n), w > 0 finite: a robot whose posterior stands for a
+ * fleet's N robots (average consensus, ai_core.h) adds its new points N times. */
+FS_MUST_CHECK int bnn_post_observe_weighted(bnn_post_t *p, bnn_model_t *m, const float *xy, size_t n, double w);
 /* The same from training samples (their labels play no part: what was observed, not what). */
 FS_MUST_CHECK int bnn_post_observe_samples(bnn_post_t *p, bnn_model_t *m, const ai_sample_t *s, size_t n);
 

@@ -87,10 +87,9 @@ static void handle_ckpt(gp_core_t *gp, uint64_t now_us);
 static const gp_goal_claim_t *our_claim(gp_core_t *gp, uint64_t now_us)
 {
     const gp_explore_t *x = &gp->explore;
-    if (!gp->exploring || x->cfg.policy == GP_EXPLORE_FRONTIER || !x->goal.has_goal)
+    if (!gp->exploring || x->cfg.policy == GP_EXPLORE_FRONTIER ||
+        gp_goal_our_claim(&x->goal, gp->exchange_round, now_us, &gp->claim_out) != 0)
         return NULL;
-    gp->claim_out = (gp_goal_claim_t){gp->cfg.robot_id, gp->exchange_round, x->goal.goal.x_m, x->goal.goal.y_m,
-                                      x->goal.goal.cost_m, now_us + x->cfg.goal.claim_lifetime_us};
     return &gp->claim_out;
 }
 

@@ -46,7 +46,10 @@ int gp_explore_on_claim(gp_explore_t *x, const gp_goal_claim_t *c, uint64_t now_
         return -EINVAL;
     if (x->cfg.policy == GP_EXPLORE_FRONTIER)
         return 0;
-    return gp_goal_on_claim(&x->goal, c, now_us);
+    const int r = gp_goal_on_claim(&x->goal, c, now_us);
+    if (r == 0)
+        x->claims_new = 1;
+    return r;
 }
 
 /* The grid gp_goal_select sees (gp_explore.h): occ from the robot's own scans, unknown by
@@ -111,7 +114,11 @@ int gp_explore_tick(gp_explore_t *x, const fw_link_t *link, const rt_status_t *r
     }
     if (!x->have_seen || rt == NULL || x->stats.done)
         return 0;
-    int again = x->seq == 0 || now_us - x->selected_us >= x->cfg.reselect_us;
+    /* again every reselect period, and at once when a peer's claim holds against our goal
+       (claims come at rounds, so robots that chose one goal together part within a round) */
+    int again = x->seq == 0 || now_us - x->selected_us >= x->cfg.reselect_us ||
+                (x->claims_new && gp_goal_contested(&x->goal, now_us));
+    x->claims_new = 0;
     /* A goal reached or given up is spent: its surroundings count as nothing left to learn
        (the belief lags the robot by up to a belief period; a wall-locked goal stays one). */
     int spent = 0;
@@ -142,6 +149,8 @@ int gp_explore_tick(gp_explore_t *x, const fw_link_t *link, const rt_status_t *r
     double py = fmin(fmax((double)rt->y_m, y0 + 1e-6), y0 + (double)h * res - 1e-6);
     gp_goal_pick_t pick;
     r = gp_goal_select(&x->goal, &x->grid, px, py, now_us, &pick);
+    if (r == -EBUSY) /* all that is left is claimed by nearer peers: wait for the next choice */
+        return 0;
     if (r == -ENOENT) {
         x->stats.done = 1;
         return send_goal(x, link, GP_GOAL_MSG_DONE, 0.0f, 0.0f, now_us);

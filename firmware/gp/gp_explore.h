@@ -21,9 +21,12 @@
  * says reached) would otherwise be chosen again and again. A mask, not a list: however many
  * goals are spent, none comes back.
  * A goal is chosen again when the RT core reached or gave up the current one, when none is set,
- * and every reselect_us (new information may make another goal better); a different cell goes
- * out to the RT core as a new goal (gp_goal_msg_t, seq + 1), the same cell does not.
- * Nothing left to learn within reach (gp_goal_select's -ENOENT): GP_GOAL_MSG_DONE.
+ * every reselect_us (new information may make another goal better), and at once when a claim
+ * taken holds against it (gp_goal_contested: robots that chose one goal together, as robots
+ * sharing one belief do, part within a round instead of driving on side by side); a different
+ * cell goes out to the RT core as a new goal (gp_goal_msg_t, seq + 1), the same cell does not.
+ * Only goals nearer peers claimed (gp_goal_select's -EBUSY): the robot keeps its course and
+ * chooses again later. Nothing left to learn within reach (-ENOENT): GP_GOAL_MSG_DONE.
  *
  * No I/O of its own besides the mailboxes; claims go out through gp_goal's send callback.
  * Storage: gp_explore_t (about 100 KB, inside gp_core_t), no allocation. One thread. */
@@ -69,6 +72,7 @@ typedef struct gp_explore {
     uint32_t seq;                    /* of the goal last sent (0: none) */
     uint32_t cell;                   /* its cell */
     uint64_t selected_us;
+    int claims_new;                  /* 1: a claim was taken since the last choice */
     uint32_t last_reached, last_failed;
     uint8_t spent[GP_GOAL_MAX_CELLS]; /* 1: nothing left to learn there for us (above) */
     gp_explore_stats_t stats;

@@ -23,6 +23,7 @@ int gp_goal_init(gp_goal_t *g, const gp_goal_cfg_t *cfg)
         cfg->res_m <= 0.0 || !isfinite(cfg->origin_x_m) || !isfinite(cfg->origin_y_m) || cfg->occ_max == 0u ||
         !finite_nonneg(cfg->sensor_radius_m) || !finite_nonneg(cfg->lambda) || !isfinite(cfg->min_info_m2) ||
         cfg->min_info_m2 <= 0.0 || !finite_nonneg(cfg->claim_radius_m) || !finite_nonneg(cfg->claim_discount) ||
+        !finite_nonneg(cfg->claim_tie_m) || !finite_nonneg(cfg->claim_speed_mps) ||
         cfg->claim_discount > 1.0 || cfg->claim_period_us == 0u || cfg->claim_lifetime_us <= cfg->claim_period_us ||
         cfg->claim_lifetime_us > cfg->claim_max_lifetime_us || cfg->claim_max_lifetime_us > GP_GOAL_MAX_LIFETIME_US)
         return -EINVAL;
@@ -118,7 +119,16 @@ static void expire(gp_goal_t *g, uint64_t now_us)
  * rule): the claimant compares its own cost with ours to the same goal, so both robots reach
  * the same verdict from the same two costs, and the lower id settles a tie the same way on
  * both sides. */
-static void apply_claims(gp_goal_t *g)
+/* The claimant keeps its goal against us, whose cost to it is ours_m (the header's rule). */
+static int claim_holds(const gp_goal_cfg_t *cfg, const gp_goal_claim_t *c, double ours_m, uint64_t now_us)
+{
+    const uint64_t sent_us = c->expiry_us > cfg->claim_lifetime_us ? c->expiry_us - cfg->claim_lifetime_us : 0u;
+    const double age_s = now_us > sent_us ? (double)(now_us - sent_us) * 1e-6 : 0.0;
+    const double theirs = fmax(0.0, c->cost_m - cfg->claim_speed_mps * age_s), tie = cfg->claim_tie_m;
+    return !(theirs > ours_m + tie || (fabs(theirs - ours_m) <= tie && c->sender > cfg->self));
+}
+
+static void apply_claims(gp_goal_t *g, uint64_t now_us)
 {
     const gp_goal_cfg_t *cfg = &g->cfg;
     const uint32_t n = cfg->w * cfg->h;
@@ -131,9 +141,8 @@ static void apply_claims(gp_goal_t *g)
         if (!hc->used || cell_of(cfg, hc->c.x_m, hc->c.y_m, &gc) != 0)
             continue;
         if (g->steps[gc] != UNREACHED) {
-            const double ours = g->steps[gc] * cfg->res_m;
-            if (hc->c.cost_m > ours || (hc->c.cost_m == ours && hc->c.sender > cfg->self))
-                continue; /* we are nearer: the claim does not hold against us */
+            if (!claim_holds(cfg, &hc->c, g->steps[gc] * cfg->res_m, now_us))
+                continue; /* we are nearer, or as near and the lower id */
         }
         /* Cells whose centre lies within the claim radius of the claimed point. */
         const double fx0 = floor((hc->c.x_m - r - cfg->origin_x_m) / cfg->res_m);
@@ -161,14 +170,42 @@ static void send_claim(gp_goal_t *g, uint64_t now_us)
         g->seq++;
     g->sent_any = 1;
     g->sent_us = now_us;
-    if (g->cfg.send == NULL)
+    gp_goal_claim_t c;
+    if (g->cfg.send == NULL || gp_goal_our_claim(g, g->seq, now_us, &c) != 0)
         return;
-    const gp_goal_claim_t c = {g->cfg.self, g->seq, g->goal.x_m, g->goal.y_m, g->goal.cost_m,
-                               now_us + g->cfg.claim_lifetime_us};
     if (g->cfg.send(g->cfg.send_ctx, &c) == 0)
         g->stats.claims_sent++;
     else
         g->stats.send_failures++;
+}
+
+int gp_goal_our_claim(const gp_goal_t *g, uint32_t seq, uint64_t now_us, gp_goal_claim_t *out)
+{
+    if (g == NULL || out == NULL)
+        return -EINVAL;
+    if (!g->has_goal)
+        return -ENOENT;
+    const double age_s = now_us > g->picked_us ? (double)(now_us - g->picked_us) * 1e-6 : 0.0;
+    *out = (gp_goal_claim_t){g->cfg.self, seq, g->goal.x_m, g->goal.y_m,
+                             fmax(0.0, g->goal.cost_m - g->cfg.claim_speed_mps * age_s),
+                             now_us + g->cfg.claim_lifetime_us};
+    return 0;
+}
+
+int gp_goal_contested(const gp_goal_t *g, uint64_t now_us)
+{
+    gp_goal_claim_t ours;
+    if (g == NULL || gp_goal_our_claim(g, 0, now_us, &ours) != 0)
+        return 0;
+    const double r2 = g->cfg.claim_radius_m * g->cfg.claim_radius_m;
+    for (uint32_t k = 0; k < GP_GOAL_MAX_CLAIMS; k++) {
+        const gp_goal_held_t *hc = &g->claims[k];
+        const double dx = hc->c.x_m - ours.x_m, dy = hc->c.y_m - ours.y_m;
+        if (hc->used && hc->c.expiry_us > now_us && dx * dx + dy * dy <= r2 &&
+            claim_holds(&g->cfg, &hc->c, ours.cost_m, now_us))
+            return 1;
+    }
+    return 0;
 }
 
 int gp_goal_select(gp_goal_t *g, const gp_goal_grid_t *grid, double x_m, double y_m, uint64_t now_us,
@@ -181,21 +218,25 @@ int gp_goal_select(gp_goal_t *g, const gp_goal_grid_t *grid, double x_m, double 
     expire(g, now_us);
     search(g, grid, start);
     summed_area(g, grid);
-    apply_claims(g);
+    apply_claims(g, now_us);
     /* The window's half side in cells; beyond the grid it changes nothing, so it is capped
      * there (which also keeps the sums' indices small). */
     double rr = floor(cfg->sensor_radius_m / cfg->res_m + 0.5);
     const uint32_t r = rr > (double)GP_GOAL_MAX_W + GP_GOAL_MAX_H ? GP_GOAL_MAX_W + GP_GOAL_MAX_H : (uint32_t)rr;
     const double cell_m2 = cfg->res_m * cfg->res_m;
-    int found = 0;
+    int found = 0, claimed = 0;
     gp_goal_pick_t best = {0};
     for (uint32_t c = 0; c < cfg->w * cfg->h; c++) {
-        if (g->steps[c] == UNREACHED || grid->occ[c] >= cfg->occ_max || g->discount[c] <= 0.0)
+        if (g->steps[c] == UNREACHED || grid->occ[c] >= cfg->occ_max)
             continue;
         const uint32_t cx = c % cfg->w, cy = c / cfg->w;
         const double info = window_sum(g, cx, cy, r) / 255.0 * cell_m2;
         if (info < cfg->min_info_m2)
             continue;
+        if (g->discount[c] <= 0.0) { /* worth a look, but a nearer peer's */
+            claimed = 1;
+            continue;
+        }
         const double cost = g->steps[c] * cfg->res_m, info_d = info * g->discount[c];
         const double u = info_d - cfg->lambda * cost;
         /* Strictly greater: the first (lowest) index wins a tie. */
@@ -208,10 +249,11 @@ int gp_goal_select(gp_goal_t *g, const gp_goal_grid_t *grid, double x_m, double 
     }
     if (!found) {
         g->has_goal = 0;
-        return -ENOENT;
+        return claimed ? -EBUSY : -ENOENT;
     }
     const int changed = !g->has_goal || g->goal.cell != best.cell;
     g->goal = best;
+    g->picked_us = now_us;
     g->has_goal = 1;
     if (changed) {
         g->stats.goal_changes++;

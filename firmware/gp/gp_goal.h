@@ -15,15 +15,21 @@
  *   info    info_m2(c) = res_m^2 x sum(unknown / 255) over the square of half side
  *           round(sensor_radius_m / res_m) cells around c (a summed-area table: one pass):
  *           the area of prior uncertainty a visit could remove, m^2;
- *   claims  for every live claim (peer p, goal g, its cost cp): p keeps g against us when
- *           cp < our cost_m(g), or equal and p < self, or g is unreachable for us; then every
+ *   claims  for every live claim (peer p, goal g, its cost when sent c): p's cost now is taken
+ *           as cp = max(0, c - claim_speed_mps x the claim's age), its age now - (expiry -
+ *           claim_lifetime_us) (the fleet shares one lifetime); p keeps g against us when
+ *           cp < our cost_m(g) - claim_tie_m, or the two within claim_tie_m and p < self, or g
+ *           is unreachable for us (robots driving side by side to one goal, each comparing
+ *           its fresh cost with the other's older one, would both keep it); then every
  *           candidate within claim_radius_m of g has its info multiplied by claim_discount
  *           (once per such claim; 0 removes those candidates);
  *   utility u(c) = info_m2(c) - lambda x cost_m(c)   (lambda in m^2 per metre of path);
  *   goal    the reachable candidate of the highest utility among those with info_m2 >=
  *           min_info_m2 before the discount (ties: the lowest cell index); none: -ENOENT,
- *           exploration is finished for us (nothing left to learn within reach).
- * Our claim (sender = self, the goal's centre, its cost, seq + 1, expiry = now +
+ *           exploration is finished for us (nothing left to learn within reach), or -EBUSY
+ *           when there were such candidates but a discount of 0 removed them all (what is
+ *           left is nearer peers': try again later).
+ * Our claim (sender = self, the goal's centre, its cost aged as below, seq + 1, expiry = now +
  * claim_lifetime_us) goes out when the goal changes, and again every claim_period_us from
  * gp_goal_select or gp_goal_poll while the goal stands. A failed send is counted; the next
  * period sends again (a lost claim is what the period is for).
@@ -86,6 +92,8 @@ typedef struct gp_goal_cfg {
     double min_info_m2;              /* > 0: less is nothing left to learn there */
     double claim_radius_m;           /* >= 0: a kept claim discounts candidates this near it */
     double claim_discount;           /* 0 .. 1: their info is multiplied by it */
+    double claim_tie_m;              /* >= 0: costs this close are a tie (above); 0: equal only */
+    double claim_speed_mps;          /* >= 0: a claimant's cost falls this fast with the claim's age */
     uint64_t claim_period_us;        /* > 0: our claim is sent again this often */
     uint64_t claim_lifetime_us;      /* > claim_period_us, <= claim_max_lifetime_us: ours */
     uint64_t claim_max_lifetime_us;  /* <= GP_GOAL_MAX_LIFETIME_US: the furthest expiry accepted */
@@ -120,6 +128,7 @@ typedef struct gp_goal {
     double discount[GP_GOAL_MAX_CELLS];              /* per candidate, from the claims */
     int has_goal;
     gp_goal_pick_t goal;                             /* ours (with has_goal) */
+    uint64_t picked_us;                              /* its cost was computed then */
     uint32_t seq;                                    /* of our last claim */
     uint64_t sent_us;                                /* our last claim went out then */
     int sent_any;
@@ -131,9 +140,9 @@ _Static_assert((GP_GOAL_MAX_W + 1u) * (GP_GOAL_MAX_H + 1u) * 255u <= 0xFFFFFFFFu
 FS_MUST_CHECK int gp_goal_init(gp_goal_t *g, const gp_goal_cfg_t *cfg);
 
 /* Chooses our goal from grid and our pose (x_m, y_m: inside the map, finite) at now_us (see
- * above), and sends our claim when the goal changed or a period passed. 0 with *out, -ENOENT
- * when nothing is left to learn within reach (our goal is cleared, no claim sent: ours lapses
- * at its expiry), -EINVAL bad arguments. */
+ * above), and sends our claim when the goal changed or a period passed. 0 with *out; -ENOENT
+ * when nothing is left to learn within reach, -EBUSY when what is left is claimed (in both our
+ * goal is cleared, no claim sent: ours lapses at its expiry); -EINVAL bad arguments. */
 FS_MUST_CHECK int gp_goal_select(gp_goal_t *g, const gp_goal_grid_t *grid, double x_m, double y_m, uint64_t now_us,
                                  gp_goal_pick_t *out);
 
@@ -143,6 +152,17 @@ FS_MUST_CHECK int gp_goal_on_claim(gp_goal_t *g, const gp_goal_claim_t *c, uint6
 
 /* Drops expired claims and sends our claim again when a period passed. */
 void gp_goal_poll(gp_goal_t *g, uint64_t now_us);
+
+/* Our claim of our goal as of now_us, with this seq: its cost aged by claim_speed_mps since it
+ * was computed (as a receiver ages it further), expiry now + claim_lifetime_us. The claims
+ * gp_goal sends are made by it, and so are those a caller sends itself (gp_core, one per round).
+ * 0 with *out, -ENOENT without a goal, -EINVAL. */
+FS_MUST_CHECK int gp_goal_our_claim(const gp_goal_t *g, uint32_t seq, uint64_t now_us, gp_goal_claim_t *out);
+
+/* 1 when a live claim holds against our goal at now_us (a peer's goal within claim_radius_m of
+ * ours whose claimant keeps it by the rule above, our cost to it taken as our goal's, aged),
+ * else 0 (also without a goal). The caller chooses again rather than drive on to a peer's. */
+int gp_goal_contested(const gp_goal_t *g, uint64_t now_us);
 
 /* The live claim held of robot id (0 with *out), or -ENOENT. */
 FS_MUST_CHECK int gp_goal_claim_of(const gp_goal_t *g, uint32_t id, uint64_t now_us, gp_goal_claim_t *out);

@@ -501,7 +501,10 @@ static int run_image(job_t *j)
     ic.user = c;
     ic.coverage = &j->cov;
     sim_explore_opts_t xo = {(gp_explore_policy_t)o->explore_policy, o->explore_time,
-                             SIM_EXPLORE_BELIEF_PERIOD_S_DEFAULT};
+                             SIM_EXPLORE_BELIEF_PERIOD_S_DEFAULT, o->explore_own_posterior};
+    if (o->explore && o->fleet > 1 && !o->explore_own_posterior && o->encoding != DINNO_CODEC_FP32)
+        fprintf(stderr, "host_sim run: robot %lld: --encoding is not fp32, so the posterior is not shared while "
+                        "exploring: each robot's belief is its own\n", o->robot);
     if (o->explore) {
         ic.explore = &xo;
         if (sim_explore_trace_open(&j->trace, o->out, (int)o->robot) != 0) {
@@ -685,7 +688,8 @@ static int report(job_t *j)
         cmd_coverage_line(f, &j->cov, 1);
         if (o->explore) {
             const sim_explore_opts_t xo = {(gp_explore_policy_t)o->explore_policy, o->explore_time,
-                                           SIM_EXPLORE_BELIEF_PERIOD_S_DEFAULT};
+                                           SIM_EXPLORE_BELIEF_PERIOD_S_DEFAULT,
+                                           o->explore_own_posterior || o->encoding != DINNO_CODEC_FP32};
             sim_explore_summary(f, &xo, &res->rt_status, &res->explore, &res->claims, o->fleet > 1 ? &res->fleet : NULL);
         }
         if (o->fleet > 1) {

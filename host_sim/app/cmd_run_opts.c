@@ -71,6 +71,9 @@ static const cli_opt_t run_opts[] = {
              "scans, or at frontiers coordinated by claims"},
     {.names = "--explore-time", .meta = "S", CLI_DOUBLE(run_opts_t, explore_time, 1.0, 1e6),
      .help = "explore: simulated seconds of exploration"},
+    {.names = "--explore-own-posterior", CLI_FLAG(run_opts_t, explore_own_posterior, 1),
+     .help = "explore in a fleet: each robot's belief from its own data alone (the ablation); by default every other "
+             "round shares the epistemic posterior, so the belief is the fleet's (needs --encoding fp32)"},
     {.names = "--out", .meta = "DIR", CLI_STRING(run_opts_t, out), .required = 1, .help = "output folder"},
     {.names = "--online", CLI_FLAG(run_opts_t, offline, 0), CLI_GIVEN(run_opts_t, online_given),
      .help = "rounds at distance boundaries (default)"},
@@ -291,6 +294,10 @@ int run_parse(int argc, char **argv, run_opts_t *o, char *url)
     }
     if (o->explore && (o->offline || o->resume)) {
         fprintf(stderr, "host_sim run: --explore learns online: not with --offline or --resume\n");
+        return -1;
+    }
+    if (o->explore_own_posterior && !o->explore) {
+        fprintf(stderr, "host_sim run: --explore-own-posterior is an option of --explore\n");
         return -1;
     }
     if (o->explore && o->time_limit <= o->explore_time) {

@@ -38,6 +38,7 @@ typedef struct run_opts {
     int explore;            /* --explore: no tour, the robot chooses its goals (docs/exploration.md) */
     int explore_policy;     /* --explore-policy: gp_explore_policy_t */
     double explore_time;    /* --explore-time: simulated seconds */
+    int explore_own_posterior; /* --explore-own-posterior: the belief from the robot's data alone */
 } run_opts_t;
 
 /* o = the defaults (sim_defaults.h, gp_fleet.h's GP_FLEET_*_DEFAULT, dinno_default_cfg). */

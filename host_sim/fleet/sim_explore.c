@@ -53,9 +53,11 @@ int sim_explore_gp_cfg(const sim_explore_geom_t *g, const sim_explore_opts_t *o,
     /* m^2 of unknown area one metre of path is worth: the frontier policies go to the nearest
        frontier (Yamauchi), the uncertainty policy trades the two */
     c->lambda = o->policy == GP_EXPLORE_UNCERTAINTY ? 0.5 : 2.0;
-    c->min_info_m2 = 0.5;
+    c->min_info_m2 = o->policy == GP_EXPLORE_UNCERTAINTY ? 0.2 : 0.5;
     c->claim_radius_m = 2.0;
-    c->claim_discount = 0.1;
+    c->claim_discount = o->policy == GP_EXPLORE_UNCERTAINTY ? 0.0 : 0.1;
+    c->claim_tie_m = 1.0;       /* the claims' costs are path lengths on 0.2-0.5 m cells */
+    c->claim_speed_mps = 0.2;   /* a robot heading for its goal, a little under v_max (0.22) */
     const double life_s = fmin(1.5 * o->budget_s / boundaries, 50.0);
     c->claim_lifetime_us = (uint64_t)llround(fmax(life_s, 2.0) * 1e6);
     c->claim_period_us = c->claim_lifetime_us / 2u; /* gp_goal's own resend; the fleet sends per round */
@@ -188,9 +190,11 @@ int sim_explore_trace_close(sim_explore_trace_t *t)
 void sim_explore_summary(FILE *f, const sim_explore_opts_t *o, const rt_status_t *rt, const gp_explore_stats_t *x,
                          const gp_goal_stats_t *claims, const gp_fleet_stats_t *fleet)
 {
-    fprintf(f, "explore: policy %s, %.0f s budget; %llu goals (%llu reached, %llu given up)%s; %u plans (%u failed); "
-               "%u stuck events; %u avoidance stops\n",
-            gp_explore_policy_name(o->policy), o->budget_s, (unsigned long long)x->goals,
+    fprintf(f, "explore: policy %s, %.0f s budget, belief from %s; %llu goals (%llu reached, %llu given up)%s; "
+               "%u plans (%u failed); %u stuck events; %u avoidance stops\n",
+            gp_explore_policy_name(o->policy), o->budget_s,
+            fleet != NULL && !o->own_posterior ? "the fleet's posterior" : "its own posterior",
+            (unsigned long long)x->goals,
             (unsigned long long)x->reached, (unsigned long long)x->failed,
             x->done ? ", then nothing left to learn within reach" : "", rt->plans, rt->plan_failures, rt->stuck_events,
             rt->avoid_stops);

@@ -24,6 +24,8 @@ typedef struct sim_explore_opts {
     gp_explore_policy_t policy;
     double budget_s;        /* simulated seconds of exploration (the rounds are cut over it) */
     double belief_period_s; /* the AI core's belief grid this often */
+    int own_posterior;      /* 1: in a fleet, each robot's belief from its own posterior only (the
+                               ablation); 0: the posterior shared every other round (ai_core.h) */
 } sim_explore_opts_t;
 
 #define SIM_EXPLORE_BUDGET_S_DEFAULT 300.0

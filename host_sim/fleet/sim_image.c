@@ -205,6 +205,9 @@ int sim_image_run(const sim_plan_t *plan, const sim_path_t *path, const sim_imag
         fc.ai.explore_budget_us = (uint64_t)llround(cfg->explore->budget_s * 1e6);
         fc.ai.belief = &bx;
         fc.ai.belief_period_us = (uint64_t)llround(cfg->explore->belief_period_s * 1e6);
+        /* a posterior crosses the exchange only as fp32 words (bnn_post.h), as after the rounds */
+        fc.ai.explore_share_post = !cfg->explore->own_posterior && cfg->fleet != NULL && cfg->fleet->n_peers > 1u &&
+                                   cfg->fleet->encoding == DINNO_CODEC_FP32;
     }
     rc = fw_robot_start(&fc);
     if (rc < 0) {

@@ -1,7 +1,8 @@
 /* The AI core, one tick at a time on the fake board with scripted RT status and samples: the
  * ring drains into the pool, a path-progress boundary publishes the state and waits for the
  * GP core's ready without blocking, the round then trains and publishes its checkpoint, DR
- * clears the pool where CDR keeps it, and the last round sets done. No allocation. */
+ * clears the pool where CDR keeps it, and the last round sets done; an exploring fleet shares
+ * its posterior every other round. No allocation. */
 #include <setjmp.h>
 #include <stdarg.h>
 #include <stddef.h>
@@ -175,12 +176,74 @@ static void test_skip_ahead(void **st)
     assert_int_equal(ai.next_round, 6);
 }
 
+/* Exploring in a fleet of N = 2 with the shared posterior (ai_core.h): round 0 exchanges theta,
+ * round 1 the posterior, made the fleet's estimate (N times its own) on the way out; the points
+ * after it go in N times; a posterior round trains nothing. Sharing needs exploring. */
+static void test_explore_shares_the_posterior(void **st)
+{
+    (void)st;
+    fake_board_init(&fb);
+    fake_board_install(&fb);
+    fw_link_reset();
+    link_ = fw_link_get();
+    static const ai_belief_cfg_t belief = {.w = 8, .h = 8, .res_m = 0.5f, .max_x = 4.0f, .max_y = 4.0f};
+    ai_core_cfg_t c = ai_core_default_cfg();
+    c.rounds = 4;
+    c.dinno.primal_steps = 2;
+    c.dinno.batch = 64;
+    c.fleet_size = 2;
+    c.explore_share_post = 1;
+    assert_int_equal(ai_core_init(&ai, &c, link_), -EINVAL); /* not exploring */
+    c.explore_budget_us = 4000000u;
+    c.belief = &belief;
+    c.belief_period_us = 1000000u;
+    c.fleet_size = 0;
+    assert_int_equal(ai_core_init(&ai, &c, link_), -EINVAL); /* no fleet size */
+    c.fleet_size = 2;
+    assert_int_equal(ai_core_init(&ai, &c, link_), 0);
+    memset(&rt, 0, sizeof rt);
+    const uint32_t P = (uint32_t)bnn_n_params(&ai.node.model);
+    for (uint32_t k = 0; k < 2; k++) {
+        rt.stamp_us = (k + 1u) * 1000000u; /* boundary k */
+        rt_publishes(300, 0.0f);
+        tick(10u * k + 1u);
+        assert_int_equal(ai.phase, AI_PHASE_WAIT_SLOTS);
+        assert_int_equal(mbox_fetch(link_->ai_state), 1);
+        const ai_state_msg_t *state = mbox_read_buffer(link_->ai_state, NULL);
+        assert_int_equal(state->round, k);
+        assert_int_equal(state->n_params, P);
+        if (k == 1) { /* the posterior's state form: its dimension first, then the fleet's estimate */
+            assert_true(state->theta[0] == (float)ai.post.dim);
+            assert_true(ai.post_fleet);
+            assert_true(fabs(ai.post.robots - 2.0) < 1e-12 && fabs(ai.post.n_obs - 2.0 * 600) < 1e-9);
+        }
+        gp_ready_t r = {k, 0, 0};
+        assert_int_equal(mbox_put(link_->gp_ready, &r), 0);
+        tick(10u * k + 2u);
+        assert_int_equal(mbox_get(link_->ai_ckpt, &ckpt, NULL), 1);
+        assert_int_equal(ckpt.info.round, k);
+        assert_int_equal(ckpt.info.steps, k == 0 ? 2 : 0); /* a posterior round trains nothing */
+        assert_true(k == 0 ? isfinite(ckpt.info.loss_train) : isnan(ckpt.info.loss_train));
+        assert_int_equal(ckpt.info.pool_fill, 300u * (k + 1u));
+    }
+    rt_publishes(300, 0.0f); /* after the first shared round: N times each new point */
+    alloc_count_reset();
+    tick(30);
+    rt.stamp_us = 3000000u;
+    rt_publishes(0, 0.0f);
+    tick(31);
+    assert_int_equal(alloc_count_allocations(), 0);
+    assert_int_equal(ai.post_staged, 0); /* summed in for the belief of that tick */
+    assert_true(fabs(ai.post.n_obs - 2.0 * 900) < 1e-9);
+}
+
 int main(void)
 {
     const struct CMUnitTest tests[] = {
         cmocka_unit_test_teardown(test_round_cycle, teardown),
         cmocka_unit_test_teardown(test_cdr_keeps_the_pool, teardown),
         cmocka_unit_test_teardown(test_skip_ahead, teardown),
+        cmocka_unit_test_teardown(test_explore_shares_the_posterior, teardown),
     };
     return cmocka_run_group_tests_name("ai/core", tests, NULL, NULL);
 }

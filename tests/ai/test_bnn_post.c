@@ -1,6 +1,6 @@
 /* The one-pass epistemic posterior (ai/bnn_post.h): its data precision and variances against
  * a dense double reference (libm sin, Gaussian elimination), additivity over robots and its
- * average consensus, distance awareness, the stored form (round trip and every refusal
+ * average consensus (also while the data grow), distance awareness, the stored form (round trip and every refusal
  * leaving the posterior untouched), and no allocation. */
 #include <setjmp.h>
 #include <stdarg.h>
@@ -182,6 +182,54 @@ static void test_fleet_sum_and_consensus(void **state)
     assert_int_equal(bnn_post_scale(&pa, NAN), -EINVAL);
 }
 
+/* Exploring fleets (ai_core.h): dynamic average consensus while the data grow. Two robots each
+ * see half their points, mix (weights 1/2) from N = 2 times their own, then add the rest with
+ * weight N = 2 and mix again: the mean of the two estimates is the fleet's sum all along, and
+ * after the last mix (a full graph) each one is. */
+static void test_consensus_while_the_data_grow(void **state)
+{
+    (void)state;
+    setup_model();
+    const size_t h = NPTS / 4; /* robot a: pts[0, 2h), robot b: pts[2h, 4h), each in two halves */
+    assert_int_equal(bnn_post_init(&pa, &model), 0);
+    assert_int_equal(bnn_post_init(&pb, &model), 0);
+    assert_int_equal(bnn_post_init(&pab, &model), 0);
+    assert_int_equal(bnn_post_observe(&pab, &model, pts, NPTS), 0);
+    assert_int_equal(bnn_post_observe(&pa, &model, pts, h), 0);
+    assert_int_equal(bnn_post_observe(&pb, &model, pts + 2 * 2 * h, h), 0);
+    assert_int_equal(bnn_post_scale(&pa, 2.0), 0);
+    assert_int_equal(bnn_post_scale(&pb, 2.0), 0);
+    for (int pass = 0; pass < 2; pass++) {
+        tmp = pa; /* one mixing round on both, from the states before it */
+        assert_int_equal(bnn_post_scale(&pa, 0.5), 0);
+        assert_int_equal(bnn_post_add(&pa, &pb, 0.5), 0);
+        assert_int_equal(bnn_post_scale(&pb, 0.5), 0);
+        assert_int_equal(bnn_post_add(&pb, &tmp, 0.5), 0);
+        if (pass == 0) { /* the second halves, each robot's new points N times */
+            assert_int_equal(bnn_post_observe_weighted(&pa, &model, pts + 2 * h, h, 2.0), 0);
+            assert_int_equal(bnn_post_observe_weighted(&pb, &model, pts + 2 * 3 * h, h, 2.0), 0);
+            for (size_t i = 0; i < BNN_POST_PACKED(pa.dim); i++) /* the mean is the fleet's sum */
+                assert_true(fabs(0.5 * (pa.prec[i] + pb.prec[i]) - pab.prec[i]) <= 1e-6 * NPTS);
+        }
+    }
+    for (size_t i = 0; i < BNN_POST_PACKED(pa.dim); i++) {
+        assert_true(fabs(pa.prec[i] - pab.prec[i]) <= 1e-6 * NPTS);
+        assert_true(fabs(pb.prec[i] - pab.prec[i]) <= 1e-6 * NPTS);
+    }
+    assert_true(fabs(pa.n_obs - NPTS) < 1e-6 && fabs(pa.robots - 2.0) < 1e-12);
+    /* weight 1 is bnn_post_observe bit for bit; a weight that is not finite and > 0 is refused */
+    assert_int_equal(bnn_post_init(&pa, &model), 0);
+    assert_int_equal(bnn_post_init(&pb, &model), 0);
+    assert_int_equal(bnn_post_observe(&pa, &model, pts, NPTS), 0);
+    assert_int_equal(bnn_post_observe_weighted(&pb, &model, pts, NPTS, 1.0), 0);
+    assert_memory_equal(pa.prec, pb.prec, BNN_POST_PACKED(pa.dim) * sizeof(double));
+    tmp = pb;
+    assert_int_equal(bnn_post_observe_weighted(&pb, &model, pts, 1, 0.0), -EINVAL);
+    assert_int_equal(bnn_post_observe_weighted(&pb, &model, pts, 1, -1.0), -EINVAL);
+    assert_int_equal(bnn_post_observe_weighted(&pb, &model, pts, 1, INFINITY), -EINVAL);
+    assert_memory_equal(pb.prec, tmp.prec, BNN_POST_PACKED(pb.dim) * sizeof(double));
+}
+
 static void test_wire_round_trip_and_refusals(void **state)
 {
     (void)state;
@@ -277,6 +325,7 @@ int main(void)
     const struct CMUnitTest tests[] = {
         cmocka_unit_test(test_precision_and_variance_match_dense_reference),
         cmocka_unit_test(test_fleet_sum_and_consensus),
+        cmocka_unit_test(test_consensus_while_the_data_grow),
         cmocka_unit_test(test_wire_round_trip_and_refusals),
         cmocka_unit_test(test_state_form_and_mixing),
         cmocka_unit_test(test_no_allocation),

@@ -188,6 +188,37 @@ static void test_claims_by_policy(void **state)
     assert_int_equal(gp_explore_on_claim(&ex, &forged, 1 * S), -EBADMSG);
 }
 
+/* A claim taken that holds against our goal makes the robot choose again at once, before the
+ * reselect period; a claim that does not, changes nothing. And with only claimed goals left
+ * the robot waits (no DONE). */
+static void test_contested_goal_chosen_again(void **state)
+{
+    (void)state;
+    const fw_link_t *link = fw_link_get();
+    rt_status_t st = pose();
+    gp_goal_msg_t m;
+    setup_grids();
+    gp_explore_cfg_t cfg = config(GP_EXPLORE_COORDINATED);
+    cfg.goal.n_peers = 3;
+    cfg.goal.claim_radius_m = 3.5; /* beyond every cell whose window reaches the claimed patch */
+    assert_int_equal(gp_explore_init(&ex, &cfg), 0);
+    assert_int_equal(mbox_put(link->rt_seen, &seen), 0);
+    assert_int_equal(gp_explore_tick(&ex, link, &st, 1 * S), 0);
+    assert_int_equal(take_goal(&m), 1);
+    assert_true(fabsf(m.x_m - 3.5f) < 1e-6f); /* P, the nearer */
+    const gp_goal_claim_t q = {1, 1, 12.5, 4.5, 0.0, 5 * S}; /* robot 1 at Q: not our goal */
+    assert_int_equal(gp_explore_on_claim(&ex, &q, 1 * S + 1u), 0);
+    assert_int_equal(gp_explore_tick(&ex, link, &st, 1 * S + 100000u), 0);
+    assert_int_equal(take_goal(&m), 0);
+    assert_int_equal(ex.stats.selections, 1);
+    const gp_goal_claim_t p = {2, 1, 3.5, 4.5, 0.0, 5 * S}; /* robot 2 at P: ours is contested */
+    assert_int_equal(gp_explore_on_claim(&ex, &p, 1 * S + 200000u), 0);
+    assert_int_equal(gp_explore_tick(&ex, link, &st, 1 * S + 300000u), 0); /* well within 5 s */
+    assert_int_equal(ex.stats.selections, 2);
+    assert_int_equal(take_goal(&m), 0); /* P and Q both claimed: wait, not done */
+    assert_int_equal(ex.stats.done, 0);
+}
+
 static void test_bad_inputs(void **state)
 {
     (void)state;
@@ -219,6 +250,7 @@ int main(void)
         cmocka_unit_test(test_goal_then_next_then_done),
         cmocka_unit_test(test_uncertainty_reads_the_belief),
         cmocka_unit_test(test_claims_by_policy),
+        cmocka_unit_test(test_contested_goal_chosen_again),
         cmocka_unit_test(test_bad_inputs),
     };
     return cmocka_run_group_tests(tests, NULL, NULL);

@@ -158,6 +158,66 @@ static void test_tie_goes_to_the_lower_id(void **st)
     assert_int_not_equal(pick(&gb, 10.5, Y, 2), CELL(8, 4));
 }
 
+/* Costs within claim_tie_m are a tie (claims' costs are as old as the claims): robot 0 at 3 m
+ * keeps G against robot 1 at 2 m, on both sides; with no tie margin the nearer one would. And a
+ * claimant's cost falls with its claim's age at claim_speed_mps. */
+static void test_costs_within_the_tie_margin_go_to_the_lower_id(void **st)
+{
+    (void)st;
+    gp_goal_cfg_t ca = config(0, &oa), cb = config(1, &ob);
+    ca.claim_tie_m = cb.claim_tie_m = 1.5;
+    assert_int_equal(gp_goal_init(&ga, &ca), 0);
+    assert_int_equal(gp_goal_init(&gb, &cb), 0);
+    assert_int_equal(pick(&ga, BX, Y, 0), CELL(8, 4));
+    assert_int_equal(pick(&gb, AX, Y, 0), CELL(8, 4));
+    assert_true(oa.sent[0].cost_m == 3.0 && ob.sent[0].cost_m == 2.0);
+    assert_int_equal(gp_goal_on_claim(&ga, &ob.sent[0], 1), 0);
+    assert_int_equal(gp_goal_on_claim(&gb, &oa.sent[0], 1), 0);
+    assert_int_equal(pick(&ga, BX, Y, 2), CELL(8, 4));
+    assert_int_not_equal(pick(&gb, AX, Y, 2), CELL(8, 4));
+    /* A claim's cost falls with its age at 0.5 m/s: robot 1's claim (cost 2 when sent at 0) is
+       1.5 m 1 s later, still a tie with robot 0's 3 m; 4 s later it is 0 and holds. */
+    ca.claim_speed_mps = 0.5;
+    assert_int_equal(gp_goal_init(&ga, &ca), 0);
+    assert_int_equal(gp_goal_on_claim(&ga, &ob.sent[0], 1), 0);
+    assert_int_equal(pick(&ga, BX, Y, 1 * S), CELL(8, 4));
+    assert_int_not_equal(pick(&ga, BX, Y, 4 * S), CELL(8, 4));
+    ca.claim_speed_mps = -1.0;
+    assert_int_equal(gp_goal_init(&ga, &ca), -EINVAL);
+    ca.claim_speed_mps = 0.0;
+    ca.claim_tie_m = -1.0;
+    assert_int_equal(gp_goal_init(&ga, &ca), -EINVAL);
+    ca.claim_tie_m = NAN;
+    assert_int_equal(gp_goal_init(&ga, &ca), -EINVAL);
+}
+
+/* A claim that holds against our goal makes it contested (the caller chooses again); when every
+ * candidate worth a look is a nearer peer's, the choice is -EBUSY (wait), not -ENOENT (done). */
+static void test_contested_goal_and_all_claimed(void **st)
+{
+    (void)st;
+    gp_goal_cfg_t cb = config(1, &ob);
+    cb.claim_radius_m = 4.0; /* beyond every cell whose window reaches G */
+    assert_int_equal(gp_goal_init(&gb, &cb), 0);
+    assert_int_equal(gp_goal_contested(&ga, 0), 0); /* no goal yet */
+    assert_int_equal(pick(&ga, AX, Y, 0), CELL(8, 4));
+    assert_int_equal(pick(&gb, BX, Y, 0), CELL(8, 4));
+    assert_int_equal(gp_goal_on_claim(&ga, &ob.sent[0], 1), 0);
+    assert_int_equal(gp_goal_on_claim(&gb, &oa.sent[0], 1), 0);
+    assert_int_equal(gp_goal_contested(&ga, 2), 0); /* B is farther */
+    assert_int_equal(gp_goal_contested(&gb, 2), 1);
+    /* only G is left: B waits, A keeps it */
+    patch(13, 1, 0);
+    gp_goal_pick_t p;
+    assert_int_equal(gp_goal_select(&gb, &grid, BX, Y, 3, &p), -EBUSY);
+    assert_int_equal(gp_goal_contested(&gb, 3), 0); /* no goal of its own now */
+    assert_int_equal(pick(&ga, AX, Y, 3), CELL(8, 4));
+    /* once A's claim has expired, G is B's again; with nothing worth a look, done */
+    assert_int_equal(pick(&gb, BX, Y, 6 * S), CELL(8, 4));
+    patch(8, 4, 0);
+    assert_int_equal(gp_goal_select(&gb, &grid, BX, Y, 6 * S, &p), -ENOENT);
+}
+
 static void test_lost_claim_then_delivered(void **st)
 {
     (void)st;
@@ -389,6 +449,8 @@ int main(void)
         cmocka_unit_test_setup(test_single_robot_picks_the_most_information_near_it, setup),
         cmocka_unit_test_setup(test_two_robots_without_claims_pick_the_same_goal, setup),
         cmocka_unit_test_setup(test_with_claims_the_nearer_keeps_the_goal, setup),
+        cmocka_unit_test_setup(test_costs_within_the_tie_margin_go_to_the_lower_id, setup),
+        cmocka_unit_test_setup(test_contested_goal_and_all_claimed, setup),
         cmocka_unit_test_setup(test_tie_goes_to_the_lower_id, setup),
         cmocka_unit_test_setup(test_lost_claim_then_delivered, setup),
         cmocka_unit_test_setup(test_late_claims_change_nothing, setup),

@@ -190,6 +190,18 @@ def run_row_from_a_synthetic_run():
         A.explore_time = 60.0
         check("explore" in (differ(run, "/x/apartment.svg", "frontier", 1, A) or ""), "another time not seen")
         check(differ(run, "/x/apartment.svg", "tours", 1, A) is not None, "an exploration run taken for the tours")
+        # the ablation: the uncertainty policy with each robot's own posterior is another run
+        A.explore_time = 30.0
+        with open(os.path.join(run, "run.json"), "w") as f:
+            json.dump({"robots": 2, "seed": 1, "rounds": 6, "plan": "host_sim/plans/apartment.svg",
+                       "explore": {"policy": "uncertainty", "time_s": 30.0, "own_posterior": True}}, f)
+        check(differ(run, "/x/apartment.svg", "uncertainty-own", 1, A) is None, "the ablation's run not recognised")
+        check(differ(run, "/x/apartment.svg", "uncertainty", 1, A) is not None, "the ablation taken for the policy")
+        A.fleet, A.bin, A.results = "fleet", "host_sim", d
+        cmd = explore_compare.fleet_cmd(A, "apartment", "/x/apartment.svg", "uncertainty-own", 1, "n")
+        check(cmd[cmd.index("--explore-policy") + 1] == "uncertainty" and "--explore-own-posterior" in cmd, cmd)
+        cmd = explore_compare.fleet_cmd(A, "apartment", "/x/apartment.svg", "uncertainty", 1, "n")
+        check("--explore-own-posterior" not in cmd, cmd)
         text = explore_compare.csv_text([r])
         check(text.splitlines()[0] == ",".join(explore_compare.CSV_COLUMNS), text)
         check(text.splitlines()[1].startswith("apartment,frontier,1,2,1,40,50,15,0.6,3,1,3"), text)

@@ -101,6 +101,8 @@ def bad_options_touch_nothing():
             (["--explore", "--mode", "offline"], "--explore learns online"),
             (["--explore", "--explore-time", "0"], "--explore-time must be"),
             (["--explore", "--extra", "--explore-time 5"], "the launcher sets --explore-time"),
+            (["--explore-own-posterior"], "--explore-own-posterior is an option of --explore"),
+            (["--explore", "--extra", "--explore-own-posterior"], "the launcher sets --explore-own-posterior"),
             (["--map-res", "0"], "--map-res: "),
             (["--fleet-id", "99999999"], "--fleet-id: "),
             (["--lcm-url", "xx"], "--lcm-url xx: not an LCM multicast URL"),
@@ -337,7 +339,8 @@ def explore_fleet_claims_same_twice():
             check(len(claims) == 1, f"robot {i}: no claims line:\n{summary}")
             taken = int(claims[0].split(" received, ")[1].split(" taken")[0])
             check(taken >= 1 and "0 invalid" in claims[0], f"robot {i} took no claim: {claims[0]}")
-            check("explore: policy coordinated" in summary and "collisions: 0" in summary, summary)
+            check("explore: policy coordinated" in summary and "belief from the fleet's posterior" in summary and
+                  "collisions: 0" in summary, summary)
             for f in ("final.bnn", "explore.csv"):
                 with open(os.path.join(runs[0], f"robot_{i}", f), "rb") as a, \
                         open(os.path.join(runs[1], f"robot_{i}", f), "rb") as b:
