@@ -82,7 +82,7 @@ static void run(gp_explore_policy_t policy, sim_image_result_t *r, probe_t *p, d
 {
     static sim_coverage_t cov;
     assert_int_equal(sim_coverage_from_plan(&cov, &g_plan, SIM_COVERAGE_RES_M), 0);
-    const sim_explore_opts_t xo = {policy, BUDGET_S, SIM_EXPLORE_BELIEF_PERIOD_S_DEFAULT};
+    const sim_explore_opts_t xo = {policy, BUDGET_S, SIM_EXPLORE_BELIEF_PERIOD_S_DEFAULT, 0};
     sim_image_cfg_t c;
     sim_image_cfg_default(&c);
     c.seed = 11;
