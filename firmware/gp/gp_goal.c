@@ -115,11 +115,9 @@ static void expire(gp_goal_t *g, uint64_t now_us)
         }
 }
 
-/* The discount of every cell from the claims their claimants keep against us (see the header's
- * rule): the claimant compares its own cost with ours to the same goal, so both robots reach
- * the same verdict from the same two costs, and the lower id settles a tie the same way on
- * both sides. */
-/* The claimant keeps its goal against us, whose cost to it is ours_m (the header's rule). */
+/* The claimant keeps its goal against us, whose cost to it is ours_m (the header's rule): its
+ * cost aged to now, compared with ours, so both robots reach the same verdict from costs of the
+ * same moment, and the lower id settles a tie the same way on both sides. */
 static int claim_holds(const gp_goal_cfg_t *cfg, const gp_goal_claim_t *c, double ours_m, uint64_t now_us)
 {
     const uint64_t sent_us = c->expiry_us > cfg->claim_lifetime_us ? c->expiry_us - cfg->claim_lifetime_us : 0u;
@@ -128,6 +126,7 @@ static int claim_holds(const gp_goal_cfg_t *cfg, const gp_goal_claim_t *c, doubl
     return !(theirs > ours_m + tie || (fabs(theirs - ours_m) <= tie && c->sender > cfg->self));
 }
 
+/* The discount of every cell from the claims their claimants keep against us. */
 static void apply_claims(gp_goal_t *g, uint64_t now_us)
 {
     const gp_goal_cfg_t *cfg = &g->cfg;

@@ -29,7 +29,7 @@
  *           exploration is finished for us (nothing left to learn within reach), or -EBUSY
  *           when there were such candidates but a discount of 0 removed them all (what is
  *           left is nearer peers': try again later).
- * Our claim (sender = self, the goal's centre, its cost aged as below, seq + 1, expiry = now +
+ * Our claim (sender = self, the goal's centre, its cost aged as above, seq + 1, expiry = now +
  * claim_lifetime_us) goes out when the goal changes, and again every claim_period_us from
  * gp_goal_select or gp_goal_poll while the goal stands. A failed send is counted; the next
  * period sends again (a lost claim is what the period is for).

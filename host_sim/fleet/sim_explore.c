@@ -53,6 +53,9 @@ int sim_explore_gp_cfg(const sim_explore_geom_t *g, const sim_explore_opts_t *o,
     /* m^2 of unknown area one metre of path is worth: the frontier policies go to the nearest
        frontier (Yamauchi), the uncertainty policy trades the two */
     c->lambda = o->policy == GP_EXPLORE_UNCERTAINTY ? 0.5 : 2.0;
+    /* The uncertainty policy on the fleet's posterior: what is left late is small pockets
+       (0.5 m^2 stopped 7 robots at 0.93 coverage, 0.2 m^2 at 0.997), and robots sharing one
+       belief would follow a kept claim at x 0.1, so its cells are removed for the others. */
     c->min_info_m2 = o->policy == GP_EXPLORE_UNCERTAINTY ? 0.2 : 0.5;
     c->claim_radius_m = 2.0;
     c->claim_discount = o->policy == GP_EXPLORE_UNCERTAINTY ? 0.0 : 0.1;
