@@ -23,12 +23,18 @@ static const fw_link_t *link_;
 static rt_status_t rt;
 static ai_ckpt_msg_t ckpt;
 
-static void start(ai_pool_policy_t policy)
+/* The fake board installed and the links empty. */
+static void board_up(void)
 {
     fake_board_init(&fb);
     fake_board_install(&fb);
     fw_link_reset();
     link_ = fw_link_get();
+}
+
+static void start(ai_pool_policy_t policy)
+{
+    board_up();
     ai_core_cfg_t c = ai_core_default_cfg();
     c.rounds = 2;
     c.policy = policy;
@@ -142,10 +148,7 @@ static void test_cdr_keeps_the_pool(void **st)
 static void test_skip_ahead(void **st)
 {
     (void)st;
-    fake_board_init(&fb);
-    fake_board_install(&fb);
-    fw_link_reset();
-    link_ = fw_link_get();
+    board_up();
     ai_core_cfg_t c = ai_core_default_cfg();
     c.rounds = 8;
     c.offline = 1;
@@ -182,10 +185,7 @@ static void test_skip_ahead(void **st)
 static void test_explore_shares_the_posterior(void **st)
 {
     (void)st;
-    fake_board_init(&fb);
-    fake_board_install(&fb);
-    fw_link_reset();
-    link_ = fw_link_get();
+    board_up();
     static const ai_belief_cfg_t belief = {.w = 8, .h = 8, .res_m = 0.5f, .max_x = 4.0f, .max_y = 4.0f};
     ai_core_cfg_t c = ai_core_default_cfg();
     c.rounds = 4;
