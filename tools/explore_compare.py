@@ -140,9 +140,9 @@ def settings_differ(run_dir, plan, policy, seed, a):
     except (OSError, ValueError):
         return "no readable run.json"
     e = s.get("explore") if isinstance(s, dict) else None
+    pol, own = explore_policy(policy)
     want = {"robots": a.robots, "seed": seed, "plan": os.path.basename(plan),
-            "explore": None if policy == "tours" else (explore_policy(policy), float(a.explore_time),
-                                                        policy.endswith("-own"))}
+            "explore": None if policy == "tours" else (pol, float(a.explore_time), own)}
     got = {"robots": s.get("robots"), "seed": s.get("seed"), "plan": os.path.basename(str(s.get("plan"))),
            "explore": (e.get("policy"), float(e.get("time_s", -1)), bool(e.get("own_posterior")))
            if isinstance(e, dict) else None}
@@ -259,15 +259,17 @@ def fleet_cmd(a, label, plan, policy, seed, name):
         if paths:
             cmd += ["--paths", paths]
     else:
-        cmd += ["--explore", "--explore-policy", explore_policy(policy), "--explore-time", f"{a.explore_time:g}"]
-        if policy.endswith("-own"):
+        pol, own = explore_policy(policy)
+        cmd += ["--explore", "--explore-policy", pol, "--explore-time", f"{a.explore_time:g}"]
+        if own:
             cmd += ["--explore-own-posterior"]
     return cmd
 
 
 def explore_policy(policy):
-    """tools/fleet's --explore-policy of one of EXPLORE_POLICIES."""
-    return policy[:-len("-own")] if policy.endswith("-own") else policy
+    """(tools/fleet's --explore-policy, --explore-own-posterior) of one of EXPLORE_POLICIES."""
+    own = policy.endswith("-own")
+    return (policy[:-len("-own")] if own else policy), own
 
 
 # ---- figures and table -----------------------------------------------------------------------

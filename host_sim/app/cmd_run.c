@@ -267,6 +267,7 @@ typedef struct job {
     sim_plan_t plan;
     sim_path_t path;
     sim_explore_trace_t trace; /* --explore: explore.csv */
+    sim_explore_opts_t explore; /* --explore: what the image runs and summary.txt says (run_image) */
     ai_sample_t *val;
     size_t n_val;
     bnn_model_t *model;
@@ -500,13 +501,16 @@ static int run_image(job_t *j)
     ic.on_fleet_round = on_fleet_round;
     ic.user = c;
     ic.coverage = &j->cov;
-    sim_explore_opts_t xo = {(gp_explore_policy_t)o->explore_policy, o->explore_time,
-                             SIM_EXPLORE_BELIEF_PERIOD_S_DEFAULT, o->explore_own_posterior};
+    /* a posterior crosses the exchange only as fp32 words: with another encoding each robot's
+       belief is its own, and the image and summary.txt say so alike */
+    j->explore = (sim_explore_opts_t){(gp_explore_policy_t)o->explore_policy, o->explore_time,
+                                      SIM_EXPLORE_BELIEF_PERIOD_S_DEFAULT,
+                                      o->explore_own_posterior || o->encoding != DINNO_CODEC_FP32};
     if (o->explore && o->fleet > 1 && !o->explore_own_posterior && o->encoding != DINNO_CODEC_FP32)
         fprintf(stderr, "host_sim run: robot %lld: --encoding is not fp32, so the posterior is not shared while "
                         "exploring: each robot's belief is its own\n", o->robot);
     if (o->explore) {
-        ic.explore = &xo;
+        ic.explore = &j->explore;
         if (sim_explore_trace_open(&j->trace, o->out, (int)o->robot) != 0) {
             fprintf(stderr, "host_sim run: %s/explore.csv: cannot write\n", o->out);
             return -1;
@@ -686,12 +690,9 @@ static int report(job_t *j)
                 j->ctx.last_val);
         fprintf(f, "occupancy MSE within 1 m of the path (0.1 m grid, %zu cells): %.5f\n", cells, occ);
         cmd_coverage_line(f, &j->cov, 1);
-        if (o->explore) {
-            const sim_explore_opts_t xo = {(gp_explore_policy_t)o->explore_policy, o->explore_time,
-                                           SIM_EXPLORE_BELIEF_PERIOD_S_DEFAULT,
-                                           o->explore_own_posterior || o->encoding != DINNO_CODEC_FP32};
-            sim_explore_summary(f, &xo, &res->rt_status, &res->explore, &res->claims, o->fleet > 1 ? &res->fleet : NULL);
-        }
+        if (o->explore)
+            sim_explore_summary(f, &j->explore, &res->rt_status, &res->explore, &res->claims,
+                                o->fleet > 1 ? &res->fleet : NULL);
         if (o->fleet > 1) {
             const run_post_t post = {j->ctx.post_rounds, j->ctx.post_done, j->ctx.post_sent, j->ctx.post_received};
             run_summary_fleet(f, o, res, (uint32_t)j->resume.start_round, &post);
