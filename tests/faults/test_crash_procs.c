@@ -304,8 +304,19 @@ static void test_partition_and_heal(void **st)
     if (last0 + 1 >= m[0].n)
         fail_msg("robot 0 finished its %d rounds before the heal (%g s): raise PART_ROUNDS", PART_ROUNDS,
                  PART_UNTIL_S);
-    if (skipped < 1)
-        fail_msg("no robot skipped a round after the heal (the side behind skips ahead)");
+    /* The side behind skips ahead after the heal. How far apart the sides were then depends on
+       the CPU (robot 0 alone is not faster than the pair when all three wait for cores): two
+       rounds or more apart, someone must have skipped; closer, nobody needs to. */
+    double at_heal[NPROC];
+    for (int i = 0; i < NPROC; i++) {
+        at_heal[i] = -1;
+        for (int k = 0; k < m[i].n && m[i].wall[k] <= PART_UNTIL_S; k++)
+            at_heal[i] = m[i].round[k];
+    }
+    const double apart = fabs(at_heal[0] - fmax(at_heal[1], at_heal[2]));
+    if (apart >= 2 && skipped < 1)
+        fail_msg("no robot skipped a round after the heal, with the sides %.0f rounds apart (robot 0 in round %.0f, "
+                 "robots 1 and 2 in %.0f and %.0f)", apart, at_heal[0], at_heal[1], at_heal[2]);
     /* After the heal: everyone back, the consensus error falling. */
     double before = 0, after = 0, tail = 0, during = 0;
     int nb_before = 0, nb_after = 0, nb_tail = 0, nb_during = 0;
@@ -345,11 +356,11 @@ static void test_partition_and_heal(void **st)
     tail /= nb_tail;
     back /= nb_back > 0 ? nb_back : 1;
     printf("# partition %s, peer timeout %g s, %d rounds: robot 0 alone in rounds %.0f..%.0f (%d rounds), robots 1 "
-           "and 2 together in %d and %d rounds; %.0f rounds skipped after the heal; robot 0's disagreement: %.2g "
+           "and 2 together in %d and %d rounds; %.0f rounds apart at the heal, %.0f skipped after it; robot 0's disagreement: %.2g "
            "before, %.2g in the first 10 rounds after the heal, %.2g in the 10 after its first, %.2g in the last "
            "10 %% (robots 1 and 2 during: %.2g); every robot exited 0 after %.1f s\n",
            PART_SPEC, PART_TIMEOUT_S, PART_ROUNDS, m[0].round[first0], m[0].round[last0], alone, pair[1], pair[2],
-           skipped, before, after, back, tail, during, wall);
+           apart, skipped, before, after, back, tail, during, wall);
     /* The recovery (docs/faults.md, "Bad and cheap links"): falling from the first rounds after
        the heal on, and below the level before the cut at the end (the disagreement falls as the
        learning rate decays). Before one dual per link and the rejoin it was 19x the level before

@@ -360,7 +360,11 @@ int fp_setup(const char *scratch, unsigned fleet_base, void (*cleanup)(void))
     sigaction(SIGINT, &sa, NULL);
     sigaction(SIGTERM, &sa, NULL);
     sigaction(SIGHUP, &sa, NULL);
-    return access(fp_env.bin, X_OK);
+    if (access(fp_env.bin, X_OK) != 0) {
+        fprintf(stderr, "fleet_procs: %s is not there or not executable: build it first (make all)\n", fp_env.bin);
+        return -1;
+    }
+    return 0;
 }
 
 int fp_teardown(void)
