@@ -3,7 +3,7 @@
 (tools/fleet) with the same seeds, plan by plan:
 
     tools/explore_compare.py [--plans apartment,office64,gen] [--seeds 1,2,3] [--robots 3]
-        [--policies uncertainty,uncertainty-own,coordinated,frontier,tours] [--explore-time S] [--rounds R]
+        [--policies uncertainty,uncertainty-own,uncertainty-counts,coordinated,frontier,tours] [--explore-time S] [--rounds R]
         [--bin host_sim] [--results DIR] [--csv OUT.csv] [--fleet tools/fleet]
 
 Each run is `tools/fleet ... --no-report --results DIR --name <plan>-<policy>-<N>robots-seed<S>`:
@@ -48,7 +48,8 @@ sys.path.pop(0)
 PROG = "explore_compare"
 # "uncertainty-own": the uncertainty policy with each robot's own posterior (--explore-own-posterior),
 # the ablation of the fleet's shared one.
-EXPLORE_POLICIES = ("uncertainty", "uncertainty-own", "coordinated", "frontier")
+# "uncertainty-counts": the uncertainty policy whose belief also counts where the rays went (--explore-counts).
+EXPLORE_POLICIES = ("uncertainty", "uncertainty-own", "uncertainty-counts", "coordinated", "frontier")
 POLICIES = EXPLORE_POLICIES + ("tours",)
 PLANS = {"apartment": "host_sim/plans/apartment.svg", "office64": "host_sim/plans/office64.svg"}
 THRESHOLDS = (0.90, 0.95)
@@ -58,6 +59,7 @@ CSV_COLUMNS = ("plan", "policy", "seed", "robots", "coverage_final", "robot_seco
 POLICY_STYLE = {
     "uncertainty": ("#7b2cbf", "-"),
     "uncertainty-own": ("#c77dff", ":"),
+    "uncertainty-counts": ("#2ca02c", "-"),
     "coordinated": ("#1f77b4", "-"),
     "frontier": ("#e67e22", "-."),
     "tours": ("#444444", "--"),
@@ -140,12 +142,12 @@ def settings_differ(run_dir, plan, policy, seed, a):
     except (OSError, ValueError):
         return "no readable run.json"
     e = s.get("explore") if isinstance(s, dict) else None
-    pol, own = explore_policy(policy)
+    pol, own, counts = explore_policy(policy)
     want = {"robots": a.robots, "seed": seed, "plan": os.path.basename(plan),
-            "explore": None if policy == "tours" else (pol, float(a.explore_time), own)}
+            "explore": None if policy == "tours" else (pol, float(a.explore_time), own, counts)}
     got = {"robots": s.get("robots"), "seed": s.get("seed"), "plan": os.path.basename(str(s.get("plan"))),
-           "explore": (e.get("policy"), float(e.get("time_s", -1)), bool(e.get("own_posterior")))
-           if isinstance(e, dict) else None}
+           "explore": (e.get("policy"), float(e.get("time_s", -1)), bool(e.get("own_posterior")),
+                       bool(e.get("counts"))) if isinstance(e, dict) else None}
     if a.rounds is not None:
         want["rounds"], got["rounds"] = a.rounds, s.get("rounds")
     bad = [k for k in want if want[k] != got[k]]
@@ -259,20 +261,40 @@ def fleet_cmd(a, label, plan, policy, seed, name):
         if paths:
             cmd += ["--paths", paths]
     else:
-        pol, own = explore_policy(policy)
+        pol, own, counts = explore_policy(policy)
         cmd += ["--explore", "--explore-policy", pol, "--explore-time", f"{a.explore_time:g}"]
         if own:
             cmd += ["--explore-own-posterior"]
+        if counts:
+            cmd += ["--explore-counts"]
     return cmd
 
 
 def explore_policy(policy):
-    """(tools/fleet's --explore-policy, --explore-own-posterior) of one of EXPLORE_POLICIES."""
-    own = policy.endswith("-own")
-    return (policy[:-len("-own")] if own else policy), own
+    """(tools/fleet's --explore-policy, --explore-own-posterior, --explore-counts) of one of EXPLORE_POLICIES."""
+    for suffix, own, counts in (("-own", True, False), ("-counts", False, True)):
+        if policy.endswith(suffix):
+            return policy[:-len(suffix)], own, counts
+    return policy, False, False
 
 
 # ---- figures and table -----------------------------------------------------------------------
+
+def versus_coordinated(name, u, c):
+    """The line of explore_compare.md comparing policy `name`'s runs u with coordinated's c."""
+    if not u or not c:
+        return f"{name} vs coordinated: not both run on this plan."
+    tu = [r["robot_seconds_to_95"] for r in u]
+    tc = [r["robot_seconds_to_95"] for r in c]
+    if None in tu or None in tc:
+        return (f"{name} vs coordinated, robot-seconds to 95 %: not comparable, 95 % not reached in every run "
+                f"({name} {sum(t is not None for t in tu)}/{len(tu)}, coordinated "
+                f"{sum(t is not None for t in tc)}/{len(tc)}).")
+    mu, mc = sum(tu) / len(tu), sum(tc) / len(tc)
+    d = 100.0 * (mu - mc) / mc if mc > 0 else float("nan")
+    return (f"{name} vs coordinated, robot-seconds to 95 %: {mu:.0f} vs {mc:.0f}, {d:+.1f} % "
+            f"({name + ' faster' if d < 0 else name + ' slower' if d > 0 else 'the same'}).")
+
 
 def curves(np, a, label, policy):
     """[(robot_seconds array, coverage array)] of the policy's finished runs on the plan."""
@@ -355,21 +377,8 @@ def markdown(a, rows, labels):
             L.append("| " + " | ".join(cells) + " |")
             by[policy] = rs
         L.append("")
-        u, c = by.get("uncertainty"), by.get("coordinated")
-        if u and c:
-            tu = [r["robot_seconds_to_95"] for r in u]
-            tc = [r["robot_seconds_to_95"] for r in c]
-            if None in tu or None in tc:
-                L.append("uncertainty vs coordinated, robot-seconds to 95 %: not comparable, 95 % not reached in "
-                         f"every run (uncertainty {sum(t is not None for t in tu)}/{len(tu)}, coordinated "
-                         f"{sum(t is not None for t in tc)}/{len(tc)}).")
-            else:
-                mu, mc = sum(tu) / len(tu), sum(tc) / len(tc)
-                d = 100.0 * (mu - mc) / mc if mc > 0 else float("nan")
-                L.append(f"uncertainty vs coordinated, robot-seconds to 95 %: {mu:.0f} vs {mc:.0f}, {d:+.1f} % "
-                         f"({'uncertainty faster' if d < 0 else 'uncertainty slower' if d > 0 else 'the same'}).")
-        else:
-            L.append("uncertainty vs coordinated: not both run on this plan.")
+        for name in ("uncertainty", "uncertainty-counts"):
+            L.append(versus_coordinated(name, by.get(name), by.get("coordinated")))
         if os.path.isfile(os.path.join(a.results, f"explore_compare_{label}.png")):
             L += ["", f"![{label}](explore_compare_{label}.png)"]
         L.append("")

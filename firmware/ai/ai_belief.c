@@ -1,5 +1,6 @@
 /* The AI core's coarse belief grid (ai_belief.h has the contract). */
 #include "ai/ai_belief.h"
+#include "ai/ai_seen.h"
 
 #include <errno.h>
 #include <math.h>
@@ -22,8 +23,10 @@ static int finite_f(float v)
     return isfinite(v) != 0;
 }
 
-static int cfg_ok(const ai_belief_cfg_t *c)
+int ai_belief_cfg_ok(const ai_belief_cfg_t *c)
 {
+    if (c == NULL)
+        return 0;
     if (c->w < 1u || c->w > AI_BELIEF_MAX_W || c->h < 1u || c->h > AI_BELIEF_MAX_H)
         return 0;
     if (!finite_f(c->res_m) || !(c->res_m > 0.0f) || !finite_f(c->origin_x_m) || !finite_f(c->origin_y_m))
@@ -47,7 +50,7 @@ static int cfg_ok(const ai_belief_cfg_t *c)
 
 int ai_belief_init(ai_belief_t *b, const ai_belief_cfg_t *cfg)
 {
-    if (!b || !cfg || !cfg_ok(cfg))
+    if (!b || !cfg || !ai_belief_cfg_ok(cfg))
         return -EINVAL;
     memset(b, 0, sizeof *b);
     b->cfg = *cfg;
@@ -89,14 +92,17 @@ static double sigmoid(double z)
     return z >= 0.0 ? 1.0 / (1.0 + exp(-z)) : exp(z) / (1.0 + exp(z));
 }
 
-int ai_belief_update(ai_belief_t *b, bnn_model_t *m, bnn_post_t *post)
+int ai_belief_update(ai_belief_t *b, bnn_model_t *m, bnn_post_t *post, ai_seen_t *seen)
 {
-    if (!b || !m || !post || !cfg_ok(&b->cfg) || post->dim != m->cfg.siren_width + 1u)
+    if (!b || !m || !post || !ai_belief_cfg_ok(&b->cfg) || post->dim != m->cfg.siren_width + 1u ||
+        (seen && (seen->cfg.w != b->cfg.w || seen->cfg.h != b->cfg.h)))
         return -EINVAL;
     const ai_belief_cfg_t *c = &b->cfg;
     const uint32_t n = c->w * c->h;
     b->valid = 0;
     b->unknown_mean = 1.0;
+    if (seen && ai_seen_flood(seen) != 0)
+        return -EINVAL;
     /* The sum in double over at most 4096 floats in (0, 1] in cell order: exact enough, and
      * the same order every time, so the same bits. */
     double sum = 0.0;
@@ -115,8 +121,11 @@ int ai_belief_update(ai_belief_t *b, bnn_model_t *m, bnn_post_t *post)
             if (isnan(b->logit[k]))
                 return -EDOM;
             b->occ[i0 + k] = quant_share(sigmoid((double)b->logit[k]));
-            b->unknown[i0 + k] = quant_info((double)b->share[k]);
-            sum += (double)b->share[k];
+            /* whichever says more is left: the posterior, or the counts (ai_seen.h) */
+            const double u_seen = seen ? ai_seen_share(seen, i0 + k) : 0.0;
+            const double u = (double)b->share[k] > u_seen ? (double)b->share[k] : u_seen;
+            b->unknown[i0 + k] = quant_info(u);
+            sum += u;
         }
     }
     b->unknown_mean = sum / (double)n;

@@ -15,8 +15,11 @@
  *          S times the observation noise's) over its largest. 255 never seen .. 0 nothing left
  *          to learn. A log scale, because u falls everywhere as data come (the SIREN features
  *          are global) while its contrast between seen and unseen cells stays: a linear byte
- *          rounded the whole building to a few LSB within a minute of driving (gp_goal.h's unknown, byte for byte; rt_grid.h's known is the other way round,
- *          see ai_belief_to_rt_grid).
+ *          rounded the whole building to a few LSB within a minute of driving. With a count
+ *          grid (ai_seen.h), u is the larger of the posterior's share and the count's: the
+ *          features being global, the posterior alone comes to say it knows rooms no ray
+ *          entered. (gp_goal.h's unknown, byte for byte; rt_grid.h's known is the other way
+ *          round, see ai_belief_to_rt_grid.)
  * The model sees positions normalised over the plan's bounding box (ai/ai_sample.h):
  * x_n = 2 (x - min_x) / (max_x - min_x) - 1, likewise y; cells outside the box are evaluated
  * all the same (the model extrapolates there, the posterior says it knows nothing).
@@ -59,6 +62,8 @@ _Static_assert(AI_BELIEF_MAX_W <= GP_GOAL_MAX_W && AI_BELIEF_MAX_H <= GP_GOAL_MA
                "a belief grid must fit gp_goal_grid_t");
 _Static_assert(AI_BELIEF_MAX_W <= RT_GRID_MAX_SIDE && AI_BELIEF_MAX_H <= RT_GRID_MAX_SIDE,
                "a belief grid's sides must fit rt_grid_t");
+struct ai_seen; /* ai/ai_seen.h: the counts of what the lidar covered, on this grid */
+
 _Static_assert(AI_BELIEF_BATCH >= 1u && AI_BELIEF_BATCH <= AI_BELIEF_MAX_CELLS, "batch of 1 .. all cells");
 
 /* Geometry. All finite; res_m > 0; max_x > min_x, max_y > min_y; 1 <= w <= AI_BELIEF_MAX_W,
@@ -87,6 +92,9 @@ _Static_assert(sizeof(((ai_belief_t *)0)->occ) == AI_BELIEF_MAX_CELLS, "one occu
 _Static_assert(sizeof(ai_belief_t) <= 16u * 1024u, "the belief grid stays a small fixed block");
 _Static_assert(sizeof(ai_belief_t) <= BOARD_RAM_AI_BYTES / 16u, "the belief grid must stay a small part of the AI RAM");
 
+/* 1 when cfg is a geometry ai_belief_init accepts (the bounds above), else 0 (NULL too). */
+int ai_belief_cfg_ok(const ai_belief_cfg_t *cfg);
+
 /* Checks cfg and sets the geometry; every cell occ 128 (no opinion), unknown 255 (never seen),
  * valid 0, updates 0. 0, or -EINVAL (NULL, a bound above broken); b untouched on error. */
 FS_MUST_CHECK int ai_belief_init(ai_belief_t *b, const ai_belief_cfg_t *cfg);
@@ -97,8 +105,11 @@ FS_MUST_CHECK int ai_belief_init(ai_belief_t *b, const ai_belief_cfg_t *cfg);
  * written then), m's activation scratch is clobbered, neither's data is. 0, -EINVAL (NULL, a
  * belief not initialised, a posterior of another dimension), -EDOM (the posterior not positive
  * definite, or a non-finite logit: a corrupt model). On error valid = 0 and the cells are
- * partly written; updates counts successes only. */
-FS_MUST_CHECK int ai_belief_update(ai_belief_t *b, bnn_model_t *m, bnn_post_t *post);
+ * partly written; updates counts successes only. seen (NULL: the posterior alone): each cell's
+ * unknown share is the larger of the posterior's and ai_seen_share's (a cell no ray reached is
+ * unknown whatever the global features say; seen's reach is brought up to date first,
+ * ai_seen_flood); a count grid of another size is -EINVAL. */
+FS_MUST_CHECK int ai_belief_update(ai_belief_t *b, bnn_model_t *m, bnn_post_t *post, struct ai_seen *seen);
 
 /* The model's input at the centre of cell (col, row): xy[0], xy[1] normalised as above, the
  * point ai_belief_update evaluates. 0 or -EINVAL (NULL, cell outside). */

@@ -50,7 +50,8 @@ int ai_core_init(ai_core_t *ai, const ai_core_cfg_t *cfg, const fw_link_t *link)
         (cfg->resume_ckpt == NULL && cfg->resume_ckpt_bytes != 0) ||
         (cfg->rounds_per_boundary > 0 && cfg->rounds % cfg->rounds_per_boundary != 0) ||
         (cfg->explore_budget_us > 0 && (cfg->belief == NULL || cfg->belief_period_us == 0 || cfg->offline)) ||
-        cfg->explore_share_post < 0 || cfg->explore_share_post > 1 ||
+        cfg->explore_share_post < 0 || cfg->explore_share_post > 1 || cfg->explore_counts < 0 ||
+        cfg->explore_counts > 1 || (cfg->explore_counts && cfg->explore_budget_us == 0) ||
         (cfg->explore_share_post && (cfg->explore_budget_us == 0 || cfg->fleet_size < 1)))
         return -EINVAL;
     /* The big members are left as they are: dinno_node_init and the pool set what they use. */
@@ -80,6 +81,11 @@ int ai_core_init(ai_core_t *ai, const ai_core_cfg_t *cfg, const fw_link_t *link)
         ai->belief_cfg = *cfg->belief;
         ai->cfg.belief = &ai->belief_cfg;
         r = ai_belief_init(&ai->belief, &ai->belief_cfg);
+        if (r == 0)
+            r = ai_seen_init(&ai->seen, &ai->belief_cfg);
+        ai->seen_shared = cfg->explore_counts && cfg->explore_share_post &&
+                          BNN_POST_STATE_FLOATS(ai->post.dim) + AI_SEEN_STATE_FLOATS(cfg->belief->w * cfg->belief->h) <=
+                              bnn_n_params(&ai->node.model);
     }
     ai->belief_next_us = 0;
     ai->belief_errors = 0;
@@ -170,11 +176,14 @@ static void publish_state(ai_core_t *ai, uint64_t now_us)
         }
     } else { /* a posterior round: the estimate of the fleet's posterior is the state */
         if (!ai->post_fleet) { /* the first this run: N times its own (ai_core.h) */
-            if (observe_staged(ai) != 0 || bnn_post_scale(&ai->post, (double)ai->cfg.fleet_size) != 0)
+            if (observe_staged(ai) != 0 || bnn_post_scale(&ai->post, (double)ai->cfg.fleet_size) != 0 ||
+                (ai->seen_shared && ai_seen_scale(&ai->seen, (double)ai->cfg.fleet_size) != 0))
                 hal_log(HAL_LOG_WARN, "round %" PRIu32 ": the posterior could not be made the fleet's estimate", k);
             ai->post_fleet = 1;
         }
-        if (bnn_post_to_state(&ai->post, st->theta, st->n_params) != 0)
+        const size_t off = BNN_POST_STATE_FLOATS(ai->post.dim);
+        if (bnn_post_to_state(&ai->post, st->theta, st->n_params) != 0 ||
+            (ai->seen_shared && ai_seen_to_state(&ai->seen, st->theta + off, st->n_params - off) != 0))
             memset(st->theta, 0, sizeof(float) * st->n_params); /* refused by every neighbour */
     }
     (void)mbox_publish(ai->link->ai_state);
@@ -210,6 +219,15 @@ static int post_round(ai_core_t *ai, const gp_ready_t *ready)
     if (have && used < nbrs->count)
         hal_log(HAL_LOG_WARN, "posterior round %" PRIu32 ": %" PRIu32 " of %" PRIu32 " neighbour posteriors left out "
                 "(other features or bad values)", k, nbrs->count - used, nbrs->count);
+    if (ai->seen_shared) { /* exploring: the counts of what was covered too */
+        const size_t off = BNN_POST_STATE_FLOATS(ai->post.dim), cap = bnn_n_params(&ai->node.model);
+        uint32_t used_seen = 0;
+        if (ai_seen_mix(&ai->seen, have ? nbrs->theta : NULL, have ? nbrs->count : 0, off, cap,
+                        1.0 / (double)ai->cfg.fleet_size, &used_seen) != 0 ||
+            used_seen != used)
+            hal_log(HAL_LOG_WARN, "posterior round %" PRIu32 ": %" PRIu32 " of %" PRIu32 " neighbour count grids mixed "
+                    "in, %" PRIu32 " posteriors", k, used_seen, have ? nbrs->count : 0u, used);
+    }
     ai_round_info_t *p = &ai->pending;
     p->neighbours = used;
     p->loss_train = p->bce = NAN;
@@ -316,7 +334,7 @@ static int publish_belief(ai_core_t *ai, uint64_t now_us)
 {
     int r = observe_staged(ai);
     if (r == 0)
-        r = ai_belief_update(&ai->belief, &ai->node.model, &ai->post);
+        r = ai_belief_update(&ai->belief, &ai->node.model, &ai->post, ai->cfg.explore_counts ? &ai->seen : NULL);
     if (r != 0) {
         ai->belief_errors++;
         return r;
@@ -347,6 +365,11 @@ int ai_core_tick(void *arg, const fw_tick_t *tick)
             ai->post_xy[2 * ai->post_staged] = s.x;
             ai->post_xy[2 * ai->post_staged + 1] = s.y;
             if (++ai->post_staged == AI_POST_STAGE && observe_staged(ai) != 0)
+                rc = -EINVAL;
+            /* exploring: counted in the belief grid's cells at once, with the posterior's
+               weight (N once the counts are the fleet's estimate) */
+            if (ai->cfg.explore_counts &&
+                ai_seen_add(&ai->seen, &s, 1, ai->post_fleet && ai->seen_shared ? (double)ai->cfg.fleet_size : 1.0) != 0)
                 rc = -EINVAL;
         }
     }

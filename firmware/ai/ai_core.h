@@ -47,6 +47,11 @@
  * from the first such round on, the robot's new points go in with weight N (bnn_post_observe_
  * weighted), so the mean of the estimates stays the sum of the robots' posteriors while each
  * one is mixed towards it. The posterior rounds after the DiNNO rounds continue the same.
+ * Exploring with explore_counts, the belief also counts what the lidar covered (ai_seen.h:
+ * the posterior's global features alone come to say they know rooms no ray entered); in a
+ * fleet the counts are reached by the same consensus, in the same rounds, after the posterior
+ * in the state when the state has room for both (not in the `mcu` preset: there each robot
+ * counts its own).
  * Storage: ai_core_t is static (the image declares it): the DiNNO node (model, duals, the
  * view of the neighbours), the pool of AI_POOL_CAPACITY samples and a minibatch buffer, checked with the
  * AI core's links against BOARD_RAM_AI_BYTES. No allocation. One AI core per image. */
@@ -56,6 +61,7 @@
 #include <stdint.h>
 
 #include "ai/ai_belief.h"
+#include "ai/ai_seen.h"
 #include "ai/ai_link.h"
 #include "ai/ai_pool.h"
 #include "ai/bnn_post.h"
@@ -96,6 +102,8 @@ typedef struct ai_core_cfg {
     uint64_t belief_period_us;      /* > 0 with explore_budget_us */
     int explore_share_post;         /* 0/1, with explore_budget_us and fleet_size >= 1: every odd
                                        round shares the posterior (above) */
+    int explore_counts;             /* 0/1, with explore_budget_us: the belief also counts where
+                                       the rays went (ai_seen.h; above) */
 } ai_core_cfg_t;
 
 typedef enum ai_core_phase {
@@ -124,6 +132,8 @@ typedef struct ai_core {
     int post_fleet;           /* 1: post holds this robot's estimate of the fleet's posterior */
     ai_belief_cfg_t belief_cfg;
     ai_belief_t belief;       /* exploring: the grid last published */
+    ai_seen_t seen;           /* explore_counts: samples per belief cell (the fleet's estimate when shared) */
+    int seen_shared;          /* 1: the count grid rides in the posterior rounds' state */
     uint64_t belief_next_us;  /* the next belief update is due then */
     uint64_t belief_errors;
 } ai_core_t;

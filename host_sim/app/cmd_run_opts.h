@@ -39,6 +39,7 @@ typedef struct run_opts {
     int explore_policy;     /* --explore-policy: gp_explore_policy_t */
     double explore_time;    /* --explore-time: simulated seconds */
     int explore_own_posterior; /* --explore-own-posterior: the belief from the robot's data alone */
+    int explore_counts;        /* --explore-counts: the belief also counts where the rays went */
 } run_opts_t;
 
 /* o = the defaults (sim_defaults.h, gp_fleet.h's GP_FLEET_*_DEFAULT, dinno_default_cfg). */

@@ -26,6 +26,7 @@ typedef struct sim_explore_opts {
     double belief_period_s; /* the AI core's belief grid this often */
     int own_posterior;      /* 1: in a fleet, each robot's belief from its own posterior only (the
                                ablation); 0: the posterior shared every other round (ai_core.h) */
+    int counts;             /* 1: the belief also counts where the rays went (ai/ai_seen.h) */
 } sim_explore_opts_t;
 
 #define SIM_EXPLORE_BUDGET_S_DEFAULT 300.0

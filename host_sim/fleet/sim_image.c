@@ -208,6 +208,7 @@ int sim_image_run(const sim_plan_t *plan, const sim_path_t *path, const sim_imag
         /* a posterior crosses the exchange only as fp32 words (bnn_post.h), as after the rounds */
         fc.ai.explore_share_post = !cfg->explore->own_posterior && cfg->fleet != NULL && cfg->fleet->n_peers > 1u &&
                                    cfg->fleet->encoding == DINNO_CODEC_FP32;
+        fc.ai.explore_counts = cfg->explore->counts;
     }
     rc = fw_robot_start(&fc);
     if (rc < 0) {

@@ -1,7 +1,8 @@
 /* The AI core's coarse belief grid (ai/ai_belief.h): a fresh posterior knows nothing anywhere;
  * data in one corner lowers known there and not far away; occ is the mean weights' forward
  * pass at each cell centre; the same inputs give the same bytes; the copies into the GP and RT
- * grids; every refusal; and no allocation during an update. */
+ * grids; a count grid keeps the cells no ray reached unknown; every refusal; and no allocation
+ * during an update. */
 #include <setjmp.h>
 #include <stdarg.h>
 #include <stddef.h>
@@ -13,6 +14,7 @@
 
 #include "alloc_count.h"
 #include "ai/ai_belief.h"
+#include "ai/ai_seen.h"
 #include "ai/ai_rng.h"
 
 #define NOBS 2000
@@ -22,6 +24,7 @@
 static bnn_model_t model, other;
 static bnn_post_t post, post_other;
 static ai_belief_t bel, bel2;
+static ai_seen_t seen;
 static gp_goal_grid_t ggrid;
 static rt_grid_t rgrid;
 static float obs[2 * NOBS];
@@ -69,7 +72,7 @@ static void test_fresh_posterior_knows_nothing(void **state)
     const ai_belief_cfg_t c = geometry();
     assert_int_equal(ai_belief_init(&bel, &c), 0);
     assert_true(ai_belief_known_share(&bel) == 1.0);
-    assert_int_equal(ai_belief_update(&bel, &model, &post), 0);
+    assert_int_equal(ai_belief_update(&bel, &model, &post, NULL), 0);
     assert_int_equal(bel.updates, 1);
     for (uint32_t i = 0; i < GW * GH; i++)
         assert_true(bel.unknown[i] >= 254);
@@ -85,7 +88,7 @@ static void test_observed_corner_is_known_far_cells_are_not(void **state)
     assert_int_equal(bnn_post_observe(&post, &model, obs, NOBS), 0);
     const ai_belief_cfg_t c = geometry();
     assert_int_equal(ai_belief_init(&bel, &c), 0);
-    assert_int_equal(ai_belief_update(&bel, &model, &post), 0);
+    assert_int_equal(ai_belief_update(&bel, &model, &post, NULL), 0);
     /* cells 0..7 lie inside the observed [0, 2] m square; 22..29 are 3.5 m and more away */
     const double near = mean_known(&bel, 0, 8, 0, 8), far = mean_known(&bel, 22, GW, 22, GH);
     const double share = ai_belief_known_share(&bel);
@@ -119,7 +122,7 @@ static void test_occ_is_the_mean_forward_pass(void **state)
     assert_int_equal(bnn_post_observe(&post, &model, obs, NOBS), 0);
     const ai_belief_cfg_t c = geometry();
     assert_int_equal(ai_belief_init(&bel, &c), 0);
-    assert_int_equal(ai_belief_update(&bel, &model, &post), 0);
+    assert_int_equal(ai_belief_update(&bel, &model, &post, NULL), 0);
     float xy[2 * GW], logit[GW];
     int lo = 255, hi = 0;
     for (uint32_t r = 0; r < GH; r++) {
@@ -148,13 +151,13 @@ static void test_deterministic_and_copies(void **state)
     const ai_belief_cfg_t c = geometry();
     assert_int_equal(ai_belief_init(&bel, &c), 0);
     assert_int_equal(ai_belief_init(&bel2, &c), 0);
-    assert_int_equal(ai_belief_update(&bel, &model, &post), 0);
+    assert_int_equal(ai_belief_update(&bel, &model, &post, NULL), 0);
     static uint8_t occ[AI_BELIEF_MAX_CELLS], known[AI_BELIEF_MAX_CELLS];
     memcpy(occ, bel.occ, sizeof occ);
     memcpy(known, bel.unknown, sizeof known);
     const double share = bel.unknown_mean;
-    assert_int_equal(ai_belief_update(&bel, &model, &post), 0);
-    assert_int_equal(ai_belief_update(&bel2, &model, &post), 0);
+    assert_int_equal(ai_belief_update(&bel, &model, &post, NULL), 0);
+    assert_int_equal(ai_belief_update(&bel2, &model, &post, NULL), 0);
     assert_memory_equal(occ, bel.occ, sizeof occ);
     assert_memory_equal(known, bel.unknown, sizeof known);
     assert_memory_equal(occ, bel2.occ, sizeof occ);
@@ -240,13 +243,13 @@ static void test_refusals(void **state)
     /* a refused init leaves the belief untouched (all zero here) */
     assert_int_equal(bel.cfg.w, 0);
     /* update: a belief never initialised, NULLs, a posterior of another dimension */
-    assert_int_equal(ai_belief_update(&bel, &model, &post), -EINVAL);
+    assert_int_equal(ai_belief_update(&bel, &model, &post, NULL), -EINVAL);
     assert_true(ai_belief_known_share(&bel) == 1.0);
     assert_int_equal(ai_belief_init(&bel, &good), 0);
-    assert_int_equal(ai_belief_update(NULL, &model, &post), -EINVAL);
-    assert_int_equal(ai_belief_update(&bel, NULL, &post), -EINVAL);
-    assert_int_equal(ai_belief_update(&bel, &model, NULL), -EINVAL);
-    assert_int_equal(ai_belief_update(&bel, &model, &post_other), -EINVAL);
+    assert_int_equal(ai_belief_update(NULL, &model, &post, NULL), -EINVAL);
+    assert_int_equal(ai_belief_update(&bel, NULL, &post, NULL), -EINVAL);
+    assert_int_equal(ai_belief_update(&bel, &model, NULL, NULL), -EINVAL);
+    assert_int_equal(ai_belief_update(&bel, &model, &post_other, NULL), -EINVAL);
     assert_int_equal(bel.updates, 0);
     /* no copy before a valid update */
     gp_goal_cfg_t g;
@@ -265,6 +268,59 @@ static void test_refusals(void **state)
     assert_true(ai_belief_known_share(NULL) < 0.0);
 }
 
+/* The posterior's features are global: points spread over the box make it say it knows the
+ * whole box, rays or not. With the counts, a cell no point fell in, beyond the free ones, is
+ * unknown (255), and no cell is less unknown than the posterior alone says. */
+static void test_count_grid_keeps_unreached_cells_unknown(void **state)
+{
+    (void)state;
+    setup_model(&model, BNN_SIREN_MAX);
+    assert_int_equal(bnn_post_init(&post, &model), 0);
+    ai_rng_uniform_fill(17, 1, 0, obs, 2 * NOBS); /* uniform over the whole box, normalised */
+    for (int i = 0; i < 2 * NOBS; i++)
+        obs[i] = 2.0f * obs[i] - 1.0f;
+    assert_int_equal(bnn_post_observe(&post, &model, obs, NOBS), 0);
+    const ai_belief_cfg_t c = geometry();
+    assert_int_equal(ai_belief_init(&bel, &c), 0);
+    assert_int_equal(ai_belief_update(&bel, &model, &post, NULL), 0);
+    /* the counts leave out the points in the far corner, x and y above 5.5 m */
+    assert_int_equal(ai_seen_init(&seen, &c), 0);
+    uint32_t kept = 0;
+    for (int i = 0; i < NOBS; i++) {
+        const float x = 3.75f * (obs[2 * i] + 1.0f), y = 3.75f * (obs[2 * i + 1] + 1.0f);
+        if (x > 5.5f && y > 5.5f)
+            continue;
+        const ai_sample_t free_point = {obs[2 * i], obs[2 * i + 1], 0.0f};
+        assert_int_equal(ai_seen_add(&seen, &free_point, 1, 1.0), 0);
+        kept++;
+    }
+    assert_int_equal(ai_belief_init(&bel2, &c), 0);
+    assert_int_equal(ai_belief_update(&bel2, &model, &post, &seen), 0);
+    uint32_t unreached = 0, far_post = 0;
+    for (uint32_t i = 0; i < GW * GH; i++) {
+        assert_true(bel2.unknown[i] >= bel.unknown[i]);
+        assert_int_equal(bel2.occ[i], bel.occ[i]);
+        if (seen.n[i] == 0.0f) {
+            assert_int_equal(bel2.unknown[i], 255);
+            unreached++;
+        }
+    }
+    for (uint32_t r = 24; r < GH; r++) /* inside the corner left out: 6 .. 7.5 m */
+        for (uint32_t col = 24; col < GW; col++) {
+            assert_int_equal(bel2.unknown[r * GW + col], 255);
+            far_post += bel.unknown[r * GW + col];
+        }
+    print_message("%u of %u points counted; %u cells unreached; the posterior alone: %.1f of 255 in the corner "
+                  "left out\n", kept, NOBS, unreached, far_post / 36.0);
+    assert_true(far_post / 36.0 < 200.0); /* the posterior alone does think it knows the corner */
+    assert_true(ai_belief_known_share(&bel2) > ai_belief_known_share(&bel));
+    /* a count grid of another size is refused */
+    ai_belief_cfg_t small = c;
+    small.w = GW - 1u;
+    assert_int_equal(ai_seen_init(&seen, &small), 0);
+    assert_int_equal(ai_belief_update(&bel2, &model, &post, &seen), -EINVAL);
+}
+
 static void test_full_grid_no_allocation(void **state)
 {
     (void)state;
@@ -275,9 +331,9 @@ static void test_full_grid_no_allocation(void **state)
     ai_belief_cfg_t c = geometry();
     c.w = AI_BELIEF_MAX_W, c.h = AI_BELIEF_MAX_H, c.res_m = 7.5f / (float)AI_BELIEF_MAX_W;
     assert_int_equal(ai_belief_init(&bel, &c), 0);
-    assert_int_equal(ai_belief_update(&bel, &model, &post), 0); /* factors the posterior */
+    assert_int_equal(ai_belief_update(&bel, &model, &post, NULL), 0); /* factors the posterior */
     alloc_count_reset();
-    assert_int_equal(ai_belief_update(&bel, &model, &post), 0);
+    assert_int_equal(ai_belief_update(&bel, &model, &post, NULL), 0);
     assert_int_equal(alloc_count_allocations(), 0);
     assert_true(bel.unknown[0] < bel.unknown[AI_BELIEF_MAX_CELLS - 1u]);
     print_message("ai_belief_t: %zu bytes\n", (size_t)AI_BELIEF_BYTES);
@@ -291,6 +347,7 @@ int main(void)
         cmocka_unit_test(test_occ_is_the_mean_forward_pass),
         cmocka_unit_test(test_deterministic_and_copies),
         cmocka_unit_test(test_refusals),
+        cmocka_unit_test(test_count_grid_keeps_unreached_cells_unknown),
         cmocka_unit_test(test_full_grid_no_allocation),
     };
     return cmocka_run_group_tests(tests, NULL, NULL);

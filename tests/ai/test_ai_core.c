@@ -182,6 +182,15 @@ static void test_skip_ahead(void **st)
 /* Exploring in a fleet of N = 2 with the shared posterior (ai_core.h): round 0 exchanges theta,
  * round 1 the posterior, made the fleet's estimate (N times its own) on the way out; the points
  * after it go in N times; a posterior round trains nothing. Sharing needs exploring. */
+/* Samples counted in the belief grid's cells (every test sample falls inside it). */
+static double seen_total(void)
+{
+    double t = 0;
+    for (uint32_t i = 0; i < ai.seen.cfg.w * ai.seen.cfg.h; i++)
+        t += ai.seen.n[i];
+    return t;
+}
+
 static void test_explore_shares_the_posterior(void **st)
 {
     (void)st;
@@ -194,12 +203,19 @@ static void test_explore_shares_the_posterior(void **st)
     c.fleet_size = 2;
     c.explore_share_post = 1;
     assert_int_equal(ai_core_init(&ai, &c, link_), -EINVAL); /* not exploring */
+    c.explore_share_post = 0;
+    c.explore_counts = 1;
+    assert_int_equal(ai_core_init(&ai, &c, link_), -EINVAL); /* counts, not exploring */
+    c.explore_share_post = 1;
     c.explore_budget_us = 4000000u;
     c.belief = &belief;
     c.belief_period_us = 1000000u;
     c.fleet_size = 0;
     assert_int_equal(ai_core_init(&ai, &c, link_), -EINVAL); /* no fleet size */
     c.fleet_size = 2;
+    c.explore_counts = 2;
+    assert_int_equal(ai_core_init(&ai, &c, link_), -EINVAL);
+    c.explore_counts = 1;
     assert_int_equal(ai_core_init(&ai, &c, link_), 0);
     memset(&rt, 0, sizeof rt);
     const uint32_t P = (uint32_t)bnn_n_params(&ai.node.model);
@@ -216,6 +232,12 @@ static void test_explore_shares_the_posterior(void **st)
             assert_true(state->theta[0] == (float)ai.post.dim);
             assert_true(ai.post_fleet);
             assert_true(fabs(ai.post.robots - 2.0) < 1e-12 && fabs(ai.post.n_obs - 2.0 * 600) < 1e-9);
+            /* then the count grid (ai_seen.h): its size, and N times the robot's own counts */
+            const size_t off = BNN_POST_STATE_FLOATS(ai.post.dim);
+            assert_true(ai.seen_shared);
+            assert_true(state->theta[off] == 8.0f && state->theta[off + 1] == 8.0f);
+            assert_memory_equal(state->theta + off + 2, ai.seen.n, 64 * sizeof(float));
+            assert_true(fabs(seen_total() - 2.0 * 600) < 1e-3);
         }
         gp_ready_t r = {k, 0, 0};
         assert_int_equal(mbox_put(link_->gp_ready, &r), 0);
@@ -235,6 +257,7 @@ static void test_explore_shares_the_posterior(void **st)
     assert_int_equal(alloc_count_allocations(), 0);
     assert_int_equal(ai.post_staged, 0); /* summed in for the belief of that tick */
     assert_true(fabs(ai.post.n_obs - 2.0 * 900) < 1e-9);
+    assert_true(fabs(seen_total() - 2.0 * 900) < 1e-3); /* the counts the same */
 }
 
 int main(void)

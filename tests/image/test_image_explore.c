@@ -78,11 +78,11 @@ static void on_round(const ai_round_info_t *in, void *user)
     p->rounds++;
 }
 
-static void run(gp_explore_policy_t policy, sim_image_result_t *r, probe_t *p, double *coverage)
+static void run_with(gp_explore_policy_t policy, int counts, sim_image_result_t *r, probe_t *p, double *coverage)
 {
     static sim_coverage_t cov;
     assert_int_equal(sim_coverage_from_plan(&cov, &g_plan, SIM_COVERAGE_RES_M), 0);
-    const sim_explore_opts_t xo = {policy, BUDGET_S, SIM_EXPLORE_BELIEF_PERIOD_S_DEFAULT, 0};
+    const sim_explore_opts_t xo = {policy, BUDGET_S, SIM_EXPLORE_BELIEF_PERIOD_S_DEFAULT, 0, counts};
     sim_image_cfg_t c;
     sim_image_cfg_default(&c);
     c.seed = 11;
@@ -112,6 +112,11 @@ static void run(gp_explore_policy_t policy, sim_image_result_t *r, probe_t *p, d
     coverage[0] = sim_coverage_at(&cov, 0.0);
     coverage[1] = sim_coverage_at(&cov, BUDGET_S);
     sim_coverage_free(&cov);
+}
+
+static void run(gp_explore_policy_t policy, sim_image_result_t *r, probe_t *p, double *coverage)
+{
+    run_with(policy, 0, r, p, coverage);
 }
 
 static void test_explores_without_touching_a_wall(void **st)
@@ -154,6 +159,28 @@ static void test_same_seed_same_exploration(void **st)
     assert_true(a.ai_status.loss_train == b.ai_status.loss_train);
 }
 
+/* The belief that also counts where the rays went (ai/ai_seen.h): the same safety, still
+ * nothing allocated once running, and the counts change where the robot goes. */
+static void test_explores_with_counts(void **st)
+{
+    (void)st;
+    static sim_image_result_t r;
+    probe_t p, plain;
+    double cov[2], cov_plain[2];
+    run_with(GP_EXPLORE_UNCERTAINTY, 1, &r, &p, cov);
+    print_message("uncertainty with counts: coverage %.3f -> %.3f; %llu goals, %u reached; %.2f m driven\n", cov[0],
+                  cov[1], (unsigned long long)r.explore.goals, r.rt_status.goal_reached, r.world.distance_m);
+    assert_true(r.completed);
+    assert_int_equal(r.world.collisions, 0);
+    assert_int_equal(r.rt_status.plan_failures, 0);
+    assert_true(cov[1] > cov[0] + 0.2);
+    assert_true(p.rounds >= 2);
+    assert_int_equal(p.alloc_at_round[1], 0);
+    static sim_image_result_t q;
+    run(GP_EXPLORE_UNCERTAINTY, &q, &plain, cov_plain);
+    assert_true(p.hash != plain.hash);
+}
+
 static void test_frontier_policy(void **st)
 {
     (void)st;
@@ -173,6 +200,7 @@ int main(void)
     const struct CMUnitTest tests[] = {
         cmocka_unit_test(test_explores_without_touching_a_wall),
         cmocka_unit_test(test_same_seed_same_exploration),
+        cmocka_unit_test(test_explores_with_counts),
         cmocka_unit_test(test_frontier_policy),
     };
     return cmocka_run_group_tests(tests, setup, teardown);

@@ -201,7 +201,17 @@ def run_row_from_a_synthetic_run():
         cmd = explore_compare.fleet_cmd(A, "apartment", "/x/apartment.svg", "uncertainty-own", 1, "n")
         check(cmd[cmd.index("--explore-policy") + 1] == "uncertainty" and "--explore-own-posterior" in cmd, cmd)
         cmd = explore_compare.fleet_cmd(A, "apartment", "/x/apartment.svg", "uncertainty", 1, "n")
-        check("--explore-own-posterior" not in cmd, cmd)
+        check("--explore-own-posterior" not in cmd and "--explore-counts" not in cmd, cmd)
+        # the belief that also counts where the rays went is another run too
+        with open(os.path.join(run, "run.json"), "w") as f:
+            json.dump({"robots": 2, "seed": 1, "rounds": 6, "plan": "host_sim/plans/apartment.svg",
+                       "explore": {"policy": "uncertainty", "time_s": 30.0, "own_posterior": False,
+                                   "counts": True}}, f)
+        check(differ(run, "/x/apartment.svg", "uncertainty-counts", 1, A) is None, "the counts' run not recognised")
+        check(differ(run, "/x/apartment.svg", "uncertainty", 1, A) is not None, "the counts' run taken for the policy")
+        cmd = explore_compare.fleet_cmd(A, "apartment", "/x/apartment.svg", "uncertainty-counts", 1, "n")
+        check(cmd[cmd.index("--explore-policy") + 1] == "uncertainty" and "--explore-counts" in cmd and
+              "--explore-own-posterior" not in cmd, cmd)
         text = explore_compare.csv_text([r])
         check(text.splitlines()[0] == ",".join(explore_compare.CSV_COLUMNS), text)
         check(text.splitlines()[1].startswith("apartment,frontier,1,2,1,40,50,15,0.6,3,1,3"), text)
