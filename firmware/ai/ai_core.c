@@ -368,8 +368,8 @@ int ai_core_tick(void *arg, const fw_tick_t *tick)
                 rc = -EINVAL;
             /* exploring: counted in the belief grid's cells at once, with the posterior's
                weight (N once the counts are the fleet's estimate) */
-            if (ai->cfg.explore_counts &&
-                ai_seen_add(&ai->seen, &s, 1, ai->post_fleet && ai->seen_shared ? (double)ai->cfg.fleet_size : 1.0) != 0)
+            const double w = ai->post_fleet && ai->seen_shared ? (double)ai->cfg.fleet_size : 1.0;
+            if (ai->cfg.explore_counts && ai_seen_add(&ai->seen, &s, 1, w) != 0)
                 rc = -EINVAL;
         }
     }

@@ -356,9 +356,9 @@ static void test_partition_and_heal(void **st)
     tail /= nb_tail;
     back /= nb_back > 0 ? nb_back : 1;
     printf("# partition %s, peer timeout %g s, %d rounds: robot 0 alone in rounds %.0f..%.0f (%d rounds), robots 1 "
-           "and 2 together in %d and %d rounds; %.0f rounds apart at the heal, %.0f skipped after it; robot 0's disagreement: %.2g "
-           "before, %.2g in the first 10 rounds after the heal, %.2g in the 10 after its first, %.2g in the last "
-           "10 %% (robots 1 and 2 during: %.2g); every robot exited 0 after %.1f s\n",
+           "and 2 together in %d and %d rounds; %.0f rounds apart at the heal, %.0f skipped after it; robot 0's "
+           "disagreement: %.2g before, %.2g in the first 10 rounds after the heal, %.2g in the 10 after its first, "
+           "%.2g in the last 10 %% (robots 1 and 2 during: %.2g); every robot exited 0 after %.1f s\n",
            PART_SPEC, PART_TIMEOUT_S, PART_ROUNDS, m[0].round[first0], m[0].round[last0], alone, pair[1], pair[2],
            apart, skipped, before, after, back, tail, during, wall);
     /* The recovery (docs/faults.md, "Bad and cheap links"): falling from the first rounds after
