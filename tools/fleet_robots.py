@@ -127,7 +127,10 @@ def stop_all(robots, extra=()):
 
 
 class Progress:
-    """One status line, rewritten in place on a terminal; a line every 5 % of the rounds otherwise."""
+    """One status line, rewritten in place on a terminal; otherwise a line every 5 % of the rounds,
+    and at least every QUIET_S seconds (256 robots on 2 cores take minutes to start)."""
+
+    QUIET_S = 30.0
 
     def __init__(self, robots, total_rounds):
         self.robots = robots
@@ -137,6 +140,7 @@ class Progress:
         self.last_t, self.last_sent = self.t0, 0
         self.next_pct = 5
         self.printed = None  # the slowest robot's round of the last line printed (not a tty)
+        self.printed_t = self.t0
 
     def line(self):
         with_locks = []
@@ -171,9 +175,10 @@ class Progress:
         if self.tty:
             sys.stdout.write("\r" + text[: os.get_terminal_size().columns - 1].ljust(20) + ("\n" if final else ""))
             sys.stdout.flush()
-        elif (final and self.printed != lo) or (self.total and lo * 100 >= self.next_pct * self.total):
+        elif ((final and self.printed != lo) or (self.total and lo * 100 >= self.next_pct * self.total)
+              or time.time() - self.printed_t >= self.QUIET_S):
             print(text, flush=True)  # the final line only when the last one printed was of another round
-            self.printed = lo
+            self.printed, self.printed_t = lo, time.time()
             while self.total and lo * 100 >= self.next_pct * self.total:
                 self.next_pct += 5
 

@@ -64,7 +64,7 @@ int gp_pse_init(gp_pse_t *p, const gp_pse_cfg_t *c)
     p->n_chunks = (c->state_bytes + c->chunk_bytes - 1u) / c->chunk_bytes;
     p->round = 0;
     p->in_round = p->completed = p->later_heard = p->ready_noted = p->leaving = p->taken = 0;
-    p->sent_us = p->pos_sent_us = p->polled_us = 0;
+    p->sent_us = p->pos_sent_us = p->polled_us = p->newcomer_us = 0;
     p->mine = NULL;
     p->x_m = p->y_m = 0.0;
     memset(p->near, 0, sizeof p->near);
@@ -209,6 +209,8 @@ static int note_sender(gp_pse_t *p, uint32_t sender, uint32_t incarnation, uint3
             q->gap_var_us = (3u * q->gap_var_us + dev) / 4u;
             q->gap_srtt_us = (7u * q->gap_srtt_us + gap) / 8u;
         }
+        if (!q->heard)
+            p->newcomer_us = now_us; /* the fleet is still forming: the join clock restarts */
         q->heard = 1;
         q->heard_us = now_us;
     }
@@ -493,6 +495,8 @@ static void discount_stall(gp_pse_t *p, uint64_t now_us)
             q->heard_us = now_us - q->heard_us > gap ? q->heard_us + gap : now_us;
     }
     p->round_start_us = now_us - p->round_start_us > gap ? p->round_start_us + gap : now_us;
+    if (p->newcomer_us != 0)
+        p->newcomer_us = now_us - p->newcomer_us > gap ? p->newcomer_us + gap : now_us;
 }
 
 void gp_pse_poll(gp_pse_t *p, uint64_t now_us)
@@ -525,6 +529,7 @@ void gp_pse_poll(gp_pse_t *p, uint64_t now_us)
         send_done(p, now_us);
         p->stats.done_resent++;
     }
+    const uint64_t begun = p->newcomer_us > p->round_start_us ? p->newcomer_us : p->round_start_us;
     for (uint32_t i = 0; i < p->cfg.n_peers; i++) {
         if (i == p->cfg.self)
             continue;
@@ -538,13 +543,16 @@ void gp_pse_poll(gp_pse_t *p, uint64_t now_us)
         uint64_t last = p->round_start_us;
         if (q->heard && q->heard_us > last)
             last = q->heard_us;
+        if (!q->heard) /* a fleet still forming (gp_pse.h) */
+            last = begun;
         const uint64_t timeout = silence_allowed(p, q);
         if (q->heard && timeout > p->stats.timeout_longest_us)
             p->stats.timeout_longest_us = timeout;
         /* Progress keeps a peer in the round, but not forever: whatever seems to come from it
            (a link that delivers a chunk a minute, or bytes forged in its name in an unkeyed
-           fleet) cannot hold the round past GP_PSE_ROUND_CAP timeouts from its start. */
-        if (now_us - last >= timeout || now_us - p->round_start_us >= GP_PSE_ROUND_CAP * timeout) {
+           fleet) cannot hold the round past GP_PSE_ROUND_CAP timeouts from its start (or from
+           the last newcomer's arrival, while the fleet forms). */
+        if (now_us - last >= timeout || now_us - begun >= GP_PSE_ROUND_CAP * timeout) {
             /* Silent too long: the round goes on without it (a state it already delivered is
                still used; only what is missing is no longer waited for). */
             q->absent = 1;

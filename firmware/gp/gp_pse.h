@@ -39,7 +39,10 @@
  *
  * Liveness (the rule docs/architecture.md states): a peer is kept in round k only by progress,
  * i.e. a message of round k or later, or its RoundComplete of k - 1 (it is on its way to k);
- * a peer that shows none for its timeout (join_timeout_us before it was ever heard) while we
+ * a peer that shows none for its timeout (join_timeout_us before it was ever heard, counted
+ * from the round's start or from the last time any peer was first heard, whichever is later:
+ * while newcomers keep coming the fleet is still starting, as 256 processes on 2 cores take
+ * minutes to; one that never starts costs one join timeout after the last) while we
  * wait for it leaves the round, and stays out until a round boundary where it is heard in the
  * round before or later. Its timeout is peer_timeout_us, stretched for a peer whose signs of
  * progress come irregularly (RFC 6298's srtt + 4 rttvar of the gaps between them) up to
@@ -265,6 +268,7 @@ typedef struct gp_pse {
     uint64_t round_start_us, completed_us, done_sent_us, sent_us;
     uint64_t pos_sent_us;       /* our last beacon with our position (| 1: 0 is never) */
     uint64_t polled_us;         /* our last poll (for the time we did not run) */
+    uint64_t newcomer_us;       /* the last time a peer was heard for the first time (0: never) */
     const uint8_t *mine;
     uint32_t next_send;         /* our next chunk not sent yet this round (the send window) */
     uint32_t my_crc32;

@@ -4,7 +4,8 @@
  * virtual clock, over a simulated multicast network that drops, duplicates, delays (and so
  * reorders), corrupts and partitions datagrams, with robots that pause (their datagrams wait,
  * as in a kernel socket buffer), crash, and restart from their last completed round with a
- * newer incarnation. Each robot runs the image's own round driver (gp_round, the object the
+ * newer incarnation, and fleets whose robots start one by one over several join timeouts (as
+ * hundreds of processes on two cores do). Each robot runs the image's own round driver (gp_round, the object the
  * image links) as gp_fleet runs it: want round k, begin it when the driver says so, read the
  * neighbours when it says they are there and ask it for the next round (its skip-ahead),
  * "train" (a deterministic mix of its model and its neighbours' states, taking virtual time),
@@ -79,7 +80,15 @@ typedef struct schedule {
     uint64_t pause_from, pause_len;
     int crash_robot;            /* -1: none */
     uint64_t crash_at, restart_after; /* restart_after 0: stays down */
+    uint64_t stagger_us;        /* robot i starts i x this late (a fleet whose processes take
+                                   longer to start than the join timeout); 0: all at once */
 } schedule_t;
+
+/* From the first robot's start to the last one's: a first round may wait that much longer. */
+static uint64_t start_span(const schedule_t *s)
+{
+    return (uint64_t)(s->n - 1) * s->stagger_us + 50000u;
+}
 
 static int loss_only(const schedule_t *s)
 {
@@ -134,7 +143,7 @@ static const schedule_t *cur;
 typedef struct totals {
     uint64_t schedules, loss_only, sent, dropped, duplicated, corrupted, late, partitioned, overflow;
     uint64_t pauses, crashes, restarts, timeouts, rejoins, skipped, cut, missed, crc, old_inc, used;
-    uint64_t big, nearest_checked, beyond_slots, evictions;
+    uint64_t big, nearest_checked, beyond_slots, evictions, staggered;
 } totals_t;
 static totals_t tot;
 
@@ -386,7 +395,10 @@ static void round_finished(robot_t *r)
     const gp_pse_stats_t *ps = &r->drv.pse.stats;
     const uint64_t timeout = ps->timeout_longest_us > TIMEOUT_US ? ps->timeout_longest_us : TIMEOUT_US;
     assert_true(timeout <= GP_PSE_TIMEOUT_STRETCH * TIMEOUT_US);
-    const uint64_t allowed = (r->first_round ? JOIN_US : timeout) + (ps->stalled_us - r->stalled_mark) +
+    /* While a fleet starts one robot at a time, any round may wait for a newcomer that waits
+       its join timeout in its own first round (for a robot that never started). */
+    const int starting = r->first_round || (cur->stagger_us != 0 && r->round_begin_us < start_span(cur) + JOIN_US);
+    const uint64_t allowed = (starting ? JOIN_US + start_span(cur) : timeout) + (ps->stalled_us - r->stalled_mark) +
                              (cur->late > 0.0 ? LATE_MAX_US : 0u) + slack_us;
     if (took > allowed && took - allowed > r->max_round_us - r->max_allowed_us) {
         r->max_round_us = took;
@@ -475,11 +487,12 @@ static void run(const schedule_t *s, uint8_t out[MAXN][STATE_BYTES], uint64_t *t
     if (trace)
         fprintf(stderr, "schedule %llu: %d robots, %d rounds, radius %g, drop %g dup %g corrupt %g late %g delay %llu us; "
                         "partition %d (split %d, %.3f..%.3f s); pause robot %d (%.3f s for %.3f s); crash robot %d "
-                        "(%.3f s, restart after %.3f s)\n",
+                        "(%.3f s, restart after %.3f s); starts %.3f s apart\n",
                 (unsigned long long)s->seed, s->n, s->rounds, s->radius, s->drop, s->dup, s->corrupt, s->late,
                 (unsigned long long)s->delay_us, s->partition, s->split, (double)s->p_from * 1e-6,
                 (double)s->p_until * 1e-6, s->pause_robot, (double)s->pause_from * 1e-6, (double)s->pause_len * 1e-6,
-                s->crash_robot, (double)s->crash_at * 1e-6, (double)s->restart_after * 1e-6);
+                s->crash_robot, (double)s->crash_at * 1e-6, (double)s->restart_after * 1e-6,
+                (double)s->stagger_us * 1e-6);
     qn = 0;
     seq = 0;
     now_us = 0;
@@ -496,14 +509,15 @@ static void run(const schedule_t *s, uint8_t out[MAXN][STATE_BYTES], uint64_t *t
         init_model(r);
         start_engine(r);
         r->phase = R_DRIVE;
-        r->wake_us = rnd_below(50000u); /* the tours take different times */
+        r->wake_us = (uint64_t)i * s->stagger_us + rnd_below(50000u); /* the tours take different times */
     }
     /* Liveness bound per round (the rule in gp_pse.h): one peer timeout (the join timeout in a
        robot's first round), with slack for compute, latency and resends: 20 request periods,
        each up to 2^GP_PSE_BACKOFF_MAX resend periods once requests go unanswered. */
     slack_us = 30000u + 4u * s->delay_us + 20u * (RESEND_US << GP_PSE_BACKOFF_MAX);
     const uint64_t bound = JOIN_US + TIMEOUT_US + slack_us;
-    const uint64_t deadline = (uint64_t)s->rounds * bound + s->pause_len + s->restart_after + 5000000u;
+    const uint64_t deadline =
+        (uint64_t)s->rounds * bound + start_span(s) + s->pause_len + s->restart_after + 5000000u;
     int crashed = 0, restarted = 0;
     for (; now_us < deadline; now_us += TICK_US) {
         if (s->crash_robot >= 0 && !crashed && now_us >= s->crash_at && rob[s->crash_robot].phase != R_EXITED) {
@@ -613,6 +627,12 @@ static void draw(uint64_t seed, schedule_t *s)
         s->n = BIG_N_MIN + (int)rnd_below(MAXN - BIG_N_MIN + 1);
         s->rounds = 3 + s->rounds / 4; /* a big fleet's round costs ~40 small ones */
     }
+    /* One in eight: a fleet that starts slowly, each robot 0.6 join timeouts after the one
+       before, so the last starts well past the first one's join timeout (with loss alone
+       nobody may be given up: the join clock restarts at every newcomer). Drawn after the
+       rest, so the schedules without it stay what they were. */
+    if (rnd_below(8) == 0)
+        s->stagger_us = JOIN_US * 3u / 5u;
 }
 
 static uint64_t env_u64(const char *name, uint64_t dflt)
@@ -635,6 +655,7 @@ static void check_schedule(uint64_t seed)
     draw(seed, &s);
     tot.schedules++;
     tot.big += s.n >= (int)BIG_N_MIN;
+    tot.staggered += s.stagger_us != 0;
     uint64_t timeouts = 0, cut = 0;
     run(&s, got_model, &timeouts, &cut);
     if (!loss_only(&s))
@@ -666,10 +687,10 @@ static void test_seeded_schedules(void **st)
     const uint64_t base = env_u64("FLEETSIM_PSE_SIM_BASE", 1u);
     for (uint64_t i = 0; i < n; i++)
         check_schedule(one ? one : base + i);
-    print_message("pse_sim: %llu schedules (%llu loss only, %llu with pauses, %llu crashes, %llu restarts), seeds "
-                  "%llu..%llu\n",
+    print_message("pse_sim: %llu schedules (%llu loss only, %llu with pauses, %llu crashes, %llu restarts, %llu "
+                  "starting one robot at a time), seeds %llu..%llu\n",
                   (unsigned long long)tot.schedules, (unsigned long long)tot.loss_only, (unsigned long long)tot.pauses,
-                  (unsigned long long)tot.crashes, (unsigned long long)tot.restarts,
+                  (unsigned long long)tot.crashes, (unsigned long long)tot.restarts, (unsigned long long)tot.staggered,
                   (unsigned long long)(one ? one : base), (unsigned long long)(one ? one : base + n - 1u));
     print_message("pse_sim: injected: %llu sends, %llu copies dropped, %llu duplicated, %llu corrupted, %llu late, "
                   "%llu cut by partitions, %llu lost to a full network\n",
