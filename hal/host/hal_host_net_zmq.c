@@ -3,13 +3,16 @@
  *
  * URL: "zmq://BIND?peers=HOST:PORT,HOST:PORT,..." (host_sim run --transport zmq --peers builds
  * it). The process binds one PUB socket on tcp://BIND (e.g. "*:7701") and connects one SUB
- * socket to every peer's PUB. Every datagram goes out as two frames, [topic][bytes], to every
- * connected peer that subscribed to its topic: the fleet's messages are all "to everyone"
+ * socket to every peer's PUB. Every datagram goes out as one frame, the topic, a NUL, then its
+ * bytes, to every connected peer that subscribed to its topic (a prefix of the frame). One
+ * frame, not two: libzmq 4.3 aborts a subscriber whose connection drops while half of a
+ * multipart message is in its pipe (an assertion in its session's clean-up, zeromq/libzmq#3442),
+ * which killed a robot of a 128-robot fleet as its peers exited. The fleet's messages are all "to everyone"
  * (states, RoundCompletes, resend requests), so PUB/SUB carries them as LCM's multicast did,
  * and no socket needs a reply. (ROUTER/DEALER would address single peers, which the protocol
  * never does; REQ/REP would block a robot on a peer that is gone.)
  *
- * Topics and neighbour-scoped delivery. The topic frame is the channel, '#', then the sender
+ * Topics and neighbour-scoped delivery. The topic is the channel, '#', then the sender
  * as 8 lower-case hex digits when the datagram names one (a typed channel: hal_host_net.c
  * passes typed_sender()), else nothing: "fleetsim/3/state#0000002a", "fleetsim/3/telemetry#".
  * '#' is no channel character, so the topic ends the channel exactly, and the fixed width
@@ -19,8 +22,9 @@
  * narrowed by hal_host_net_set_senders to one topic "CHANNEL#%08x" per wanted sender instead,
  * so an unwanted sender's bytes never cross TCP. A change subscribes the topics new to the set
  * before it unsubscribes the ones gone (no gap for senders in both), and only those. The
- * receiver strips the topic back to the channel ('#' and 8 hex digits, or '#' alone; anything
- * else is counted invalid). A process of a build before these topics is not heard (one fleet,
+ * receiver splits the frame at its first NUL and strips the topic back to the channel ('#' and
+ * 8 hex digits, or '#' alone; anything else, or no NUL within a topic's length, is counted
+ * invalid). A process of a build before these topics is not heard (one fleet,
  * one build), and a channel must be typed (hal_host_net_expect_type) at its publishers as at
  * its receivers, or its datagrams carry no sender and a narrowed receiver never gets them
  * (host_sim types the fleet channels on every robot alike). Subscriptions cross TCP
@@ -64,6 +68,7 @@
 
 #define SENDER_HEX 8u /* hex digits of the sender in a topic */
 #define TOPIC_MAX (HAL_NET_CHANNEL_MAX + 1u + SENDER_HEX) /* channel, '#', sender, NUL */
+#define FRAME_MAX (TOPIC_MAX + HAL_NET_MTU_BYTES + HAL_HOST_AUTH_TRAILER_BYTES) /* topic, NUL, datagram */
 
 /* One subscribed channel: what the caller wants (under mu) and what the SUB has (the
    receiver thread's). */
@@ -85,9 +90,9 @@ typedef struct zmq_ctx {
     int dirty;
     uint32_t n_chans;
     zmq_chan_t chans[HAL_HOST_NET_MAX_SUBS];
-    char tx_topic[TOPIC_MAX];  /* the publishing thread's */
     char channel[TOPIC_MAX + 1]; /* the receiver thread's */
-    uint8_t buf[HAL_NET_MTU_BYTES + HAL_HOST_AUTH_TRAILER_BYTES];
+    uint8_t tx[FRAME_MAX];       /* the publishing thread's frame: topic, NUL, datagram */
+    uint8_t rx[FRAME_MAX];       /* the receiver thread's */
 } zmq_ctx_t;
 
 static void zmq_close_all(zmq_ctx_t *c)
@@ -164,7 +169,7 @@ static int zmq_open_url(hal_host_net_t *n, const char *url, void **out)
     c->ctx = zmq_ctx_new();
     c->pub = c->ctx ? zmq_socket(c->ctx, ZMQ_PUB) : NULL;
     c->sub = c->ctx ? zmq_socket(c->ctx, ZMQ_SUB) : NULL;
-    const int64_t max_msg = (int64_t)sizeof c->buf;
+    const int64_t max_msg = (int64_t)FRAME_MAX;
     if (c->pub == NULL || c->sub == NULL || set_int(c->pub, ZMQ_SNDHWM, ZMQ_HWM) != 0 ||
         set_int(c->pub, ZMQ_LINGER, 0) != 0 || set_int(c->sub, ZMQ_RCVHWM, ZMQ_HWM) != 0 ||
         set_int(c->sub, ZMQ_LINGER, 0) != 0 || set_int(c->sub, ZMQ_RECONNECT_IVL, 100) != 0 ||
@@ -215,12 +220,15 @@ static int topic_of(char *out, const char *channel, int64_t sender)
 static int zmq_pub(void *ctx, const char *channel, const void *data, size_t len, int64_t sender)
 {
     zmq_ctx_t *c = ctx;
-    const int tl = topic_of(c->tx_topic, channel, sender <= (int64_t)UINT32_MAX ? sender : -1);
+    const int tl = topic_of((char *)c->tx, channel, sender <= (int64_t)UINT32_MAX ? sender : -1);
+    if (tl < 0 || (size_t)tl + 1u + len > sizeof c->tx)
+        return -EIO;
+    c->tx[tl] = '\0';
+    if (len > 0)
+        memcpy(c->tx + tl + 1, data, len);
     /* PUB never blocks: past the high-water mark a peer's copy is dropped (a lossy link); a
        peer that did not subscribe to the topic gets nothing. */
-    if (zmq_send(c->pub, c->tx_topic, (size_t)tl, ZMQ_SNDMORE) < 0 || zmq_send(c->pub, data, len, 0) < 0)
-        return -EIO;
-    return 0;
+    return zmq_send(c->pub, c->tx, (size_t)tl + 1u + len, 0) < 0 ? -EIO : 0;
 }
 
 /* Tells the receiver thread that the wanted subscriptions changed (a full pipe has told it). */
@@ -343,7 +351,7 @@ static int strip_topic(char *topic, int len)
     return 0;
 }
 
-/* The rest of a message whose frames do not fit the datagram shape. */
+/* The rest of a message of several frames (not ours: ours have one). */
 static void drain(void *sock)
 {
     int more = 1;
@@ -367,29 +375,22 @@ static int zmq_handle(void *ctx, int timeout_ms)
     if (it[1].revents & ZMQ_POLLIN)
         apply_pending(c, 1); /* woken by subscribe or senders */
     for (int k = 0; k < 256 && (it[0].revents & ZMQ_POLLIN); k++) { /* what is there now, a bounded batch */
-        const int cl = zmq_recv(c->sub, c->channel, sizeof c->channel - 1u, ZMQ_DONTWAIT);
-        if (cl < 0)
+        const int fl = zmq_recv(c->sub, c->rx, sizeof c->rx, ZMQ_DONTWAIT);
+        if (fl < 0)
             return zmq_errno() == EAGAIN || zmq_errno() == EINTR ? 0 : -EIO;
         int more = 0;
         size_t sz = sizeof more;
-        if (zmq_getsockopt(c->sub, ZMQ_RCVMORE, &more, &sz) != 0 || !more || cl >= (int)sizeof c->channel - 1) {
-            drain(c->sub);
+        const uint8_t *nul = memchr(c->rx, '\0', (size_t)fl < TOPIC_MAX ? (size_t)fl : TOPIC_MAX);
+        if (zmq_getsockopt(c->sub, ZMQ_RCVMORE, &more, &sz) != 0 || more || fl > (int)sizeof c->rx || nul == NULL) {
+            drain(c->sub); /* several frames, one cut (its real length says so), or no topic */
             hal_host_net_on_datagram(c->n, NULL, NULL, 0); /* counted as invalid */
             continue;
         }
-        c->channel[cl] = '\0';
+        const int cl = (int)(nul - c->rx);
+        memcpy(c->channel, c->rx, (size_t)cl + 1u);
         if (strip_topic(c->channel, cl) != 0)
-            c->channel[0] = '\0'; /* not our topic: refused below, its bytes read first */
-        const int dl = zmq_recv(c->sub, c->buf, sizeof c->buf, 0);
-        if (dl < 0)
-            return zmq_errno() == EINTR ? 0 : -EIO;
-        if (zmq_getsockopt(c->sub, ZMQ_RCVMORE, &more, &sz) != 0 || more) {
-            drain(c->sub);
-            hal_host_net_on_datagram(c->n, NULL, NULL, 0);
-            continue;
-        }
-        /* A frame longer than the buffer was cut: its real length says so and it is refused. */
-        hal_host_net_on_datagram(c->n, c->channel, c->buf, (size_t)dl);
+            c->channel[0] = '\0'; /* not our topic: refused as such */
+        hal_host_net_on_datagram(c->n, c->channel, c->rx + cl + 1, (size_t)(fl - cl - 1));
     }
     return 0;
 }

@@ -253,6 +253,61 @@ static int silence_2(const msg_t *m, int to)
     return m->from == 2;
 }
 
+/* Robot 1 starts at 1.5 peer timeouts (its messages before that do not exist), robot 2 never. */
+static uint64_t robot1_starts;
+static int slow_start(const msg_t *m, int to)
+{
+    (void)m;
+    return to == 2 || (to == 1 && robot1_starts != 0);
+}
+
+/* A fleet still forming: a never-heard peer's join timeout runs from the last newcomer, so a
+   robot that starts after the first one's join timeout is not given up, and one that never
+   starts costs one join timeout after the last newcomer. */
+static void test_join_timeout_restarts_at_each_newcomer(void **st)
+{
+    (void)st;
+    start(0.0);
+    const uint64_t join = 2u * TIMEOUT;
+    for (int i = 0; i < N; i++)
+        eng[i].cfg.join_timeout_us = join;
+    robot1_starts = 3u * TIMEOUT / 2u;
+    begin(0, 0, 0);
+    uint64_t t = RESEND;
+    for (; t < robot1_starts; t += RESEND) {
+        gp_pse_poll(&eng[0], t);
+        deliver(t, slow_start);
+    }
+    qn = 0; /* what robot 1 would have heard before it started */
+    begin(1, 0, t);
+    robot1_starts = 0;
+    const uint64_t joined = t;
+    for (t += RESEND; t < joined + join; t += RESEND) {
+        gp_pse_poll(&eng[0], t);
+        gp_pse_poll(&eng[1], t);
+        deliver(t, slow_start);
+    }
+    /* Past the first robot's own join timeout, short of one after the newcomer: nobody given up. */
+    assert_true(t > join);
+    assert_int_equal(eng[0].stats.timeouts, 0);
+    assert_int_equal(eng[1].stats.timeouts, 0);
+    assert_false(gp_pse_states_ready(&eng[0]));
+    for (; t <= joined + join + 2u * RESEND; t += RESEND) {
+        gp_pse_poll(&eng[0], t);
+        gp_pse_poll(&eng[1], t);
+        deliver(t, slow_start);
+    }
+    /* Robot 2 cost one join timeout after the newcomer, to both. */
+    for (int i = 0; i < 2; i++) {
+        assert_int_equal(eng[i].stats.timeouts, 1);
+        assert_true(gp_pse_states_ready(&eng[i]));
+        uint32_t ids[GP_PSE_MAX_NEIGHBOURS];
+        const uint8_t *s[GP_PSE_MAX_NEIGHBOURS];
+        assert_int_equal(gp_pse_neighbours(&eng[i], ids, s), 1);
+        assert_int_equal(ids[0], (uint32_t)(1 - i));
+    }
+}
+
 static void test_silent_peer_leaves_and_rejoins(void **st)
 {
     (void)st;
@@ -559,6 +614,7 @@ int main(void)
         cmocka_unit_test(test_later_round_first),
         cmocka_unit_test(test_corrupted_chunk),
         cmocka_unit_test(test_silent_peer_leaves_and_rejoins),
+        cmocka_unit_test(test_join_timeout_restarts_at_each_newcomer),
         cmocka_unit_test(test_invalid_messages_change_nothing),
         cmocka_unit_test(test_encodings),
         cmocka_unit_test(test_forged_chunk_does_not_block_the_state),

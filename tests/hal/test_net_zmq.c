@@ -7,6 +7,8 @@
  * wants only some senders is not even sent the others' datagrams (the publishers filter by
  * topic, so its rx_unwanted stays 0 once the subscription reached them), ids match exactly
  * (wanting 1 does not bring 17), NULL brings everyone back, and keyed members filter the same.
+ * A datagram is one frame (topic, NUL, bytes): a foreign publisher's frames of another shape
+ * (two frames, no NUL, a topic not ours) are counted invalid and never delivered.
  * The fleet over ZeroMQ as real processes: tests/fleet. */
 #define _GNU_SOURCE 1
 #include <setjmp.h>
@@ -19,6 +21,7 @@
 #include <string.h>
 #include <unistd.h>
 #include <cmocka.h>
+#include <zmq.h>
 
 #include "hal/hal.h"
 #include "hal_host.h"
@@ -105,6 +108,54 @@ static void test_three_robots_exchange(void **st)
     assert_int_equal(hal_host_net_queued(net[1]), 0);
     for (int i = 0; i < N; i++)
         hal_host_net_close(net[i]);
+}
+
+/* One raw frame from the test's own PUB; `more`: a second frame follows. */
+static void send_raw(void *pub, const void *frame, size_t len, const char *second)
+{
+    assert_true(zmq_send(pub, frame, len, second != NULL ? ZMQ_SNDMORE : 0) >= 0);
+    if (second != NULL)
+        assert_true(zmq_send(pub, second, strlen(second), 0) >= 0);
+}
+
+static void test_foreign_frames_refused(void **st)
+{
+    (void)st;
+    const unsigned base = base_port();
+    hal_host_net_t *n = open_robot(0, base); /* connects to base + 1, where the test publishes */
+    assert_int_equal(hal_host_net_subscribe(n, CH), 0);
+    void *ctx = zmq_ctx_new(), *pub = zmq_socket(ctx, ZMQ_PUB);
+    char ep[64];
+    snprintf(ep, sizeof ep, "tcp://127.0.0.1:%u", base + 1u);
+    assert_int_equal(zmq_bind(pub, ep), 0);
+    static const char two_frames[] = CH "#", no_nul[] = CH "#00000001xyz", bad_topic[] = CH "#zz\0abc";
+    static const char good[] = CH "#\0hello";
+    static uint8_t buf[HAL_NET_MTU_BYTES];
+    int got = 0;
+    /* Until a second batch's good frame came: the first may have gone out half before the
+       connection was up (ZeroMQ's slow joiner), the second went whole after it. */
+    for (int tries = 0; tries < 100 && got < 2; tries++) {
+        send_raw(pub, two_frames, sizeof two_frames - 1u, "hello");
+        send_raw(pub, no_nul, sizeof no_nul - 1u, NULL);
+        send_raw(pub, bad_topic, sizeof bad_topic - 1u, NULL);
+        send_raw(pub, good, sizeof good - 1u, NULL);
+        assert_int_equal(hal_host_net_wait(n, 0, 50), 0);
+        hal_net_rx_info_t info;
+        while (hal_host_net_receive(n, 0, &info, buf, sizeof buf) == 0) {
+            assert_string_equal(info.channel, CH);
+            assert_int_equal(info.len, 5);
+            assert_memory_equal(buf, "hello", 5);
+            got++;
+        }
+    }
+    assert_true(got >= 2);
+    hal_net_stats_t s;
+    hal_host_net_get_stats(n, &s);
+    assert_int_equal(s.rx_messages, (uint64_t)got);
+    assert_true(s.rx_dropped_invalid >= 3u); /* the three foreign shapes, at least once each */
+    zmq_close(pub);
+    zmq_ctx_term(ctx);
+    hal_host_net_close(n);
 }
 
 static void test_keyed_over_zmq(void **st)
@@ -332,6 +383,7 @@ int main(void)
 {
     const struct CMUnitTest tests[] = {
         cmocka_unit_test(test_three_robots_exchange),
+        cmocka_unit_test(test_foreign_frames_refused),
         cmocka_unit_test(test_keyed_over_zmq),
         cmocka_unit_test(test_bad_urls_and_a_taken_port),
         cmocka_unit_test(test_peer_restart_reconnects),
