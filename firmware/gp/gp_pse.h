@@ -268,7 +268,7 @@ typedef struct gp_pse {
     uint64_t round_start_us, completed_us, done_sent_us, sent_us;
     uint64_t pos_sent_us;       /* our last beacon with our position (| 1: 0 is never) */
     uint64_t polled_us;         /* our last poll (for the time we did not run) */
-    uint64_t newcomer_us;       /* the last time a peer was heard for the first time (0: never) */
+    uint64_t newcomer_us;       /* when the latest newcomer (a peer never heard before) was heard; 0: none yet */
     const uint8_t *mine;
     uint32_t next_send;         /* our next chunk not sent yet this round (the send window) */
     uint32_t my_crc32;

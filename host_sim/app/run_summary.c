@@ -23,9 +23,12 @@ void run_summary_fleet(FILE *f, const run_opts_t *o, const sim_image_result_t *r
             (unsigned long long)res->net.rx_unwanted);
     if (post->rounds > 0)
         fprintf(f, "posterior rounds: %u of %u (the fleet's epistemic posterior: %llu B sent, %llu B received, "
-                   "not in traffic.csv)\n",
-                post->done, post->rounds, (unsigned long long)post->sent,
-                (unsigned long long)post->received);
+                   "not in traffic.csv)%s\n",
+                post->done, post->rounds, (unsigned long long)post->sent, (unsigned long long)post->received,
+                /* every robot gives the same position there, so the nearest are the lowest ids */
+                o->fleet > (long long)GP_PSE_MAX_NEIGHBOURS + 1 ? "; NOT the fleet's: beyond the neighbour slots each "
+                                                                   "robot mixed the lowest ids' posteriors only"
+                                                                 : "");
     fprintf(f, "nearest: at most %u neighbour states per round; %llu chunks of peers beyond the radius or the "
                "nearest only placed their sender, %llu states given up for a nearer peer's\n",
             (unsigned)GP_PSE_MAX_NEIGHBOURS, (unsigned long long)p->not_nearest,

@@ -71,6 +71,19 @@ static void test_nearest_of_forty_equal_inproc(void **st)
     if (timeouts != 0 || missed != 0 || full != 0)
         fail_msg("on one core: %llu peer timeouts, %llu states given up, %llu datagrams dropped by full queues "
                  "(all must be 0)", timeouts, missed, full);
+    /* The posterior rounds of a fleet beyond the neighbour slots do not reach the fleet's sum
+       (docs/uncertainty.md): the summary says so rather than letting it pass. */
+    char sp[PATH_MAX + 64], text[8192];
+    snprintf(sp, sizeof sp, "%s/forty/robot_0/summary.txt", fp_env.dir);
+    FILE *sf = fopen(sp, "r");
+    assert_non_null(sf);
+    const size_t got = fread(text, 1, sizeof text - 1u, sf);
+    fclose(sf);
+    text[got] = '\0';
+    const char *line = strstr(text, "posterior rounds:");
+    if (line == NULL || strstr(line, "NOT the fleet's") == NULL)
+        fail_msg("%s does not say that the posterior rounds of %d robots are not the fleet's: %.300s", sp, NPROC,
+                 line != NULL ? line : "(no posterior rounds line)");
     fp_inproc_reference_radius(NPROC, ROUNDS, RADIUS, DEADLINE_S);
     fp_expect_reference_models("forty", NPROC);
     print_message("%d processes on one core, %s rounds, each keeping its %u nearest of %d: %.1f s, no timeout, "
