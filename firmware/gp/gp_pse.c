@@ -540,11 +540,9 @@ void gp_pse_poll(gp_pse_t *p, uint64_t now_us)
            period), or from the round's start when that is later. Not from the start of the
            wait for its RoundComplete: a peer cut off after its state would be timed out a
            second time in the same round. */
-        uint64_t last = p->round_start_us;
-        if (q->heard && q->heard_us > last)
-            last = q->heard_us;
-        if (!q->heard) /* a fleet still forming (gp_pse.h) */
-            last = begun;
+        const uint64_t last = !q->heard                          ? begun /* a fleet still forming (gp_pse.h) */
+                              : q->heard_us > p->round_start_us ? q->heard_us
+                                                                : p->round_start_us;
         const uint64_t timeout = silence_allowed(p, q);
         if (q->heard && timeout > p->stats.timeout_longest_us)
             p->stats.timeout_longest_us = timeout;

@@ -90,7 +90,6 @@ typedef struct zmq_ctx {
     int dirty;
     uint32_t n_chans;
     zmq_chan_t chans[HAL_HOST_NET_MAX_SUBS];
-    char channel[TOPIC_MAX + 1]; /* the receiver thread's */
     uint8_t tx[FRAME_MAX];       /* the publishing thread's frame: topic, NUL, datagram */
     uint8_t rx[FRAME_MAX];       /* the receiver thread's */
 } zmq_ctx_t;
@@ -386,11 +385,11 @@ static int zmq_handle(void *ctx, int timeout_ms)
             hal_host_net_on_datagram(c->n, NULL, NULL, 0); /* counted as invalid */
             continue;
         }
-        const int cl = (int)(nul - c->rx);
-        memcpy(c->channel, c->rx, (size_t)cl + 1u);
-        if (strip_topic(c->channel, cl) != 0)
-            c->channel[0] = '\0'; /* not our topic: refused as such */
-        hal_host_net_on_datagram(c->n, c->channel, c->rx + cl + 1, (size_t)(fl - cl - 1));
+        const int tl = (int)(nul - c->rx);
+        char *channel = (char *)c->rx; /* the topic, stripped to its channel in place */
+        if (strip_topic(channel, tl) != 0)
+            channel[0] = '\0'; /* not our topic: refused as such */
+        hal_host_net_on_datagram(c->n, channel, c->rx + tl + 1, (size_t)(fl - tl - 1));
     }
     return 0;
 }

@@ -23,6 +23,7 @@
 #include <sched.h>
 
 #include "fleet_procs.h"
+#include "run_outputs.h"
 #include "gp/gp_pse.h"
 
 #define NPROC 40
@@ -73,17 +74,16 @@ static void test_nearest_of_forty_equal_inproc(void **st)
                  "(all must be 0)", timeouts, missed, full);
     /* The posterior rounds of a fleet beyond the neighbour slots do not reach the fleet's sum
        (docs/uncertainty.md): the summary says so rather than letting it pass. */
-    char sp[PATH_MAX + 64], text[8192];
+    char sp[PATH_MAX + 64];
     snprintf(sp, sizeof sp, "%s/forty/robot_0/summary.txt", fp_env.dir);
-    FILE *sf = fopen(sp, "r");
-    assert_non_null(sf);
-    const size_t got = fread(text, 1, sizeof text - 1u, sf);
-    fclose(sf);
-    text[got] = '\0';
+    size_t len = 0;
+    char *text = (char *)test_slurp(sp, &len);
+    assert_non_null(text);
     const char *line = strstr(text, "posterior rounds:");
     if (line == NULL || strstr(line, "NOT the fleet's") == NULL)
         fail_msg("%s does not say that the posterior rounds of %d robots are not the fleet's: %.300s", sp, NPROC,
                  line != NULL ? line : "(no posterior rounds line)");
+    free(text);
     fp_inproc_reference_radius(NPROC, ROUNDS, RADIUS, DEADLINE_S);
     fp_expect_reference_models("forty", NPROC);
     print_message("%d processes on one core, %s rounds, each keeping its %u nearest of %d: %.1f s, no timeout, "
