@@ -26,7 +26,7 @@ _Static_assert(GP_PSE_MAX_CHUNK_BYTES + GP_WIRE_CHUNK_HEADER_BYTES <= HAL_NET_MT
                "a chunk and its header fit one datagram");
 _Static_assert(GP_WIRE_REQUEST_BYTES(GP_PSE_MAX_REQUEST) <= HAL_NET_MTU_BYTES, "a request fits one datagram");
 
-static const char *const channel_suffix[4] = {"state", "done", "request", "claim"};
+static const char *const channel_suffix[GP_FLEET_CHANNELS] = {"state", "done", "request", "claim", "resend", "ask"};
 
 gp_fleet_cfg_t gp_fleet_default_cfg(void)
 {
@@ -51,6 +51,15 @@ int gp_fleet_channel_name(uint32_t fleet_id, gp_fleet_channel_t which, char *buf
     return n > 0 && (size_t)n < cap && hal_net_channel_valid(buf) ? 0 : -EINVAL;
 }
 
+int gp_fleet_robot_channel(uint32_t fleet_id, gp_fleet_channel_t which, uint32_t robot, char *buf, size_t cap)
+{
+    if (buf == NULL || (which != GP_FLEET_CH_RESEND && which != GP_FLEET_CH_ASK))
+        return -EINVAL;
+    int n = snprintf(buf, cap, "%s%" PRIu32 "/%s/%" PRIu32, GP_FLEET_CHANNEL_PREFIX, fleet_id, channel_suffix[which],
+                     robot);
+    return n > 0 && (size_t)n < cap && hal_net_channel_valid(buf) ? 0 : -EINVAL;
+}
+
 uint32_t gp_fleet_state_bytes(dinno_codec_t enc)
 {
     const bnn_config_t c = bnn_default_config();
@@ -63,10 +72,12 @@ static int fleet_send(void *ctx, gp_pse_kind_t kind, const void *msg)
     gp_fleet_t *f = ctx;
     int n;
     const char *ch;
+    uint32_t to = GP_PSE_TO_ALL;
     switch (kind) {
     case GP_PSE_CHUNK:
         n = gp_wire_encode_chunk(msg, f->tx, sizeof f->tx);
         ch = f->channel[GP_FLEET_CH_STATE];
+        to = ((const gp_pse_chunk_t *)msg)->to;
         break;
     case GP_PSE_DONE:
         n = gp_wire_encode_done(msg, f->tx, sizeof f->tx);
@@ -75,9 +86,16 @@ static int fleet_send(void *ctx, gp_pse_kind_t kind, const void *msg)
     case GP_PSE_REQUEST:
         n = gp_wire_encode_request(msg, f->tx, sizeof f->tx);
         ch = f->channel[GP_FLEET_CH_REQUEST];
+        to = ((const gp_pse_request_t *)msg)->to;
         break;
     default:
         return -EINVAL;
+    }
+    if (to != GP_PSE_TO_ALL) { /* for one robot alone: on its own channel of the kind */
+        if (gp_fleet_robot_channel(f->cfg.fleet_id, kind == GP_PSE_CHUNK ? GP_FLEET_CH_RESEND : GP_FLEET_CH_ASK, to,
+                                   f->channel_to, sizeof f->channel_to) != 0)
+            return -EINVAL;
+        ch = f->channel_to;
     }
     if (n < 0)
         return n;
@@ -126,6 +144,7 @@ int gp_fleet_init(gp_fleet_t *f, const gp_fleet_cfg_t *cfg)
         .encoding = (uint8_t)cfg->encoding,
         .incarnation = cfg->incarnation,
         .burst = GP_FLEET_SEND_BURST,
+        .addressed = cfg->addressed != 0,
     };
     int r = gp_round_init(&f->drv, &pc, cfg->rounds + cfg->post_rounds);
     if (r != 0)
@@ -135,6 +154,14 @@ int gp_fleet_init(gp_fleet_t *f, const gp_fleet_cfg_t *cfg)
     for (int c = 0; c < (cfg->claims ? 4 : 3); c++) {
         if ((r = gp_fleet_channel_name(cfg->fleet_id, (gp_fleet_channel_t)c, f->channel[c], sizeof f->channel[c])) != 0 ||
             (r = hal_net_subscribe(f->channel[c])) != 0)
+            return r;
+    }
+    for (int c = GP_FLEET_CH_RESEND; c <= GP_FLEET_CH_ASK; c++) {
+        f->channel[c][0] = '\0';
+        if (cfg->addressed &&
+            ((r = gp_fleet_robot_channel(cfg->fleet_id, (gp_fleet_channel_t)c, cfg->self, f->channel[c],
+                                         sizeof f->channel[c])) != 0 ||
+             (r = hal_net_subscribe(f->channel[c])) != 0))
             return r;
     }
     return 0;
@@ -188,7 +215,8 @@ static uint32_t drain(gp_fleet_t *f)
         }
         f->stats.rx_messages++;
         const uint64_t now = net_now();
-        if (strcmp(info.channel, f->channel[GP_FLEET_CH_STATE]) == 0) {
+        if (strcmp(info.channel, f->channel[GP_FLEET_CH_STATE]) == 0 ||
+            (f->cfg.addressed && strcmp(info.channel, f->channel[GP_FLEET_CH_RESEND]) == 0)) {
             gp_pse_chunk_t c;
             if (gp_wire_decode_chunk(f->rx, info.len, &c) != 0)
                 f->stats.rx_undecodable++;
@@ -204,7 +232,8 @@ static uint32_t drain(gp_fleet_t *f)
                 f->stats.own_echoes++;
             else
                 (void)gp_pse_on_done(&f->drv.pse, &d, now);
-        } else if (strcmp(info.channel, f->channel[GP_FLEET_CH_REQUEST]) == 0) {
+        } else if (strcmp(info.channel, f->channel[GP_FLEET_CH_REQUEST]) == 0 ||
+                   (f->cfg.addressed && strcmp(info.channel, f->channel[GP_FLEET_CH_ASK]) == 0)) {
             gp_pse_request_t q;
             if (gp_wire_decode_request(f->rx, info.len, &q) != 0)
                 f->stats.rx_undecodable++;

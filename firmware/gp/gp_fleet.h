@@ -85,7 +85,12 @@ typedef enum gp_fleet_channel {
     GP_FLEET_CH_DONE = 1,
     GP_FLEET_CH_REQUEST = 2,
     GP_FLEET_CH_CLAIM = 3, /* exploring fleets only (gp_fleet_cfg_t.claims) */
+    /* A robot's own channels, in addressed fleets only (gp_fleet_cfg_t.addressed), named
+       PREFIX<fleet>/<suffix>/<robot> (gp_fleet_robot_channel): */
+    GP_FLEET_CH_RESEND = 4, /* chunks re-sent to this robot alone */
+    GP_FLEET_CH_ASK = 5,    /* requests for this robot's chunks */
 } gp_fleet_channel_t;
+#define GP_FLEET_CHANNELS 6
 
 typedef struct gp_fleet_cfg {
     uint32_t fleet_id;
@@ -111,6 +116,11 @@ typedef struct gp_fleet_cfg {
                                         it arrives before the state on an ordered link), seq =
                                         its round; received ones are kept per peer (the newest)
                                         and handed over at our round k for seq <= k. */
+    int addressed;                   /* 1: a request goes to the robot asked alone and a chunk
+                                        sent again to the robot that asked alone, each on that
+                                        robot's own channel (gp_pse_cfg_t's), for a point-to-
+                                        point transport (ZeroMQ). 0: to every robot, on the
+                                        request and state channels (multicast: LCM) */
 } gp_fleet_cfg_t;
 
 /* One round as this robot saw it (traffic counts are the round's own). */
@@ -148,7 +158,8 @@ typedef struct gp_fleet {
     uint32_t state_bytes;
     int final_done;
     int view_filled;                 /* the neighbour view holds the states of the round begun */
-    char channel[4][HAL_NET_CHANNEL_MAX];
+    char channel[GP_FLEET_CHANNELS][HAL_NET_CHANNEL_MAX]; /* CH_RESEND, CH_ASK: our own */
+    char channel_to[HAL_NET_CHANNEL_MAX]; /* the channel of the one robot a message goes to */
     gp_goal_claim_t claim_in[GP_PSE_MAX_FLEET]; /* per peer: its newest claim not handed over yet */
     uint8_t claim_held[GP_PSE_MAX_FLEET];
     /* The peers whose chunks the network delivers (gp_pse_wanted); all of them while
@@ -171,8 +182,13 @@ typedef struct gp_fleet {
 /* One robot alone, round 1, the GP_FLEET_*_DEFAULT encoding and timings. */
 gp_fleet_cfg_t gp_fleet_default_cfg(void);
 
-/* The channel name of `which` for fleet `fleet_id` into buf. 0 or -EINVAL. */
+/* The channel name of `which` (a fleet-wide one: state, done, request, claim) for fleet
+   `fleet_id` into buf. 0 or -EINVAL. */
 FS_MUST_CHECK int gp_fleet_channel_name(uint32_t fleet_id, gp_fleet_channel_t which, char *buf, size_t cap);
+/* Robot `robot`'s own channel `which` (GP_FLEET_CH_RESEND or GP_FLEET_CH_ASK) in fleet
+   `fleet_id` into buf. 0 or -EINVAL. */
+FS_MUST_CHECK int gp_fleet_robot_channel(uint32_t fleet_id, gp_fleet_channel_t which, uint32_t robot, char *buf,
+                                         size_t cap);
 
 /* State bytes of one encoded state of the preset (dinno_codec_bytes; 0 for a bad codec). */
 uint32_t gp_fleet_state_bytes(dinno_codec_t enc);

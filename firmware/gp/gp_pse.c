@@ -22,22 +22,30 @@ static uint32_t chunk_len(const gp_pse_t *p, uint32_t chunk)
 }
 
 /* sent_us is the last message every peer hears: a chunk is not one (a peer that does not keep
-   our state has its network drop our chunks, gp_pse_wanted), so a robot busy re-sending chunks
-   still beacons every resend period, or the peers that filter them would see it silent. */
+   our state has its network drop our chunks, gp_pse_wanted), nor is an addressed request, so a
+   robot busy re-sending or asking still beacons every resend period, or the peers that do not
+   get those would see it silent. */
 static void send_msg(gp_pse_t *p, gp_pse_kind_t kind, const void *msg, uint64_t now_us)
 {
     if (p->cfg.send(p->cfg.send_ctx, kind, msg) != 0)
         p->stats.send_failures++;
-    if (kind != GP_PSE_CHUNK)
+    if (kind == GP_PSE_DONE || (kind == GP_PSE_REQUEST && ((const gp_pse_request_t *)msg)->to == GP_PSE_TO_ALL))
         p->sent_us = now_us;
 }
 
-static void send_chunk(gp_pse_t *p, uint32_t chunk, uint64_t now_us)
+/* Who a request naming chunks of peer `target` goes to. */
+static uint32_t request_to(const gp_pse_t *p, uint32_t target)
+{
+    return p->cfg.addressed ? target : GP_PSE_TO_ALL;
+}
+
+/* Chunk `chunk` of our state to `to` (GP_PSE_TO_ALL: every peer). */
+static void send_chunk(gp_pse_t *p, uint32_t chunk, uint32_t to, uint64_t now_us)
 {
     const uint32_t n = chunk_len(p, chunk);
     const gp_pse_chunk_t c = {p->cfg.self, p->round, chunk, p->n_chunks, p->cfg.state_bytes, p->my_crc32,
                               p->x_m, p->y_m, n, p->mine + (size_t)chunk * p->cfg.chunk_bytes,
-                              p->cfg.encoding, p->cfg.incarnation};
+                              p->cfg.encoding, p->cfg.incarnation, to};
     send_msg(p, GP_PSE_CHUNK, &c, now_us);
     p->stats.chunks_sent++;
     p->stats.bytes_sent += n;
@@ -57,7 +65,7 @@ int gp_pse_init(gp_pse_t *p, const gp_pse_cfg_t *c)
         c->chunk_bytes < GP_PSE_MIN_CHUNK_BYTES || c->chunk_bytes > GP_PSE_MAX_CHUNK_BYTES ||
         !isfinite(c->radius_m) || c->resend_after_us == 0 || c->peer_timeout_us <= c->resend_after_us ||
         (c->join_timeout_us != 0 && c->join_timeout_us < c->peer_timeout_us) ||
-        c->encoding >= GP_PSE_ENCODINGS)
+        c->encoding >= GP_PSE_ENCODINGS || c->addressed > 1u)
         return -EINVAL;
     memset(&p->stats, 0, sizeof p->stats);
     p->cfg = *c;
@@ -96,13 +104,13 @@ static void send_window(gp_pse_t *p, uint64_t now_us)
     const uint32_t end = p->cfg.burst == 0 || p->n_chunks - p->next_send < p->cfg.burst ? p->n_chunks
                                                                                         : p->next_send + p->cfg.burst;
     for (; p->next_send < end; p->next_send++)
-        send_chunk(p, p->next_send, now_us);
+        send_chunk(p, p->next_send, GP_PSE_TO_ALL, now_us);
 }
 
 /* "I am in round `round`", with our position when it is the round we are in. */
 static void send_beacon(gp_pse_t *p, uint32_t round, uint64_t now_us)
 {
-    gp_pse_request_t beacon = {p->cfg.self, p->cfg.self, round, 0, {0}, p->cfg.incarnation, 0, 0.0, 0.0};
+    gp_pse_request_t beacon = {p->cfg.self, p->cfg.self, round, 0, {0}, p->cfg.incarnation, 0, 0.0, 0.0, GP_PSE_TO_ALL};
     if (p->in_round && round == p->round) {
         beacon.has_position = 1;
         beacon.x_m = p->x_m;
@@ -397,16 +405,19 @@ int gp_pse_on_request(gp_pse_t *p, const gp_pse_request_t *r, uint64_t now_us)
        beacon goes first, since a peer that does not take our state never sees the chunk. */
     if (r->chunks[0] == 0u && now_us - p->pos_sent_us >= p->cfg.resend_after_us / 2u)
         send_beacon(p, p->round, now_us);
-    /* A resend reaches every peer (multicast): one per chunk per half resend period serves
-       all the peers that asked for it meanwhile, instead of a storm of copies. */
+    /* Multicast: a resend reaches every peer, so one per chunk per half resend period serves
+       all the peers that asked for it meanwhile, instead of a storm of copies. Addressed: each
+       requester gets its own (its requests are paced by its backoff), and nobody else one. */
     for (uint32_t i = 0; i < r->n; i++) {
         const uint32_t c = r->chunks[i];
-        if (p->resent_at[c] != 0 && now_us - p->resent_at[c] < p->cfg.resend_after_us / 2u) {
-            p->stats.resends_merged++;
-            continue;
+        if (!p->cfg.addressed) {
+            if (p->resent_at[c] != 0 && now_us - p->resent_at[c] < p->cfg.resend_after_us / 2u) {
+                p->stats.resends_merged++;
+                continue;
+            }
+            p->resent_at[c] = now_us | 1u;
         }
-        p->resent_at[c] = now_us | 1u;
-        send_chunk(p, c, now_us);
+        send_chunk(p, c, p->cfg.addressed ? r->requester : GP_PSE_TO_ALL, now_us);
         p->stats.chunks_resent++;
     }
     p->stats.requests_answered++;
@@ -429,7 +440,7 @@ static int waiting_for(const gp_pse_t *p, uint32_t i)
 /* Asks peer i for the chunks of its round-k state we still miss. */
 static void ask_again(gp_pse_t *p, uint32_t i, gp_pse_buf_t *b, uint64_t now_us)
 {
-    gp_pse_request_t r = {p->cfg.self, i, p->round, 0, {0}, p->cfg.incarnation, 1, p->x_m, p->y_m};
+    gp_pse_request_t r = {p->cfg.self, i, p->round, 0, {0}, p->cfg.incarnation, 1, p->x_m, p->y_m, request_to(p, i)};
     for (uint32_t k = 0; k < p->n_chunks && r.n < GP_PSE_MAX_REQUEST; k++)
         if (!(b->have[k] & GP_PSE_HAVE)) {
             b->have[k] = GP_PSE_ASKED;
@@ -567,7 +578,8 @@ void gp_pse_poll(gp_pse_t *p, uint64_t now_us)
             ask_again(p, i, b, now_us);
         } else if (!gp_pse_pos_known(q, p->round) && now_us - p->round_start_us >= p->cfg.resend_after_us &&
                    (q->pos_backoff == 0 || now_us - q->asked_us >= ask_after(p, q->pos_backoff))) {
-            const gp_pse_request_t r = {p->cfg.self, i, p->round, 1, {0}, p->cfg.incarnation, 1, p->x_m, p->y_m};
+            const gp_pse_request_t r = {p->cfg.self, i, p->round, 1, {0}, p->cfg.incarnation, 1, p->x_m, p->y_m,
+                                        request_to(p, i)};
             send_msg(p, GP_PSE_REQUEST, &r, now_us);
             p->stats.requests_sent++;
             p->stats.chunks_requested++;

@@ -122,7 +122,12 @@ typedef struct gp_pse_chunk {
     const uint8_t *data;
     uint8_t encoding;        /* the fleet's (from gp_pse_cfg_t) */
     uint32_t incarnation;    /* the sender's start count (from gp_pse_cfg_t) */
+    uint32_t to;             /* GP_PSE_TO_ALL, or the one peer a resend is for (with
+                                cfg.addressed). Not on the wire: the transport carries it
+                                (gp_fleet: the requester's own resend channel) */
 } gp_pse_chunk_t;
+
+#define GP_PSE_TO_ALL UINT32_MAX
 
 /* RoundComplete (fleetsim.round_complete_t). */
 typedef struct gp_pse_done {
@@ -139,6 +144,9 @@ typedef struct gp_pse_request {
     uint32_t incarnation;    /* the requester's */
     uint8_t has_position;    /* 1: x_m, y_m are the requester's position for `round` */
     double x_m, y_m;
+    uint32_t to;             /* GP_PSE_TO_ALL, or the target alone (a request naming chunks, with
+                                cfg.addressed). Not on the wire, as for a chunk (gp_fleet: the
+                                target's own request channel) */
 } gp_pse_request_t;
 
 /* Sends one message (msg points to the struct of `kind`). 0, or a negative code (counted:
@@ -175,6 +183,16 @@ typedef struct gp_pse_cfg {
     uint32_t incarnation;       /* ours, carried in our chunks */
     uint32_t burst;             /* chunks sent by begin_round, then as many by each poll (a send
                                    window that lets the receivers keep up); 0: all at once */
+    uint8_t addressed;          /* 1: a request naming chunks goes to its target alone and
+                                   the chunks sent again to the peer that asked alone (their
+                                   `to`), for a point-to-point transport (ZeroMQ), where a copy
+                                   for everyone is one copy per connection and the others would
+                                   only drop it; what every peer must hear (beacons, positions,
+                                   RoundCompletes) still goes to everyone, and as often, since
+                                   an addressed request does not count as speaking to the fleet.
+                                   0: everything to everyone, one resend per chunk per half
+                                   resend period answering all who asked meanwhile (multicast:
+                                   LCM, one datagram for all) */
 } gp_pse_cfg_t;
 
 typedef struct gp_pse_stats {

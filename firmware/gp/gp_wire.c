@@ -256,6 +256,7 @@ int gp_wire_decode_chunk(const uint8_t *buf, size_t len, gp_pse_chunk_t *out)
         c.chunk >= c.n_chunks || c.state_bytes < 1 || c.state_bytes > GP_PSE_MAX_STATE_BYTES ||
         c.n_bytes > GP_PSE_MAX_CHUNK_BYTES || c.n_bytes > c.state_bytes)
         return -EBADMSG;
+    c.to = GP_PSE_TO_ALL; /* not on the wire: the channel it came on says */
     *out = c;
     return 0;
 }
@@ -294,6 +295,7 @@ int gp_wire_decode_request(const uint8_t *buf, size_t len, gp_pse_request_t *out
     for (uint32_t i = 0; i < r.n; i++)
         if (!NONNEG(r.chunks[i]))
             return -EBADMSG;
+    r.to = GP_PSE_TO_ALL; /* not on the wire: the channel it came on says */
     *out = r;
     return 0;
 }

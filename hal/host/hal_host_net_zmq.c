@@ -27,7 +27,9 @@
  * invalid). A process of a build before these topics is not heard (one fleet,
  * one build), and a channel must be typed (hal_host_net_expect_type) at its publishers as at
  * its receivers, or its datagrams carry no sender and a narrowed receiver never gets them
- * (host_sim types the fleet channels on every robot alike). Subscriptions cross TCP
+ * (host_sim types the fleet channels on every robot alike; a robot's resend channel is typed
+ * at that robot only, and never narrowed, so "CHANNEL#" reaches it from every publisher).
+ * Subscriptions cross TCP
  * asynchronously: for a moment after a change what was in flight still arrives (hal_host_net.c's
  * filter drops it) and a newly wanted sender's datagrams may be missed (recovered like any
  * loss).

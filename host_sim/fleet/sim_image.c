@@ -54,6 +54,18 @@ static int join_fleet(hal_host_t *h, const gp_fleet_cfg_t *fc, char *err, size_t
             return rc;
         }
     }
+    for (int c = GP_FLEET_CH_RESEND; fc->addressed && c <= GP_FLEET_CH_ASK; c++) {
+        /* our own channels are typed here; the others' we only publish on */
+        char ch[HAL_NET_CHANNEL_MAX];
+        int rc = gp_fleet_robot_channel(fc->fleet_id, (gp_fleet_channel_t)c, fc->self, ch, sizeof ch);
+        if (rc == 0)
+            rc = hal_host_net_expect_type(net, ch,
+                                          c == GP_FLEET_CH_RESEND ? HAL_HOST_MSG_STATE_CHUNK : HAL_HOST_MSG_CHUNK_REQUEST);
+        if (rc < 0) {
+            snprintf(err, errlen, "image: robot channels not set up (%d)", rc);
+            return rc;
+        }
+    }
     int rc = gp_fleet_init(fw_robot_fleet(), fc);
     if (rc < 0)
         snprintf(err, errlen, "image: fleet membership refused (%d): robot %u of %u, %u rounds", rc, fc->self,

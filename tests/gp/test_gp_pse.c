@@ -71,6 +71,13 @@ static void deliver_one(const msg_t *m, int to, uint64_t now)
         (void)gp_pse_on_request(&eng[to], &m->req, now);
 }
 
+/* 1 when message m goes to peer `to`: everyone, or its one addressee (an addressed fleet). */
+static int addressed_to(const msg_t *m, int to)
+{
+    const uint32_t only = m->kind == GP_PSE_CHUNK ? m->chunk.to : m->kind == GP_PSE_REQUEST ? m->req.to : GP_PSE_TO_ALL;
+    return only == GP_PSE_TO_ALL || only == (uint32_t)to;
+}
+
 /* Delivers what is queued (and what that makes the peers send) to every other peer, unless
  * drop(m, to) says the copy to `to` is lost. */
 typedef int (*drop_fn)(const msg_t *m, int to);
@@ -83,16 +90,18 @@ static void deliver(uint64_t now, drop_fn drop)
         qn = 0;
         for (int i = 0; i < n; i++)
             for (int to = 0; to < N; to++)
-                if (to != batch[i].from && !(drop && drop(&batch[i], to)))
+                if (to != batch[i].from && !(drop && drop(&batch[i], to)) && addressed_to(&batch[i], to))
                     deliver_one(&batch[i], to, now);
     }
 }
 
+static int chunk2_dropped; /* drop_chunk2_of_1's count */
 static void start(double radius)
 {
     qn = 0;
+    chunk2_dropped = 0;
     for (int i = 0; i < N; i++) {
-        gp_pse_cfg_t c = {(uint32_t)i, N, STATE_BYTES, CHUNK, radius, RESEND, TIMEOUT, 0, net_send, &sender_id[i], 0, 0, 0};
+        gp_pse_cfg_t c = {(uint32_t)i, N, STATE_BYTES, CHUNK, radius, RESEND, TIMEOUT, 0, net_send, &sender_id[i], 0, 0, 0, 0};
         assert_int_equal(gp_pse_init(&eng[i], &c), 0);
         for (int r = 0; r < 2; r++)
             for (uint32_t b = 0; b < STATE_BYTES; b++)
@@ -148,9 +157,8 @@ static void test_no_loss_two_rounds(void **st)
 static int drop_chunk2_of_1(const msg_t *m, int to)
 {
     (void)to;
-    static int dropped;
-    if (m->kind == GP_PSE_CHUNK && m->from == 1 && m->chunk.chunk == 2 && dropped < 2) {
-        dropped++;
+    if (m->kind == GP_PSE_CHUNK && m->from == 1 && m->chunk.chunk == 2 && chunk2_dropped < 2) {
+        chunk2_dropped++;
         return 1;
     }
     return 0;
@@ -368,7 +376,7 @@ static void test_invalid_messages_change_nothing(void **st)
     begin(0, 0, 0);
     qn = 0;
     static uint8_t junk[CHUNK];
-    const gp_pse_chunk_t good = {1, 0, 0, 5, STATE_BYTES, 123, 1.0, 0.0, CHUNK, junk, 0, 0};
+    const gp_pse_chunk_t good = {1, 0, 0, 5, STATE_BYTES, 123, 1.0, 0.0, CHUNK, junk, 0, 0, GP_PSE_TO_ALL};
     gp_pse_chunk_t c = good;
     c.sender = N;
     assert_int_equal(gp_pse_on_chunk(&eng[0], &c, 0), -EBADMSG);
@@ -390,7 +398,7 @@ static void test_invalid_messages_change_nothing(void **st)
     c = good;
     c.round = 5; /* beyond k + 1 */
     assert_int_equal(gp_pse_on_chunk(&eng[0], &c, 0), -EAGAIN);
-    gp_pse_request_t r = {1, N, 0, 1, {0}, 0, 0, 0.0, 0.0};
+    gp_pse_request_t r = {1, N, 0, 1, {0}, 0, 0, 0.0, 0.0, GP_PSE_TO_ALL};
     assert_int_equal(gp_pse_on_request(&eng[0], &r, 0), -EBADMSG); /* to a peer outside the fleet */
     r.target = 0;
     r.chunks[0] = 99;
@@ -412,7 +420,7 @@ static void test_encodings(void **st)
     static uint8_t junk[CHUNK];
     for (uint32_t e = 0; e <= GP_PSE_ENCODINGS; e++) {
         qn = 0;
-        gp_pse_cfg_t c = {0, N, STATE_BYTES, CHUNK, 0.0, RESEND, TIMEOUT, 0, net_send, &sender_id[0], (uint8_t)e, 0, 0};
+        gp_pse_cfg_t c = {0, N, STATE_BYTES, CHUNK, 0.0, RESEND, TIMEOUT, 0, net_send, &sender_id[0], (uint8_t)e, 0, 0, 0};
         if (e == GP_PSE_ENCODINGS) {
             assert_int_equal(gp_pse_init(&eng[0], &c), -EINVAL);
             c.encoding = 255;
@@ -427,7 +435,7 @@ static void test_encodings(void **st)
                 assert_int_equal(q[i].chunk.encoding, e);
         qn = 0;
         for (uint32_t o = 0; o < GP_PSE_ENCODINGS; o++) {
-            const gp_pse_chunk_t ch = {1, 0, o, 5, STATE_BYTES, 123, 1.0, 0.0, CHUNK, junk, (uint8_t)o, 0};
+            const gp_pse_chunk_t ch = {1, 0, o, 5, STATE_BYTES, 123, 1.0, 0.0, CHUNK, junk, (uint8_t)o, 0, GP_PSE_TO_ALL};
             assert_int_equal(gp_pse_on_chunk(&eng[0], &ch, 0), o == e ? 0 : -EBADMSG);
         }
         assert_int_equal(eng[0].stats.invalid, GP_PSE_ENCODINGS - 1u);
@@ -442,7 +450,7 @@ static uint8_t forged_bytes[CHUNK];
 static gp_pse_chunk_t forged_chunk(uint32_t chunk)
 {
     memset(forged_bytes, 0xA5, sizeof forged_bytes);
-    return (gp_pse_chunk_t){1, 0, chunk, 5, STATE_BYTES, 0xdeadbeefu, 1.0, 0.0, CHUNK, forged_bytes, 0, 0};
+    return (gp_pse_chunk_t){1, 0, chunk, 5, STATE_BYTES, 0xdeadbeefu, 1.0, 0.0, CHUNK, forged_bytes, 0, 0, GP_PSE_TO_ALL};
 }
 
 /* Lets everything through, but slips a forged chunk 3 of peer 1 to peer 0 just before peer 1's
@@ -512,7 +520,8 @@ static void test_requests_for_one_chunk_merge(void **st)
     for (int i = 0; i < N; i++)
         begin(i, 0, 0);
     qn = 0; /* every chunk of round 0 lost */
-    const gp_pse_request_t r1 = {1, 0, 0, 1, {2}, 0, 0, 0.0, 0.0}, r2 = {2, 0, 0, 1, {2}, 0, 0, 0.0, 0.0};
+    const gp_pse_request_t r1 = {1, 0, 0, 1, {2}, 0, 0, 0.0, 0.0, GP_PSE_TO_ALL},
+                           r2 = {2, 0, 0, 1, {2}, 0, 0, 0.0, 0.0, GP_PSE_TO_ALL};
     assert_int_equal(gp_pse_on_request(&eng[0], &r1, 10), 0);
     assert_int_equal(gp_pse_on_request(&eng[0], &r2, 20), 0);
     assert_int_equal(qn, 1);
@@ -521,6 +530,48 @@ static void test_requests_for_one_chunk_merge(void **st)
     assert_int_equal(gp_pse_on_request(&eng[0], &r2, 20 + RESEND), 0);
     assert_int_equal(qn, 2);
     assert_int_equal(eng[0].stats.chunks_resent, 2);
+}
+
+/* An addressed fleet (a point-to-point transport): peers 0 and 2 both lost a chunk of peer 1;
+ * each asks peer 1 alone, and peer 1 sends the chunk to each of them on its own, not merged,
+ * and to nobody else; both end with the whole state. */
+static void test_addressed_requests_and_resends(void **st)
+{
+    (void)st;
+    start(0.0);
+    for (int i = 0; i < N; i++) {
+        gp_pse_cfg_t c = eng[i].cfg;
+        c.addressed = 1;
+        assert_int_equal(gp_pse_init(&eng[i], &c), 0);
+        begin(i, 0, 0);
+    }
+    deliver(0, drop_chunk2_of_1);
+    for (int i = 0; i < N; i++)
+        gp_pse_poll(&eng[i], RESEND);
+    assert_int_equal(eng[0].stats.requests_sent + eng[2].stats.requests_sent, 2);
+    static msg_t asked[QMAX];
+    const int n_asked = qn;
+    memcpy(asked, q, sizeof(msg_t) * (size_t)qn);
+    qn = 0;
+    for (int i = 0; i < n_asked; i++) /* peer 1 hears both requests within a tick */
+        if (asked[i].kind == GP_PSE_REQUEST && asked[i].req.n > 0) {
+            assert_int_equal(asked[i].req.target, 1);
+            assert_int_equal(asked[i].req.to, 1);
+            deliver_one(&asked[i], 1, RESEND + (uint64_t)i);
+        }
+    uint32_t to_seen = 0;
+    for (int i = 0; i < qn; i++)
+        if (q[i].kind == GP_PSE_CHUNK) {
+            assert_int_equal(q[i].chunk.chunk, 2);
+            assert_true(q[i].chunk.to == 0u || q[i].chunk.to == 2u);
+            to_seen |= 1u << q[i].chunk.to;
+        }
+    assert_int_equal(to_seen, (1u << 0) | (1u << 2));
+    assert_int_equal(eng[1].stats.chunks_resent, 2);
+    assert_int_equal(eng[1].stats.resends_merged, 0);
+    deliver(RESEND, NULL);
+    check_states(0);
+    assert_int_equal(eng[0].stats.duplicates + eng[2].stats.duplicates, 0); /* one copy each */
 }
 
 /* The handed-out buffers (gp_pse.h): once gp_pse_neighbours() gave round k's states out, no
@@ -548,14 +599,14 @@ static int lone_chunk(uint32_t from, uint32_t inc, uint32_t round, uint32_t chun
     const uint32_t n_chunks = (STATE_BYTES + CHUNK - 1u) / CHUNK, off = chunk * CHUNK;
     const uint32_t len = STATE_BYTES - off < CHUNK ? STATE_BYTES - off : CHUNK;
     const gp_pse_chunk_t c = {from, round, chunk, n_chunks, STATE_BYTES, crc32_ieee(bytes, STATE_BYTES), x, 0.0,
-                              len, bytes + off, 0, inc};
+                              len, bytes + off, 0, inc, GP_PSE_TO_ALL};
     return gp_pse_on_chunk(&lone, &c, now);
 }
 
 static void test_handed_out_buffers_are_not_written(void **st)
 {
     (void)st;
-    const gp_pse_cfg_t c = {0, LONE_N, STATE_BYTES, CHUNK, 0.0, RESEND, TIMEOUT, 0, lone_send, NULL, 0, 0, 0};
+    const gp_pse_cfg_t c = {0, LONE_N, STATE_BYTES, CHUNK, 0.0, RESEND, TIMEOUT, 0, lone_send, NULL, 0, 0, 0, 0};
     assert_int_equal(gp_pse_init(&lone, &c), 0);
     const uint32_t n_chunks = (STATE_BYTES + CHUNK - 1u) / CHUNK;
     for (uint32_t i = 0; i < LONE_N; i++)
@@ -608,6 +659,7 @@ int main(void)
 {
     const struct CMUnitTest tests[] = {
         cmocka_unit_test(test_requests_for_one_chunk_merge),
+        cmocka_unit_test(test_addressed_requests_and_resends),
         cmocka_unit_test(test_no_loss_two_rounds),
         cmocka_unit_test(test_lost_chunk_is_asked_for_again),
         cmocka_unit_test(test_duplicated_and_reordered),

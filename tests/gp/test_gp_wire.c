@@ -25,7 +25,7 @@ static void test_same_as_lcm_gen(void **st)
     assert_int_equal((uint64_t)__fleetsim_chunk_request_t_get_hash(), GP_WIRE_FP_CHUNK_REQUEST);
     for (size_t i = 0; i < sizeof data; i++)
         data[i] = (uint8_t)(i * 13u);
-    const gp_pse_chunk_t c = {3, 41, 2, 5, 12000, 0xCAFEBABEu, 1.25, -7.5, 3000, data, 1, 9};
+    const gp_pse_chunk_t c = {3, 41, 2, 5, 12000, 0xCAFEBABEu, 1.25, -7.5, 3000, data, 1, 9, GP_PSE_TO_ALL};
     const int n = gp_wire_encode_chunk(&c, mine, sizeof mine);
     fleetsim_state_chunk_t l = {3, 41, 2, 5, 12000, 1, (int32_t)0xCAFEBABEu, 1.25, -7.5, 9, 3000, data};
     assert_int_equal(fleetsim_state_chunk_t_encode(theirs, 0, (int)sizeof theirs, &l), n);
@@ -44,7 +44,7 @@ static void test_same_as_lcm_gen(void **st)
     assert_int_equal(fleetsim_round_complete_t_encode(theirs, 0, (int)sizeof theirs, &ld), nd);
     assert_memory_equal(mine, theirs, (size_t)nd);
 
-    gp_pse_request_t r = {1, 2, 8, 3, {0, 4, 6}, 5, 1, 2.5, -1.25};
+    gp_pse_request_t r = {1, 2, 8, 3, {0, 4, 6}, 5, 1, 2.5, -1.25, GP_PSE_TO_ALL};
     int32_t ch[3] = {0, 4, 6};
     fleetsim_chunk_request_t lr = {1, 2, 8, 5, 1, 2.5, -1.25, 3, ch};
     const int nr = gp_wire_encode_request(&r, mine, sizeof mine);
@@ -72,7 +72,7 @@ static void put32(uint8_t *p, uint32_t v)
 static void test_crafted_refused(void **st)
 {
     (void)st;
-    const gp_pse_chunk_t c = {3, 41, 2, 5, 12000, 1, 0.0, 0.0, 100, data, 0, 0};
+    const gp_pse_chunk_t c = {3, 41, 2, 5, 12000, 1, 0.0, 0.0, 100, data, 0, 0, GP_PSE_TO_ALL};
     const int n = gp_wire_encode_chunk(&c, mine, sizeof mine);
     gp_pse_chunk_t out;
     memset(&out, 0x5A, sizeof out);
@@ -97,7 +97,7 @@ static void test_crafted_refused(void **st)
     assert_int_equal(gp_wire_decode_chunk(mine, (size_t)n, &out), -EBADMSG);
     mine[0] ^= 1;
     assert_memory_equal(&out, &before, sizeof out); /* untouched by every refusal */
-    gp_pse_request_t r = {1, 2, 8, 1, {3}, 0, 0, 0.0, 0.0};
+    gp_pse_request_t r = {1, 2, 8, 1, {3}, 0, 0, 0.0, 0.0, GP_PSE_TO_ALL};
     const int nr = gp_wire_encode_request(&r, mine, sizeof mine);
     put32(mine + 41, 0x7FFFFFFFu); /* n_chunks = INT_MAX (after the fingerprint, 4 ints and the position) */
     gp_pse_request_t rb;
@@ -113,7 +113,7 @@ static void test_fuzz(void **st)
     (void)st;
     uint64_t x = 0x243F6A8885A308D3ull;
     int passed = 0;
-    const gp_pse_chunk_t c = {1, 2, 0, 3, 300, 5, 0.5, 0.5, 100, data, 0, 1};
+    const gp_pse_chunk_t c = {1, 2, 0, 3, 300, 5, 0.5, 0.5, 100, data, 0, 1, GP_PSE_TO_ALL};
     const int n = gp_wire_encode_chunk(&c, mine, sizeof mine);
     for (int it = 0; it < 30000; it++) {
         memcpy(theirs, mine, (size_t)n);

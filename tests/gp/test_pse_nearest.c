@@ -36,7 +36,7 @@ static int capture(void *ctx, gp_pse_kind_t kind, const void *m)
 
 static void start(double radius)
 {
-    const gp_pse_cfg_t c = {0, N, STATE_BYTES, CHUNK, radius, RESEND, TIMEOUT, 0, capture, NULL, 0, 0, 0};
+    const gp_pse_cfg_t c = {0, N, STATE_BYTES, CHUNK, radius, RESEND, TIMEOUT, 0, capture, NULL, 0, 0, 0, 0};
     assert_int_equal(gp_pse_init(&eng, &c), 0);
     n_asked = 0;
     memset(mine, 7, sizeof mine);
@@ -48,7 +48,7 @@ static int chunk_from(uint32_t i, uint32_t round, uint32_t chunk, double x, uint
 {
     const uint32_t off = chunk * CHUNK, n = STATE_BYTES - off < CHUNK ? STATE_BYTES - off : CHUNK;
     const gp_pse_chunk_t c = {i, round, chunk, 2, STATE_BYTES, crc32_ieee(theirs, STATE_BYTES), x, 0.0, n,
-                              theirs + off, 0, 0};
+                              theirs + off, 0, 0, GP_PSE_TO_ALL};
     return gp_pse_on_chunk(&eng, &c, now);
 }
 
@@ -172,7 +172,7 @@ static void test_a_peer_never_heard_is_asked_where_it_is(void **st)
         whole_state_from(i, 0, 100.0, 10); /* all out of reach */
     /* Peer 1 is in round 0 (its request to peer 2, which does not say where it is), but its
        positioned beacon and every chunk of it were lost. */
-    const gp_pse_request_t other = {1, 2, 0, 1, {0}, 0, 0, 0.0, 0.0};
+    const gp_pse_request_t other = {1, 2, 0, 1, {0}, 0, 0, 0.0, 0.0, GP_PSE_TO_ALL};
     assert_int_equal(gp_pse_on_request(&eng, &other, 10), 0);
     gp_pse_poll(&eng, 20);
     assert_int_equal(n_asked, 0); /* within a resend period of the round's start: in flight */

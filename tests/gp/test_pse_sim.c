@@ -82,6 +82,8 @@ typedef struct schedule {
     uint64_t crash_at, restart_after; /* restart_after 0: stays down */
     uint64_t stagger_us;        /* robot i starts i x this late (a fleet whose processes take
                                    longer to start than the join timeout); 0: all at once */
+    uint8_t addressed;          /* 1: requests go to their target, resends to their requester
+                                   alone (point to point) */
 } schedule_t;
 
 /* From the first robot's start to the last one's: a first round may wait that much longer. */
@@ -143,7 +145,7 @@ static const schedule_t *cur;
 typedef struct totals {
     uint64_t schedules, loss_only, sent, dropped, duplicated, corrupted, late, partitioned, overflow;
     uint64_t pauses, crashes, restarts, timeouts, rejoins, skipped, cut, missed, crc, old_inc, used;
-    uint64_t big, nearest_checked, beyond_slots, evictions, staggered;
+    uint64_t big, nearest_checked, beyond_slots, evictions, staggered, addressed;
 } totals_t;
 static totals_t tot;
 
@@ -181,9 +183,12 @@ static void enqueue(const dgram_t *d)
 static int net_send(void *ctx, gp_pse_kind_t kind, const void *m)
 {
     const int from = *(const int *)ctx;
+    const uint32_t only = kind == GP_PSE_CHUNK     ? ((const gp_pse_chunk_t *)m)->to
+                          : kind == GP_PSE_REQUEST ? ((const gp_pse_request_t *)m)->to
+                                                   : GP_PSE_TO_ALL; /* addressed: one robot's */
     tot.sent++;
     for (int to = 0; to < cur->n; to++) {
-        if (to == from)
+        if (to == from || (only != GP_PSE_TO_ALL && only != (uint32_t)to))
             continue;
         if (partitioned(from, to)) {
             tot.partitioned++;
@@ -289,7 +294,7 @@ static void init_model(robot_t *r)
 static void start_engine(robot_t *r)
 {
     gp_pse_cfg_t c = {(uint32_t)r->id, (uint32_t)cur->n, STATE_BYTES, CHUNK, cur->radius, RESEND_US, TIMEOUT_US,
-                      JOIN_US, net_send, &rob_ctx[r->id], 0, r->incarnation, 1};
+                      JOIN_US, net_send, &rob_ctx[r->id], 0, r->incarnation, 1, cur->addressed};
     assert_int_equal(gp_round_init(&r->drv, &c, (uint32_t)cur->rounds), 0);
     r->timing = 0;
 }
@@ -487,12 +492,12 @@ static void run(const schedule_t *s, uint8_t out[MAXN][STATE_BYTES], uint64_t *t
     if (trace)
         fprintf(stderr, "schedule %llu: %d robots, %d rounds, radius %g, drop %g dup %g corrupt %g late %g delay %llu us; "
                         "partition %d (split %d, %.3f..%.3f s); pause robot %d (%.3f s for %.3f s); crash robot %d "
-                        "(%.3f s, restart after %.3f s); starts %.3f s apart\n",
+                        "(%.3f s, restart after %.3f s); starts %.3f s apart; resends %s\n",
                 (unsigned long long)s->seed, s->n, s->rounds, s->radius, s->drop, s->dup, s->corrupt, s->late,
                 (unsigned long long)s->delay_us, s->partition, s->split, (double)s->p_from * 1e-6,
                 (double)s->p_until * 1e-6, s->pause_robot, (double)s->pause_from * 1e-6, (double)s->pause_len * 1e-6,
                 s->crash_robot, (double)s->crash_at * 1e-6, (double)s->restart_after * 1e-6,
-                (double)s->stagger_us * 1e-6);
+                (double)s->stagger_us * 1e-6, s->addressed ? "addressed" : "multicast");
     qn = 0;
     seq = 0;
     now_us = 0;
@@ -640,6 +645,9 @@ static void draw(uint64_t seed, schedule_t *s)
         if (s->drop > 0.2)
             s->drop = 0.2;
     }
+    /* Half of them over a point-to-point network (ZeroMQ): a request goes to its target only,
+       a resend to its requester only. Drawn last, as above. */
+    s->addressed = (uint8_t)(rnd_below(2) == 0);
 }
 
 static uint64_t env_u64(const char *name, uint64_t dflt)
@@ -663,6 +671,7 @@ static void check_schedule(uint64_t seed)
     tot.schedules++;
     tot.big += s.n >= (int)BIG_N_MIN;
     tot.staggered += s.stagger_us != 0;
+    tot.addressed += s.addressed;
     uint64_t timeouts = 0, cut = 0;
     run(&s, got_model, &timeouts, &cut);
     if (!loss_only(&s))
@@ -695,9 +704,10 @@ static void test_seeded_schedules(void **st)
     for (uint64_t i = 0; i < n; i++)
         check_schedule(one ? one : base + i);
     print_message("pse_sim: %llu schedules (%llu loss only, %llu with pauses, %llu crashes, %llu restarts, %llu "
-                  "starting one robot at a time), seeds %llu..%llu\n",
+                  "starting one robot at a time, %llu addressed), seeds %llu..%llu\n",
                   (unsigned long long)tot.schedules, (unsigned long long)tot.loss_only, (unsigned long long)tot.pauses,
                   (unsigned long long)tot.crashes, (unsigned long long)tot.restarts, (unsigned long long)tot.staggered,
+                  (unsigned long long)tot.addressed,
                   (unsigned long long)(one ? one : base), (unsigned long long)(one ? one : base + n - 1u));
     print_message("pse_sim: injected: %llu sends, %llu copies dropped, %llu duplicated, %llu corrupted, %llu late, "
                   "%llu cut by partitions, %llu lost to a full network\n",

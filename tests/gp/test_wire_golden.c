@@ -91,9 +91,9 @@ static void test_chunk_bytes(void **st)
 {
     (void)st;
     fill_data();
-    const gp_pse_chunk_t c1 = {3, 41, 2, 5, 12000, 0xCAFEBABEu, 1.25, -7.5, 16, data, 1, 9};
+    const gp_pse_chunk_t c1 = {3, 41, 2, 5, 12000, 0xCAFEBABEu, 1.25, -7.5, 16, data, 1, 9, GP_PSE_TO_ALL};
     check_chunk(&c1, GOLDEN_CHUNK, sizeof GOLDEN_CHUNK);
-    const gp_pse_chunk_t c2 = {0x7FFFFFFFu, 0, 0, 1, 1, 0xFFFFFFFFu, -0.0, 6.02214076e23, 0, data, 0, 0xFFFFFFFFu};
+    const gp_pse_chunk_t c2 = {0x7FFFFFFFu, 0, 0, 1, 1, 0xFFFFFFFFu, -0.0, 6.02214076e23, 0, data, 0, 0xFFFFFFFFu, GP_PSE_TO_ALL};
     check_chunk(&c2, GOLDEN_CHUNK_EMPTY, sizeof GOLDEN_CHUNK_EMPTY);
 }
 
@@ -144,9 +144,9 @@ static void check_request(const gp_pse_request_t *r, const uint8_t *golden, size
 static void test_request_bytes(void **st)
 {
     (void)st;
-    const gp_pse_request_t r1 = {1, 2, 8, 3, {0, 4, 6}, 5, 1, 2.5, -1.25};
+    const gp_pse_request_t r1 = {1, 2, 8, 3, {0, 4, 6}, 5, 1, 2.5, -1.25, GP_PSE_TO_ALL};
     check_request(&r1, GOLDEN_REQUEST, sizeof GOLDEN_REQUEST);
-    const gp_pse_request_t r2 = {6, 6, 1000, 0, {0}, 0xDEADBEEFu, 0, 0.0, 0.0};
+    const gp_pse_request_t r2 = {6, 6, 1000, 0, {0}, 0xDEADBEEFu, 0, 0.0, 0.0, GP_PSE_TO_ALL};
     check_request(&r2, GOLDEN_BEACON, sizeof GOLDEN_BEACON);
 }
 
