@@ -66,6 +66,8 @@ uint32_t gp_fleet_state_bytes(dinno_codec_t enc)
     return (uint32_t)dinno_codec_bytes(&c, enc);
 }
 
+static void update_senders(gp_fleet_t *f);
+
 /* ---- sending: the protocol's callback ---------------------------------------------------- */
 static int fleet_send(void *ctx, gp_pse_kind_t kind, const void *msg)
 {
@@ -164,6 +166,7 @@ int gp_fleet_init(gp_fleet_t *f, const gp_fleet_cfg_t *cfg)
              (r = hal_net_subscribe(f->channel[c])) != 0))
             return r;
     }
+    update_senders(f); /* an addressed fleet takes no chunk before it placed the sender */
     return 0;
 }
 

@@ -252,7 +252,7 @@ uint32_t gp_pse_wanted(const gp_pse_t *p, uint8_t bits[GP_PSE_WANTED_BYTES])
     uint32_t n = 0;
     for (uint32_t i = 0; i < p->cfg.n_peers; i++) {
         const gp_pse_peer_t *q = &p->peer[i];
-        if (!p->in_round || (!q->has_pos[0] && !q->has_pos[1])) /* never placed: maybe near */
+        if (!p->cfg.addressed && (!p->in_round || (!q->has_pos[0] && !q->has_pos[1]))) /* never placed: maybe near */
             bits[i / 8u] |= (uint8_t)(1u << (i % 8u));
         if (i == p->cfg.self)
             bits[i / 8u] &= (uint8_t)~(1u << (i % 8u));

@@ -574,6 +574,28 @@ static void test_addressed_requests_and_resends(void **st)
     assert_int_equal(eng[0].stats.duplicates + eng[2].stats.duplicates, 0); /* one copy each */
 }
 
+/* Whose chunks a robot takes (gp_pse_wanted): over multicast every peer not placed yet (it may
+ * be near); in an addressed fleet only the peers placed among the nearest, whatever else asked
+ * for once placed. */
+static void test_wanted_waits_for_a_position_when_addressed(void **st)
+{
+    (void)st;
+    for (int addressed = 0; addressed < 2; addressed++) {
+        start(0.0);
+        gp_pse_cfg_t c = eng[0].cfg;
+        c.addressed = (uint8_t)addressed;
+        assert_int_equal(gp_pse_init(&eng[0], &c), 0);
+        uint8_t bits[GP_PSE_WANTED_BYTES];
+        assert_int_equal(gp_pse_wanted(&eng[0], bits), addressed ? 0 : N - 1); /* before round 0 */
+        begin(0, 0, 0);
+        assert_int_equal(gp_pse_wanted(&eng[0], bits), addressed ? 0 : N - 1);
+        const gp_pse_request_t beacon = {1, 1, 0, 0, {0}, 0, 1, 1.0, 0.0, GP_PSE_TO_ALL}; /* peer 1 placed */
+        assert_int_equal(gp_pse_on_request(&eng[0], &beacon, 10), 0);
+        assert_int_equal(gp_pse_wanted(&eng[0], bits), addressed ? 1 : N - 1);
+        assert_int_equal(bits[0] & 0x7u, addressed ? 0x2u : 0x6u);
+    }
+}
+
 /* The handed-out buffers (gp_pse.h): once gp_pse_neighbours() gave round k's states out, no
  * message of round k writes them until round k + 1 begins, although the old rules would have:
  * a nearer peer heard late (after it timed out) took the farthest listed peer's buffer, a
@@ -660,6 +682,7 @@ int main(void)
     const struct CMUnitTest tests[] = {
         cmocka_unit_test(test_requests_for_one_chunk_merge),
         cmocka_unit_test(test_addressed_requests_and_resends),
+        cmocka_unit_test(test_wanted_waits_for_a_position_when_addressed),
         cmocka_unit_test(test_no_loss_two_rounds),
         cmocka_unit_test(test_lost_chunk_is_asked_for_again),
         cmocka_unit_test(test_duplicated_and_reordered),
