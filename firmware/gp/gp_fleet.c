@@ -60,6 +60,18 @@ int gp_fleet_robot_channel(uint32_t fleet_id, gp_fleet_channel_t which, uint32_t
     return n > 0 && (size_t)n < cap && hal_net_channel_valid(buf) ? 0 : -EINVAL;
 }
 
+int gp_fleet_channel_of(const gp_fleet_cfg_t *cfg, gp_fleet_channel_t which, char *buf, size_t cap)
+{
+    if (cfg == NULL)
+        return -EINVAL;
+    if ((which == GP_FLEET_CH_CLAIM && !cfg->claims) ||
+        ((which == GP_FLEET_CH_RESEND || which == GP_FLEET_CH_ASK) && !cfg->addressed))
+        return -ENOENT;
+    return which == GP_FLEET_CH_RESEND || which == GP_FLEET_CH_ASK
+               ? gp_fleet_robot_channel(cfg->fleet_id, which, cfg->self, buf, cap)
+               : gp_fleet_channel_name(cfg->fleet_id, which, buf, cap);
+}
+
 uint32_t gp_fleet_state_bytes(dinno_codec_t enc)
 {
     const bnn_config_t c = bnn_default_config();
@@ -153,17 +165,13 @@ int gp_fleet_init(gp_fleet_t *f, const gp_fleet_cfg_t *cfg)
         return r;
     memset(&f->mark, 0, sizeof f->mark);
     memset(f->claim_held, 0, sizeof f->claim_held);
-    for (int c = 0; c < (cfg->claims ? 4 : 3); c++) {
-        if ((r = gp_fleet_channel_name(cfg->fleet_id, (gp_fleet_channel_t)c, f->channel[c], sizeof f->channel[c])) != 0 ||
-            (r = hal_net_subscribe(f->channel[c])) != 0)
-            return r;
-    }
-    for (int c = GP_FLEET_CH_RESEND; c <= GP_FLEET_CH_ASK; c++) {
-        f->channel[c][0] = '\0';
-        if (cfg->addressed &&
-            ((r = gp_fleet_robot_channel(cfg->fleet_id, (gp_fleet_channel_t)c, cfg->self, f->channel[c],
-                                         sizeof f->channel[c])) != 0 ||
-             (r = hal_net_subscribe(f->channel[c])) != 0))
+    for (int c = 0; c < GP_FLEET_CHANNELS; c++) {
+        r = gp_fleet_channel_of(cfg, (gp_fleet_channel_t)c, f->channel[c], sizeof f->channel[c]);
+        if (r == -ENOENT) {
+            f->channel[c][0] = '\0'; /* names no channel: nothing received matches it */
+            continue;
+        }
+        if (r != 0 || (r = hal_net_subscribe(f->channel[c])) != 0)
             return r;
     }
     update_senders(f); /* an addressed fleet takes no chunk before it placed the sender */

@@ -189,6 +189,10 @@ FS_MUST_CHECK int gp_fleet_channel_name(uint32_t fleet_id, gp_fleet_channel_t wh
    `fleet_id` into buf. 0 or -EINVAL. */
 FS_MUST_CHECK int gp_fleet_robot_channel(uint32_t fleet_id, gp_fleet_channel_t which, uint32_t robot, char *buf,
                                          size_t cap);
+/* The name of channel `which` as the robot cfg describes receives it (the fleet's, or its own
+   for CH_RESEND and CH_ASK) into buf: 0; -ENOENT when it does not use that channel (the claims
+   of a fleet that does not explore, its own channels in a multicast fleet); -EINVAL. */
+FS_MUST_CHECK int gp_fleet_channel_of(const gp_fleet_cfg_t *cfg, gp_fleet_channel_t which, char *buf, size_t cap);
 
 /* State bytes of one encoded state of the preset (dinno_codec_bytes; 0 for a bad codec). */
 uint32_t gp_fleet_state_bytes(dinno_codec_t enc);

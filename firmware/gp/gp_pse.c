@@ -33,10 +33,11 @@ static void send_msg(gp_pse_t *p, gp_pse_kind_t kind, const void *msg, uint64_t 
         p->sent_us = now_us;
 }
 
-/* Who a request naming chunks of peer `target` goes to. */
-static uint32_t request_to(const gp_pse_t *p, uint32_t target)
+/* Who a message that is for peer `peer` alone (a request naming its chunks, a chunk it asked
+   for) goes to: that peer in an addressed fleet, else everyone. */
+static uint32_t to_peer(const gp_pse_t *p, uint32_t peer)
 {
-    return p->cfg.addressed ? target : GP_PSE_TO_ALL;
+    return p->cfg.addressed ? peer : GP_PSE_TO_ALL;
 }
 
 /* Chunk `chunk` of our state to `to` (GP_PSE_TO_ALL: every peer). */
@@ -417,7 +418,7 @@ int gp_pse_on_request(gp_pse_t *p, const gp_pse_request_t *r, uint64_t now_us)
             }
             p->resent_at[c] = now_us | 1u;
         }
-        send_chunk(p, c, p->cfg.addressed ? r->requester : GP_PSE_TO_ALL, now_us);
+        send_chunk(p, c, to_peer(p, r->requester), now_us);
         p->stats.chunks_resent++;
     }
     p->stats.requests_answered++;
@@ -440,7 +441,7 @@ static int waiting_for(const gp_pse_t *p, uint32_t i)
 /* Asks peer i for the chunks of its round-k state we still miss. */
 static void ask_again(gp_pse_t *p, uint32_t i, gp_pse_buf_t *b, uint64_t now_us)
 {
-    gp_pse_request_t r = {p->cfg.self, i, p->round, 0, {0}, p->cfg.incarnation, 1, p->x_m, p->y_m, request_to(p, i)};
+    gp_pse_request_t r = {p->cfg.self, i, p->round, 0, {0}, p->cfg.incarnation, 1, p->x_m, p->y_m, to_peer(p, i)};
     for (uint32_t k = 0; k < p->n_chunks && r.n < GP_PSE_MAX_REQUEST; k++)
         if (!(b->have[k] & GP_PSE_HAVE)) {
             b->have[k] = GP_PSE_ASKED;
@@ -579,7 +580,7 @@ void gp_pse_poll(gp_pse_t *p, uint64_t now_us)
         } else if (!gp_pse_pos_known(q, p->round) && now_us - p->round_start_us >= p->cfg.resend_after_us &&
                    (q->pos_backoff == 0 || now_us - q->asked_us >= ask_after(p, q->pos_backoff))) {
             const gp_pse_request_t r = {p->cfg.self, i, p->round, 1, {0}, p->cfg.incarnation, 1, p->x_m, p->y_m,
-                                        request_to(p, i)};
+                                        to_peer(p, i)};
             send_msg(p, GP_PSE_REQUEST, &r, now_us);
             p->stats.requests_sent++;
             p->stats.chunks_requested++;

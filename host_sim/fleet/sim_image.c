@@ -41,28 +41,20 @@ static double wall_now(void)
 
 static int join_fleet(hal_host_t *h, const gp_fleet_cfg_t *fc, char *err, size_t errlen)
 {
-    static const int types[4] = {HAL_HOST_MSG_STATE_CHUNK, HAL_HOST_MSG_ROUND_COMPLETE, HAL_HOST_MSG_CHUNK_REQUEST,
-                                 HAL_HOST_MSG_GOAL_CLAIM};
+    static const int types[GP_FLEET_CHANNELS] = {HAL_HOST_MSG_STATE_CHUNK,    HAL_HOST_MSG_ROUND_COMPLETE,
+                                                 HAL_HOST_MSG_CHUNK_REQUEST,  HAL_HOST_MSG_GOAL_CLAIM,
+                                                 HAL_HOST_MSG_STATE_CHUNK,    HAL_HOST_MSG_CHUNK_REQUEST};
     hal_host_net_t *net = hal_host_get_net(h);
-    for (int c = 0; c < (fc->claims ? 4 : 3); c++) {
+    for (int c = 0; c < GP_FLEET_CHANNELS; c++) { /* the channels we receive (we only publish on
+                                                    the other robots' own) */
         char ch[HAL_NET_CHANNEL_MAX];
-        int rc = gp_fleet_channel_name(fc->fleet_id, (gp_fleet_channel_t)c, ch, sizeof ch);
+        int rc = gp_fleet_channel_of(fc, (gp_fleet_channel_t)c, ch, sizeof ch);
+        if (rc == -ENOENT)
+            continue;
         if (rc == 0)
             rc = hal_host_net_expect_type(net, ch, types[c]);
         if (rc < 0) {
             snprintf(err, errlen, "image: fleet channels not set up (%d)", rc);
-            return rc;
-        }
-    }
-    for (int c = GP_FLEET_CH_RESEND; fc->addressed && c <= GP_FLEET_CH_ASK; c++) {
-        /* our own channels are typed here; the others' we only publish on */
-        char ch[HAL_NET_CHANNEL_MAX];
-        int rc = gp_fleet_robot_channel(fc->fleet_id, (gp_fleet_channel_t)c, fc->self, ch, sizeof ch);
-        if (rc == 0)
-            rc = hal_host_net_expect_type(net, ch,
-                                          c == GP_FLEET_CH_RESEND ? HAL_HOST_MSG_STATE_CHUNK : HAL_HOST_MSG_CHUNK_REQUEST);
-        if (rc < 0) {
-            snprintf(err, errlen, "image: robot channels not set up (%d)", rc);
             return rc;
         }
     }
