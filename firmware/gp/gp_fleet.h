@@ -121,6 +121,9 @@ typedef struct gp_fleet_cfg {
                                         robot's own channel (gp_pse_cfg_t's), for a point-to-
                                         point transport (ZeroMQ). 0: to every robot, on the
                                         request and state channels (multicast: LCM) */
+    int ordered;                     /* 1: the transport keeps each sender's order (TCP:
+                                        ZeroMQ), so a missing chunk is asked for on the
+                                        sender's next word rather than a timer (gp_pse_cfg_t) */
 } gp_fleet_cfg_t;
 
 /* One round as this robot saw it (traffic counts are the round's own). */

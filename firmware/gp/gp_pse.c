@@ -66,7 +66,7 @@ int gp_pse_init(gp_pse_t *p, const gp_pse_cfg_t *c)
         c->chunk_bytes < GP_PSE_MIN_CHUNK_BYTES || c->chunk_bytes > GP_PSE_MAX_CHUNK_BYTES ||
         !isfinite(c->radius_m) || c->resend_after_us == 0 || c->peer_timeout_us <= c->resend_after_us ||
         (c->join_timeout_us != 0 && c->join_timeout_us < c->peer_timeout_us) ||
-        c->encoding >= GP_PSE_ENCODINGS || c->addressed > 1u)
+        c->encoding >= GP_PSE_ENCODINGS || c->addressed > 1u || c->ordered > 1u)
         return -EINVAL;
     memset(&p->stats, 0, sizeof p->stats);
     p->cfg = *c;
@@ -86,9 +86,31 @@ int gp_pse_init(gp_pse_t *p, const gp_pse_cfg_t *c)
     return 0;
 }
 
-/* The wait before asking again: one resend period, doubled per request that brought nothing. */
-static uint64_t ask_after(const gp_pse_t *p, uint32_t backoff)
+/* How often to repeat what every member hears, `base_us` in a fleet of GP_PSE_CHATTY_FLEET or
+   fewer (gp_pse.h). With 64 processes on one core every robot used to receive about 18,000 small
+   datagrams a round, most of them RoundCompletes repeated while the fleet waited for its slowest
+   member: the CPU that cost is what made the slowest member slow. */
+static uint64_t repeat_every(const gp_pse_t *p, uint64_t base_us)
 {
+    const uint32_t n = p->cfg.n_peers;
+    if (n <= GP_PSE_CHATTY_FLEET)
+        return base_us;
+    const uint64_t every = base_us * n / GP_PSE_CHATTY_FLEET, most = p->cfg.peer_timeout_us / 4u;
+    return every < most ? every : base_us > most ? base_us : most;
+}
+
+/* The wait before asking for what a state misses: one resend period, doubled per request that
+   brought nothing. On an ordered link (cfg.ordered) the first wait is two of the sender's beacon
+   periods instead: its chunks may only be queued behind a busy CPU, and whatever it says to
+   everyone next (its RoundComplete, or a beacon, at most a beacon period later) comes after
+   them, so what is still missing then is lost and asked for at once (sender_state_sent). Over
+   ZeroMQ a 128-robot fleet's timer asks were half of them for chunks still on their way. */
+uint64_t gp_pse_ask_after(const gp_pse_t *p, uint32_t backoff)
+{
+    if (backoff == 0 && p->cfg.ordered) {
+        const uint64_t word = 2u * repeat_every(p, p->cfg.resend_after_us);
+        return word > p->cfg.resend_after_us ? word : p->cfg.resend_after_us;
+    }
     return p->cfg.resend_after_us << (backoff < GP_PSE_BACKOFF_MAX ? backoff : GP_PSE_BACKOFF_MAX);
 }
 
@@ -235,8 +257,8 @@ static int note_sender(gp_pse_t *p, uint32_t sender, uint32_t incarnation, uint3
 static void ask_soon(const gp_pse_t *p, gp_pse_buf_t *b, uint64_t now_us)
 {
     const uint64_t quarter = p->cfg.resend_after_us / 4u;
-    if (b->backoff == 0 && now_us - b->progress_us >= quarter && now_us >= p->cfg.resend_after_us)
-        b->progress_us = now_us - p->cfg.resend_after_us;
+    if (b->backoff == 0 && now_us - b->progress_us >= quarter)
+        b->progress_us = now_us - gp_pse_ask_after(p, 0); /* unsigned: "a wait ago" also near 0 */
 }
 
 /* The sender of a RoundComplete or a beacon of our round has sent its whole state already:
@@ -476,19 +498,6 @@ static uint64_t silence_allowed(const gp_pse_t *p, const gp_pse_peer_t *q)
     return rto <= p->cfg.peer_timeout_us ? p->cfg.peer_timeout_us : rto < cap ? rto : cap;
 }
 
-/* How often to repeat what every member hears, `base_us` in a fleet of GP_PSE_CHATTY_FLEET or
-   fewer (gp_pse.h). With 64 processes on one core every robot used to receive about 18,000 small
-   datagrams a round, most of them RoundCompletes repeated while the fleet waited for its slowest
-   member: the CPU that cost is what made the slowest member slow. */
-static uint64_t repeat_every(const gp_pse_t *p, uint64_t base_us)
-{
-    const uint32_t n = p->cfg.n_peers;
-    if (n <= GP_PSE_CHATTY_FLEET)
-        return base_us;
-    const uint64_t every = base_us * n / GP_PSE_CHATTY_FLEET, most = p->cfg.peer_timeout_us / 4u;
-    return every < most ? every : base_us > most ? base_us : most;
-}
-
 /* Time we did not run is not our peers' silence: a robot that waited for the CPU finds its
    peers' messages queued, and on a busy machine they waited as long. A gap between two polls
    beyond one resend period moves every peer's last progress and the round's start forward by
@@ -575,10 +584,10 @@ void gp_pse_poll(gp_pse_t *p, uint64_t now_us)
         if (!q->has_round || q->at_round < p->round)
             continue;
         gp_pse_buf_t *b = gp_pse_buf_of(p, i, p->round);
-        if (b != NULL && !b->complete && now_us - b->progress_us >= ask_after(p, b->backoff)) {
+        if (b != NULL && !b->complete && now_us - b->progress_us >= gp_pse_ask_after(p, b->backoff)) {
             ask_again(p, i, b, now_us);
         } else if (!gp_pse_pos_known(q, p->round) && now_us - p->round_start_us >= p->cfg.resend_after_us &&
-                   (q->pos_backoff == 0 || now_us - q->asked_us >= ask_after(p, q->pos_backoff))) {
+                   (q->pos_backoff == 0 || now_us - q->asked_us >= gp_pse_ask_after(p, q->pos_backoff))) {
             const gp_pse_request_t r = {p->cfg.self, i, p->round, 1, {0}, p->cfg.incarnation, 1, p->x_m, p->y_m,
                                         to_peer(p, i)};
             send_msg(p, GP_PSE_REQUEST, &r, now_us);

@@ -193,6 +193,10 @@ typedef struct gp_pse_cfg {
                                    0: everything to everyone, one resend per chunk per half
                                    resend period answering all who asked meanwhile (multicast:
                                    LCM, one datagram for all) */
+    uint8_t ordered;            /* 1: the transport delivers each sender's messages in the order
+                                   sent (TCP: ZeroMQ), so a state's first request waits for the
+                                   sender's next word to everyone rather than one resend period
+                                   (gp_pse_ask_after); 0: datagrams may come in any order (UDP) */
 } gp_pse_cfg_t;
 
 typedef struct gp_pse_stats {

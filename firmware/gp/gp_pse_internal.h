@@ -28,6 +28,9 @@ static inline int gp_pse_pos_known(const gp_pse_peer_t *q, uint32_t round)
     return q->has_pos[round & 1u] && q->pos_round[round & 1u] == round;
 }
 
+/* How long a state's buffer waits without progress before its chunks are asked for, after
+   `backoff` requests that brought nothing. */
+uint64_t gp_pse_ask_after(const gp_pse_t *p, uint32_t backoff);
 /* Buffer b starts afresh for `round` (used, nothing received, no backoff). */
 void gp_pse_buf_reset(gp_pse_buf_t *b, uint32_t round, uint32_t n_chunks, uint64_t now_us);
 /* Starts the list of `round` afresh (an older round's list and buffers are free). */

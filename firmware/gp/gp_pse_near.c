@@ -152,10 +152,10 @@ void gp_pse_near_rank(gp_pse_t *p, uint32_t round, uint64_t now_us)
             continue;
         buf_attach(p, i, round, now_us);
         /* Its chunks came before it was listed and were not kept: it sent them already, so
-           the next poll asks for them (unsigned time: "a resend period ago" also near 0). */
+           the next poll asks for them (unsigned time: "a wait ago" also near 0). */
         gp_pse_buf_t *b = gp_pse_buf_of(p, i, round);
         if (b != NULL)
-            b->progress_us = now_us - p->cfg.resend_after_us;
+            b->progress_us = now_us - gp_pse_ask_after(p, 0);
     }
 }
 

@@ -7,10 +7,12 @@
  * bytes, to every connected peer that subscribed to its topic (a prefix of the frame). One
  * frame, not two: libzmq 4.3 aborts a subscriber whose connection drops while half of a
  * multipart message is in its pipe (an assertion in its session's clean-up, zeromq/libzmq#3442),
- * which killed a robot of a 128-robot fleet as its peers exited. The fleet's messages are all "to everyone"
- * (states, RoundCompletes, resend requests), so PUB/SUB carries them as LCM's multicast did,
- * and no socket needs a reply. (ROUTER/DEALER would address single peers, which the protocol
- * never does; REQ/REP would block a robot on a peer that is gone.)
+ * which killed a robot of a 128-robot fleet as its peers exited. PUB/SUB carries what is for
+ * everyone (states, beacons, RoundCompletes) as LCM's multicast did, and what is for one robot
+ * (a request naming chunks, the chunks sent again) on that robot's own channel, which only it
+ * subscribes to, so the publisher sends it down one connection; no socket needs a reply (REQ/REP
+ * would block a robot on a peer that is gone). Each connection keeps its sender's order, which
+ * the protocol uses (gp_fleet_cfg_t.ordered).
  *
  * Topics and neighbour-scoped delivery. The topic is the channel, '#', then the sender
  * as 8 lower-case hex digits when the datagram names one (a typed channel: hal_host_net.c

@@ -542,6 +542,7 @@ static int run_image(job_t *j)
         f->join_timeout_us = (uint32_t)llround(o->join_timeout * 1e6);
         f->positions_from_tour = o->offline;
         f->addressed = o->transport == RUN_TRANSPORT_ZMQ; /* a copy per connection: each to its one robot */
+        f->ordered = o->transport == RUN_TRANSPORT_ZMQ;   /* TCP keeps each sender's order */
         f->post_rounds = o->encoding == DINNO_CODEC_FP32 ? (uint32_t)o->post_rounds : 0u;
         f->tour = j->tour;
         f->n_tour = j->path.n;

@@ -101,7 +101,7 @@ static void start(double radius)
     qn = 0;
     chunk2_dropped = 0;
     for (int i = 0; i < N; i++) {
-        gp_pse_cfg_t c = {(uint32_t)i, N, STATE_BYTES, CHUNK, radius, RESEND, TIMEOUT, 0, net_send, &sender_id[i], 0, 0, 0, 0};
+        gp_pse_cfg_t c = {(uint32_t)i, N, STATE_BYTES, CHUNK, radius, RESEND, TIMEOUT, 0, net_send, &sender_id[i], 0, 0, 0, 0, 0};
         assert_int_equal(gp_pse_init(&eng[i], &c), 0);
         for (int r = 0; r < 2; r++)
             for (uint32_t b = 0; b < STATE_BYTES; b++)
@@ -420,7 +420,7 @@ static void test_encodings(void **st)
     static uint8_t junk[CHUNK];
     for (uint32_t e = 0; e <= GP_PSE_ENCODINGS; e++) {
         qn = 0;
-        gp_pse_cfg_t c = {0, N, STATE_BYTES, CHUNK, 0.0, RESEND, TIMEOUT, 0, net_send, &sender_id[0], (uint8_t)e, 0, 0, 0};
+        gp_pse_cfg_t c = {0, N, STATE_BYTES, CHUNK, 0.0, RESEND, TIMEOUT, 0, net_send, &sender_id[0], (uint8_t)e, 0, 0, 0, 0};
         if (e == GP_PSE_ENCODINGS) {
             assert_int_equal(gp_pse_init(&eng[0], &c), -EINVAL);
             c.encoding = 255;
@@ -574,6 +574,76 @@ static void test_addressed_requests_and_resends(void **st)
     assert_int_equal(eng[0].stats.duplicates + eng[2].stats.duplicates, 0); /* one copy each */
 }
 
+/* Peer 1's chunks 2 .. 4 to peer 0 are held (on their way: held_n of them kept in held[]). */
+static msg_t held[QMAX];
+static int held_n;
+static int hold_chunks_of_1_to_0(const msg_t *m, int to)
+{
+    if (to == 0 && m->kind == GP_PSE_CHUNK && m->from == 1 && m->chunk.chunk >= 2) {
+        held[held_n++] = *m;
+        return 1;
+    }
+    return 0;
+}
+
+/* An ordered link (cfg.ordered, TCP): a state whose chunks are late is not asked for on the
+ * resend timer (it would come twice), but at once when its sender's next word to everyone
+ * shows what is missing was lost, and after two beacon periods without that word. Over an
+ * unordered link the timer asks after one resend period, as before. */
+static void test_ordered_link_asks_on_the_senders_word(void **st)
+{
+    (void)st;
+    for (int ordered = 0; ordered < 2; ordered++)
+        for (int lost = 0; lost < 2; lost++) {
+            start(0.0);
+            for (int i = 0; i < N; i++) {
+                gp_pse_cfg_t c = eng[i].cfg;
+                c.addressed = c.ordered = (uint8_t)ordered;
+                assert_int_equal(gp_pse_init(&eng[i], &c), 0);
+                begin(i, 0, 0);
+            }
+            held_n = 0;
+            deliver(0, hold_chunks_of_1_to_0);
+            assert_int_equal(held_n, 3);
+            gp_pse_poll(&eng[0], RESEND + 1u);
+            if (!ordered) { /* one resend period: asked, although the chunks are only late */
+                assert_int_equal(eng[0].stats.requests_sent, 1);
+                continue;
+            }
+            assert_int_equal(eng[0].stats.requests_sent, 0);
+            qn = 0;
+            if (!lost) { /* they come: whole, nothing asked, nothing twice */
+                for (int i = 0; i < held_n; i++)
+                    deliver_one(&held[i], 0, RESEND + 2u);
+                assert_true(gp_pse_states_ready(&eng[0]));
+                assert_int_equal(eng[0].stats.chunks_received, 2 * 5);
+                gp_pse_poll(&eng[0], 3u * RESEND);
+                assert_int_equal(eng[0].stats.requests_sent + eng[0].stats.duplicates, 0);
+                continue;
+            }
+            /* Lost: peer 1's beacon, sent after its chunks, says so; asked at the next poll. */
+            const gp_pse_request_t beacon = {1, 1, 0, 0, {0}, 0, 1, 1.0, 0.0, GP_PSE_TO_ALL};
+            assert_int_equal(gp_pse_on_request(&eng[0], &beacon, RESEND + 2u), 0);
+            gp_pse_poll(&eng[0], RESEND + 3u);
+            assert_int_equal(eng[0].stats.requests_sent, 1);
+            assert_int_equal(eng[0].stats.chunks_requested, 3);
+        }
+    /* No word at all: the timer still asks, after two beacon periods (N <= 8: resend periods). */
+    start(0.0);
+    for (int i = 0; i < N; i++) {
+        gp_pse_cfg_t c = eng[i].cfg;
+        c.ordered = 1;
+        assert_int_equal(gp_pse_init(&eng[i], &c), 0);
+        begin(i, 0, 0);
+    }
+    held_n = 0;
+    deliver(0, hold_chunks_of_1_to_0);
+    gp_pse_poll(&eng[0], 2u * RESEND - 1u);
+    assert_int_equal(eng[0].stats.requests_sent, 0);
+    gp_pse_poll(&eng[0], 2u * RESEND);
+    assert_int_equal(eng[0].stats.requests_sent, 1);
+}
+
 /* Whose chunks a robot takes (gp_pse_wanted): over multicast every peer not placed yet (it may
  * be near); in an addressed fleet only the peers placed among the nearest, whatever else asked
  * for once placed. */
@@ -628,7 +698,7 @@ static int lone_chunk(uint32_t from, uint32_t inc, uint32_t round, uint32_t chun
 static void test_handed_out_buffers_are_not_written(void **st)
 {
     (void)st;
-    const gp_pse_cfg_t c = {0, LONE_N, STATE_BYTES, CHUNK, 0.0, RESEND, TIMEOUT, 0, lone_send, NULL, 0, 0, 0, 0};
+    const gp_pse_cfg_t c = {0, LONE_N, STATE_BYTES, CHUNK, 0.0, RESEND, TIMEOUT, 0, lone_send, NULL, 0, 0, 0, 0, 0};
     assert_int_equal(gp_pse_init(&lone, &c), 0);
     const uint32_t n_chunks = (STATE_BYTES + CHUNK - 1u) / CHUNK;
     for (uint32_t i = 0; i < LONE_N; i++)
@@ -691,6 +761,7 @@ int main(void)
         cmocka_unit_test(test_silent_peer_leaves_and_rejoins),
         cmocka_unit_test(test_join_timeout_restarts_at_each_newcomer),
         cmocka_unit_test(test_invalid_messages_change_nothing),
+        cmocka_unit_test(test_ordered_link_asks_on_the_senders_word),
         cmocka_unit_test(test_encodings),
         cmocka_unit_test(test_forged_chunk_does_not_block_the_state),
         cmocka_unit_test(test_disk_neighbours_match_dinno_graph),

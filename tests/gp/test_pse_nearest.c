@@ -36,7 +36,7 @@ static int capture(void *ctx, gp_pse_kind_t kind, const void *m)
 
 static void start(double radius)
 {
-    const gp_pse_cfg_t c = {0, N, STATE_BYTES, CHUNK, radius, RESEND, TIMEOUT, 0, capture, NULL, 0, 0, 0, 0};
+    const gp_pse_cfg_t c = {0, N, STATE_BYTES, CHUNK, radius, RESEND, TIMEOUT, 0, capture, NULL, 0, 0, 0, 0, 0};
     assert_int_equal(gp_pse_init(&eng, &c), 0);
     n_asked = 0;
     memset(mine, 7, sizeof mine);
