@@ -114,6 +114,19 @@ static void begin(int i, uint32_t round, uint64_t now)
     assert_int_equal(gp_pse_begin_round(&eng[i], round, state[i][round & 1u], 1.0 * i, 0.0, now), 0);
 }
 
+/* start() with every engine's transport flags set (gp_pse_cfg_t), then round 0 begun by all. */
+static void start_round0_over(uint8_t addressed, uint8_t ordered)
+{
+    start(0.0);
+    for (int i = 0; i < N; i++) {
+        gp_pse_cfg_t c = eng[i].cfg;
+        c.addressed = addressed;
+        c.ordered = ordered;
+        assert_int_equal(gp_pse_init(&eng[i], &c), 0);
+        begin(i, 0, 0);
+    }
+}
+
 /* Every peer has every other peer's state of `round`, byte for byte. */
 static void check_states(uint32_t round)
 {
@@ -538,13 +551,7 @@ static void test_requests_for_one_chunk_merge(void **st)
 static void test_addressed_requests_and_resends(void **st)
 {
     (void)st;
-    start(0.0);
-    for (int i = 0; i < N; i++) {
-        gp_pse_cfg_t c = eng[i].cfg;
-        c.addressed = 1;
-        assert_int_equal(gp_pse_init(&eng[i], &c), 0);
-        begin(i, 0, 0);
-    }
+    start_round0_over(1, 0);
     deliver(0, drop_chunk2_of_1);
     for (int i = 0; i < N; i++)
         gp_pse_poll(&eng[i], RESEND);
@@ -595,13 +602,7 @@ static void test_ordered_link_asks_on_the_senders_word(void **st)
     (void)st;
     for (int ordered = 0; ordered < 2; ordered++)
         for (int lost = 0; lost < 2; lost++) {
-            start(0.0);
-            for (int i = 0; i < N; i++) {
-                gp_pse_cfg_t c = eng[i].cfg;
-                c.addressed = c.ordered = (uint8_t)ordered;
-                assert_int_equal(gp_pse_init(&eng[i], &c), 0);
-                begin(i, 0, 0);
-            }
+            start_round0_over((uint8_t)ordered, (uint8_t)ordered);
             held_n = 0;
             deliver(0, hold_chunks_of_1_to_0);
             assert_int_equal(held_n, 3);
@@ -629,13 +630,7 @@ static void test_ordered_link_asks_on_the_senders_word(void **st)
             assert_int_equal(eng[0].stats.chunks_requested, 3);
         }
     /* No word at all: the timer still asks, after two beacon periods (N <= 8: resend periods). */
-    start(0.0);
-    for (int i = 0; i < N; i++) {
-        gp_pse_cfg_t c = eng[i].cfg;
-        c.ordered = 1;
-        assert_int_equal(gp_pse_init(&eng[i], &c), 0);
-        begin(i, 0, 0);
-    }
+    start_round0_over(0, 1);
     held_n = 0;
     deliver(0, hold_chunks_of_1_to_0);
     gp_pse_poll(&eng[0], 2u * RESEND - 1u);
