@@ -1,0 +1,58 @@
+/* The hardware-in-the-loop link's payloads (the frames are hal_hil_frame.h's), every field
+ * little-endian, floats as their IEEE-754 bits. Every decoder checks the whole payload before
+ * it writes its output: a wrong length, a non-finite value where the robot would act on it, or
+ * a count past the board's arrays is -EBADMSG, never a partial record.
+ *
+ *   HELLO     robot u32, rt_period_us u32, board name 16 bytes (NUL-padded, printable)
+ *   SCAN      stamp_us u64, angle_min f32, angle_step f32, range_min f32, range_max f32,
+ *             count u16 (1 .. HAL_LIDAR_MAX_BEAMS), count x range f32 (finite or +inf: no return)
+ *   POSE      stamp_us u64, x f32, y f32, heading f32 (in [-pi, pi])
+ *   WHEELS    stamp_us u64, left f32, right f32 (rad/s)
+ *   DATAGRAM  channel length u8, channel (hal_net_channel_valid, no NUL), the datagram's bytes
+ *             (at most HAL_NET_MTU_BYTES)
+ */
+#ifndef HAL_HIL_MSG_H
+#define HAL_HIL_MSG_H
+
+#include "hal/hal_hil_frame.h"
+#include "hal/hal_pose.h"
+
+#define HAL_HIL_BOARD_NAME_BYTES 16u
+#define HAL_HIL_HELLO_BYTES (8u + HAL_HIL_BOARD_NAME_BYTES)
+#define HAL_HIL_POSE_BYTES 20u
+#define HAL_HIL_WHEELS_BYTES 16u
+
+typedef struct hal_hil_hello {
+    uint32_t robot;
+    uint32_t rt_period_us;
+    char board[HAL_HIL_BOARD_NAME_BYTES + 1u]; /* NUL-terminated */
+} hal_hil_hello_t;
+
+typedef struct hal_hil_wheels {
+    uint64_t stamp_us;
+    float left_rad_s, right_rad_s;
+} hal_hil_wheels_t;
+
+/* A bridged datagram as decoded: the bytes point into the payload. */
+typedef struct hal_hil_datagram {
+    char channel[HAL_NET_CHANNEL_MAX];
+    const uint8_t *data;
+    size_t len;
+} hal_hil_datagram_t;
+
+/* Encoders: the payload's length into out[0..cap), or -EINVAL (a value the decoder would
+ * refuse), -EMSGSIZE (cap too small). */
+int hal_hil_put_hello(uint8_t *out, size_t cap, const hal_hil_hello_t *m);
+int hal_hil_put_scan(uint8_t *out, size_t cap, const hal_lidar_scan_t *m);
+int hal_hil_put_pose(uint8_t *out, size_t cap, const hal_pose_t *m);
+int hal_hil_put_wheels(uint8_t *out, size_t cap, const hal_hil_wheels_t *m);
+int hal_hil_put_datagram(uint8_t *out, size_t cap, const char *channel, const void *data, size_t len);
+
+/* Decoders of a frame's payload: 0, or -EBADMSG (wrong type, length or value). */
+int hal_hil_get_hello(const hal_hil_frame_t *f, hal_hil_hello_t *m);
+int hal_hil_get_scan(const hal_hil_frame_t *f, hal_lidar_scan_t *m);
+int hal_hil_get_pose(const hal_hil_frame_t *f, hal_pose_t *m);
+int hal_hil_get_wheels(const hal_hil_frame_t *f, hal_hil_wheels_t *m);
+int hal_hil_get_datagram(const hal_hil_frame_t *f, hal_hil_datagram_t *m);
+
+#endif /* HAL_HIL_MSG_H */
