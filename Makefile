@@ -188,7 +188,8 @@ MSG_LCM   := $(sort $(wildcard firmware/msg/*.lcm))
 SUPPORT_C := $(sort $(wildcard tests/support/*.c))
 # tests/faults/ (fleets under loss, slower, root for the kernel case) runs on its own:
 # `make test-faults`, never in `make test`.
-TEST_C    := $(sort $(shell find tests -name 'test_*.c' -not -path 'tests/support/*' -not -path 'tests/faults/*' -not -path 'tests/fuzz/*'))
+# tests/board/ holds the cross boards' own images (boards/cross.mk's `test`), never host tests.
+TEST_C    := $(sort $(shell find tests -name 'test_*.c' -not -path 'tests/support/*' -not -path 'tests/faults/*' -not -path 'tests/fuzz/*' -not -path 'tests/board/*'))
 FAULTS_TEST_C := $(sort $(wildcard tests/faults/test_*.c))
 BENCH_C   := $(sort $(wildcard tools/bench/bench_*.c))
 BENCH_SUPPORT_C := tools/bench/fma_probe.c

@@ -72,7 +72,7 @@ FW_CXX  := $(if $(filter eigen,$(LA_BACKEND)),$(sort $(shell find firmware -name
 # The program and its HAL, the same for the image and the host reference but for the target file.
 PROG_HAL_C := $(sort $(wildcard hal/common/*.c)) hal/stdc/hal_stdc.c
 PROG_C     := tools/board/board_train.c tools/board/heap_probe.c
-IMG_C   := $(PROG_HAL_C) hal/stdc/hal_stdc_$(BOARD_HAL_TARGET).c $(PROG_C)
+IMG_C   := $(PROG_HAL_C) $(sort $(wildcard hal/stdc/hal_stdc_$(BOARD_HAL_TARGET)*.c)) $(PROG_C)
 FW_OBJ  := $(patsubst %,$(X)/obj/%.o,$(FW_C) $(FW_CXX))
 IMG_OBJ := $(patsubst %,$(X)/obj/%.o,$(IMG_C))
 IMAGE   := $(X)/fleetsim.elf
@@ -200,8 +200,29 @@ test: $(XTEST)
 	@set -o pipefail; timeout $(or $(TEST_TIMEOUT),900) $(XTEST_CMD) 2>&1 | tee $(R)/test_la_packed.txt | sed 's/^/  /' \
 	    || { s=$$?; echo "make: tests/ai/test_la_packed.c failed on $(XBOARD) (exit $$s)" >&2; exit 1; }
 else
-test:
-	@echo "  TEST $(XBOARD): no cross test (a Linux board's only: BOARD_LINK := linux)"
+# On a Cortex-M board: the scheduler's contract (tests/board/test_cm_cores.c, an image of its
+# own on the board's HAL: cmocka's lines printed by hand, newlib has no cmocka), run under the
+# board's QEMU; its output is kept in $(R)/test_cm_cores.txt and a failure fails the target.
+XTEST_C   := tests/board/test_cm_cores.c $(PROG_HAL_C) $(sort $(wildcard hal/stdc/hal_stdc_$(BOARD_HAL_TARGET)*.c))
+XTEST_OBJ := $(patsubst %,$(X)/test/obj/%.o,$(XTEST_C))
+XTEST     := $(X)/test/test_cm_cores.elf
+XTEST_CMD := $(BOARD_QEMU) -semihosting-config enable=on,target=native,arg=test_cm_cores -kernel $(XTEST)
+TEST_DEPS := test
+
+$(X)/test/obj/%.c.o: %.c $(FLAG_FILES)
+	@mkdir -p $(@D)
+	$(call say,CC,$< [$(XBOARD) test])$(XCC) $(XCFLAGS) $(IMG_INC) -c $< -o $@
+$(XTEST_OBJ): | $(MSG_GEN)/msg/msg_layout.h
+
+$(XTEST): $(XTEST_OBJ) $(X)/lib/libfirmware.a $(X)/board.ld
+	$(call say,LD,$@)$(XCC) $(BOARD_CPU_FLAGS) -nostartfiles -T $(X)/board.ld $(XTEST_OBJ) $(X)/lib/libfirmware.a \
+	    $(LINK_LIBS) -o $@
+
+test: $(XTEST)
+	@mkdir -p $(R)
+	@echo "  TEST $(XBOARD): $(XTEST_CMD)"
+	@set -o pipefail; timeout $(or $(TEST_TIMEOUT),300) $(XTEST_CMD) 2>&1 | tee $(R)/test_cm_cores.txt | sed 's/^/  /' \
+	    || { s=$$?; echo "make: tests/board/test_cm_cores.c failed on $(XBOARD) (exit $$s)" >&2; exit 1; }
 endif
 
 run: $(TEST_DEPS) $(IMAGE) $(HOST_BIN) $(RUN_DEPS)

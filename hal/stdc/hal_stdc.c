@@ -36,22 +36,34 @@ static int stdc_now_us(void *ctx, uint64_t *now_us)
 static int stdc_sleep_until_us(void *ctx, uint64_t wake_us)
 {
     (void)ctx;
-    while (hal_stdc_target_now_us() < wake_us) {
-        /* One thread, nothing else to run: wait on the time base. */
-    }
+    hal_stdc_target_sleep_until(wake_us);
     return 0;
 }
 
 static const hal_clock_ops_t stdc_clock = {.now_us = stdc_now_us, .sleep_until_us = stdc_sleep_until_us};
 
 /* ---- cores ---------------------------------------------------------------------------------- */
+/* The target's scheduler, where it has one (hal_stdc_target.h). */
 static int stdc_core_start(void *ctx, hal_core_id_t id, hal_core_entry_t entry, void *arg)
 {
-    (void)ctx, (void)id, (void)entry, (void)arg;
-    return -ENOTSUP;
+    (void)ctx;
+    return hal_stdc_target_core_start(id, entry, arg);
 }
 
-static const hal_core_ops_t stdc_core = {.start = stdc_core_start};
+static int stdc_core_stack(void *ctx, hal_core_id_t id, size_t *used, size_t *size)
+{
+    (void)ctx;
+    return hal_stdc_target_core_stack(id, used, size);
+}
+
+static int stdc_core_self(void *ctx, hal_core_id_t *id)
+{
+    (void)ctx;
+    return hal_stdc_target_core_self(id);
+}
+
+static const hal_core_ops_t stdc_core = {.start = stdc_core_start, .stack_high_water = stdc_core_stack,
+                                         .self = stdc_core_self};
 
 /* ---- log ------------------------------------------------------------------------------------ */
 static void stdc_vlog(void *ctx, hal_log_level_t level, const char *fmt, va_list ap)

@@ -4,14 +4,16 @@
  * running the image as a plain process.
  *
  *   clock    the target's time base (hal_stdc_target.h: SysTick on Cortex-M, CLOCK_MONOTONIC
- *            on Linux); sleep_until waits on it
+ *            on Linux); sleep_until lets the other cores run, or waits on it
  *   log      one line per message on stderr: "[   1.234567] LEVEL message"
  *   storage  one file per blob, <dir>/<name>, written to <name>.tmp then renamed (atomic where
  *            the file system renames atomically; semihosting passes it to the host)
  *   net      a RAM loopback: what the image publishes on a subscribed channel comes back to
  *            it through a queue of HAL_STDC_NET_QUEUE messages (one node, no radio)
- *   cores    none: the program runs the work of a core from its own main(). Starting a
- *            core gives -ENOTSUP; the three-core image needs threads or an RTOS port.
+ *   cores    the target's (hal_stdc_target.h): on Cortex-M a small preemptive scheduler,
+ *            fixed priorities RT > GP > AI > the main program, sleeping on the SysTick
+ *            (hal_stdc_cortex_m_cores.c); on Linux none (-ENOTSUP: a Linux board runs the
+ *            host HAL's threads), and the program runs a core's work from its own main().
  *
  * Storage is static (one board per program). No allocation. */
 #ifndef HAL_STDC_H

@@ -8,7 +8,9 @@
  * value, which QEMU passes on as its own exit code. A fault prints its kind and exits 70.
  *
  * Time base: SysTick on the core clock (BOARD_CORE_CLOCK_HZ as the board's model clocks it;
- * 25 MHz on QEMU's MPS2 boards), reloaded at 2^24 and extended to 64 bits by its interrupt.
+ * 25 MHz on QEMU's MPS2 boards), interrupting HAL_STDC_CM_TICK_HZ times a second, which the
+ * interrupt counts to extend it to 64 bits and the scheduler wakes sleeping cores on
+ * (hal_stdc_cortex_m_cores.c).
  * Instructions: QEMU does not model cycles; with `-icount shift=0` every instruction
  * advances virtual time by 1 ns, so SysTick ticks count instructions. The ratio is measured
  * at start on a loop of known length (2 instructions per turn); without -icount the ratio is
@@ -19,6 +21,7 @@
 #include <stdlib.h>
 #include <string.h>
 
+#include "hal_stdc_cortex_m_cores.h"
 #include "hal_stdc_target.h"
 
 #ifndef BOARD_CORE_CLOCK_HZ
@@ -27,7 +30,13 @@
 
 #define SYST ((volatile uint32_t *)0xE000E010u) /* CSR, RVR, CVR, CALIB */
 #define CPACR (*(volatile uint32_t *)0xE000ED88u)
-#define SYST_RELOAD 0xFFFFFFu
+#define ICSR (*(volatile uint32_t *)0xE000ED04u)
+#define ICSR_PENDSTSET (1u << 26)
+#define SHPR3 (*(volatile uint32_t *)0xE000ED20u) /* priorities of PendSV (23:16), SysTick (31:24) */
+#define SYST_RELOAD (BOARD_CORE_CLOCK_HZ / HAL_STDC_CM_TICK_HZ - 1u)
+#define HANDLER_STACK_WORDS 512u /* 2 KB for the interrupt handlers (the main stack pointer) */
+_Static_assert(1000000000u % BOARD_CORE_CLOCK_HZ == 0 && BOARD_CORE_CLOCK_HZ % 1000000u == 0, "whole ns, us per tick");
+_Static_assert(BOARD_CORE_CLOCK_HZ % HAL_STDC_CM_TICK_HZ == 0 && SYST_RELOAD <= 0xFFFFFFu, "SysTick reload");
 #define STACK_PAINT 0xA5A5A5A5u
 #define MAIN_ARGS_MAX 16
 #define CMDLINE_MAX 512
@@ -58,7 +67,7 @@ __attribute__((section(".vectors"), used)) static void (*const vectors[16])(void
     fault_handler, /* SVCall */
     fault_handler, /* DebugMonitor */
     0,
-    fault_handler, /* PendSV */
+    hal_stdc_cm_pendsv,
     systick_handler,
 };
 
@@ -70,19 +79,23 @@ static int semihost(int op, void *arg)
     return r0;
 }
 
-void systick_handler(void)
-{
-    systick_wraps++;
-}
-
 static uint64_t systick_ticks(void)
 {
-    uint32_t w, v;
+    uint32_t w, v, pending;
     do {
         w = systick_wraps;
         v = SYST[2];
+        pending = ICSR & ICSR_PENDSTSET;
     } while (w != systick_wraps);
-    return ((uint64_t)w << 24) + (SYST_RELOAD - v);
+    if (pending && v > SYST_RELOAD / 2u) /* it wrapped, and its interrupt is not taken yet */
+        w++;
+    return (uint64_t)w * (SYST_RELOAD + 1u) + (SYST_RELOAD - v);
+}
+
+void systick_handler(void)
+{
+    systick_wraps++;
+    hal_stdc_cm_tick(hal_stdc_target_now_us());
 }
 
 void fault_handler(void)
@@ -91,19 +104,27 @@ void fault_handler(void)
     __asm__ volatile("mrs %0, ipsr" : "=r"(ipsr));
     static const char *const kind[] = {"", "", "NMI", "HardFault", "MemManage", "BusFault", "UsageFault"};
     const char *k = (ipsr & 0x1FFu) < 7u ? kind[ipsr & 0x1FFu] : "exception";
-    char msg[64];
-    snprintf(msg, sizeof msg, "FAULT: %s (exception %lu)\n", k, (unsigned long)(ipsr & 0x1FFu));
+    char msg[96];
+    snprintf(msg, sizeof msg, "FAULT: %s (exception %lu) in the %s\n", k, (unsigned long)(ipsr & 0x1FFu),
+             hal_stdc_cm_thread_name());
     semihost(0x04 /* SYS_WRITE0 */, msg);
     _Exit(70);
 }
 
-/* Instructions per SysTick tick, measured on 2 x 2^20 instructions. */
+/* Instructions per SysTick tick, measured on 2 x 2^20 instructions, before the time base
+ * starts: SysTick counts down its whole 24 bits without interrupting (no handler's instructions
+ * in the loop's time; 2^21 instructions are 2^21 / 40 ticks at 25 MHz, far from a wrap). */
 static uint32_t calibrate(void)
 {
+    SYST[0] = 0;
+    SYST[1] = 0xFFFFFFu;
+    SYST[2] = 0;
+    SYST[0] = 5u; /* enable, no interrupt, core clock */
     uint32_t n = 1u << 20;
-    uint64_t t0 = systick_ticks();
+    const uint32_t c0 = SYST[2];
     __asm__ volatile("1: subs %0, %0, #1\n bne 1b" : "+r"(n) : : "cc");
-    uint64_t dt = systick_ticks() - t0;
+    const uint64_t dt = (c0 - SYST[2]) & 0xFFFFFFu;
+    SYST[0] = 0;
     if (dt == 0)
         return 0;
     uint64_t insns = 2ull << 20;
@@ -140,12 +161,22 @@ void reset_handler(void)
     __asm__ volatile("mov %0, sp" : "=r"(sp));
     for (uint32_t *p = &__stack_limit; p < sp - 16; p++)
         *p = STACK_PAINT;
+    /* The program goes on on the process stack (the same memory: nothing moves), the
+       interrupts get a stack of their own: every thread of the scheduler then keeps its context
+       the same way (hal_stdc_cortex_m_cores.c). */
+    static uint32_t handler_stack[HANDLER_STACK_WORDS] __attribute__((aligned(8)));
+    __asm__ volatile("mrs r0, msp\n msr psp, r0\n mrs r0, control\n orr r0, r0, #2\n msr control, r0\n isb\n"
+                     "msr msp, %0\n"
+                     :
+                     : "r"(&handler_stack[HANDLER_STACK_WORDS])
+                     : "r0", "memory");
+    SHPR3 = (SHPR3 & 0x0000FFFFu) | 0xFFu << 16; /* PendSV lowest, SysTick highest */
+    insn_per_tick = calibrate();
     SYST[1] = SYST_RELOAD;
     SYST[2] = 0;
     SYST[0] = 7u; /* enable, interrupt on wrap, core clock */
     initialise_monitor_handles();
     __libc_init_array();
-    insn_per_tick = calibrate();
     static char cmdline[CMDLINE_MAX];
     static char *argv[MAIN_ARGS_MAX + 1];
     int argc = cmdline_argv(cmdline, sizeof cmdline, argv);
@@ -165,6 +196,11 @@ void _fini(void)
 uint64_t hal_stdc_target_now_us(void)
 {
     return systick_ticks() / (BOARD_CORE_CLOCK_HZ / 1000000u);
+}
+
+uint64_t hal_stdc_target_now_ns(void)
+{
+    return systick_ticks() * (1000000000u / BOARD_CORE_CLOCK_HZ);
 }
 
 int hal_stdc_target_instructions(uint64_t *n)

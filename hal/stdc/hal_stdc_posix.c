@@ -11,15 +11,20 @@
 
 #include "hal_stdc_target.h"
 
-uint64_t hal_stdc_target_now_us(void)
+uint64_t hal_stdc_target_now_ns(void)
 {
     static uint64_t t0;
     struct timespec ts;
     clock_gettime(CLOCK_MONOTONIC, &ts);
-    uint64_t t = (uint64_t)ts.tv_sec * 1000000u + (uint64_t)ts.tv_nsec / 1000u;
+    uint64_t t = (uint64_t)ts.tv_sec * 1000000000u + (uint64_t)ts.tv_nsec;
     if (t0 == 0)
         t0 = t;
     return t - t0;
+}
+
+uint64_t hal_stdc_target_now_us(void)
+{
+    return hal_stdc_target_now_ns() / 1000u;
 }
 
 int hal_stdc_target_instructions(uint64_t *n)
@@ -42,4 +47,29 @@ int hal_stdc_target_stack(size_t *used, size_t *size)
 {
     (void)used, (void)size;
     return -ENOTSUP;
+}
+
+int hal_stdc_target_core_start(hal_core_id_t id, hal_core_entry_t entry, void *arg)
+{
+    (void)id, (void)entry, (void)arg;
+    return -ENOTSUP; /* a Linux board runs the host HAL's threads */
+}
+
+int hal_stdc_target_core_stack(hal_core_id_t id, size_t *used, size_t *size)
+{
+    (void)id, (void)used, (void)size;
+    return -ENOTSUP;
+}
+
+int hal_stdc_target_core_self(hal_core_id_t *id)
+{
+    (void)id;
+    return -ENOTSUP;
+}
+
+void hal_stdc_target_sleep_until(uint64_t wake_us)
+{
+    while (hal_stdc_target_now_us() < wake_us) {
+        /* One thread, nothing else to run: wait on the time base. */
+    }
 }

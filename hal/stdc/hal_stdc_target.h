@@ -7,8 +7,14 @@
 #include <stddef.h>
 #include <stdint.h>
 
+#include "hal/hal_core.h"
+
 /* Monotonic microseconds since the program started. */
 uint64_t hal_stdc_target_now_us(void);
+
+/* The same in nanoseconds, at the time base's resolution (40 ns: SysTick at 25 MHz on QEMU's
+ * MPS2 boards), for measuring what is shorter than a microsecond. */
+uint64_t hal_stdc_target_now_ns(void);
 
 /* Instructions retired since the program started, into *n. 0, or -ENOTSUP where the target
  * cannot count them. */
@@ -25,5 +31,22 @@ const char *hal_stdc_target_name(void);
 
 /* Deepest use of the program's main stack so far, and its size, in bytes. 0 or -ENOTSUP. */
 int hal_stdc_target_stack(size_t *used, size_t *size);
+
+/* Cores as threads of the target (hal_core.h's contract), where it has a scheduler: the Cortex-M
+ * target's (hal_stdc_cortex_m_cores.c: fixed priorities RT > GP > AI > main, preemptive, on the
+ * SysTick). 0, -EBUSY (started before), -ENOTSUP (no scheduler: the Linux target, whose boards
+ * run the host HAL's threads instead). */
+int hal_stdc_target_core_start(hal_core_id_t id, hal_core_entry_t entry, void *arg);
+
+/* Deepest use so far of a started core's stack, and its size. 0, -ESRCH (not started), -ENOTSUP. */
+int hal_stdc_target_core_stack(hal_core_id_t id, size_t *used, size_t *size);
+
+/* The core the caller runs on. 0, -EPERM (the main program), -ENOTSUP. */
+int hal_stdc_target_core_self(hal_core_id_t *id);
+
+/* Until the target's time reaches wake_us: the caller sleeps and the other threads run (a core
+ * wakes at the first scheduler tick at or after wake_us), or, without a scheduler, waits on the
+ * time base. */
+void hal_stdc_target_sleep_until(uint64_t wake_us);
 
 #endif /* HAL_STDC_TARGET_H */

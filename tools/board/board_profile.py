@@ -77,6 +77,33 @@ def run_results(path):
     return res
 
 
+def cores_section(r, prof):
+    """The RT and GP cores started beside the AI work (board_train --rt-hz/--gp-hz) on a target
+    with a scheduler: their wake-up lateness in the target's time, deadlines missed, stacks."""
+    md = ["## Cores while the AI core trains", ""]
+    if "rt_ticks" not in r and "gp_ticks" not in r:
+        return md + ["Not measured: this target has no scheduler of its own (a Linux board runs the host HAL's "
+                     "threads), so the AI core's work ran alone.", ""]
+    md += ["The RT and GP cores ran beside the AI core's work, preempting it (priorities RT > GP > AI), released "
+           "at whole periods of the board's time; each wake-up's lateness is the target's time from its release "
+           "to the core running (the tick interrupt, the switch), in virtual time under `-icount` (1 ns per "
+           "instruction). A deadline is missed when a core wakes after its next release.", "",
+           "| core | period | ticks | lateness mean / max | deadlines missed | stack used |",
+           "|---|---:|---:|---:|---:|---:|"]
+    prof["cores"] = {}
+    for core in ("rt", "gp"):
+        if f"{core}_ticks" not in r:
+            continue
+        e = {k: r.get(f"{core}_{k}") for k in ("period_us", "ticks", "late_mean_ns", "late_max_ns",
+                                               "deadline_misses")}
+        e["stack_used"], e["stack_size"] = r.get(f"stack_{core}_used"), r.get(f"stack_{core}_used_size")
+        prof["cores"][core] = e
+        stack = f"{int(e['stack_used']):,} of {int(e['stack_size']):,} B" if e["stack_used"] is not None else "-"
+        md.append(f"| {core.upper()} | {int(e['period_us']):,} us | {int(e['ticks']):,} | "
+                  f"{e['late_mean_ns']:.0f} / {int(e['late_max_ns']):,} ns | {int(e['deadline_misses'])} | {stack} |")
+    return md + [""]
+
+
 MARKS = {10: "insn_train_round", 20: "insn_mc_inference", 30: "insn_fp32_inference", 40: "insn_int8_inference",
          50: "insn_post_inference", 60: "insn_post_factor", 70: "insn_post_observe"}
 POST_GOAL = 1 / 20  # the one-pass uncertainty's instructions against MC-50's, at most
@@ -375,6 +402,9 @@ def main(argv=None):
             prof["stack_worst_case"][core] = {"stack": size, "direct_chain_bytes": total, "chain": chain,
                                               "indirect": fl["indirect"], "recursion": fl["recursion"]}
         md.append("")
+
+    # ---- the cores' timing --------------------------------------------------------------------
+    md += cores_section(r, prof)
 
     # ---- instructions and time ---------------------------------------------------------------
     md += ["## Instructions and time", ""]

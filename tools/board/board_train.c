@@ -46,7 +46,7 @@ enum {
 #define TRAIN_POINTS_MAX (BNN_MAX_BATCH < 256u ? BNN_MAX_BATCH : 256u)
 
 typedef struct train_opts {
-    uint32_t rounds, steps, batch, mc, points;
+    uint32_t rounds, steps, batch, mc, points, rt_hz, gp_hz;
     float kl_weight;
     uint64_t seed;
     const char *samples, *dir;
@@ -70,8 +70,13 @@ static void usage(FILE *to)
             "  --kl-weight W    prior KL weight (default 5e-3)\n"
             "  --mc K           Monte-Carlo passes of the inference (default 50)\n"
             "  --points P       points of the inference, 1..%u (default 64)\n"
-            "  --seed S         seed of the model and of its noise (default 1)\n",
-            (unsigned)BNN_MAX_BATCH, (unsigned)TRAIN_POINTS_MAX);
+            "  --seed S         seed of the model and of its noise (default 1)\n"
+            "  --rt-hz HZ       the RT core's rate while the AI trains: its wake-ups are timed\n"
+            "                   (default %u; 0: not started). Needs the target's scheduler\n"
+            "                   (Cortex-M); elsewhere the AI work runs alone\n"
+            "  --gp-hz HZ       the same for the GP core (default %u)\n",
+            (unsigned)BNN_MAX_BATCH, (unsigned)TRAIN_POINTS_MAX, (unsigned)(1000000u / FW_RT_PERIOD_US),
+            (unsigned)(1000000u / FW_GP_PERIOD_US));
 }
 
 static int parse_u32(const char *s, uint32_t lo, uint32_t hi, uint32_t *out)
@@ -88,6 +93,7 @@ static int parse_opts(int argc, char **argv, train_opts_t *o)
 {
     *o = (train_opts_t){.rounds = 10, .steps = 5, .batch = BNN_MAX_BATCH < 64u ? BNN_MAX_BATCH : 64u,
                         .mc = 50, .points = 64, .kl_weight = 5e-3f, .seed = 1,
+                        .rt_hz = 1000000u / FW_RT_PERIOD_US, .gp_hz = 1000000u / FW_GP_PERIOD_US,
                         .samples = "train_samples.bin", .dir = ""};
     for (int i = 1; i < argc; i++) {
         const char *a = argv[i], *v = i + 1 < argc ? argv[i + 1] : NULL;
@@ -106,6 +112,10 @@ static int parse_opts(int argc, char **argv, train_opts_t *o)
             r = parse_u32(v, 1, 1000, &o->mc);
         } else if (strcmp(a, "--points") == 0) {
             r = parse_u32(v, 1, TRAIN_POINTS_MAX, &o->points);
+        } else if (strcmp(a, "--rt-hz") == 0) {
+            r = parse_u32(v, 0, 10000, &o->rt_hz);
+        } else if (strcmp(a, "--gp-hz") == 0) {
+            r = parse_u32(v, 0, 10000, &o->gp_hz);
         } else if (strcmp(a, "--seed") == 0) {
             r = parse_u32(v, 0, UINT32_MAX, &seed);
             o->seed = seed;
@@ -165,6 +175,74 @@ static int load_samples(ai_core_t *ai, const char *name, uint32_t *n_out)
 }
 
 /* Instructions since start, or 0 where the target does not count them. */
+/* A core started beside the AI work (which runs on the main program, below every core): at its
+ * period it wakes, and how late each wake-up came is what it keeps. The RT core's control loop
+ * needs the world's scans and wheels (hardware in the loop, not here), so what is measured is
+ * the slot the core's tick runs in: the scheduler's wake-up latency and the deadlines missed
+ * while the AI core trains. */
+typedef struct timed_core {
+    hal_core_id_t id;
+    uint32_t period_us;
+    int started;
+    volatile uint64_t ticks, misses, late_sum_ns, late_max_ns;
+} timed_core_t;
+
+static timed_core_t timed[2];
+
+static void timed_entry(void *arg)
+{
+    timed_core_t *c = arg;
+    uint64_t start = 0;
+    if (hal_clock_now_us(&start) != 0)
+        return;
+    start -= start % c->period_us; /* released at whole periods of the board's time, as a
+                                      scheduler's tick falls: the lateness is the switch's */
+    for (uint64_t k = 1;; k++) {
+        const uint64_t due = start + k * c->period_us;
+        if (hal_sleep_until_us(due) != 0)
+            return;
+        const uint64_t now_ns = hal_stdc_target_now_ns(), due_ns = due * 1000u;
+        const uint64_t late = now_ns > due_ns ? now_ns - due_ns : 0;
+        c->late_sum_ns += late;
+        if (late > c->late_max_ns)
+            c->late_max_ns = late;
+        if (late >= 1000u * (uint64_t)c->period_us) /* woke after its next tick was due: one lost */
+            c->misses++;
+        c->ticks++;
+    }
+}
+
+static void start_timed(timed_core_t *c, hal_core_id_t id, uint32_t hz)
+{
+    c->id = id;
+    c->period_us = hz > 0 ? 1000000u / hz : 0;
+    if (hz == 0)
+        return;
+    const int r = hal_core_start(id, timed_entry, c);
+    if (r == 0)
+        c->started = 1;
+    else if (r == -ENOTSUP)
+        printf("board_train: target %s has no scheduler: the %s core is not started, the AI work runs alone\n",
+               hal_stdc_target_name(), hal_core_name(id));
+    else
+        fprintf(stderr, "board_train: the %s core did not start (%d)\n", hal_core_name(id), r);
+}
+
+static void print_timed(const timed_core_t *c)
+{
+    if (!c->started)
+        return;
+    const char *n = c->id == HAL_CORE_RT ? "rt" : "gp";
+    size_t used = 0, size = 0;
+    printf("result %s_period_us %lu\n", n, (unsigned long)c->period_us);
+    printf("result %s_ticks %llu\n", n, (unsigned long long)c->ticks);
+    printf("result %s_late_mean_ns %.0f\n", n, c->ticks > 0 ? (double)c->late_sum_ns / (double)c->ticks : 0.0);
+    printf("result %s_late_max_ns %llu\n", n, (unsigned long long)c->late_max_ns);
+    printf("result %s_deadline_misses %llu\n", n, (unsigned long long)c->misses);
+    if (hal_core_stack_high_water(c->id, &used, &size) == 0)
+        printf("result stack_%s_used %lu of %lu\n", n, (unsigned long)used, (unsigned long)size);
+}
+
 static uint64_t insns(void)
 {
     uint64_t n = 0;
@@ -228,6 +306,8 @@ int main(int argc, char **argv)
 
     /* After the first output: the C library's stdout buffer is part of init. */
     uint64_t heap_init = heap_probe_in_use();
+    start_timed(&timed[0], HAL_CORE_RT, o.rt_hz);
+    start_timed(&timed[1], HAL_CORE_GP, o.gp_hz);
     uint64_t train_insns = 0, round_max = 0;
     dinno_round_stats_t st = {0};
     for (uint32_t k = 0; k < o.rounds; k++) {
@@ -384,6 +464,8 @@ int main(int argc, char **argv)
     }
     if (have_stack)
         printf("result stack_main_used %lu of %lu\n", (unsigned long)stack_used, (unsigned long)stack_size);
+    print_timed(&timed[0]);
+    print_timed(&timed[1]);
     printf("result heap_in_use_after_init %llu\n", (unsigned long long)(heap_init));
     printf("result heap_growth_after_init %lld\n", (long long)(heap_probe_in_use() - heap_init));
     hal_stdc_uninstall();
