@@ -198,3 +198,19 @@ int hal_hil_get_datagram(const hal_hil_frame_t *f, hal_hil_datagram_t *m)
     m->len = f->len - 1u - cl;
     return 0;
 }
+
+int hal_hil_put_tick(uint8_t *out, size_t cap, uint64_t stamp_us)
+{
+    if (cap < HAL_HIL_TICK_BYTES)
+        return -EMSGSIZE;
+    le_put_u64(out, stamp_us);
+    return (int)HAL_HIL_TICK_BYTES;
+}
+
+int hal_hil_get_tick(const hal_hil_frame_t *f, uint64_t *stamp_us)
+{
+    if (f->type != HAL_HIL_TICK || f->len != HAL_HIL_TICK_BYTES)
+        return -EBADMSG;
+    *stamp_us = le_get_u64(f->payload);
+    return 0;
+}

@@ -164,7 +164,7 @@ static void test_stream_finds_every_frame_through_noise(void **st)
     uint64_t noise = 0;
     for (uint32_t k = 1; k <= 200; k++) {
         const size_t len = k % 10u == 0 ? 3000u : rnd() % 200u;
-        const int fl = make_frame((hal_hil_type_t)(1u + k % 5u), k, len, (uint8_t)k);
+        const int fl = make_frame((hal_hil_type_t)(1u + k % 6u), k, len, (uint8_t)k);
         memcpy(wire + n, frame, (size_t)fl);
         n += (size_t)fl;
         if (k % 3u == 0) { /* noise, with the magic's bytes in it */
@@ -374,6 +374,16 @@ static void test_payloads_round_trip_and_refuse(void **st)
     assert_int_equal(hal_hil_get_datagram(&f, &d), -EBADMSG);
     assert_int_equal(hal_hil_put_datagram(payload, sizeof payload, "bad channel", dg, 5), -EINVAL);
     assert_int_equal(hal_hil_put_datagram(payload, sizeof payload, "ok", dg, HAL_NET_MTU_BYTES + 1u), -EMSGSIZE);
+
+    /* TICK */
+    uint64_t t = 0;
+    f = framed(HAL_HIL_TICK, hal_hil_put_tick(payload, sizeof payload, 123456789012ull));
+    assert_int_equal(hal_hil_get_tick(&f, &t), 0);
+    assert_true(t == 123456789012ull);
+    f = framed(HAL_HIL_TICK, 7);
+    assert_int_equal(hal_hil_get_tick(&f, &t), -EBADMSG);
+    f.type = HAL_HIL_WHEELS;
+    assert_int_equal(hal_hil_get_tick(&f, &t), -EBADMSG);
 }
 
 /* Random and mutated bytes into both readers: no crash, no overread (ASan), and every frame
@@ -385,7 +395,7 @@ static void test_fuzz_readers(void **st)
     hal_hil_stream_init(&s);
     int ok = 0, refused = 0;
     for (int it = 0; it < 20000; it++) {
-        int n = make_frame((hal_hil_type_t)(1u + rnd() % 5u), (uint32_t)it, rnd() % 64u, (uint8_t)it);
+        int n = make_frame((hal_hil_type_t)(1u + rnd() % 6u), (uint32_t)it, rnd() % 64u, (uint8_t)it);
         const int flips = (int)(rnd() % 3u);
         for (int k = 0; k < flips; k++)
             frame[rnd() % (uint32_t)n] ^= (uint8_t)(1u << (rnd() % 8u));

@@ -10,6 +10,8 @@
  *   WHEELS    stamp_us u64, left f32, right f32 (rad/s)
  *   DATAGRAM  channel length u8, channel (hal_net_channel_valid, no NUL), the datagram's bytes
  *             (at most HAL_NET_MTU_BYTES)
+ *   TICK      stamp_us u64: the board's time; the host steps its world to it (never back) and
+ *             answers with POSE and SCAN, the latest of each
  */
 #ifndef HAL_HIL_MSG_H
 #define HAL_HIL_MSG_H
@@ -21,6 +23,7 @@
 #define HAL_HIL_HELLO_BYTES (8u + HAL_HIL_BOARD_NAME_BYTES)
 #define HAL_HIL_POSE_BYTES 20u
 #define HAL_HIL_WHEELS_BYTES 16u
+#define HAL_HIL_TICK_BYTES 8u
 
 typedef struct hal_hil_hello {
     uint32_t robot;
@@ -47,6 +50,7 @@ int hal_hil_put_scan(uint8_t *out, size_t cap, const hal_lidar_scan_t *m);
 int hal_hil_put_pose(uint8_t *out, size_t cap, const hal_pose_t *m);
 int hal_hil_put_wheels(uint8_t *out, size_t cap, const hal_hil_wheels_t *m);
 int hal_hil_put_datagram(uint8_t *out, size_t cap, const char *channel, const void *data, size_t len);
+int hal_hil_put_tick(uint8_t *out, size_t cap, uint64_t stamp_us);
 
 /* Decoders of a frame's payload: 0, or -EBADMSG (wrong type, length or value). */
 int hal_hil_get_hello(const hal_hil_frame_t *f, hal_hil_hello_t *m);
@@ -54,5 +58,6 @@ int hal_hil_get_scan(const hal_hil_frame_t *f, hal_lidar_scan_t *m);
 int hal_hil_get_pose(const hal_hil_frame_t *f, hal_pose_t *m);
 int hal_hil_get_wheels(const hal_hil_frame_t *f, hal_hil_wheels_t *m);
 int hal_hil_get_datagram(const hal_hil_frame_t *f, hal_hil_datagram_t *m);
+int hal_hil_get_tick(const hal_hil_frame_t *f, uint64_t *stamp_us);
 
 #endif /* HAL_HIL_MSG_H */

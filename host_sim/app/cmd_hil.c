@@ -1,0 +1,138 @@
+/* host_sim hil: one robot's world served over the hardware-in-the-loop link to firmware that
+ * runs elsewhere (sim_hil_serve.h). */
+#include <errno.h>
+#include <stdio.h>
+#include <stdlib.h>
+#include <string.h>
+#include <unistd.h>
+
+#include "cli.h"
+#include "commands.h"
+#include "hal_host_stop.h"
+#include "sim_hal_world.h"
+#include "sim_hil_serve.h"
+#include "sim_paths.h"
+#include "sim_plan.h"
+
+typedef struct hil_opts {
+    const char *plan, *path, *listen;
+    int64_t robot, seed;
+    double idle_timeout_s, scale;
+    int quiet;
+} hil_opts_t;
+
+static hil_opts_t hil_defaults(void)
+{
+    return (hil_opts_t){.listen = "127.0.0.1:7800", .seed = 1, .idle_timeout_s = 30.0, .scale = SIM_PLAN_DEFAULT_SCALE};
+}
+
+static const cli_opt_t hil_opts[] = {
+    {.names = "--plan", .meta = "FILE.svg", CLI_STRING(hil_opts_t, plan), .required = 1, .help = "the floor plan"},
+    {.names = "--path", .meta = "ROBOT.csv", CLI_STRING(hil_opts_t, path), .required = 1,
+     .help = "the robot's tour: it starts at the first waypoint facing the second"},
+    {.names = "--listen", .meta = "HOST:PORT", CLI_STRING(hil_opts_t, listen),
+     .help = "the UDP address the board talks to (port 0: any free one, printed)"},
+    {.names = "--robot", .meta = "I", CLI_INT(hil_opts_t, robot, 0, BOARD_MAX_FLEET - 1),
+     .help = "the robot served: keys the noise streams; the board's HELLO must name it"},
+    {.names = "--seed", .meta = "S", CLI_INT(hil_opts_t, seed, 0, INT64_MAX), .help = "run seed of the noise streams"},
+    {.names = "--idle-timeout", .meta = "S", CLI_DOUBLE(hil_opts_t, idle_timeout_s, 0.1, 86400),
+     .help = "end when no frame came for S seconds"},
+    {.names = "--scale", .meta = "S", CLI_DOUBLE(hil_opts_t, scale, 1e-6, 1e3), .help = "plan metres per pixel"},
+    {.names = "-q|--quiet", CLI_FLAG(hil_opts_t, quiet, 1), .help = "no progress lines"},
+    CLI_OPT_END,
+};
+
+static void hil_usage(FILE *out)
+{
+    const hil_opts_t d = hil_defaults();
+    fprintf(out,
+            "usage: host_sim hil --plan FILE.svg --path ROBOT.csv [options]\n"
+            "\n"
+            "Serves one robot's ODE world to firmware that runs elsewhere (a board, QEMU, another\n"
+            "process) over the hardware-in-the-loop link: UDP, one CRC-checked frame per datagram\n"
+            "(hal/include/hal/hal_hil_frame.h). The board keeps the time: it says HELLO, then each\n"
+            "control tick sends TICK t (the world steps to t and the latest pose and scan come back)\n"
+            "and its wheel command, held until the next one. Every frame is checked before it acts;\n"
+            "refused ones are counted in the last line. Ends when no frame came for --idle-timeout\n"
+            "seconds: exit 0 after a session, 1 when no board said HELLO, 2 on bad options.\n"
+            "\n"
+            "options:\n");
+    cli_opts_help(out, hil_opts, &d);
+}
+
+int cmd_hil(int argc, char **argv)
+{
+    hil_opts_t o = hil_defaults();
+    const cli_parser_t parser = {.cmd = "hil", .opts = hil_opts, .usage = hil_usage};
+    const int pr = cli_opts_parse(&parser, argc, argv, &o, NULL, NULL);
+    if (pr != 0)
+        return pr > 0 ? 0 : 2;
+    char err[8192];
+    uint16_t port = 0;
+    const int fd = sim_hil_listen(o.listen, &port, err, sizeof err);
+    if (fd < 0) {
+        fprintf(stderr, "host_sim hil: --listen %s\n", err);
+        return 2;
+    }
+    sim_plan_t plan;
+    if (sim_plan_load(o.plan, o.scale, &plan, err, sizeof err) < 0) {
+        fprintf(stderr, "host_sim hil: %s\n", err);
+        close(fd);
+        return 1;
+    }
+    sim_path_t path;
+    if (sim_path_read_csv(o.path, &plan, &path, err, sizeof err) < 0) {
+        fprintf(stderr, "host_sim hil: %s\n", err);
+        sim_plan_free(&plan);
+        close(fd);
+        return 1;
+    }
+    sim_hal_world_cfg_t wc = sim_hal_world_default_cfg();
+    wc.robot = (uint32_t)o.robot;
+    wc.seed = (uint64_t)o.seed;
+    sim_hal_world_t *hw = NULL;
+    int rc = sim_hal_world_create(&plan, &path, &wc, &hw, err, sizeof err);
+    if (rc != 0) {
+        fprintf(stderr, "host_sim hil: %s\n", err);
+        sim_path_free(&path);
+        sim_plan_free(&plan);
+        close(fd);
+        return 1;
+    }
+    hal_host_stop_set_mode(HAL_HOST_STOP_ASK);
+    printf("hil: serving robot %lld's world (plan %s, path %s, seed %lld) on udp %.*s:%u\n", (long long)o.robot,
+           o.plan, o.path, (long long)o.seed, (int)(strrchr(o.listen, ':') - o.listen), o.listen, (unsigned)port);
+    fflush(stdout);
+    const sim_hil_serve_cfg_t sc = {.robot = (uint32_t)o.robot, .idle_timeout_s = o.idle_timeout_s, .quiet = o.quiet};
+    sim_hil_serve_stats_t st;
+    rc = sim_hil_serve(hw, fd, &sc, &st, err, sizeof err);
+    uint64_t refused = 0;
+    for (int v = 0; v < HAL_HIL_VERDICTS; v++)
+        refused += st.refused[v];
+    sim_hal_world_stats_t ws;
+    sim_hal_world_get_stats(hw, &ws);
+    printf("hil: served %.1f simulated s: %llu ticks, %llu wheel commands, %llu sessions, distance %.2f m, "
+           "%llu collisions; frames in %llu, out %llu; refused %llu (bad frames), %llu replayed, %llu before a "
+           "HELLO, %llu from another address, %llu bad payloads, %llu lost on the way in; %llu fleet datagrams "
+           "not bridged\n",
+           (double)st.t_us * 1e-6, (unsigned long long)st.ticks, (unsigned long long)st.wheels,
+           (unsigned long long)st.hellos, ws.distance_m, (unsigned long long)ws.collisions,
+           (unsigned long long)st.frames_in, (unsigned long long)st.frames_out, (unsigned long long)refused,
+           (unsigned long long)st.replayed, (unsigned long long)st.unopened, (unsigned long long)st.other_sender,
+           (unsigned long long)(st.bad_payload + st.wrong_robot), (unsigned long long)st.lost,
+           (unsigned long long)st.datagrams_not_bridged);
+    sim_hal_world_destroy(hw);
+    sim_path_free(&path);
+    sim_plan_free(&plan);
+    close(fd);
+    if (rc == -EINTR) {
+        const int sig = hal_host_stop_signal();
+        fprintf(stderr, "host_sim hil: stopped by %s\n", hal_host_stop_signal_name(sig));
+        return hal_host_stop_exit_code(sig);
+    }
+    if (rc < 0) {
+        fprintf(stderr, "host_sim hil: %s\n", err);
+        return 1;
+    }
+    return rc;
+}

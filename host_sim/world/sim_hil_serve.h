@@ -1,0 +1,55 @@
+/* host_sim's end of the hardware-in-the-loop link (hal/hal_hil_frame.h, hal_hil_msg.h): one
+ * robot's ODE world served to firmware that runs elsewhere (a board, QEMU, another process),
+ * over UDP, one frame per datagram.
+ *
+ * The board keeps the time. It opens a session (HELLO: the server answers with its own HELLO
+ * and from then on talks only to that address), then, each control tick:
+ *   TICK t      the server steps the world to t (sim_hal_world's advance: never back, so a TICK
+ *               sent again after a lost answer steps nothing) and answers POSE and SCAN, the
+ *               latest fix and scan at t;
+ *   WHEELS      the command, held from the next step on (zero-order hold, as on the host HAL).
+ * So a run's world depends only on the ticks' times and the commands, not on how long the
+ * board or the link took: the same firmware gives the same trajectory here as in `host_sim
+ * run`, as long as each command reaches the server before the next TICK.
+ * Every datagram is checked (frame, session and sequence guard, payload) before anything acts
+ * on it; what is refused is counted, and the server goes on. A second HELLO of another session
+ * (the board restarted) is taken, from its address. Bridged fleet datagrams (DATAGRAM) are
+ * counted and not bridged yet.
+ * Every wait is bounded: the server ends when no frame came for idle_timeout_s (0: it served
+ * a session and the board went quiet; 1: no board ever said HELLO), or within 100 ms of a stop
+ * request (hal_host_stop.h, in its ASK mode). */
+#ifndef SIM_HIL_SERVE_H
+#define SIM_HIL_SERVE_H
+
+#include <stddef.h>
+#include <stdint.h>
+
+#include "hal/hal_hil_frame.h"
+#include "sim_hal_world.h"
+
+typedef struct sim_hil_serve_cfg {
+    uint32_t robot;           /* the id the board must give in its HELLO */
+    double idle_timeout_s;    /* > 0 */
+    int quiet;                /* no progress lines */
+} sim_hil_serve_cfg_t;
+
+typedef struct sim_hil_serve_stats {
+    uint64_t frames_in, frames_out;
+    uint64_t ticks, wheels, hellos, datagrams_not_bridged;
+    uint64_t refused[HAL_HIL_VERDICTS]; /* frames refused by the frame check, by verdict */
+    uint64_t replayed, unopened, lost;  /* the session guard's */
+    uint64_t bad_payload, wrong_robot, other_sender;
+    uint64_t t_us;                      /* the world's time */
+} sim_hil_serve_stats_t;
+
+/* A UDP socket bound to "HOST:PORT" (port 0: any free one); the port it got into *port. The
+ * descriptor, or -1 with a message in err. */
+int sim_hil_listen(const char *host_port, uint16_t *port, char *err, size_t errlen);
+
+/* Serves hw's robot on the bound socket fd until the board goes quiet or a stop is requested.
+ * 0 (a session was served), 1 (no board said HELLO), -EINTR (stopped), or another negative
+ * code with a message in err (the world failed, the socket failed). */
+int sim_hil_serve(sim_hal_world_t *hw, int fd, const sim_hil_serve_cfg_t *cfg, sim_hil_serve_stats_t *st, char *err,
+                  size_t errlen);
+
+#endif /* SIM_HIL_SERVE_H */

@@ -1,0 +1,289 @@
+/* `host_sim hil` (host_sim/world/sim_hil_serve.h) as a board meets it: a real process serving
+ * the ODE world over UDP on loopback, this test in the board's place, speaking the link's
+ * frames (hal/hal_hil_frame.h, hal_hil_msg.h). The round trip: HELLO, TICK -> POSE and SCAN
+ * at the path's start, a wheel command that moves the robot as far as it should in a second,
+ * nothing before a HELLO or for another robot, replayed and corrupted frames refused while the
+ * serving goes on, the same seed giving the same bytes in a second server, and the server
+ * ending on its own when the board goes quiet, its last line counting what it refused. */
+#include <setjmp.h>
+#include <stdarg.h>
+#include <stddef.h>
+#include <stdint.h>
+#include <arpa/inet.h>
+#include <math.h>
+#include <netinet/in.h>
+#include <poll.h>
+#include <stdio.h>
+#include <stdlib.h>
+#include <string.h>
+#include <sys/socket.h>
+#include <unistd.h>
+#include <cmocka.h>
+
+#include "fleet_procs.h"
+#include "hal/hal_hil_msg.h"
+
+#define DEADLINE_S 20.0
+#define IDLE_S "1.5"
+
+typedef struct board {
+    int fd;
+    struct sockaddr_in server;
+    uint32_t session, seq;
+    pid_t pid;
+    char log[PATH_MAX];
+    hal_hil_guard_t guard;
+    uint8_t frame[HAL_HIL_FRAME_MAX];
+    uint8_t payload[HAL_HIL_PAYLOAD_MAX];
+} board_t;
+
+static board_t b1, b2;
+
+static uint16_t free_udp_port(void)
+{
+    const int fd = socket(AF_INET, SOCK_DGRAM, 0);
+    struct sockaddr_in a = {.sin_family = AF_INET, .sin_addr.s_addr = htonl(INADDR_LOOPBACK)};
+    socklen_t al = sizeof a;
+    assert_true(fd >= 0 && bind(fd, (struct sockaddr *)&a, sizeof a) == 0 &&
+                getsockname(fd, (struct sockaddr *)&a, &al) == 0);
+    close(fd);
+    return ntohs(a.sin_port);
+}
+
+/* The server started and listening: its "serving" line in the log, within the deadline. */
+static void start_server(board_t *b, const char *name)
+{
+    const uint16_t port = free_udp_port();
+    static char listen[32], robot_path[PATH_MAX];
+    snprintf(listen, sizeof listen, "127.0.0.1:%u", (unsigned)port);
+    snprintf(robot_path, sizeof robot_path, "%s/robot_0.csv", fp_env.paths);
+    snprintf(b->log, sizeof b->log, "%s/%s.log", fp_env.dir, name);
+    const char *argv[] = {fp_env.bin, "hil", "--plan", fp_env.plan, "--path", robot_path, "--listen", listen,
+                          "--idle-timeout", IDLE_S, "--seed", "7", NULL};
+    b->pid = fp_spawn(argv, b->log, NULL, NULL);
+    assert_true(b->pid > 0);
+    const double t0 = fp_now();
+    for (;;) {
+        char text[4096] = "";
+        FILE *f = fopen(b->log, "r");
+        if (f != NULL) {
+            text[fread(text, 1, sizeof text - 1, f)] = '\0';
+            fclose(f);
+        }
+        if (strstr(text, "hil: serving") != NULL)
+            break;
+        if (fp_now() - t0 > DEADLINE_S) {
+            fp_show_log(b->log);
+            fail_msg("host_sim hil did not start within %g s", DEADLINE_S);
+        }
+        fp_sleep_ms(20);
+    }
+    b->fd = socket(AF_INET, SOCK_DGRAM, 0);
+    assert_true(b->fd >= 0);
+    b->server = (struct sockaddr_in){.sin_family = AF_INET, .sin_port = htons(port),
+                                     .sin_addr.s_addr = htonl(INADDR_LOOPBACK)};
+    b->session = 0xB0A4D000u + (uint32_t)port;
+    hal_hil_guard_init(&b->guard);
+}
+
+/* One frame to the server; its bytes stay in b->frame (to be replayed). */
+static int send_frame(board_t *b, hal_hil_type_t type, int len)
+{
+    assert_true(len >= 0);
+    const int n = hal_hil_encode(b->frame, sizeof b->frame, type, b->session, ++b->seq, b->payload, (size_t)len);
+    assert_true(n > 0);
+    assert_int_equal(sendto(b->fd, b->frame, (size_t)n, 0, (struct sockaddr *)&b->server, sizeof b->server), n);
+    return n;
+}
+
+/* The next frame from the server within wait_ms: 1 and *f (payload in buf), or 0. */
+static int recv_frame(board_t *b, uint8_t *buf, size_t cap, hal_hil_frame_t *f, int wait_ms)
+{
+    struct pollfd p = {.fd = b->fd, .events = POLLIN};
+    if (poll(&p, 1, wait_ms) != 1)
+        return 0;
+    const ssize_t n = recv(b->fd, buf, cap, 0);
+    assert_true(n > 0);
+    assert_int_equal(hal_hil_parse(buf, (size_t)n, f), HAL_HIL_OK);
+    assert_int_equal(hal_hil_guard_accept(&b->guard, f), 0);
+    return 1;
+}
+
+static uint8_t in_pose[HAL_HIL_FRAME_MAX], in_scan[HAL_HIL_FRAME_MAX];
+
+/* TICK t: the pose and the scan that answer it (their payloads stay in in_pose / in_scan). */
+static void tick(board_t *b, uint64_t t_us, hal_pose_t *pose, hal_lidar_scan_t *scan)
+{
+    send_frame(b, HAL_HIL_TICK, hal_hil_put_tick(b->payload, sizeof b->payload, t_us));
+    hal_hil_frame_t f;
+    assert_int_equal(recv_frame(b, in_pose, sizeof in_pose, &f, 5000), 1);
+    assert_int_equal(hal_hil_get_pose(&f, pose), 0);
+    assert_int_equal(recv_frame(b, in_scan, sizeof in_scan, &f, 5000), 1);
+    assert_int_equal(hal_hil_get_scan(&f, scan), 0);
+}
+
+static void hello(board_t *b, uint32_t robot)
+{
+    const hal_hil_hello_t h = {robot, 20000, "test-board"};
+    send_frame(b, HAL_HIL_HELLO, hal_hil_put_hello(b->payload, sizeof b->payload, &h));
+}
+
+static void wheels(board_t *b, float l, float r)
+{
+    const hal_hil_wheels_t w = {0, l, r};
+    send_frame(b, HAL_HIL_WHEELS, hal_hil_put_wheels(b->payload, sizeof b->payload, &w));
+}
+
+/* The first waypoint of robot 0's tour (x, y). */
+static void tour_start(double *x, double *y)
+{
+    char p[PATH_MAX];
+    snprintf(p, sizeof p, "%s/robot_0.csv", fp_env.paths);
+    FILE *f = fopen(p, "r");
+    assert_non_null(f);
+    char line[256];
+    int got = 0;
+    while (!got && fgets(line, sizeof line, f) != NULL)
+        got = sscanf(line, "%lf,%lf", x, y) == 2;
+    fclose(f);
+    assert_true(got);
+}
+
+static hal_lidar_scan_t scan_a, scan_b;
+
+static void test_round_trip(void **st)
+{
+    (void)st;
+    board_t *b = &b1;
+    start_server(b, "hil");
+    uint8_t buf[HAL_HIL_FRAME_MAX];
+    hal_hil_frame_t f;
+
+    /* Before a HELLO, and a HELLO for another robot: nothing comes back. */
+    send_frame(b, HAL_HIL_TICK, hal_hil_put_tick(b->payload, sizeof b->payload, 0));
+    hello(b, 5);
+    assert_int_equal(recv_frame(b, buf, sizeof buf, &f, 300), 0);
+
+    hello(b, 0);
+    assert_int_equal(recv_frame(b, buf, sizeof buf, &f, 5000), 1);
+    hal_hil_hello_t h;
+    assert_int_equal(hal_hil_get_hello(&f, &h), 0);
+    assert_string_equal(h.board, "host_sim");
+    assert_int_equal(h.robot, 0);
+
+    /* At t = 0: the robot at the tour's start, a whole scan. */
+    hal_pose_t p0, p1;
+    tick(b, 0, &p0, &scan_a);
+    double x0, y0;
+    tour_start(&x0, &y0);
+    assert_true(fabs(p0.x_m - x0) < 0.05 && fabs(p0.y_m - y0) < 0.05);
+    assert_true(scan_a.count > 0 && scan_a.count <= HAL_LIDAR_MAX_BEAMS);
+
+    /* Both wheels at 0.15 m/s for a second: about 0.15 m along the heading. */
+    const float w = 0.15f / 0.033f;
+    wheels(b, w, w);
+    tick(b, 1000000, &p1, &scan_a);
+    const double dx = p1.x_m - p0.x_m, dy = p1.y_m - p0.y_m, d = sqrt(dx * dx + dy * dy);
+    const double along = dx * cos(p0.heading_rad) + dy * sin(p0.heading_rad);
+    print_message("moved %.3f m in 1 s (%.3f along the heading)\n", d, along);
+    assert_true(along > 0.10 && along < 0.18);
+    assert_true(p1.stamp_us >= 990000u && p1.stamp_us <= 1000000u);
+
+    /* The last TICK replayed (same session and seq): refused, nothing comes back. */
+    const int n = hal_hil_encode(buf, sizeof buf, HAL_HIL_TICK, b->session, b->seq, b->payload, HAL_HIL_TICK_BYTES);
+    assert_int_equal(sendto(b->fd, buf, (size_t)n, 0, (struct sockaddr *)&b->server, sizeof b->server), n);
+    /* A corrupted frame and noise: refused, nothing comes back. */
+    const int m = hal_hil_encode(buf, sizeof buf, HAL_HIL_TICK, b->session, b->seq + 1u, b->payload,
+                                 HAL_HIL_TICK_BYTES);
+    buf[m - 1] ^= 0x10u;
+    assert_int_equal(sendto(b->fd, buf, (size_t)m, 0, (struct sockaddr *)&b->server, sizeof b->server), m);
+    assert_int_equal(sendto(b->fd, "garbage", 7, 0, (struct sockaddr *)&b->server, sizeof b->server), 7);
+    assert_int_equal(recv_frame(b, buf, sizeof buf, &f, 300), 0);
+    /* ... and the serving goes on. */
+    tick(b, 1500000, &p1, &scan_a);
+
+    /* The board goes quiet: the server ends by itself, 0, counting what it refused. */
+    const int status = fp_wait(b->pid, fp_now() + DEADLINE_S);
+    if (status != 0)
+        fp_show_log(b->log);
+    assert_int_equal(status, 0);
+    b->pid = 0;
+    char text[8192] = "";
+    FILE *lf = fopen(b->log, "r");
+    assert_non_null(lf);
+    text[fread(text, 1, sizeof text - 1, lf)] = '\0';
+    fclose(lf);
+    const char *last = strstr(text, "hil: served");
+    assert_non_null(last);
+    unsigned long long ticks = 0, refused = 0, replayed = 0, before = 0, bad = 0;
+    const char *q = strstr(last, "ticks");
+    assert_non_null(q);
+    assert_int_equal(sscanf(last, "hil: served %*f simulated s: %llu ticks", &ticks), 1);
+    assert_int_equal(sscanf(strstr(last, "refused"), "refused %llu (bad frames), %llu replayed, %llu before a HELLO",
+                            &refused, &replayed, &before), 3);
+    assert_int_equal(sscanf(strstr(last, "from another address,"), "from another address, %llu bad payloads", &bad), 1);
+    print_message("%s", last);
+    assert_int_equal(ticks, 3);
+    assert_int_equal(refused, 2); /* the corrupted frame, the noise */
+    assert_int_equal(replayed, 1);
+    assert_int_equal(bad, 1); /* the HELLO for robot 5 */
+    assert_true(strstr(text, "board 'test-board' (robot 0") != NULL);
+    (void)before;
+    close(b->fd);
+}
+
+static void test_same_seed_same_bytes(void **st)
+{
+    (void)st;
+    static uint8_t pose1[HAL_HIL_FRAME_MAX], scan1[HAL_HIL_FRAME_MAX];
+    hal_pose_t p;
+    board_t *bs[2] = {&b1, &b2};
+    for (int k = 0; k < 2; k++) {
+        board_t *b = bs[k];
+        memset(b, 0, sizeof *b);
+        start_server(b, k == 0 ? "hil_a" : "hil_b");
+        uint8_t buf[HAL_HIL_FRAME_MAX];
+        hal_hil_frame_t f;
+        hello(b, 0);
+        assert_int_equal(recv_frame(b, buf, sizeof buf, &f, 5000), 1);
+        tick(b, 0, &p, k == 0 ? &scan_a : &scan_b);
+        wheels(b, 4.0f, 3.0f);
+        tick(b, 700000, &p, k == 0 ? &scan_a : &scan_b);
+        wheels(b, -1.0f, 2.0f);
+        tick(b, 1300000, &p, k == 0 ? &scan_a : &scan_b);
+        /* The payloads, past the frames' headers (sessions and seqs differ). */
+        if (k == 0) {
+            memcpy(pose1, in_pose, sizeof pose1);
+            memcpy(scan1, in_scan, sizeof scan1);
+        } else {
+            assert_memory_equal(pose1 + HAL_HIL_HEADER_BYTES, in_pose + HAL_HIL_HEADER_BYTES, HAL_HIL_POSE_BYTES);
+            assert_int_equal(scan_a.count, scan_b.count);
+            assert_memory_equal(scan1 + HAL_HIL_HEADER_BYTES, in_scan + HAL_HIL_HEADER_BYTES,
+                                26u + 4u * scan_a.count);
+        }
+        close(b->fd);
+        assert_int_equal(fp_wait(b->pid, fp_now() + DEADLINE_S), 0);
+        b->pid = 0;
+    }
+}
+
+static int setup(void **st)
+{
+    (void)st;
+    return fp_setup("fleetsim_hil", 0u, NULL);
+}
+
+static int teardown(void **st)
+{
+    (void)st;
+    return fp_teardown();
+}
+
+int main(void)
+{
+    const struct CMUnitTest tests[] = {
+        cmocka_unit_test(test_round_trip),
+        cmocka_unit_test(test_same_seed_same_bytes),
+    };
+    return cmocka_run_group_tests_name("sim/hil_serve", tests, setup, teardown);
+}
