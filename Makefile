@@ -181,7 +181,7 @@ FW_CXX    := $(if $(filter eigen,$(LA_BACKEND)),$(sort $(shell find firmware -na
 HAL_COMMON_C := $(sort $(wildcard hal/common/*.c))
 HAL_C     := $(sort $(shell find hal/host -name '*.c'))
 # The cross boards' back end on its Linux target, for its tests (tests/hal/test_stdc.c).
-HAL_STDC_C := hal/stdc/hal_stdc.c hal/stdc/hal_stdc_posix.c
+HAL_STDC_C := hal/stdc/hal_stdc.c hal/stdc/hal_stdc_posix.c hal/stdc/hal_stdc_posix_hil.c
 SIM_C     := $(sort $(shell find host_sim -name '*.c' -not -path 'host_sim/app/*'))
 APP_C     := $(sort $(wildcard host_sim/app/*.c))
 MSG_LCM   := $(sort $(wildcard firmware/msg/*.lcm))
@@ -207,7 +207,7 @@ TEST_BIN    := $(patsubst %.c,$(O)/%,$(TEST_C))
 FAULTS_TEST_BIN := $(patsubst %.c,$(O)/%,$(FAULTS_TEST_C))
 BENCH_BIN   := $(patsubst tools/bench/%.c,$(BIN)/%,$(BENCH_C))
 BENCH_SUPPORT_OBJ := $(call obj,$(BENCH_SUPPORT_C))
-PROGRAMS    := $(if $(APP_C),$(BIN)/host_sim) $(BENCH_BIN)
+PROGRAMS    := $(if $(APP_C),$(BIN)/host_sim $(BIN)/board_hil) $(BENCH_BIN)
 
 LIBS := $(LIB)/libsim.a $(LIB)/libhal_host.a $(LIB)/libfirmware.a $(LIB)/libhal.a $(LIB)/libmsg.a
 LINK_LIBS := -Wl,--start-group $(LIBS) -Wl,--end-group $(SYS_LIBS)
@@ -314,6 +314,14 @@ $(LIB)/libfirmware.a $(LIB)/libhal.a $(LIB)/libhal_host.a $(LIB)/libhal_stdc.a $
 $(BIN)/host_sim: $(APP_OBJ) $(LIBS)
 	@mkdir -p $(@D)
 	$(call say,LD,$@)$(CXX) $(OPT) $(APP_OBJ) $(LINK_LIBS) -o $@
+
+# board_hil: the RT core on a Linux board in the loop with `host_sim hil` (docs/boards.md), on
+# the cross boards' back end (hal/stdc), built for this host as a board's stand-in.
+$(O)/obj/tools/board/%.c.o: HOST_INC += -Ihal/stdc
+$(BIN)/board_hil: $(O)/obj/tools/board/board_hil.c.o $(LIB)/libhal_stdc.a $(LIB)/libfirmware.a $(LIB)/libhal.a
+	@mkdir -p $(@D)
+	$(call say,LD,$@)$(CXX) $(OPT) $< -Wl,--start-group $(LIB)/libhal_stdc.a $(LIB)/libfirmware.a $(LIB)/libhal.a \
+	    -Wl,--end-group -lm -o $@
 
 # bench_bnn times the GEMMs inside the training step: its la_sgemm calls pass through a timer
 # (--wrap), the firmware itself unchanged. It also runs every GEMM shape of the step on

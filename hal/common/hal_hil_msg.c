@@ -214,3 +214,40 @@ int hal_hil_get_tick(const hal_hil_frame_t *f, uint64_t *stamp_us)
     *stamp_us = le_get_u64(f->payload);
     return 0;
 }
+
+static int world_ok(float x0, float y0, float x1, float y1, uint32_t step, uint32_t scan)
+{
+    return finite_f(x0) && finite_f(y0) && finite_f(x1) && finite_f(y1) && x0 < x1 && y0 < y1 && step > 0 &&
+           scan > 0;
+}
+
+int hal_hil_put_world(uint8_t *out, size_t cap, const hal_hil_world_t *m)
+{
+    if (!world_ok(m->min_x, m->min_y, m->max_x, m->max_y, m->step_us, m->scan_period_us))
+        return -EINVAL;
+    if (cap < HAL_HIL_WORLD_BYTES)
+        return -EMSGSIZE;
+    le_put_f32(out, m->min_x);
+    le_put_f32(out + 4, m->min_y);
+    le_put_f32(out + 8, m->max_x);
+    le_put_f32(out + 12, m->max_y);
+    le_put_u32(out + 16, m->step_us);
+    le_put_u32(out + 20, m->scan_period_us);
+    return (int)HAL_HIL_WORLD_BYTES;
+}
+
+int hal_hil_get_world(const hal_hil_frame_t *f, hal_hil_world_t *m)
+{
+    const uint8_t *p = f->payload;
+    if (f->type != HAL_HIL_WORLD || f->len != HAL_HIL_WORLD_BYTES ||
+        !world_ok(le_get_f32(p), le_get_f32(p + 4), le_get_f32(p + 8), le_get_f32(p + 12), le_get_u32(p + 16),
+                  le_get_u32(p + 20)))
+        return -EBADMSG;
+    m->min_x = le_get_f32(p);
+    m->min_y = le_get_f32(p + 4);
+    m->max_x = le_get_f32(p + 8);
+    m->max_y = le_get_f32(p + 12);
+    m->step_us = le_get_u32(p + 16);
+    m->scan_period_us = le_get_u32(p + 20);
+    return 0;
+}

@@ -234,6 +234,82 @@ static const hal_net_ops_t stdc_net = {.publish = stdc_publish,
                                        .stats = stdc_net_stats,
                                        .clock_us = stdc_net_clock};
 
+/* ---- sensors and wheels over the hardware-in-the-loop link (hal_stdc_install_hil) ----------- */
+/* A TICK's time is the board's time floored to the RT period (the client's rt_period_us): the
+   release of the RT tick that reads, as long as the core does not overrun, so the world steps to
+   the same instants whatever the core and the link took, and every reading of one RT tick
+   (its pose, then its scan) is one TICK's. */
+
+static struct {
+    hal_hil_client_t *client;
+    int ticked, sensed;
+    uint64_t tick_us, sensed_us;
+    hal_stdc_hil_stats_t st;
+} hil;
+
+static int hil_sense(void)
+{
+    const uint64_t now = hal_stdc_target_now_us();
+    const uint64_t t = now - now % hil.client->rt_period_us;
+    if (hil.ticked && t == hil.tick_us)
+        return 0;
+    const int r = hal_hil_client_tick(hil.client, t);
+    if (r != 0) {
+        hil.st.link_errors++;
+        return -EIO;
+    }
+    hil.ticked = hil.sensed = 1;
+    hil.tick_us = t;
+    hil.sensed_us = hal_stdc_target_now_us();
+    const uint64_t rtt = hil.sensed_us - now;
+    hil.st.exchanges++;
+    hil.st.exchange_sum_us += rtt;
+    if (rtt > hil.st.exchange_max_us)
+        hil.st.exchange_max_us = rtt;
+    return 0;
+}
+
+static int stdc_read_pose(void *ctx, hal_pose_t *pose)
+{
+    (void)ctx;
+    const int r = hil_sense();
+    if (r == 0)
+        *pose = hil.client->pose;
+    return r;
+}
+
+static int stdc_read_scan(void *ctx, hal_lidar_scan_t *scan)
+{
+    (void)ctx;
+    const int r = hil_sense();
+    if (r == 0)
+        *scan = hil.client->scan;
+    return r;
+}
+
+static int stdc_set_wheels(void *ctx, float left_rad_s, float right_rad_s)
+{
+    (void)ctx;
+    const uint64_t now = hal_stdc_target_now_us();
+    if (hil.sensed) { /* the first command after the sensors came: the core's response */
+        const uint64_t dt = now - hil.sensed_us;
+        hil.st.responses++;
+        hil.st.response_sum_us += dt;
+        if (dt > hil.st.response_max_us)
+            hil.st.response_max_us = dt;
+        hil.sensed = 0;
+    }
+    if (hal_hil_client_wheels(hil.client, now, left_rad_s, right_rad_s) != 0) {
+        hil.st.link_errors++;
+        return -EIO;
+    }
+    return 0;
+}
+
+static const hal_lidar_ops_t stdc_lidar = {.read_scan = stdc_read_scan};
+static const hal_pose_ops_t stdc_pose = {.read_pose = stdc_read_pose};
+static const hal_motor_ops_t stdc_motor = {.set_wheels = stdc_set_wheels};
+
 /* ---- board ---------------------------------------------------------------------------------- */
 static void stdc_fault(void *ctx, const char *file, int line, const char *what)
 {
@@ -252,6 +328,37 @@ static const hal_board_t stdc_board = {
     .storage = &stdc_storage,
     .fault = stdc_fault,
 };
+
+static const hal_board_t stdc_board_hil = {
+    .name = BOARD_NAME,
+    .ctx = &stdc,
+    .clock = &stdc_clock,
+    .core = &stdc_core,
+    .log = &stdc_log,
+    .net = &stdc_net,
+    .storage = &stdc_storage,
+    .lidar = &stdc_lidar,
+    .pose = &stdc_pose,
+    .motor = &stdc_motor,
+    .fault = stdc_fault,
+};
+
+int hal_stdc_install_hil(const char *storage_dir, hal_hil_client_t *client)
+{
+    if (client == NULL)
+        return -EINVAL;
+    const int r = hal_stdc_install(storage_dir);
+    if (r != 0)
+        return r;
+    memset(&hil, 0, sizeof hil);
+    hil.client = client;
+    return hal_board_install(&stdc_board_hil);
+}
+
+void hal_stdc_hil_stats(hal_stdc_hil_stats_t *st)
+{
+    *st = hil.st;
+}
 
 int hal_stdc_install(const char *storage_dir)
 {

@@ -15,6 +15,8 @@
  *            (hal_stdc_cortex_m_cores.c); on Linux none (-ENOTSUP: a Linux board runs the
  *            host HAL's threads), and the program runs a core's work from its own main().
  *
+ *   sensors  none, or a world's over the hardware-in-the-loop link (hal_stdc_install_hil)
+ *
  * Storage is static (one board per program). No allocation. */
 #ifndef HAL_STDC_H
 #define HAL_STDC_H
@@ -23,6 +25,7 @@
 #include <stdint.h>
 
 #include "hal/hal.h"
+#include "hal/hal_hil_client.h"
 
 #define HAL_STDC_NET_QUEUE 4u     /* loopback messages waiting at most */
 #define HAL_STDC_NET_CHANNELS 8u  /* subscriptions */
@@ -34,5 +37,22 @@ FS_MUST_CHECK int hal_stdc_install(const char *storage_dir);
 
 /* Removes the board (hal_board_install(NULL)). */
 void hal_stdc_uninstall(void);
+
+/* The same board, with a lidar, a pose and wheel motors: those of a world served over the
+ * hardware-in-the-loop link (hal/hal_hil_client.h; `host_sim hil` at the other end), through
+ * `client`, connected already. The first reading of an RT tick sends TICK t, t the board's
+ * time floored to the client's RT period (the tick's release when the core keeps its rate),
+ * and waits for the answer; the tick's other readings are the same TICK's. A wheel command
+ * goes out at once. A link that does not answer makes the reading -EIO. 0, -EINVAL or
+ * install's error. */
+FS_MUST_CHECK int hal_stdc_install_hil(const char *storage_dir, hal_hil_client_t *client);
+
+typedef struct hal_stdc_hil_stats {
+    uint64_t exchanges, exchange_sum_us, exchange_max_us; /* TICK sent to its answer read */
+    uint64_t responses, response_sum_us, response_max_us; /* sensors read to the wheel command */
+    uint64_t link_errors;
+} hal_stdc_hil_stats_t;
+
+void hal_stdc_hil_stats(hal_stdc_hil_stats_t *st);
 
 #endif /* HAL_STDC_H */

@@ -103,7 +103,12 @@ int cmd_hil(int argc, char **argv)
     printf("hil: serving robot %lld's world (plan %s, path %s, seed %lld) on udp %.*s:%u\n", (long long)o.robot,
            o.plan, o.path, (long long)o.seed, (int)(strrchr(o.listen, ':') - o.listen), o.listen, (unsigned)port);
     fflush(stdout);
-    const sim_hil_serve_cfg_t sc = {.robot = (uint32_t)o.robot, .idle_timeout_s = o.idle_timeout_s, .quiet = o.quiet};
+    const sim_hil_serve_cfg_t sc = {
+        .robot = (uint32_t)o.robot,
+        .world = {(float)plan.min.x, (float)plan.min.y, (float)plan.max.x, (float)plan.max.y,
+                  (uint32_t)(wc.world.dt * 1e6 + 0.5), wc.scan_period_us},
+        .idle_timeout_s = o.idle_timeout_s,
+        .quiet = o.quiet};
     sim_hil_serve_stats_t st;
     rc = sim_hil_serve(hw, fd, &sc, &st, err, sizeof err);
     uint64_t refused = 0;

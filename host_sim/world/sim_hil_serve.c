@@ -141,7 +141,8 @@ static int on_hello(server_t *s, const hal_hil_frame_t *f, const struct sockaddr
         fprintf(stderr, "hil: board '%s' (robot %u, session %08x) at %s:%u\n", h.board, h.robot, f->session,
                 inet_ntoa(from->sin_addr), (unsigned)ntohs(from->sin_port));
     const hal_hil_hello_t mine = {s->cfg->robot, 1, "host_sim"};
-    return send_frame(s, HAL_HIL_HELLO, hal_hil_put_hello(s->payload, sizeof s->payload, &mine));
+    const int r = send_frame(s, HAL_HIL_HELLO, hal_hil_put_hello(s->payload, sizeof s->payload, &mine));
+    return r != 0 ? r : send_frame(s, HAL_HIL_WORLD, hal_hil_put_world(s->payload, sizeof s->payload, &s->cfg->world));
 }
 
 /* One datagram: checked, then acted on. 0, or a negative code that ends the server. */

@@ -3,7 +3,7 @@
  * over UDP, one frame per datagram.
  *
  * The board keeps the time. It opens a session (HELLO: the server answers with its own HELLO
- * and from then on talks only to that address), then, each control tick:
+ * and WORLD, and from then on talks only to that address), then, each control tick:
  *   TICK t      the server steps the world to t (sim_hal_world's advance: never back, so a TICK
  *               sent again after a lost answer steps nothing) and answers POSE and SCAN, the
  *               latest fix and scan at t;
@@ -24,11 +24,12 @@
 #include <stddef.h>
 #include <stdint.h>
 
-#include "hal/hal_hil_frame.h"
+#include "hal/hal_hil_msg.h"
 #include "sim_hal_world.h"
 
 typedef struct sim_hil_serve_cfg {
     uint32_t robot;           /* the id the board must give in its HELLO */
+    hal_hil_world_t world;    /* sent after the HELLO: the plan's box, the physics step, the scan period */
     double idle_timeout_s;    /* > 0 */
     int quiet;                /* no progress lines */
 } sim_hil_serve_cfg_t;

@@ -2,8 +2,10 @@
  * survives a datagram and a byte stream cut in any pieces with noise between frames; bad,
  * truncated, trailing, oversized, unknown and corrupted frames are refused with their reason
  * (and a stream finds the next good frame at once); the guard refuses replays and frames of a
- * session no HELLO opened; each payload's decoder refuses what the robot must not act on; and a
- * seeded fuzz loop feeds random and mutated bytes to both readers (make test-asan runs it). */
+ * session no HELLO opened; each payload's decoder refuses what the robot must not act on; the
+ * board's end (hal_hil_client) against a scripted world, over datagrams and over a noisy stream,
+ * resending a lost TICK and giving up after its tries; and a seeded fuzz loop feeds random and
+ * mutated bytes to both readers (make test-asan runs it). */
 #include <setjmp.h>
 #include <stdarg.h>
 #include <stddef.h>
@@ -15,7 +17,7 @@
 
 #include "common/crc32.h"
 #include "common/le_bytes.h"
-#include "hal/hal_hil_msg.h"
+#include "hal/hal_hil_client.h"
 
 static uint8_t frame[HAL_HIL_FRAME_MAX];
 static uint8_t payload[HAL_HIL_PAYLOAD_MAX];
@@ -164,7 +166,7 @@ static void test_stream_finds_every_frame_through_noise(void **st)
     uint64_t noise = 0;
     for (uint32_t k = 1; k <= 200; k++) {
         const size_t len = k % 10u == 0 ? 3000u : rnd() % 200u;
-        const int fl = make_frame((hal_hil_type_t)(1u + k % 6u), k, len, (uint8_t)k);
+        const int fl = make_frame((hal_hil_type_t)(1u + k % 7u), k, len, (uint8_t)k);
         memcpy(wire + n, frame, (size_t)fl);
         n += (size_t)fl;
         if (k % 3u == 0) { /* noise, with the magic's bytes in it */
@@ -375,6 +377,18 @@ static void test_payloads_round_trip_and_refuse(void **st)
     assert_int_equal(hal_hil_put_datagram(payload, sizeof payload, "bad channel", dg, 5), -EINVAL);
     assert_int_equal(hal_hil_put_datagram(payload, sizeof payload, "ok", dg, HAL_NET_MTU_BYTES + 1u), -EMSGSIZE);
 
+    /* WORLD */
+    const hal_hil_world_t wd = {-1.0f, -2.0f, 12.0f, 9.0f, 10000, 100000};
+    hal_hil_world_t wd2;
+    f = framed(HAL_HIL_WORLD, hal_hil_put_world(payload, sizeof payload, &wd));
+    assert_int_equal(hal_hil_get_world(&f, &wd2), 0);
+    assert_memory_equal(&wd, &wd2, sizeof wd);
+    le_put_f32(payload, 20.0f); /* min above max */
+    f = framed(HAL_HIL_WORLD, HAL_HIL_WORLD_BYTES);
+    assert_int_equal(hal_hil_get_world(&f, &wd2), -EBADMSG);
+    const hal_hil_world_t no_step = {0, 0, 1, 1, 0, 1};
+    assert_int_equal(hal_hil_put_world(payload, sizeof payload, &no_step), -EINVAL);
+
     /* TICK */
     uint64_t t = 0;
     f = framed(HAL_HIL_TICK, hal_hil_put_tick(payload, sizeof payload, 123456789012ull));
@@ -386,6 +400,120 @@ static void test_payloads_round_trip_and_refuse(void **st)
     assert_int_equal(hal_hil_get_tick(&f, &t), -EBADMSG);
 }
 
+/* ---- the board's end (hal_hil_client) against a scripted world -------------------------------- */
+typedef struct fake_world {
+    int stream;           /* hand the answers out as bytes in 7-byte pieces */
+    int drop_answers;     /* answers to drop (a lossy link) */
+    int noise;            /* garbage bytes before every answer (stream) */
+    uint32_t seq;
+    uint64_t ticks_seen, wheels_seen;
+    float last_left;
+    uint8_t q[16384];     /* what the board will receive */
+    size_t q_n, q_at;
+    size_t dgram_len[64]; /* datagram mode: the frames' lengths, in order */
+    int dg_n, dg_at;
+} fake_world_t;
+
+static fake_world_t fw;
+
+static void world_says(hal_hil_type_t type, const uint8_t *p, int len)
+{
+    uint8_t f[HAL_HIL_FRAME_MAX];
+    const int n = hal_hil_encode(f, sizeof f, type, 0x5EED, ++fw.seq, p, (size_t)len);
+    assert_true(n > 0 && fw.q_n + (size_t)n + 16u < sizeof fw.q);
+    if (fw.stream && fw.noise)
+        for (int i = 0; i < 5; i++)
+            fw.q[fw.q_n++] = i == 2 ? HAL_HIL_MAGIC0 : (uint8_t)(0x30 + i);
+    memcpy(fw.q + fw.q_n, f, (size_t)n);
+    fw.q_n += (size_t)n;
+    if (!fw.stream)
+        fw.dgram_len[fw.dg_n++] = (size_t)n;
+}
+
+static int fake_send(void *ctx, const uint8_t *bytes, size_t n)
+{
+    (void)ctx;
+    hal_hil_frame_t f;
+    assert_int_equal(hal_hil_parse(bytes, n, &f), HAL_HIL_OK);
+    uint8_t p[HAL_HIL_PAYLOAD_MAX];
+    if (f.type == HAL_HIL_HELLO) {
+        const hal_hil_hello_t h = {0, 1, "fake"};
+        world_says(HAL_HIL_HELLO, p, hal_hil_put_hello(p, sizeof p, &h));
+        const hal_hil_world_t w = {0, 0, 10, 8, 10000, 100000};
+        world_says(HAL_HIL_WORLD, p, hal_hil_put_world(p, sizeof p, &w));
+    } else if (f.type == HAL_HIL_TICK) {
+        uint64_t t;
+        assert_int_equal(hal_hil_get_tick(&f, &t), 0);
+        fw.ticks_seen++;
+        if (fw.drop_answers > 0) {
+            fw.drop_answers--;
+            return 0;
+        }
+        const hal_pose_t pose = {t, 1.0f + (float)t * 1e-6f, 2.0f, 0.5f};
+        world_says(HAL_HIL_POSE, p, hal_hil_put_pose(p, sizeof p, &pose));
+        const hal_lidar_scan_t scan = test_scan(90);
+        world_says(HAL_HIL_SCAN, p, hal_hil_put_scan(p, sizeof p, &scan));
+    } else if (f.type == HAL_HIL_WHEELS) {
+        hal_hil_wheels_t w;
+        assert_int_equal(hal_hil_get_wheels(&f, &w), 0);
+        fw.wheels_seen++;
+        fw.last_left = w.left_rad_s;
+    }
+    return 0;
+}
+
+static int fake_recv(void *ctx, uint8_t *buf, size_t cap, uint32_t timeout_us)
+{
+    (void)ctx, (void)timeout_us;
+    if (fw.stream) {
+        size_t n = fw.q_n - fw.q_at < 7u ? fw.q_n - fw.q_at : 7u;
+        if (n > cap)
+            n = cap;
+        memcpy(buf, fw.q + fw.q_at, n);
+        fw.q_at += n;
+        return (int)n;
+    }
+    if (fw.dg_at == fw.dg_n)
+        return 0; /* the timeout */
+    const size_t n = fw.dgram_len[fw.dg_at++];
+    assert_true(n <= cap);
+    memcpy(buf, fw.q + fw.q_at, n);
+    fw.q_at += n;
+    return (int)n;
+}
+
+static void client_round(int stream)
+{
+    static hal_hil_client_t c;
+    memset(&fw, 0, sizeof fw);
+    fw.stream = stream;
+    fw.noise = stream;
+    const hal_hil_port_t port = {NULL, stream, fake_send, fake_recv};
+    assert_int_equal(hal_hil_client_init(&c, &port, 0, 20000, 77, "test", 1000, 3), 0);
+    assert_int_equal(hal_hil_client_connect(&c), 0);
+    assert_true(c.world.max_x == 10.0f && c.world.step_us == 10000u);
+    assert_int_equal(hal_hil_client_tick(&c, 20000), 0);
+    assert_true(c.pose.stamp_us == 20000u && c.scan.count == 90u);
+    fw.drop_answers = 2; /* two TICKs lost: the third gets through */
+    assert_int_equal(hal_hil_client_tick(&c, 40000), 0);
+    assert_true(c.pose.stamp_us == 40000u);
+    assert_int_equal(c.stats.resent_ticks, 2);
+    fw.drop_answers = 3; /* all three lost: the link is down */
+    assert_int_equal(hal_hil_client_tick(&c, 60000), -ETIMEDOUT);
+    assert_true(c.pose.stamp_us == 40000u); /* what was held stays */
+    assert_int_equal(hal_hil_client_wheels(&c, 60000, 1.5f, 1.0f), 0);
+    assert_true(fw.wheels_seen == 1 && fw.last_left == 1.5f);
+    assert_int_equal(hal_hil_client_wheels(&c, 60000, NAN, 1.0f), -EINVAL);
+    assert_int_equal(hal_hil_client_init(&c, &port, 0, 20000, 77, "", 1000, 3), -EINVAL);
+}
+
+static void test_client_against_a_scripted_world(void **st)
+{
+    (void)st;
+    client_round(0); /* datagrams */
+    client_round(1); /* a stream in 7-byte pieces, noise before every frame */
+}
+
 /* Random and mutated bytes into both readers: no crash, no overread (ASan), and every frame
  * either reader hands out is one whose CRC checks. */
 static void test_fuzz_readers(void **st)
@@ -395,7 +523,7 @@ static void test_fuzz_readers(void **st)
     hal_hil_stream_init(&s);
     int ok = 0, refused = 0;
     for (int it = 0; it < 20000; it++) {
-        int n = make_frame((hal_hil_type_t)(1u + rnd() % 6u), (uint32_t)it, rnd() % 64u, (uint8_t)it);
+        int n = make_frame((hal_hil_type_t)(1u + rnd() % 7u), (uint32_t)it, rnd() % 64u, (uint8_t)it);
         const int flips = (int)(rnd() % 3u);
         for (int k = 0; k < flips; k++)
             frame[rnd() % (uint32_t)n] ^= (uint8_t)(1u << (rnd() % 8u));
@@ -430,6 +558,7 @@ int main(void)
         cmocka_unit_test(test_stream_refuses_and_goes_on),
         cmocka_unit_test(test_guard_refuses_replays_and_unopened_sessions),
         cmocka_unit_test(test_payloads_round_trip_and_refuse),
+        cmocka_unit_test(test_client_against_a_scripted_world),
         cmocka_unit_test(test_fuzz_readers),
     };
     return cmocka_run_group_tests_name("hal/hil_link", tests, NULL, NULL);

@@ -4,7 +4,8 @@
  * at the path's start, a wheel command that moves the robot as far as it should in a second,
  * nothing before a HELLO or for another robot, replayed and corrupted frames refused while the
  * serving goes on, the same seed giving the same bytes in a second server, and the server
- * ending on its own when the board goes quiet, its last line counting what it refused. */
+ * ending on its own when the board goes quiet, its last line counting what it refused; and the
+ * firmware's RT core (board_hil) driving its tour through the link. */
 #include <setjmp.h>
 #include <stdarg.h>
 #include <stddef.h>
@@ -170,6 +171,10 @@ static void test_round_trip(void **st)
     assert_int_equal(hal_hil_get_hello(&f, &h), 0);
     assert_string_equal(h.board, "host_sim");
     assert_int_equal(h.robot, 0);
+    hal_hil_world_t wd;
+    assert_int_equal(recv_frame(b, buf, sizeof buf, &f, 5000), 1);
+    assert_int_equal(hal_hil_get_world(&f, &wd), 0);
+    assert_true(wd.min_x < wd.max_x && wd.min_y < wd.max_y && wd.step_us == 10000u && wd.scan_period_us == 100000u);
 
     /* At t = 0: the robot at the tour's start, a whole scan. */
     hal_pose_t p0, p1;
@@ -246,6 +251,7 @@ static void test_same_seed_same_bytes(void **st)
         hal_hil_frame_t f;
         hello(b, 0);
         assert_int_equal(recv_frame(b, buf, sizeof buf, &f, 5000), 1);
+        assert_int_equal(recv_frame(b, buf, sizeof buf, &f, 5000), 1); /* WORLD */
         tick(b, 0, &p, k == 0 ? &scan_a : &scan_b);
         wheels(b, 4.0f, 3.0f);
         tick(b, 700000, &p, k == 0 ? &scan_a : &scan_b);
@@ -267,6 +273,68 @@ static void test_same_seed_same_bytes(void **st)
     }
 }
 
+/* The firmware's RT core on a board stand-in (board_hil, a process on the stdc back end) in
+   the loop with the world: it drives its tour over UDP, every reading a TICK's answer, and
+   both ends count the same distance. */
+static void test_rt_core_drives_through_the_link(void **st)
+{
+    (void)st;
+    board_t *b = &b1;
+    memset(b, 0, sizeof *b);
+    start_server(b, "hil_rt");
+    char board_bin[PATH_MAX], tour[PATH_MAX], connect[32], log[PATH_MAX];
+    snprintf(board_bin, sizeof board_bin, "%.*s/board_hil", (int)(strrchr(fp_env.bin, '/') - fp_env.bin), fp_env.bin);
+    snprintf(tour, sizeof tour, "%s/robot_0.csv", fp_env.paths);
+    snprintf(connect, sizeof connect, "127.0.0.1:%u", (unsigned)ntohs(b->server.sin_port));
+    snprintf(log, sizeof log, "%s/board_hil.log", fp_env.dir);
+    close(b->fd);
+    const char *argv[] = {board_bin, "--connect", connect, "--tour", tour, "--time", "4", NULL};
+    const pid_t pid = fp_spawn(argv, log, NULL, NULL);
+    assert_true(pid > 0);
+    const int status = fp_wait(pid, fp_now() + DEADLINE_S);
+    if (status != 0)
+        fp_show_log(log);
+    assert_int_equal(status, 0);
+    assert_int_equal(fp_wait(b->pid, fp_now() + DEADLINE_S), 0);
+    b->pid = 0;
+    char text[8192] = "";
+    FILE *f = fopen(log, "r");
+    assert_non_null(f);
+    text[fread(text, 1, sizeof text - 1, f)] = '\0';
+    fclose(f);
+    double progress = 0, distance = 0;
+    unsigned long long ticks = 0, scans = 0, hal_errors = 1, exchanges = 0;
+    assert_int_equal(sscanf(strstr(text, "result rt_ticks"), "result rt_ticks %llu", &ticks), 1);
+    assert_int_equal(sscanf(strstr(text, "result progress_m"), "result progress_m %lf", &progress), 1);
+    assert_int_equal(sscanf(strstr(text, "result distance_m"), "result distance_m %lf", &distance), 1);
+    assert_int_equal(sscanf(strstr(text, "result scans"), "result scans %llu", &scans), 1);
+    assert_int_equal(sscanf(strstr(text, "result hal_errors"), "result hal_errors %llu", &hal_errors), 1);
+    assert_int_equal(sscanf(strstr(text, "result link_exchanges"), "result link_exchanges %llu", &exchanges), 1);
+    print_message("board_hil: %llu RT ticks, %llu exchanges, %llu scans, progress %.2f m\n", ticks, exchanges,
+                  scans, progress);
+    assert_int_equal(ticks, 200); /* 4 s at 50 Hz */
+    /* One TICK per RT tick, pose and scan sharing it (a tick run a whole period late shares
+       the next one's: fewer then, never more). */
+    assert_true(exchanges <= ticks && exchanges >= ticks - ticks / 10u);
+    assert_true(scans >= 35 && scans <= 41); /* every 5th tick */
+    assert_int_equal(hal_errors, 0);
+    assert_true(progress > 0.4);
+    /* The world's distance, from its last line: the same robot. */
+    memset(text, 0, sizeof text);
+    f = fopen(b->log, "r");
+    assert_non_null(f);
+    text[fread(text, 1, sizeof text - 1, f)] = '\0';
+    fclose(f);
+    double world_distance = 0;
+    const char *d = strstr(text, "distance ");
+    while (d != NULL && strstr(d + 1, "distance ") != NULL)
+        d = strstr(d + 1, "distance ");
+    assert_non_null(d);
+    assert_int_equal(sscanf(d, "distance %lf", &world_distance), 1);
+    print_message("distance: %.3f m by the RT core's odometry, %.3f m in the world\n", distance, world_distance);
+    assert_true(fabs(world_distance - distance) < 0.15 * distance);
+}
+
 static int setup(void **st)
 {
     (void)st;
@@ -284,6 +352,7 @@ int main(void)
     const struct CMUnitTest tests[] = {
         cmocka_unit_test(test_round_trip),
         cmocka_unit_test(test_same_seed_same_bytes),
+        cmocka_unit_test(test_rt_core_drives_through_the_link),
     };
     return cmocka_run_group_tests_name("sim/hil_serve", tests, setup, teardown);
 }

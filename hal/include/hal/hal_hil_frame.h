@@ -58,6 +58,7 @@ typedef enum hal_hil_type {
     HAL_HIL_WHEELS = 4,   /* board -> host: a wheel command (hal_hil_wheels_t) */
     HAL_HIL_DATAGRAM = 5, /* both ways: a fleet datagram, bridged to the other robots */
     HAL_HIL_TICK = 6,     /* board -> host: bring the world to this time, send its sensors */
+    HAL_HIL_WORLD = 7,    /* host -> board, after its HELLO: the world's box and rates */
     HAL_HIL_TYPE_END
 } hal_hil_type_t;
 

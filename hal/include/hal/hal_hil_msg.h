@@ -12,6 +12,8 @@
  *             (at most HAL_NET_MTU_BYTES)
  *   TICK      stamp_us u64: the board's time; the host steps its world to it (never back) and
  *             answers with POSE and SCAN, the latest of each
+ *   WORLD     min_x, min_y, max_x, max_y f32 (the plan's box, min < max), step_us u32 (physics),
+ *             scan_period_us u32 (both > 0)
  */
 #ifndef HAL_HIL_MSG_H
 #define HAL_HIL_MSG_H
@@ -24,6 +26,7 @@
 #define HAL_HIL_POSE_BYTES 20u
 #define HAL_HIL_WHEELS_BYTES 16u
 #define HAL_HIL_TICK_BYTES 8u
+#define HAL_HIL_WORLD_BYTES 24u
 
 typedef struct hal_hil_hello {
     uint32_t robot;
@@ -35,6 +38,11 @@ typedef struct hal_hil_wheels {
     uint64_t stamp_us;
     float left_rad_s, right_rad_s;
 } hal_hil_wheels_t;
+
+typedef struct hal_hil_world {
+    float min_x, min_y, max_x, max_y;
+    uint32_t step_us, scan_period_us;
+} hal_hil_world_t;
 
 /* A bridged datagram as decoded: the bytes point into the payload. */
 typedef struct hal_hil_datagram {
@@ -51,6 +59,7 @@ int hal_hil_put_pose(uint8_t *out, size_t cap, const hal_pose_t *m);
 int hal_hil_put_wheels(uint8_t *out, size_t cap, const hal_hil_wheels_t *m);
 int hal_hil_put_datagram(uint8_t *out, size_t cap, const char *channel, const void *data, size_t len);
 int hal_hil_put_tick(uint8_t *out, size_t cap, uint64_t stamp_us);
+int hal_hil_put_world(uint8_t *out, size_t cap, const hal_hil_world_t *m);
 
 /* Decoders of a frame's payload: 0, or -EBADMSG (wrong type, length or value). */
 int hal_hil_get_hello(const hal_hil_frame_t *f, hal_hil_hello_t *m);
@@ -59,5 +68,6 @@ int hal_hil_get_pose(const hal_hil_frame_t *f, hal_pose_t *m);
 int hal_hil_get_wheels(const hal_hil_frame_t *f, hal_hil_wheels_t *m);
 int hal_hil_get_datagram(const hal_hil_frame_t *f, hal_hil_datagram_t *m);
 int hal_hil_get_tick(const hal_hil_frame_t *f, uint64_t *stamp_us);
+int hal_hil_get_world(const hal_hil_frame_t *f, hal_hil_world_t *m);
 
 #endif /* HAL_HIL_MSG_H */

@@ -1,0 +1,250 @@
+/* board_hil: the firmware's RT core on a board, in the loop with a world served by `host_sim
+ * hil`. The RT core (rt/rt_core.h: the waypoint follower, the scan -> samples step) runs at its
+ * rate on the board's clock; its pose, its lidar and its wheels are the world's, over the
+ * hardware-in-the-loop link (hal_stdc_install_hil). It drives its tour until the tour ends or
+ * --time runs out, and reports what a board's RT core is judged by: deadlines missed, the link's
+ * round trip, the time from the sensors' arrival to the wheel command. The samples it makes go
+ * to the AI core's ring, which nothing drains here (they are counted).
+ *
+ * Built for the host (make: build/<config>/bin/board_hil, a Linux board's stand-in: UDP). */
+#include <errno.h>
+#include <inttypes.h>
+#include <math.h>
+#include <stdio.h>
+#include <stdlib.h>
+#include <string.h>
+#include <time.h>
+
+#include "fw_image.h"
+#include "fw_link.h"
+#include "hal_stdc.h"
+#include "hal_stdc_hil.h"
+#include "hal_stdc_target.h"
+#include "rt/rt_core.h"
+
+typedef struct hil_opts {
+    const char *connect, *tour;
+    uint32_t robot, timeout_ms, tries;
+    double time_s;
+} hil_opts_t;
+
+static void usage(FILE *to)
+{
+    fprintf(to,
+            "usage: board_hil --connect HOST:PORT --tour ROBOT.csv [options]\n"
+            "Runs the firmware's RT core on this board against the world `host_sim hil` serves at\n"
+            "HOST:PORT (UDP): it drives ROBOT.csv (x_m,y_m per line, the tour host_sim hil was given)\n"
+            "until the tour ends or --time runs out, then prints `result <key> <value>` lines.\n\n"
+            "  --connect HOST:PORT  the world's address (host_sim hil --listen)\n"
+            "  --tour ROBOT.csv     the robot's waypoints\n"
+            "  --robot I            the robot's id, as host_sim hil serves it (default 0)\n"
+            "  --time S             stop after S seconds of the board's time (default 600)\n"
+            "  --timeout-ms MS      wait for the world's answer to a TICK (default 200)\n"
+            "  --tries N            TICKs sent before the link counts as down (default 5)\n");
+}
+
+static int parse_u32(const char *s, uint32_t lo, uint32_t hi, uint32_t *out)
+{
+    char *end;
+    unsigned long v = s != NULL ? strtoul(s, &end, 10) : 0;
+    if (s == NULL || *s == '\0' || *end != '\0' || v < lo || v > hi)
+        return -EINVAL;
+    *out = (uint32_t)v;
+    return 0;
+}
+
+static int parse_opts(int argc, char **argv, hil_opts_t *o)
+{
+    *o = (hil_opts_t){.timeout_ms = 200, .tries = 5, .time_s = 600.0};
+    for (int i = 1; i < argc; i++) {
+        const char *a = argv[i], *v = i + 1 < argc ? argv[i + 1] : NULL;
+        int r = 0;
+        if (strcmp(a, "--help") == 0 || strcmp(a, "-h") == 0) {
+            usage(stdout);
+            exit(0);
+        } else if (strcmp(a, "--connect") == 0 && v != NULL) {
+            o->connect = v;
+        } else if (strcmp(a, "--tour") == 0 && v != NULL) {
+            o->tour = v;
+        } else if (strcmp(a, "--robot") == 0) {
+            r = parse_u32(v, 0, BOARD_MAX_FLEET - 1u, &o->robot);
+        } else if (strcmp(a, "--timeout-ms") == 0) {
+            r = parse_u32(v, 1, 60000, &o->timeout_ms);
+        } else if (strcmp(a, "--tries") == 0) {
+            r = parse_u32(v, 1, 1000, &o->tries);
+        } else if (strcmp(a, "--time") == 0) {
+            char *end;
+            o->time_s = v != NULL ? strtod(v, &end) : -1.0;
+            r = v != NULL && *v != '\0' && *end == '\0' && isfinite(o->time_s) && o->time_s > 0 && o->time_s <= 1e6
+                    ? 0 : -EINVAL;
+        } else {
+            fprintf(stderr, "board_hil: unknown option '%s' or its value missing (see --help)\n", a);
+            return -EINVAL;
+        }
+        if (r != 0) {
+            fprintf(stderr, "board_hil: bad value for %s: '%s' (see --help)\n", a, v ? v : "");
+            return -EINVAL;
+        }
+        i++;
+    }
+    if (o->connect == NULL || o->tour == NULL) {
+        fprintf(stderr, "board_hil: --connect and --tour are required (see --help)\n");
+        return -EINVAL;
+    }
+    return 0;
+}
+
+static rt_waypoint_t wps[RT_CORE_MAX_WAYPOINTS];
+
+/* The tour: "x_m,y_m" lines after an optional header, 2 .. RT_CORE_MAX_WAYPOINTS finite
+   points. The count, or -1 with the reason on stderr. */
+static int read_tour(const char *path)
+{
+    FILE *f = fopen(path, "r");
+    if (f == NULL) {
+        fprintf(stderr, "board_hil: cannot open the tour %s: %s\n", path, strerror(errno));
+        return -1;
+    }
+    char line[256];
+    int n = 0, lineno = 0;
+    while (fgets(line, sizeof line, f) != NULL) {
+        lineno++;
+        float x, y;
+        char rest;
+        if (lineno == 1 && (line[0] < '0' || line[0] > '9') && line[0] != '-' && line[0] != '.')
+            continue; /* the header */
+        if (line[0] == '\n' || line[0] == '\0')
+            continue;
+        if (sscanf(line, "%f,%f %c", &x, &y, &rest) != 2 || !isfinite(x) || !isfinite(y)) {
+            fprintf(stderr, "board_hil: %s line %d: not x_m,y_m\n", path, lineno);
+            fclose(f);
+            return -1;
+        }
+        if (n == (int)RT_CORE_MAX_WAYPOINTS) {
+            fprintf(stderr, "board_hil: %s: more than %u waypoints\n", path, (unsigned)RT_CORE_MAX_WAYPOINTS);
+            fclose(f);
+            return -1;
+        }
+        wps[n++] = (rt_waypoint_t){x, y};
+    }
+    fclose(f);
+    if (n < 2) {
+        fprintf(stderr, "board_hil: %s: a tour needs 2 waypoints at least, it has %d\n", path, n);
+        return -1;
+    }
+    return n;
+}
+
+static hal_hil_client_t client;
+static rt_core_t rt;
+
+int main(int argc, char **argv)
+{
+    hil_opts_t o;
+    if (parse_opts(argc, argv, &o) != 0)
+        return 2;
+    const int n_wps = read_tour(o.tour);
+    if (n_wps < 0)
+        return 2;
+    hal_hil_port_t port;
+    static int fd;
+    if (hal_stdc_hil_udp_open(o.connect, &port, &fd) != 0)
+        return 2;
+    /* Another session each start: the world then takes a restarted board's HELLO. */
+    const uint32_t session = ((uint32_t)time(NULL) * 2654435761u) ^ (uint32_t)hal_stdc_target_now_ns() ^ o.robot;
+    int r = hal_hil_client_init(&client, &port, o.robot, FW_RT_PERIOD_US, session, BOARD_NAME, o.timeout_ms * 1000u,
+                                o.tries);
+    if (r == 0)
+        r = hal_hil_client_connect(&client);
+    if (r != 0) {
+        fprintf(stderr, "board_hil: no world answered at %s (%s)\n", o.connect,
+                r == -ETIMEDOUT ? "timed out: is `host_sim hil` running there?" : "link error");
+        return 1;
+    }
+    const hal_hil_world_t *w = &client.world;
+    printf("board_hil: board %s, robot %u, world at %s: plan box (%.2f, %.2f)-(%.2f, %.2f) m, physics step %u us, "
+           "scan every %u us\n",
+           BOARD_NAME, o.robot, o.connect, (double)w->min_x, (double)w->min_y, (double)w->max_x, (double)w->max_y,
+           w->step_us, w->scan_period_us);
+    if ((r = hal_stdc_install_hil("", &client)) != 0) {
+        fprintf(stderr, "board_hil: cannot install the board (%d)\n", r);
+        return 1;
+    }
+    rt_core_cfg_t rc = {
+        .waypoints = wps,
+        .n_waypoints = n_wps,
+        .follow = rt_follow_default_cfg(),
+        .samples = {RT_SAMPLES_DEFAULT_BEAMS, RT_SAMPLES_DEFAULT_POINTS, w->min_x, w->min_y, w->max_x, w->max_y},
+        .period_us = FW_RT_PERIOD_US,
+    };
+    fw_link_reset();
+    if ((r = rt_core_init(&rt, &rc, fw_link_get())) != 0) {
+        fprintf(stderr, "board_hil: the RT core refused its configuration (%d)\n", r);
+        return 1;
+    }
+    /* Released at whole periods of the board's time, as the world's physics steps fall: a tick's
+       readings then belong to its own step whatever the link took. */
+    uint64_t start = hal_stdc_target_now_us();
+    start += FW_RT_PERIOD_US - start % FW_RT_PERIOD_US;
+    const uint64_t end = start + (uint64_t)(o.time_s * 1e6);
+    uint64_t misses = 0, overrun_max = 0, k = 0, next_print = start + 10000000u;
+    rt_status_t st = {0};
+    for (;; k++) {
+        const uint64_t t = start + k * FW_RT_PERIOD_US;
+        if (t >= end)
+            break;
+        if (hal_sleep_until_us(t) != 0)
+            break;
+        const fw_tick_t tick = {.now_us = t, .index = k, .sub = k % FW_RT_SCAN_DIVIDER == 0};
+        r = rt_core_tick(&rt, &tick);
+        const uint64_t done = hal_stdc_target_now_us();
+        if (done > t + FW_RT_PERIOD_US) { /* the next tick's release went by */
+            misses++;
+            if (done - t - FW_RT_PERIOD_US > overrun_max)
+                overrun_max = done - t - FW_RT_PERIOD_US;
+        }
+        st = rt.status;
+        if (r < 0 && st.errors > 50) {
+            fprintf(stderr, "board_hil: the RT core's readings keep failing (%lu errors): the link is down\n",
+                    (unsigned long)st.errors);
+            break;
+        }
+        if (st.finished)
+            break;
+        if (t >= next_print) {
+            printf("board_hil: t=%6.1f s  waypoint %u/%d  progress %.1f of %.1f m  scans %u  samples %u\n",
+                   (double)(t - start) * 1e-6, st.waypoint, n_wps, (double)st.progress_m,
+                   (double)st.path_length_m, st.scans, st.samples);
+            fflush(stdout);
+            next_print += 10000000u;
+        }
+    }
+    hal_stdc_hil_stats_t hs;
+    hal_stdc_hil_stats(&hs);
+    printf("board_hil: %s after %.1f s: waypoint %u/%d, progress %.2f of %.2f m\n",
+           st.finished ? "tour finished" : "stopped", (double)(k * FW_RT_PERIOD_US) * 1e-6, st.waypoint, n_wps,
+           (double)st.progress_m, (double)st.path_length_m);
+    printf("result rt_ticks %llu\n", (unsigned long long)rt.stats.ticks);
+    printf("result rt_deadline_misses %llu\n", (unsigned long long)misses);
+    printf("result rt_overrun_max_us %llu\n", (unsigned long long)overrun_max);
+    printf("result tour_finished %u\n", st.finished);
+    printf("result waypoints_reached %u\n", st.waypoint);
+    printf("result progress_m %.3f\n", (double)st.progress_m);
+    printf("result distance_m %.3f\n", (double)st.distance_m);
+    printf("result scans %u\n", st.scans);
+    printf("result samples %u\n", st.samples + st.ring_drops);
+    printf("result hal_errors %u\n", st.errors);
+    printf("result link_exchanges %llu\n", (unsigned long long)hs.exchanges);
+    printf("result link_round_trip_mean_us %.0f\n",
+           hs.exchanges > 0 ? (double)hs.exchange_sum_us / (double)hs.exchanges : 0.0);
+    printf("result link_round_trip_max_us %llu\n", (unsigned long long)hs.exchange_max_us);
+    printf("result sense_to_command_mean_us %.1f\n",
+           hs.responses > 0 ? (double)hs.response_sum_us / (double)hs.responses : 0.0);
+    printf("result sense_to_command_max_us %llu\n", (unsigned long long)hs.response_max_us);
+    printf("result link_errors %llu\n", (unsigned long long)hs.link_errors);
+    printf("result link_resent_ticks %llu\n", (unsigned long long)client.stats.resent_ticks);
+    printf("result link_refused %llu\n", (unsigned long long)(client.stats.refused + client.stats.replayed +
+                                                              client.stats.unopened + client.stats.bad_payload));
+    hal_stdc_uninstall();
+    return hs.link_errors > 0 && !st.finished ? 1 : 0;
+}
