@@ -29,6 +29,7 @@
 #   make run-board    each board's image under QEMU; its losses must match the host build's
 #   make profile-board  run-board, then results/board-<name>/profile.md: sections, stacks,
 #                     instructions per training step and per inference, what the robot affords
+#   make hil          [BOARD=rpi3] the board's RT core under its QEMU in the loop with host_sim hil
 #   make clean
 #
 # Configuration (all optional):
@@ -62,8 +63,8 @@ CROSS_GOALS  := cross run-board profile-board
 ifneq ($(filter $(BOARD),$(CROSS_BOARDS)),)
 CROSS_ONLY := $(BOARD)
 override BOARD := host
-ifneq ($(filter-out $(CROSS_GOALS),$(or $(MAKECMDGOALS),all)),)
-$(error BOARD=$(CROSS_ONLY) is a cross board: its targets are $(CROSS_GOALS))
+ifneq ($(filter-out $(CROSS_GOALS) hil,$(or $(MAKECMDGOALS),all)),)
+$(error BOARD=$(CROSS_ONLY) is a cross board: its targets are $(CROSS_GOALS) hil)
 endif
 endif
 
@@ -337,7 +338,7 @@ $(O)/tests/%: $(O)/obj/tests/%.c.o $(LIB)/libtestsupport.a $(LIB)/libhal_stdc.a 
 	$(call say,LD,$@)$(CXX) $(OPT) $< -Wl,--start-group $(LIB)/libtestsupport.a $(LIB)/libhal_stdc.a $(LIBS) -Wl,--end-group $(SYS_LIBS) -lcmocka $(WRAP) -o $@
 
 # ---- targets ----------------------------------------------------------------------------
-.PHONY: experiments all layering deps run run-inproc test test-asan test-tsan test-faults test-slurm tests bench bench-one bench-pse-sim clean help check-portable check-config fuzz fuzz-build fuzz-seeds $(CROSS_GOALS)
+.PHONY: hil experiments all layering deps run run-inproc test test-asan test-tsan test-faults test-slurm tests bench bench-one bench-pse-sim clean help check-portable check-config fuzz fuzz-build fuzz-seeds $(CROSS_GOALS)
 
 # build/bin is the default build's, whatever was built last (a `make bench` builds the paper
 # preset too): `build/bin/host_sim` never silently changes its network. Every other target
@@ -497,6 +498,12 @@ $(CROSS_GOALS):
 	    $(MAKE) --no-print-directory -f boards/cross.mk XBOARD=$$b \
 	        $(patsubst cross,image,$(patsubst %-board,%,$@)) || exit 1; \
 	done
+
+# make hil BOARD=<board>: the board's RT core under its QEMU in the loop with this host's
+# host_sim hil (boards/cross.mk's `hil`; docs/boards.md). BOARD=rpi3 by default.
+hil: $(BIN)/host_sim
+	@tools/install-deps.sh --cross
+	@$(MAKE) --no-print-directory -f boards/cross.mk XBOARD=$(or $(CROSS_ONLY),rpi3) hil HOST_SIM=$(abspath $(BIN)/host_sim)
 
 clean:
 	rm -rf build

@@ -72,7 +72,9 @@ FW_CXX  := $(if $(filter eigen,$(LA_BACKEND)),$(sort $(shell find firmware -name
 # The program and its HAL, the same for the image and the host reference but for the target file.
 PROG_HAL_C := $(sort $(wildcard hal/common/*.c)) hal/stdc/hal_stdc.c
 PROG_C     := tools/board/board_train.c tools/board/heap_probe.c
-IMG_C   := $(PROG_HAL_C) $(sort $(wildcard hal/stdc/hal_stdc_$(BOARD_HAL_TARGET)*.c)) $(PROG_C)
+# The target's files of hal/stdc (start-up, time base, cores); its link port only in board_hil.
+TARGET_C := $(filter-out %_hil.c,$(sort $(wildcard hal/stdc/hal_stdc_$(BOARD_HAL_TARGET)*.c)))
+IMG_C   := $(PROG_HAL_C) $(TARGET_C) $(PROG_C)
 FW_OBJ  := $(patsubst %,$(X)/obj/%.o,$(FW_C) $(FW_CXX))
 IMG_OBJ := $(patsubst %,$(X)/obj/%.o,$(IMG_C))
 IMAGE   := $(X)/fleetsim.elf
@@ -101,7 +103,7 @@ else
 say = @printf '  %-4s %s\n' '$(1)' '$(2)';
 endif
 
-.PHONY: image run profile test
+.PHONY: image run profile test hil
 image: $(IMAGE)
 
 # The flags live here and in the board's board.mk: a change there rebuilds.
@@ -203,7 +205,7 @@ else
 # On a Cortex-M board: the scheduler's contract (tests/board/test_cm_cores.c, an image of its
 # own on the board's HAL: cmocka's lines printed by hand, newlib has no cmocka), run under the
 # board's QEMU; its output is kept in $(R)/test_cm_cores.txt and a failure fails the target.
-XTEST_C   := tests/board/test_cm_cores.c $(PROG_HAL_C) $(sort $(wildcard hal/stdc/hal_stdc_$(BOARD_HAL_TARGET)*.c))
+XTEST_C   := tests/board/test_cm_cores.c $(PROG_HAL_C) $(TARGET_C)
 XTEST_OBJ := $(patsubst %,$(X)/test/obj/%.o,$(XTEST_C))
 XTEST     := $(X)/test/test_cm_cores.elf
 XTEST_CMD := $(BOARD_QEMU) -semihosting-config enable=on,target=native,arg=test_cm_cores -kernel $(XTEST)
@@ -232,6 +234,30 @@ run: $(TEST_DEPS) $(IMAGE) $(HOST_BIN) $(RUN_DEPS)
 	    || { s=$$?; cat $(R)/run.txt; echo "make run-board: the image of $(XBOARD) failed (exit $$s)" >&2; exit 1; }
 	@$(HOST_BIN) $(PROG_ARGS) > $(R)/host.txt
 	@tools/board/board_check.py $(R)/run.txt $(R)/host.txt
+
+# Hardware in the loop (docs/boards.md): the firmware's RT core (tools/board/board_hil.c, built
+# for the board with its link port) under the board's QEMU, in the loop with `host_sim hil` of
+# the host build (HOST_SIM=, the top Makefile passes it) for HIL_SECONDS of the board's time;
+# both ends' output in $(R)/hil/. A Linux board's image speaks UDP; a Cortex-M board needs its
+# UART port, not built yet.
+HIL_SECONDS ?= 20
+HIL_PLAN    ?= host_sim/plans/apartment.svg
+HIL_TOUR    ?= host_sim/plans/apartment/robot_0.csv
+ifeq ($(BOARD_LINK),linux)
+HIL_C   := tools/board/board_hil.c $(PROG_HAL_C) $(sort $(wildcard hal/stdc/hal_stdc_$(BOARD_HAL_TARGET)*.c))
+HIL_OBJ := $(patsubst %,$(X)/obj/%.o,$(HIL_C))
+HIL_BIN := $(X)/board_hil
+$(HIL_OBJ): | $(MSG_GEN)/msg/msg_layout.h
+$(HIL_BIN): $(HIL_OBJ) $(X)/lib/libfirmware.a
+	$(call say,LD,$@)$(if $(FW_CXX),$(XCXX),$(XCC)) $(BOARD_CPU_FLAGS) -static $(HIL_OBJ) $(X)/lib/libfirmware.a -lm -o $@
+
+hil: $(HIL_BIN)
+	@test -x "$(HOST_SIM)" || { echo "make hil: HOST_SIM='$(HOST_SIM)' is not host_sim (run it from the top: make hil BOARD=$(XBOARD))" >&2; exit 2; }
+	@tools/board/run_hil.sh $(HOST_SIM) $(HIL_PLAN) $(HIL_TOUR) $(HIL_SECONDS) $(R)/hil $(BOARD_QEMU) $(HIL_BIN)
+else
+hil:
+	@echo "make hil: $(XBOARD) is a Cortex-M board: its link needs the UART port, not built yet (docs/boards.md); BOARD=rpi3 runs the RT core in the loop" >&2; exit 2
+endif
 
 profile: run
 	@tools/board/board_profile.py --board $(XBOARD) --preset $(PRESET) --board-h boards/$(XBOARD)/board.h \

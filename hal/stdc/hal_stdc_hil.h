@@ -6,7 +6,7 @@
 
 #include "hal/hal_hil_client.h"
 
-/* A UDP socket connected to "HOST:PORT" (the world's --listen) into *port; *fd_out holds the
+/* A UDP socket connected to "A.B.C.D:PORT" (the world's --listen, numeric) into *port; *fd_out holds the
  * descriptor and is the port's context (it must outlive the port). 0, -EINVAL (a bad address,
  * said on stderr) or -EIO. */
 int hal_stdc_hil_udp_open(const char *host_port, hal_hil_port_t *port, int *fd_out);

@@ -1,8 +1,10 @@
 /* The hardware-in-the-loop link's UDP port on a Linux board (hal_stdc_hil.h): one connected
- * datagram socket, one frame per datagram. */
-#define _DEFAULT_SOURCE 1 /* getaddrinfo */
+ * datagram socket, one frame per datagram. The address is numeric (IPv4): a board's image is
+ * linked statically, and name lookup would need the C library's shared modules at run time. */
+#define _DEFAULT_SOURCE 1
+#include <arpa/inet.h>
 #include <errno.h>
-#include <netdb.h>
+#include <netinet/in.h>
 #include <poll.h>
 #include <stdio.h>
 #include <stdlib.h>
@@ -40,30 +42,31 @@ static int udp_recv(void *ctx, uint8_t *buf, size_t cap, uint32_t timeout_us)
 
 int hal_stdc_hil_udp_open(const char *host_port, hal_hil_port_t *port, int *fd_out)
 {
-    char host[256];
+    char host[INET_ADDRSTRLEN];
     const char *colon = host_port != NULL ? strrchr(host_port, ':') : NULL;
-    if (colon == NULL || colon == host_port || (size_t)(colon - host_port) >= sizeof host || colon[1] == '\0') {
-        fprintf(stderr, "hil: '%s' is not HOST:PORT (the address `host_sim hil --listen` gives)\n",
+    char *end = NULL;
+    const long p = colon != NULL ? strtol(colon + 1, &end, 10) : 0;
+    struct sockaddr_in a = {.sin_family = AF_INET};
+    if (colon == NULL || colon == host_port || (size_t)(colon - host_port) >= sizeof host || end == colon + 1 ||
+        *end != '\0' || p < 1 || p > 65535) {
+        fprintf(stderr, "hil: '%s' is not A.B.C.D:PORT (the address `host_sim hil --listen` gives)\n",
                 host_port != NULL ? host_port : "");
         return -EINVAL;
     }
     memcpy(host, host_port, (size_t)(colon - host_port));
     host[colon - host_port] = '\0';
-    struct addrinfo hints = {.ai_family = AF_INET, .ai_socktype = SOCK_DGRAM}, *ai = NULL;
-    const int g = getaddrinfo(host, colon + 1, &hints, &ai);
-    if (g != 0) {
-        fprintf(stderr, "hil: cannot resolve '%s': %s\n", host_port, gai_strerror(g));
+    if (inet_pton(AF_INET, host, &a.sin_addr) != 1) {
+        fprintf(stderr, "hil: '%s' is not an IPv4 address (a board connects to a number, not a name)\n", host);
         return -EINVAL;
     }
+    a.sin_port = htons((uint16_t)p);
     const int fd = socket(AF_INET, SOCK_DGRAM | SOCK_CLOEXEC, 0);
-    if (fd < 0 || connect(fd, ai->ai_addr, ai->ai_addrlen) != 0) {
+    if (fd < 0 || connect(fd, (const struct sockaddr *)&a, sizeof a) != 0) {
         fprintf(stderr, "hil: cannot reach udp %s: %s\n", host_port, strerror(errno));
         if (fd >= 0)
             close(fd);
-        freeaddrinfo(ai);
         return -EIO;
     }
-    freeaddrinfo(ai);
     *fd_out = fd;
     *port = (hal_hil_port_t){.ctx = fd_out, .stream = 0, .send = udp_send, .recv = udp_recv};
     return 0;
