@@ -329,19 +329,8 @@ static const hal_board_t stdc_board = {
     .fault = stdc_fault,
 };
 
-static const hal_board_t stdc_board_hil = {
-    .name = BOARD_NAME,
-    .ctx = &stdc,
-    .clock = &stdc_clock,
-    .core = &stdc_core,
-    .log = &stdc_log,
-    .net = &stdc_net,
-    .storage = &stdc_storage,
-    .lidar = &stdc_lidar,
-    .pose = &stdc_pose,
-    .motor = &stdc_motor,
-    .fault = stdc_fault,
-};
+/* stdc_board with the world's lidar, pose and motors (hal_stdc_install_hil fills it). */
+static hal_board_t stdc_board_hil;
 
 int hal_stdc_install_hil(const char *storage_dir, hal_hil_client_t *client)
 {
@@ -352,6 +341,10 @@ int hal_stdc_install_hil(const char *storage_dir, hal_hil_client_t *client)
         return r;
     memset(&hil, 0, sizeof hil);
     hil.client = client;
+    stdc_board_hil = stdc_board;
+    stdc_board_hil.lidar = &stdc_lidar;
+    stdc_board_hil.pose = &stdc_pose;
+    stdc_board_hil.motor = &stdc_motor;
     return hal_board_install(&stdc_board_hil);
 }
 

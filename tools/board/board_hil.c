@@ -15,6 +15,7 @@
 #include <string.h>
 #include <time.h>
 
+#include "board_args.h"
 #include "fw_image.h"
 #include "fw_link.h"
 #include "hal_stdc.h"
@@ -43,16 +44,6 @@ static void usage(FILE *to)
             "  --tries N            TICKs sent before the link counts as down (default 5)\n");
 }
 
-static int parse_u32(const char *s, uint32_t lo, uint32_t hi, uint32_t *out)
-{
-    char *end;
-    unsigned long v = s != NULL ? strtoul(s, &end, 10) : 0;
-    if (s == NULL || *s == '\0' || *end != '\0' || v < lo || v > hi)
-        return -EINVAL;
-    *out = (uint32_t)v;
-    return 0;
-}
-
 static int parse_opts(int argc, char **argv, hil_opts_t *o)
 {
     *o = (hil_opts_t){.timeout_ms = 200, .tries = 5, .time_s = 600.0};
@@ -67,11 +58,11 @@ static int parse_opts(int argc, char **argv, hil_opts_t *o)
         } else if (strcmp(a, "--tour") == 0 && v != NULL) {
             o->tour = v;
         } else if (strcmp(a, "--robot") == 0) {
-            r = parse_u32(v, 0, BOARD_MAX_FLEET - 1u, &o->robot);
+            r = board_parse_u32(v, 0, BOARD_MAX_FLEET - 1u, &o->robot);
         } else if (strcmp(a, "--timeout-ms") == 0) {
-            r = parse_u32(v, 1, 60000, &o->timeout_ms);
+            r = board_parse_u32(v, 1, 60000, &o->timeout_ms);
         } else if (strcmp(a, "--tries") == 0) {
-            r = parse_u32(v, 1, 1000, &o->tries);
+            r = board_parse_u32(v, 1, 1000, &o->tries);
         } else if (strcmp(a, "--time") == 0) {
             char *end;
             o->time_s = v != NULL ? strtod(v, &end) : -1.0;

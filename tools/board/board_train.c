@@ -27,6 +27,7 @@
 #include <string.h>
 
 #include "ai/bnn_quant.h"
+#include "board_args.h"
 #include "fw_robot.h"
 #include "gp/gp_fleet.h"
 #include "hal_stdc.h"
@@ -79,16 +80,6 @@ static void usage(FILE *to)
             (unsigned)(1000000u / FW_GP_PERIOD_US));
 }
 
-static int parse_u32(const char *s, uint32_t lo, uint32_t hi, uint32_t *out)
-{
-    char *end;
-    unsigned long v = s != NULL ? strtoul(s, &end, 10) : 0;
-    if (s == NULL || *s == '\0' || *end != '\0' || v < lo || v > hi)
-        return -EINVAL;
-    *out = (uint32_t)v;
-    return 0;
-}
-
 static int parse_opts(int argc, char **argv, train_opts_t *o)
 {
     *o = (train_opts_t){.rounds = 10, .steps = 5, .batch = BNN_MAX_BATCH < 64u ? BNN_MAX_BATCH : 64u,
@@ -103,21 +94,21 @@ static int parse_opts(int argc, char **argv, train_opts_t *o)
             usage(stdout);
             exit(0);
         } else if (strcmp(a, "--rounds") == 0) {
-            r = parse_u32(v, 1, 100000, &o->rounds);
+            r = board_parse_u32(v, 1, 100000, &o->rounds);
         } else if (strcmp(a, "--steps") == 0) {
-            r = parse_u32(v, 1, 10000, &o->steps);
+            r = board_parse_u32(v, 1, 10000, &o->steps);
         } else if (strcmp(a, "--batch") == 0) {
-            r = parse_u32(v, 1, BNN_MAX_BATCH, &o->batch);
+            r = board_parse_u32(v, 1, BNN_MAX_BATCH, &o->batch);
         } else if (strcmp(a, "--mc") == 0) {
-            r = parse_u32(v, 1, 1000, &o->mc);
+            r = board_parse_u32(v, 1, 1000, &o->mc);
         } else if (strcmp(a, "--points") == 0) {
-            r = parse_u32(v, 1, TRAIN_POINTS_MAX, &o->points);
+            r = board_parse_u32(v, 1, TRAIN_POINTS_MAX, &o->points);
         } else if (strcmp(a, "--rt-hz") == 0) {
-            r = parse_u32(v, 0, 10000, &o->rt_hz);
+            r = board_parse_u32(v, 0, 10000, &o->rt_hz);
         } else if (strcmp(a, "--gp-hz") == 0) {
-            r = parse_u32(v, 0, 10000, &o->gp_hz);
+            r = board_parse_u32(v, 0, 10000, &o->gp_hz);
         } else if (strcmp(a, "--seed") == 0) {
-            r = parse_u32(v, 0, UINT32_MAX, &seed);
+            r = board_parse_u32(v, 0, UINT32_MAX, &seed);
             o->seed = seed;
         } else if (strcmp(a, "--kl-weight") == 0) {
             char *end;
