@@ -47,7 +47,7 @@ static void usage(FILE *to)
 static int parse_opts(int argc, char **argv, hil_opts_t *o)
 {
     *o = (hil_opts_t){.timeout_ms = 200, .tries = 5, .time_s = 600.0};
-    for (int i = 1; i < argc; i++) {
+    for (int i = 1; i < argc; i += 2) { /* every option takes a value (--help ends here) */
         const char *a = argv[i], *v = i + 1 < argc ? argv[i + 1] : NULL;
         int r = 0;
         if (strcmp(a, "--help") == 0 || strcmp(a, "-h") == 0) {
@@ -76,7 +76,6 @@ static int parse_opts(int argc, char **argv, hil_opts_t *o)
             fprintf(stderr, "board_hil: bad value for %s: '%s' (see --help)\n", a, v ? v : "");
             return -EINVAL;
         }
-        i++;
     }
     if (o->connect == NULL || o->tour == NULL) {
         fprintf(stderr, "board_hil: --connect and --tour are required (see --help)\n");

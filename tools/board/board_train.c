@@ -86,7 +86,7 @@ static int parse_opts(int argc, char **argv, train_opts_t *o)
                         .mc = 50, .points = 64, .kl_weight = 5e-3f, .seed = 1,
                         .rt_hz = 1000000u / FW_RT_PERIOD_US, .gp_hz = 1000000u / FW_GP_PERIOD_US,
                         .samples = "train_samples.bin", .dir = ""};
-    for (int i = 1; i < argc; i++) {
+    for (int i = 1; i < argc; i += 2) { /* every option takes a value (--help ends here) */
         const char *a = argv[i], *v = i + 1 < argc ? argv[i + 1] : NULL;
         uint32_t seed;
         int r = 0;
@@ -126,7 +126,6 @@ static int parse_opts(int argc, char **argv, train_opts_t *o)
             fprintf(stderr, "board_train: bad value for %s: '%s' (see --help)\n", a, v ? v : "");
             return -EINVAL;
         }
-        i++;
     }
     return 0;
 }
