@@ -90,8 +90,7 @@ static int next_accepted(hal_hil_client_t *c, hal_hil_frame_t *f)
 
 int hal_hil_client_connect(hal_hil_client_t *c)
 {
-    const hal_hil_hello_t mine = {.robot = c->robot, .rt_period_us = c->rt_period_us};
-    hal_hil_hello_t h = mine;
+    hal_hil_hello_t h = {.robot = c->robot, .rt_period_us = c->rt_period_us};
     memcpy(h.board, c->board, sizeof h.board);
     for (uint32_t t = 0; t < c->tries; t++) {
         int r = send_frame(c, HAL_HIL_HELLO, hal_hil_put_hello(c->payload, sizeof c->payload, &h));

@@ -6,6 +6,7 @@
 #include "common/le_bytes.h"
 
 #include <errno.h>
+#include <stdlib.h>
 #include <string.h>
 
 static const char *const verdict_names[HAL_HIL_VERDICTS] = {
@@ -218,5 +219,20 @@ int hal_hil_guard_accept(hal_hil_guard_t *g, const hal_hil_frame_t *f)
     g->lost += f->seq - g->last_seq - 1u;
     g->last_seq = f->seq;
     g->accepted++;
+    return 0;
+}
+
+int hal_hil_split_address(const char *s, char *host, size_t cap, uint32_t *port)
+{
+    const char *colon = s != NULL ? strrchr(s, ':') : NULL;
+    if (colon == NULL || colon == s || (size_t)(colon - s) >= cap || colon[1] < '0' || colon[1] > '9')
+        return -EINVAL;
+    char *end = NULL;
+    const unsigned long p = strtoul(colon + 1, &end, 10);
+    if (*end != '\0' || p > 65535u)
+        return -EINVAL;
+    memcpy(host, s, (size_t)(colon - s));
+    host[colon - s] = '\0';
+    *port = (uint32_t)p;
     return 0;
 }

@@ -247,6 +247,14 @@ static struct {
     hal_stdc_hil_stats_t st;
 } hil;
 
+static void timing_add(hal_stdc_timing_t *t, uint64_t us)
+{
+    t->count++;
+    t->sum_us += us;
+    if (us > t->max_us)
+        t->max_us = us;
+}
+
 static int hil_sense(void)
 {
     const uint64_t now = hal_stdc_target_now_us();
@@ -261,11 +269,7 @@ static int hil_sense(void)
     hil.ticked = hil.sensed = 1;
     hil.tick_us = t;
     hil.sensed_us = hal_stdc_target_now_us();
-    const uint64_t rtt = hil.sensed_us - now;
-    hil.st.exchanges++;
-    hil.st.exchange_sum_us += rtt;
-    if (rtt > hil.st.exchange_max_us)
-        hil.st.exchange_max_us = rtt;
+    timing_add(&hil.st.exchange, hil.sensed_us - now);
     return 0;
 }
 
@@ -292,11 +296,7 @@ static int stdc_set_wheels(void *ctx, float left_rad_s, float right_rad_s)
     (void)ctx;
     const uint64_t now = hal_stdc_target_now_us();
     if (hil.sensed) { /* the first command after the sensors came: the core's response */
-        const uint64_t dt = now - hil.sensed_us;
-        hil.st.responses++;
-        hil.st.response_sum_us += dt;
-        if (dt > hil.st.response_max_us)
-            hil.st.response_max_us = dt;
+        timing_add(&hil.st.response, now - hil.sensed_us);
         hil.sensed = 0;
     }
     if (hal_hil_client_wheels(hil.client, now, left_rad_s, right_rad_s) != 0) {

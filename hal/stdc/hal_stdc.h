@@ -47,9 +47,14 @@ void hal_stdc_uninstall(void);
  * install's error. */
 FS_MUST_CHECK int hal_stdc_install_hil(const char *storage_dir, hal_hil_client_t *client);
 
+/* Durations in the board's time: how many, their sum and the longest. */
+typedef struct hal_stdc_timing {
+    uint64_t count, sum_us, max_us;
+} hal_stdc_timing_t;
+
 typedef struct hal_stdc_hil_stats {
-    uint64_t exchanges, exchange_sum_us, exchange_max_us; /* TICK sent to its answer read */
-    uint64_t responses, response_sum_us, response_max_us; /* sensors read to the wheel command */
+    hal_stdc_timing_t exchange; /* TICK sent to its answer read */
+    hal_stdc_timing_t response; /* sensors read to the wheel command */
     uint64_t link_errors;
 } hal_stdc_hil_stats_t;
 

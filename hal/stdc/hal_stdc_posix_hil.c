@@ -7,7 +7,6 @@
 #include <netinet/in.h>
 #include <poll.h>
 #include <stdio.h>
-#include <stdlib.h>
 #include <string.h>
 #include <sys/socket.h>
 #include <unistd.h>
@@ -43,18 +42,13 @@ static int udp_recv(void *ctx, uint8_t *buf, size_t cap, uint32_t timeout_us)
 int hal_stdc_hil_udp_open(const char *host_port, hal_hil_port_t *port, int *fd_out)
 {
     char host[INET_ADDRSTRLEN];
-    const char *colon = host_port != NULL ? strrchr(host_port, ':') : NULL;
-    char *end = NULL;
-    const long p = colon != NULL ? strtol(colon + 1, &end, 10) : 0;
+    uint32_t p = 0;
     struct sockaddr_in a = {.sin_family = AF_INET};
-    if (colon == NULL || colon == host_port || (size_t)(colon - host_port) >= sizeof host || end == colon + 1 ||
-        *end != '\0' || p < 1 || p > 65535) {
+    if (hal_hil_split_address(host_port, host, sizeof host, &p) != 0 || p == 0) {
         fprintf(stderr, "hil: '%s' is not A.B.C.D:PORT (the address `host_sim hil --listen` gives)\n",
                 host_port != NULL ? host_port : "");
         return -EINVAL;
     }
-    memcpy(host, host_port, (size_t)(colon - host_port));
-    host[colon - host_port] = '\0';
     if (inet_pton(AF_INET, host, &a.sin_addr) != 1) {
         fprintf(stderr, "hil: '%s' is not an IPv4 address (a board connects to a number, not a name)\n", host);
         return -EINVAL;

@@ -8,7 +8,6 @@
 #include <netinet/in.h>
 #include <poll.h>
 #include <stdio.h>
-#include <stdlib.h>
 #include <string.h>
 #include <sys/socket.h>
 #include <time.h>
@@ -22,17 +21,12 @@
 int sim_hil_listen(const char *host_port, uint16_t *port, char *err, size_t errlen)
 {
     char host[256];
-    const char *colon = host_port != NULL ? strrchr(host_port, ':') : NULL;
-    char *end = NULL;
-    const long p = colon != NULL ? strtol(colon + 1, &end, 10) : -1;
-    if (colon == NULL || colon == host_port || (size_t)(colon - host_port) >= sizeof host || end == colon + 1 ||
-        *end != '\0' || p < 0 || p > 65535) {
+    uint32_t p = 0;
+    if (hal_hil_split_address(host_port, host, sizeof host, &p) != 0) {
         snprintf(err, errlen, "'%s' is not HOST:PORT (e.g. 127.0.0.1:7800, port 0 for any free one)",
                  host_port != NULL ? host_port : "");
         return -1;
     }
-    memcpy(host, host_port, (size_t)(colon - host_port));
-    host[colon - host_port] = '\0';
     struct addrinfo hints = {.ai_family = AF_INET, .ai_socktype = SOCK_DGRAM, .ai_flags = AI_PASSIVE}, *ai = NULL;
     const int g = getaddrinfo(host, NULL, &hints, &ai);
     if (g != 0) {

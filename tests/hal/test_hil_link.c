@@ -120,6 +120,20 @@ static void test_datagram_refusals(void **st)
     reseal_header(frame);
     assert_int_equal(hal_hil_parse(frame, sizeof frame, &f), HAL_HIL_OVERSIZED);
     assert_string_equal(hal_hil_verdict_name(HAL_HIL_BAD_CRC), "bad CRC");
+
+    /* The link's addresses: HOST:PORT split at the last ':' */
+    char host[16];
+    uint32_t port = 1;
+    assert_int_equal(hal_hil_split_address("127.0.0.1:7800", host, sizeof host, &port), 0);
+    assert_string_equal(host, "127.0.0.1");
+    assert_int_equal(port, 7800);
+    assert_int_equal(hal_hil_split_address("localhost:0", host, sizeof host, &port), 0);
+    assert_int_equal(port, 0);
+    const char *bad[] = {"7800", ":7800", "host:", "host:65536", "host:78x", "host:-1", "averyveryverylonghostname:1",
+                         NULL};
+    for (int i = 0; bad[i] != NULL; i++)
+        assert_int_equal(hal_hil_split_address(bad[i], host, sizeof host, &port), -EINVAL);
+    assert_int_equal(hal_hil_split_address(NULL, host, sizeof host, &port), -EINVAL);
 }
 
 /* Feeds bytes to the stream in random pieces; collects the seqs of the frames out. */

@@ -125,6 +125,11 @@ static int read_tour(const char *path)
     return n;
 }
 
+static double mean_us(const hal_stdc_timing_t *t)
+{
+    return t->count > 0 ? (double)t->sum_us / (double)t->count : 0.0;
+}
+
 static hal_hil_client_t client;
 static rt_core_t rt;
 
@@ -224,13 +229,11 @@ int main(int argc, char **argv)
     printf("result scans %u\n", st.scans);
     printf("result samples %u\n", st.samples + st.ring_drops);
     printf("result hal_errors %u\n", st.errors);
-    printf("result link_exchanges %llu\n", (unsigned long long)hs.exchanges);
-    printf("result link_round_trip_mean_us %.0f\n",
-           hs.exchanges > 0 ? (double)hs.exchange_sum_us / (double)hs.exchanges : 0.0);
-    printf("result link_round_trip_max_us %llu\n", (unsigned long long)hs.exchange_max_us);
-    printf("result sense_to_command_mean_us %.1f\n",
-           hs.responses > 0 ? (double)hs.response_sum_us / (double)hs.responses : 0.0);
-    printf("result sense_to_command_max_us %llu\n", (unsigned long long)hs.response_max_us);
+    printf("result link_exchanges %llu\n", (unsigned long long)hs.exchange.count);
+    printf("result link_round_trip_mean_us %.0f\n", mean_us(&hs.exchange));
+    printf("result link_round_trip_max_us %llu\n", (unsigned long long)hs.exchange.max_us);
+    printf("result sense_to_command_mean_us %.1f\n", mean_us(&hs.response));
+    printf("result sense_to_command_max_us %llu\n", (unsigned long long)hs.response.max_us);
     printf("result link_errors %llu\n", (unsigned long long)hs.link_errors);
     printf("result link_resent_ticks %llu\n", (unsigned long long)client.stats.resent_ticks);
     printf("result link_refused %llu\n", (unsigned long long)(client.stats.refused + client.stats.replayed +

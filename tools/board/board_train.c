@@ -164,7 +164,6 @@ static int load_samples(ai_core_t *ai, const char *name, uint32_t *n_out)
     return 0;
 }
 
-/* Instructions since start, or 0 where the target does not count them. */
 /* A core started beside the AI work (which runs on the main program, below every core): at its
  * period it wakes, and how late each wake-up came is what it keeps. The RT core's control loop
  * needs the world's scans and wheels (hardware in the loop, not here), so what is measured is
@@ -233,6 +232,7 @@ static void print_timed(const timed_core_t *c)
         printf("result stack_%s_used %lu of %lu\n", n, (unsigned long)used, (unsigned long)size);
 }
 
+/* Instructions since start, or 0 where the target does not count them. */
 static uint64_t insns(void)
 {
     uint64_t n = 0;

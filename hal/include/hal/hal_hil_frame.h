@@ -130,4 +130,9 @@ void hal_hil_guard_init(hal_hil_guard_t *g);
  * opened its session). */
 int hal_hil_guard_accept(hal_hil_guard_t *g, const hal_hil_frame_t *f);
 
+/* "HOST:PORT", the address either end of a UDP link is given: the host (the text before the
+ * last ':', 1 .. cap - 1 characters, not checked further: each end resolves it its own way) into
+ * host[cap] and the port, 0 .. 65535, into *port. 0, or -EINVAL. */
+int hal_hil_split_address(const char *s, char *host, size_t cap, uint32_t *port);
+
 #endif /* HAL_HIL_FRAME_H */
