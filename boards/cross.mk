@@ -238,30 +238,35 @@ run: $(TEST_DEPS) $(IMAGE) $(HOST_BIN) $(RUN_DEPS)
 # Hardware in the loop (docs/boards.md): the firmware's RT core (tools/board/board_hil.c, built
 # for the board with its link port) under the board's QEMU, in the loop with `host_sim hil` of
 # the host build (HOST_SIM=, the top Makefile passes it) for HIL_SECONDS of the board's time;
-# both ends' output in $(R)/hil/. A Linux board's image speaks UDP; a Cortex-M board needs its
-# UART port, not built yet.
+# both ends' output in $(R)/hil/. A Linux board's image speaks UDP; a Cortex-M board's speaks
+# over its UART 0, which QEMU's -serial carries to the world over TCP (`--link serial`; @PORT@ is
+# the world's port, filled in by run_hil.sh) while its console stays on semihosting.
 HIL_SECONDS ?= 20
 HIL_PLAN    ?= host_sim/plans/apartment.svg
 HIL_TOUR    ?= host_sim/plans/apartment/robot_0.csv
-ifeq ($(BOARD_LINK),linux)
 HIL_C   := tools/board/board_hil.c $(PROG_HAL_C) $(sort $(wildcard hal/stdc/hal_stdc_$(BOARD_HAL_TARGET)*.c))
 HIL_OBJ := $(patsubst %,$(X)/obj/%.o,$(HIL_C))
-HIL_BIN := $(X)/board_hil
 $(HIL_OBJ): | $(MSG_GEN)/msg/msg_layout.h
+ifeq ($(BOARD_LINK),linux)
+HIL_BIN := $(X)/board_hil
 $(HIL_BIN): $(HIL_OBJ) $(X)/lib/libfirmware.a
 	$(call say,LD,$@)$(if $(FW_CXX),$(XCXX),$(XCC)) $(BOARD_CPU_FLAGS) -static $(HIL_OBJ) $(X)/lib/libfirmware.a -lm -o $@
+HIL_RUN := tools/board/run_hil.sh --link udp $(HOST_SIM) $(HIL_PLAN) $(HIL_TOUR) $(HIL_SECONDS) $(R)/hil \
+	$(BOARD_QEMU) $(HIL_BIN)
+else
+HIL_BIN := $(X)/board_hil.elf
+$(HIL_BIN): $(HIL_OBJ) $(X)/lib/libfirmware.a $(X)/board.ld
+	$(call say,LD,$@)$(if $(FW_CXX),$(XCXX),$(XCC)) $(BOARD_CPU_FLAGS) $(LINK_FLAGS:fleetsim.map=board_hil.map) $(HIL_OBJ) \
+	    $(X)/lib/libfirmware.a $(LINK_LIBS) -o $@
+HIL_ARGS := board_hil --connect uart0 --tour $(HIL_TOUR) --time $(HIL_SECONDS)
+HIL_RUN  := tools/board/run_hil.sh --link serial $(HOST_SIM) $(HIL_PLAN) $(HIL_TOUR) $(HIL_SECONDS) $(R)/hil \
+	$(BOARD_QEMU) -monitor none -serial tcp:127.0.0.1:@PORT@ \
+	-semihosting-config enable=on,target=native$(subst $(space),,$(foreach a,$(HIL_ARGS),$(comma)arg=$(a))) -kernel $(HIL_BIN)
+endif
 
 hil: $(HIL_BIN)
 	@test -x "$(HOST_SIM)" || { echo "make hil: HOST_SIM='$(HOST_SIM)' is not host_sim (run it from the top: make hil BOARD=$(XBOARD))" >&2; exit 2; }
-	@tools/board/run_hil.sh $(HOST_SIM) $(HIL_PLAN) $(HIL_TOUR) $(HIL_SECONDS) $(R)/hil $(BOARD_QEMU) $(HIL_BIN)
-else
-hil:
-	@echo "make hil: $(XBOARD) is a Cortex-M board: its link needs the UART port, not built yet (docs/boards.md); BOARD=rpi3 runs the RT core in the loop" >&2; exit 2
-endif
+	@$(HIL_RUN)
 
-profile: run
-	@tools/board/board_profile.py --board $(XBOARD) --preset $(PRESET) --board-h boards/$(XBOARD)/board.h \
-	    --elf $(IMAGE) --map $(X)/fleetsim.map --obj $(X)/obj --cross $(BOARD_CROSS) \
-	    --run $(R)/run.txt $(if $(RUN_DEPS),--insn-log $(R)/insn.log) --out $(R)
-
--include $(shell find $(X)/obj $(X)/test/obj $(HOST_X)/obj -name '*.d' 2>/dev/null)
+# The compilers' dependency files (-MMD -MP): a header's change rebuilds what includes it.
+-include $(shell find $(X) -name '*.d' 2>/dev/null)

@@ -113,17 +113,29 @@ int hal_hil_client_connect(hal_hil_client_t *c)
     return -ETIMEDOUT;
 }
 
+/* A SCAN payload's stamp (its first field), before the whole is decoded. */
+static uint64_t le_stamp(const uint8_t *p)
+{
+    uint64_t v = 0;
+    for (int i = 7; i >= 0; i--)
+        v = v << 8 | p[i];
+    return v;
+}
+
 int hal_hil_client_tick(hal_hil_client_t *c, uint64_t t_us)
 {
     for (uint32_t t = 0; t < c->tries; t++) {
         if (t > 0)
             c->stats.resent_ticks++;
-        int r = send_frame(c, HAL_HIL_TICK, hal_hil_put_tick(c->payload, sizeof c->payload, t_us));
+        const uint64_t held = c->have_scan ? c->scan.stamp_us + 1u : 0u;
+        int r = send_frame(c, HAL_HIL_TICK, hal_hil_put_tick(c->payload, sizeof c->payload, t_us, held));
         if (r != 0)
             return r;
-        int pose = 0, scan = 0;
+        int pose = 0;
         hal_hil_frame_t f;
-        while (!(pose && scan) && (r = next_accepted(c, &f)) == 1) {
+        /* The answer: a SCAN when the world has a newer one, then the POSE that ends it (a
+           session's first answer must bring a scan). */
+        while (!(pose && c->have_scan) && (r = next_accepted(c, &f)) == 1) {
             if (f.type == HAL_HIL_POSE) {
                 hal_pose_t p;
                 if (hal_hil_get_pose(&f, &p) != 0)
@@ -135,17 +147,19 @@ int hal_hil_client_tick(hal_hil_client_t *c, uint64_t t_us)
                     c->have_pose = pose = 1;
                 }
             } else if (f.type == HAL_HIL_SCAN) {
-                if (hal_hil_get_scan(&f, &c->scan) != 0) /* refused: c->scan untouched */
+                if (c->have_scan && f.len >= 8u && le_stamp(f.payload) <= c->scan.stamp_us)
+                    c->stats.stale++; /* one held already: a late answer's */
+                else if (hal_hil_get_scan(&f, &c->scan) != 0) /* refused: c->scan untouched */
                     c->stats.bad_payload++;
                 else
-                    c->have_scan = scan = 1;
+                    c->have_scan = 1;
             } else {
                 c->stats.bad_payload++;
             }
         }
         if (r < 0)
             return r;
-        if (pose && scan) {
+        if (pose && c->have_scan) {
             c->stats.ticks++;
             return 0;
         }

@@ -199,19 +199,21 @@ int hal_hil_get_datagram(const hal_hil_frame_t *f, hal_hil_datagram_t *m)
     return 0;
 }
 
-int hal_hil_put_tick(uint8_t *out, size_t cap, uint64_t stamp_us)
+int hal_hil_put_tick(uint8_t *out, size_t cap, uint64_t stamp_us, uint64_t scan_held)
 {
     if (cap < HAL_HIL_TICK_BYTES)
         return -EMSGSIZE;
     le_put_u64(out, stamp_us);
+    le_put_u64(out + 8, scan_held);
     return (int)HAL_HIL_TICK_BYTES;
 }
 
-int hal_hil_get_tick(const hal_hil_frame_t *f, uint64_t *stamp_us)
+int hal_hil_get_tick(const hal_hil_frame_t *f, uint64_t *stamp_us, uint64_t *scan_held)
 {
     if (f->type != HAL_HIL_TICK || f->len != HAL_HIL_TICK_BYTES)
         return -EBADMSG;
     *stamp_us = le_get_u64(f->payload);
+    *scan_held = le_get_u64(f->payload + 8);
     return 0;
 }
 

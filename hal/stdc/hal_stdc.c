@@ -243,21 +243,21 @@ static const hal_net_ops_t stdc_net = {.publish = stdc_publish,
 static struct {
     hal_hil_client_t *client;
     int ticked, sensed;
-    uint64_t tick_us, sensed_us;
+    uint64_t tick_us, sensed_ns;
     hal_stdc_hil_stats_t st;
 } hil;
 
-static void timing_add(hal_stdc_timing_t *t, uint64_t us)
+static void timing_add(hal_stdc_timing_t *t, uint64_t ns)
 {
     t->count++;
-    t->sum_us += us;
-    if (us > t->max_us)
-        t->max_us = us;
+    t->sum_ns += ns;
+    if (ns > t->max_ns)
+        t->max_ns = ns;
 }
 
 static int hil_sense(void)
 {
-    const uint64_t now = hal_stdc_target_now_us();
+    const uint64_t now_ns = hal_stdc_target_now_ns(), now = now_ns / 1000u;
     const uint64_t t = now - now % hil.client->rt_period_us;
     if (hil.ticked && t == hil.tick_us)
         return 0;
@@ -268,8 +268,8 @@ static int hil_sense(void)
     }
     hil.ticked = hil.sensed = 1;
     hil.tick_us = t;
-    hil.sensed_us = hal_stdc_target_now_us();
-    timing_add(&hil.st.exchange, hil.sensed_us - now);
+    hil.sensed_ns = hal_stdc_target_now_ns();
+    timing_add(&hil.st.exchange, hil.sensed_ns - now_ns);
     return 0;
 }
 
@@ -294,9 +294,9 @@ static int stdc_read_scan(void *ctx, hal_lidar_scan_t *scan)
 static int stdc_set_wheels(void *ctx, float left_rad_s, float right_rad_s)
 {
     (void)ctx;
-    const uint64_t now = hal_stdc_target_now_us();
+    const uint64_t now_ns = hal_stdc_target_now_ns(), now = now_ns / 1000u;
     if (hil.sensed) { /* the first command after the sensors came: the core's response */
-        timing_add(&hil.st.response, now - hil.sensed_us);
+        timing_add(&hil.st.response, now_ns - hil.sensed_ns);
         hil.sensed = 0;
     }
     if (hal_hil_client_wheels(hil.client, now, left_rad_s, right_rad_s) != 0) {

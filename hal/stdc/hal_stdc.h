@@ -47,9 +47,10 @@ void hal_stdc_uninstall(void);
  * install's error. */
 FS_MUST_CHECK int hal_stdc_install_hil(const char *storage_dir, hal_hil_client_t *client);
 
-/* Durations in the board's time: how many, their sum and the longest. */
+/* Durations in the board's time (ns: under -icount a Cortex-M's are instructions): how many,
+ * their sum and the longest. */
 typedef struct hal_stdc_timing {
-    uint64_t count, sum_us, max_us;
+    uint64_t count, sum_ns, max_ns;
 } hal_stdc_timing_t;
 
 typedef struct hal_stdc_hil_stats {

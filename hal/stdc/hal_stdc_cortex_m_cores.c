@@ -224,8 +224,10 @@ int hal_stdc_target_core_self(hal_core_id_t *id)
 void hal_stdc_target_sleep_until(uint64_t wake_us)
 {
     while (hal_stdc_target_now_us() < wake_us) {
-        if (!started)
-            continue; /* one thread, nothing else to run: wait on the time base */
+        if (!started) { /* one thread, nothing else to run: wait for the next tick */
+            __asm__ volatile("wfi");
+            continue;
+        }
         irq_off();
         thread[running].wake_us = wake_us;
         thread[running].state = T_ASLEEP;

@@ -1,14 +1,20 @@
 /* The hardware-in-the-loop link's ports of the stdc back end's targets (hal/hal_hil_client.h):
- * how a board's bytes reach `host_sim hil`. A Linux board: a UDP socket
- * (hal_stdc_posix_hil.c). A Cortex-M board's serial port is not built yet. */
+ * how a board's bytes reach `host_sim hil`. One function per target, the same name:
+ *   a Linux board (hal_stdc_posix_hil.c):   "A.B.C.D:PORT", a connected UDP socket, one frame per
+ *                                           datagram (`host_sim hil --link udp`);
+ *   a Cortex-M board (hal_stdc_cortex_m_hil.c): "uart0" .. "uart3", the CMSDK APB UART of that
+ *                                           number as a byte stream, frames back to back (QEMU's
+ *                                           -serial; `host_sim hil --link serial`). */
 #ifndef HAL_STDC_HIL_H
 #define HAL_STDC_HIL_H
 
 #include "hal/hal_hil_client.h"
 
-/* A UDP socket connected to "A.B.C.D:PORT" (the world's --listen, numeric) into *port; *fd_out holds the
- * descriptor and is the port's context (it must outlive the port). 0, -EINVAL (a bad address,
- * said on stderr) or -EIO. */
-int hal_stdc_hil_udp_open(const char *host_port, hal_hil_port_t *port, int *fd_out);
+/* Opens the link named `where` into *port (its context is the target's own static state: one
+ * link per board). 0, -EINVAL (a name the target does not have, said on stderr) or -EIO. */
+int hal_stdc_hil_open(const char *where, hal_hil_port_t *port);
+
+/* What the target's link is, for messages ("udp", "serial"). */
+const char *hal_stdc_hil_kind(void);
 
 #endif /* HAL_STDC_HIL_H */

@@ -39,8 +39,14 @@ static int udp_recv(void *ctx, uint8_t *buf, size_t cap, uint32_t timeout_us)
     return (int)n;
 }
 
-int hal_stdc_hil_udp_open(const char *host_port, hal_hil_port_t *port, int *fd_out)
+const char *hal_stdc_hil_kind(void)
 {
+    return "udp";
+}
+
+int hal_stdc_hil_open(const char *host_port, hal_hil_port_t *port)
+{
+    static int fd_held; /* the port's context: one link per board */
     char host[INET_ADDRSTRLEN];
     uint32_t p = 0;
     struct sockaddr_in a = {.sin_family = AF_INET};
@@ -61,7 +67,7 @@ int hal_stdc_hil_udp_open(const char *host_port, hal_hil_port_t *port, int *fd_o
             close(fd);
         return -EIO;
     }
-    *fd_out = fd;
-    *port = (hal_hil_port_t){.ctx = fd_out, .stream = 0, .send = udp_send, .recv = udp_recv};
+    fd_held = fd;
+    *port = (hal_hil_port_t){.ctx = &fd_held, .stream = 0, .send = udp_send, .recv = udp_recv};
     return 0;
 }

@@ -18,7 +18,7 @@ typedef struct hil_opts {
     const char *plan, *path, *listen;
     int64_t robot, seed;
     double idle_timeout_s, scale;
-    int quiet;
+    int quiet, link; /* link: 0 udp, 1 serial */
 } hil_opts_t;
 
 static hil_opts_t hil_defaults(void)
@@ -31,7 +31,10 @@ static const cli_opt_t hil_opts[] = {
     {.names = "--path", .meta = "ROBOT.csv", CLI_STRING(hil_opts_t, path), .required = 1,
      .help = "the robot's tour: it starts at the first waypoint facing the second"},
     {.names = "--listen", .meta = "HOST:PORT", CLI_STRING(hil_opts_t, listen),
-     .help = "the UDP address the board talks to (port 0: any free one, printed)"},
+     .help = "the address the board talks to (port 0: any free one, printed)"},
+    {.names = "--link", CLI_CHOICE(hil_opts_t, link, "udp|serial"),
+     .help = "udp: one frame per datagram; serial: a serial line's byte stream carried over TCP "
+             "(QEMU's -serial tcp:HOST:PORT), frames back to back"},
     {.names = "--robot", .meta = "I", CLI_INT(hil_opts_t, robot, 0, BOARD_MAX_FLEET - 1),
      .help = "the robot served: keys the noise streams; the board's HELLO must name it"},
     {.names = "--seed", .meta = "S", CLI_INT(hil_opts_t, seed, 0, INT64_MAX), .help = "run seed of the noise streams"},
@@ -49,8 +52,9 @@ static void hil_usage(FILE *out)
             "usage: host_sim hil --plan FILE.svg --path ROBOT.csv [options]\n"
             "\n"
             "Serves one robot's ODE world to firmware that runs elsewhere (a board, QEMU, another\n"
-            "process) over the hardware-in-the-loop link: UDP, one CRC-checked frame per datagram\n"
-            "(hal/include/hal/hal_hil_frame.h). The board keeps the time: it says HELLO, then each\n"
+            "process) over the hardware-in-the-loop link: CRC-checked frames (hal/include/hal/\n"
+            "hal_hil_frame.h), one per UDP datagram (--link udp) or back to back on a serial line\n"
+            "carried over TCP (--link serial). The board keeps the time: it says HELLO, then each\n"
             "control tick sends TICK t (the world steps to t and the latest pose and scan come back)\n"
             "and its wheel command, held until the next one. Every frame is checked before it acts;\n"
             "refused ones are counted in the last line. Ends when no frame came for --idle-timeout\n"
@@ -69,7 +73,7 @@ int cmd_hil(int argc, char **argv)
         return pr > 0 ? 0 : 2;
     char err[8192];
     uint16_t port = 0;
-    const int fd = sim_hil_listen(o.listen, &port, err, sizeof err);
+    const int fd = sim_hil_listen(o.listen, o.link, &port, err, sizeof err);
     if (fd < 0) {
         fprintf(stderr, "host_sim hil: --listen %s\n", err);
         return 2;
@@ -100,11 +104,13 @@ int cmd_hil(int argc, char **argv)
         return 1;
     }
     hal_host_stop_set_mode(HAL_HOST_STOP_ASK);
-    printf("hil: serving robot %lld's world (plan %s, path %s, seed %lld) on udp %.*s:%u\n", (long long)o.robot,
-           o.plan, o.path, (long long)o.seed, (int)(strrchr(o.listen, ':') - o.listen), o.listen, (unsigned)port);
+    printf("hil: serving robot %lld's world (plan %s, path %s, seed %lld) on %s %.*s:%u\n", (long long)o.robot,
+           o.plan, o.path, (long long)o.seed, o.link ? "tcp" : "udp", (int)(strrchr(o.listen, ':') - o.listen),
+           o.listen, (unsigned)port);
     fflush(stdout);
     const sim_hil_serve_cfg_t sc = {
         .robot = (uint32_t)o.robot,
+        .stream = o.link,
         .world = {(float)plan.min.x, (float)plan.min.y, (float)plan.max.x, (float)plan.max.y,
                   (uint32_t)(wc.world.dt * 1e6 + 0.5), wc.scan_period_us},
         .idle_timeout_s = o.idle_timeout_s,
@@ -116,16 +122,17 @@ int cmd_hil(int argc, char **argv)
         refused += st.refused[v];
     sim_hal_world_stats_t ws;
     sim_hal_world_get_stats(hw, &ws);
-    printf("hil: served %.1f simulated s: %llu ticks, %llu wheel commands, %llu sessions, distance %.2f m, "
-           "%llu collisions; frames in %llu, out %llu; refused %llu (bad frames), %llu replayed, %llu before a "
-           "HELLO, %llu from another address, %llu bad payloads, %llu lost on the way in; %llu fleet datagrams "
-           "not bridged\n",
-           (double)st.t_us * 1e-6, (unsigned long long)st.ticks, (unsigned long long)st.wheels,
+    printf("hil: served %.1f simulated s: %llu ticks, %llu scans sent, %llu wheel commands, %llu sessions, distance %.2f m, "
+           "%llu collisions; frames in %llu, out %llu; refused %llu (bad frames), %llu noise bytes, %llu replayed, "
+           "%llu before a HELLO, %llu from another address or connection, %llu bad payloads, %llu lost on the way "
+           "in; %llu fleet datagrams not bridged\n",
+           (double)st.t_us * 1e-6, (unsigned long long)st.ticks, (unsigned long long)st.scans,
+           (unsigned long long)st.wheels,
            (unsigned long long)st.hellos, ws.distance_m, (unsigned long long)ws.collisions,
            (unsigned long long)st.frames_in, (unsigned long long)st.frames_out, (unsigned long long)refused,
-           (unsigned long long)st.replayed, (unsigned long long)st.unopened, (unsigned long long)st.other_sender,
-           (unsigned long long)(st.bad_payload + st.wrong_robot), (unsigned long long)st.lost,
-           (unsigned long long)st.datagrams_not_bridged);
+           (unsigned long long)st.noise_bytes, (unsigned long long)st.replayed, (unsigned long long)st.unopened,
+           (unsigned long long)st.other_sender, (unsigned long long)(st.bad_payload + st.wrong_robot),
+           (unsigned long long)st.lost, (unsigned long long)st.datagrams_not_bridged);
     sim_hal_world_destroy(hw);
     sim_path_free(&path);
     sim_plan_free(&plan);

@@ -1,5 +1,5 @@
 /* host_sim's end of the hardware-in-the-loop link: see sim_hil_serve.h. */
-#define _DEFAULT_SOURCE 1 /* getaddrinfo */
+#define _GNU_SOURCE 1 /* getaddrinfo, accept4 */
 #include "sim_hil_serve.h"
 
 #include <arpa/inet.h>
@@ -18,7 +18,7 @@
 
 #define PROGRESS_EVERY_US 10000000u /* a progress line per 10 simulated seconds */
 
-int sim_hil_listen(const char *host_port, uint16_t *port, char *err, size_t errlen)
+int sim_hil_listen(const char *host_port, int stream, uint16_t *port, char *err, size_t errlen)
 {
     char host[256];
     uint32_t p = 0;
@@ -27,7 +27,8 @@ int sim_hil_listen(const char *host_port, uint16_t *port, char *err, size_t errl
                  host_port != NULL ? host_port : "");
         return -1;
     }
-    struct addrinfo hints = {.ai_family = AF_INET, .ai_socktype = SOCK_DGRAM, .ai_flags = AI_PASSIVE}, *ai = NULL;
+    const int type = stream ? SOCK_STREAM : SOCK_DGRAM;
+    struct addrinfo hints = {.ai_family = AF_INET, .ai_socktype = type, .ai_flags = AI_PASSIVE}, *ai = NULL;
     const int g = getaddrinfo(host, NULL, &hints, &ai);
     if (g != 0) {
         snprintf(err, errlen, "cannot resolve '%s': %s", host, gai_strerror(g));
@@ -37,11 +38,14 @@ int sim_hil_listen(const char *host_port, uint16_t *port, char *err, size_t errl
     memcpy(&a, ai->ai_addr, sizeof a);
     freeaddrinfo(ai);
     a.sin_port = htons((uint16_t)p);
-    const int fd = socket(AF_INET, SOCK_DGRAM | SOCK_CLOEXEC, 0);
+    const int fd = socket(AF_INET, type | SOCK_CLOEXEC, 0);
+    const int one = 1;
     socklen_t al = sizeof a;
-    if (fd < 0 || bind(fd, (const struct sockaddr *)&a, sizeof a) != 0 ||
+    if (fd < 0 || (stream && setsockopt(fd, SOL_SOCKET, SO_REUSEADDR, &one, sizeof one) != 0) ||
+        bind(fd, (const struct sockaddr *)&a, sizeof a) != 0 || (stream && listen(fd, 1) != 0) ||
         getsockname(fd, (struct sockaddr *)&a, &al) != 0) {
-        snprintf(err, errlen, "cannot bind udp %s: %s", host_port, strerror(errno));
+        snprintf(err, errlen, "cannot %s %s %s: %s", stream ? "listen on" : "bind", stream ? "tcp" : "udp", host_port,
+                 strerror(errno));
         if (fd >= 0)
             close(fd);
         return -1;
@@ -50,9 +54,10 @@ int sim_hil_listen(const char *host_port, uint16_t *port, char *err, size_t errl
     return fd;
 }
 
-/* One server: the socket, the board's address and session, the frames it sends. */
+/* One server: the socket, the board's address and session, the frames it sends. On a stream
+   link, the board's connection and the reader that cuts its bytes into frames. */
 typedef struct server {
-    int fd;
+    int fd, conn;
     sim_hal_world_t *hw;
     const hal_host_world_t *ops;
     const sim_hil_serve_cfg_t *cfg;
@@ -66,7 +71,45 @@ typedef struct server {
     uint8_t out[HAL_HIL_FRAME_MAX];
     uint8_t in[HAL_HIL_FRAME_MAX + 1]; /* one more: a datagram longer than any frame is seen */
     hal_lidar_scan_t scan;
+    hal_hil_stream_t rx;
 } server_t;
+
+#define STREAM_SEND_TIMEOUT_MS 1000 /* a board that reads nothing for this long has gone */
+
+/* The board's connection is gone (it hung up, or stopped reading): the server waits for the
+   next one. A frame begun and not finished is counted truncated. */
+static void drop_connection(server_t *s, const char *why)
+{
+    if (s->conn < 0)
+        return;
+    close(s->conn);
+    s->conn = -1;
+    s->have_peer = 0;
+    hal_hil_stream_idle(&s->rx);
+    if (!s->cfg->quiet)
+        fprintf(stderr, "hil: the board's connection closed (%s)\n", why);
+}
+
+/* A whole frame onto the stream, within STREAM_SEND_TIMEOUT_MS. 0, or -EPIPE (dropped). */
+static int stream_write(server_t *s, const uint8_t *b, size_t n)
+{
+    while (n > 0 && s->conn >= 0) {
+        struct pollfd p = {.fd = s->conn, .events = POLLOUT};
+        const int r = poll(&p, 1, STREAM_SEND_TIMEOUT_MS);
+        if (r < 0 && errno == EINTR)
+            continue;
+        const ssize_t w = r > 0 ? send(s->conn, b, n, MSG_NOSIGNAL) : -1;
+        if (w < 0 && (errno == EINTR || errno == EAGAIN))
+            continue;
+        if (w <= 0) {
+            drop_connection(s, r == 0 ? "it read nothing for 1 s" : strerror(errno));
+            return -EPIPE;
+        }
+        b += w;
+        n -= (size_t)w;
+    }
+    return s->conn >= 0 ? 0 : -EPIPE;
+}
 
 static int send_frame(server_t *s, hal_hil_type_t type, int len)
 {
@@ -75,14 +118,19 @@ static int send_frame(server_t *s, hal_hil_type_t type, int len)
     const int n = hal_hil_encode(s->out, sizeof s->out, type, s->session, ++s->seq, s->payload, (size_t)len);
     if (n < 0)
         return n;
-    if (sendto(s->fd, s->out, (size_t)n, 0, (const struct sockaddr *)&s->peer, sizeof s->peer) != n)
+    if (s->cfg->stream) {
+        if (stream_write(s, s->out, (size_t)n) != 0)
+            return 0; /* the board is gone, not the world: the next connection goes on */
+    } else if (sendto(s->fd, s->out, (size_t)n, 0, (const struct sockaddr *)&s->peer, sizeof s->peer) != n) {
         return -errno;
+    }
     s->st->frames_out++;
     return 0;
 }
 
-/* The world to t (never back), then the latest fix and scan to the board. */
-static int on_tick(server_t *s, uint64_t t_us, char *err, size_t errlen)
+/* The world to t (never back), then the latest scan when the board does not hold it, then the
+   latest fix, which ends the answer. */
+static int on_tick(server_t *s, uint64_t t_us, uint64_t scan_held, char *err, size_t errlen)
 {
     if (t_us > s->world_us) {
         const int r = s->ops->advance_to_us(s->ops->ctx, t_us);
@@ -93,13 +141,15 @@ static int on_tick(server_t *s, uint64_t t_us, char *err, size_t errlen)
         s->world_us = t_us;
     }
     hal_pose_t pose;
-    int r = s->ops->read_pose(s->ops->ctx, s->cfg->robot, &pose);
+    int r = s->ops->read_scan(s->ops->ctx, s->cfg->robot, &s->scan);
+    if (r == 0 && s->scan.stamp_us + 1u != scan_held) {
+        r = send_frame(s, HAL_HIL_SCAN, hal_hil_put_scan(s->payload, sizeof s->payload, &s->scan));
+        s->st->scans++;
+    }
+    if (r == 0)
+        r = s->ops->read_pose(s->ops->ctx, s->cfg->robot, &pose);
     if (r == 0)
         r = send_frame(s, HAL_HIL_POSE, hal_hil_put_pose(s->payload, sizeof s->payload, &pose));
-    if (r == 0)
-        r = s->ops->read_scan(s->ops->ctx, s->cfg->robot, &s->scan);
-    if (r == 0)
-        r = send_frame(s, HAL_HIL_SCAN, hal_hil_put_scan(s->payload, sizeof s->payload, &s->scan));
     if (r != 0)
         snprintf(err, errlen, "cannot send the sensors at %.3f s (%d)", (double)t_us * 1e-6, r);
     s->st->ticks++;
@@ -139,15 +189,11 @@ static int on_hello(server_t *s, const hal_hil_frame_t *f, const struct sockaddr
     return r != 0 ? r : send_frame(s, HAL_HIL_WORLD, hal_hil_put_world(s->payload, sizeof s->payload, &s->cfg->world));
 }
 
-/* One datagram: checked, then acted on. 0, or a negative code that ends the server. */
-static int on_datagram(server_t *s, size_t n, const struct sockaddr_in *from, char *err, size_t errlen)
+/* One frame that passed the frame check, from `from`: acted on. 0, or a negative code that ends
+   the server. */
+static int on_frame(server_t *s, const hal_hil_frame_t *fp, const struct sockaddr_in *from, char *err, size_t errlen)
 {
-    hal_hil_frame_t f;
-    const hal_hil_verdict_t v = hal_hil_parse(s->in, n, &f);
-    if (v != HAL_HIL_OK) {
-        s->st->refused[v]++;
-        return 0;
-    }
+    const hal_hil_frame_t f = *fp;
     s->st->frames_in++;
     if (f.type == HAL_HIL_HELLO)
         return on_hello(s, &f, from);
@@ -159,12 +205,12 @@ static int on_datagram(server_t *s, size_t n, const struct sockaddr_in *from, ch
         return 0;
     switch (f.type) {
     case HAL_HIL_TICK: {
-        uint64_t t = 0;
-        if (hal_hil_get_tick(&f, &t) != 0) {
+        uint64_t t = 0, held = 0;
+        if (hal_hil_get_tick(&f, &t, &held) != 0) {
             s->st->bad_payload++;
             return 0;
         }
-        return on_tick(s, t, err, errlen);
+        return on_tick(s, t, held, err, errlen);
     }
     case HAL_HIL_WHEELS: {
         hal_hil_wheels_t w;
@@ -194,6 +240,60 @@ static uint32_t session_id(void)
     return (uint32_t)ts.tv_nsec ^ (uint32_t)ts.tv_sec * 2654435761u ^ (uint32_t)getpid();
 }
 
+/* A datagram: the frame check, then the frame. */
+static int on_datagram(server_t *s, size_t n, const struct sockaddr_in *from, char *err, size_t errlen)
+{
+    if (n > HAL_HIL_FRAME_MAX) {
+        s->st->refused[HAL_HIL_OVERSIZED]++;
+        return 0;
+    }
+    hal_hil_frame_t f;
+    const hal_hil_verdict_t v = hal_hil_parse(s->in, n, &f);
+    if (v != HAL_HIL_OK) {
+        s->st->refused[v]++;
+        return 0;
+    }
+    return on_frame(s, &f, from, err, errlen);
+}
+
+/* A stream's bytes: every frame they finish (the reader counts what it refuses). */
+static int on_bytes(server_t *s, size_t n, const struct sockaddr_in *from, char *err, size_t errlen)
+{
+    size_t at = 0;
+    int r = 0;
+    while (at < n && r == 0 && s->conn >= 0) {
+        hal_hil_frame_t f;
+        int got = 0;
+        at += hal_hil_stream_feed(&s->rx, s->in + at, n - at, &f, &got);
+        if (got)
+            r = on_frame(s, &f, from, err, errlen);
+    }
+    memcpy(s->st->refused, s->rx.refused, sizeof s->st->refused);
+    s->st->noise_bytes = s->rx.skipped;
+    return r;
+}
+
+/* A board connects (stream link): taken when none is connected; a second one is refused. */
+static void on_connect(server_t *s, struct sockaddr_in *board)
+{
+    struct sockaddr_in a;
+    socklen_t al = sizeof a;
+    const int c = accept4(s->fd, (struct sockaddr *)&a, &al, SOCK_CLOEXEC);
+    if (c < 0)
+        return;
+    if (s->conn >= 0) {
+        close(c);
+        s->st->other_sender++;
+        return;
+    }
+    s->conn = c;
+    *board = a;
+    s->have_peer = 0; /* until its HELLO */
+    if (!s->cfg->quiet)
+        fprintf(stderr, "hil: a board connected from %s:%u\n", inet_ntoa(board->sin_addr),
+                (unsigned)ntohs(board->sin_port));
+}
+
 int sim_hil_serve(sim_hal_world_t *hw, int fd, const sim_hil_serve_cfg_t *cfg, sim_hil_serve_stats_t *st, char *err,
                   size_t errlen)
 {
@@ -201,53 +301,67 @@ int sim_hil_serve(sim_hal_world_t *hw, int fd, const sim_hil_serve_cfg_t *cfg, s
     memset(&s, 0, sizeof s);
     memset(st, 0, sizeof *st);
     s.fd = fd;
+    s.conn = -1;
     s.hw = hw;
     s.ops = sim_hal_world_ops(hw);
     s.cfg = cfg;
     s.st = st;
     s.session = session_id();
     hal_hil_guard_init(&s.guard);
+    hal_hil_stream_init(&s.rx);
+    struct sockaddr_in board = {0}; /* a stream's board: its frames' sender */
     const int idle_ms = (int)(cfg->idle_timeout_s * 1000.0);
-    for (;;) {
-        struct pollfd p = {.fd = fd, .events = POLLIN};
+    int rc = 0;
+    while (rc == 0) {
+        struct pollfd p[2] = {{.fd = fd, .events = POLLIN}, {.fd = s.conn, .events = POLLIN}};
+        const nfds_t np = s.conn >= 0 ? 2 : 1;
         int waited = 0, r = 0;
         /* Wait in slices, so a stop request is seen within 100 ms. */
-        while ((r = poll(&p, 1, 100)) == 0 && waited < idle_ms && hal_host_stop_signal() == 0)
+        while ((r = poll(p, np, 100)) == 0 && waited < idle_ms && hal_host_stop_signal() == 0)
             waited += 100;
         if (r < 0 && errno != EINTR) {
             snprintf(err, errlen, "waiting on the socket: %s", strerror(errno));
-            return -EIO;
+            rc = -EIO;
+            break;
         }
-        if (hal_host_stop_signal() != 0)
-            return -EINTR;
+        if (hal_host_stop_signal() != 0) {
+            rc = -EINTR;
+            break;
+        }
         if (r == 0) {
             if (!cfg->quiet)
                 fprintf(stderr, "hil: no frame for %g s: %s\n", cfg->idle_timeout_s,
                         st->hellos > 0 ? "the board went quiet, done" : "no board said HELLO");
-            return st->hellos > 0 ? 0 : 1;
+            rc = st->hellos > 0 ? 0 : 1;
+            break;
         }
         if (r < 0)
             continue;
-        struct sockaddr_in from;
-        socklen_t fl = sizeof from;
-        const ssize_t n = recvfrom(fd, s.in, sizeof s.in, 0, (struct sockaddr *)&from, &fl);
-        if (n < 0) {
-            if (errno == EINTR || errno == EAGAIN)
-                continue;
-            snprintf(err, errlen, "receiving: %s", strerror(errno));
-            return -EIO;
+        if (cfg->stream && np == 2 && (p[1].revents & (POLLIN | POLLHUP | POLLERR))) {
+            const ssize_t n = recv(s.conn, s.in, sizeof s.in, 0);
+            if (n > 0)
+                rc = on_bytes(&s, (size_t)n, &board, err, errlen);
+            else if (n == 0 || (errno != EINTR && errno != EAGAIN))
+                drop_connection(&s, n == 0 ? "it hung up" : strerror(errno));
         }
-        if (fl != sizeof from || from.sin_family != AF_INET)
-            continue;
-        if ((size_t)n > HAL_HIL_FRAME_MAX) {
-            st->refused[HAL_HIL_OVERSIZED]++;
-            continue;
+        if (cfg->stream && (p[0].revents & POLLIN)) /* after a hang-up seen in the same wait */
+            on_connect(&s, &board);
+        if (!cfg->stream && (p[0].revents & POLLIN)) {
+            struct sockaddr_in from;
+            socklen_t fl = sizeof from;
+            const ssize_t n = recvfrom(fd, s.in, sizeof s.in, 0, (struct sockaddr *)&from, &fl);
+            if (n < 0 && errno != EINTR && errno != EAGAIN) {
+                snprintf(err, errlen, "receiving: %s", strerror(errno));
+                rc = -EIO;
+            } else if (n >= 0 && fl == sizeof from && from.sin_family == AF_INET) {
+                rc = on_datagram(&s, (size_t)n, &from, err, errlen);
+            }
         }
-        const int rc = on_datagram(&s, (size_t)n, &from, err, errlen);
         st->replayed = s.guard.replayed;
         st->unopened = s.guard.unopened;
         st->lost = s.guard.lost;
-        if (rc != 0)
-            return rc;
     }
+    if (s.conn >= 0)
+        close(s.conn);
+    return rc;
 }

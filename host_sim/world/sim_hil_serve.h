@@ -1,12 +1,16 @@
 /* host_sim's end of the hardware-in-the-loop link (hal/hal_hil_frame.h, hal_hil_msg.h): one
  * robot's ODE world served to firmware that runs elsewhere (a board, QEMU, another process),
- * over UDP, one frame per datagram.
+ * over UDP, one frame per datagram, or over a byte stream, frames back to back: a serial line
+ * carried over TCP (QEMU's `-serial tcp:HOST:PORT`, or a real board's USB serial port through
+ * socat). A stream serves one board connection at a time; another is refused while it lasts,
+ * and when it ends (the board hung up, or read nothing for 1 s) the server waits for the next.
  *
  * The board keeps the time. It opens a session (HELLO: the server answers with its own HELLO
  * and WORLD, and from then on talks only to that address), then, each control tick:
  *   TICK t      the server steps the world to t (sim_hal_world's advance: never back, so a TICK
- *               sent again after a lost answer steps nothing) and answers POSE and SCAN, the
- *               latest fix and scan at t;
+ *               sent again after a lost answer steps nothing) and answers with the latest scan
+ *               at t when the board does not hold it (the TICK names the one it holds), then
+ *               the latest fix, POSE, which ends the answer;
  *   WHEELS      the command, held from the next step on (zero-order hold, as on the host HAL).
  * So a run's world depends only on the ticks' times and the commands, not on how long the
  * board or the link took: the same firmware gives the same trajectory here as in `host_sim
@@ -29,6 +33,7 @@
 
 typedef struct sim_hil_serve_cfg {
     uint32_t robot;           /* the id the board must give in its HELLO */
+    int stream;               /* 1: fd is sim_hil_listen's TCP listener (a serial line's bytes) */
     hal_hil_world_t world;    /* sent after the HELLO: the plan's box, the physics step, the scan period */
     double idle_timeout_s;    /* > 0 */
     int quiet;                /* no progress lines */
@@ -36,16 +41,17 @@ typedef struct sim_hil_serve_cfg {
 
 typedef struct sim_hil_serve_stats {
     uint64_t frames_in, frames_out;
-    uint64_t ticks, wheels, hellos, datagrams_not_bridged;
+    uint64_t ticks, scans, wheels, hellos, datagrams_not_bridged;
     uint64_t refused[HAL_HIL_VERDICTS]; /* frames refused by the frame check, by verdict */
     uint64_t replayed, unopened, lost;  /* the session guard's */
-    uint64_t bad_payload, wrong_robot, other_sender;
+    uint64_t bad_payload, wrong_robot, other_sender; /* other_sender: a second stream connection too */
+    uint64_t noise_bytes;               /* a stream's bytes skipped looking for a frame's start */
     uint64_t t_us;                      /* the world's time */
 } sim_hil_serve_stats_t;
 
-/* A UDP socket bound to "HOST:PORT" (port 0: any free one); the port it got into *port. The
- * descriptor, or -1 with a message in err. */
-int sim_hil_listen(const char *host_port, uint16_t *port, char *err, size_t errlen);
+/* A UDP socket bound to "HOST:PORT", or (stream) a TCP socket listening there (port 0: any
+ * free one); the port it got into *port. The descriptor, or -1 with a message in err. */
+int sim_hil_listen(const char *host_port, int stream, uint16_t *port, char *err, size_t errlen);
 
 /* Serves hw's robot on the bound socket fd until the board goes quiet or a stop is requested.
  * 0 (a session was served), 1 (no board said HELLO), -EINTR (stopped), or another negative

@@ -404,14 +404,14 @@ static void test_payloads_round_trip_and_refuse(void **st)
     assert_int_equal(hal_hil_put_world(payload, sizeof payload, &no_step), -EINVAL);
 
     /* TICK */
-    uint64_t t = 0;
-    f = framed(HAL_HIL_TICK, hal_hil_put_tick(payload, sizeof payload, 123456789012ull));
-    assert_int_equal(hal_hil_get_tick(&f, &t), 0);
-    assert_true(t == 123456789012ull);
-    f = framed(HAL_HIL_TICK, 7);
-    assert_int_equal(hal_hil_get_tick(&f, &t), -EBADMSG);
+    uint64_t t = 0, held = 0;
+    f = framed(HAL_HIL_TICK, hal_hil_put_tick(payload, sizeof payload, 123456789012ull, 99ull));
+    assert_int_equal(hal_hil_get_tick(&f, &t, &held), 0);
+    assert_true(t == 123456789012ull && held == 99ull);
+    f = framed(HAL_HIL_TICK, 8);
+    assert_int_equal(hal_hil_get_tick(&f, &t, &held), -EBADMSG);
     f.type = HAL_HIL_WHEELS;
-    assert_int_equal(hal_hil_get_tick(&f, &t), -EBADMSG);
+    assert_int_equal(hal_hil_get_tick(&f, &t, &held), -EBADMSG);
 }
 
 /* ---- the board's end (hal_hil_client) against a scripted world -------------------------------- */
@@ -420,7 +420,7 @@ typedef struct fake_world {
     int drop_answers;     /* answers to drop (a lossy link) */
     int noise;            /* garbage bytes before every answer (stream) */
     uint32_t seq;
-    uint64_t ticks_seen, wheels_seen;
+    uint64_t ticks_seen, wheels_seen, scans_sent;
     float last_left;
     uint8_t q[16384];     /* what the board will receive */
     size_t q_n, q_at;
@@ -456,17 +456,21 @@ static int fake_send(void *ctx, const uint8_t *bytes, size_t n)
         const hal_hil_world_t w = {0, 0, 10, 8, 10000, 100000};
         world_says(HAL_HIL_WORLD, p, hal_hil_put_world(p, sizeof p, &w));
     } else if (f.type == HAL_HIL_TICK) {
-        uint64_t t;
-        assert_int_equal(hal_hil_get_tick(&f, &t), 0);
+        uint64_t t, held;
+        assert_int_equal(hal_hil_get_tick(&f, &t, &held), 0);
         fw.ticks_seen++;
         if (fw.drop_answers > 0) {
             fw.drop_answers--;
             return 0;
         }
+        hal_lidar_scan_t scan = test_scan(90); /* a new scan every 100 ms */
+        scan.stamp_us = t - t % 100000u;
+        if (scan.stamp_us + 1u != held) {
+            world_says(HAL_HIL_SCAN, p, hal_hil_put_scan(p, sizeof p, &scan));
+            fw.scans_sent++;
+        }
         const hal_pose_t pose = {t, 1.0f + (float)t * 1e-6f, 2.0f, 0.5f};
         world_says(HAL_HIL_POSE, p, hal_hil_put_pose(p, sizeof p, &pose));
-        const hal_lidar_scan_t scan = test_scan(90);
-        world_says(HAL_HIL_SCAN, p, hal_hil_put_scan(p, sizeof p, &scan));
     } else if (f.type == HAL_HIL_WHEELS) {
         hal_hil_wheels_t w;
         assert_int_equal(hal_hil_get_wheels(&f, &w), 0);
@@ -507,17 +511,22 @@ static void client_round(int stream)
     assert_int_equal(hal_hil_client_connect(&c), 0);
     assert_true(c.world.max_x == 10.0f && c.world.step_us == 10000u);
     assert_int_equal(hal_hil_client_tick(&c, 20000), 0);
-    assert_true(c.pose.stamp_us == 20000u && c.scan.count == 90u);
+    assert_true(c.pose.stamp_us == 20000u && c.scan.count == 90u && c.scan.stamp_us == 0u);
+    assert_int_equal(fw.scans_sent, 1);
     fw.drop_answers = 2; /* two TICKs lost: the third gets through */
     assert_int_equal(hal_hil_client_tick(&c, 40000), 0);
     assert_true(c.pose.stamp_us == 40000u);
     assert_int_equal(c.stats.resent_ticks, 2);
+    assert_int_equal(fw.scans_sent, 1); /* the board holds the world's latest: not sent again */
     fw.drop_answers = 3; /* all three lost: the link is down */
     assert_int_equal(hal_hil_client_tick(&c, 60000), -ETIMEDOUT);
     assert_true(c.pose.stamp_us == 40000u); /* what was held stays */
     assert_int_equal(hal_hil_client_wheels(&c, 60000, 1.5f, 1.0f), 0);
     assert_true(fw.wheels_seen == 1 && fw.last_left == 1.5f);
     assert_int_equal(hal_hil_client_wheels(&c, 60000, NAN, 1.0f), -EINVAL);
+    assert_int_equal(hal_hil_client_tick(&c, 120000), 0); /* a newer scan: it comes before the pose */
+    assert_true(c.pose.stamp_us == 120000u && c.scan.stamp_us == 100000u);
+    assert_int_equal(fw.scans_sent, 2);
     assert_int_equal(hal_hil_client_init(&c, &port, 0, 20000, 77, "", 1000, 3), -EINVAL);
 }
 

@@ -5,7 +5,9 @@
  * nothing before a HELLO or for another robot, replayed and corrupted frames refused while the
  * serving goes on, the same seed giving the same bytes in a second server, and the server
  * ending on its own when the board goes quiet, its last line counting what it refused; and the
- * firmware's RT core (board_hil) driving its tour through the link. */
+ * firmware's RT core (board_hil) driving its tour through the link; and the same over the serial
+ * link (TCP carrying a serial line's bytes): frames cut anywhere, noise, a second connection
+ * refused, a board that hangs up and comes back. */
 #include <setjmp.h>
 #include <stdarg.h>
 #include <stddef.h>
@@ -28,7 +30,9 @@
 #define IDLE_S "1.5"
 
 typedef struct board {
-    int fd;
+    int fd, stream;    /* stream: a serial line's bytes over TCP (--link serial) */
+    uint16_t port;
+    hal_hil_stream_t rx;
     struct sockaddr_in server;
     uint32_t session, seq;
     pid_t pid;
@@ -40,9 +44,9 @@ typedef struct board {
 
 static board_t b1, b2;
 
-static uint16_t free_udp_port(void)
+static uint16_t free_port(int type)
 {
-    const int fd = socket(AF_INET, SOCK_DGRAM, 0);
+    const int fd = socket(AF_INET, type, 0);
     struct sockaddr_in a = {.sin_family = AF_INET, .sin_addr.s_addr = htonl(INADDR_LOOPBACK)};
     socklen_t al = sizeof a;
     assert_true(fd >= 0 && bind(fd, (struct sockaddr *)&a, sizeof a) == 0 &&
@@ -51,16 +55,26 @@ static uint16_t free_udp_port(void)
     return ntohs(a.sin_port);
 }
 
+/* The board's socket to the server: a UDP one, or a TCP connection (stream). */
+static int board_socket(const board_t *b)
+{
+    const int fd = socket(AF_INET, b->stream ? SOCK_STREAM : SOCK_DGRAM, 0);
+    assert_true(fd >= 0);
+    if (b->stream)
+        assert_int_equal(connect(fd, (const struct sockaddr *)&b->server, sizeof b->server), 0);
+    return fd;
+}
+
 /* The server started and listening: its "serving" line in the log, within the deadline. */
 static void start_server(board_t *b, const char *name)
 {
-    const uint16_t port = free_udp_port();
+    const uint16_t port = free_port(b->stream ? SOCK_STREAM : SOCK_DGRAM);
     static char listen[32], robot_path[PATH_MAX];
     snprintf(listen, sizeof listen, "127.0.0.1:%u", (unsigned)port);
     snprintf(robot_path, sizeof robot_path, "%s/robot_0.csv", fp_env.paths);
     snprintf(b->log, sizeof b->log, "%s/%s.log", fp_env.dir, name);
     const char *argv[] = {fp_env.bin, "hil", "--plan", fp_env.plan, "--path", robot_path, "--listen", listen,
-                          "--idle-timeout", IDLE_S, "--seed", "7", NULL};
+                          "--idle-timeout", IDLE_S, "--seed", "7", "--link", b->stream ? "serial" : "udp", NULL};
     b->pid = fp_spawn(argv, b->log, NULL, NULL);
     assert_true(b->pid > 0);
     const double t0 = fp_now();
@@ -73,16 +87,22 @@ static void start_server(board_t *b, const char *name)
         }
         if (strstr(text, "hil: serving") != NULL)
             break;
+        const int ended = fp_wait(b->pid, fp_now()); /* not waiting: has it ended already? */
+        if (ended != -1) {
+            fp_show_log(b->log);
+            fail_msg("host_sim hil ended (status %d) before it served", ended);
+        }
         if (fp_now() - t0 > DEADLINE_S) {
             fp_show_log(b->log);
             fail_msg("host_sim hil did not start within %g s", DEADLINE_S);
         }
         fp_sleep_ms(20);
     }
-    b->fd = socket(AF_INET, SOCK_DGRAM, 0);
-    assert_true(b->fd >= 0);
+    b->port = port;
     b->server = (struct sockaddr_in){.sin_family = AF_INET, .sin_port = htons(port),
                                      .sin_addr.s_addr = htonl(INADDR_LOOPBACK)};
+    b->fd = board_socket(b);
+    hal_hil_stream_init(&b->rx);
     b->session = 0xB0A4D000u + (uint32_t)port;
     hal_hil_guard_init(&b->guard);
 }
@@ -93,34 +113,72 @@ static int send_frame(board_t *b, hal_hil_type_t type, int len)
     assert_true(len >= 0);
     const int n = hal_hil_encode(b->frame, sizeof b->frame, type, b->session, ++b->seq, b->payload, (size_t)len);
     assert_true(n > 0);
-    assert_int_equal(sendto(b->fd, b->frame, (size_t)n, 0, (struct sockaddr *)&b->server, sizeof b->server), n);
+    if (b->stream)
+        assert_int_equal(send(b->fd, b->frame, (size_t)n, 0), n);
+    else
+        assert_int_equal(sendto(b->fd, b->frame, (size_t)n, 0, (struct sockaddr *)&b->server, sizeof b->server), n);
     return n;
+}
+
+/* A stream's next frame within wait_ms, read a few bytes at a time (a serial line has no
+   boundaries): 1 and *f, its bytes copied into buf, or 0. */
+static int recv_stream_frame(board_t *b, uint8_t *buf, size_t cap, hal_hil_frame_t *f, int wait_ms)
+{
+    static uint8_t pending[HAL_HIL_FRAME_MAX];
+    static size_t at, n;
+    for (;;) {
+        while (at < n) {
+            int got = 0;
+            at += hal_hil_stream_feed(&b->rx, pending + at, n - at, f, &got);
+            if (got) {
+                const size_t len = HAL_HIL_OVERHEAD_BYTES + f->len;
+                assert_true(len <= cap);
+                memcpy(buf, f->payload - HAL_HIL_HEADER_BYTES, len); /* the frame; *f's payload then in buf */
+                f->payload = buf + HAL_HIL_HEADER_BYTES;
+                return 1;
+            }
+        }
+        struct pollfd p = {.fd = b->fd, .events = POLLIN};
+        if (poll(&p, 1, wait_ms) != 1)
+            return 0;
+        const ssize_t r = recv(b->fd, pending, 1 + (size_t)(rand() % 97), 0);
+        if (r <= 0)
+            return 0;
+        at = 0;
+        n = (size_t)r;
+    }
 }
 
 /* The next frame from the server within wait_ms: 1 and *f (payload in buf), or 0. */
 static int recv_frame(board_t *b, uint8_t *buf, size_t cap, hal_hil_frame_t *f, int wait_ms)
 {
-    struct pollfd p = {.fd = b->fd, .events = POLLIN};
-    if (poll(&p, 1, wait_ms) != 1)
-        return 0;
-    const ssize_t n = recv(b->fd, buf, cap, 0);
-    assert_true(n > 0);
-    assert_int_equal(hal_hil_parse(buf, (size_t)n, f), HAL_HIL_OK);
+    if (b->stream) {
+        if (!recv_stream_frame(b, buf, cap, f, wait_ms))
+            return 0;
+    } else {
+        struct pollfd p = {.fd = b->fd, .events = POLLIN};
+        if (poll(&p, 1, wait_ms) != 1)
+            return 0;
+        const ssize_t n = recv(b->fd, buf, cap, 0);
+        assert_true(n > 0);
+        assert_int_equal(hal_hil_parse(buf, (size_t)n, f), HAL_HIL_OK);
+    }
     assert_int_equal(hal_hil_guard_accept(&b->guard, f), 0);
     return 1;
 }
 
 static uint8_t in_pose[HAL_HIL_FRAME_MAX], in_scan[HAL_HIL_FRAME_MAX];
 
-/* TICK t: the pose and the scan that answer it (their payloads stay in in_pose / in_scan). */
+/* TICK t, holding no scan: the scan and the pose that answer it (their frames stay in in_scan
+   and in_pose). */
 static void tick(board_t *b, uint64_t t_us, hal_pose_t *pose, hal_lidar_scan_t *scan)
 {
-    send_frame(b, HAL_HIL_TICK, hal_hil_put_tick(b->payload, sizeof b->payload, t_us));
+    send_frame(b, HAL_HIL_TICK, hal_hil_put_tick(b->payload, sizeof b->payload, t_us, 0));
     hal_hil_frame_t f;
-    assert_int_equal(recv_frame(b, in_pose, sizeof in_pose, &f, 5000), 1);
-    assert_int_equal(hal_hil_get_pose(&f, pose), 0);
     assert_int_equal(recv_frame(b, in_scan, sizeof in_scan, &f, 5000), 1);
     assert_int_equal(hal_hil_get_scan(&f, scan), 0);
+    assert_int_equal(recv_frame(b, in_pose, sizeof in_pose, &f, 5000), 1);
+    assert_int_equal(hal_hil_get_pose(&f, pose), 0);
 }
 
 static void hello(board_t *b, uint32_t robot)
@@ -161,7 +219,7 @@ static void test_round_trip(void **st)
     hal_hil_frame_t f;
 
     /* Before a HELLO, and a HELLO for another robot: nothing comes back. */
-    send_frame(b, HAL_HIL_TICK, hal_hil_put_tick(b->payload, sizeof b->payload, 0));
+    send_frame(b, HAL_HIL_TICK, hal_hil_put_tick(b->payload, sizeof b->payload, 0, 0));
     hello(b, 5);
     assert_int_equal(recv_frame(b, buf, sizeof buf, &f, 300), 0);
 
@@ -194,6 +252,12 @@ static void test_round_trip(void **st)
     assert_true(along > 0.10 && along < 0.18);
     assert_true(p1.stamp_us >= 990000u && p1.stamp_us <= 1000000u);
 
+    /* Holding the world's latest scan: the pose alone comes back. */
+    send_frame(b, HAL_HIL_TICK, hal_hil_put_tick(b->payload, sizeof b->payload, 1000000, scan_a.stamp_us + 1u));
+    assert_int_equal(recv_frame(b, buf, sizeof buf, &f, 5000), 1);
+    assert_int_equal(hal_hil_get_pose(&f, &p1), 0);
+    assert_int_equal(recv_frame(b, buf, sizeof buf, &f, 300), 0);
+
     /* The last TICK replayed (same session and seq): refused, nothing comes back. */
     const int n = hal_hil_encode(buf, sizeof buf, HAL_HIL_TICK, b->session, b->seq, b->payload, HAL_HIL_TICK_BYTES);
     assert_int_equal(sendto(b->fd, buf, (size_t)n, 0, (struct sockaddr *)&b->server, sizeof b->server), n);
@@ -224,11 +288,15 @@ static void test_round_trip(void **st)
     const char *q = strstr(last, "ticks");
     assert_non_null(q);
     assert_int_equal(sscanf(last, "hil: served %*f simulated s: %llu ticks", &ticks), 1);
-    assert_int_equal(sscanf(strstr(last, "refused"), "refused %llu (bad frames), %llu replayed, %llu before a HELLO",
-                            &refused, &replayed, &before), 3);
-    assert_int_equal(sscanf(strstr(last, "from another address,"), "from another address, %llu bad payloads", &bad), 1);
+    assert_int_equal(sscanf(strstr(last, "refused"),
+                            "refused %llu (bad frames), %*u noise bytes, %llu replayed, %llu before a HELLO", &refused,
+                            &replayed, &before),
+                     3);
+    assert_int_equal(sscanf(strstr(last, "another address or connection,"),
+                            "another address or connection, %llu bad payloads", &bad),
+                     1);
     print_message("%s", last);
-    assert_int_equal(ticks, 3);
+    assert_int_equal(ticks, 4);
     assert_int_equal(refused, 2); /* the corrupted frame, the noise */
     assert_int_equal(replayed, 1);
     assert_int_equal(bad, 1); /* the HELLO for robot 5 */
@@ -335,6 +403,108 @@ static void test_rt_core_drives_through_the_link(void **st)
     assert_true(fabs(world_distance - distance) < 0.15 * distance);
 }
 
+/* The serial link (a serial line's bytes carried over TCP, as QEMU's -serial tcp: gives
+   them): frames cut anywhere and noise between them reach the world, its answers come back
+   as a byte stream, a second connection is refused while the board's lasts, and a board that
+   hangs up and comes back (a new session) is served again. */
+static void test_serial_stream(void **st)
+{
+    (void)st;
+    board_t *b = &b1;
+    memset(b, 0, sizeof *b);
+    b->stream = 1;
+    start_server(b, "hil_serial");
+    uint8_t buf[HAL_HIL_FRAME_MAX];
+    hal_hil_frame_t f;
+
+    /* HELLO and the first TICK in one write, cut in odd pieces, noise before and between. */
+    static uint8_t bytes[4 * HAL_HIL_FRAME_MAX];
+    size_t n = 0;
+    const char noise[] = "\xF1\x00boot log\r\n\xF1\x5E\x07";
+    memcpy(bytes, noise, sizeof noise - 1);
+    n += sizeof noise - 1;
+    const hal_hil_hello_t h = {0, 20000, "test-uart"};
+    n += (size_t)hal_hil_encode(bytes + n, sizeof bytes - n, HAL_HIL_HELLO, b->session, ++b->seq, b->payload,
+                                (size_t)hal_hil_put_hello(b->payload, sizeof b->payload, &h));
+    memcpy(bytes + n, noise, sizeof noise - 1);
+    n += sizeof noise - 1;
+    n += (size_t)hal_hil_encode(bytes + n, sizeof bytes - n, HAL_HIL_TICK, b->session, ++b->seq, b->payload,
+                                (size_t)hal_hil_put_tick(b->payload, sizeof b->payload, 0, 0));
+    for (size_t at = 0, k = 1; at < n; at += k, k = k % 7 + 3) {
+        const size_t m = at + k <= n ? k : n - at;
+        assert_int_equal(send(b->fd, bytes + at, m, 0), (ssize_t)m);
+        fp_sleep_ms(1);
+    }
+    hal_hil_hello_t w;
+    assert_int_equal(recv_frame(b, buf, sizeof buf, &f, 5000), 1);
+    assert_int_equal(hal_hil_get_hello(&f, &w), 0);
+    assert_string_equal(w.board, "host_sim");
+    hal_hil_world_t wd;
+    assert_int_equal(recv_frame(b, buf, sizeof buf, &f, 5000), 1);
+    assert_int_equal(hal_hil_get_world(&f, &wd), 0);
+    hal_pose_t p0, p1;
+    assert_int_equal(recv_frame(b, buf, sizeof buf, &f, 5000), 1);
+    assert_int_equal(hal_hil_get_scan(&f, &scan_a), 0);
+    assert_int_equal(recv_frame(b, buf, sizeof buf, &f, 5000), 1);
+    assert_int_equal(hal_hil_get_pose(&f, &p0), 0);
+    double x0, y0;
+    tour_start(&x0, &y0);
+    assert_true(fabs(p0.x_m - x0) < 0.05 && fabs(p0.y_m - y0) < 0.05 && scan_a.count > 0);
+
+    /* A second board on the same line: refused (its connection closed), the first goes on. */
+    const int other = board_socket(b);
+    struct pollfd po = {.fd = other, .events = POLLIN};
+    assert_int_equal(poll(&po, 1, 5000), 1);
+    assert_int_equal(recv(other, buf, sizeof buf, 0), 0);
+    close(other);
+    wheels(b, 4.0f, 4.0f);
+    tick(b, 500000, &p1, &scan_a);
+    assert_true(p1.stamp_us > p0.stamp_us);
+
+    /* The board hangs up and comes back with a new session: served from its HELLO on. */
+    close(b->fd);
+    fp_sleep_ms(100); /* the hang-up reaches the world before the new connection */
+    b->fd = board_socket(b);
+    b->session++;
+    b->seq = 0;
+    hal_hil_guard_init(&b->guard);
+    hal_hil_stream_init(&b->rx);
+    hello(b, 0);
+    assert_int_equal(recv_frame(b, buf, sizeof buf, &f, 5000), 1); /* HELLO */
+    assert_int_equal(recv_frame(b, buf, sizeof buf, &f, 5000), 1); /* WORLD */
+    tick(b, 1000000, &p1, &scan_a);
+    assert_true(p1.stamp_us >= 990000u);
+
+    const int status = fp_wait(b->pid, fp_now() + DEADLINE_S);
+    if (status != 0)
+        fp_show_log(b->log);
+    assert_int_equal(status, 0);
+    b->pid = 0;
+    char text[8192] = "";
+    FILE *lf = fopen(b->log, "r");
+    assert_non_null(lf);
+    text[fread(text, 1, sizeof text - 1, lf)] = '\0';
+    fclose(lf);
+    const char *last = strstr(text, "hil: served");
+    assert_non_null(last);
+    print_message("%s", last);
+    unsigned long long ticks = 0, sessions = 0, refused = 0, noise_bytes = 0, others = 0;
+    assert_int_equal(sscanf(last, "hil: served %*f simulated s: %llu ticks, %*u scans sent, %*u wheel commands, %llu sessions", &ticks,
+                            &sessions),
+                     2);
+    assert_int_equal(sscanf(strstr(last, "refused "), "refused %llu (bad frames), %llu noise bytes", &refused,
+                            &noise_bytes),
+                     2);
+    assert_int_equal(sscanf(strstr(last, "before a HELLO, "), "before a HELLO, %llu from another", &others), 1);
+    assert_int_equal(ticks, 3);
+    assert_int_equal(sessions, 2);
+    assert_int_equal(refused, 2); /* the false magics, "\xF1\x5E\x07...": a bad header */
+    assert_true(noise_bytes > 0); /* the rest of the noise, skipped */
+    assert_int_equal(others, 1);
+    assert_true(strstr(text, "the board's connection closed (it hung up)") != NULL);
+    close(b->fd);
+}
+
 static int setup(void **st)
 {
     (void)st;
@@ -353,6 +523,7 @@ int main(void)
         cmocka_unit_test(test_round_trip),
         cmocka_unit_test(test_same_seed_same_bytes),
         cmocka_unit_test(test_rt_core_drives_through_the_link),
+        cmocka_unit_test(test_serial_stream),
     };
     return cmocka_run_group_tests_name("sim/hil_serve", tests, setup, teardown);
 }

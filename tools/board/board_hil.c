@@ -6,7 +6,9 @@
  * round trip, the time from the sensors' arrival to the wheel command. The samples it makes go
  * to the AI core's ring, which nothing drains here (they are counted).
  *
- * Built for the host (make: build/<config>/bin/board_hil, a Linux board's stand-in: UDP). */
+ * Built for the host (make: build/<config>/bin/board_hil, a Linux board's stand-in: UDP), for
+ * rpi3 (UDP under qemu-aarch64) and for the Cortex-M boards (a UART under qemu-system-arm):
+ * `make hil BOARD=...`. */
 #include <errno.h>
 #include <inttypes.h>
 #include <math.h>
@@ -33,10 +35,11 @@ static void usage(FILE *to)
 {
     fprintf(to,
             "usage: board_hil --connect HOST:PORT --tour ROBOT.csv [options]\n"
-            "Runs the firmware's RT core on this board against the world `host_sim hil` serves at\n"
-            "HOST:PORT (UDP): it drives ROBOT.csv (x_m,y_m per line, the tour host_sim hil was given)\n"
-            "until the tour ends or --time runs out, then prints `result <key> <value>` lines.\n\n"
-            "  --connect HOST:PORT  the world's address (host_sim hil --listen)\n"
+            "Runs the firmware's RT core on this board against the world `host_sim hil` serves: it\n"
+            "drives ROBOT.csv (x_m,y_m per line, the tour host_sim hil was given) until the tour ends\n"
+            "or --time runs out, then prints `result <key> <value>` lines.\n\n"
+            "  --connect WHERE      the link: A.B.C.D:PORT on a Linux board (UDP, host_sim hil\n"
+            "                       --listen), uart0..uart3 on a Cortex-M board (serial)\n"
             "  --tour ROBOT.csv     the robot's waypoints\n"
             "  --robot I            the robot's id, as host_sim hil serves it (default 0)\n"
             "  --time S             stop after S seconds of the board's time (default 600)\n"
@@ -127,7 +130,7 @@ static int read_tour(const char *path)
 
 static double mean_us(const hal_stdc_timing_t *t)
 {
-    return t->count > 0 ? (double)t->sum_us / (double)t->count : 0.0;
+    return t->count > 0 ? (double)t->sum_ns * 1e-3 / (double)t->count : 0.0;
 }
 
 static hal_hil_client_t client;
@@ -142,8 +145,7 @@ int main(int argc, char **argv)
     if (n_wps < 0)
         return 2;
     hal_hil_port_t port;
-    static int fd;
-    if (hal_stdc_hil_udp_open(o.connect, &port, &fd) != 0)
+    if (hal_stdc_hil_open(o.connect, &port) != 0)
         return 2;
     /* Another session each start: the world then takes a restarted board's HELLO. */
     const uint32_t session = ((uint32_t)time(NULL) * 2654435761u) ^ (uint32_t)hal_stdc_target_now_ns() ^ o.robot;
@@ -152,15 +154,15 @@ int main(int argc, char **argv)
     if (r == 0)
         r = hal_hil_client_connect(&client);
     if (r != 0) {
-        fprintf(stderr, "board_hil: no world answered at %s (%s)\n", o.connect,
+        fprintf(stderr, "board_hil: no world answered on %s %s (%s)\n", hal_stdc_hil_kind(), o.connect,
                 r == -ETIMEDOUT ? "timed out: is `host_sim hil` running there?" : "link error");
         return 1;
     }
     const hal_hil_world_t *w = &client.world;
-    printf("board_hil: board %s, robot %u, world at %s: plan box (%.2f, %.2f)-(%.2f, %.2f) m, physics step %u us, "
+    printf("board_hil: board %s, robot %u, world on %s %s: plan box (%.2f, %.2f)-(%.2f, %.2f) m, physics step %u us, "
            "scan every %u us\n",
-           BOARD_NAME, o.robot, o.connect, (double)w->min_x, (double)w->min_y, (double)w->max_x, (double)w->max_y,
-           w->step_us, w->scan_period_us);
+           BOARD_NAME, (unsigned)o.robot, hal_stdc_hil_kind(), o.connect, (double)w->min_x, (double)w->min_y,
+           (double)w->max_x, (double)w->max_y, (unsigned)w->step_us, (unsigned)w->scan_period_us);
     if ((r = hal_stdc_install_hil("", &client)) != 0) {
         fprintf(stderr, "board_hil: cannot install the board (%d)\n", r);
         return 1;
@@ -182,7 +184,8 @@ int main(int argc, char **argv)
     uint64_t start = hal_stdc_target_now_us();
     start += FW_RT_PERIOD_US - start % FW_RT_PERIOD_US;
     const uint64_t end = start + (uint64_t)(o.time_s * 1e6);
-    uint64_t misses = 0, overrun_max = 0, k = 0, next_print = start + 10000000u;
+    uint64_t misses = 0, overrun_max = 0, busy_max_ns = 0, compute_max_ns = 0, k = 0;
+    uint64_t next_print = start + 10000000u;
     rt_status_t st = {0};
     for (;; k++) {
         const uint64_t t = start + k * FW_RT_PERIOD_US;
@@ -191,8 +194,18 @@ int main(int argc, char **argv)
         if (hal_sleep_until_us(t) != 0)
             break;
         const fw_tick_t tick = {.now_us = t, .index = k, .sub = k % FW_RT_SCAN_DIVIDER == 0};
+        hal_stdc_hil_stats_t before, after;
+        hal_stdc_hil_stats(&before);
+        const uint64_t begin_ns = hal_stdc_target_now_ns();
         r = rt_core_tick(&rt, &tick);
-        const uint64_t done = hal_stdc_target_now_us();
+        const uint64_t done_ns = hal_stdc_target_now_ns(), done = done_ns / 1000u;
+        hal_stdc_hil_stats(&after);
+        if (done_ns - t * 1000u > busy_max_ns)
+            busy_max_ns = done_ns - t * 1000u;
+        /* The core's own work: the tick without the link's wait. */
+        const uint64_t compute_ns = done_ns - begin_ns - (after.exchange.sum_ns - before.exchange.sum_ns);
+        if (compute_ns > compute_max_ns)
+            compute_max_ns = compute_ns;
         if (done > t + FW_RT_PERIOD_US) { /* the next tick's release went by */
             misses++;
             if (done - t - FW_RT_PERIOD_US > overrun_max)
@@ -208,8 +221,8 @@ int main(int argc, char **argv)
             break;
         if (t >= next_print) {
             printf("board_hil: t=%6.1f s  waypoint %u/%d  progress %.1f of %.1f m  scans %u  samples %u\n",
-                   (double)(t - start) * 1e-6, st.waypoint, n_wps, (double)st.progress_m,
-                   (double)st.path_length_m, st.scans, st.samples);
+                   (double)(t - start) * 1e-6, (unsigned)st.waypoint, n_wps, (double)st.progress_m,
+                   (double)st.path_length_m, (unsigned)st.scans, (unsigned)st.samples);
             fflush(stdout);
             next_print += 10000000u;
         }
@@ -217,23 +230,25 @@ int main(int argc, char **argv)
     hal_stdc_hil_stats_t hs;
     hal_stdc_hil_stats(&hs);
     printf("board_hil: %s after %.1f s: waypoint %u/%d, progress %.2f of %.2f m\n",
-           st.finished ? "tour finished" : "stopped", (double)(k * FW_RT_PERIOD_US) * 1e-6, st.waypoint, n_wps,
+           st.finished ? "tour finished" : "stopped", (double)(k * FW_RT_PERIOD_US) * 1e-6, (unsigned)st.waypoint, n_wps,
            (double)st.progress_m, (double)st.path_length_m);
     printf("result rt_ticks %llu\n", (unsigned long long)rt.stats.ticks);
     printf("result rt_deadline_misses %llu\n", (unsigned long long)misses);
     printf("result rt_overrun_max_us %llu\n", (unsigned long long)overrun_max);
-    printf("result tour_finished %u\n", st.finished);
-    printf("result waypoints_reached %u\n", st.waypoint);
+    printf("result rt_tick_max_us %.1f\n", (double)busy_max_ns * 1e-3); /* release to done, link included */
+    printf("result rt_compute_max_us %.1f\n", (double)compute_max_ns * 1e-3); /* the core's work, no link */
+    printf("result tour_finished %u\n", (unsigned)st.finished);
+    printf("result waypoints_reached %u\n", (unsigned)st.waypoint);
     printf("result progress_m %.3f\n", (double)st.progress_m);
     printf("result distance_m %.3f\n", (double)st.distance_m);
-    printf("result scans %u\n", st.scans);
-    printf("result samples %u\n", st.samples + st.ring_drops);
-    printf("result hal_errors %u\n", st.errors);
+    printf("result scans %u\n", (unsigned)st.scans);
+    printf("result samples %u\n", (unsigned)(st.samples + st.ring_drops));
+    printf("result hal_errors %u\n", (unsigned)st.errors);
     printf("result link_exchanges %llu\n", (unsigned long long)hs.exchange.count);
-    printf("result link_round_trip_mean_us %.0f\n", mean_us(&hs.exchange));
-    printf("result link_round_trip_max_us %llu\n", (unsigned long long)hs.exchange.max_us);
-    printf("result sense_to_command_mean_us %.1f\n", mean_us(&hs.response));
-    printf("result sense_to_command_max_us %llu\n", (unsigned long long)hs.response.max_us);
+    printf("result link_round_trip_mean_us %.1f\n", mean_us(&hs.exchange));
+    printf("result link_round_trip_max_us %.1f\n", (double)hs.exchange.max_ns * 1e-3);
+    printf("result sense_to_command_mean_us %.2f\n", mean_us(&hs.response));
+    printf("result sense_to_command_max_us %.2f\n", (double)hs.response.max_ns * 1e-3);
     printf("result link_errors %llu\n", (unsigned long long)hs.link_errors);
     printf("result link_resent_ticks %llu\n", (unsigned long long)client.stats.resent_ticks);
     printf("result link_refused %llu\n", (unsigned long long)(client.stats.refused + client.stats.replayed +

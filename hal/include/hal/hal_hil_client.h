@@ -2,9 +2,10 @@
  * whose RT core runs on a board reads its lidar and pose from, and sends its wheel commands
  * to, the world of a host_sim on the other end of a UDP socket or a serial line.
  *
- * The board keeps the time. hal_hil_client_tick(t) sends TICK t, the world steps to t, and the
- * client waits for the POSE and SCAN that answer it, sending TICK again (a new frame) when they
- * do not come within the timeout, up to `tries` times. Wheel commands go out as they are given.
+ * The board keeps the time. hal_hil_client_tick(t) sends TICK t, naming the scan it holds; the
+ * world steps to t, and the client waits for the answer (a SCAN when the world has a newer one,
+ * then the POSE), sending TICK again (a new frame) when it does not come within the timeout, up
+ * to `tries` times. Wheel commands go out as they are given.
  * Every frame that comes in passes the frame check, the session and sequence guard and its
  * payload's check before it is used; a pose older than the one held is stale (a late answer to
  * an earlier TICK) and dropped.
@@ -57,7 +58,7 @@ int hal_hil_client_init(hal_hil_client_t *c, const hal_hil_port_t *port, uint32_
  * most. 0, -ETIMEDOUT, or the port's error. */
 int hal_hil_client_connect(hal_hil_client_t *c);
 
-/* TICK t_us, and the POSE and SCAN that answer it into c->pose and c->scan. 0, -ETIMEDOUT (no
+/* TICK t_us, and the answer into c->pose and (when the world has a newer one) c->scan. 0, -ETIMEDOUT (no
  * answer after `tries` TICKs), or the port's error. */
 int hal_hil_client_tick(hal_hil_client_t *c, uint64_t t_us);
 

@@ -38,7 +38,7 @@
 
 #define HAL_HIL_MAGIC0 0xF1u
 #define HAL_HIL_MAGIC1 0x5Eu
-#define HAL_HIL_VERSION 1u
+#define HAL_HIL_VERSION 2u /* 2: a TICK names the scan the board holds */
 #define HAL_HIL_HEADER_BYTES 16u
 #define HAL_HIL_OVERHEAD_BYTES (HAL_HIL_HEADER_BYTES + 4u)
 
