@@ -30,7 +30,7 @@
 #   make profile-board  run-board, then results/board-<name>/profile.md: sections, stacks,
 #                     instructions per training step and per inference, what the robot affords
 #   make hil          [BOARD=rpi3] the board's RT core under its QEMU in the loop with host_sim hil
-#                     (UDP on rpi3, UART 0 on the Cortex-M boards)
+#                     (UDP on rpi3; Ethernet, or HIL_LINK=serial UART 0, on the Cortex-M boards)
 #   make clean
 #
 # Configuration (all optional):

@@ -236,11 +236,12 @@ run: $(TEST_DEPS) $(IMAGE) $(HOST_BIN) $(RUN_DEPS)
 	@tools/board/board_check.py $(R)/run.txt $(R)/host.txt
 
 # Hardware in the loop (docs/boards.md): the firmware's RT core (tools/board/board_hil.c, built
-# for the board with its link port) under the board's QEMU, in the loop with `host_sim hil` of
+# for the board with its link ports) under the board's QEMU, in the loop with `host_sim hil` of
 # the host build (HOST_SIM=, the top Makefile passes it) for HIL_SECONDS of the board's time;
-# both ends' output in $(R)/hil/. A Linux board's image speaks UDP; a Cortex-M board's speaks
-# over its UART 0, which QEMU's -serial carries to the world over TCP (`--link serial`; @PORT@ is
-# the world's port, filled in by run_hil.sh) while its console stays on semihosting.
+# both ends' output in $(R)/hil/. HIL_LINK: a Linux board speaks UDP (udp); a Cortex-M board
+# its LAN9118 Ethernet (ether, the default: QEMU's -nic socket carries its frames to the world
+# in UDP datagrams) or its UART 0 (serial: QEMU's -serial tcp: carries the bytes), its console
+# staying on semihosting. @PORT@ is the world's port, filled in by run_hil.sh.
 HIL_SECONDS ?= 20
 HIL_PLAN    ?= host_sim/plans/apartment.svg
 HIL_TOUR    ?= host_sim/plans/apartment/robot_0.csv
@@ -248,23 +249,30 @@ HIL_C   := tools/board/board_hil.c $(PROG_HAL_C) $(sort $(wildcard hal/stdc/hal_
 HIL_OBJ := $(patsubst %,$(X)/obj/%.o,$(HIL_C))
 $(HIL_OBJ): | $(MSG_GEN)/msg/msg_layout.h
 ifeq ($(BOARD_LINK),linux)
+HIL_LINK ?= udp
+HIL_LINKS := udp
 HIL_BIN := $(X)/board_hil
 $(HIL_BIN): $(HIL_OBJ) $(X)/lib/libfirmware.a
 	$(call say,LD,$@)$(if $(FW_CXX),$(XCXX),$(XCC)) $(BOARD_CPU_FLAGS) -static $(HIL_OBJ) $(X)/lib/libfirmware.a -lm -o $@
 HIL_RUN := tools/board/run_hil.sh --link udp $(HOST_SIM) $(HIL_PLAN) $(HIL_TOUR) $(HIL_SECONDS) $(R)/hil \
 	$(BOARD_QEMU) $(HIL_BIN)
 else
+HIL_LINK ?= ether
+HIL_LINKS := ether serial
 HIL_BIN := $(X)/board_hil.elf
 $(HIL_BIN): $(HIL_OBJ) $(X)/lib/libfirmware.a $(X)/board.ld
 	$(call say,LD,$@)$(if $(FW_CXX),$(XCXX),$(XCC)) $(BOARD_CPU_FLAGS) $(LINK_FLAGS:fleetsim.map=board_hil.map) $(HIL_OBJ) \
 	    $(X)/lib/libfirmware.a $(LINK_LIBS) -o $@
-HIL_ARGS := board_hil --connect uart0 --tour $(HIL_TOUR) --time $(HIL_SECONDS)
-HIL_RUN  := tools/board/run_hil.sh --link serial $(HOST_SIM) $(HIL_PLAN) $(HIL_TOUR) $(HIL_SECONDS) $(R)/hil \
-	$(BOARD_QEMU) -monitor none -serial tcp:127.0.0.1:@PORT@ \
+HIL_PORT := $(if $(filter ether,$(HIL_LINK)),eth0,uart0)
+HIL_WIRE := $(if $(filter ether,$(HIL_LINK)),-nic socket$(comma)udp=127.0.0.1:@PORT@$(comma)localaddr=127.0.0.1:0,-serial tcp:127.0.0.1:@PORT@)
+HIL_ARGS := board_hil --connect $(HIL_PORT) --tour $(HIL_TOUR) --time $(HIL_SECONDS)
+HIL_RUN  := tools/board/run_hil.sh --link $(HIL_LINK) $(HOST_SIM) $(HIL_PLAN) $(HIL_TOUR) $(HIL_SECONDS) $(R)/hil \
+	$(BOARD_QEMU) -monitor none $(HIL_WIRE) \
 	-semihosting-config enable=on,target=native$(subst $(space),,$(foreach a,$(HIL_ARGS),$(comma)arg=$(a))) -kernel $(HIL_BIN)
 endif
 
 hil: $(HIL_BIN)
+	@test -n "$(filter $(HIL_LINK),$(HIL_LINKS))" || { echo "make hil: HIL_LINK=$(HIL_LINK): $(XBOARD) speaks $(HIL_LINKS)" >&2; exit 2; }
 	@test -x "$(HOST_SIM)" || { echo "make hil: HOST_SIM='$(HOST_SIM)' is not host_sim (run it from the top: make hil BOARD=$(XBOARD))" >&2; exit 2; }
 	@$(HIL_RUN)
 

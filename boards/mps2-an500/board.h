@@ -26,6 +26,9 @@
 #define BOARD_CORE_CLOCK_HZ 25000000u
 #define BOARD_PART_CLOCK_HZ 480000000u
 
+/* Peripherals the emulated board maps: the SMSC LAN9118 Ethernet controller (QEMU's -nic). */
+#define BOARD_ETH_LAN9118_BASE 0xA0000000u
+
 /* Static RAM per core (the firmware's _Static_assert budgets). */
 #define BOARD_RAM_RT_BYTES (128 * 1024)
 #define BOARD_RAM_GP_BYTES (4096 * 1024)

@@ -18,7 +18,7 @@ typedef struct hil_opts {
     const char *plan, *path, *listen;
     int64_t robot, seed;
     double idle_timeout_s, scale;
-    int quiet, link; /* link: 0 udp, 1 serial */
+    int quiet, link; /* sim_hil_link_t: udp, serial, ether */
 } hil_opts_t;
 
 static hil_opts_t hil_defaults(void)
@@ -32,9 +32,10 @@ static const cli_opt_t hil_opts[] = {
      .help = "the robot's tour: it starts at the first waypoint facing the second"},
     {.names = "--listen", .meta = "HOST:PORT", CLI_STRING(hil_opts_t, listen),
      .help = "the address the board talks to (port 0: any free one, printed)"},
-    {.names = "--link", CLI_CHOICE(hil_opts_t, link, "udp|serial"),
+    {.names = "--link", CLI_CHOICE(hil_opts_t, link, "udp|serial|ether"),
      .help = "udp: one frame per datagram; serial: a serial line's byte stream carried over TCP "
-             "(QEMU's -serial tcp:HOST:PORT), frames back to back"},
+             "(QEMU's -serial tcp:HOST:PORT), frames back to back; ether: Ethernet frames in UDP "
+             "datagrams (QEMU's -nic dgram), EtherType 0x88B5, a frame in each"},
     {.names = "--robot", .meta = "I", CLI_INT(hil_opts_t, robot, 0, BOARD_MAX_FLEET - 1),
      .help = "the robot served: keys the noise streams; the board's HELLO must name it"},
     {.names = "--seed", .meta = "S", CLI_INT(hil_opts_t, seed, 0, INT64_MAX), .help = "run seed of the noise streams"},
@@ -54,7 +55,8 @@ static void hil_usage(FILE *out)
             "Serves one robot's ODE world to firmware that runs elsewhere (a board, QEMU, another\n"
             "process) over the hardware-in-the-loop link: CRC-checked frames (hal/include/hal/\n"
             "hal_hil_frame.h), one per UDP datagram (--link udp) or back to back on a serial line\n"
-            "carried over TCP (--link serial). The board keeps the time: it says HELLO, then each\n"
+            "carried over TCP (--link serial), or in Ethernet frames in UDP datagrams (--link ether,\n"
+            "a board's network interface under QEMU). The board keeps the time: it says HELLO, then each\n"
             "control tick sends TICK t (the world steps to t and the latest pose and scan come back)\n"
             "and its wheel command, held until the next one. Every frame is checked before it acts;\n"
             "refused ones are counted in the last line. Ends when no frame came for --idle-timeout\n"
@@ -73,7 +75,7 @@ int cmd_hil(int argc, char **argv)
         return pr > 0 ? 0 : 2;
     char err[8192];
     uint16_t port = 0;
-    const int fd = sim_hil_listen(o.listen, o.link, &port, err, sizeof err);
+    const int fd = sim_hil_listen(o.listen, (sim_hil_link_t)o.link, &port, err, sizeof err);
     if (fd < 0) {
         fprintf(stderr, "host_sim hil: --listen %s\n", err);
         return 2;
@@ -105,12 +107,12 @@ int cmd_hil(int argc, char **argv)
     }
     hal_host_stop_set_mode(HAL_HOST_STOP_ASK);
     printf("hil: serving robot %lld's world (plan %s, path %s, seed %lld) on %s %.*s:%u\n", (long long)o.robot,
-           o.plan, o.path, (long long)o.seed, o.link ? "tcp" : "udp", (int)(strrchr(o.listen, ':') - o.listen),
+           o.plan, o.path, (long long)o.seed, o.link == SIM_HIL_SERIAL ? "tcp" : "udp", (int)(strrchr(o.listen, ':') - o.listen),
            o.listen, (unsigned)port);
     fflush(stdout);
     const sim_hil_serve_cfg_t sc = {
         .robot = (uint32_t)o.robot,
-        .stream = o.link,
+        .link = (sim_hil_link_t)o.link,
         .world = {(float)plan.min.x, (float)plan.min.y, (float)plan.max.x, (float)plan.max.y,
                   (uint32_t)(wc.world.dt * 1e6 + 0.5), wc.scan_period_us},
         .idle_timeout_s = o.idle_timeout_s,
@@ -125,14 +127,14 @@ int cmd_hil(int argc, char **argv)
     printf("hil: served %.1f simulated s: %llu ticks, %llu scans sent, %llu wheel commands, %llu sessions, distance %.2f m, "
            "%llu collisions; frames in %llu, out %llu; refused %llu (bad frames), %llu noise bytes, %llu replayed, "
            "%llu before a HELLO, %llu from another address or connection, %llu bad payloads, %llu lost on the way "
-           "in; %llu fleet datagrams not bridged\n",
+           "in, %llu not ours; %llu fleet datagrams not bridged\n",
            (double)st.t_us * 1e-6, (unsigned long long)st.ticks, (unsigned long long)st.scans,
            (unsigned long long)st.wheels,
            (unsigned long long)st.hellos, ws.distance_m, (unsigned long long)ws.collisions,
            (unsigned long long)st.frames_in, (unsigned long long)st.frames_out, (unsigned long long)refused,
            (unsigned long long)st.noise_bytes, (unsigned long long)st.replayed, (unsigned long long)st.unopened,
            (unsigned long long)st.other_sender, (unsigned long long)(st.bad_payload + st.wrong_robot),
-           (unsigned long long)st.lost, (unsigned long long)st.datagrams_not_bridged);
+           (unsigned long long)st.lost, (unsigned long long)st.not_ours, (unsigned long long)st.datagrams_not_bridged);
     sim_hal_world_destroy(hw);
     sim_path_free(&path);
     sim_plan_free(&plan);

@@ -18,8 +18,9 @@
 
 #define PROGRESS_EVERY_US 10000000u /* a progress line per 10 simulated seconds */
 
-int sim_hil_listen(const char *host_port, int stream, uint16_t *port, char *err, size_t errlen)
+int sim_hil_listen(const char *host_port, sim_hil_link_t link, uint16_t *port, char *err, size_t errlen)
 {
+    const int stream = link == SIM_HIL_SERIAL;
     char host[256];
     uint32_t p = 0;
     if (hal_hil_split_address(host_port, host, sizeof host, &p) != 0) {
@@ -54,6 +55,9 @@ int sim_hil_listen(const char *host_port, int stream, uint16_t *port, char *err,
     return fd;
 }
 
+#define ETHER_HEADER 14u
+#define ETHER_MIN_FRAME 60u /* without the FCS: shorter frames are padded */
+
 /* One server: the socket, the board's address and session, the frames it sends. On a stream
    link, the board's connection and the reader that cuts its bytes into frames. */
 typedef struct server {
@@ -69,10 +73,15 @@ typedef struct server {
     uint64_t world_us, next_progress_us;
     uint8_t payload[HAL_HIL_PAYLOAD_MAX];
     uint8_t out[HAL_HIL_FRAME_MAX];
-    uint8_t in[HAL_HIL_FRAME_MAX + 1]; /* one more: a datagram longer than any frame is seen */
+    uint8_t in[ETHER_HEADER + HAL_HIL_FRAME_MAX + 1]; /* one more: a datagram longer than any frame is seen */
     hal_lidar_scan_t scan;
     hal_hil_stream_t rx;
+    uint8_t board_mac[6];              /* ether: the board's interface, the answers' destination */
+    uint8_t sender_mac[6];             /* ether: the source of the frame being read */
 } server_t;
+
+/* ether: the world's own address (locally administered). */
+static const uint8_t world_mac[6] = {0x02, 0x00, 0x00, 0x00, 0x00, 0x01};
 
 #define STREAM_SEND_TIMEOUT_MS 1000 /* a board that reads nothing for this long has gone */
 
@@ -118,9 +127,21 @@ static int send_frame(server_t *s, hal_hil_type_t type, int len)
     const int n = hal_hil_encode(s->out, sizeof s->out, type, s->session, ++s->seq, s->payload, (size_t)len);
     if (n < 0)
         return n;
-    if (s->cfg->stream) {
+    if (s->cfg->link == SIM_HIL_SERIAL) {
         if (stream_write(s, s->out, (size_t)n) != 0)
             return 0; /* the board is gone, not the world: the next connection goes on */
+    } else if (s->cfg->link == SIM_HIL_ETHER) {
+        static uint8_t eth[ETHER_HEADER + HAL_HIL_FRAME_MAX + ETHER_MIN_FRAME];
+        memcpy(eth, s->board_mac, 6);
+        memcpy(eth + 6, world_mac, 6);
+        eth[12] = (uint8_t)(SIM_HIL_ETHERTYPE >> 8);
+        eth[13] = (uint8_t)SIM_HIL_ETHERTYPE;
+        memcpy(eth + ETHER_HEADER, s->out, (size_t)n);
+        size_t len = ETHER_HEADER + (size_t)n;
+        for (; len < ETHER_MIN_FRAME; len++)
+            eth[len] = 0;
+        if (sendto(s->fd, eth, len, 0, (const struct sockaddr *)&s->peer, sizeof s->peer) != (ssize_t)len)
+            return -errno;
     } else if (sendto(s->fd, s->out, (size_t)n, 0, (const struct sockaddr *)&s->peer, sizeof s->peer) != n) {
         return -errno;
     }
@@ -180,6 +201,7 @@ static int on_hello(server_t *s, const hal_hil_frame_t *f, const struct sockaddr
         return 0; /* this session's HELLO again: counted by the guard */
     s->peer = *from;
     s->have_peer = 1;
+    memcpy(s->board_mac, s->sender_mac, 6);
     s->st->hellos++;
     if (!s->cfg->quiet)
         fprintf(stderr, "hil: board '%s' (robot %u, session %08x) at %s:%u\n", h.board, h.robot, f->session,
@@ -256,20 +278,44 @@ static int on_datagram(server_t *s, size_t n, const struct sockaddr_in *from, ch
     return on_frame(s, &f, from, err, errlen);
 }
 
-/* A stream's bytes: every frame they finish (the reader counts what it refuses). */
-static int on_bytes(server_t *s, size_t n, const struct sockaddr_in *from, char *err, size_t errlen)
+/* A stream's bytes (or an Ethernet frame's payload): every frame they finish (the reader counts
+   what it refuses). */
+static int on_bytes(server_t *s, const uint8_t *bytes, size_t n, const struct sockaddr_in *from, char *err,
+                    size_t errlen)
 {
     size_t at = 0;
     int r = 0;
-    while (at < n && r == 0 && s->conn >= 0) {
+    while (at < n && r == 0 && (s->conn >= 0 || s->cfg->link != SIM_HIL_SERIAL)) {
         hal_hil_frame_t f;
         int got = 0;
-        at += hal_hil_stream_feed(&s->rx, s->in + at, n - at, &f, &got);
+        at += hal_hil_stream_feed(&s->rx, bytes + at, n - at, &f, &got);
         if (got)
             r = on_frame(s, &f, from, err, errlen);
     }
     memcpy(s->st->refused, s->rx.refused, sizeof s->st->refused);
     s->st->noise_bytes = s->rx.skipped;
+    return r;
+}
+
+/* An Ethernet frame in a datagram: ours (our EtherType, from a board's unicast address) goes
+   to the reader; the board's address is kept for the answers once its HELLO is taken. */
+static int on_ether(server_t *s, size_t n, const struct sockaddr_in *from, char *err, size_t errlen)
+{
+    const uint8_t *e = s->in;
+    if (n < ETHER_HEADER || (((unsigned)e[12] << 8) | e[13]) != SIM_HIL_ETHERTYPE || (e[6] & 1u)) {
+        s->st->not_ours++;
+        return 0;
+    }
+    memcpy(s->sender_mac, e + 6, 6); /* a HELLO in it makes it the board's */
+    size_t len = n - ETHER_HEADER;
+    const uint8_t *p = e + ETHER_HEADER;
+    if (len >= HAL_HIL_HEADER_BYTES && p[0] == HAL_HIL_MAGIC0 && p[1] == HAL_HIL_MAGIC1) {
+        const size_t whole = HAL_HIL_OVERHEAD_BYTES + ((size_t)p[12] | (size_t)p[13] << 8);
+        if (whole < len)
+            len = whole; /* a short frame's padding is not noise */
+    }
+    const int r = on_bytes(s, p, len, from, err, errlen);
+    hal_hil_stream_idle(&s->rx); /* a frame never spans two Ethernet frames */
     return r;
 }
 
@@ -337,16 +383,17 @@ int sim_hil_serve(sim_hal_world_t *hw, int fd, const sim_hil_serve_cfg_t *cfg, s
         }
         if (r < 0)
             continue;
-        if (cfg->stream && np == 2 && (p[1].revents & (POLLIN | POLLHUP | POLLERR))) {
+        const int serial = cfg->link == SIM_HIL_SERIAL;
+        if (serial && np == 2 && (p[1].revents & (POLLIN | POLLHUP | POLLERR))) {
             const ssize_t n = recv(s.conn, s.in, sizeof s.in, 0);
             if (n > 0)
-                rc = on_bytes(&s, (size_t)n, &board, err, errlen);
+                rc = on_bytes(&s, s.in, (size_t)n, &board, err, errlen);
             else if (n == 0 || (errno != EINTR && errno != EAGAIN))
                 drop_connection(&s, n == 0 ? "it hung up" : strerror(errno));
         }
-        if (cfg->stream && (p[0].revents & POLLIN)) /* after a hang-up seen in the same wait */
+        if (serial && (p[0].revents & POLLIN)) /* after a hang-up seen in the same wait */
             on_connect(&s, &board);
-        if (!cfg->stream && (p[0].revents & POLLIN)) {
+        if (!serial && (p[0].revents & POLLIN)) {
             struct sockaddr_in from;
             socklen_t fl = sizeof from;
             const ssize_t n = recvfrom(fd, s.in, sizeof s.in, 0, (struct sockaddr *)&from, &fl);
@@ -354,7 +401,8 @@ int sim_hil_serve(sim_hal_world_t *hw, int fd, const sim_hil_serve_cfg_t *cfg, s
                 snprintf(err, errlen, "receiving: %s", strerror(errno));
                 rc = -EIO;
             } else if (n >= 0 && fl == sizeof from && from.sin_family == AF_INET) {
-                rc = on_datagram(&s, (size_t)n, &from, err, errlen);
+                rc = cfg->link == SIM_HIL_ETHER ? on_ether(&s, (size_t)n, &from, err, errlen)
+                                                : on_datagram(&s, (size_t)n, &from, err, errlen);
             }
         }
         st->replayed = s.guard.replayed;

@@ -1,9 +1,14 @@
 /* host_sim's end of the hardware-in-the-loop link (hal/hal_hil_frame.h, hal_hil_msg.h): one
  * robot's ODE world served to firmware that runs elsewhere (a board, QEMU, another process),
- * over UDP, one frame per datagram, or over a byte stream, frames back to back: a serial line
- * carried over TCP (QEMU's `-serial tcp:HOST:PORT`, or a real board's USB serial port through
- * socat). A stream serves one board connection at a time; another is refused while it lasts,
- * and when it ends (the board hung up, or read nothing for 1 s) the server waits for the next.
+ * over one of three links:
+ *   udp     one frame per datagram;
+ *   serial  a byte stream, frames back to back: a serial line carried over TCP (QEMU's
+ *           `-serial tcp:HOST:PORT`, or a real board's USB serial port through socat). One
+ *           board connection at a time; another is refused while it lasts, and when it ends
+ *           (the board hung up, or read nothing for 1 s) the server waits for the next;
+ *   ether   Ethernet frames, one per UDP datagram (QEMU's `-nic dgram`/`-nic socket,udp=`:
+ *           the board's own network interface), of EtherType SIM_HIL_ETHERTYPE, a frame in
+ *           each (after the 14-byte header; the padding of short frames is skipped).
  *
  * The board keeps the time. It opens a session (HELLO: the server answers with its own HELLO
  * and WORLD, and from then on talks only to that address), then, each control tick:
@@ -31,9 +36,14 @@
 #include "hal/hal_hil_msg.h"
 #include "sim_hal_world.h"
 
+typedef enum sim_hil_link { SIM_HIL_UDP, SIM_HIL_SERIAL, SIM_HIL_ETHER } sim_hil_link_t;
+
+/* IEEE 802's local experimental EtherType: the link's frames on an Ethernet. */
+#define SIM_HIL_ETHERTYPE 0x88B5u
+
 typedef struct sim_hil_serve_cfg {
     uint32_t robot;           /* the id the board must give in its HELLO */
-    int stream;               /* 1: fd is sim_hil_listen's TCP listener (a serial line's bytes) */
+    sim_hil_link_t link;      /* what fd is: sim_hil_listen's socket for this link */
     hal_hil_world_t world;    /* sent after the HELLO: the plan's box, the physics step, the scan period */
     double idle_timeout_s;    /* > 0 */
     int quiet;                /* no progress lines */
@@ -45,13 +55,14 @@ typedef struct sim_hil_serve_stats {
     uint64_t refused[HAL_HIL_VERDICTS]; /* frames refused by the frame check, by verdict */
     uint64_t replayed, unopened, lost;  /* the session guard's */
     uint64_t bad_payload, wrong_robot, other_sender; /* other_sender: a second stream connection too */
-    uint64_t noise_bytes;               /* a stream's bytes skipped looking for a frame's start */
+    uint64_t noise_bytes;               /* serial, ether: bytes skipped looking for a frame's start */
+    uint64_t not_ours;                  /* ether: datagrams not an Ethernet frame of our EtherType */
     uint64_t t_us;                      /* the world's time */
 } sim_hil_serve_stats_t;
 
-/* A UDP socket bound to "HOST:PORT", or (stream) a TCP socket listening there (port 0: any
+/* A UDP socket bound to "HOST:PORT", or (serial) a TCP socket listening there (port 0: any
  * free one); the port it got into *port. The descriptor, or -1 with a message in err. */
-int sim_hil_listen(const char *host_port, int stream, uint16_t *port, char *err, size_t errlen);
+int sim_hil_listen(const char *host_port, sim_hil_link_t link, uint16_t *port, char *err, size_t errlen);
 
 /* Serves hw's robot on the bound socket fd until the board goes quiet or a stop is requested.
  * 0 (a session was served), 1 (no board said HELLO), -EINTR (stopped), or another negative

@@ -7,7 +7,7 @@
  * ending on its own when the board goes quiet, its last line counting what it refused; and the
  * firmware's RT core (board_hil) driving its tour through the link; and the same over the serial
  * link (TCP carrying a serial line's bytes): frames cut anywhere, noise, a second connection
- * refused, a board that hangs up and comes back. */
+ * refused, a board that hangs up and comes back; and over Ethernet frames in datagrams. */
 #include <setjmp.h>
 #include <stdarg.h>
 #include <stddef.h>
@@ -31,6 +31,7 @@
 
 typedef struct board {
     int fd, stream;    /* stream: a serial line's bytes over TCP (--link serial) */
+    int ether;         /* Ethernet frames in the datagrams (--link ether) */
     uint16_t port;
     hal_hil_stream_t rx;
     struct sockaddr_in server;
@@ -74,7 +75,8 @@ static void start_server(board_t *b, const char *name)
     snprintf(robot_path, sizeof robot_path, "%s/robot_0.csv", fp_env.paths);
     snprintf(b->log, sizeof b->log, "%s/%s.log", fp_env.dir, name);
     const char *argv[] = {fp_env.bin, "hil", "--plan", fp_env.plan, "--path", robot_path, "--listen", listen,
-                          "--idle-timeout", IDLE_S, "--seed", "7", "--link", b->stream ? "serial" : "udp", NULL};
+                          "--idle-timeout", IDLE_S, "--seed", "7", "--link",
+                          b->stream ? "serial" : b->ether ? "ether" : "udp", NULL};
     b->pid = fp_spawn(argv, b->log, NULL, NULL);
     assert_true(b->pid > 0);
     const double t0 = fp_now();
@@ -107,6 +109,21 @@ static void start_server(board_t *b, const char *name)
     hal_hil_guard_init(&b->guard);
 }
 
+static const uint8_t board_mac[6] = {0x52, 0x54, 0x00, 0x12, 0x34, 0x56};
+
+/* An Ethernet frame to the server: broadcast, from board_mac, padded to 60 bytes. */
+static void send_ether(board_t *b, unsigned ethertype, const uint8_t *payload, size_t n)
+{
+    uint8_t e[14 + HAL_HIL_FRAME_MAX + 60] = {0};
+    memset(e, 0xFF, 6);
+    memcpy(e + 6, board_mac, 6);
+    e[12] = (uint8_t)(ethertype >> 8);
+    e[13] = (uint8_t)ethertype;
+    memcpy(e + 14, payload, n);
+    const size_t len = 14 + n < 60 ? 60 : 14 + n;
+    assert_int_equal(sendto(b->fd, e, len, 0, (struct sockaddr *)&b->server, sizeof b->server), (ssize_t)len);
+}
+
 /* One frame to the server; its bytes stay in b->frame (to be replayed). */
 static int send_frame(board_t *b, hal_hil_type_t type, int len)
 {
@@ -115,6 +132,8 @@ static int send_frame(board_t *b, hal_hil_type_t type, int len)
     assert_true(n > 0);
     if (b->stream)
         assert_int_equal(send(b->fd, b->frame, (size_t)n, 0), n);
+    else if (b->ether)
+        send_ether(b, 0x88B5u, b->frame, (size_t)n);
     else
         assert_int_equal(sendto(b->fd, b->frame, (size_t)n, 0, (struct sockaddr *)&b->server, sizeof b->server), n);
     return n;
@@ -155,6 +174,17 @@ static int recv_frame(board_t *b, uint8_t *buf, size_t cap, hal_hil_frame_t *f, 
     if (b->stream) {
         if (!recv_stream_frame(b, buf, cap, f, wait_ms))
             return 0;
+    } else if (b->ether) { /* to the board's address, our EtherType, maybe padded */
+        static uint8_t e[14 + HAL_HIL_FRAME_MAX + 60];
+        struct pollfd p = {.fd = b->fd, .events = POLLIN};
+        if (poll(&p, 1, wait_ms) != 1)
+            return 0;
+        const ssize_t n = recv(b->fd, e, sizeof e, 0);
+        assert_true(n >= 60 && memcmp(e, board_mac, 6) == 0 && e[12] == 0x88 && e[13] == 0xB5);
+        const size_t len = HAL_HIL_OVERHEAD_BYTES + ((size_t)e[14 + 12] | (size_t)e[14 + 13] << 8);
+        assert_true(len <= (size_t)n - 14 && len <= cap);
+        memcpy(buf, e + 14, len);
+        assert_int_equal(hal_hil_parse(buf, len, f), HAL_HIL_OK);
     } else {
         struct pollfd p = {.fd = b->fd, .events = POLLIN};
         if (poll(&p, 1, wait_ms) != 1)
@@ -505,6 +535,52 @@ static void test_serial_stream(void **st)
     close(b->fd);
 }
 
+/* The Ethernet link (a board's network interface under QEMU: Ethernet frames in UDP
+   datagrams): padded short frames taken, the answers addressed to the board's MAC with the
+   link's EtherType, other EtherTypes and multicast sources not ours. */
+static void test_ether_frames(void **st)
+{
+    (void)st;
+    board_t *b = &b1;
+    memset(b, 0, sizeof *b);
+    b->ether = 1;
+    start_server(b, "hil_ether");
+    uint8_t buf[HAL_HIL_FRAME_MAX];
+    hal_hil_frame_t f;
+    send_ether(b, 0x0800u, (const uint8_t *)"an IPv4 packet", 14); /* another EtherType */
+    hello(b, 0);
+    assert_int_equal(recv_frame(b, buf, sizeof buf, &f, 5000), 1);
+    assert_int_equal(f.type, HAL_HIL_HELLO);
+    assert_int_equal(recv_frame(b, buf, sizeof buf, &f, 5000), 1);
+    assert_int_equal(f.type, HAL_HIL_WORLD);
+    hal_pose_t p0, p1;
+    tick(b, 0, &p0, &scan_a);
+    wheels(b, 4.0f, 4.0f);
+    tick(b, 500000, &p1, &scan_a);
+    assert_true(p1.stamp_us > p0.stamp_us && scan_a.count > 0);
+    const int status = fp_wait(b->pid, fp_now() + DEADLINE_S);
+    if (status != 0)
+        fp_show_log(b->log);
+    assert_int_equal(status, 0);
+    b->pid = 0;
+    char text[8192] = "";
+    FILE *lf = fopen(b->log, "r");
+    assert_non_null(lf);
+    text[fread(text, 1, sizeof text - 1, lf)] = '\0';
+    fclose(lf);
+    const char *last = strstr(text, "hil: served");
+    assert_non_null(last);
+    print_message("%s", last);
+    unsigned long long ticks = 0, noise = 1, not_ours = 0;
+    assert_int_equal(sscanf(last, "hil: served %*f simulated s: %llu ticks", &ticks), 1);
+    assert_int_equal(sscanf(strstr(last, "(bad frames), "), "(bad frames), %llu noise bytes", &noise), 1);
+    assert_int_equal(sscanf(strstr(last, "on the way in, "), "on the way in, %llu not ours", &not_ours), 1);
+    assert_int_equal(ticks, 2);
+    assert_int_equal(noise, 0); /* the padding of short frames is not noise */
+    assert_int_equal(not_ours, 1);
+    close(b->fd);
+}
+
 static int setup(void **st)
 {
     (void)st;
@@ -524,6 +600,7 @@ int main(void)
         cmocka_unit_test(test_same_seed_same_bytes),
         cmocka_unit_test(test_rt_core_drives_through_the_link),
         cmocka_unit_test(test_serial_stream),
+        cmocka_unit_test(test_ether_frames),
     };
     return cmocka_run_group_tests_name("sim/hil_serve", tests, setup, teardown);
 }

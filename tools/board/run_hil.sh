@@ -1,5 +1,5 @@
 #!/usr/bin/env bash
-# run_hil.sh [--link udp|serial] HOST_SIM PLAN TOUR SECONDS OUTDIR BOARD_CMD...: hardware in the
+# run_hil.sh [--link udp|serial|ether] HOST_SIM PLAN TOUR SECONDS OUTDIR BOARD_CMD...: hardware in the
 # loop on one machine. Starts `HOST_SIM hil` on a free port of loopback, runs BOARD_CMD (board_hil,
 # natively or under its board's QEMU) against it for SECONDS of the board's time, and keeps both
 # ends' output in OUTDIR/world.txt and OUTDIR/board.txt. Exits with the board's status (the
@@ -9,14 +9,16 @@
 #   --link serial  the world on TCP, carrying a serial line; BOARD_CMD is complete (a Cortex-M
 #                  image under qemu-system-arm, its arguments on the semihosting command line)
 #                  but for @PORT@, replaced by the world's port (-serial tcp:127.0.0.1:@PORT@).
+#   --link ether   the world on UDP, Ethernet frames in its datagrams; BOARD_CMD as for serial
+#                  (-nic socket,udp=127.0.0.1:@PORT@,...).
 set -euo pipefail
 link=udp
 if [ "${1:-}" = --link ]; then
     link=${2:-}
     shift 2
 fi
-if [ $# -lt 6 ] || { [ "$link" != udp ] && [ "$link" != serial ]; }; then
-    echo "usage: run_hil.sh [--link udp|serial] HOST_SIM PLAN TOUR SECONDS OUTDIR BOARD_CMD..." >&2
+if [ $# -lt 6 ] || { [ "$link" != udp ] && [ "$link" != serial ] && [ "$link" != ether ]; }; then
+    echo "usage: run_hil.sh [--link udp|serial|ether] HOST_SIM PLAN TOUR SECONDS OUTDIR BOARD_CMD..." >&2
     exit 2
 fi
 host_sim=$1 plan=$2 tour=$3 secs=$4 out=$5
