@@ -66,9 +66,15 @@ static int board_socket(const board_t *b)
     return fd;
 }
 
-/* The server started and listening: its "serving" line in the log, within the deadline. */
-static void start_server(board_t *b, const char *name)
+typedef enum { LINK_UDP, LINK_SERIAL, LINK_ETHER } link_t;
+
+/* b afresh, and its server started on `link` and listening: its "serving" line in the log,
+   within the deadline. */
+static void start_server(board_t *b, const char *name, link_t link)
 {
+    memset(b, 0, sizeof *b);
+    b->stream = link == LINK_SERIAL;
+    b->ether = link == LINK_ETHER;
     const uint16_t port = free_port(b->stream ? SOCK_STREAM : SOCK_DGRAM);
     static char listen[32], robot_path[PATH_MAX];
     snprintf(listen, sizeof listen, "127.0.0.1:%u", (unsigned)port);
@@ -238,13 +244,32 @@ static void tour_start(double *x, double *y)
     assert_true(got);
 }
 
+/* The board went quiet: the server ends by itself with 0; its log into text, and its last
+   line ("hil: served ..."), printed. */
+static const char *server_last_line(board_t *b, char *text, size_t cap)
+{
+    const int status = fp_wait(b->pid, fp_now() + DEADLINE_S);
+    if (status != 0)
+        fp_show_log(b->log);
+    assert_int_equal(status, 0);
+    b->pid = 0;
+    FILE *lf = fopen(b->log, "r");
+    assert_non_null(lf);
+    text[fread(text, 1, cap - 1, lf)] = '\0';
+    fclose(lf);
+    const char *last = strstr(text, "hil: served");
+    assert_non_null(last);
+    print_message("%s", last);
+    return last;
+}
+
 static hal_lidar_scan_t scan_a, scan_b;
 
 static void test_round_trip(void **st)
 {
     (void)st;
     board_t *b = &b1;
-    start_server(b, "hil");
+    start_server(b, "hil", LINK_UDP);
     uint8_t buf[HAL_HIL_FRAME_MAX];
     hal_hil_frame_t f;
 
@@ -302,21 +327,9 @@ static void test_round_trip(void **st)
     tick(b, 1500000, &p1, &scan_a);
 
     /* The board goes quiet: the server ends by itself, 0, counting what it refused. */
-    const int status = fp_wait(b->pid, fp_now() + DEADLINE_S);
-    if (status != 0)
-        fp_show_log(b->log);
-    assert_int_equal(status, 0);
-    b->pid = 0;
-    char text[8192] = "";
-    FILE *lf = fopen(b->log, "r");
-    assert_non_null(lf);
-    text[fread(text, 1, sizeof text - 1, lf)] = '\0';
-    fclose(lf);
-    const char *last = strstr(text, "hil: served");
-    assert_non_null(last);
+    static char text[8192];
+    const char *last = server_last_line(b, text, sizeof text);
     unsigned long long ticks = 0, refused = 0, replayed = 0, before = 0, bad = 0;
-    const char *q = strstr(last, "ticks");
-    assert_non_null(q);
     assert_int_equal(sscanf(last, "hil: served %*f simulated s: %llu ticks", &ticks), 1);
     assert_int_equal(sscanf(strstr(last, "refused"),
                             "refused %llu (bad frames), %*u noise bytes, %llu replayed, %llu before a HELLO", &refused,
@@ -325,7 +338,6 @@ static void test_round_trip(void **st)
     assert_int_equal(sscanf(strstr(last, "another address or connection,"),
                             "another address or connection, %llu bad payloads", &bad),
                      1);
-    print_message("%s", last);
     assert_int_equal(ticks, 4);
     assert_int_equal(refused, 2); /* the corrupted frame, the noise */
     assert_int_equal(replayed, 1);
@@ -343,8 +355,7 @@ static void test_same_seed_same_bytes(void **st)
     board_t *bs[2] = {&b1, &b2};
     for (int k = 0; k < 2; k++) {
         board_t *b = bs[k];
-        memset(b, 0, sizeof *b);
-        start_server(b, k == 0 ? "hil_a" : "hil_b");
+        start_server(b, k == 0 ? "hil_a" : "hil_b", LINK_UDP);
         uint8_t buf[HAL_HIL_FRAME_MAX];
         hal_hil_frame_t f;
         hello(b, 0);
@@ -378,8 +389,7 @@ static void test_rt_core_drives_through_the_link(void **st)
 {
     (void)st;
     board_t *b = &b1;
-    memset(b, 0, sizeof *b);
-    start_server(b, "hil_rt");
+    start_server(b, "hil_rt", LINK_UDP);
     char board_bin[PATH_MAX], tour[PATH_MAX], connect[32], log[PATH_MAX];
     snprintf(board_bin, sizeof board_bin, "%.*s/board_hil", (int)(strrchr(fp_env.bin, '/') - fp_env.bin), fp_env.bin);
     snprintf(tour, sizeof tour, "%s/robot_0.csv", fp_env.paths);
@@ -441,9 +451,7 @@ static void test_serial_stream(void **st)
 {
     (void)st;
     board_t *b = &b1;
-    memset(b, 0, sizeof *b);
-    b->stream = 1;
-    start_server(b, "hil_serial");
+    start_server(b, "hil_serial", LINK_SERIAL);
     uint8_t buf[HAL_HIL_FRAME_MAX];
     hal_hil_frame_t f;
 
@@ -505,19 +513,8 @@ static void test_serial_stream(void **st)
     tick(b, 1000000, &p1, &scan_a);
     assert_true(p1.stamp_us >= 990000u);
 
-    const int status = fp_wait(b->pid, fp_now() + DEADLINE_S);
-    if (status != 0)
-        fp_show_log(b->log);
-    assert_int_equal(status, 0);
-    b->pid = 0;
-    char text[8192] = "";
-    FILE *lf = fopen(b->log, "r");
-    assert_non_null(lf);
-    text[fread(text, 1, sizeof text - 1, lf)] = '\0';
-    fclose(lf);
-    const char *last = strstr(text, "hil: served");
-    assert_non_null(last);
-    print_message("%s", last);
+    static char text[8192];
+    const char *last = server_last_line(b, text, sizeof text);
     unsigned long long ticks = 0, sessions = 0, refused = 0, noise_bytes = 0, others = 0;
     assert_int_equal(sscanf(last, "hil: served %*f simulated s: %llu ticks, %*u scans sent, %*u wheel commands, %llu sessions", &ticks,
                             &sessions),
@@ -542,9 +539,7 @@ static void test_ether_frames(void **st)
 {
     (void)st;
     board_t *b = &b1;
-    memset(b, 0, sizeof *b);
-    b->ether = 1;
-    start_server(b, "hil_ether");
+    start_server(b, "hil_ether", LINK_ETHER);
     uint8_t buf[HAL_HIL_FRAME_MAX];
     hal_hil_frame_t f;
     send_ether(b, 0x0800u, (const uint8_t *)"an IPv4 packet", 14); /* another EtherType */
@@ -558,19 +553,8 @@ static void test_ether_frames(void **st)
     wheels(b, 4.0f, 4.0f);
     tick(b, 500000, &p1, &scan_a);
     assert_true(p1.stamp_us > p0.stamp_us && scan_a.count > 0);
-    const int status = fp_wait(b->pid, fp_now() + DEADLINE_S);
-    if (status != 0)
-        fp_show_log(b->log);
-    assert_int_equal(status, 0);
-    b->pid = 0;
-    char text[8192] = "";
-    FILE *lf = fopen(b->log, "r");
-    assert_non_null(lf);
-    text[fread(text, 1, sizeof text - 1, lf)] = '\0';
-    fclose(lf);
-    const char *last = strstr(text, "hil: served");
-    assert_non_null(last);
-    print_message("%s", last);
+    static char text[8192];
+    const char *last = server_last_line(b, text, sizeof text);
     unsigned long long ticks = 0, noise = 1, not_ours = 0;
     assert_int_equal(sscanf(last, "hil: served %*f simulated s: %llu ticks", &ticks), 1);
     assert_int_equal(sscanf(strstr(last, "(bad frames), "), "(bad frames), %llu noise bytes", &noise), 1);
