@@ -242,7 +242,7 @@ static const hal_net_ops_t stdc_net = {.publish = stdc_publish,
 
 static struct {
     hal_hil_client_t *client;
-    int ticked, sensed;
+    int ticked, sensed, lockstep;
     uint64_t tick_us, sensed_ns;
     hal_stdc_hil_stats_t st;
 } hil;
@@ -261,7 +261,12 @@ static int hil_sense(void)
     const uint64_t t = now - now % hil.client->rt_period_us;
     if (hil.ticked && t == hil.tick_us)
         return 0;
+    const uint64_t sent_ns = hal_stdc_target_link_ns();
+    if (hil.lockstep)
+        hal_stdc_target_hold(1);
     const int r = hal_hil_client_tick(hil.client, t);
+    if (hil.lockstep)
+        hal_stdc_target_hold(0);
     if (r != 0) {
         hil.st.link_errors++;
         return -EIO;
@@ -269,7 +274,7 @@ static int hil_sense(void)
     hil.ticked = hil.sensed = 1;
     hil.tick_us = t;
     hil.sensed_ns = hal_stdc_target_now_ns();
-    timing_add(&hil.st.exchange, hil.sensed_ns - now_ns);
+    timing_add(&hil.st.exchange, hal_stdc_target_link_ns() - sent_ns);
     return 0;
 }
 
@@ -332,7 +337,7 @@ static const hal_board_t stdc_board = {
 /* stdc_board with the world's lidar, pose and motors (hal_stdc_install_hil fills it). */
 static hal_board_t stdc_board_hil;
 
-int hal_stdc_install_hil(const char *storage_dir, hal_hil_client_t *client)
+int hal_stdc_install_hil(const char *storage_dir, hal_hil_client_t *client, int lockstep)
 {
     if (client == NULL)
         return -EINVAL;
@@ -341,6 +346,7 @@ int hal_stdc_install_hil(const char *storage_dir, hal_hil_client_t *client)
         return r;
     memset(&hil, 0, sizeof hil);
     hil.client = client;
+    hil.lockstep = lockstep != 0;
     stdc_board_hil = stdc_board;
     stdc_board_hil.lidar = &stdc_lidar;
     stdc_board_hil.pose = &stdc_pose;

@@ -43,9 +43,10 @@ void hal_stdc_uninstall(void);
  * `client`, connected already. The first reading of an RT tick sends TICK t, t the board's
  * time floored to the client's RT period (the tick's release when the core keeps its rate),
  * and waits for the answer; the tick's other readings are the same TICK's. A wheel command
- * goes out at once. A link that does not answer makes the reading -EIO. 0, -EINVAL or
- * install's error. */
-FS_MUST_CHECK int hal_stdc_install_hil(const char *storage_dir, hal_hil_client_t *client);
+ * goes out at once. A link that does not answer makes the reading -EIO. lockstep: the board's
+ * clock stands still while it waits for the answer (hal_stdc_target_hold), so the world's and
+ * the link's time are not the board's. 0, -EINVAL or install's error. */
+FS_MUST_CHECK int hal_stdc_install_hil(const char *storage_dir, hal_hil_client_t *client, int lockstep);
 
 /* Durations in the board's time (ns: under -icount a Cortex-M's are instructions): how many,
  * their sum and the longest. */
@@ -54,7 +55,7 @@ typedef struct hal_stdc_timing {
 } hal_stdc_timing_t;
 
 typedef struct hal_stdc_hil_stats {
-    hal_stdc_timing_t exchange; /* TICK sent to its answer read */
+    hal_stdc_timing_t exchange; /* TICK sent to its answer read, in the link's time (held or not) */
     hal_stdc_timing_t response; /* sensors read to the wheel command */
     uint64_t link_errors;
 } hal_stdc_hil_stats_t;

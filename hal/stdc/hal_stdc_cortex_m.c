@@ -54,6 +54,9 @@ void fault_handler(void);
 
 static volatile uint32_t systick_wraps;
 static uint32_t insn_per_tick; /* 0: not counting */
+/* Lockstep (hal_stdc_target_hold): SysTick ticks held so far, and where the current hold began. */
+static uint64_t held_ticks, hold_from;
+static int holding;
 
 __attribute__((section(".vectors"), used)) static void (*const vectors[16])(void) = {
     (void (*)(void))(uintptr_t)&__stack_top, /* initial SP */
@@ -193,14 +196,55 @@ void _fini(void)
 {
 }
 
+static uint32_t irq_mask(void)
+{
+    uint32_t primask;
+    __asm__ volatile("mrs %0, primask\n cpsid i" : "=r"(primask)::"memory");
+    return primask;
+}
+
+static void irq_restore(uint32_t primask)
+{
+    __asm__ volatile("msr primask, %0" ::"r"(primask) : "memory");
+}
+
+/* The board's clock in SysTick ticks: the time base less the holds, read with interrupts masked
+   so that a hold's two words are never seen half written. */
+static uint64_t board_ticks(void)
+{
+    const uint32_t m = irq_mask();
+    const uint64_t t = (holding ? hold_from : systick_ticks()) - held_ticks;
+    irq_restore(m);
+    return t;
+}
+
+void hal_stdc_target_hold(int on)
+{
+    const uint32_t m = irq_mask();
+    const uint64_t now = systick_ticks();
+    if (on && !holding) {
+        hold_from = now;
+        holding = 1;
+    } else if (!on && holding) {
+        held_ticks += now - hold_from;
+        holding = 0;
+    }
+    irq_restore(m);
+}
+
+uint64_t hal_stdc_target_link_ns(void)
+{
+    return systick_ticks() * (1000000000u / BOARD_CORE_CLOCK_HZ);
+}
+
 uint64_t hal_stdc_target_now_us(void)
 {
-    return systick_ticks() / (BOARD_CORE_CLOCK_HZ / 1000000u);
+    return board_ticks() / (BOARD_CORE_CLOCK_HZ / 1000000u);
 }
 
 uint64_t hal_stdc_target_now_ns(void)
 {
-    return systick_ticks() * (1000000000u / BOARD_CORE_CLOCK_HZ);
+    return board_ticks() * (1000000000u / BOARD_CORE_CLOCK_HZ);
 }
 
 int hal_stdc_target_instructions(uint64_t *n)

@@ -56,13 +56,19 @@ static const uintptr_t uart_base[] = {0x40004000u, 0x40005000u, 0x40006000u, 0x4
 
 static cmsdk_uart_t *uart;
 
+/* The link's timeouts count the time base, held or not (hal_stdc_target_hold). */
+static uint64_t link_us(void)
+{
+    return hal_stdc_target_link_ns() / 1000u;
+}
+
 static int uart_send(void *ctx, const uint8_t *bytes, size_t n)
 {
     cmsdk_uart_t *u = ctx;
     for (size_t i = 0; i < n; i++) {
-        const uint64_t t0 = hal_stdc_target_now_us();
+        const uint64_t t0 = link_us();
         while (u->state & UART_STATE_TX_FULL)
-            if (hal_stdc_target_now_us() - t0 > TX_BYTE_TIMEOUT_US)
+            if (link_us() - t0 > TX_BYTE_TIMEOUT_US)
                 return -EIO; /* the line does not drain: nobody reads the other end */
         u->data = bytes[i];
     }
@@ -73,15 +79,15 @@ static int uart_recv(void *ctx, uint8_t *buf, size_t cap, uint32_t timeout_us)
 {
     cmsdk_uart_t *u = ctx;
     size_t n = 0;
-    uint64_t last = hal_stdc_target_now_us();
+    uint64_t last = link_us();
     const uint64_t deadline = last + timeout_us;
     while (n < cap) {
         if (u->state & UART_STATE_RX_FULL) {
             buf[n++] = (uint8_t)u->data;
-            last = hal_stdc_target_now_us();
+            last = link_us();
             continue;
         }
-        const uint64_t now = hal_stdc_target_now_us();
+        const uint64_t now = link_us();
         if (n > 0 ? now - last >= RX_GAP_US : now >= deadline)
             break;
     }
@@ -174,10 +180,10 @@ static int eth_send(void *ctx, const uint8_t *bytes, size_t n)
 static int eth_recv(void *ctx, uint8_t *buf, size_t cap, uint32_t timeout_us)
 {
     (void)ctx;
-    const uint64_t deadline = hal_stdc_target_now_us() + timeout_us;
+    const uint64_t deadline = link_us() + timeout_us;
     for (;;) {
         if (((LAN_REG(LAN_RX_FIFO_INF) >> 16) & 0xFFu) == 0) {
-            if (hal_stdc_target_now_us() >= deadline)
+            if (link_us() >= deadline)
                 return 0;
             continue;
         }
@@ -212,9 +218,9 @@ static int eth_open(hal_hil_port_t *port)
         return -EIO;
     }
     LAN_REG(LAN_HW_CFG) = 1u; /* soft reset */
-    const uint64_t t0 = hal_stdc_target_now_us();
+    const uint64_t t0 = link_us();
     while ((LAN_REG(LAN_HW_CFG) & 1u) || !(LAN_REG(LAN_PMT_CTRL) & 1u))
-        if (hal_stdc_target_now_us() - t0 > 100000u)
+        if (link_us() - t0 > 100000u)
             return -EIO;
     const uint32_t lo = mac_read(LAN_MAC_ADDRL), hi = mac_read(LAN_MAC_ADDRH);
     for (int i = 0; i < 4; i++)

@@ -5,13 +5,14 @@
  * is not measured. */
 #define _DEFAULT_SOURCE 1 /* clock_gettime, syscall */
 #include <errno.h>
+#include <stdatomic.h>
 #include <stdint.h>
 #include <time.h>
 #include <unistd.h>
 
 #include "hal_stdc_target.h"
 
-uint64_t hal_stdc_target_now_ns(void)
+uint64_t hal_stdc_target_link_ns(void)
 {
     static uint64_t t0;
     struct timespec ts;
@@ -20,6 +21,31 @@ uint64_t hal_stdc_target_now_ns(void)
     if (t0 == 0)
         t0 = t;
     return t - t0;
+}
+
+/* Lockstep (hal_stdc_target_hold): the time held so far, and, while held, the board's time it
+   stands at (+ 1; 0: not held). Only the link's owner writes them, held_ns before frozen_at
+   goes back to 0, so a reader on another thread sees the clock either standing or going on,
+   never a jump. */
+static _Atomic uint64_t held_ns, frozen_at;
+
+void hal_stdc_target_hold(int on)
+{
+    const uint64_t now = hal_stdc_target_link_ns();
+    static uint64_t from; /* the owner's alone */
+    if (on && atomic_load(&frozen_at) == 0) {
+        from = now;
+        atomic_store(&frozen_at, now - atomic_load(&held_ns) + 1u);
+    } else if (!on && atomic_load(&frozen_at) != 0) {
+        atomic_store(&held_ns, atomic_load(&held_ns) + (now - from));
+        atomic_store(&frozen_at, 0);
+    }
+}
+
+uint64_t hal_stdc_target_now_ns(void)
+{
+    const uint64_t f = atomic_load(&frozen_at);
+    return f != 0 ? f - 1u : hal_stdc_target_link_ns() - atomic_load(&held_ns);
 }
 
 uint64_t hal_stdc_target_now_us(void)

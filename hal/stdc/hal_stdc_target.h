@@ -16,6 +16,17 @@ uint64_t hal_stdc_target_now_us(void);
  * MPS2 boards), for measuring what is shorter than a microsecond. */
 uint64_t hal_stdc_target_now_ns(void);
 
+/* Lockstep with a world (hardware in the loop, as PX4's lockstep simulation): while held, the
+ * target's clock (now_us, now_ns, and the scheduler's wake-ups, which follow it) stands still,
+ * so the time the board spends waiting for the world's answer is not the board's: its timeline
+ * is its own work alone, the same on a fast host as on a slow one. Held and released by the one
+ * thread that owns the link (hal_stdc_install_hil); a reader on another thread or in an
+ * interrupt sees a consistent clock. */
+void hal_stdc_target_hold(int on);
+
+/* The time base without the holds, in nanoseconds: what the link's own timeouts count. */
+uint64_t hal_stdc_target_link_ns(void);
+
 /* Instructions retired since the program started, into *n. 0, or -ENOTSUP where the target
  * cannot count them. */
 int hal_stdc_target_instructions(uint64_t *n);

@@ -27,7 +27,7 @@
 
 typedef struct hil_opts {
     const char *connect, *tour;
-    uint32_t robot, timeout_ms, tries;
+    uint32_t robot, timeout_ms, tries, lockstep;
     double time_s;
 } hil_opts_t;
 
@@ -44,12 +44,14 @@ static void usage(FILE *to)
             "  --robot I            the robot's id, as host_sim hil serves it (default 0)\n"
             "  --time S             stop after S seconds of the board's time (default 600)\n"
             "  --timeout-ms MS      wait for the world's answer to a TICK (default 200)\n"
-            "  --tries N            TICKs sent before the link counts as down (default 5)\n");
+            "  --tries N            TICKs sent before the link counts as down (default 5)\n"
+            "  --lockstep 0|1       1: the board's clock stands still while it waits for the world\n"
+            "                       (the link's time is not the board's; default 1)\n");
 }
 
 static int parse_opts(int argc, char **argv, hil_opts_t *o)
 {
-    *o = (hil_opts_t){.timeout_ms = 200, .tries = 5, .time_s = 600.0};
+    *o = (hil_opts_t){.timeout_ms = 200, .tries = 5, .lockstep = 1, .time_s = 600.0};
     for (int i = 1; i < argc; i += 2) { /* every option takes a value (--help ends here) */
         const char *a = argv[i], *v = i + 1 < argc ? argv[i + 1] : NULL;
         int r = 0;
@@ -64,6 +66,8 @@ static int parse_opts(int argc, char **argv, hil_opts_t *o)
             r = board_parse_u32(v, 0, BOARD_MAX_FLEET - 1u, &o->robot);
         } else if (strcmp(a, "--timeout-ms") == 0) {
             r = board_parse_u32(v, 1, 60000, &o->timeout_ms);
+        } else if (strcmp(a, "--lockstep") == 0) {
+            r = board_parse_u32(v, 0, 1, &o->lockstep);
         } else if (strcmp(a, "--tries") == 0) {
             r = board_parse_u32(v, 1, 1000, &o->tries);
         } else if (strcmp(a, "--time") == 0) {
@@ -163,7 +167,7 @@ int main(int argc, char **argv)
            "scan every %u us\n",
            BOARD_NAME, (unsigned)o.robot, hal_stdc_hil_kind(), o.connect, (double)w->min_x, (double)w->min_y,
            (double)w->max_x, (double)w->max_y, (unsigned)w->step_us, (unsigned)w->scan_period_us);
-    if ((r = hal_stdc_install_hil("", &client)) != 0) {
+    if ((r = hal_stdc_install_hil("", &client, (int)o.lockstep)) != 0) {
         fprintf(stderr, "board_hil: cannot install the board (%d)\n", r);
         return 1;
     }
@@ -202,8 +206,9 @@ int main(int argc, char **argv)
         hal_stdc_hil_stats(&after);
         if (done_ns - t * 1000u > busy_max_ns)
             busy_max_ns = done_ns - t * 1000u;
-        /* The core's own work: the tick without the link's wait. */
-        const uint64_t compute_ns = done_ns - begin_ns - (after.exchange.sum_ns - before.exchange.sum_ns);
+        /* The core's own work: the tick without the link's wait (held already in lockstep). */
+        const uint64_t compute_ns =
+            done_ns - begin_ns - (o.lockstep ? 0u : after.exchange.sum_ns - before.exchange.sum_ns);
         if (compute_ns > compute_max_ns)
             compute_max_ns = compute_ns;
         if (done > t + FW_RT_PERIOD_US) { /* the next tick's release went by */
@@ -232,6 +237,7 @@ int main(int argc, char **argv)
     printf("board_hil: %s after %.1f s: waypoint %u/%d, progress %.2f of %.2f m\n",
            st.finished ? "tour finished" : "stopped", (double)(k * FW_RT_PERIOD_US) * 1e-6, (unsigned)st.waypoint, n_wps,
            (double)st.progress_m, (double)st.path_length_m);
+    printf("result lockstep %u\n", (unsigned)o.lockstep);
     printf("result rt_ticks %llu\n", (unsigned long long)rt.stats.ticks);
     printf("result rt_deadline_misses %llu\n", (unsigned long long)misses);
     printf("result rt_overrun_max_us %llu\n", (unsigned long long)overrun_max);
