@@ -127,14 +127,14 @@ int hal_hil_client_tick(hal_hil_client_t *c, uint64_t t_us)
     for (uint32_t t = 0; t < c->tries; t++) {
         if (t > 0)
             c->stats.resent_ticks++;
-        const uint64_t held = c->have_scan ? c->scan.stamp_us + 1u : 0u;
-        int r = send_frame(c, HAL_HIL_TICK, hal_hil_put_tick(c->payload, sizeof c->payload, t_us, held));
+        const hal_hil_tick_t tk = {t_us, c->have_scan ? c->scan.stamp_us + 1u : 0u, c->datagram_room};
+        int r = send_frame(c, HAL_HIL_TICK, hal_hil_put_tick(c->payload, sizeof c->payload, &tk));
         if (r != 0)
             return r;
         int pose = 0;
         hal_hil_frame_t f;
-        /* The answer: a SCAN when the world has a newer one, then the POSE that ends it (a
-           session's first answer must bring a scan). */
+        /* The answer: a SCAN when the world has a newer one, the fleet's DATAGRAMs, then the
+           POSE that ends it (a session's first answer must bring a scan). */
         while (!(pose && c->have_scan) && (r = next_accepted(c, &f)) == 1) {
             if (f.type == HAL_HIL_POSE) {
                 hal_pose_t p;
@@ -153,6 +153,15 @@ int hal_hil_client_tick(hal_hil_client_t *c, uint64_t t_us)
                     c->stats.bad_payload++;
                 else
                     c->have_scan = 1;
+            } else if (f.type == HAL_HIL_DATAGRAM) {
+                hal_hil_datagram_t d;
+                if (hal_hil_get_datagram(&f, &d) != 0) {
+                    c->stats.bad_payload++;
+                } else {
+                    c->stats.datagrams_in++;
+                    if (c->on_datagram != NULL)
+                        c->on_datagram(c->datagram_ctx, &d);
+                }
             } else {
                 c->stats.bad_payload++;
             }
@@ -174,4 +183,18 @@ int hal_hil_client_wheels(hal_hil_client_t *c, uint64_t t_us, float left_rad_s, 
     if (r == 0)
         c->stats.wheels++;
     return r;
+}
+
+int hal_hil_client_datagram(hal_hil_client_t *c, const char *channel, const void *data, size_t len)
+{
+    const int n = hal_hil_put_datagram(c->payload, sizeof c->payload, channel, data, len);
+    const int r = send_frame(c, HAL_HIL_DATAGRAM, n);
+    if (r == 0)
+        c->stats.datagrams_out++;
+    return r;
+}
+
+int hal_hil_client_subscribe(hal_hil_client_t *c, const char *channel)
+{
+    return send_frame(c, HAL_HIL_SUBSCRIBE, hal_hil_put_subscribe(c->payload, sizeof c->payload, channel));
 }

@@ -181,39 +181,66 @@ int hal_hil_put_datagram(uint8_t *out, size_t cap, const char *channel, const vo
     return (int)(1u + cl + len);
 }
 
-int hal_hil_get_datagram(const hal_hil_frame_t *f, hal_hil_datagram_t *m)
+/* The channel a DATAGRAM or SUBSCRIBE payload starts with, into ch: its length in the payload
+   (1 + the name's), or -EBADMSG. */
+static int get_channel(const hal_hil_frame_t *f, char ch[HAL_NET_CHANNEL_MAX])
 {
-    if (f->type != HAL_HIL_DATAGRAM || f->len < 1u)
+    if (f->len < 1u)
         return -EBADMSG;
     const size_t cl = f->payload[0];
-    if (cl == 0 || cl >= HAL_NET_CHANNEL_MAX || f->len < 1u + cl || f->len - 1u - cl > HAL_NET_MTU_BYTES)
+    if (cl == 0 || cl >= HAL_NET_CHANNEL_MAX || f->len < 1u + cl)
         return -EBADMSG;
-    char ch[HAL_NET_CHANNEL_MAX];
     memcpy(ch, f->payload + 1, cl);
     ch[cl] = '\0';
     if (memchr(ch, '\0', cl) != NULL || !hal_net_channel_valid(ch)) /* a NUL inside would shorten it */
         return -EBADMSG;
-    memcpy(m->channel, ch, cl + 1u);
-    m->data = f->payload + 1 + cl;
-    m->len = f->len - 1u - cl;
+    return (int)(1u + cl);
+}
+
+int hal_hil_get_datagram(const hal_hil_frame_t *f, hal_hil_datagram_t *m)
+{
+    char ch[HAL_NET_CHANNEL_MAX];
+    const int at = f->type == HAL_HIL_DATAGRAM ? get_channel(f, ch) : -EBADMSG;
+    if (at < 0 || f->len - (size_t)at > HAL_NET_MTU_BYTES)
+        return -EBADMSG;
+    memcpy(m->channel, ch, (size_t)at);
+    m->data = f->payload + at;
+    m->len = f->len - (size_t)at;
     return 0;
 }
 
-int hal_hil_put_tick(uint8_t *out, size_t cap, uint64_t stamp_us, uint64_t scan_held)
+int hal_hil_put_subscribe(uint8_t *out, size_t cap, const char *channel)
+{
+    return hal_hil_put_datagram(out, cap, channel, NULL, 0);
+}
+
+int hal_hil_get_subscribe(const hal_hil_frame_t *f, char channel[HAL_NET_CHANNEL_MAX])
+{
+    char ch[HAL_NET_CHANNEL_MAX];
+    const int at = f->type == HAL_HIL_SUBSCRIBE ? get_channel(f, ch) : -EBADMSG;
+    if (at < 0 || (size_t)at != f->len)
+        return -EBADMSG;
+    memcpy(channel, ch, (size_t)at);
+    return 0;
+}
+
+int hal_hil_put_tick(uint8_t *out, size_t cap, const hal_hil_tick_t *m)
 {
     if (cap < HAL_HIL_TICK_BYTES)
         return -EMSGSIZE;
-    le_put_u64(out, stamp_us);
-    le_put_u64(out + 8, scan_held);
+    le_put_u64(out, m->stamp_us);
+    le_put_u64(out + 8, m->scan_held);
+    le_put_u32(out + 16, m->datagram_room);
     return (int)HAL_HIL_TICK_BYTES;
 }
 
-int hal_hil_get_tick(const hal_hil_frame_t *f, uint64_t *stamp_us, uint64_t *scan_held)
+int hal_hil_get_tick(const hal_hil_frame_t *f, hal_hil_tick_t *m)
 {
     if (f->type != HAL_HIL_TICK || f->len != HAL_HIL_TICK_BYTES)
         return -EBADMSG;
-    *stamp_us = le_get_u64(f->payload);
-    *scan_held = le_get_u64(f->payload + 8);
+    m->stamp_us = le_get_u64(f->payload);
+    m->scan_held = le_get_u64(f->payload + 8);
+    m->datagram_room = le_get_u32(f->payload + 16);
     return 0;
 }
 

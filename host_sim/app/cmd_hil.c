@@ -10,12 +10,13 @@
 #include "commands.h"
 #include "hal_host_stop.h"
 #include "sim_hal_world.h"
+#include "sim_hil_bridge.h"
 #include "sim_hil_serve.h"
 #include "sim_paths.h"
 #include "sim_plan.h"
 
 typedef struct hil_opts {
-    const char *plan, *path, *listen;
+    const char *plan, *path, *listen, *fleet_lcm;
     int64_t robot, seed;
     double idle_timeout_s, scale;
     int quiet, link; /* sim_hil_link_t: udp, serial, ether */
@@ -42,6 +43,9 @@ static const cli_opt_t hil_opts[] = {
     {.names = "--idle-timeout", .meta = "S", CLI_DOUBLE(hil_opts_t, idle_timeout_s, 0.1, 86400),
      .help = "end when no frame came for S seconds"},
     {.names = "--scale", .meta = "S", CLI_DOUBLE(hil_opts_t, scale, 1e-6, 1e3), .help = "plan metres per pixel"},
+    {.names = "--fleet-lcm", .meta = "URL", CLI_STRING(hil_opts_t, fleet_lcm),
+     .help = "bridge the board's fleet datagrams to this LCM (e.g. udpm://239.255.76.67:7667?ttl=0): the "
+             "board's network interface; without it they are counted, not bridged"},
     {.names = "-q|--quiet", CLI_FLAG(hil_opts_t, quiet, 1), .help = "no progress lines"},
     CLI_OPT_END,
 };
@@ -105,6 +109,16 @@ int cmd_hil(int argc, char **argv)
         close(fd);
         return 1;
     }
+    sim_hil_lcm_bridge_t *bridge = NULL;
+    sim_hil_bridge_t bridge_ops;
+    if (o.fleet_lcm != NULL && sim_hil_lcm_bridge_open(o.fleet_lcm, &bridge, &bridge_ops, err, sizeof err) != 0) {
+        fprintf(stderr, "host_sim hil: --fleet-lcm: %s\n", err);
+        sim_hal_world_destroy(hw);
+        sim_path_free(&path);
+        sim_plan_free(&plan);
+        close(fd);
+        return 1;
+    }
     hal_host_stop_set_mode(HAL_HOST_STOP_ASK);
     printf("hil: serving robot %lld's world (plan %s, path %s, seed %lld) on %s %.*s:%u\n", (long long)o.robot,
            o.plan, o.path, (long long)o.seed, o.link == SIM_HIL_SERIAL ? "tcp" : "udp", (int)(strrchr(o.listen, ':') - o.listen),
@@ -116,7 +130,8 @@ int cmd_hil(int argc, char **argv)
         .world = {(float)plan.min.x, (float)plan.min.y, (float)plan.max.x, (float)plan.max.y,
                   (uint32_t)(wc.world.dt * 1e6 + 0.5), wc.scan_period_us},
         .idle_timeout_s = o.idle_timeout_s,
-        .quiet = o.quiet};
+        .quiet = o.quiet,
+        .bridge = bridge != NULL ? &bridge_ops : NULL};
     sim_hil_serve_stats_t st;
     rc = sim_hil_serve(hw, fd, &sc, &st, err, sizeof err);
     uint64_t refused = 0;
@@ -124,17 +139,25 @@ int cmd_hil(int argc, char **argv)
         refused += st.refused[v];
     sim_hal_world_stats_t ws;
     sim_hal_world_get_stats(hw, &ws);
+    hal_net_stats_t ns = {0};
+    if (bridge != NULL)
+        sim_hil_lcm_bridge_stats(bridge, &ns);
     printf("hil: served %.1f simulated s: %llu ticks, %llu scans sent, %llu wheel commands, %llu sessions, distance %.2f m, "
            "%llu collisions; frames in %llu, out %llu; refused %llu (bad frames), %llu noise bytes, %llu replayed, "
            "%llu before a HELLO, %llu from another address or connection, %llu bad payloads, %llu lost on the way "
-           "in, %llu not ours; %llu fleet datagrams not bridged\n",
+           "in, %llu not ours; fleet datagrams: %llu to the fleet, %llu to the board, %llu subscriptions, %llu "
+           "bridge errors, %llu dropped on arrival, %llu not bridged\n",
            (double)st.t_us * 1e-6, (unsigned long long)st.ticks, (unsigned long long)st.scans,
            (unsigned long long)st.wheels,
            (unsigned long long)st.hellos, ws.distance_m, (unsigned long long)ws.collisions,
            (unsigned long long)st.frames_in, (unsigned long long)st.frames_out, (unsigned long long)refused,
            (unsigned long long)st.noise_bytes, (unsigned long long)st.replayed, (unsigned long long)st.unopened,
            (unsigned long long)st.other_sender, (unsigned long long)(st.bad_payload + st.wrong_robot),
-           (unsigned long long)st.lost, (unsigned long long)st.not_ours, (unsigned long long)st.datagrams_not_bridged);
+           (unsigned long long)st.lost, (unsigned long long)st.not_ours, (unsigned long long)st.to_fleet,
+           (unsigned long long)st.to_board, (unsigned long long)st.subscriptions, (unsigned long long)st.bridge_errors,
+           (unsigned long long)(ns.rx_dropped_full + ns.rx_dropped_malformed + ns.rx_dropped_small),
+           (unsigned long long)st.datagrams_not_bridged);
+    sim_hil_lcm_bridge_close(bridge);
     sim_hal_world_destroy(hw);
     sim_path_free(&path);
     sim_plan_free(&plan);

@@ -151,7 +151,7 @@ static int send_frame(server_t *s, hal_hil_type_t type, int len)
 
 /* The world to t (never back), then the latest scan when the board does not hold it, then the
    latest fix, which ends the answer. */
-static int on_tick(server_t *s, uint64_t t_us, uint64_t scan_held, char *err, size_t errlen)
+static int on_tick(server_t *s, uint64_t t_us, uint64_t scan_held, uint32_t room, char *err, size_t errlen)
 {
     if (t_us > s->world_us) {
         const int r = s->ops->advance_to_us(s->ops->ctx, t_us);
@@ -166,6 +166,20 @@ static int on_tick(server_t *s, uint64_t t_us, uint64_t scan_held, char *err, si
     if (r == 0 && s->scan.stamp_us + 1u != scan_held) {
         r = send_frame(s, HAL_HIL_SCAN, hal_hil_put_scan(s->payload, sizeof s->payload, &s->scan));
         s->st->scans++;
+    }
+    /* The fleet's datagrams for the board, as many as it has room for. */
+    const sim_hil_bridge_t *br = s->cfg->bridge;
+    for (uint32_t k = 0; r == 0 && br != NULL && k < room; k++) {
+        static char ch[HAL_NET_CHANNEL_MAX];
+        static uint8_t data[HAL_NET_MTU_BYTES];
+        const int n = br->receive(br->ctx, ch, data, sizeof data);
+        if (n < 0) {
+            if (n != -EAGAIN)
+                s->st->bridge_errors++;
+            break;
+        }
+        r = send_frame(s, HAL_HIL_DATAGRAM, hal_hil_put_datagram(s->payload, sizeof s->payload, ch, data, (size_t)n));
+        s->st->to_board++;
     }
     if (r == 0)
         r = s->ops->read_pose(s->ops->ctx, s->cfg->robot, &pose);
@@ -227,12 +241,12 @@ static int on_frame(server_t *s, const hal_hil_frame_t *fp, const struct sockadd
         return 0;
     switch (f.type) {
     case HAL_HIL_TICK: {
-        uint64_t t = 0, held = 0;
-        if (hal_hil_get_tick(&f, &t, &held) != 0) {
+        hal_hil_tick_t tk;
+        if (hal_hil_get_tick(&f, &tk) != 0) {
             s->st->bad_payload++;
             return 0;
         }
-        return on_tick(s, t, held, err, errlen);
+        return on_tick(s, tk.stamp_us, tk.scan_held, tk.datagram_room, err, errlen);
     }
     case HAL_HIL_WHEELS: {
         hal_hil_wheels_t w;
@@ -246,9 +260,30 @@ static int on_frame(server_t *s, const hal_hil_frame_t *fp, const struct sockadd
             snprintf(err, errlen, "the world refused a wheel command (%d)", r);
         return r;
     }
-    case HAL_HIL_DATAGRAM:
-        s->st->datagrams_not_bridged++;
+    case HAL_HIL_DATAGRAM: {
+        hal_hil_datagram_t d;
+        if (hal_hil_get_datagram(&f, &d) != 0)
+            s->st->bad_payload++;
+        else if (s->cfg->bridge == NULL)
+            s->st->datagrams_not_bridged++;
+        else if (s->cfg->bridge->publish(s->cfg->bridge->ctx, d.channel, d.data, d.len) != 0)
+            s->st->bridge_errors++;
+        else
+            s->st->to_fleet++;
         return 0;
+    }
+    case HAL_HIL_SUBSCRIBE: {
+        char ch[HAL_NET_CHANNEL_MAX];
+        if (hal_hil_get_subscribe(&f, ch) != 0)
+            s->st->bad_payload++;
+        else if (s->cfg->bridge == NULL)
+            s->st->datagrams_not_bridged++;
+        else if (s->cfg->bridge->subscribe(s->cfg->bridge->ctx, ch) != 0)
+            s->st->bridge_errors++;
+        else
+            s->st->subscriptions++;
+        return 0;
+    }
     default: /* SCAN, POSE: the board has none to send */
         s->st->bad_payload++;
         return 0;

@@ -22,8 +22,11 @@
  * run`, as long as each command reaches the server before the next TICK.
  * Every datagram is checked (frame, session and sequence guard, payload) before anything acts
  * on it; what is refused is counted, and the server goes on. A second HELLO of another session
- * (the board restarted) is taken, from its address. Bridged fleet datagrams (DATAGRAM) are
- * counted and not bridged yet.
+ * (the board restarted) is taken, from its address.
+ * The fleet's datagrams (DATAGRAM, SUBSCRIBE) go through a bridge (sim_hil_bridge_t: the board's
+ * network interface on the fleet's transport), when one is given: the board's to the fleet as
+ * they come, the fleet's to the board inside TICK answers, up to the room the TICK names.
+ * Without one they are counted, not bridged.
  * Every wait is bounded: the server ends when no frame came for idle_timeout_s (0: it served
  * a session and the board went quiet; 1: no board ever said HELLO), or within 100 ms of a stop
  * request (hal_host_stop.h, in its ASK mode). */
@@ -41,17 +44,31 @@ typedef enum sim_hil_link { SIM_HIL_UDP, SIM_HIL_SERIAL, SIM_HIL_ETHER } sim_hil
 /* IEEE 802's local experimental EtherType: the link's frames on an Ethernet. */
 #define SIM_HIL_ETHERTYPE 0x88B5u
 
+/* The board's network interface on the fleet's transport (sim_hil_bridge.h opens one on LCM). */
+typedef struct sim_hil_bridge {
+    void *ctx;
+    /* The board's datagram to the fleet. 0 or a negative code (counted, the serving goes on). */
+    int (*publish)(void *ctx, const char *channel, const void *data, size_t len);
+    /* The board listens to `channel` from now on. 0 or a negative code (counted). */
+    int (*subscribe)(void *ctx, const char *channel);
+    /* The oldest datagram the fleet sent the board, without waiting: its length, its channel
+       into channel, the bytes into buf; -EAGAIN when none, or another negative code. */
+    int (*receive)(void *ctx, char channel[HAL_NET_CHANNEL_MAX], uint8_t *buf, size_t cap);
+} sim_hil_bridge_t;
+
 typedef struct sim_hil_serve_cfg {
     uint32_t robot;           /* the id the board must give in its HELLO */
     sim_hil_link_t link;      /* what fd is: sim_hil_listen's socket for this link */
     hal_hil_world_t world;    /* sent after the HELLO: the plan's box, the physics step, the scan period */
     double idle_timeout_s;    /* > 0 */
     int quiet;                /* no progress lines */
+    const sim_hil_bridge_t *bridge; /* NULL: the fleet's datagrams are counted, not bridged */
 } sim_hil_serve_cfg_t;
 
 typedef struct sim_hil_serve_stats {
     uint64_t frames_in, frames_out;
     uint64_t ticks, scans, wheels, hellos, datagrams_not_bridged;
+    uint64_t to_fleet, to_board, subscriptions, bridge_errors; /* through the bridge */
     uint64_t refused[HAL_HIL_VERDICTS]; /* frames refused by the frame check, by verdict */
     uint64_t replayed, unopened, lost;  /* the session guard's */
     uint64_t bad_payload, wrong_robot, other_sender; /* other_sender: a second stream connection too */

@@ -180,7 +180,7 @@ static void test_stream_finds_every_frame_through_noise(void **st)
     uint64_t noise = 0;
     for (uint32_t k = 1; k <= 200; k++) {
         const size_t len = k % 10u == 0 ? 3000u : rnd() % 200u;
-        const int fl = make_frame((hal_hil_type_t)(1u + k % 7u), k, len, (uint8_t)k);
+        const int fl = make_frame((hal_hil_type_t)(1u + k % 8u), k, len, (uint8_t)k);
         memcpy(wire + n, frame, (size_t)fl);
         n += (size_t)fl;
         if (k % 3u == 0) { /* noise, with the magic's bytes in it */
@@ -391,6 +391,17 @@ static void test_payloads_round_trip_and_refuse(void **st)
     assert_int_equal(hal_hil_put_datagram(payload, sizeof payload, "bad channel", dg, 5), -EINVAL);
     assert_int_equal(hal_hil_put_datagram(payload, sizeof payload, "ok", dg, HAL_NET_MTU_BYTES + 1u), -EMSGSIZE);
 
+    /* SUBSCRIBE: a channel alone */
+    char ch[HAL_NET_CHANNEL_MAX];
+    f = framed(HAL_HIL_SUBSCRIBE, hal_hil_put_subscribe(payload, sizeof payload, "fleetsim/3/state"));
+    assert_int_equal(hal_hil_get_subscribe(&f, ch), 0);
+    assert_string_equal(ch, "fleetsim/3/state");
+    f = framed(HAL_HIL_SUBSCRIBE, hal_hil_put_datagram(payload, sizeof payload, "fleetsim/3/state", dg, 5));
+    assert_int_equal(hal_hil_get_subscribe(&f, ch), -EBADMSG); /* bytes after the channel */
+    f.type = HAL_HIL_DATAGRAM;
+    assert_int_equal(hal_hil_get_subscribe(&f, ch), -EBADMSG);
+    assert_int_equal(hal_hil_put_subscribe(payload, sizeof payload, "bad channel"), -EINVAL);
+
     /* WORLD */
     const hal_hil_world_t wd = {-1.0f, -2.0f, 12.0f, 9.0f, 10000, 100000};
     hal_hil_world_t wd2;
@@ -404,14 +415,15 @@ static void test_payloads_round_trip_and_refuse(void **st)
     assert_int_equal(hal_hil_put_world(payload, sizeof payload, &no_step), -EINVAL);
 
     /* TICK */
-    uint64_t t = 0, held = 0;
-    f = framed(HAL_HIL_TICK, hal_hil_put_tick(payload, sizeof payload, 123456789012ull, 99ull));
-    assert_int_equal(hal_hil_get_tick(&f, &t, &held), 0);
-    assert_true(t == 123456789012ull && held == 99ull);
-    f = framed(HAL_HIL_TICK, 8);
-    assert_int_equal(hal_hil_get_tick(&f, &t, &held), -EBADMSG);
+    const hal_hil_tick_t tk = {123456789012ull, 99ull, 7u};
+    hal_hil_tick_t tk2;
+    f = framed(HAL_HIL_TICK, hal_hil_put_tick(payload, sizeof payload, &tk));
+    assert_int_equal(hal_hil_get_tick(&f, &tk2), 0);
+    assert_true(tk2.stamp_us == 123456789012ull && tk2.scan_held == 99ull && tk2.datagram_room == 7u);
+    f = framed(HAL_HIL_TICK, 16);
+    assert_int_equal(hal_hil_get_tick(&f, &tk2), -EBADMSG);
     f.type = HAL_HIL_WHEELS;
-    assert_int_equal(hal_hil_get_tick(&f, &t, &held), -EBADMSG);
+    assert_int_equal(hal_hil_get_tick(&f, &tk2), -EBADMSG);
 }
 
 /* ---- the board's end (hal_hil_client) against a scripted world -------------------------------- */
@@ -420,7 +432,8 @@ typedef struct fake_world {
     int drop_answers;     /* answers to drop (a lossy link) */
     int noise;            /* garbage bytes before every answer (stream) */
     uint32_t seq;
-    uint64_t ticks_seen, wheels_seen, scans_sent;
+    uint64_t ticks_seen, wheels_seen, scans_sent, datagrams_seen;
+    int fleet_waiting;    /* datagrams the fleet sent the board, not yet in an answer */
     float last_left;
     uint8_t q[16384];     /* what the board will receive */
     size_t q_n, q_at;
@@ -456,8 +469,9 @@ static int fake_send(void *ctx, const uint8_t *bytes, size_t n)
         const hal_hil_world_t w = {0, 0, 10, 8, 10000, 100000};
         world_says(HAL_HIL_WORLD, p, hal_hil_put_world(p, sizeof p, &w));
     } else if (f.type == HAL_HIL_TICK) {
-        uint64_t t, held;
-        assert_int_equal(hal_hil_get_tick(&f, &t, &held), 0);
+        hal_hil_tick_t tk;
+        assert_int_equal(hal_hil_get_tick(&f, &tk), 0);
+        const uint64_t t = tk.stamp_us;
         fw.ticks_seen++;
         if (fw.drop_answers > 0) {
             fw.drop_answers--;
@@ -465,9 +479,13 @@ static int fake_send(void *ctx, const uint8_t *bytes, size_t n)
         }
         hal_lidar_scan_t scan = test_scan(90); /* a new scan every 100 ms */
         scan.stamp_us = t - t % 100000u;
-        if (scan.stamp_us + 1u != held) {
+        if (scan.stamp_us + 1u != tk.scan_held) {
             world_says(HAL_HIL_SCAN, p, hal_hil_put_scan(p, sizeof p, &scan));
             fw.scans_sent++;
+        }
+        for (uint32_t k = 0; k < tk.datagram_room && fw.fleet_waiting > 0; k++, fw.fleet_waiting--) {
+            const uint8_t byte = (uint8_t)fw.fleet_waiting;
+            world_says(HAL_HIL_DATAGRAM, p, hal_hil_put_datagram(p, sizeof p, "fleetsim/0/state", &byte, 1));
         }
         const hal_pose_t pose = {t, 1.0f + (float)t * 1e-6f, 2.0f, 0.5f};
         world_says(HAL_HIL_POSE, p, hal_hil_put_pose(p, sizeof p, &pose));
@@ -476,6 +494,10 @@ static int fake_send(void *ctx, const uint8_t *bytes, size_t n)
         assert_int_equal(hal_hil_get_wheels(&f, &w), 0);
         fw.wheels_seen++;
         fw.last_left = w.left_rad_s;
+    } else if (f.type == HAL_HIL_DATAGRAM) {
+        hal_hil_datagram_t d;
+        assert_int_equal(hal_hil_get_datagram(&f, &d), 0);
+        fw.datagrams_seen++;
     }
     return 0;
 }
@@ -498,6 +520,15 @@ static int fake_recv(void *ctx, uint8_t *buf, size_t cap, uint32_t timeout_us)
     memcpy(buf, fw.q + fw.q_at, n);
     fw.q_at += n;
     return (int)n;
+}
+
+static int got_datagrams;
+
+static void count_datagram(void *ctx, const hal_hil_datagram_t *d)
+{
+    assert_string_equal(d->channel, "fleetsim/0/state");
+    assert_int_equal(d->len, 1);
+    (*(int *)ctx)++;
 }
 
 static void client_round(int stream)
@@ -527,6 +558,21 @@ static void client_round(int stream)
     assert_int_equal(hal_hil_client_tick(&c, 120000), 0); /* a newer scan: it comes before the pose */
     assert_true(c.pose.stamp_us == 120000u && c.scan.stamp_us == 100000u);
     assert_int_equal(fw.scans_sent, 2);
+
+    /* The fleet's datagrams: as many as the board has room for in each answer, to its sink. */
+    fw.fleet_waiting = 5;
+    c.on_datagram = count_datagram;
+    c.datagram_ctx = &got_datagrams;
+    got_datagrams = 0;
+    c.datagram_room = 3;
+    assert_int_equal(hal_hil_client_tick(&c, 140000), 0);
+    assert_true(got_datagrams == 3 && c.stats.datagrams_in == 3 && fw.fleet_waiting == 2);
+    assert_int_equal(hal_hil_client_tick(&c, 160000), 0);
+    assert_true(got_datagrams == 5 && fw.fleet_waiting == 0);
+    static const uint8_t out[3] = {9, 8, 7};
+    assert_int_equal(hal_hil_client_datagram(&c, "fleetsim/1/state", out, sizeof out), 0);
+    assert_int_equal(fw.datagrams_seen, 1);
+    assert_int_equal(hal_hil_client_datagram(&c, "not a channel", out, sizeof out), -EINVAL);
     assert_int_equal(hal_hil_client_init(&c, &port, 0, 20000, 77, "", 1000, 3), -EINVAL);
 }
 
@@ -546,7 +592,7 @@ static void test_fuzz_readers(void **st)
     hal_hil_stream_init(&s);
     int ok = 0, refused = 0;
     for (int it = 0; it < 20000; it++) {
-        int n = make_frame((hal_hil_type_t)(1u + rnd() % 7u), (uint32_t)it, rnd() % 64u, (uint8_t)it);
+        int n = make_frame((hal_hil_type_t)(1u + rnd() % 8u), (uint32_t)it, rnd() % 64u, (uint8_t)it);
         const int flips = (int)(rnd() % 3u);
         for (int k = 0; k < flips; k++)
             frame[rnd() % (uint32_t)n] ^= (uint8_t)(1u << (rnd() % 8u));

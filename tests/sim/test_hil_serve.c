@@ -7,7 +7,8 @@
  * ending on its own when the board goes quiet, its last line counting what it refused; and the
  * firmware's RT core (board_hil) driving its tour through the link; and the same over the serial
  * link (TCP carrying a serial line's bytes): frames cut anywhere, noise, a second connection
- * refused, a board that hangs up and comes back; and over Ethernet frames in datagrams. */
+ * refused, a board that hangs up and comes back; over Ethernet frames in datagrams; and the
+ * bridge of the fleet's datagrams to LCM. */
 #include <setjmp.h>
 #include <stdarg.h>
 #include <stddef.h>
@@ -25,6 +26,7 @@
 
 #include "fleet_procs.h"
 #include "hal/hal_hil_msg.h"
+#include "hal_host.h"
 
 #define DEADLINE_S 20.0
 #define IDLE_S "1.5"
@@ -68,6 +70,8 @@ static int board_socket(const board_t *b)
 
 typedef enum { LINK_UDP, LINK_SERIAL, LINK_ETHER } link_t;
 
+static const char *server_fleet_lcm; /* the next server's --fleet-lcm (NULL: none) */
+
 /* b afresh, and its server started on `link` and listening: its "serving" line in the log,
    within the deadline. */
 static void start_server(board_t *b, const char *name, link_t link)
@@ -82,7 +86,8 @@ static void start_server(board_t *b, const char *name, link_t link)
     snprintf(b->log, sizeof b->log, "%s/%s.log", fp_env.dir, name);
     const char *argv[] = {fp_env.bin, "hil", "--plan", fp_env.plan, "--path", robot_path, "--listen", listen,
                           "--idle-timeout", IDLE_S, "--seed", "7", "--link",
-                          b->stream ? "serial" : b->ether ? "ether" : "udp", NULL};
+                          b->stream ? "serial" : b->ether ? "ether" : "udp",
+                          server_fleet_lcm != NULL ? "--fleet-lcm" : NULL, server_fleet_lcm, NULL};
     b->pid = fp_spawn(argv, b->log, NULL, NULL);
     assert_true(b->pid > 0);
     const double t0 = fp_now();
@@ -209,7 +214,8 @@ static uint8_t in_pose[HAL_HIL_FRAME_MAX], in_scan[HAL_HIL_FRAME_MAX];
    and in_pose). */
 static void tick(board_t *b, uint64_t t_us, hal_pose_t *pose, hal_lidar_scan_t *scan)
 {
-    send_frame(b, HAL_HIL_TICK, hal_hil_put_tick(b->payload, sizeof b->payload, t_us, 0));
+    const hal_hil_tick_t tk = {t_us, 0, 0};
+    send_frame(b, HAL_HIL_TICK, hal_hil_put_tick(b->payload, sizeof b->payload, &tk));
     hal_hil_frame_t f;
     assert_int_equal(recv_frame(b, in_scan, sizeof in_scan, &f, 5000), 1);
     assert_int_equal(hal_hil_get_scan(&f, scan), 0);
@@ -274,7 +280,8 @@ static void test_round_trip(void **st)
     hal_hil_frame_t f;
 
     /* Before a HELLO, and a HELLO for another robot: nothing comes back. */
-    send_frame(b, HAL_HIL_TICK, hal_hil_put_tick(b->payload, sizeof b->payload, 0, 0));
+    const hal_hil_tick_t t0 = {0, 0, 0};
+    send_frame(b, HAL_HIL_TICK, hal_hil_put_tick(b->payload, sizeof b->payload, &t0));
     hello(b, 5);
     assert_int_equal(recv_frame(b, buf, sizeof buf, &f, 300), 0);
 
@@ -308,7 +315,8 @@ static void test_round_trip(void **st)
     assert_true(p1.stamp_us >= 990000u && p1.stamp_us <= 1000000u);
 
     /* Holding the world's latest scan: the pose alone comes back. */
-    send_frame(b, HAL_HIL_TICK, hal_hil_put_tick(b->payload, sizeof b->payload, 1000000, scan_a.stamp_us + 1u));
+    const hal_hil_tick_t held = {1000000, scan_a.stamp_us + 1u, 0};
+    send_frame(b, HAL_HIL_TICK, hal_hil_put_tick(b->payload, sizeof b->payload, &held));
     assert_int_equal(recv_frame(b, buf, sizeof buf, &f, 5000), 1);
     assert_int_equal(hal_hil_get_pose(&f, &p1), 0);
     assert_int_equal(recv_frame(b, buf, sizeof buf, &f, 300), 0);
@@ -466,8 +474,9 @@ static void test_serial_stream(void **st)
                                 (size_t)hal_hil_put_hello(b->payload, sizeof b->payload, &h));
     memcpy(bytes + n, noise, sizeof noise - 1);
     n += sizeof noise - 1;
+    const hal_hil_tick_t t0 = {0, 0, 0};
     n += (size_t)hal_hil_encode(bytes + n, sizeof bytes - n, HAL_HIL_TICK, b->session, ++b->seq, b->payload,
-                                (size_t)hal_hil_put_tick(b->payload, sizeof b->payload, 0, 0));
+                                (size_t)hal_hil_put_tick(b->payload, sizeof b->payload, &t0));
     for (size_t at = 0, k = 1; at < n; at += k, k = k % 7 + 3) {
         const size_t m = at + k <= n ? k : n - at;
         assert_int_equal(send(b->fd, bytes + at, m, 0), (ssize_t)m);
@@ -565,6 +574,85 @@ static void test_ether_frames(void **st)
     close(b->fd);
 }
 
+/* The bridge (--fleet-lcm): the world as the board's network interface on the fleet's LCM. The
+   board's datagram reaches an LCM member (this test); the member's datagrams on the channel
+   the board subscribed to come back inside TICK answers, never more per answer than the room
+   the TICK names. */
+static void test_fleet_bridge(void **st)
+{
+    (void)st;
+    static char url[128];
+    snprintf(url, sizeof url, "udpm://239.255.76.67:%u?ttl=0&recv_buf_size=4194304", 7960u + (unsigned)(getpid() % 30));
+    hal_host_net_t *fleet = NULL;
+    assert_int_equal(hal_host_net_open(url, 16, 0, &fleet), 0);
+    assert_int_equal(hal_host_net_subscribe(fleet, "hiltest_out"), 0);
+    board_t *b = &b1;
+    server_fleet_lcm = url;
+    start_server(b, "hil_bridge", LINK_UDP);
+    server_fleet_lcm = NULL;
+    uint8_t buf[HAL_HIL_FRAME_MAX];
+    hal_hil_frame_t f;
+    hello(b, 0);
+    assert_int_equal(recv_frame(b, buf, sizeof buf, &f, 5000), 1); /* HELLO */
+    assert_int_equal(recv_frame(b, buf, sizeof buf, &f, 5000), 1); /* WORLD */
+    send_frame(b, HAL_HIL_SUBSCRIBE, hal_hil_put_subscribe(b->payload, sizeof b->payload, "hiltest_in"));
+    static const uint8_t out[3] = {1, 2, 3};
+    send_frame(b, HAL_HIL_DATAGRAM, hal_hil_put_datagram(b->payload, sizeof b->payload, "hiltest_out", out, 3));
+    hal_pose_t p;
+    tick(b, 0, &p, &scan_a); /* the world took both frames before this answer */
+
+    /* The board's datagram, on the fleet's LCM. */
+    hal_net_rx_info_t info;
+    uint8_t got[64];
+    int r = -EAGAIN;
+    for (const double t0 = fp_now(); r == -EAGAIN && fp_now() - t0 < 5.0;) {
+        assert_int_equal(hal_host_net_wait(fleet, 0, 100), 0);
+        r = hal_host_net_receive(fleet, 0, &info, got, sizeof got);
+    }
+    assert_int_equal(r, 0);
+    assert_string_equal(info.channel, "hiltest_out");
+    assert_true(info.len == 3 && memcmp(got, out, 3) == 0);
+
+    /* Five from the fleet: two per answer at most, all of them within a few ticks. */
+    for (uint8_t k = 0; k < 5; k++)
+        assert_int_equal(hal_host_net_publish(fleet, "hiltest_in", &k, 1), 0);
+    int to_board = 0, most = 0;
+    for (uint64_t t = 20000; to_board < 5 && t < 3000000; t += 20000) {
+        const hal_hil_tick_t tk = {t, scan_a.stamp_us + 1u, 2};
+        send_frame(b, HAL_HIL_TICK, hal_hil_put_tick(b->payload, sizeof b->payload, &tk));
+        int in_answer = 0;
+        for (;;) {
+            assert_int_equal(recv_frame(b, buf, sizeof buf, &f, 5000), 1);
+            if (f.type == HAL_HIL_POSE)
+                break;
+            if (f.type == HAL_HIL_SCAN) {
+                assert_int_equal(hal_hil_get_scan(&f, &scan_a), 0);
+                continue;
+            }
+            hal_hil_datagram_t d;
+            assert_int_equal(hal_hil_get_datagram(&f, &d), 0);
+            assert_string_equal(d.channel, "hiltest_in");
+            assert_true(d.len == 1 && d.data[0] == (uint8_t)to_board); /* in order */
+            in_answer++;
+            to_board++;
+        }
+        most = in_answer > most ? in_answer : most;
+        fp_sleep_ms(10);
+    }
+    assert_int_equal(to_board, 5);
+    assert_true(most <= 2);
+    static char text[8192];
+    const char *last = server_last_line(b, text, sizeof text);
+    unsigned long long to_fleet = 0, board = 0, subs = 0;
+    assert_int_equal(sscanf(strstr(last, "fleet datagrams: "),
+                            "fleet datagrams: %llu to the fleet, %llu to the board, %llu subscriptions", &to_fleet,
+                            &board, &subs),
+                     3);
+    assert_true(to_fleet == 1 && board == 5 && subs == 1);
+    hal_host_net_close(fleet);
+    close(b->fd);
+}
+
 static int setup(void **st)
 {
     (void)st;
@@ -585,6 +673,7 @@ int main(void)
         cmocka_unit_test(test_rt_core_drives_through_the_link),
         cmocka_unit_test(test_serial_stream),
         cmocka_unit_test(test_ether_frames),
+        cmocka_unit_test(test_fleet_bridge),
     };
     return cmocka_run_group_tests_name("sim/hil_serve", tests, setup, teardown);
 }

@@ -28,6 +28,7 @@ typedef struct hal_hil_port {
 
 typedef struct hal_hil_client_stats {
     uint64_t ticks, resent_ticks, wheels, frames_in, frames_out;
+    uint64_t datagrams_in, datagrams_out;
     uint64_t refused, replayed, unopened, bad_payload, stale;
 } hal_hil_client_stats_t;
 
@@ -38,6 +39,11 @@ typedef struct hal_hil_client {
     char board[HAL_HIL_BOARD_NAME_BYTES + 1u];
     hal_hil_guard_t guard;
     hal_hil_world_t world;              /* from the world's WORLD frame (connect) */
+    /* The fleet's datagrams in a TICK's answer go to on_datagram (the data valid during the
+       call); datagram_room, sent in each TICK, says how many the board can take (0: none). */
+    void (*on_datagram)(void *ctx, const hal_hil_datagram_t *d);
+    void *datagram_ctx;
+    uint32_t datagram_room;
     int have_pose, have_scan;
     hal_pose_t pose;
     hal_lidar_scan_t scan;
@@ -64,5 +70,13 @@ int hal_hil_client_tick(hal_hil_client_t *c, uint64_t t_us);
 
 /* A wheel command (rad/s), stamped t_us. 0, -EINVAL (not finite), or the port's error. */
 int hal_hil_client_wheels(hal_hil_client_t *c, uint64_t t_us, float left_rad_s, float right_rad_s);
+
+/* A datagram to the fleet on `channel`, through the world. 0, -EINVAL (a bad channel),
+ * -EMSGSIZE (over HAL_NET_MTU_BYTES), or the port's error. */
+int hal_hil_client_datagram(hal_hil_client_t *c, const char *channel, const void *data, size_t len);
+
+/* Asks the world to bring this fleet channel's datagrams to the board. 0, -EINVAL, or the
+ * port's error. */
+int hal_hil_client_subscribe(hal_hil_client_t *c, const char *channel);
 
 #endif /* HAL_HIL_CLIENT_H */

@@ -59,6 +59,7 @@ typedef enum hal_hil_type {
     HAL_HIL_DATAGRAM = 5, /* both ways: a fleet datagram, bridged to the other robots */
     HAL_HIL_TICK = 6,     /* board -> host: bring the world to this time, send its sensors */
     HAL_HIL_WORLD = 7,    /* host -> board, after its HELLO: the world's box and rates */
+    HAL_HIL_SUBSCRIBE = 8, /* board -> host: bridge this fleet channel's datagrams to the board */
     HAL_HIL_TYPE_END
 } hal_hil_type_t;
 
