@@ -24,6 +24,11 @@ typedef struct stdc_board {
 } stdc_board_t;
 
 static stdc_board_t stdc;
+static hal_stdc_hil_net_t *link_net; /* the fleet's network over the link, or NULL (loopback) */
+
+static int ring_put(hal_stdc_hil_ring_t *r, const char *channel, const void *data, size_t len, uint32_t subscribe);
+static int ring_take(hal_stdc_hil_ring_t *r, hal_stdc_hil_msg_t **m);
+static void ring_done(hal_stdc_hil_ring_t *r);
 
 /* ---- clock ---------------------------------------------------------------------------------- */
 static int stdc_now_us(void *ctx, uint64_t *now_us)
@@ -160,6 +165,15 @@ static int stdc_subscribed(const char *channel)
 static int stdc_publish(void *ctx, const char *channel, const void *data, size_t len)
 {
     (void)ctx;
+    if (link_net != NULL) { /* to the fleet, when the RT core next talks to the world */
+        if (ring_put(&link_net->out, channel, data, len, 0) != 0) {
+            stdc.stats.tx_rejected++;
+            return -EIO;
+        }
+        stdc.stats.tx_messages++;
+        stdc.stats.tx_bytes += len;
+        return 0;
+    }
     stdc.stats.tx_messages++;
     stdc.stats.tx_bytes += len;
     if (!stdc_subscribed(channel))
@@ -185,6 +199,8 @@ static int stdc_subscribe(void *ctx, const char *channel)
         return 0;
     if (stdc.n_sub == HAL_STDC_NET_CHANNELS)
         return -ENOSPC;
+    if (link_net != NULL && ring_put(&link_net->out, channel, NULL, 0, 1) != 0)
+        return -EIO;
     strcpy(stdc.sub[stdc.n_sub++], channel);
     return 0;
 }
@@ -192,6 +208,25 @@ static int stdc_subscribe(void *ctx, const char *channel)
 static int stdc_receive(void *ctx, hal_net_rx_info_t *info, void *buf, size_t cap)
 {
     (void)ctx;
+    if (link_net != NULL) {
+        hal_stdc_hil_msg_t *m;
+        if (ring_take(&link_net->in, &m) != 0)
+            return -EAGAIN;
+        memcpy(info->channel, m->channel, sizeof info->channel);
+        info->len = m->len;
+        info->stamp_us = m->stamp_us;
+        const int r = m->len > cap ? -EMSGSIZE : 0;
+        if (r == 0 && m->len > 0)
+            memcpy(buf, m->data, m->len);
+        ring_done(&link_net->in);
+        if (r != 0)
+            stdc.stats.rx_dropped_small++;
+        else {
+            stdc.stats.rx_messages++;
+            stdc.stats.rx_bytes += info->len;
+        }
+        return r;
+    }
     if (stdc.fill == 0)
         return -EAGAIN;
     const stdc_msg_t *m = &stdc.queue[stdc.head];
@@ -215,8 +250,8 @@ static int stdc_net_stats(void *ctx, hal_net_stats_t *s)
 {
     (void)ctx;
     *s = stdc.stats;
-    s->queue_fill = stdc.fill;
-    s->queue_depth = HAL_STDC_NET_QUEUE;
+    s->queue_fill = link_net != NULL ? atomic_load(&link_net->in.put) - atomic_load(&link_net->in.take) : stdc.fill;
+    s->queue_depth = link_net != NULL ? HAL_STDC_HIL_QUEUE : HAL_STDC_NET_QUEUE;
     return 0;
 }
 
@@ -255,12 +290,70 @@ static void timing_add(hal_stdc_timing_t *t, uint64_t ns)
         t->max_ns = ns;
 }
 
+/* ---- the rings between the GP core and the link (hal_stdc_hil_ring_t) ---- */
+static int ring_put(hal_stdc_hil_ring_t *r, const char *channel, const void *data, size_t len, uint32_t subscribe)
+{
+    const uint32_t put = atomic_load_explicit(&r->put, memory_order_relaxed);
+    if (put - atomic_load_explicit(&r->take, memory_order_acquire) >= HAL_STDC_HIL_QUEUE || len > HAL_NET_MTU_BYTES)
+        return -ENOSPC;
+    hal_stdc_hil_msg_t *m = &r->msg[put % HAL_STDC_HIL_QUEUE];
+    strcpy(m->channel, channel); /* length checked by the wrapper */
+    m->len = (uint32_t)len;
+    m->subscribe = subscribe;
+    m->stamp_us = hal_stdc_target_now_us();
+    if (len > 0)
+        memcpy(m->data, data, len);
+    atomic_store_explicit(&r->put, put + 1u, memory_order_release);
+    return 0;
+}
+
+/* The oldest message, left in place until ring_done. 0, or -EAGAIN when none. */
+static int ring_take(hal_stdc_hil_ring_t *r, hal_stdc_hil_msg_t **m)
+{
+    const uint32_t take = atomic_load_explicit(&r->take, memory_order_relaxed);
+    if (atomic_load_explicit(&r->put, memory_order_acquire) == take)
+        return -EAGAIN;
+    *m = &r->msg[take % HAL_STDC_HIL_QUEUE];
+    return 0;
+}
+
+static void ring_done(hal_stdc_hil_ring_t *r)
+{
+    atomic_store_explicit(&r->take, atomic_load_explicit(&r->take, memory_order_relaxed) + 1u, memory_order_release);
+}
+
+/* A fleet datagram in a TICK's answer (hal_hil_client's sink): into the in ring, which the
+   TICK said had room. */
+static void hil_on_datagram(void *ctx, const hal_hil_datagram_t *d)
+{
+    (void)ctx;
+    if (ring_put(&link_net->in, d->channel, d->data, d->len, 0) != 0)
+        stdc.stats.rx_dropped_full++;
+}
+
+/* What the GP core queued for the fleet, out through the link (the RT core owns it). */
+static void hil_send_out(void)
+{
+    hal_stdc_hil_msg_t *m;
+    while (ring_take(&link_net->out, &m) == 0) {
+        const int r = m->subscribe ? hal_hil_client_subscribe(hil.client, m->channel)
+                                   : hal_hil_client_datagram(hil.client, m->channel, m->data, m->len);
+        if (r != 0)
+            hil.st.link_errors++;
+        ring_done(&link_net->out);
+    }
+    hil.client->datagram_room =
+        HAL_STDC_HIL_QUEUE - (atomic_load(&link_net->in.put) - atomic_load(&link_net->in.take));
+}
+
 static int hil_sense(void)
 {
     const uint64_t now_ns = hal_stdc_target_now_ns(), now = now_ns / 1000u;
     const uint64_t t = now - now % hil.client->rt_period_us;
     if (hil.ticked && t == hil.tick_us)
         return 0;
+    if (link_net != NULL)
+        hil_send_out();
     const uint64_t sent_ns = hal_stdc_target_link_ns();
     if (hil.lockstep)
         hal_stdc_target_hold(1);
@@ -337,7 +430,7 @@ static const hal_board_t stdc_board = {
 /* stdc_board with the world's lidar, pose and motors (hal_stdc_install_hil fills it). */
 static hal_board_t stdc_board_hil;
 
-int hal_stdc_install_hil(const char *storage_dir, hal_hil_client_t *client, int lockstep)
+int hal_stdc_install_hil(const char *storage_dir, hal_hil_client_t *client, int lockstep, hal_stdc_hil_net_t *net)
 {
     if (client == NULL)
         return -EINVAL;
@@ -347,6 +440,12 @@ int hal_stdc_install_hil(const char *storage_dir, hal_hil_client_t *client, int 
     memset(&hil, 0, sizeof hil);
     hil.client = client;
     hil.lockstep = lockstep != 0;
+    if (net != NULL) {
+        memset(net, 0, sizeof *net);
+        client->on_datagram = hil_on_datagram;
+        client->datagram_room = HAL_STDC_HIL_QUEUE;
+    }
+    link_net = net;
     stdc_board_hil = stdc_board;
     stdc_board_hil.lidar = &stdc_lidar;
     stdc_board_hil.pose = &stdc_pose;
@@ -366,11 +465,13 @@ int hal_stdc_install(const char *storage_dir)
         return -EINVAL;
     memset(&stdc, 0, sizeof stdc);
     strcpy(stdc.dir, dir);
+    link_net = NULL;
     return hal_board_install(&stdc_board);
 }
 
 void hal_stdc_uninstall(void)
 {
+    link_net = NULL;
     if (hal_board_install(NULL) != 0) {
         /* Uninstalling cannot fail. */
     }

@@ -9,7 +9,8 @@
  *   storage  one file per blob, <dir>/<name>, written to <name>.tmp then renamed (atomic where
  *            the file system renames atomically; semihosting passes it to the host)
  *   net      a RAM loopback: what the image publishes on a subscribed channel comes back to
- *            it through a queue of HAL_STDC_NET_QUEUE messages (one node, no radio)
+ *            it through a queue of HAL_STDC_NET_QUEUE messages (one node, no radio); or the
+ *            fleet's, over the hardware-in-the-loop link (hal_stdc_install_hil with a net)
  *   cores    the target's (hal_stdc_target.h): on Cortex-M a small preemptive scheduler,
  *            fixed priorities RT > GP > AI > the main program, sleeping on the SysTick
  *            (hal_stdc_cortex_m_cores.c); on Linux none (-ENOTSUP: a Linux board runs the
@@ -21,6 +22,7 @@
 #ifndef HAL_STDC_H
 #define HAL_STDC_H
 
+#include <stdatomic.h>
 #include <stddef.h>
 #include <stdint.h>
 
@@ -30,6 +32,32 @@
 #define HAL_STDC_NET_QUEUE 4u     /* loopback messages waiting at most */
 #define HAL_STDC_NET_CHANNELS 8u  /* subscriptions */
 #define HAL_STDC_DIR_MAX 128u     /* bytes of the storage directory, NUL included */
+
+#define HAL_STDC_HIL_QUEUE 16u    /* fleet datagrams each way between the GP core and the link */
+
+/* One fleet datagram (or subscription) waiting between the GP core and the link. */
+typedef struct hal_stdc_hil_msg {
+    char channel[HAL_NET_CHANNEL_MAX];
+    uint32_t len;
+    uint32_t subscribe; /* out only: a SUBSCRIBE to the channel, no bytes */
+    uint64_t stamp_us;  /* in only: the board's time it was queued */
+    uint8_t data[HAL_NET_MTU_BYTES];
+} hal_stdc_hil_msg_t;
+
+/* A ring of one writer and one reader on different cores: put and take run free (the fill is
+ * their difference), each written by its own side only. */
+typedef struct hal_stdc_hil_ring {
+    hal_stdc_hil_msg_t msg[HAL_STDC_HIL_QUEUE];
+    _Atomic uint32_t put, take;
+} hal_stdc_hil_ring_t;
+
+/* The network over the link: the GP core publishes and subscribes into `out` and receives
+ * from `in`; the RT core, which owns the link, sends `out` before each TICK and fills `in`
+ * from the TICK's answer (the room it names is in's free slots). The program owns it (static
+ * storage: only a program on the link pays its RAM). */
+typedef struct hal_stdc_hil_net {
+    hal_stdc_hil_ring_t out, in;
+} hal_stdc_hil_net_t;
 
 /* Installs the board. storage_dir: where blobs live ("" or NULL: the current directory).
  * Returns 0, -EINVAL (directory name too long) or hal_board_install()'s error. */
@@ -45,8 +73,12 @@ void hal_stdc_uninstall(void);
  * and waits for the answer; the tick's other readings are the same TICK's. A wheel command
  * goes out at once. A link that does not answer makes the reading -EIO. lockstep: the board's
  * clock stands still while it waits for the answer (hal_stdc_target_hold), so the world's and
- * the link's time are not the board's. 0, -EINVAL or install's error. */
-FS_MUST_CHECK int hal_stdc_install_hil(const char *storage_dir, hal_hil_client_t *client, int lockstep);
+ * the link's time are not the board's. net: NULL (the network stays the RAM loopback), or the
+ * fleet's network through the link (hal_stdc_hil_net_t; a full out ring refuses a publish,
+ * -EIO and tx_rejected; a datagram the in ring cannot take is never sent: the TICK names its
+ * room). 0, -EINVAL or install's error. */
+FS_MUST_CHECK int hal_stdc_install_hil(const char *storage_dir, hal_hil_client_t *client, int lockstep,
+                                       hal_stdc_hil_net_t *net);
 
 /* Durations in the board's time (ns: under -icount a Cortex-M's are instructions): how many,
  * their sum and the longest. */

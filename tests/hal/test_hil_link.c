@@ -18,6 +18,7 @@
 #include "common/crc32.h"
 #include "common/le_bytes.h"
 #include "hal/hal_hil_client.h"
+#include "hal_stdc.h"
 
 static uint8_t frame[HAL_HIL_FRAME_MAX];
 static uint8_t payload[HAL_HIL_PAYLOAD_MAX];
@@ -432,7 +433,7 @@ typedef struct fake_world {
     int drop_answers;     /* answers to drop (a lossy link) */
     int noise;            /* garbage bytes before every answer (stream) */
     uint32_t seq;
-    uint64_t ticks_seen, wheels_seen, scans_sent, datagrams_seen;
+    uint64_t ticks_seen, wheels_seen, scans_sent, datagrams_seen, subscribes_seen;
     int fleet_waiting;    /* datagrams the fleet sent the board, not yet in an answer */
     float last_left;
     uint8_t q[16384];     /* what the board will receive */
@@ -498,6 +499,10 @@ static int fake_send(void *ctx, const uint8_t *bytes, size_t n)
         hal_hil_datagram_t d;
         assert_int_equal(hal_hil_get_datagram(&f, &d), 0);
         fw.datagrams_seen++;
+    } else if (f.type == HAL_HIL_SUBSCRIBE) {
+        char ch[HAL_NET_CHANNEL_MAX];
+        assert_int_equal(hal_hil_get_subscribe(&f, ch), 0);
+        fw.subscribes_seen++;
     }
     return 0;
 }
@@ -583,6 +588,45 @@ static void test_client_against_a_scripted_world(void **st)
     client_round(1); /* a stream in 7-byte pieces, noise before every frame */
 }
 
+/* The stdc back end's network over the link (hal_stdc_install_hil with a net): what the GP core
+ * publishes and subscribes waits in the out ring until the RT core's next reading talks to the
+ * world; the fleet's datagrams of that TICK's answer wait in the in ring for hal_net_receive;
+ * a full out ring refuses a publish. */
+static void test_stdc_net_over_the_link(void **st)
+{
+    (void)st;
+    static hal_hil_client_t c;
+    static hal_stdc_hil_net_t net;
+    memset(&fw, 0, sizeof fw);
+    const hal_hil_port_t port = {NULL, 0, fake_send, fake_recv};
+    assert_int_equal(hal_hil_client_init(&c, &port, 0, 20000, 78, "test", 1000, 3), 0);
+    assert_int_equal(hal_hil_client_connect(&c), 0);
+    assert_int_equal(hal_stdc_install_hil("", &c, 1, &net), 0);
+    assert_int_equal(hal_net_subscribe("fleetsim/0/state"), 0);
+    static const uint8_t msg[3] = {4, 5, 6};
+    assert_int_equal(hal_net_publish("fleetsim/1/state", msg, sizeof msg), 0);
+    assert_true(fw.subscribes_seen == 0 && fw.datagrams_seen == 0); /* not before the RT core talks */
+    fw.fleet_waiting = 3;
+    hal_pose_t p;
+    assert_int_equal(hal_pose_read(&p), 0);
+    assert_true(fw.subscribes_seen == 1 && fw.datagrams_seen == 1 && fw.fleet_waiting == 0);
+    hal_net_rx_info_t info;
+    uint8_t buf[16];
+    for (int k = 0; k < 3; k++) {
+        assert_int_equal(hal_net_receive(&info, buf, sizeof buf), 0);
+        assert_string_equal(info.channel, "fleetsim/0/state");
+        assert_int_equal(info.len, 1);
+    }
+    assert_int_equal(hal_net_receive(&info, buf, sizeof buf), -EAGAIN);
+    for (uint32_t k = 0; k < HAL_STDC_HIL_QUEUE; k++)
+        assert_int_equal(hal_net_publish("fleetsim/1/state", msg, sizeof msg), 0);
+    assert_int_equal(hal_net_publish("fleetsim/1/state", msg, sizeof msg), -EIO);
+    hal_net_stats_t ns;
+    assert_int_equal(hal_net_get_stats(&ns), 0);
+    assert_true(ns.tx_rejected == 1 && ns.rx_messages == 3 && ns.queue_depth == HAL_STDC_HIL_QUEUE);
+    hal_stdc_uninstall();
+}
+
 /* Random and mutated bytes into both readers: no crash, no overread (ASan), and every frame
  * either reader hands out is one whose CRC checks. */
 static void test_fuzz_readers(void **st)
@@ -628,6 +672,7 @@ int main(void)
         cmocka_unit_test(test_guard_refuses_replays_and_unopened_sessions),
         cmocka_unit_test(test_payloads_round_trip_and_refuse),
         cmocka_unit_test(test_client_against_a_scripted_world),
+        cmocka_unit_test(test_stdc_net_over_the_link),
         cmocka_unit_test(test_fuzz_readers),
     };
     return cmocka_run_group_tests_name("hal/hil_link", tests, NULL, NULL);

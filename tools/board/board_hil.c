@@ -167,7 +167,7 @@ int main(int argc, char **argv)
            "scan every %u us\n",
            BOARD_NAME, (unsigned)o.robot, hal_stdc_hil_kind(), o.connect, (double)w->min_x, (double)w->min_y,
            (double)w->max_x, (double)w->max_y, (unsigned)w->step_us, (unsigned)w->scan_period_us);
-    if ((r = hal_stdc_install_hil("", &client, (int)o.lockstep)) != 0) {
+    if ((r = hal_stdc_install_hil("", &client, (int)o.lockstep, NULL)) != 0) {
         fprintf(stderr, "board_hil: cannot install the board (%d)\n", r);
         return 1;
     }
