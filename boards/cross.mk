@@ -72,8 +72,9 @@ FW_CXX  := $(if $(filter eigen,$(LA_BACKEND)),$(sort $(shell find firmware -name
 # The program and its HAL, the same for the image and the host reference but for the target file.
 PROG_HAL_C := $(sort $(wildcard hal/common/*.c)) hal/stdc/hal_stdc.c
 PROG_C     := tools/board/board_train.c tools/board/heap_probe.c
-# The target's files of hal/stdc (start-up, time base, cores); its link port only in board_hil.
-TARGET_C := $(filter-out %_hil.c,$(sort $(wildcard hal/stdc/hal_stdc_$(BOARD_HAL_TARGET)*.c)))
+# The target's files of hal/stdc (start-up, time base, cores); its link ports only in board_hil.
+TARGET_ALL_C := $(sort $(wildcard hal/stdc/hal_stdc_$(BOARD_HAL_TARGET)*.c))
+TARGET_C := $(filter-out %_hil.c,$(TARGET_ALL_C))
 IMG_C   := $(PROG_HAL_C) $(TARGET_C) $(PROG_C)
 FW_OBJ  := $(patsubst %,$(X)/obj/%.o,$(FW_C) $(FW_CXX))
 IMG_OBJ := $(patsubst %,$(X)/obj/%.o,$(IMG_C))
@@ -245,7 +246,7 @@ run: $(TEST_DEPS) $(IMAGE) $(HOST_BIN) $(RUN_DEPS)
 HIL_SECONDS ?= 20
 HIL_PLAN    ?= host_sim/plans/apartment.svg
 HIL_TOUR    ?= host_sim/plans/apartment/robot_0.csv
-HIL_C   := tools/board/board_hil.c $(PROG_HAL_C) $(sort $(wildcard hal/stdc/hal_stdc_$(BOARD_HAL_TARGET)*.c))
+HIL_C   := tools/board/board_hil.c $(PROG_HAL_C) $(TARGET_ALL_C)
 HIL_OBJ := $(patsubst %,$(X)/obj/%.o,$(HIL_C))
 $(HIL_OBJ): | $(MSG_GEN)/msg/msg_layout.h
 ifeq ($(BOARD_LINK),linux)

@@ -1,6 +1,8 @@
 /* The board's end of the hardware-in-the-loop link (hal/hal_hil_client.h). */
 #include "hal/hal_hil_client.h"
 
+#include "common/le_bytes.h"
+
 #include <errno.h>
 #include <string.h>
 
@@ -113,15 +115,6 @@ int hal_hil_client_connect(hal_hil_client_t *c)
     return -ETIMEDOUT;
 }
 
-/* A SCAN payload's stamp (its first field), before the whole is decoded. */
-static uint64_t le_stamp(const uint8_t *p)
-{
-    uint64_t v = 0;
-    for (int i = 7; i >= 0; i--)
-        v = v << 8 | p[i];
-    return v;
-}
-
 int hal_hil_client_tick(hal_hil_client_t *c, uint64_t t_us)
 {
     for (uint32_t t = 0; t < c->tries; t++) {
@@ -147,7 +140,7 @@ int hal_hil_client_tick(hal_hil_client_t *c, uint64_t t_us)
                     c->have_pose = pose = 1;
                 }
             } else if (f.type == HAL_HIL_SCAN) {
-                if (c->have_scan && f.len >= 8u && le_stamp(f.payload) <= c->scan.stamp_us)
+                if (c->have_scan && f.len >= 8u && le_get_u64(f.payload) <= c->scan.stamp_us) /* its stamp, before the whole is decoded */
                     c->stats.stale++; /* one held already: a late answer's */
                 else if (hal_hil_get_scan(&f, &c->scan) != 0) /* refused: c->scan untouched */
                     c->stats.bad_payload++;

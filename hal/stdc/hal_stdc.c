@@ -29,6 +29,7 @@ static hal_stdc_hil_net_t *link_net; /* the fleet's network over the link, or NU
 static int ring_put(hal_stdc_hil_ring_t *r, const char *channel, const void *data, size_t len, uint32_t subscribe);
 static int ring_take(hal_stdc_hil_ring_t *r, hal_stdc_hil_msg_t **m);
 static void ring_done(hal_stdc_hil_ring_t *r);
+static uint32_t ring_fill(hal_stdc_hil_ring_t *r);
 
 /* ---- clock ---------------------------------------------------------------------------------- */
 static int stdc_now_us(void *ctx, uint64_t *now_us)
@@ -165,17 +166,15 @@ static int stdc_subscribed(const char *channel)
 static int stdc_publish(void *ctx, const char *channel, const void *data, size_t len)
 {
     (void)ctx;
-    if (link_net != NULL) { /* to the fleet, when the RT core next talks to the world */
-        if (ring_put(&link_net->out, channel, data, len, 0) != 0) {
-            stdc.stats.tx_rejected++;
-            return -EIO;
-        }
-        stdc.stats.tx_messages++;
-        stdc.stats.tx_bytes += len;
-        return 0;
+    /* Over the link: to the fleet, when the RT core next talks to the world. */
+    if (link_net != NULL && ring_put(&link_net->out, channel, data, len, 0) != 0) {
+        stdc.stats.tx_rejected++;
+        return -EIO;
     }
     stdc.stats.tx_messages++;
     stdc.stats.tx_bytes += len;
+    if (link_net != NULL)
+        return 0;
     if (!stdc_subscribed(channel))
         return 0; /* nobody listens: gone, as on a radio */
     if (stdc.fill == HAL_STDC_NET_QUEUE) {
@@ -250,7 +249,7 @@ static int stdc_net_stats(void *ctx, hal_net_stats_t *s)
 {
     (void)ctx;
     *s = stdc.stats;
-    s->queue_fill = link_net != NULL ? atomic_load(&link_net->in.put) - atomic_load(&link_net->in.take) : stdc.fill;
+    s->queue_fill = link_net != NULL ? ring_fill(&link_net->in) : stdc.fill;
     s->queue_depth = link_net != NULL ? HAL_STDC_HIL_QUEUE : HAL_STDC_NET_QUEUE;
     return 0;
 }
@@ -291,6 +290,11 @@ static void timing_add(hal_stdc_timing_t *t, uint64_t ns)
 }
 
 /* ---- the rings between the GP core and the link (hal_stdc_hil_ring_t) ---- */
+static uint32_t ring_fill(hal_stdc_hil_ring_t *r)
+{
+    return atomic_load_explicit(&r->put, memory_order_acquire) - atomic_load_explicit(&r->take, memory_order_acquire);
+}
+
 static int ring_put(hal_stdc_hil_ring_t *r, const char *channel, const void *data, size_t len, uint32_t subscribe)
 {
     const uint32_t put = atomic_load_explicit(&r->put, memory_order_relaxed);
@@ -342,8 +346,7 @@ static void hil_send_out(void)
             hil.st.link_errors++;
         ring_done(&link_net->out);
     }
-    hil.client->datagram_room =
-        HAL_STDC_HIL_QUEUE - (atomic_load(&link_net->in.put) - atomic_load(&link_net->in.take));
+    hil.client->datagram_room = HAL_STDC_HIL_QUEUE - ring_fill(&link_net->in);
 }
 
 static int hil_sense(void)

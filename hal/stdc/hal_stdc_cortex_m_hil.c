@@ -182,11 +182,11 @@ static int eth_recv(void *ctx, uint8_t *buf, size_t cap, uint32_t timeout_us)
     (void)ctx;
     const uint64_t deadline = link_us() + timeout_us;
     for (;;) {
-        if (((LAN_REG(LAN_RX_FIFO_INF) >> 16) & 0xFFu) == 0) {
-            if (link_us() >= deadline)
-                return 0;
+        /* Checked before every frame too: a flood of other frames ends the wait as a timeout. */
+        if (link_us() >= deadline)
+            return 0;
+        if (((LAN_REG(LAN_RX_FIFO_INF) >> 16) & 0xFFu) == 0)
             continue;
-        }
         const uint32_t len = (LAN_REG(LAN_RX_STATUS) >> 16) & 0x3FFFu; /* with the FCS */
         const uint32_t words = (len + 3u) / 4u;
         for (uint32_t i = 0; i < words; i++) {

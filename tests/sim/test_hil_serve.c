@@ -235,6 +235,18 @@ static void wheels(board_t *b, float l, float r)
     send_frame(b, HAL_HIL_WHEELS, hal_hil_put_wheels(b->payload, sizeof b->payload, &w));
 }
 
+/* HELLO for robot 0, and the world's HELLO and WORLD that open the session. */
+static void open_session(board_t *b)
+{
+    uint8_t buf[HAL_HIL_FRAME_MAX];
+    hal_hil_frame_t f;
+    hello(b, 0);
+    assert_int_equal(recv_frame(b, buf, sizeof buf, &f, 5000), 1);
+    assert_int_equal(f.type, HAL_HIL_HELLO);
+    assert_int_equal(recv_frame(b, buf, sizeof buf, &f, 5000), 1);
+    assert_int_equal(f.type, HAL_HIL_WORLD);
+}
+
 /* The first waypoint of robot 0's tour (x, y). */
 static void tour_start(double *x, double *y)
 {
@@ -364,11 +376,7 @@ static void test_same_seed_same_bytes(void **st)
     for (int k = 0; k < 2; k++) {
         board_t *b = bs[k];
         start_server(b, k == 0 ? "hil_a" : "hil_b", LINK_UDP);
-        uint8_t buf[HAL_HIL_FRAME_MAX];
-        hal_hil_frame_t f;
-        hello(b, 0);
-        assert_int_equal(recv_frame(b, buf, sizeof buf, &f, 5000), 1);
-        assert_int_equal(recv_frame(b, buf, sizeof buf, &f, 5000), 1); /* WORLD */
+        open_session(b);
         tick(b, 0, &p, k == 0 ? &scan_a : &scan_b);
         wheels(b, 4.0f, 3.0f);
         tick(b, 700000, &p, k == 0 ? &scan_a : &scan_b);
@@ -516,9 +524,7 @@ static void test_serial_stream(void **st)
     b->seq = 0;
     hal_hil_guard_init(&b->guard);
     hal_hil_stream_init(&b->rx);
-    hello(b, 0);
-    assert_int_equal(recv_frame(b, buf, sizeof buf, &f, 5000), 1); /* HELLO */
-    assert_int_equal(recv_frame(b, buf, sizeof buf, &f, 5000), 1); /* WORLD */
+    open_session(b);
     tick(b, 1000000, &p1, &scan_a);
     assert_true(p1.stamp_us >= 990000u);
 
@@ -549,14 +555,8 @@ static void test_ether_frames(void **st)
     (void)st;
     board_t *b = &b1;
     start_server(b, "hil_ether", LINK_ETHER);
-    uint8_t buf[HAL_HIL_FRAME_MAX];
-    hal_hil_frame_t f;
     send_ether(b, 0x0800u, (const uint8_t *)"an IPv4 packet", 14); /* another EtherType */
-    hello(b, 0);
-    assert_int_equal(recv_frame(b, buf, sizeof buf, &f, 5000), 1);
-    assert_int_equal(f.type, HAL_HIL_HELLO);
-    assert_int_equal(recv_frame(b, buf, sizeof buf, &f, 5000), 1);
-    assert_int_equal(f.type, HAL_HIL_WORLD);
+    open_session(b);
     hal_pose_t p0, p1;
     tick(b, 0, &p0, &scan_a);
     wheels(b, 4.0f, 4.0f);
@@ -592,9 +592,7 @@ static void test_fleet_bridge(void **st)
     server_fleet_lcm = NULL;
     uint8_t buf[HAL_HIL_FRAME_MAX];
     hal_hil_frame_t f;
-    hello(b, 0);
-    assert_int_equal(recv_frame(b, buf, sizeof buf, &f, 5000), 1); /* HELLO */
-    assert_int_equal(recv_frame(b, buf, sizeof buf, &f, 5000), 1); /* WORLD */
+    open_session(b);
     send_frame(b, HAL_HIL_SUBSCRIBE, hal_hil_put_subscribe(b->payload, sizeof b->payload, "hiltest_in"));
     static const uint8_t out[3] = {1, 2, 3};
     send_frame(b, HAL_HIL_DATAGRAM, hal_hil_put_datagram(b->payload, sizeof b->payload, "hiltest_out", out, 3));

@@ -7,7 +7,8 @@
  * to the AI core's ring, which nothing drains here (they are counted).
  *
  * Built for the host (make: build/<config>/bin/board_hil, a Linux board's stand-in: UDP), for
- * rpi3 (UDP under qemu-aarch64) and for the Cortex-M boards (a UART under qemu-system-arm):
+ * rpi3 (UDP under qemu-aarch64) and for the Cortex-M boards (Ethernet or a UART under
+ * qemu-system-arm):
  * `make hil BOARD=...`. */
 #include <errno.h>
 #include <inttypes.h>
@@ -34,12 +35,13 @@ typedef struct hil_opts {
 static void usage(FILE *to)
 {
     fprintf(to,
-            "usage: board_hil --connect HOST:PORT --tour ROBOT.csv [options]\n"
+            "usage: board_hil --connect WHERE --tour ROBOT.csv [options]\n"
             "Runs the firmware's RT core on this board against the world `host_sim hil` serves: it\n"
             "drives ROBOT.csv (x_m,y_m per line, the tour host_sim hil was given) until the tour ends\n"
             "or --time runs out, then prints `result <key> <value>` lines.\n\n"
             "  --connect WHERE      the link: A.B.C.D:PORT on a Linux board (UDP, host_sim hil\n"
-            "                       --listen), uart0..uart3 on a Cortex-M board (serial)\n"
+            "                       --listen); eth0 (Ethernet) or uart0..uart3 (serial) on a\n"
+            "                       Cortex-M board\n"
             "  --tour ROBOT.csv     the robot's waypoints\n"
             "  --robot I            the robot's id, as host_sim hil serves it (default 0)\n"
             "  --time S             stop after S seconds of the board's time (default 600)\n"
