@@ -301,6 +301,7 @@ def death_without_restart_is_reported():
         f = info.get("failed")
         check(isinstance(f, dict) and f["robot"] == 1 and f["round"] == 4 and "SIGKILL" in f["how"] and
               f["error"] == "host_sim run: about to die" and f["restarted"] is False, f"run.json failed: {f}")
+        check(os.path.exists(os.path.join(run_dir, "summary.md")), f"no summary.md; the launcher said:\n{out}")
         with open(os.path.join(run_dir, "summary.md")) as fh:
             md = fh.read()
         check("The fleet failed: robot 1 died at round 4 (killed by signal SIGKILL)" in md, f"summary.md:\n{md}")
