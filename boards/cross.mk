@@ -104,7 +104,7 @@ else
 say = @printf '  %-4s %s\n' '$(1)' '$(2)';
 endif
 
-.PHONY: image run profile test hil
+.PHONY: image run profile test hil hil-rt robot
 image: $(IMAGE)
 
 # The flags live here and in the board's board.mk: a change there rebuilds.
@@ -246,7 +246,7 @@ run: $(TEST_DEPS) $(IMAGE) $(HOST_BIN) $(RUN_DEPS)
 HIL_SECONDS ?= 20
 HIL_PLAN    ?= host_sim/plans/apartment.svg
 HIL_TOUR    ?= host_sim/plans/apartment/robot_0.csv
-HIL_C   := tools/board/board_hil.c $(PROG_HAL_C) $(TARGET_ALL_C)
+HIL_C   := tools/board/board_hil.c tools/board/board_world.c $(PROG_HAL_C) $(TARGET_ALL_C)
 HIL_OBJ := $(patsubst %,$(X)/obj/%.o,$(HIL_C))
 $(HIL_OBJ): | $(MSG_GEN)/msg/msg_layout.h
 ifeq ($(BOARD_LINK),linux)
@@ -267,15 +267,47 @@ $(HIL_BIN): $(HIL_OBJ) $(X)/lib/libfirmware.a $(X)/board.ld
 HIL_PORT := $(if $(filter ether,$(HIL_LINK)),eth0,uart0)
 HIL_WIRE := $(if $(filter ether,$(HIL_LINK)),-nic socket$(comma)udp=127.0.0.1:@PORT@$(comma)localaddr=127.0.0.1:0,-serial tcp:127.0.0.1:@PORT@)
 HIL_ARGS := board_hil --connect $(HIL_PORT) --tour $(HIL_TOUR) --time $(HIL_SECONDS)
+# The whole robot (tools/board/board_robot.c: fw_robot's three cores on the board's scheduler).
+ROBOT_C   := tools/board/board_robot.c tools/board/board_world.c $(PROG_HAL_C) $(TARGET_ALL_C)
+ROBOT_OBJ := $(patsubst %,$(X)/obj/%.o,$(ROBOT_C))
+ROBOT_BIN := $(X)/board_robot.elf
+$(ROBOT_OBJ): | $(MSG_GEN)/msg/msg_layout.h
+$(ROBOT_BIN): $(ROBOT_OBJ) $(X)/lib/libfirmware.a $(X)/board.ld
+	$(call say,LD,$@)$(if $(FW_CXX),$(XCXX),$(XCC)) $(BOARD_CPU_FLAGS) $(LINK_FLAGS:fleetsim.map=board_robot.map) \
+	    $(ROBOT_OBJ) $(X)/lib/libfirmware.a $(LINK_LIBS) -o $@
+robot: $(ROBOT_BIN)
 HIL_RUN  := tools/board/run_hil.sh --link $(HIL_LINK) $(HOST_SIM) $(HIL_PLAN) $(HIL_TOUR) $(HIL_SECONDS) $(R)/hil \
 	$(BOARD_QEMU) -monitor none $(HIL_WIRE) \
 	-semihosting-config enable=on,target=native$(subst $(space),,$(foreach a,$(HIL_ARGS),$(comma)arg=$(a))) -kernel $(HIL_BIN)
 endif
 
-hil: $(HIL_BIN)
-	@test -n "$(filter $(HIL_LINK),$(HIL_LINKS))" || { echo "make hil: HIL_LINK=$(HIL_LINK): $(XBOARD) speaks $(HIL_LINKS)" >&2; exit 2; }
-	@test -x "$(HOST_SIM)" || { echo "make hil: HOST_SIM='$(HOST_SIM)' is not host_sim (run it from the top: make hil BOARD=$(XBOARD))" >&2; exit 2; }
+hil-rt: $(HIL_BIN)
+	@test -n "$(filter $(HIL_LINK),$(HIL_LINKS))" || { echo "make hil-rt: HIL_LINK=$(HIL_LINK): $(XBOARD) speaks $(HIL_LINKS)" >&2; exit 2; }
+	@test -x "$(HOST_SIM)" || { echo "make hil-rt: HOST_SIM='$(HOST_SIM)' is not host_sim (run it from the top: make hil-rt BOARD=$(XBOARD))" >&2; exit 2; }
 	@$(HIL_RUN)
+
+ifeq ($(BOARD_LINK),linux)
+hil: hil-rt
+else
+# The whole robot in a fleet (tools/board/hil_fleet.py): robot 0 is board_robot.elf under the
+# board's QEMU (sleep=on: an idle board waits in real time, as its peers do), the others and the
+# reference fleet are host_sim processes built with the board's preset and math (and nothing
+# fused: FP_CONTRACT=off), so robot 0's
+# final validation loss on the board and on the host must agree (HIL_RTOL).
+HIL_ROBOTS      ?= 3
+HIL_ROUNDS      ?= 30
+HIL_POST_ROUNDS ?= 3
+HIL_RTOL        ?= 1e-4
+HIL_QEMU := $(subst -icount shift=0$(comma)sleep=off,,$(BOARD_QEMU))
+# The host robots: the board's preset and math, nothing fused (its compiler fuses nothing).
+HIL_HOST_CONFIG := BOARD=host PRESET=$(BOARD_PRESET) LA_BACKEND=$(BOARD_LA_BACKEND) FP_CONTRACT=off
+hil: $(ROBOT_BIN)
+	@$(MAKE) --no-print-directory -f Makefile $(HIL_HOST_CONFIG) host-sim
+	@tools/board/hil_fleet.py --board $(XBOARD) --qemu "$(HIL_QEMU)" --elf $(ROBOT_BIN) \
+	    --host-sim "$$($(MAKE) -s --no-print-directory -f Makefile $(HIL_HOST_CONFIG) print-host-sim)" \
+	    --robots $(HIL_ROBOTS) --rounds $(HIL_ROUNDS) --post-rounds $(HIL_POST_ROUNDS) --rtol $(HIL_RTOL) \
+	    --out $(R)/hil-fleet
+endif
 
 # The compilers' dependency files (-MMD -MP): a header's change rebuilds what includes it.
 -include $(shell find $(X) -name '*.d' 2>/dev/null)

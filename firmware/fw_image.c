@@ -37,6 +37,10 @@ static void fw_core_entry(void *arg)
         st->done = 1;
         return;
     }
+    /* Released at whole periods of the board's clock (the host's lockstep starts at 0): a
+       scheduler that wakes its threads on a tick dividing the period releases the core at the
+       tick itself, and a world stepped in whole periods sees each tick at its own step. */
+    start += (c->period_us - start % c->period_us) % c->period_us;
     st->start_us = start;
     if (c->asleep != NULL) {
         const int r = hal_clock_while_asleep(c->asleep, c->arg, c->asleep_every_us);

@@ -26,6 +26,20 @@ fw_robot_cfg_t fw_robot_default_cfg(void)
     return c;
 }
 
+int fw_robot_join_fleet(fw_robot_cfg_t *cfg, const gp_fleet_cfg_t *fleet)
+{
+    if (cfg == NULL || fleet == NULL)
+        return -EINVAL;
+    const int r = gp_fleet_init(&fw_fleet, fleet);
+    if (r != 0)
+        return r;
+    cfg->gp.peers = &gp_fleet_peers_ops;
+    cfg->gp.peers_ctx = &fw_fleet;
+    cfg->ai.post_rounds = fleet->post_rounds; /* the fleet's posterior, after the DiNNO rounds */
+    cfg->ai.fleet_size = fleet->n_peers;
+    return 0;
+}
+
 int fw_robot_start(const fw_robot_cfg_t *cfg)
 {
     if (cfg == NULL)

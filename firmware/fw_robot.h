@@ -29,6 +29,12 @@ typedef struct fw_robot_cfg {
 /* Defaults for everything but the path and the plan box (rt.waypoints, rt.samples box). */
 fw_robot_cfg_t fw_robot_default_cfg(void);
 
+/* Makes the robot a member of a fleet (gp_fleet.h): initialises the image's fleet exchange from
+ * fleet (the channels it names must be subscribable on the installed board) and points cfg's GP
+ * core at it, with the AI core's posterior rounds and fleet size the fleet's. Before
+ * fw_robot_start(). 0 or gp_fleet_init()'s error. */
+FS_MUST_CHECK int fw_robot_join_fleet(fw_robot_cfg_t *cfg, const gp_fleet_cfg_t *fleet);
+
 /* Initialises the cores from cfg and starts them. 0, -EINVAL (bad cfg) or the HAL's error. */
 FS_MUST_CHECK int fw_robot_start(const fw_robot_cfg_t *cfg);
 
@@ -39,9 +45,8 @@ const ai_core_t *fw_robot_ai(void);
  * this core's own pool, so the image holds one model, not two. Not while the cores run. */
 ai_core_t *fw_robot_ai_work(void);
 gp_core_t *fw_robot_gp(void);
-/* The GP core's fleet exchange (static, in the image's GP RAM): the host joins it to a fleet
- * (gp_fleet_init, then gp_core_cfg_t.peers = &gp_fleet_peers_ops, peers_ctx = it) before
- * fw_robot_start(); left unused by a robot without peers. */
+/* The GP core's fleet exchange (static, in the image's GP RAM), joined by fw_robot_join_fleet();
+ * left unused by a robot without peers. */
 gp_fleet_t *fw_robot_fleet(void);
 const fw_image_t *fw_robot_image(void);
 

@@ -91,13 +91,16 @@ int ai_core_init(ai_core_t *ai, const ai_core_cfg_t *cfg, const fw_link_t *link)
     ai->belief_errors = 0;
     if (r != 0)
         return r;
-    r = ai_pool_init(&ai->pool, ai->pool_data, AI_POOL_CAPACITY, cfg->policy,
+    if (cfg->pool_samples > AI_POOL_CAPACITY)
+        return -EINVAL;
+    const uint32_t capacity = cfg->pool_samples != 0 ? cfg->pool_samples : AI_POOL_CAPACITY;
+    r = ai_pool_init(&ai->pool, ai->pool_data, capacity, cfg->policy,
                      ai_rng_mix64(cfg->seed ^ 0x504F4F4C53454544ull));
     if (r != 0)
         return r;
     ai->status.round = cfg->start_round;
     ai->status.rounds_total = cfg->rounds;
-    ai->status.pool_capacity = AI_POOL_CAPACITY;
+    ai->status.pool_capacity = capacity;
     ai->status.loss_train = NAN;
     return 0;
 }
@@ -397,4 +400,10 @@ int ai_core_tick(void *arg, const fw_tick_t *tick)
     if (mbox_put(ai->link->ai_status, &ai->status) != 0)
         rc = -EINVAL;
     return rc;
+}
+
+void ai_core_seeds(uint64_t run_seed, uint32_t robot, uint64_t *model_seed, uint64_t *node_seed)
+{
+    *model_seed = ai_rng_mix64(run_seed ^ 0x5EEDB4B1ull);
+    *node_seed = ai_rng_mix64(run_seed ^ ai_rng_mix64(0xA6E7ull + (uint64_t)robot));
 }

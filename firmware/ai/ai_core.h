@@ -86,6 +86,8 @@ typedef struct ai_core_cfg {
     uint64_t model_seed;      /* initial weights */
     uint64_t seed;            /* minibatches, BNN noise, reservoir */
     uint32_t node_id;
+    uint32_t pool_samples;    /* the pool's capacity: 0 (AI_POOL_CAPACITY) or 1 .. AI_POOL_CAPACITY; a
+                                 host robot given a board's capacity keeps what that board keeps */
     int train_between;        /* 0/1 */
     uint32_t start_round;     /* first round to run, 0 .. rounds + post_rounds - 1 (0: fresh) */
     uint32_t post_rounds;     /* rounds after the DiNNO rounds in which the fleet's epistemic
@@ -105,6 +107,12 @@ typedef struct ai_core_cfg {
     int explore_counts;             /* 0/1, with explore_budget_us: the belief also counts where
                                        the rays went (ai_seen.h; above) */
 } ai_core_cfg_t;
+
+/* The seeds of robot `robot` of a run seeded `run_seed`: the model's initial weights (the same
+ * for every robot: one network) and the robot's own (minibatches, BNN noise, reservoir). Every
+ * program that starts a robot (host_sim's fleets of threads or processes, a board's image) takes
+ * them from here, so they train the same models. */
+void ai_core_seeds(uint64_t run_seed, uint32_t robot, uint64_t *model_seed, uint64_t *node_seed);
 
 typedef enum ai_core_phase {
     AI_PHASE_COLLECT = 0,     /* between boundaries */

@@ -120,7 +120,9 @@ int hal_hil_client_tick(hal_hil_client_t *c, uint64_t t_us)
     for (uint32_t t = 0; t < c->tries; t++) {
         if (t > 0)
             c->stats.resent_ticks++;
-        const hal_hil_tick_t tk = {t_us, c->have_scan ? c->scan.stamp_us + 1u : 0u, c->datagram_room};
+        const uint32_t most = c->port.answer_datagrams_max;
+        const uint32_t room = most != 0 && c->datagram_room > most ? most : c->datagram_room;
+        const hal_hil_tick_t tk = {t_us, c->have_scan ? c->scan.stamp_us + 1u : 0u, room};
         int r = send_frame(c, HAL_HIL_TICK, hal_hil_put_tick(c->payload, sizeof c->payload, &tk));
         if (r != 0)
             return r;

@@ -110,10 +110,10 @@ static int stdc_write(void *ctx, const char *name, const void *data, size_t len)
     /* POSIX rename() replaces the old blob atomically (semihosting passes it to the host's);
      * C leaves renaming onto an existing file to the implementation, so where it refuses,
      * clear the way and rename again (not atomic there). */
-    if (rename(tmp, path) == 0)
+    if (hal_stdc_target_rename(tmp, path) == 0)
         return 0;
     remove(path);
-    if (rename(tmp, path) == 0)
+    if (hal_stdc_target_rename(tmp, path) == 0)
         return 0;
     remove(tmp);
     return -EIO;
@@ -163,10 +163,50 @@ static int stdc_subscribed(const char *channel)
     return 0;
 }
 
+/* Over the link, a core other than the RT core (which alone empties the rings, at each of its
+   ticks) may wait for the rings: it sleeps in steps of HAL_STDC_HIL_WAIT_STEP_US while the other
+   threads run. The RT core, and a program without cores, never wait (nobody else would empty
+   them). */
+#define HAL_STDC_HIL_WAIT_STEP_US 1000u
+#define HAL_STDC_HIL_PUBLISH_WAIT_US 100000u /* five RT periods of 20 ms: the out ring's room */
+
+static int link_may_wait(void)
+{
+    hal_core_id_t self;
+    return link_net != NULL && hal_stdc_target_core_self(&self) == 0 && self != HAL_CORE_RT;
+}
+
+/* Sleeps until cond() holds or the board's time reaches deadline_us; whether it holds. */
+static int link_wait_for(int (*cond)(void), uint64_t deadline_us)
+{
+    for (;;) {
+        if (cond())
+            return 1;
+        const uint64_t now = hal_stdc_target_now_us();
+        if (now >= deadline_us)
+            return 0;
+        hal_stdc_target_sleep_until(deadline_us - now > HAL_STDC_HIL_WAIT_STEP_US ? now + HAL_STDC_HIL_WAIT_STEP_US
+                                                                                   : deadline_us);
+    }
+}
+
+static int out_has_room(void)
+{
+    return ring_fill(&link_net->out) < HAL_STDC_HIL_QUEUE;
+}
+
+static int in_has_one(void)
+{
+    return ring_fill(&link_net->in) > 0;
+}
+
 static int stdc_publish(void *ctx, const char *channel, const void *data, size_t len)
 {
     (void)ctx;
-    /* Over the link: to the fleet, when the RT core next talks to the world. */
+    /* Over the link: to the fleet, when the RT core next talks to the world. A full out ring is
+       waited for (as a socket's send buffer), within a bound; then the datagram is refused. */
+    if (link_net != NULL && !out_has_room() && link_may_wait())
+        (void)link_wait_for(out_has_room, hal_stdc_target_now_us() + HAL_STDC_HIL_PUBLISH_WAIT_US);
     if (link_net != NULL && ring_put(&link_net->out, channel, data, len, 0) != 0) {
         stdc.stats.tx_rejected++;
         return -EIO;
@@ -254,6 +294,16 @@ static int stdc_net_stats(void *ctx, hal_net_stats_t *s)
     return 0;
 }
 
+/* Over the link, from a core that may wait (link_may_wait): until the in ring holds a datagram.
+   Anywhere else -ENOTSUP, and the GP core asks again at its next tick. */
+static int stdc_net_wait(void *ctx, uint32_t timeout_us)
+{
+    (void)ctx;
+    if (!link_may_wait())
+        return -ENOTSUP;
+    return link_wait_for(in_has_one, hal_stdc_target_now_us() + timeout_us) ? 0 : -EAGAIN;
+}
+
 static int stdc_net_clock(void *ctx, uint64_t *now_us)
 {
     return stdc_now_us(ctx, now_us);
@@ -266,18 +316,22 @@ static const hal_net_ops_t stdc_net = {.publish = stdc_publish,
                                        .subscribe = stdc_subscribe,
                                        .receive = stdc_receive,
                                        .stats = stdc_net_stats,
+                                       .wait = stdc_net_wait,
                                        .clock_us = stdc_net_clock};
 
 /* ---- sensors and wheels over the hardware-in-the-loop link (hal_stdc_install_hil) ----------- */
 /* A TICK's time is the board's time floored to the RT period (the client's rt_period_us): the
    release of the RT tick that reads, as long as the core does not overrun, so the world steps to
    the same instants whatever the core and the link took, and every reading of one RT tick
-   (its pose, then its scan) is one TICK's. */
+   (its pose, then its scan) is one TICK's. It is counted from the first TICK's release (the
+   world's time 0), so the world's timeline is the RT core's ticks, as a host robot's lockstep
+   is, whenever after boot the core started. */
 
 static struct {
     hal_hil_client_t *client;
     int ticked, sensed, lockstep;
-    uint64_t tick_us, sensed_ns;
+    uint64_t origin_us;           /* the board's time of the first TICK: the world's 0 */
+    uint64_t tick_us, sensed_ns;  /* the board's time of the latest TICK's release */
     hal_stdc_hil_stats_t st;
 } hil;
 
@@ -360,13 +414,17 @@ static int hil_sense(void)
     const uint64_t sent_ns = hal_stdc_target_link_ns();
     if (hil.lockstep)
         hal_stdc_target_hold(1);
-    const int r = hal_hil_client_tick(hil.client, t);
+    if (!hil.ticked)
+        hil.origin_us = t;
+    const int r = hal_hil_client_tick(hil.client, t - hil.origin_us);
     if (hil.lockstep)
         hal_stdc_target_hold(0);
     if (r != 0) {
         hil.st.link_errors++;
         return -EIO;
     }
+    if (hil.ticked && t != hil.tick_us + hil.client->rt_period_us)
+        hil.st.tick_gaps++; /* a period went by without its tick: a deadline missed */
     hil.ticked = hil.sensed = 1;
     hil.tick_us = t;
     hil.sensed_ns = hal_stdc_target_now_ns();
@@ -398,6 +456,7 @@ static int stdc_set_wheels(void *ctx, float left_rad_s, float right_rad_s)
     const uint64_t now_ns = hal_stdc_target_now_ns(), now = now_ns / 1000u;
     if (hil.sensed) { /* the first command after the sensors came: the core's response */
         timing_add(&hil.st.response, now_ns - hil.sensed_ns);
+        timing_add(&hil.st.release, now_ns - hil.tick_us * 1000u);
         hil.sensed = 0;
     }
     if (hal_hil_client_wheels(hil.client, now, left_rad_s, right_rad_s) != 0) {

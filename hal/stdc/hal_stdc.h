@@ -69,8 +69,9 @@ void hal_stdc_uninstall(void);
 /* The same board, with a lidar, a pose and wheel motors: those of a world served over the
  * hardware-in-the-loop link (hal/hal_hil_client.h; `host_sim hil` at the other end), through
  * `client`, connected already. The first reading of an RT tick sends TICK t, t the board's
- * time floored to the client's RT period (the tick's release when the core keeps its rate),
- * and waits for the answer; the tick's other readings are the same TICK's. A wheel command
+ * time floored to the client's RT period (the tick's release when the core keeps its rate)
+ * less that of the first TICK (the world's time starts at the RT core's first tick, as a host
+ * robot's lockstep does), and waits for the answer; the tick's other readings are the same TICK's. A wheel command
  * goes out at once. A link that does not answer makes the reading -EIO. lockstep: the board's
  * clock stands still while it waits for the answer (hal_stdc_target_hold), so the world's and
  * the link's time are not the board's. net: NULL (the network stays the RAM loopback), or the
@@ -89,7 +90,12 @@ typedef struct hal_stdc_timing {
 typedef struct hal_stdc_hil_stats {
     hal_stdc_timing_t exchange; /* TICK sent to its answer read, in the link's time (held or not) */
     hal_stdc_timing_t response; /* sensors read to the wheel command */
+    hal_stdc_timing_t release;  /* the TICK's time (the RT tick's release) to the wheel command:
+                                   the core's wake-up and its work, preempting the others (in
+                                   lockstep the link's wait is not the board's time) */
     uint64_t link_errors;
+    uint64_t tick_gaps;         /* TICKs that were not one RT period after the last: an RT tick
+                                   released so late (or not at all) that a period went by */
 } hal_stdc_hil_stats_t;
 
 void hal_stdc_hil_stats(hal_stdc_hil_stats_t *st);

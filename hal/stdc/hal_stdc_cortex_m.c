@@ -38,8 +38,8 @@
 _Static_assert(1000000000u % BOARD_CORE_CLOCK_HZ == 0 && BOARD_CORE_CLOCK_HZ % 1000000u == 0, "whole ns, us per tick");
 _Static_assert(BOARD_CORE_CLOCK_HZ % HAL_STDC_CM_TICK_HZ == 0 && SYST_RELOAD <= 0xFFFFFFu, "SysTick reload");
 #define STACK_PAINT 0xA5A5A5A5u
-#define MAIN_ARGS_MAX 16
-#define CMDLINE_MAX 512
+#define MAIN_ARGS_MAX 64
+#define CMDLINE_MAX 1024
 
 extern uint32_t __stack_top, __stack_limit;           /* the main stack (linker script) */
 extern uint32_t __bss_start__, __bss_end__;           /* .bss in the fast RAM */
@@ -146,8 +146,11 @@ static int cmdline_argv(char *buf, size_t cap, char **argv)
     if (semihost(0x15 /* SYS_GET_CMDLINE */, &blk) != 0)
         return 0;
     int argc = 0;
-    for (char *p = strtok(buf, " "); p != NULL && argc < MAIN_ARGS_MAX; p = strtok(NULL, " "))
+    for (char *p = strtok(buf, " "); p != NULL; p = strtok(NULL, " ")) {
+        if (argc == MAIN_ARGS_MAX)
+            return -1; /* never cut silently: the program would run with other options */
         argv[argc++] = p;
+    }
     argv[argc] = NULL;
     return argc;
 }
@@ -183,6 +186,10 @@ void reset_handler(void)
     static char cmdline[CMDLINE_MAX];
     static char *argv[MAIN_ARGS_MAX + 1];
     int argc = cmdline_argv(cmdline, sizeof cmdline, argv);
+    if (argc < 0) {
+        fprintf(stderr, "start-up: more than %d arguments on the semihosting command line\n", MAIN_ARGS_MAX);
+        exit(2);
+    }
     exit(main(argc, argv));
 }
 
@@ -258,6 +265,13 @@ int hal_stdc_target_instructions(uint64_t *n)
 void hal_stdc_target_mark(uint32_t id)
 {
     (void)id; /* instructions are counted here (hal_stdc_target_instructions) */
+}
+
+int hal_stdc_target_rename(const char *from, const char *to)
+{
+    const uint32_t blk[4] = {(uint32_t)(uintptr_t)from, (uint32_t)strlen(from), (uint32_t)(uintptr_t)to,
+                             (uint32_t)strlen(to)};
+    return semihost(0x0F /* SYS_RENAME */, (void *)blk) == 0 ? 0 : -1;
 }
 
 const char *hal_stdc_target_name(void)

@@ -7,6 +7,7 @@
 #include <errno.h>
 #include <stdatomic.h>
 #include <stdint.h>
+#include <stdio.h>
 #include <time.h>
 #include <unistd.h>
 
@@ -62,6 +63,11 @@ int hal_stdc_target_instructions(uint64_t *n)
 void hal_stdc_target_mark(uint32_t id)
 {
     (void)syscall(HAL_STDC_MARK_SYSCALL, (long)id);
+}
+
+int hal_stdc_target_rename(const char *from, const char *to)
+{
+    return rename(from, to) == 0 ? 0 : -1;
 }
 
 const char *hal_stdc_target_name(void)

@@ -37,6 +37,10 @@ int hal_stdc_target_instructions(uint64_t *n);
 #define HAL_STDC_MARK_SYSCALL 4085 /* no such system call: the kernel answers ENOSYS, harmless */
 void hal_stdc_target_mark(uint32_t id);
 
+/* rename(from, to) of the target's files: 0 or -1. On a Cortex-M the semihosting call itself
+ * (newlib 3.3's librdimon answers ENOSYS to rename() under QEMU 7.2, whose SYS_RENAME works). */
+int hal_stdc_target_rename(const char *from, const char *to);
+
 /* The target's name for logs and profiles ("cortex-m (QEMU -icount)", "linux"). */
 const char *hal_stdc_target_name(void);
 

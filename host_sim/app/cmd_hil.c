@@ -142,13 +142,14 @@ int cmd_hil(int argc, char **argv)
     sim_hal_world_stats_t ws;
     sim_hal_world_get_stats(hw, &ws);
     hal_net_stats_t ns = {0};
+    uint64_t echoes = 0;
     if (bridge != NULL)
-        sim_hil_lcm_bridge_stats(bridge, &ns);
+        sim_hil_lcm_bridge_stats(bridge, &ns, &echoes);
     printf("hil: served %.1f simulated s: %llu ticks, %llu scans sent, %llu wheel commands, %llu sessions, distance %.2f m, "
            "%llu collisions; frames in %llu, out %llu; refused %llu (bad frames), %llu noise bytes, %llu replayed, "
            "%llu before a HELLO, %llu from another address or connection, %llu bad payloads, %llu lost on the way "
            "in, %llu not ours; fleet datagrams: %llu to the fleet, %llu to the board, %llu subscriptions, %llu "
-           "bridge errors, %llu dropped on arrival, %llu not bridged\n",
+           "bridge errors, %llu dropped on arrival, %llu own echoes, %llu not bridged\n",
            (double)st.t_us * 1e-6, (unsigned long long)st.ticks, (unsigned long long)st.scans,
            (unsigned long long)st.wheels,
            (unsigned long long)st.hellos, ws.distance_m, (unsigned long long)ws.collisions,
@@ -158,7 +159,7 @@ int cmd_hil(int argc, char **argv)
            (unsigned long long)st.lost, (unsigned long long)st.not_ours, (unsigned long long)st.to_fleet,
            (unsigned long long)st.to_board, (unsigned long long)st.subscriptions, (unsigned long long)st.bridge_errors,
            (unsigned long long)(ns.rx_dropped_full + ns.rx_dropped_malformed + ns.rx_dropped_small),
-           (unsigned long long)st.datagrams_not_bridged);
+           (unsigned long long)echoes, (unsigned long long)st.datagrams_not_bridged);
     sim_hil_lcm_bridge_close(bridge);
     sim_hal_world_destroy(hw);
     sim_path_free(&path);

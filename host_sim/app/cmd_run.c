@@ -484,6 +484,7 @@ static int run_image(job_t *j)
     ic.steps_per_round = o->d.primal_steps;
     ic.kl_weight = o->d.kl_weight;
     ic.train_between = o->train_between;
+    ic.pool_samples = (uint32_t)o->pool_samples;
     ic.time_limit_s = o->time_limit;
     ic.storage_dir = o->out;
     ic.net_url = o->net;
@@ -670,7 +671,8 @@ static int report(job_t *j)
         fprintf(f, "seed: %lld\npreset: %s (%zu parameters)\nrounds: %lld\npool: %s (capacity %u)\n"
                    "steps_per_round: %u\nbatch: %u\nkl_weight: %g\ntrain_between: %d\nmode: %s\nstrategy: %s\n",
                 o->seed, BNN_PRESET_NAME, bnn_n_params(j->model), o->rounds, ai_pool_policy_name(o->pool),
-                (unsigned)AI_POOL_CAPACITY, o->d.primal_steps, o->d.batch, (double)o->d.kl_weight, o->train_between,
+                o->pool_samples > 0 ? (unsigned)o->pool_samples : (unsigned)AI_POOL_CAPACITY, o->d.primal_steps,
+                o->d.batch, (double)o->d.kl_weight, o->train_between,
                 o->offline ? "offline" : "online", dinno_strategy_name(o->d.strategy));
         if (o->explore)
             fprintf(f, "path: none (explore, from (%.2f, %.2f))\nsimulated: %.2f s; wall: %.2f s\n", j->path.p[0].x,

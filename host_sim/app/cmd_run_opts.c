@@ -91,6 +91,9 @@ static const cli_opt_t run_opts[] = {
      .help = "online: DiNNO rounds per communication round (divides N)"},
     {.names = "--pool", CLI_CHOICE(run_opts_t, pool, "cdr|dr"), .values = (const int[]){AI_POOL_CDR, AI_POOL_DR},
      .help = "online: cumulative data retention or data refresh per round"},
+    {.names = "--pool-samples", .meta = "N", CLI_INT(run_opts_t, pool_samples, 1, AI_POOL_CAPACITY),
+     .help = "the pool keeps N samples at most instead of this build's capacity: a board's (board_robot "
+             "--help prints it), so this robot keeps what that board keeps"},
     {.names = "--seed", .meta = "S", CLI_INT(run_opts_t, seed, 0, INT64_MAX),
      .help = "run seed: noise, weights, minibatches, reservoir"},
     {.names = "--strategy", CLI_CHOICE(run_opts_t, d.strategy, "kl|separate|uniform"),

@@ -19,6 +19,7 @@ enum { RUN_TRANSPORT_LCM = 0, RUN_TRANSPORT_ZMQ = 1 };
 typedef struct run_opts {
     const char *plan, *path, *out, *net;
     long long rounds, per_comm, seed, robot, val_poses, mc, fleet, fleet_id, val_every, chunk_bytes;
+    long long pool_samples; /* --pool-samples: the pool's capacity (0: the build's) */
     long long post_rounds; /* fleet: rounds of the epistemic posterior's consensus after the last */
     double time_limit, map_res, scale, radius, peer_timeout, join_timeout, resend_ms;
     dinno_cfg_t d;

@@ -20,6 +20,7 @@
 #include <stdlib.h>
 #include <string.h>
 
+#include "ai/ai_core.h"
 #include "rt/rt_path.h"
 #include "sim_rng.h"
 
@@ -87,12 +88,6 @@ static void free_fleet(sim_fleet_t *f)
 void sim_fleet_destroy(sim_fleet_t *f)
 {
     free_fleet(f);
-}
-
-void sim_fleet_seeds(uint64_t seed, int i, uint64_t *model_seed, uint64_t *node_seed)
-{
-    *model_seed = sim_rng_mix(seed ^ 0x5EEDB4B1ull);
-    *node_seed = sim_rng_mix(seed ^ sim_rng_mix(0xA6E7ull + (uint64_t)i));
 }
 
 int sim_fleet_create(const sim_fleet_cfg_t *cfg, const bnn_config_t *bcfg, const ai_sample_t *const *data,
@@ -205,7 +200,7 @@ int sim_fleet_create(const sim_fleet_cfg_t *cfg, const bnn_config_t *bcfg, const
         if (!f->nodes[i])
             goto oom;
         uint64_t model_seed, node_seed;
-        sim_fleet_seeds(cfg->seed, i, &model_seed, &node_seed);
+        ai_core_seeds(cfg->seed, (uint32_t)i, &model_seed, &node_seed);
         int rc = dinno_node_init(f->nodes[i], &f->cfg.dinno, bcfg, model_seed, node_seed, (uint32_t)i);
         if (rc) {
             snprintf(err, errlen, "invalid DiNNO/BNN configuration");

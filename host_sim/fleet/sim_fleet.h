@@ -81,9 +81,7 @@ typedef struct sim_fleet_cfg {
 int sim_fleet_bad_parse(const char *text, sim_fleet_bad_t *kind, double *scale);
 
 void sim_fleet_cfg_default(sim_fleet_cfg_t *cfg);
-/* The seeds of agent i of a run: initial weights (the same for every agent) and the node's own
- * stream (minibatches, BNN noise). The robot image uses them too (sim_image). */
-void sim_fleet_seeds(uint64_t seed, int i, uint64_t *model_seed, uint64_t *node_seed);
+/* Agent i's seeds are robot i's (ai_core_seeds): the robots' images train the same models. */
 
 typedef struct sim_fleet sim_fleet_t;
 

@@ -39,7 +39,9 @@ static double wall_now(void)
     return (double)ts.tv_sec + 1e-9 * (double)ts.tv_nsec;
 }
 
-static int join_fleet(hal_host_t *h, const gp_fleet_cfg_t *fc, char *err, size_t errlen)
+/* The fleet's channels typed on the host's network (hal_host_msg bounds checks), then the image
+   made a member (fw_robot_join_fleet). */
+static int join_fleet(hal_host_t *h, const gp_fleet_cfg_t *fc, fw_robot_cfg_t *rc, char *err, size_t errlen)
 {
     static const int types[GP_FLEET_CHANNELS] = {HAL_HOST_MSG_STATE_CHUNK,    HAL_HOST_MSG_ROUND_COMPLETE,
                                                  HAL_HOST_MSG_CHUNK_REQUEST,  HAL_HOST_MSG_GOAL_CLAIM,
@@ -58,11 +60,11 @@ static int join_fleet(hal_host_t *h, const gp_fleet_cfg_t *fc, char *err, size_t
             return rc;
         }
     }
-    int rc = gp_fleet_init(fw_robot_fleet(), fc);
-    if (rc < 0)
-        snprintf(err, errlen, "image: fleet membership refused (%d): robot %u of %u, %u rounds", rc, fc->self,
+    int r = fw_robot_join_fleet(rc, fc);
+    if (r < 0)
+        snprintf(err, errlen, "image: fleet membership refused (%d): robot %u of %u, %u rounds", r, fc->self,
                  fc->n_peers, fc->rounds);
-    return rc;
+    return r;
 }
 
 int sim_image_run(const sim_plan_t *plan, const sim_path_t *path, const sim_image_cfg_t *cfg,
@@ -155,15 +157,6 @@ int sim_image_run(const sim_plan_t *plan, const sim_path_t *path, const sim_imag
     }
     if ((rc = sim_hal_world_host(hw, cfg->robot, hc, &h, err, errlen)) < 0)
         goto out;
-    gp_fleet_cfg_t fleet_cfg;
-    if (cfg->fleet != NULL) {
-        fleet_cfg = *cfg->fleet;
-        /* exploring fleets claim their goals, but for the frontier policy (each on its own) */
-        fleet_cfg.claims = cfg->explore != NULL && cfg->explore->policy != GP_EXPLORE_FRONTIER;
-        if ((rc = join_fleet(h, &fleet_cfg, err, errlen)) < 0)
-            goto out;
-    }
-
     fw_robot_cfg_t fc = fw_robot_default_cfg();
     sim_hal_world_rt_cfg(plan, path, wps, &fc.rt);
     fc.ai.rounds = cfg->rounds;
@@ -173,9 +166,10 @@ int sim_image_run(const sim_plan_t *plan, const sim_path_t *path, const sim_imag
     fc.ai.dinno = cfg->dinno;
     fc.ai.dinno.primal_steps = cfg->steps_per_round;
     fc.ai.dinno.kl_weight = cfg->kl_weight;
-    sim_fleet_seeds(cfg->seed, (int)cfg->robot, &fc.ai.model_seed, &fc.ai.seed);
+    ai_core_seeds(cfg->seed, cfg->robot, &fc.ai.model_seed, &fc.ai.seed);
     fc.ai.node_id = cfg->robot;
     fc.ai.train_between = cfg->train_between;
+    fc.ai.pool_samples = cfg->pool_samples;
     fc.ai.start_round = cfg->start_round;
     fc.ai.resume_ckpt = cfg->resume_ckpt;
     fc.ai.resume_ckpt_bytes = (uint32_t)cfg->resume_ckpt_bytes;
@@ -184,10 +178,11 @@ int sim_image_run(const sim_plan_t *plan, const sim_path_t *path, const sim_imag
     fc.gp.ckpt_keep = cfg->ckpt_keep;
     fc.gp.ckpt_keep_every = cfg->ckpt_keep_every;
     if (cfg->fleet != NULL) {
-        fc.gp.peers = &gp_fleet_peers_ops;
-        fc.gp.peers_ctx = fw_robot_fleet();
-        fc.ai.post_rounds = cfg->fleet->post_rounds; /* the fleet's posterior, after the DiNNO rounds */
-        fc.ai.fleet_size = cfg->fleet->n_peers;
+        gp_fleet_cfg_t fleet_cfg = *cfg->fleet;
+        /* exploring fleets claim their goals, but for the frontier policy (each on its own) */
+        fleet_cfg.claims = cfg->explore != NULL && cfg->explore->policy != GP_EXPLORE_FRONTIER;
+        if ((rc = join_fleet(h, &fleet_cfg, &fc, err, errlen)) < 0)
+            goto out;
     }
     /* Exploring: the three cores' grids over the plan (sim_explore.h); the path is only the start. */
     static gp_explore_cfg_t gx;     /* read by the cores' init only: copied there */

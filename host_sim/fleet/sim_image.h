@@ -21,7 +21,7 @@
  * restart at zero); the GP core's round log then begins at start_round.
  *
  * Seeds (all from cfg->seed): lidar and GPS noise = seed; model weights, minibatches, BNN
- * noise and reservoir as agent `robot` of the in-process fleet (sim_fleet_seeds), so a fleet
+ * noise and reservoir as agent `robot` of the in-process fleet (ai_core_seeds), so a fleet
  * of processes and `host_sim fleet --inproc` train the same models.
  * With cfg->fleet the robot is a member of a fleet over the network (gp_fleet): the host
  * types the fleet's channels (hal_host_msg bounds check) and sizes the receive queue. Same seed, same inputs ->
@@ -54,6 +54,7 @@ typedef struct sim_image_cfg {
     uint32_t steps_per_round;    /* B (DiNNO primal steps) */
     float kl_weight;
     int train_between;
+    uint32_t pool_samples;       /* the pool's capacity (ai_core_cfg_t; 0: AI_POOL_CAPACITY) */
     dinno_cfg_t dinno;           /* other optimiser settings (primal_steps, kl_weight overridden) */
     double time_limit_s;         /* simulated seconds, > 0 */
     const char *storage_dir;     /* checkpoints go here (created); NULL: no storage */

@@ -142,6 +142,31 @@ static void test_cdr_keeps_the_pool(void **st)
     assert_int_equal(ai.pool.fill, 800); /* CDR keeps what it learnt from */
 }
 
+/* pool_samples: a host robot given a board's smaller pool keeps what that board keeps (the
+ * reservoir over the first pool_samples slots); above the build's capacity it is refused. */
+static void test_pool_samples_caps_the_pool(void **st)
+{
+    (void)st;
+    board_up();
+    ai_core_cfg_t c = ai_core_default_cfg();
+    c.rounds = 2;
+    c.policy = AI_POOL_CDR;
+    c.pool_samples = (uint32_t)AI_POOL_CAPACITY + 1u;
+    assert_int_equal(ai_core_init(&ai, &c, link_), -EINVAL);
+    c.pool_samples = 300;
+    assert_int_equal(ai_core_init(&ai, &c, link_), 0);
+    memset(&rt, 0, sizeof rt);
+    rt.path_length_m = 10.0f;
+    rt_publishes(800, 1.0f);
+    tick(0);
+    assert_int_equal(ai.pool.capacity, 300);
+    assert_int_equal(ai.pool.fill, 300);
+    assert_int_equal(ai.pool.offered, 800);
+    ai_status_t s;
+    assert_int_equal(mbox_get(link_->ai_status, &s, NULL), 1);
+    assert_int_equal(s.pool_capacity, 300);
+}
+
 /* A robot behind its fleet: ready(0) says the fleet is at round 5, so the AI core runs round 5
  * next (state, node schedule and checkpoint of round 5), not rounds 1 .. 4; a skip past the
  * last round is ignored. */
@@ -265,6 +290,7 @@ int main(void)
     const struct CMUnitTest tests[] = {
         cmocka_unit_test_teardown(test_round_cycle, teardown),
         cmocka_unit_test_teardown(test_cdr_keeps_the_pool, teardown),
+        cmocka_unit_test_teardown(test_pool_samples_caps_the_pool, teardown),
         cmocka_unit_test_teardown(test_skip_ahead, teardown),
         cmocka_unit_test_teardown(test_explore_shares_the_posterior, teardown),
     };

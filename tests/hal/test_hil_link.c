@@ -542,7 +542,7 @@ static void client_round(int stream)
     memset(&fw, 0, sizeof fw);
     fw.stream = stream;
     fw.noise = stream;
-    const hal_hil_port_t port = {NULL, stream, fake_send, fake_recv};
+    const hal_hil_port_t port = {NULL, stream, fake_send, fake_recv, 0};
     assert_int_equal(hal_hil_client_init(&c, &port, 0, 20000, 77, "test", 1000, 3), 0);
     assert_int_equal(hal_hil_client_connect(&c), 0);
     assert_true(c.world.max_x == 10.0f && c.world.step_us == 10000u);
@@ -574,6 +574,14 @@ static void client_round(int stream)
     assert_true(got_datagrams == 3 && c.stats.datagrams_in == 3 && fw.fleet_waiting == 2);
     assert_int_equal(hal_hil_client_tick(&c, 160000), 0);
     assert_true(got_datagrams == 5 && fw.fleet_waiting == 0);
+    /* A port whose receiver holds fewer (an Ethernet FIFO) caps every TICK's room. */
+    fw.fleet_waiting = 4;
+    c.port.answer_datagrams_max = 1;
+    assert_int_equal(hal_hil_client_tick(&c, 180000), 0);
+    assert_true(got_datagrams == 6 && fw.fleet_waiting == 3);
+    c.port.answer_datagrams_max = 0;
+    assert_int_equal(hal_hil_client_tick(&c, 200000), 0);
+    assert_true(got_datagrams == 9 && fw.fleet_waiting == 0);
     static const uint8_t out[3] = {9, 8, 7};
     assert_int_equal(hal_hil_client_datagram(&c, "fleetsim/1/state", out, sizeof out), 0);
     assert_int_equal(fw.datagrams_seen, 1);
@@ -598,7 +606,7 @@ static void test_stdc_net_over_the_link(void **st)
     static hal_hil_client_t c;
     static hal_stdc_hil_net_t net;
     memset(&fw, 0, sizeof fw);
-    const hal_hil_port_t port = {NULL, 0, fake_send, fake_recv};
+    const hal_hil_port_t port = {NULL, 0, fake_send, fake_recv, 0};
     assert_int_equal(hal_hil_client_init(&c, &port, 0, 20000, 78, "test", 1000, 3), 0);
     assert_int_equal(hal_hil_client_connect(&c), 0);
     assert_int_equal(hal_stdc_install_hil("", &c, 1, &net), 0);

@@ -9,7 +9,7 @@
  * Built for the host (make: build/<config>/bin/board_hil, a Linux board's stand-in: UDP), for
  * rpi3 (UDP under qemu-aarch64) and for the Cortex-M boards (Ethernet or a UART under
  * qemu-system-arm):
- * `make hil BOARD=...`. */
+ * `make hil-rt BOARD=...`. */
 #include <errno.h>
 #include <inttypes.h>
 #include <math.h>
@@ -19,6 +19,7 @@
 #include <time.h>
 
 #include "board_args.h"
+#include "board_world.h"
 #include "fw_image.h"
 #include "fw_link.h"
 #include "hal_stdc.h"
@@ -73,18 +74,12 @@ static int parse_opts(int argc, char **argv, hil_opts_t *o)
         } else if (strcmp(a, "--tries") == 0) {
             r = board_parse_u32(v, 1, 1000, &o->tries);
         } else if (strcmp(a, "--time") == 0) {
-            char *end;
-            o->time_s = v != NULL ? strtod(v, &end) : -1.0;
-            r = v != NULL && *v != '\0' && *end == '\0' && isfinite(o->time_s) && o->time_s > 0 && o->time_s <= 1e6
-                    ? 0 : -EINVAL;
+            r = board_parse_double(v, 1e-3, 1e6, &o->time_s);
         } else {
-            fprintf(stderr, "board_hil: unknown option '%s' or its value missing (see --help)\n", a);
-            return -EINVAL;
+            return board_bad_option("board_hil", a, v, 0);
         }
-        if (r != 0) {
-            fprintf(stderr, "board_hil: bad value for %s: '%s' (see --help)\n", a, v ? v : "");
-            return -EINVAL;
-        }
+        if (r != 0)
+            return board_bad_option("board_hil", a, v, 1);
     }
     if (o->connect == NULL || o->tour == NULL) {
         fprintf(stderr, "board_hil: --connect and --tour are required (see --help)\n");
@@ -94,45 +89,6 @@ static int parse_opts(int argc, char **argv, hil_opts_t *o)
 }
 
 static rt_waypoint_t wps[RT_CORE_MAX_WAYPOINTS];
-
-/* The tour: "x_m,y_m" lines after an optional header, 2 .. RT_CORE_MAX_WAYPOINTS finite
-   points. The count, or -1 with the reason on stderr. */
-static int read_tour(const char *path)
-{
-    FILE *f = fopen(path, "r");
-    if (f == NULL) {
-        fprintf(stderr, "board_hil: cannot open the tour %s: %s\n", path, strerror(errno));
-        return -1;
-    }
-    char line[256];
-    int n = 0, lineno = 0;
-    while (fgets(line, sizeof line, f) != NULL) {
-        lineno++;
-        float x, y;
-        char rest;
-        if (lineno == 1 && (line[0] < '0' || line[0] > '9') && line[0] != '-' && line[0] != '.')
-            continue; /* the header */
-        if (line[0] == '\n' || line[0] == '\0')
-            continue;
-        if (sscanf(line, "%f,%f %c", &x, &y, &rest) != 2 || !isfinite(x) || !isfinite(y)) {
-            fprintf(stderr, "board_hil: %s line %d: not x_m,y_m\n", path, lineno);
-            fclose(f);
-            return -1;
-        }
-        if (n == (int)RT_CORE_MAX_WAYPOINTS) {
-            fprintf(stderr, "board_hil: %s: more than %u waypoints\n", path, (unsigned)RT_CORE_MAX_WAYPOINTS);
-            fclose(f);
-            return -1;
-        }
-        wps[n++] = (rt_waypoint_t){x, y};
-    }
-    fclose(f);
-    if (n < 2) {
-        fprintf(stderr, "board_hil: %s: a tour needs 2 waypoints at least, it has %d\n", path, n);
-        return -1;
-    }
-    return n;
-}
 
 static double mean_us(const hal_stdc_timing_t *t)
 {
@@ -147,23 +103,14 @@ int main(int argc, char **argv)
     hil_opts_t o;
     if (parse_opts(argc, argv, &o) != 0)
         return 2;
-    const int n_wps = read_tour(o.tour);
+    const int n_wps = board_read_tour("board_hil", o.tour, wps);
     if (n_wps < 0)
         return 2;
     hal_hil_port_t port;
-    if (hal_stdc_hil_open(o.connect, &port) != 0)
-        return 2;
-    /* Another session each start: the world then takes a restarted board's HELLO. */
-    const uint32_t session = ((uint32_t)time(NULL) * 2654435761u) ^ (uint32_t)hal_stdc_target_now_ns() ^ o.robot;
-    int r = hal_hil_client_init(&client, &port, o.robot, FW_RT_PERIOD_US, session, BOARD_NAME, o.timeout_ms * 1000u,
-                                o.tries);
-    if (r == 0)
-        r = hal_hil_client_connect(&client);
-    if (r != 0) {
-        fprintf(stderr, "board_hil: no world answered on %s %s (%s)\n", hal_stdc_hil_kind(), o.connect,
-                r == -ETIMEDOUT ? "timed out: is `host_sim hil` running there?" : "link error");
-        return 1;
-    }
+    const int c = board_connect_world("board_hil", o.connect, o.robot, o.timeout_ms, o.tries, &client, &port);
+    if (c != 0)
+        return c == 2 ? 2 : 1;
+    int r;
     const hal_hil_world_t *w = &client.world;
     printf("board_hil: board %s, robot %u, world on %s %s: plan box (%.2f, %.2f)-(%.2f, %.2f) m, physics step %u us, "
            "scan every %u us\n",

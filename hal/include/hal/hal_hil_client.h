@@ -24,6 +24,10 @@ typedef struct hal_hil_port {
     /* What arrives within timeout_us, into buf: the count, 0 when nothing came, or a negative
        errno code. */
     int (*recv)(void *ctx, uint8_t *buf, size_t cap, uint32_t timeout_us);
+    /* The most fleet datagrams one answer may bring beside its SCAN and POSE (0: no limit): a
+       receiver that drops what overflows its buffer before the board reads it (an Ethernet
+       controller's receive FIFO) names what it holds, and every TICK asks for no more. */
+    uint32_t answer_datagrams_max;
 } hal_hil_port_t;
 
 typedef struct hal_hil_client_stats {
@@ -40,7 +44,8 @@ typedef struct hal_hil_client {
     hal_hil_guard_t guard;
     hal_hil_world_t world;              /* from the world's WORLD frame (connect) */
     /* The fleet's datagrams in a TICK's answer go to on_datagram (the data valid during the
-       call); datagram_room, sent in each TICK, says how many the board can take (0: none). */
+       call); datagram_room, sent in each TICK (never above the port's answer_datagrams_max),
+       says how many the board can take (0: none). */
     void (*on_datagram)(void *ctx, const hal_hil_datagram_t *d);
     void *datagram_ctx;
     uint32_t datagram_room;

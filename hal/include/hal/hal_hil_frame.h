@@ -49,6 +49,10 @@
 #define HAL_HIL_PAYLOAD_MAX \
     (HAL_HIL_DATAGRAM_PAYLOAD_MAX > HAL_HIL_SCAN_PAYLOAD_MAX ? HAL_HIL_DATAGRAM_PAYLOAD_MAX : HAL_HIL_SCAN_PAYLOAD_MAX)
 #define HAL_HIL_FRAME_MAX (HAL_HIL_PAYLOAD_MAX + HAL_HIL_OVERHEAD_BYTES)
+/* The largest fleet datagram whose DATAGRAM frame fits `room` bytes of a carrier, whatever its
+ * channel's name (1500: one Ethernet frame's payload). A fleet whose robot is on such a link
+ * sizes its state chunks to it. */
+#define HAL_HIL_DATAGRAM_FITS(room) ((room) - HAL_HIL_OVERHEAD_BYTES - 1u - (HAL_NET_CHANNEL_MAX - 1u))
 _Static_assert(HAL_HIL_PAYLOAD_MAX <= 0xFFFFu, "the length field is 16 bits: the board's MTU is too large");
 
 typedef enum hal_hil_type {
