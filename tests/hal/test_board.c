@@ -284,6 +284,41 @@ static void test_fw_image_checks_and_errors(void **state)
     (void)alloc_count_allocations();
 }
 
+/* Cores started at an instant that is not a whole period are released at whole periods of the
+ * board's clock: a scheduler waking on its tick then releases them at the tick itself, and a
+ * world stepped in whole periods sees every tick at its own step (the HIL boards). */
+static uint64_t first_release_us, releases_off_period;
+static int record_tick(void *arg, const fw_tick_t *t)
+{
+    (void)arg;
+    if (t->index == 0)
+        first_release_us = t->now_us;
+    if (t->now_us % 20000u != 0)
+        releases_off_period++;
+    return 0;
+}
+
+static void test_fw_image_releases_at_whole_periods(void **state)
+{
+    (void)state;
+    hal_host_config_t cfg = hal_host_config_default();
+    hal_host_t *h = NULL;
+    assert_int_equal(hal_host_create(&cfg, &h), 0);
+    assert_int_equal(hal_board_install(hal_host_board(h)), 0);
+    assert_int_equal(hal_host_run_until(h, 12345u), 0);
+    fw_image_defaults(&img);
+    img.core[HAL_CORE_RT].tick = record_tick;
+    first_release_us = releases_off_period = 0;
+    assert_int_equal(fw_image_start(&img), 0);
+    assert_int_equal(hal_host_run_until(h, 200000u), 0);
+    hal_host_stop(h);
+    assert_int_equal(img.stats[HAL_CORE_RT].start_us, 20000u);
+    assert_int_equal(first_release_us, 20000u);
+    assert_int_equal(img.stats[HAL_CORE_RT].ticks, 10); /* 20, 40, .. 200 ms */
+    assert_int_equal(releases_off_period, 0);
+    hal_host_destroy(h);
+}
+
 int main(void)
 {
     const struct CMUnitTest tests[] = {
@@ -291,6 +326,7 @@ int main(void)
         cmocka_unit_test(test_install_checks_required_ops),
         cmocka_unit_test(test_host_world_adapters_and_log),
         cmocka_unit_test(test_fw_image_checks_and_errors),
+        cmocka_unit_test(test_fw_image_releases_at_whole_periods),
     };
     return cmocka_run_group_tests(tests, NULL, NULL);
 }
