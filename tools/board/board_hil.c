@@ -103,13 +103,12 @@ int main(int argc, char **argv)
     hil_opts_t o;
     if (parse_opts(argc, argv, &o) != 0)
         return 2;
-    const int n_wps = board_read_tour("board_hil", o.tour, wps);
-    if (n_wps < 0)
-        return 2;
+    int n_wps;
     hal_hil_port_t port;
-    const int c = board_connect_world("board_hil", o.connect, o.robot, o.timeout_ms, o.tries, &client, &port);
+    const int c = board_start_world("board_hil", o.tour, o.connect, o.robot, o.timeout_ms, o.tries, wps, &n_wps, &client,
+                                    &port);
     if (c != 0)
-        return c == 2 ? 2 : 1;
+        return c;
     int r;
     const hal_hil_world_t *w = &client.world;
     printf("board_hil: board %s, robot %u, world on %s %s: plan box (%.2f, %.2f)-(%.2f, %.2f) m, physics step %u us, "

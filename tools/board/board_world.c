@@ -65,3 +65,14 @@ int board_connect_world(const char *prog, const char *where, uint32_t robot, uin
     }
     return 0;
 }
+
+int board_start_world(const char *prog, const char *tour, const char *where, uint32_t robot, uint32_t timeout_ms,
+                      uint32_t tries, rt_waypoint_t wps[RT_CORE_MAX_WAYPOINTS], int *n_wps,
+                      hal_hil_client_t *client, hal_hil_port_t *port)
+{
+    *n_wps = board_read_tour(prog, tour, wps);
+    if (*n_wps < 0)
+        return 2;
+    const int c = board_connect_world(prog, where, robot, timeout_ms, tries, client, port);
+    return c == 0 ? 0 : c == 2 ? 2 : 1;
+}

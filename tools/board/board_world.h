@@ -20,4 +20,11 @@ int board_read_tour(const char *prog, const char *path, rt_waypoint_t wps[RT_COR
 int board_connect_world(const char *prog, const char *where, uint32_t robot, uint32_t timeout_ms, uint32_t tries,
                         hal_hil_client_t *client, hal_hil_port_t *port);
 
+/* How a board program starts: its tour read (into wps, *n_wps points) and its world connected
+ * (board_connect_world). 0, or the status the program exits with, the reason said on stderr: 2
+ * for a bad tour or link name, 1 when no world answered. */
+int board_start_world(const char *prog, const char *tour, const char *where, uint32_t robot, uint32_t timeout_ms,
+                      uint32_t tries, rt_waypoint_t wps[RT_CORE_MAX_WAYPOINTS], int *n_wps,
+                      hal_hil_client_t *client, hal_hil_port_t *port);
+
 #endif /* BOARD_WORLD_H */
