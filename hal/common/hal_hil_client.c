@@ -142,7 +142,8 @@ int hal_hil_client_tick(hal_hil_client_t *c, uint64_t t_us)
                     c->have_pose = pose = 1;
                 }
             } else if (f.type == HAL_HIL_SCAN) {
-                if (c->have_scan && f.len >= 8u && le_get_u64(f.payload) <= c->scan.stamp_us) /* its stamp, before the whole is decoded */
+                /* its stamp (the first field) read before the whole is decoded */
+                if (c->have_scan && f.len >= 8u && le_get_u64(f.payload) <= c->scan.stamp_us)
                     c->stats.stale++; /* one held already: a late answer's */
                 else if (hal_hil_get_scan(&f, &c->scan) != 0) /* refused: c->scan untouched */
                     c->stats.bad_payload++;

@@ -41,7 +41,7 @@ static double wall_now(void)
 
 /* The fleet's channels typed on the host's network (hal_host_msg bounds checks), then the image
    made a member (fw_robot_join_fleet). */
-static int join_fleet(hal_host_t *h, const gp_fleet_cfg_t *fc, fw_robot_cfg_t *rc, char *err, size_t errlen)
+static int join_fleet(hal_host_t *h, const gp_fleet_cfg_t *fc, fw_robot_cfg_t *robot, char *err, size_t errlen)
 {
     static const int types[GP_FLEET_CHANNELS] = {HAL_HOST_MSG_STATE_CHUNK,    HAL_HOST_MSG_ROUND_COMPLETE,
                                                  HAL_HOST_MSG_CHUNK_REQUEST,  HAL_HOST_MSG_GOAL_CLAIM,
@@ -60,7 +60,7 @@ static int join_fleet(hal_host_t *h, const gp_fleet_cfg_t *fc, fw_robot_cfg_t *r
             return rc;
         }
     }
-    int r = fw_robot_join_fleet(rc, fc);
+    int r = fw_robot_join_fleet(robot, fc);
     if (r < 0)
         snprintf(err, errlen, "image: fleet membership refused (%d): robot %u of %u, %u rounds", r, fc->self,
                  fc->n_peers, fc->rounds);
