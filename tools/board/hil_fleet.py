@@ -181,10 +181,10 @@ def world_time(world_log):
     return float(found[-1]) if found else None
 
 
-def watch(robots, board, limit_s, what, world_log=None):
+def watch(robots, board, limit_s, what, world_log=None, world=None):
     """Waits for every robot (the board's process among them, as `board`), showing the host
-    robots' rounds (and robot 0's world's time) every 15 s; a robot that fails or the deadline
-    stops them all."""
+    robots' rounds (and robot 0's world's time) every 15 s; a robot that fails, robot 0's world
+    (`world`) ending before the board did, or the deadline stops them all."""
     deadline = time.time() + limit_s
     next_line = time.time() + 15
     while True:
@@ -194,6 +194,10 @@ def watch(robots, board, limit_s, what, world_log=None):
                 fail(f"{what}: robot {r.i} failed: {r.why()}")
         if board is not None and board.poll() not in (None, 0):
             fail(f"{what}: robot 0 (the board) failed: exit status {board.returncode}")
+        # Without its world the board would wait in lockstep, its clock standing still.
+        if world is not None and board is not None and board.poll() is None and world.poll() is not None:
+            fail(f"{what}: robot 0's world (host_sim hil) ended before the board finished: exit status "
+                 f"{world.returncode} (see {world_log})")
         if all(p.poll() is not None for p in procs):
             return
         if time.time() > deadline:
@@ -234,7 +238,7 @@ def run_hil_fleet(a, sizes):
                 print(f"robot 0 (board): {line.rstrip()}", flush=True)
     reader = threading.Thread(target=show, daemon=True)
     reader.start()
-    watch(robots, board, a.time_limit, "HIL fleet", os.path.join(run_dir, "world.txt"))
+    watch(robots, board, a.time_limit, "HIL fleet", os.path.join(run_dir, "world.txt"), world)
     reader.join(5)
     why = stop_world(world)
     if why:
