@@ -242,6 +242,20 @@ FS_MUST_CHECK int hal_host_net_set_auth(hal_host_net_t *n, const hal_host_auth_t
  * subscribed or not typed: hal_host_net_expect_type), -EIO (the transport). */
 FS_MUST_CHECK int hal_host_net_set_senders(hal_host_net_t *n, const char *channel, const uint8_t *wanted,
                                            uint32_t n_ids);
+/* Carries the typed `channel` per sender (LCM udpm:// only, hal_host_net_lcm.c): each sender
+ * publishes it to a multicast group and port of its own (the URL's + 1 + its id), and a
+ * receiver hears only the senders hal_host_net_set_senders wants (none before the first call):
+ * the kernel never copies the others' datagrams. Call it before the first subscription, at
+ * every member of the fleet (one fleet, one way); it takes the 1,024 ports after the URL's.
+ * 0, -EINVAL (not typed), -ENOTSUP (not udpm://, or ZeroMQ: it scopes by topic), -ENOSPC
+ * (another channel is grouped already), -EBUSY (subscribed already), -EIO. */
+FS_MUST_CHECK int hal_host_net_group_by_sender(hal_host_net_t *n, const char *channel);
+/* The channels `prefix`<id> (id decimal, < BOARD_MAX_FLEET) carried to robot id alone (LCM
+ * udpm:// only): on a group and port of its own (the URL's + 1,025 + id), which only a process
+ * subscribed to such a channel of that id joins. For what is for one robot (a request naming
+ * its chunks, the chunks it asked for). The same rules as hal_host_net_group_by_sender; at most
+ * 4 prefixes. */
+FS_MUST_CHECK int hal_host_net_group_by_receiver(hal_host_net_t *n, const char *prefix);
 
 /* Storage in a directory. Thread-safe as far as the file system is (one writer per name). */
 typedef struct hal_host_storage hal_host_storage_t;

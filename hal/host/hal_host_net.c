@@ -35,7 +35,8 @@
  * datagram costs the channel lookup and a read of its sender field (rx_unwanted). A datagram
  * too short to name a sender passes, and the checks after refuse it. The transport is told
  * too (its optional `senders`): ZeroMQ then filters at the publisher, so most unwanted bytes
- * never arrive at all; LCM multicast cannot, and this check is its filter. */
+ * never arrive at all; LCM does with per-sender groups (hal_host_net_group_by_sender), and
+ * without them this check is its filter. */
 #include "hal_host.h"
 #include "hal_host_auth.h"
 #include "hal_host_msg.h"
@@ -660,7 +661,30 @@ int hal_host_net_set_senders(hal_host_net_t *n, const char *channel, const uint8
        from now on, and the transport narrows what it carries as soon as it can. */
     if (same || n->tp->senders == NULL)
         return 0;
-    return n->tp->senders(n->tp_ctx, channel, filtered ? map : NULL);
+    return n->tp->senders(n->tp_ctx, channel, filtered ? map : NULL, n_ids);
+}
+
+int hal_host_net_group_by_sender(hal_host_net_t *n, const char *channel)
+{
+    if (n == NULL || !hal_net_channel_valid(channel))
+        return -EINVAL;
+    pthread_mutex_lock(&n->mu);
+    const int typed = channel_type(n, channel) != HAL_HOST_MSG_ANY;
+    pthread_mutex_unlock(&n->mu);
+    if (!typed)
+        return -EINVAL; /* its datagrams must name their sender */
+    if (n->rx_started)
+        return -EBUSY;
+    return n->tp->group != NULL ? n->tp->group(n->tp_ctx, channel, 0) : -ENOTSUP;
+}
+
+int hal_host_net_group_by_receiver(hal_host_net_t *n, const char *prefix)
+{
+    if (n == NULL || !hal_net_channel_valid(prefix))
+        return -EINVAL;
+    if (n->rx_started)
+        return -EBUSY;
+    return n->tp->group != NULL ? n->tp->group(n->tp_ctx, prefix, 1) : -ENOTSUP;
 }
 
 /* Waits (the mutex held) until a message is queued or timeout_ms passed. Held datagrams that

@@ -1,24 +1,91 @@
 /* The LCM transport of the host network (hal_host_net_transport.h).
  *
- * No sender filter of its own (no `senders`): UDP multicast hands every datagram of the group
- * to every socket anyway, and LCM channels keep their names (recordings and tests rely on
- * them), so neighbour-scoped delivery is hal_host_net.c's check on arrival: an unwanted
- * sender's datagram costs one channel lookup and a read of its sender field, no tag check and
- * no copy into the queue. */
+ * By default every datagram goes to the URL's one multicast group, and neighbour-scoped
+ * delivery is hal_host_net.c's check on arrival: UDP multicast hands every datagram of the
+ * group to every socket, so an unwanted sender's datagram still costs the kernel's copy, one
+ * channel lookup and a read of its sender field (no tag check, no copy into the queue).
+ *
+ * Per-sender groups (hal_host_net_group_by_sender, udpm:// only): one channel (the fleet's
+ * state chunks) is carried per sender instead. Sender s publishes it to group BASE + 1 + s on
+ * port PORT + 1 + s (BASE:PORT the URL's group, the URL's options kept), and a receiver joins
+ * the groups of the senders it wants (hal_host_net_set_senders) and no others, so the kernel
+ * never copies an unwanted sender's chunks into it: the bytes a robot is delivered grow with
+ * its neighbours, not with the fleet. A port per sender, not only a group: Linux hands a
+ * socket bound to a port every datagram to that port for any group joined on the host
+ * (IP_MULTICAST_ALL), so on one host the port is what separates senders; on a switched LAN the
+ * group lets IGMP snooping keep the bytes off the wire too. Everything else (beacons,
+ * requests, RoundCompletes) stays on the URL's group, and a channel is carried one way by the
+ * whole fleet: every member groups it, or none (the publisher cannot know who listens where).
+ *
+ * Inboxes (hal_host_net_group_by_receiver): what is for one robot alone (a request naming its
+ * chunks, the chunks it asked for again) goes on that robot's own channels, PREFIX<id>, and
+ * those are carried on the robot's inbox group, BASE + 1 + GROUP_SPAN + id on port PORT + 1 +
+ * GROUP_SPAN + id, which only it joins: a copy for one robot costs the others nothing, as over
+ * ZeroMQ, where a multicast resend was delivered to every robot that keeps the sender (most of
+ * what a 64-robot fleet's robots were delivered: duplicates).
+ *
+ * A group is an LCM instance of its own (LCM 1.3: a socket, a reader thread, a 200 KB ring):
+ * a robot holds one per wanted sender (its nearest of three rounds, about 40), its inbox, one
+ * to publish into its own sender group and one per robot it has sent something for alone
+ * (publishing only: a socket, no thread). The receiving ones are created and destroyed on the
+ * receiver thread only (handle), which polls every instance's descriptor; `senders` and
+ * `subscribe` (the caller's thread) record what is wanted under `mu` and wake the receiver
+ * through a pipe. A sender newly wanted is joined a moment later: what it sent before is
+ * missed, and asked for again like any loss. */
 #include "hal_host.h"
 #include "hal_host_net_transport.h"
 
+#include <arpa/inet.h>
 #include <errno.h>
+#include <fcntl.h>
 #include <lcm/lcm.h>
+#include <poll.h>
+#include <pthread.h>
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
+#include <unistd.h>
+
+#define URL_MAX 512u
+/* Sender s's group is the URL's + 1 + s, robot r's inbox the URL's + 1 + GROUP_SPAN + r: one
+   layout for every build of a fleet, whatever its board's BOARD_MAX_FLEET. */
+#define GROUP_SPAN 1024u
+_Static_assert(BOARD_MAX_FLEET <= GROUP_SPAN, "every robot id has a group and an inbox");
+#define PREFIX_MAX 4u
 
 typedef struct lcm_ctx {
     lcm_t *lcm;
     hal_host_net_t *n;
     uint32_t n_subs;
     lcm_subscription_t *sub[HAL_HOST_NET_MAX_SUBS];
+    /* Per-sender groups: the URL's group, port and options ('?' included, or ""). */
+    int udpm;
+    uint32_t base_addr; /* host order */
+    uint32_t base_port;
+    char opts[URL_MAX / 2u];
+    /* Set up before the fleet publishes (hal_host_net_group_by_*), read-only after. */
+    char grouped[HAL_NET_CHANNEL_MAX]; /* "" until hal_host_net_group_by_sender */
+    uint32_t n_prefix;
+    char prefix[PREFIX_MAX][HAL_NET_CHANNEL_MAX]; /* hal_host_net_group_by_receiver */
+    /* The publishing thread's. */
+    lcm_t *own;                        /* its sender's group */
+    int64_t own_sender;                /* -1 before the first grouped publish */
+    lcm_t *to[BOARD_MAX_FLEET];        /* robot r's inbox, once something went there */
+    pthread_mutex_t mu;                /* want, dirty, the inbox subscriptions */
+    int wake[2];                       /* a byte written: what to join changed */
+    int dirty;
+    uint8_t want[HAL_HOST_NET_SENDER_BYTES];
+    uint32_t n_inbox;                  /* inbox channels subscribed (under mu) ... */
+    char inbox_ch[HAL_HOST_NET_MAX_SUBS][HAL_NET_CHANNEL_MAX];
+    uint32_t inbox_id[HAL_HOST_NET_MAX_SUBS];
+    /* The receiver thread's. */
+    uint32_t n_inbox_done;             /* ... of them joined */
+    lcm_t *inbox[HAL_HOST_NET_MAX_SUBS]; /* one instance per inbox id (NULL: shares an earlier one) */
+    lcm_t *joined[BOARD_MAX_FLEET];    /* one instance per wanted sender */
+    uint32_t n_joined;
+    int warned_join;
+    struct pollfd pfd[BOARD_MAX_FLEET + HAL_HOST_NET_MAX_SUBS + 2u];
+    lcm_t *pfd_lcm[BOARD_MAX_FLEET + HAL_HOST_NET_MAX_SUBS + 2u];
 } lcm_ctx_t;
 
 static void on_message(const lcm_recv_buf_t *rbuf, const char *channel, void *user)
@@ -28,20 +95,83 @@ static void on_message(const lcm_recv_buf_t *rbuf, const char *channel, void *us
     hal_host_net_on_datagram(c->n, channel, rbuf != NULL ? rbuf->data : NULL, rbuf != NULL ? rbuf->data_size : 1u);
 }
 
+/* "udpm://A.B.C.D[:PORT][?OPTIONS]" into the context's base group, port and options. */
+static void parse_udpm(lcm_ctx_t *c, const char *url)
+{
+    if (strncmp(url, "udpm://", 7) != 0)
+        return;
+    const char *host = url + 7, *q = strchr(host, '?');
+    const size_t hl = strcspn(host, ":?");
+    char addr[INET_ADDRSTRLEN];
+    struct in_addr ia;
+    if (hl == 0 || hl >= sizeof addr || (q != NULL && strlen(q) >= sizeof c->opts))
+        return;
+    memcpy(addr, host, hl);
+    addr[hl] = '\0';
+    if (inet_pton(AF_INET, addr, &ia) != 1)
+        return;
+    unsigned long port = 7667u; /* LCM's default */
+    if (host[hl] == ':') {
+        char *end = NULL;
+        port = strtoul(host + hl + 1, &end, 10);
+        if (end == host + hl + 1 || (*end != '\0' && *end != '?') || port == 0 || port > 65535u)
+            return;
+    }
+    c->base_addr = ntohl(ia.s_addr);
+    c->base_port = (uint32_t)port;
+    snprintf(c->opts, sizeof c->opts, "%s", q != NULL ? q : "");
+    c->udpm = 1;
+}
+
+/* The URL of group g (sender s: s; robot r's inbox: GROUP_SPAN + r) into out: 0, or -ERANGE
+   when it leaves the multicast range or the port range. */
+static int group_url(const lcm_ctx_t *c, uint32_t g, char *out, size_t cap)
+{
+    const uint64_t addr = (uint64_t)c->base_addr + 1u + g, port = (uint64_t)c->base_port + 1u + g;
+    if ((addr >> 28) != 0xEu || port > 65535u)
+        return -ERANGE;
+    snprintf(out, cap, "udpm://%u.%u.%u.%u:%u%s", (unsigned)(addr >> 24) & 255u, (unsigned)(addr >> 16) & 255u,
+             (unsigned)(addr >> 8) & 255u, (unsigned)addr & 255u, (unsigned)port, c->opts);
+    return 0;
+}
+
+/* The robot whose inbox carries `channel` (PREFIX<id> of a hal_host_net_group_by_receiver
+   prefix, id decimal), or -1. */
+static int64_t inbox_of(const lcm_ctx_t *c, const char *channel)
+{
+    for (uint32_t i = 0; i < c->n_prefix; i++) {
+        const size_t pl = strlen(c->prefix[i]);
+        if (strncmp(channel, c->prefix[i], pl) != 0)
+            continue;
+        const char *d = channel + pl;
+        uint64_t id = 0;
+        size_t k = 0;
+        for (; d[k] >= '0' && d[k] <= '9' && k < 5u; k++)
+            id = id * 10u + (uint64_t)(d[k] - '0');
+        if (k > 0 && d[k] == '\0' && id < BOARD_MAX_FLEET)
+            return (int64_t)id;
+    }
+    return -1;
+}
+
 static int lcm_open(hal_host_net_t *n, const char *url, void **ctx)
 {
     lcm_ctx_t *c = calloc(1, sizeof *c);
     if (c == NULL)
         return -ENOMEM;
     c->n = n;
-    c->lcm = lcm_create(url[0] != '\0' ? url : HAL_HOST_NET_URL_DEFAULT);
+    c->own_sender = -1;
+    c->wake[0] = c->wake[1] = -1;
+    const char *u = url[0] != '\0' ? url : HAL_HOST_NET_URL_DEFAULT;
+    c->lcm = lcm_create(u);
     if (c->lcm == NULL) {
         fprintf(stderr, "hal_host_net: cannot create LCM on '%s' (for udpm:// on one host, "
-                        "loopback needs multicast: see tests/hal/test_net.c)\n",
-                url[0] != '\0' ? url : HAL_HOST_NET_URL_DEFAULT);
+                        "loopback needs multicast: see tests/hal/test_net.c)\n", u);
         free(c);
         return -EIO;
     }
+    parse_udpm(c, u);
+    pthread_mutex_init(&c->mu, NULL);
     *ctx = c;
     return 0;
 }
@@ -52,24 +182,68 @@ static void lcm_close(void *ctx)
     for (uint32_t i = 0; i < c->n_subs; i++)
         (void)lcm_unsubscribe(c->lcm, c->sub[i]);
     lcm_destroy(c->lcm);
+    for (uint32_t s = 0; s < BOARD_MAX_FLEET; s++) {
+        if (c->joined[s] != NULL)
+            lcm_destroy(c->joined[s]);
+        if (c->to[s] != NULL)
+            lcm_destroy(c->to[s]);
+    }
+    for (uint32_t i = 0; i < c->n_inbox_done; i++)
+        if (c->inbox[i] != NULL)
+            lcm_destroy(c->inbox[i]);
+    if (c->own != NULL)
+        lcm_destroy(c->own);
+    for (int k = 0; k < 2; k++)
+        if (c->wake[k] >= 0)
+            close(c->wake[k]);
+    pthread_mutex_destroy(&c->mu);
     free(c);
 }
 
 static int lcm_pub(void *ctx, const char *channel, const void *data, size_t len, int64_t sender)
 {
     lcm_ctx_t *c = ctx;
-    (void)sender; /* every datagram goes to the whole group */
     static const uint8_t empty; /* LCM wants a non-NULL pointer even for an empty message */
-    return lcm_publish(c->lcm, channel, len > 0 ? data : &empty, (unsigned)len) != 0 ? -EIO : 0;
+    lcm_t *to = c->lcm;
+    /* grouped[] is written once, before the fleet publishes on it (hal_host_net_group_by_sender) */
+    if (c->grouped[0] != '\0' && sender >= 0 && sender < (int64_t)BOARD_MAX_FLEET &&
+        strcmp(channel, c->grouped) == 0) {
+        if (sender != c->own_sender) {
+            char u[URL_MAX];
+            if (c->own != NULL)
+                lcm_destroy(c->own);
+            c->own = NULL;
+            c->own_sender = sender;
+            if (group_url(c, (uint32_t)sender, u, sizeof u) == 0)
+                c->own = lcm_create(u);
+            if (c->own == NULL)
+                fprintf(stderr, "hal_host_net: cannot create LCM for sender %lld's group\n", (long long)sender);
+        }
+        if (c->own == NULL)
+            return -EIO;
+        to = c->own;
+    } else if (c->n_prefix > 0) {
+        const int64_t r = inbox_of(c, channel);
+        if (r >= 0) {
+            if (c->to[r] == NULL) {
+                char u[URL_MAX];
+                if (group_url(c, GROUP_SPAN + (uint32_t)r, u, sizeof u) == 0)
+                    c->to[r] = lcm_create(u);
+                if (c->to[r] == NULL) {
+                    fprintf(stderr, "hal_host_net: cannot create LCM for robot %lld's inbox\n", (long long)r);
+                    return -EIO;
+                }
+            }
+            to = c->to[r];
+        }
+    }
+    return lcm_publish(to, channel, len > 0 ? data : &empty, (unsigned)len) != 0 ? -EIO : 0;
 }
 
-static int lcm_sub(void *ctx, const char *channel)
+/* LCM channel arguments are regular expressions; a valid channel name may contain '.', so it
+   is escaped to match exactly that channel. */
+static lcm_subscription_t *subscribe_exact(lcm_ctx_t *c, lcm_t *lcm, const char *channel)
 {
-    lcm_ctx_t *c = ctx;
-    if (c->n_subs == HAL_HOST_NET_MAX_SUBS)
-        return -ENOSPC;
-    /* LCM channel arguments are regular expressions; a valid channel name may contain '.',
-     * so escape it to match exactly that channel. */
     char re[2u * HAL_NET_CHANNEL_MAX + 1u];
     size_t k = 0;
     for (const char *p = channel; *p != '\0'; p++) {
@@ -78,17 +252,189 @@ static int lcm_sub(void *ctx, const char *channel)
         re[k++] = *p;
     }
     re[k] = '\0';
-    lcm_subscription_t *sub = lcm_subscribe(c->lcm, re, on_message, c);
+    return lcm_subscribe(lcm, re, on_message, c);
+}
+
+static void wake_receiver(lcm_ctx_t *c)
+{
+    const uint8_t b = 1;
+    (void)!write(c->wake[1], &b, 1); /* a full pipe already wakes the receiver */
+}
+
+static int lcm_sub(void *ctx, const char *channel)
+{
+    lcm_ctx_t *c = ctx;
+    const int64_t r = c->n_prefix > 0 ? inbox_of(c, channel) : -1;
+    if (r >= 0) { /* joined on the receiver thread (apply_groups) */
+        pthread_mutex_lock(&c->mu);
+        const int full = c->n_inbox == HAL_HOST_NET_MAX_SUBS;
+        if (!full) {
+            snprintf(c->inbox_ch[c->n_inbox], sizeof c->inbox_ch[0], "%s", channel);
+            c->inbox_id[c->n_inbox++] = (uint32_t)r;
+            c->dirty = 1;
+        }
+        pthread_mutex_unlock(&c->mu);
+        if (full)
+            return -ENOSPC;
+        wake_receiver(c);
+        return 0;
+    }
+    if (c->n_subs == HAL_HOST_NET_MAX_SUBS)
+        return -ENOSPC;
+    lcm_subscription_t *sub = subscribe_exact(c, c->lcm, channel);
     if (sub == NULL)
         return -EIO;
     c->sub[c->n_subs++] = sub;
     return 0;
 }
 
+static int lcm_group(void *ctx, const char *channel, int by_receiver)
+{
+    lcm_ctx_t *c = ctx;
+    if (!c->udpm)
+        return -ENOTSUP;
+    pthread_mutex_lock(&c->mu);
+    int rc = 0;
+    if (c->wake[0] < 0) {
+        if (pipe(c->wake) != 0)
+            rc = -EIO;
+        for (int k = 0; k < 2 && rc == 0; k++)
+            (void)fcntl(c->wake[k], F_SETFL, O_NONBLOCK);
+    }
+    if (rc == 0 && by_receiver) {
+        uint32_t i = 0;
+        while (i < c->n_prefix && strcmp(c->prefix[i], channel) != 0)
+            i++;
+        if (i == c->n_prefix && c->n_prefix == PREFIX_MAX)
+            rc = -ENOSPC;
+        else if (i == c->n_prefix)
+            snprintf(c->prefix[c->n_prefix++], sizeof c->prefix[0], "%s", channel);
+    } else if (rc == 0) {
+        if (c->grouped[0] != '\0')
+            rc = strcmp(c->grouped, channel) == 0 ? 0 : -ENOSPC; /* one grouped channel */
+        else
+            snprintf(c->grouped, sizeof c->grouped, "%s", channel);
+    }
+    pthread_mutex_unlock(&c->mu);
+    return rc;
+}
+
+static int lcm_senders(void *ctx, const char *channel, const uint8_t *wanted, uint32_t n_ids)
+{
+    lcm_ctx_t *c = ctx;
+    pthread_mutex_lock(&c->mu);
+    if (c->grouped[0] == '\0' || strcmp(channel, c->grouped) != 0) {
+        pthread_mutex_unlock(&c->mu); /* carried on the URL's group: hal_host_net.c filters */
+        return 0;
+    }
+    if (wanted != NULL) {
+        memcpy(c->want, wanted, sizeof c->want);
+    } else { /* every sender of the fleet */
+        memset(c->want, 0, sizeof c->want);
+        for (uint32_t s = 0; s < n_ids && s < BOARD_MAX_FLEET; s++)
+            c->want[s / 8u] |= (uint8_t)(1u << (s % 8u));
+    }
+    c->dirty = 1;
+    pthread_mutex_unlock(&c->mu);
+    wake_receiver(c);
+    return 0;
+}
+
+/* The receiver thread: group g joined for `channel` (a new instance), or NULL, said once. */
+static lcm_t *join(lcm_ctx_t *c, uint32_t g, const char *channel)
+{
+    char u[URL_MAX] = "";
+    lcm_t *l = group_url(c, g, u, sizeof u) == 0 ? lcm_create(u) : NULL;
+    if (l != NULL && subscribe_exact(c, l, channel) == NULL) {
+        lcm_destroy(l);
+        l = NULL;
+    }
+    if (l == NULL && !c->warned_join) {
+        fprintf(stderr, "hal_host_net: cannot join the group of %s %u (%s): what it carries is missed\n",
+                g >= GROUP_SPAN ? "inbox" : "sender", g % GROUP_SPAN, u);
+        c->warned_join = 1;
+    }
+    return l;
+}
+
+/* The receiver thread: the inboxes subscribed since the last call joined, and the sender
+   groups brought to the wanted set, new ones first. A group that cannot be joined is reported
+   once and left out (what it carries is then asked for and missed like losses: the protocol
+   times that peer out of our neighbours in the end). */
+static void apply_groups(lcm_ctx_t *c)
+{
+    char drain[64];
+    while (read(c->wake[0], drain, sizeof drain) > 0) {
+    }
+    uint8_t want[HAL_HOST_NET_SENDER_BYTES];
+    char channel[HAL_NET_CHANNEL_MAX];
+    pthread_mutex_lock(&c->mu);
+    const int dirty = c->dirty;
+    c->dirty = 0;
+    memcpy(want, c->want, sizeof want);
+    memcpy(channel, c->grouped, sizeof channel);
+    for (; c->n_inbox_done < c->n_inbox; c->n_inbox_done++) {
+        const uint32_t i = c->n_inbox_done;
+        uint32_t j = 0;
+        while (j < i && (c->inbox_id[j] != c->inbox_id[i] || c->inbox[j] == NULL))
+            j++;
+        c->inbox[i] = NULL;
+        if (j < i) /* this robot's inbox is joined already: one more channel on it */
+            (void)subscribe_exact(c, c->inbox[j], c->inbox_ch[i]);
+        else
+            c->inbox[i] = join(c, GROUP_SPAN + c->inbox_id[i], c->inbox_ch[i]);
+    }
+    pthread_mutex_unlock(&c->mu);
+    if (!dirty || channel[0] == '\0')
+        return;
+    for (uint32_t s = 0; s < BOARD_MAX_FLEET; s++) {
+        const int w = (want[s / 8u] >> (s % 8u)) & 1u;
+        if (w && c->joined[s] == NULL) {
+            c->joined[s] = join(c, s, channel);
+            c->n_joined += c->joined[s] != NULL;
+        }
+    }
+    for (uint32_t s = 0; s < BOARD_MAX_FLEET; s++) {
+        const int w = (want[s / 8u] >> (s % 8u)) & 1u;
+        if (!w && c->joined[s] != NULL) {
+            lcm_destroy(c->joined[s]);
+            c->joined[s] = NULL;
+            c->n_joined--;
+        }
+    }
+}
+
 static int lcm_handle_for(void *ctx, int timeout_ms)
 {
     lcm_ctx_t *c = ctx;
-    return lcm_handle_timeout(c->lcm, timeout_ms) < 0 ? -EIO : 0;
+    if (c->wake[0] < 0) /* no grouped channel: the URL's group alone */
+        return lcm_handle_timeout(c->lcm, timeout_ms) < 0 ? -EIO : 0;
+    apply_groups(c);
+    uint32_t k = 0;
+    c->pfd[k] = (struct pollfd){.fd = c->wake[0], .events = POLLIN};
+    c->pfd_lcm[k++] = NULL;
+    c->pfd[k] = (struct pollfd){.fd = lcm_get_fileno(c->lcm), .events = POLLIN};
+    c->pfd_lcm[k++] = c->lcm;
+    for (uint32_t i = 0; i < c->n_inbox_done; i++)
+        if (c->inbox[i] != NULL) {
+            c->pfd[k] = (struct pollfd){.fd = lcm_get_fileno(c->inbox[i]), .events = POLLIN};
+            c->pfd_lcm[k++] = c->inbox[i];
+        }
+    for (uint32_t s = 0; s < BOARD_MAX_FLEET; s++)
+        if (c->joined[s] != NULL) {
+            c->pfd[k] = (struct pollfd){.fd = lcm_get_fileno(c->joined[s]), .events = POLLIN};
+            c->pfd_lcm[k++] = c->joined[s];
+        }
+    const int r = poll(c->pfd, k, timeout_ms);
+    if (r < 0)
+        return errno == EINTR ? 0 : -EIO;
+    if ((c->pfd[1].revents & POLLIN) && lcm_handle(c->lcm) < 0)
+        return -EIO;
+    for (uint32_t i = 2; i < k; i++)
+        if (c->pfd[i].revents & POLLIN)
+            (void)lcm_handle(c->pfd_lcm[i]); /* a group lost is a sender missed */
+    return 0;
 }
 
-const hal_host_net_transport_t hal_host_net_lcm = {"lcm", lcm_open, lcm_close, lcm_pub, lcm_sub, lcm_handle_for, NULL};
+const hal_host_net_transport_t hal_host_net_lcm = {"lcm",          lcm_open,    lcm_close, lcm_pub, lcm_sub,
+                                                   lcm_handle_for, lcm_senders, lcm_group};

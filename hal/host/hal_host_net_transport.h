@@ -9,8 +9,8 @@
  *     process binds one PUB endpoint and connects its SUB to every peer's.
  * Neighbour-scoped delivery (hal_host_net_set_senders): hal_host_net.c drops an unwanted
  * sender's datagram on arrival whatever the transport; a transport that can do better (ZeroMQ:
- * at the publisher, so the bytes never cross TCP) offers `senders`, and its `publish` is told
- * each datagram's sender for that.
+ * at the publisher, so the bytes never cross TCP; LCM with per-sender groups: the kernel never
+ * copies them) offers `senders`, and its `publish` is told each datagram's sender for that.
  * Not part of the board's API. */
 #ifndef HAL_HOST_NET_TRANSPORT_H
 #define HAL_HOST_NET_TRANSPORT_H
@@ -43,8 +43,14 @@ typedef struct hal_host_net_transport {
        `wanted` (HAL_HOST_NET_SENDER_BYTES bytes, bit i = wanted[i / 8] >> (i % 8) & 1), or
        every sender again (wanted NULL). Called from the caller's thread while the receiver
        runs, only when the set changed; best effort (what passes is filtered above). 0, -EINVAL
-       (not subscribed), -EIO. */
-    int (*senders)(void *ctx, const char *channel, const uint8_t *wanted);
+       (not subscribed), -EIO. `n_ids`: the fleet's size (the ids "every sender" means). */
+    int (*senders)(void *ctx, const char *channel, const uint8_t *wanted, uint32_t n_ids);
+    /* Optional (NULL: -ENOTSUP). by_receiver 0: carries `channel` per sender from now on, for
+       publishing and receiving alike (LCM's per-sender groups); receiving it then takes
+       `senders`. by_receiver 1: `channel` is a prefix, and the channels PREFIX<id> are carried
+       to robot id alone (its inbox). Called before the first subscription, at every member of
+       the fleet alike. 0, -ENOTSUP (the URL cannot), -ENOSPC (no room for another), -EIO. */
+    int (*group)(void *ctx, const char *channel, int by_receiver);
 } hal_host_net_transport_t;
 
 extern const hal_host_net_transport_t hal_host_net_lcm;

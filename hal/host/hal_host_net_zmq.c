@@ -264,8 +264,9 @@ static int zmq_sub(void *ctx, const char *channel)
     return rc;
 }
 
-static int zmq_senders(void *ctx, const char *channel, const uint8_t *wanted)
+static int zmq_senders(void *ctx, const char *channel, const uint8_t *wanted, uint32_t n_ids)
 {
+    (void)n_ids; /* NULL is every topic: "CHANNEL#" */
     zmq_ctx_t *c = ctx;
     pthread_mutex_lock(&c->mu);
     uint32_t i = 0;
@@ -399,4 +400,4 @@ static int zmq_handle(void *ctx, int timeout_ms)
 }
 
 const hal_host_net_transport_t hal_host_net_zmq = {"zmq",   zmq_open_url, zmq_close_ctx, zmq_pub,
-                                                   zmq_sub, zmq_handle,   zmq_senders};
+                                                   zmq_sub, zmq_handle,   zmq_senders, NULL};

@@ -488,6 +488,7 @@ static int run_image(job_t *j)
     ic.time_limit_s = o->time_limit;
     ic.storage_dir = o->out;
     ic.net_url = o->net;
+    ic.net_groups = o->lcm_groups;
     ic.net_faults = o->net_faults;
     ic.net_auth = o->key_file != NULL ? &j->auth : NULL;
     ic.sched = o->sched;
@@ -542,7 +543,8 @@ static int run_image(job_t *j)
         f->resend_after_us = (uint32_t)llround(o->resend_ms * 1e3);
         f->join_timeout_us = (uint32_t)llround(o->join_timeout * 1e6);
         f->positions_from_tour = o->offline;
-        f->addressed = o->transport == RUN_TRANSPORT_ZMQ; /* a copy per connection: each to its one robot */
+        /* A copy per connection (ZeroMQ) or per inbox group (LCM groups): each to its one robot. */
+        f->addressed = o->transport == RUN_TRANSPORT_ZMQ || o->lcm_groups;
         f->ordered = o->transport == RUN_TRANSPORT_ZMQ;   /* TCP keeps each sender's order */
         f->post_rounds = o->encoding == DINNO_CODEC_FP32 ? (uint32_t)o->post_rounds : 0u;
         f->tour = j->tour;

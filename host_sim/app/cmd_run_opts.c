@@ -117,6 +117,11 @@ static const cli_opt_t run_opts[] = {
              "entry and connects to the others)"},
     {.names = "--lcm-url", .meta = "URL", CLI_STRING(run_opts_t, net), CLI_GIVEN(run_opts_t, net_given),
      .def = HAL_HOST_NET_URL_DEFAULT, .help = "LCM URL"},
+    {.names = "--lcm-groups", CLI_FLAG(run_opts_t, lcm_groups, 1),
+     .help = "lcm: each robot's state chunks on a multicast group and port of its own (the URL's + 1 + its id), "
+             "and what is for one robot (requests for its chunks, chunks it asked for) on its inbox group (+ 1025 + "
+             "its id); a robot joins its neighbours' groups and its inbox only, so the others' states never reach "
+             "it; every member alike"},
     {.names = "--net", .meta = "URL", CLI_STRING(run_opts_t, net), CLI_GIVEN(run_opts_t, net_given),
      .help = "the same (alone: default memq://, in-process; 'none' for no network)", .def = ""},
     {.names = "--radius", .meta = "M", CLI_DOUBLE(run_opts_t, radius, 0.0, 1e6),
@@ -360,6 +365,11 @@ int run_parse(int argc, char **argv, run_opts_t *o, char *url)
     }
     if ((o->transport == RUN_TRANSPORT_ZMQ || o->peers != NULL) && o->fleet < 2) {
         fprintf(stderr, "host_sim run: --transport zmq and --peers are for a fleet (--fleet N, N >= 2)\n");
+        return -1;
+    }
+    if (o->lcm_groups && (o->fleet < 2 || o->transport != RUN_TRANSPORT_LCM ||
+                          (o->net[0] != '\0' && strncmp(o->net, "udpm://", 7) != 0))) {
+        fprintf(stderr, "host_sim run: --lcm-groups is for a fleet over LCM multicast (--fleet N, --lcm-url udpm://...)\n");
         return -1;
     }
     if (o->peers != NULL && o->transport != RUN_TRANSPORT_ZMQ) {

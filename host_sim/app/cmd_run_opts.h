@@ -30,6 +30,7 @@ typedef struct run_opts {
     int robot_given, fleet_given; /* --id / --fleet on the command line (else SLURM's may say) */
     int online_given, offline_given; /* --online / --offline given (both: refused) */
     int transport;          /* --transport: RUN_TRANSPORT_LCM or RUN_TRANSPORT_ZMQ */
+    int lcm_groups;         /* --lcm-groups: state chunks on per-sender multicast groups */
     const char *peers;      /* --peers HOST:PORT,... (zmq: every member, in id order) */
     const char *net_faults; /* --net-faults SPEC, checked at parse time; NULL: none */
     const char *key_file;   /* --key-file: a keyed fleet; NULL: unkeyed */

@@ -39,9 +39,11 @@ static double wall_now(void)
     return (double)ts.tv_sec + 1e-9 * (double)ts.tv_nsec;
 }
 
-/* The fleet's channels typed on the host's network (hal_host_msg bounds checks), then the image
-   made a member (fw_robot_join_fleet). */
-static int join_fleet(hal_host_t *h, const gp_fleet_cfg_t *fc, fw_robot_cfg_t *robot, char *err, size_t errlen)
+/* The fleet's channels typed on the host's network (hal_host_msg bounds checks) and, with
+   `groups`, carried on LCM's per-sender and per-robot groups; then the image made a member
+   (fw_robot_join_fleet). */
+static int join_fleet(hal_host_t *h, const gp_fleet_cfg_t *fc, int groups, fw_robot_cfg_t *robot, char *err,
+                      size_t errlen)
 {
     static const int types[GP_FLEET_CHANNELS] = {HAL_HOST_MSG_STATE_CHUNK,    HAL_HOST_MSG_ROUND_COMPLETE,
                                                  HAL_HOST_MSG_CHUNK_REQUEST,  HAL_HOST_MSG_GOAL_CLAIM,
@@ -57,6 +59,24 @@ static int join_fleet(hal_host_t *h, const gp_fleet_cfg_t *fc, fw_robot_cfg_t *r
             rc = hal_host_net_expect_type(net, ch, types[c]);
         if (rc < 0) {
             snprintf(err, errlen, "image: fleet channels not set up (%d)", rc);
+            return rc;
+        }
+    }
+    if (groups) { /* LCM: before the first subscription (fw_robot_join_fleet subscribes) */
+        char ch[HAL_NET_CHANNEL_MAX];
+        int rc = fc->addressed ? gp_fleet_channel_of(fc, GP_FLEET_CH_STATE, ch, sizeof ch) : -EINVAL;
+        if (rc == 0)
+            rc = hal_host_net_group_by_sender(net, ch);
+        /* A robot's own channels are PREFIX<robot>: robot 0's without its "0". */
+        for (int c = GP_FLEET_CH_RESEND; c <= GP_FLEET_CH_ASK && rc == 0; c++) {
+            rc = gp_fleet_robot_channel(fc->fleet_id, (gp_fleet_channel_t)c, 0, ch, sizeof ch);
+            if (rc == 0) {
+                ch[strlen(ch) - 1u] = '\0';
+                rc = hal_host_net_group_by_receiver(net, ch);
+            }
+        }
+        if (rc < 0) {
+            snprintf(err, errlen, "image: LCM groups refused (%d): they need an addressed fleet on a udpm:// URL", rc);
             return rc;
         }
     }
@@ -181,7 +201,7 @@ int sim_image_run(const sim_plan_t *plan, const sim_path_t *path, const sim_imag
         gp_fleet_cfg_t fleet_cfg = *cfg->fleet;
         /* exploring fleets claim their goals, but for the frontier policy (each on its own) */
         fleet_cfg.claims = cfg->explore != NULL && cfg->explore->policy != GP_EXPLORE_FRONTIER;
-        if ((rc = join_fleet(h, &fleet_cfg, &fc, err, errlen)) < 0)
+        if ((rc = join_fleet(h, &fleet_cfg, cfg->net_groups, &fc, err, errlen)) < 0)
             goto out;
     }
     /* Exploring: the three cores' grids over the plan (sim_explore.h); the path is only the start. */

@@ -62,6 +62,9 @@ typedef struct sim_image_cfg {
     const char *net_faults;      /* NULL: none; else faults injected on receive (hal_host_netfault.h),
                                     seeded from seed and robot unless the spec has seed= */
     const hal_host_auth_t *net_auth; /* NULL: unkeyed; else a keyed fleet (hal_host_auth.h) */
+    int net_groups;              /* LCM: the fleet's states on a group per sender and what is for
+                                    one robot on its inbox group (hal_host_net_group_by_*); needs
+                                    fleet->addressed, every member alike */
     hal_host_sched_t sched;
     hal_log_level_t log_level;
     uint32_t ckpt_every;         /* round checkpoints every N rounds (1: all; 0: final only) */

@@ -1,9 +1,10 @@
 #!/usr/bin/python3
 """How the cost of a fleet grows with its size: N host_sim processes on this machine, over LCM
-multicast and over ZeroMQ/TCP, offline, keyed, `small` preset (docs/scaling.md).
+multicast (lcm; lcm-groups: a multicast group per sender and per robot, --lcm-groups) and over
+ZeroMQ/TCP, offline, keyed, `small` preset (docs/scaling.md).
 
     tools/bench/bench_scaling.py [--bin build/release-host-small/bin/host_sim] [--robots 7,16,32,64]
-                                 [--transports lcm,zmq] [--rounds 100] [--rounds-for 128:20,...]
+                                 [--transports lcm,lcm-groups,zmq] [--rounds 100] [--rounds-for 128:20,...]
                                  [--csv docs/scaling.csv] [--plot docs/scaling.png]
                                  [--mem-margin-gb 2] [--progress-s 60]
 
@@ -57,6 +58,10 @@ NEW_FIELDS = ["rss_MB_median", "net_rx_unwanted_per_robot", "fleet_rss_MB_peak",
               "states_given_up", "peer_timeouts", "queue_drops"]
 ALL_FIELDS = FIELDS + NEW_FIELDS
 DEFAULT_RSS_MB = 120.0  # per process, when no smaller fleet was measured
+# What tools/fleet is given for each transport: lcm-groups is LCM with per-sender groups and
+# inboxes (--lcm-groups: each robot joins its neighbours' groups only).
+TRANSPORT_ARGS = {"lcm": ["--transport", "lcm"], "lcm-groups": ["--transport", "lcm", "--lcm-groups"],
+                  "zmq": ["--transport", "zmq"]}
 
 
 def meminfo_mb(key):
@@ -69,7 +74,7 @@ def meminfo_mb(key):
 
 def sock_limit_mb(transport):
     """The kernel's hard limit on the memory of all UDP (LCM) or TCP (ZeroMQ) socket buffers."""
-    path = "/proc/sys/net/ipv4/" + ("udp_mem" if transport == "lcm" else "tcp_mem")
+    path = "/proc/sys/net/ipv4/" + ("udp_mem" if transport.startswith("lcm") else "tcp_mem")
     try:
         with open(path) as f:
             return int(f.read().split()[2]) * os.sysconf("SC_PAGE_SIZE") / 1e6
@@ -167,7 +172,7 @@ def known_fleets(a):
                     pass
     if os.path.isdir(a.results):
         for d in os.listdir(a.results):
-            m = re.fullmatch(r"(lcm|zmq)-(\d+)-r\d+", d)
+            m = re.fullmatch(r"(lcm-groups|lcm|zmq)-(\d+)-r\d+", d)
             if not m or not measured(os.path.join(a.results, d), int(m.group(2))):
                 continue
             rss = []
@@ -243,7 +248,7 @@ def measure(a, transport, n, rounds, preset):
                      f"{a.mem_margin_gb:g} GB margin (--mem-margin-gb). Free memory, run a smaller fleet first "
                      f"(its measured RSS replaces the estimate), or lower the per-process peak RSS.")
         cmd = [os.path.join(ROOT, "tools/fleet"), "--bin", a.bin, "--robots", str(n), "--rounds", str(rounds),
-               "--paths", tours(a.results, n), "--results", a.results, "--name", name, "--transport", transport,
+               "--paths", tours(a.results, n), "--results", a.results, "--name", name] + TRANSPORT_ARGS[transport] + [
                "--val-every", str(rounds), "--val-poses", "1", "--peer-timeout", "60", "--no-report"]
         print(f"bench_scaling: {transport}, {n} robots, {rounds} rounds ...", flush=True)
         mem = run_fleet(a, cmd, run_dir, f"{transport} {n} robots")
@@ -360,7 +365,7 @@ def plot(rows, out):
         print("bench_scaling: no plot (python3-matplotlib is missing)")
         return
     fig, ax = plt.subplots(1, 2, figsize=(10, 4))
-    for t, mark in (("lcm", "o-"), ("zmq", "s-")):
+    for t, mark in (("lcm", "o-"), ("lcm-groups", "^-"), ("zmq", "s-")):
         rs = [r for r in rows if r["transport"] == t]
         if not rs:
             continue
@@ -414,9 +419,9 @@ def main():
     except ValueError:
         p.error("--rounds-for wants N:R pairs like 128:20")
     transports = a.transports.split(",")
-    if not all(t in ("lcm", "zmq") for t in transports) or min([a.rounds] + list(rounds_for.values())) < 5 or \
+    if not all(t in TRANSPORT_ARGS for t in transports) or min([a.rounds] + list(rounds_for.values())) < 5 or \
             not all(1 < n <= 1024 for n in sizes):
-        p.error("--transports lcm,zmq; --rounds (and --rounds-for) >= 5; --robots 2 .. 1024")
+        p.error("--transports lcm,lcm-groups,zmq; --rounds (and --rounds-for) >= 5; --robots 2 .. 1024")
     if not os.access(a.bin, os.X_OK):
         sys.exit(f"bench_scaling: {a.bin} not found: build first (make)")
     os.makedirs(a.results, exist_ok=True)
