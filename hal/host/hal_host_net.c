@@ -549,6 +549,7 @@ int hal_host_net_publish(hal_host_net_t *n, const char *channel, const void *dat
 void hal_host_net_on_datagram(hal_host_net_t *n, const char *channel, const void *data, size_t len)
 {
     pthread_mutex_lock(&n->mu);
+    n->stats.rx_arrived_bytes += len;
     const size_t trailer = n->keyed ? HAL_HOST_AUTH_TRAILER_BYTES : 0u;
     if (channel == NULL || !hal_net_channel_valid(channel) || len > HAL_NET_MTU_BYTES + trailer ||
         (data == NULL && len > 0)) {

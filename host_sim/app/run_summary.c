@@ -18,9 +18,9 @@ void run_summary_fleet(FILE *f, const run_opts_t *o, const sim_image_result_t *r
             (unsigned long long)p->chunks_received);
     fprintf(f, "network: %.0f B received per round in %.1f datagrams (the members' the network delivered, "
                "before the protocol keeps the nearest); %llu datagrams of senders not asked for dropped on "
-               "arrival\n",
+               "arrival; %.0f B arrived per round in all (those and own echoes included)\n",
             (double)res->net.rx_bytes / R, (double)res->net.rx_messages / R,
-            (unsigned long long)res->net.rx_unwanted);
+            (unsigned long long)res->net.rx_unwanted, (double)res->net.rx_arrived_bytes / R);
     if (post->rounds > 0)
         fprintf(f, "posterior rounds: %u of %u (the fleet's epistemic posterior: %llu B sent, %llu B received, "
                    "not in traffic.csv)%s\n",

@@ -30,7 +30,8 @@ shared libraries' pages in every process (libLLVM through libOSMesa: ~42 MB, sha
 estimate is on the safe side. While a fleet runs, the launcher's progress lines pass through
 and every --progress-s seconds without one a line says the elapsed time, the fleet's summed RSS
 and its socket buffers. The CSV records the peak RSS per process (max and median, summary.txt),
-the bytes the network delivered per robot and round (summary.txt "network:"; rx_unwanted when
+the bytes the network delivered per robot and round (summary.txt "network:"; rx_unwanted and
+the bytes that arrived in all, unwanted senders and own echoes included, when
 that line has the field), the peaks the bench sampled (summed RSS, socket buffers), and what the
 fleet lost (run.json: states given up, peer timeouts, full-queue drops; a line warns when any is
 not zero: then the round times are those of a lossy fleet).
@@ -55,7 +56,7 @@ FIELDS = ["transport", "robots", "rounds", "round_ms", "sent_per_robot_B", "rece
           "rss_MB_max", "static_MB_per_image", "wall_s"]
 # Added later: old rows without them are kept (empty cells).
 NEW_FIELDS = ["rss_MB_median", "net_rx_unwanted_per_robot", "fleet_rss_MB_peak", "sock_MB_peak",
-              "states_given_up", "peer_timeouts", "queue_drops"]
+              "states_given_up", "peer_timeouts", "queue_drops", "net_arrived_per_robot_B"]
 ALL_FIELDS = FIELDS + NEW_FIELDS
 DEFAULT_RSS_MB = 120.0  # per process, when no smaller fleet was measured
 # What tools/fleet is given for each transport: lcm-groups is LCM with per-sender groups and
@@ -272,7 +273,7 @@ def measure(a, transport, n, rounds, preset):
     if any(lost.values()):
         print(f"bench_scaling: {transport}, {n} robots: the fleet lost data ({lost}): its round times are those "
               f"of a lossy fleet", flush=True)
-    walls, sent, recv, net, cpu, rss, unwanted = [], [], [], [], [], [], []
+    walls, sent, recv, net, cpu, rss, unwanted, arrived = [], [], [], [], [], [], [], []
     static = 0
     for i in range(n):
         rd = os.path.join(run_dir, f"robot_{i}")
@@ -292,6 +293,9 @@ def measure(a, transport, n, rounds, preset):
         mu = re.search(r"([0-9]+) datagrams of senders not asked for", line)
         if mu:
             unwanted.append(float(mu.group(1)))
+        ma = re.search(r"([0-9.]+) B arrived per round in all", line)
+        if ma:
+            arrived.append(float(ma.group(1)))
         cpu.append(float(m.group(1)))
         rss.append(float(m.group(2)))
         if i == 0:
@@ -307,7 +311,8 @@ def measure(a, transport, n, rounds, preset):
            "net_rx_unwanted_per_robot": statistics.mean(unwanted) if len(unwanted) == n else "",
            "fleet_rss_MB_peak": mem.get("fleet_rss_MB_peak", ""), "sock_MB_peak": mem.get("sock_MB_peak", ""),
            "states_given_up": lost.get("states_given_up", ""), "peer_timeouts": lost.get("peer_timeouts", ""),
-           "queue_drops": lost.get("queue_drops", "")}
+           "queue_drops": lost.get("queue_drops", ""),
+           "net_arrived_per_robot_B": statistics.mean(arrived) if len(arrived) == n else ""}
     print(f"BENCH fleet_round_ms_{transport}_{preset}_{n}proc {row['round_ms']:.6g} ms", flush=True)
     return row
 
@@ -447,11 +452,13 @@ def main():
             rows.append({k: (r[k] if k == "transport" else int(r[k]) if k in ("robots", "rounds") else
                              float(r[k]) if r.get(k) else "") for k in ALL_FIELDS})
         rows.sort(key=lambda r: (r["transport"], r["robots"]))
-    print(f"{'transport':>9} {'N':>4} {'round ms':>9} {'net/robot MB':>12} {'kept/robot MB':>13} {'CPU ms/round':>12} "
+    print(f"{'transport':>10} {'N':>4} {'round ms':>9} {'net/robot MB':>12} {'arrived MB':>10} {'kept/robot MB':>13} "
+          f"{'CPU ms/round':>12} "
           f"{'RSS MB':>7} {'RSS med':>7} {'static MB':>9} {'sock MB':>7}")
     for r in rows:
-        print(f"{r['transport']:>9} {r['robots']:>4} {r['round_ms']:>9.1f} {r['net_received_per_robot_B'] / 1e6:>12.2f} "
-              f"{r['received_per_robot_B'] / 1e6:>13.2f} "
+        arrived_mb = r["net_arrived_per_robot_B"] / 1e6 if r.get("net_arrived_per_robot_B") != "" else ""
+        print(f"{r['transport']:>10} {r['robots']:>4} {r['round_ms']:>9.1f} {r['net_received_per_robot_B'] / 1e6:>12.2f} "
+              f"{fmt(arrived_mb, 10)} {r['received_per_robot_B'] / 1e6:>13.2f} "
               f"{r['cpu_ms_per_round_per_process']:>12.1f} {r['rss_MB_max']:>7.1f} {fmt(r['rss_MB_median'], 7)} "
               f"{r['static_MB_per_image']:>9.1f} {fmt(r['sock_MB_peak'], 7, 0)}")
     if a.csv:

@@ -64,6 +64,9 @@ typedef struct hal_net_stats {
     uint64_t rx_unwanted;       /* dropped because their sender is not in the channel's wanted
                                    set (hal_net_set_senders), before the tag check; a board that
                                    filters at the sender (ZeroMQ) never sees most of them */
+    uint64_t rx_arrived_bytes;  /* every byte the network was handed, whatever became of it
+                                   (own echoes, unwanted senders and drops included): what
+                                   reached this node at all (the host; 0 elsewhere) */
     /* Faults a board injected on purpose (the host's --net-faults; 0 elsewhere). */
     uint64_t fault_dropped;     /* lost at random */
     uint64_t fault_duplicated;  /* delivered twice */
