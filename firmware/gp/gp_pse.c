@@ -73,6 +73,7 @@ int gp_pse_init(gp_pse_t *p, const gp_pse_cfg_t *c)
     p->n_chunks = (c->state_bytes + c->chunk_bytes - 1u) / c->chunk_bytes;
     p->round = 0;
     p->in_round = p->completed = p->later_heard = p->ready_noted = p->leaving = p->taken = 0;
+    p->leave_said = 0;
     p->sent_us = p->pos_sent_us = p->polled_us = p->newcomer_us = 0;
     p->mine = NULL;
     p->x_m = p->y_m = 0.0;
@@ -484,6 +485,7 @@ void gp_pse_leave(gp_pse_t *p, uint64_t now_us)
         return;
     p->leaving = 1;
     send_beacon(p, p->round + 1u, now_us);
+    p->leave_said = 1;
 }
 
 /* How long peer q may show no progress while we wait for it (the liveness rule, gp_pse.h):
@@ -536,8 +538,10 @@ void gp_pse_poll(gp_pse_t *p, uint64_t now_us)
         /* After the last round: "I am past it" often, so a peer that missed our RoundComplete
            ends its wait at once (a later round heard); requests for our state are still
            answered (on_request). */
-        if (now_us - p->sent_us >= repeat_every(p, p->cfg.resend_after_us / 4u))
+        if (now_us - p->sent_us >= repeat_every(p, p->cfg.resend_after_us / 4u)) {
             send_beacon(p, p->round + 1u, now_us);
+            p->leave_said++;
+        }
         return;
     }
     /* Completed: our RoundComplete again until the next round begins, every quarter resend
@@ -664,13 +668,15 @@ int gp_pse_round_finished(const gp_pse_t *p)
     return 1;
 }
 
-int gp_pse_all_left(const gp_pse_t *p)
+int gp_pse_all_left(const gp_pse_t *p, uint64_t now_us)
 {
-    if (!p->leaving)
+    if (!p->leaving || p->leave_said < GP_PSE_LEAVE_SAID)
         return 0;
+    const uint64_t quiet_us = GP_PSE_LEAVE_SAID * repeat_every(p, p->cfg.resend_after_us / 4u);
     for (uint32_t i = 0; i < p->cfg.n_peers; i++) {
         const gp_pse_peer_t *q = &p->peer[i];
-        if (i != p->cfg.self && !q->absent && !(q->has_round && q->at_round > p->round))
+        if (i != p->cfg.self && !q->absent && !(q->has_round && q->at_round > p->round) &&
+            !(q->heard && now_us - q->heard_us >= quiet_us))
             return 0;
     }
     return 1;

@@ -286,6 +286,7 @@ typedef struct gp_pse {
     uint32_t n_chunks;          /* of every state */
     uint32_t round;             /* k */
     int in_round, completed, later_heard, ready_noted, leaving;
+    uint32_t leave_said;        /* "past the last round" beacons sent while leaving */
     int taken;                  /* round k's states were handed out: frozen until round k + 1 */
     uint64_t round_start_us, completed_us, done_sent_us, sent_us;
     uint64_t pos_sent_us;       /* our last beacon with our position (| 1: 0 is never) */
@@ -360,9 +361,16 @@ uint32_t gp_pse_next_round(const gp_pse_t *pse, uint64_t now_us);
 /* The last round finished for us: we linger as a leaver (see above). */
 void gp_pse_leave(gp_pse_t *pse, uint64_t now_us);
 
-/* 1 when we are leaving and every peer still in the round was heard past it too (leaving): a
- * peer still waiting for us then no longer needs our beacons. The caller lingers until then
- * (and a little more, for the peers to hear our last beacons), or until a peer timeout. */
-int gp_pse_all_left(const gp_pse_t *pse);
+/* 1 when we are leaving, said so GP_PSE_LEAVE_SAID times, and every other peer still in the
+ * round was heard past it too (leaving) or has been silent for GP_PSE_LEAVE_SAID of our
+ * leaving beacons' periods: a peer still waiting for us then no longer needs our beacons. The
+ * caller lingers until then (and a little more, for the peers to hear our last beacons), or
+ * until a peer timeout. The silence rule: a peer that completed the last round and then went
+ * quiet has most likely left, its own "past it" beacons lost on the way (64 robots on 2
+ * cores: a third of the robots lingered the whole peer timeout at the end of a run for such
+ * peers); a live one that still waits for us only waits its own bounded linger in turn, and
+ * the models are final by then. */
+#define GP_PSE_LEAVE_SAID 3u
+int gp_pse_all_left(const gp_pse_t *pse, uint64_t now_us);
 
 #endif /* GP_GP_PSE_H */

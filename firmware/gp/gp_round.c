@@ -81,7 +81,7 @@ gp_round_event_t gp_round_step(gp_round_t *d, uint64_t now_us)
         d->phase = GP_ROUND_LEAVING;
         return GP_ROUND_WAIT;
     case GP_ROUND_LEAVING:
-        if (now_us < d->cap_us && (now_us < d->grace_us || !gp_pse_all_left(p)))
+        if (now_us < d->cap_us && (now_us < d->grace_us || !gp_pse_all_left(p, now_us)))
             return GP_ROUND_WAIT;
         d->phase = GP_ROUND_LEFT;
         return GP_ROUND_DONE;

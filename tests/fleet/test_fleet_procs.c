@@ -51,7 +51,8 @@ static char *slurp(const char *path, size_t *len)
     return (char *)test_slurp(path, len);
 }
 
-static int g_zmq; /* the next fleet over ZeroMQ/TCP on loopback instead of LCM */
+static int g_zmq;    /* the next fleet over ZeroMQ/TCP on loopback instead of LCM */
+static int g_groups; /* the next fleet over LCM with per-sender groups and inboxes */
 
 /* The fleet: NPROC `host_sim run --fleet` processes into DIR/<tag>/robot_<i>. */
 static void run_fleet(const char *tag, const char *encoding, const char *drop_every)
@@ -60,8 +61,17 @@ static void run_fleet(const char *tag, const char *encoding, const char *drop_ev
     static char peers[128];
     const unsigned port = 24000u + (unsigned)(getpid() % 1000) * 8u;
     snprintf(peers, sizeof peers, "127.0.0.1:%u,127.0.0.1:%u,127.0.0.1:%u", port, port + 1u, port + 2u);
-    const char *args[] = {"--rounds", ROUNDS, "--radius", "6", "--encoding", encoding, "--peer-timeout", "20",
-                          g_zmq ? "--transport" : NULL, "zmq", "--peers", peers, NULL};
+    const char *args[16] = {"--rounds", ROUNDS, "--radius", "6", "--encoding", encoding, "--peer-timeout", "20"};
+    int n = 8;
+    if (g_zmq) {
+        args[n++] = "--transport";
+        args[n++] = "zmq";
+        args[n++] = "--peers";
+        args[n++] = peers;
+    }
+    if (g_groups)
+        args[n++] = "--lcm-groups";
+    args[n] = NULL;
     fp_fleet_init(&f, tag, NPROC, NULL, args);
     fp_fleet_start(&f, drop_every ? "FLEETSIM_NET_DROP_EVERY" : NULL, drop_every);
     fp_fleet_wait_ok(&f, FLEET_DEADLINE_S);
@@ -138,6 +148,23 @@ static void test_zmq_equals_inproc(void **st)
     assert_true(traffic_sum("zmq-lossy", "chunks_resent") > 0);
     assert_int_equal(traffic_sum("zmq-lossy", "timeouts"), 0);
     assert_int_equal(traffic_sum("zmq", "timeouts"), 0);
+}
+
+/* LCM with per-sender groups and inboxes (--lcm-groups: the states on a multicast group per
+ * sender, requests and the chunks sent again on the robot's own inbox group), every 7th
+ * datagram lost at the sender: the lost chunks come back through the inboxes, and the models
+ * are the in-process reference's. */
+static void test_lcm_groups_equal_inproc(void **st)
+{
+    (void)st;
+    g_groups = 1;
+    run_fleet("groups-lossy", "fp32", "7");
+    g_groups = 0;
+    fp_inproc_reference(NPROC, ROUNDS, REF_DEADLINE_S);
+    fp_expect_reference_models("groups-lossy", NPROC);
+    assert_true(traffic_sum("groups-lossy", "chunks_requested") > 0);
+    assert_true(traffic_sum("groups-lossy", "chunks_resent") > 0);
+    assert_int_equal(traffic_sum("groups-lossy", "timeouts"), 0);
 }
 
 static void test_int8_states(void **st)
@@ -303,6 +330,7 @@ int main(void)
         cmocka_unit_test_teardown(test_three_processes_equal_inproc, teardown_case),
         cmocka_unit_test_teardown(test_lost_datagrams_are_recovered, teardown_case),
         cmocka_unit_test_teardown(test_zmq_equals_inproc, teardown_case),
+        cmocka_unit_test_teardown(test_lcm_groups_equal_inproc, teardown_case),
         cmocka_unit_test_teardown(test_int8_states, teardown_case),
         cmocka_unit_test_teardown(test_killed_robot_stops_the_fleet, teardown_case),
         cmocka_unit_test_teardown(test_ctrl_c_stops_the_fleet, teardown_case),

@@ -23,10 +23,14 @@ static gp_round_t drv[2];
 static uint8_t mine[2][STATE_BYTES];
 static int ids[2] = {0, 1};
 
-/* Lossless: every message is delivered to the other driver at once. */
+/* Lossless: every message is delivered to the other driver at once (unless its sender is
+   muted: all it sends is lost). */
 static uint64_t now;
+static int muted[2];
 static int net_send(void *ctx, gp_pse_kind_t kind, const void *m)
 {
+    if (muted[*(const int *)ctx])
+        return 0;
     gp_pse_t *to = &drv[1 - *(const int *)ctx].pse;
     if (kind == GP_PSE_CHUNK)
         (void)gp_pse_on_chunk(to, m, now);
@@ -41,6 +45,7 @@ static int setup(void **st)
 {
     (void)st;
     now = 1000;
+    muted[0] = muted[1] = 0;
     for (int i = 0; i < 2; i++) {
         gp_pse_cfg_t c = {(uint32_t)i, 2u, STATE_BYTES, CHUNK, 0.0, RESEND, TIMEOUT, 0, net_send, &ids[i], 0, 1u, 0, 0, 0};
         assert_int_equal(gp_round_init(&drv[i], &c, ROUNDS), 0);
@@ -118,6 +123,42 @@ static void test_lossless_rounds(void **st)
     assert_int_equal(gp_round_step(&drv[0], now), GP_ROUND_WAIT); /* DONE once */
 }
 
+/* Every "past the last round" beacon of robot 1 is lost: robot 1 hears robot 0 leave and goes,
+ * and robot 0, which never hears it leave, takes its silence for leaving: it ends after saying
+ * it is past the last round GP_PSE_LEAVE_SAID times and a few beacon periods of that silence,
+ * not after the whole peer timeout. */
+static void test_quiet_peer_taken_as_left(void **st)
+{
+    (void)st;
+    for (uint32_t k = 0; k < ROUNDS; k++) {
+        for (int i = 0; i < 2; i++) {
+            assert_int_equal(gp_round_want(&drv[i], k, now), 0);
+            assert_int_equal(step_until_event(i, 10), GP_ROUND_BEGIN);
+            begin(i, k);
+        }
+        for (int i = 0; i < 2; i++) {
+            assert_int_equal(step_until_event(i, 10), GP_ROUND_READY);
+            assert_int_equal(gp_round_next_round(&drv[i], k, now), k + 1u);
+        }
+        for (int i = 0; i < 2; i++)
+            assert_int_equal(gp_round_node_done(&drv[i], k, k + 1u == ROUNDS, now), 0);
+    }
+    const uint64_t beacons0 = drv[0].pse.stats.beacons_sent;
+    muted[1] = 1; /* its RoundComplete arrived, nothing after it will */
+    const uint64_t t0 = now;
+    gp_round_event_t ev0 = GP_ROUND_WAIT, ev1 = GP_ROUND_WAIT;
+    for (int t = 0; t < 1000 && ev0 != GP_ROUND_DONE; t++, now += 1000u) {
+        if (ev1 != GP_ROUND_DONE)
+            ev1 = gp_round_step(&drv[1], now); /* then gone: no more steps */
+        ev0 = gp_round_step(&drv[0], now);
+    }
+    assert_int_equal(ev1, GP_ROUND_DONE);
+    assert_int_equal(ev0, GP_ROUND_DONE);
+    assert_true(drv[0].pse.stats.beacons_sent - beacons0 >= GP_PSE_LEAVE_SAID);
+    assert_true(now - t0 >= 2u * RESEND);
+    assert_true(now - t0 < TIMEOUT / 4u); /* before the silence rule: the whole TIMEOUT */
+}
+
 static void test_out_of_order_refused(void **st)
 {
     (void)st;
@@ -169,6 +210,7 @@ int main(void)
 {
     const struct CMUnitTest tests[] = {
         cmocka_unit_test_setup(test_lossless_rounds, setup),
+        cmocka_unit_test_setup(test_quiet_peer_taken_as_left, setup),
         cmocka_unit_test_setup(test_out_of_order_refused, setup),
         cmocka_unit_test_setup(test_unbegun_round_gives_way, setup),
         cmocka_unit_test_setup(test_skip_ahead_capped, setup),

@@ -1,6 +1,6 @@
 #!/usr/bin/python3
 """How the cost of a fleet grows with its size: N host_sim processes on this machine, over LCM
-multicast (lcm; lcm-groups: a multicast group per sender and per robot, --lcm-groups) and over
+multicast (lcm; lcm-groups: a multicast group per sender and per robot, --lcm-groups on) and over
 ZeroMQ/TCP, offline, keyed, `small` preset (docs/scaling.md).
 
     tools/bench/bench_scaling.py [--bin build/release-host-small/bin/host_sim] [--robots 7,16,32,64]
@@ -61,7 +61,8 @@ ALL_FIELDS = FIELDS + NEW_FIELDS
 DEFAULT_RSS_MB = 120.0  # per process, when no smaller fleet was measured
 # What tools/fleet is given for each transport: lcm-groups is LCM with per-sender groups and
 # inboxes (--lcm-groups: each robot joins its neighbours' groups only).
-TRANSPORT_ARGS = {"lcm": ["--transport", "lcm"], "lcm-groups": ["--transport", "lcm", "--lcm-groups"],
+TRANSPORT_ARGS = {"lcm": ["--transport", "lcm", "--lcm-groups", "off"],
+                  "lcm-groups": ["--transport", "lcm", "--lcm-groups", "on"],
                   "zmq": ["--transport", "zmq"]}
 
 
