@@ -26,8 +26,8 @@
  *
  * A group is an LCM instance of its own (LCM 1.3: a socket, a reader thread, a 200 KB ring):
  * a robot holds one per wanted sender (its nearest of three rounds, about 40), its inbox, one
- * to publish into its own sender group and one per robot it has sent something for alone
- * (publishing only: a socket, no thread). The receiving ones are created and destroyed on the
+ * to publish into its own sender group and one for each of the TO_MAX robots it last sent
+ * something for alone (publishing only: a socket, no thread). The receiving ones are created and destroyed on the
  * receiver thread only (handle), which polls every instance's descriptor; `senders` and
  * `subscribe` (the caller's thread) record what is wanted under `mu` and wake the receiver
  * through a pipe. A sender newly wanted is joined a moment later: what it sent before is
@@ -52,6 +52,10 @@
 #define GROUP_SPAN 1024u
 _Static_assert(BOARD_MAX_FLEET <= GROUP_SPAN, "every robot id has a group and an inbox");
 #define PREFIX_MAX 4u
+/* Inboxes a robot keeps an instance open for, the ones it sent to last: every LCM instance holds
+   a socket with a port of the host's ephemeral range (about 28,000 on Linux), and 256 robots
+   with one per peer ran the host out of ports ("connect: Resource temporarily unavailable"). */
+#define TO_MAX 8u
 
 typedef struct lcm_ctx {
     lcm_t *lcm;
@@ -70,7 +74,10 @@ typedef struct lcm_ctx {
     /* The publishing thread's. */
     lcm_t *own;                        /* its sender's group */
     int64_t own_sender;                /* -1 before the first grouped publish */
-    lcm_t *to[BOARD_MAX_FLEET];        /* robot r's inbox, once something went there */
+    lcm_t *to[BOARD_MAX_FLEET];        /* robot r's inbox, the TO_MAX used last */
+    uint64_t to_used[BOARD_MAX_FLEET]; /* when (publish count) */
+    uint64_t n_published;
+    uint32_t n_to;
     pthread_mutex_t mu;                /* want, dirty, the inbox subscriptions */
     int wake[2];                       /* a byte written: what to join changed */
     int dirty;
@@ -200,6 +207,30 @@ static void lcm_close(void *ctx)
     free(c);
 }
 
+/* The publishing thread: an instance for robot r's inbox, the one used longest ago closed
+   when TO_MAX are open. 0 or -EIO (said). */
+static int inbox_open(lcm_ctx_t *c, uint32_t r)
+{
+    if (c->n_to == TO_MAX) {
+        uint32_t old = UINT32_MAX;
+        for (uint32_t i = 0; i < BOARD_MAX_FLEET; i++)
+            if (c->to[i] != NULL && (old == UINT32_MAX || c->to_used[i] < c->to_used[old]))
+                old = i;
+        lcm_destroy(c->to[old]);
+        c->to[old] = NULL;
+        c->n_to--;
+    }
+    char u[URL_MAX];
+    if (group_url(c, GROUP_SPAN + r, u, sizeof u) == 0)
+        c->to[r] = lcm_create(u);
+    if (c->to[r] == NULL) {
+        fprintf(stderr, "hal_host_net: cannot create LCM for robot %u's inbox\n", r);
+        return -EIO;
+    }
+    c->n_to++;
+    return 0;
+}
+
 static int lcm_pub(void *ctx, const char *channel, const void *data, size_t len, int64_t sender)
 {
     lcm_ctx_t *c = ctx;
@@ -225,15 +256,9 @@ static int lcm_pub(void *ctx, const char *channel, const void *data, size_t len,
     } else if (c->n_prefix > 0) {
         const int64_t r = inbox_of(c, channel);
         if (r >= 0) {
-            if (c->to[r] == NULL) {
-                char u[URL_MAX];
-                if (group_url(c, GROUP_SPAN + (uint32_t)r, u, sizeof u) == 0)
-                    c->to[r] = lcm_create(u);
-                if (c->to[r] == NULL) {
-                    fprintf(stderr, "hal_host_net: cannot create LCM for robot %lld's inbox\n", (long long)r);
-                    return -EIO;
-                }
-            }
+            if (c->to[r] == NULL && inbox_open(c, (uint32_t)r) != 0)
+                return -EIO;
+            c->to_used[r] = ++c->n_published;
             to = c->to[r];
         }
     }
