@@ -24,14 +24,18 @@
  * ZeroMQ, where a multicast resend was delivered to every robot that keeps the sender (most of
  * what a 64-robot fleet's robots were delivered: duplicates).
  *
- * A group is an LCM instance of its own (LCM 1.3: a socket, a reader thread, a 200 KB ring):
- * a robot holds one per wanted sender (its nearest of three rounds, about 40), its inbox, one
- * to publish into its own sender group and one for each of the TO_MAX robots it last sent
- * something for alone (publishing only: a socket, no thread). The receiving ones are created and destroyed on the
- * receiver thread only (handle), which polls every instance's descriptor; `senders` and
- * `subscribe` (the caller's thread) record what is wanted under `mu` and wake the receiver
- * through a pipe. A sender newly wanted is joined a moment later: what it sent before is
- * missed, and asked for again like any loss. */
+ * A group is an LCM instance of its own (LCM 1.3: a socket, a reader thread, a 200 KB ring,
+ * 2,000 receive buffers): a robot holds one per wanted sender (its nearest of three rounds,
+ * about 40) and SPARE_GROUPS more that fell out of the set last, its inbox, one to publish into
+ * its own sender group and one for each of the TO_MAX robots it last sent something for alone
+ * (publishing only: a socket, no thread). Setting up a receiving instance blocks (LCM's self
+ * test: a datagram sent to the group and waited for, up to 10 s; at 256 robots on 2 cores it
+ * held a robot's receiving still for 63 s in all when the receiver thread did it), so sender
+ * groups are joined and destroyed by a joiner thread of their own, one at a time; the receiver
+ * thread (handle) adopts what the joiner made, hands back what it no longer wants, and polls
+ * every instance's descriptor. `senders` and `subscribe` (the caller's thread) record what is
+ * wanted under `mu` and wake both. A sender newly wanted is joined a moment later: what it sent
+ * before is missed, and asked for again like any loss. */
 #include "hal_host.h"
 #include "hal_host_net_transport.h"
 
@@ -56,6 +60,14 @@ _Static_assert(BOARD_MAX_FLEET <= GROUP_SPAN, "every robot id has a group and an
    a socket with a port of the host's ephemeral range (about 28,000 on Linux), and 256 robots
    with one per peer ran the host out of ports ("connect: Resource temporarily unavailable"). */
 #define TO_MAX 8u
+/* Groups handed back to the joiner between two of its turns: at most every joined one and the
+   one it made meanwhile; twice that for room. */
+#define RETIRE_MAX (2u * BOARD_MAX_FLEET)
+/* Groups kept joined beyond the wanted ones, those that fell out of the set last: the nearest
+   change every round, and a sender often comes back a round later; a join costs a socket, a
+   thread and LCM's self test, an unwanted sender's datagram only its copy (dropped on arrival
+   by hal_host_net.c's filter). */
+#define SPARE_GROUPS 8u
 
 typedef struct lcm_ctx {
     lcm_t *lcm;
@@ -78,19 +90,34 @@ typedef struct lcm_ctx {
     uint64_t to_used[BOARD_MAX_FLEET]; /* when (publish count) */
     uint64_t n_published;
     uint32_t n_to;
-    pthread_mutex_t mu;                /* want, dirty, the inbox subscriptions */
+    pthread_mutex_t mu;                /* want, dirty, the inbox subscriptions, the joiner's state */
     int wake[2];                       /* a byte written: what to join changed */
-    int dirty;
+    int dirty;                         /* the wanted set changed or a group was made */
     uint8_t want[HAL_HOST_NET_SENDER_BYTES];
     uint32_t n_inbox;                  /* inbox channels subscribed (under mu) ... */
     char inbox_ch[HAL_HOST_NET_MAX_SUBS][HAL_NET_CHANNEL_MAX];
     uint32_t inbox_id[HAL_HOST_NET_MAX_SUBS];
+    /* The joiner thread (started with the grouped channel) sets up what is wanted and not had;
+       the receiver adopts it, and hands back what it no longer wants (under mu). */
+    pthread_t joiner;
+    int joiner_on, joiner_stop;
+    pthread_cond_t joiner_cv;          /* something to make or to retire, or stop */
+    uint8_t have[HAL_HOST_NET_SENDER_BYTES];   /* the senders whose group the receiver polls */
+    uint8_t failed[HAL_HOST_NET_SENDER_BYTES]; /* could not be joined: not tried while wanted */
+    int64_t making;                    /* the sender being joined now, or -1 */
+    lcm_t *made[BOARD_MAX_FLEET];      /* joined, not yet adopted */
+    lcm_t *retire[RETIRE_MAX];         /* for the joiner to destroy */
+    uint32_t n_retire;
+    int warned_join;                   /* the joiner's */
+    lcm_t *gone[RETIRE_MAX];           /* the joiner's: the retired it destroys now */
     /* The receiver thread's. */
     uint32_t n_inbox_done;             /* ... of them joined */
     lcm_t *inbox[HAL_HOST_NET_MAX_SUBS]; /* one instance per inbox id (NULL: shares an earlier one) */
-    lcm_t *joined[BOARD_MAX_FLEET];    /* one instance per wanted sender */
+    lcm_t *joined[BOARD_MAX_FLEET];    /* one instance per wanted sender, and some unwanted */
+    uint64_t unwanted_since[BOARD_MAX_FLEET]; /* apply_groups' turn it fell out of the set, or 0 */
+    uint64_t turn;
     uint32_t n_joined;
-    int warned_join;
+    int warned_inbox;
     struct pollfd pfd[BOARD_MAX_FLEET + HAL_HOST_NET_MAX_SUBS + 2u];
     lcm_t *pfd_lcm[BOARD_MAX_FLEET + HAL_HOST_NET_MAX_SUBS + 2u];
 } lcm_ctx_t;
@@ -179,6 +206,8 @@ static int lcm_open(hal_host_net_t *n, const char *url, void **ctx)
     }
     parse_udpm(c, u);
     pthread_mutex_init(&c->mu, NULL);
+    pthread_cond_init(&c->joiner_cv, NULL);
+    c->making = -1;
     *ctx = c;
     return 0;
 }
@@ -186,12 +215,23 @@ static int lcm_open(hal_host_net_t *n, const char *url, void **ctx)
 static void lcm_close(void *ctx)
 {
     lcm_ctx_t *c = ctx;
+    if (c->joiner_on) {
+        pthread_mutex_lock(&c->mu);
+        c->joiner_stop = 1;
+        pthread_cond_signal(&c->joiner_cv);
+        pthread_mutex_unlock(&c->mu);
+        pthread_join(c->joiner, NULL); /* it finishes the join it is in (10 s at most) */
+    }
+    for (uint32_t i = 0; i < c->n_retire; i++)
+        lcm_destroy(c->retire[i]);
     for (uint32_t i = 0; i < c->n_subs; i++)
         (void)lcm_unsubscribe(c->lcm, c->sub[i]);
     lcm_destroy(c->lcm);
     for (uint32_t s = 0; s < BOARD_MAX_FLEET; s++) {
         if (c->joined[s] != NULL)
             lcm_destroy(c->joined[s]);
+        if (c->made[s] != NULL)
+            lcm_destroy(c->made[s]);
         if (c->to[s] != NULL)
             lcm_destroy(c->to[s]);
     }
@@ -203,6 +243,7 @@ static void lcm_close(void *ctx)
     for (int k = 0; k < 2; k++)
         if (c->wake[k] >= 0)
             close(c->wake[k]);
+    pthread_cond_destroy(&c->joiner_cv);
     pthread_mutex_destroy(&c->mu);
     free(c);
 }
@@ -313,6 +354,8 @@ static int lcm_sub(void *ctx, const char *channel)
     return 0;
 }
 
+static void *joiner_main(void *arg);
+
 static int lcm_group(void *ctx, const char *channel, int by_receiver)
 {
     lcm_ctx_t *c = ctx;
@@ -335,10 +378,14 @@ static int lcm_group(void *ctx, const char *channel, int by_receiver)
         else if (i == c->n_prefix)
             snprintf(c->prefix[c->n_prefix++], sizeof c->prefix[0], "%s", channel);
     } else if (rc == 0) {
-        if (c->grouped[0] != '\0')
+        if (c->grouped[0] != '\0') {
             rc = strcmp(c->grouped, channel) == 0 ? 0 : -ENOSPC; /* one grouped channel */
-        else
+        } else {
             snprintf(c->grouped, sizeof c->grouped, "%s", channel);
+            if (pthread_create(&c->joiner, NULL, joiner_main, c) != 0)
+                rc = -EIO;
+            c->joiner_on = rc == 0;
+        }
     }
     pthread_mutex_unlock(&c->mu);
     return rc;
@@ -360,13 +407,16 @@ static int lcm_senders(void *ctx, const char *channel, const uint8_t *wanted, ui
             c->want[s / 8u] |= (uint8_t)(1u << (s % 8u));
     }
     c->dirty = 1;
+    pthread_cond_signal(&c->joiner_cv);
     pthread_mutex_unlock(&c->mu);
     wake_receiver(c);
     return 0;
 }
 
-/* The receiver thread: group g joined for `channel` (a new instance), or NULL, said once. */
-static lcm_t *join(lcm_ctx_t *c, uint32_t g, const char *channel)
+/* Group g joined for `channel` (a new instance), or NULL, said once (*warned). Blocks: LCM 1.3
+   sets up an instance's receiving side with a self test, a datagram sent to the group and
+   waited for, up to 10 s, which is why sender groups are joined on a thread of their own. */
+static lcm_t *join(lcm_ctx_t *c, uint32_t g, const char *channel, int *warned)
 {
     char u[URL_MAX] = "";
     lcm_t *l = group_url(c, g, u, sizeof u) == 0 ? lcm_create(u) : NULL;
@@ -374,31 +424,88 @@ static lcm_t *join(lcm_ctx_t *c, uint32_t g, const char *channel)
         lcm_destroy(l);
         l = NULL;
     }
-    if (l == NULL && !c->warned_join) {
+    if (l == NULL && !*warned) {
         fprintf(stderr, "hal_host_net: cannot join the group of %s %u (%s): what it carries is missed\n",
                 g >= GROUP_SPAN ? "inbox" : "sender", g % GROUP_SPAN, u);
-        c->warned_join = 1;
+        *warned = 1;
     }
     return l;
 }
 
-/* The receiver thread: the inboxes subscribed since the last call joined, and the sender
-   groups brought to the wanted set, new ones first. A group that cannot be joined is reported
-   once and left out (what it carries is then asked for and missed like losses: the protocol
-   times that peer out of our neighbours in the end). */
+static int bit(const uint8_t *set, uint32_t s)
+{
+    return (set[s / 8u] >> (s % 8u)) & 1u;
+}
+
+static void set_bit(uint8_t *set, uint32_t s, int on)
+{
+    if (on)
+        set[s / 8u] |= (uint8_t)(1u << (s % 8u));
+    else
+        set[s / 8u] &= (uint8_t)~(1u << (s % 8u));
+}
+
+/* mu held: the lowest sender wanted whose group nobody has, makes or failed to make, or -1. */
+static int64_t next_missing(const lcm_ctx_t *c)
+{
+    for (uint32_t s = 0; s < BOARD_MAX_FLEET; s++)
+        if (bit(c->want, s) && !bit(c->have, s) && !bit(c->failed, s) && c->made[s] == NULL &&
+            (int64_t)s != c->making)
+            return (int64_t)s;
+    return -1;
+}
+
+/* The joiner thread: retires what the receiver handed back, joins what is wanted and missing,
+   one group at a time, and wakes the receiver to adopt it. */
+static void *joiner_main(void *arg)
+{
+    lcm_ctx_t *c = arg;
+    pthread_mutex_lock(&c->mu);
+    for (;;) {
+        int64_t s;
+        while (!c->joiner_stop && c->n_retire == 0 && (s = next_missing(c)) < 0)
+            pthread_cond_wait(&c->joiner_cv, &c->mu);
+        if (c->joiner_stop)
+            break;
+        const uint32_t n_gone = c->n_retire;
+        memcpy(c->gone, c->retire, n_gone * sizeof c->gone[0]);
+        c->n_retire = 0;
+        s = next_missing(c);
+        c->making = s;
+        pthread_mutex_unlock(&c->mu);
+        for (uint32_t i = 0; i < n_gone; i++)
+            lcm_destroy(c->gone[i]);
+        lcm_t *l = s >= 0 ? join(c, (uint32_t)s, c->grouped, &c->warned_join) : NULL;
+        pthread_mutex_lock(&c->mu);
+        c->making = -1;
+        if (s >= 0) {
+            c->made[s] = l;
+            set_bit(c->failed, (uint32_t)s, l == NULL);
+            c->dirty = 1;
+        }
+        pthread_mutex_unlock(&c->mu);
+        if (l != NULL)
+            wake_receiver(c);
+        pthread_mutex_lock(&c->mu);
+    }
+    pthread_mutex_unlock(&c->mu);
+    return NULL;
+}
+
+/* The receiver thread: the inboxes subscribed since the last call joined (once, at the start:
+   blocking is harmless then), the groups the joiner made adopted while still wanted, and the
+   ones no longer wanted handed to the joiner to destroy. Never blocks on a join. A group that
+   cannot be joined is reported once and left out (what it carries is then asked for and missed
+   like losses: the protocol times that peer out of our neighbours in the end). */
 static void apply_groups(lcm_ctx_t *c)
 {
     char drain[64];
     while (read(c->wake[0], drain, sizeof drain) > 0) {
     }
-    uint8_t want[HAL_HOST_NET_SENDER_BYTES];
-    char channel[HAL_NET_CHANNEL_MAX];
     pthread_mutex_lock(&c->mu);
-    const int dirty = c->dirty;
-    c->dirty = 0;
-    memcpy(want, c->want, sizeof want);
-    memcpy(channel, c->grouped, sizeof channel);
-    for (; c->n_inbox_done < c->n_inbox; c->n_inbox_done++) {
+    const uint32_t n_inbox = c->n_inbox;
+    pthread_mutex_unlock(&c->mu);
+    for (; c->n_inbox_done < n_inbox; c->n_inbox_done++) { /* inbox_* [< n_inbox] stay as they are */
         const uint32_t i = c->n_inbox_done;
         uint32_t j = 0;
         while (j < i && (c->inbox_id[j] != c->inbox_id[i] || c->inbox[j] == NULL))
@@ -407,26 +514,56 @@ static void apply_groups(lcm_ctx_t *c)
         if (j < i) /* this robot's inbox is joined already: one more channel on it */
             (void)subscribe_exact(c, c->inbox[j], c->inbox_ch[i]);
         else
-            c->inbox[i] = join(c, GROUP_SPAN + c->inbox_id[i], c->inbox_ch[i]);
+            c->inbox[i] = join(c, GROUP_SPAN + c->inbox_id[i], c->inbox_ch[i], &c->warned_inbox);
     }
-    pthread_mutex_unlock(&c->mu);
-    if (!dirty || channel[0] == '\0')
+    if (!c->joiner_on)
         return;
-    for (uint32_t s = 0; s < BOARD_MAX_FLEET; s++) {
-        const int w = (want[s / 8u] >> (s % 8u)) & 1u;
-        if (w && c->joined[s] == NULL) {
-            c->joined[s] = join(c, s, channel);
-            c->n_joined += c->joined[s] != NULL;
-        }
+    pthread_mutex_lock(&c->mu);
+    if (!c->dirty) { /* nothing made, nothing wanted anew since the last look */
+        pthread_mutex_unlock(&c->mu);
+        return;
     }
+    int work = 0;
+    uint32_t n_want = 0;
+    c->turn++;
     for (uint32_t s = 0; s < BOARD_MAX_FLEET; s++) {
-        const int w = (want[s / 8u] >> (s % 8u)) & 1u;
-        if (!w && c->joined[s] != NULL) {
-            lcm_destroy(c->joined[s]);
-            c->joined[s] = NULL;
-            c->n_joined--;
+        const int w = bit(c->want, s);
+        n_want += (uint32_t)w;
+        if (c->made[s] != NULL) {
+            if (w && c->joined[s] == NULL) {
+                c->joined[s] = c->made[s];
+                c->n_joined++;
+                c->made[s] = NULL;
+            } else if (c->n_retire < RETIRE_MAX) {
+                c->retire[c->n_retire++] = c->made[s];
+                c->made[s] = NULL;
+            }
         }
+        if (c->joined[s] != NULL)
+            c->unwanted_since[s] = w ? 0 : c->unwanted_since[s] != 0 ? c->unwanted_since[s] : c->turn;
+        if (!w)
+            set_bit(c->failed, s, 0); /* tried again once it is wanted again */
+        work |= w && c->joined[s] == NULL;
     }
+    /* Beyond the spare ones, the groups unwanted the longest go (else next time). */
+    while (c->n_joined > n_want + SPARE_GROUPS && c->n_retire < RETIRE_MAX) {
+        uint32_t old = UINT32_MAX;
+        for (uint32_t s = 0; s < BOARD_MAX_FLEET; s++)
+            if (c->joined[s] != NULL && c->unwanted_since[s] != 0 &&
+                (old == UINT32_MAX || c->unwanted_since[s] < c->unwanted_since[old]))
+                old = s;
+        if (old == UINT32_MAX)
+            break;
+        c->retire[c->n_retire++] = c->joined[old];
+        c->joined[old] = NULL;
+        c->n_joined--;
+    }
+    for (uint32_t s = 0; s < BOARD_MAX_FLEET; s++)
+        set_bit(c->have, s, c->joined[s] != NULL);
+    c->dirty = 0;
+    if (work || c->n_retire > 0)
+        pthread_cond_signal(&c->joiner_cv);
+    pthread_mutex_unlock(&c->mu);
 }
 
 static int lcm_handle_for(void *ctx, int timeout_ms)

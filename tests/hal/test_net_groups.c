@@ -93,16 +93,15 @@ static void test_only_wanted_senders_arrive(void **state)
     /* The set changes: 1 and 3 now, 2 no more. */
     const uint8_t w13[1] = {0x0A};
     assert_int_equal(hal_host_net_set_senders(rx, GCH, w13, 8), 0);
-    uint32_t heard = exchange(tx, rx, senders, 3, (1u << 1) | (1u << 3));
-    /* 2's last datagrams may still have been in the socket when its group was left */
-    assert_int_equal(heard & ((1u << 1) | (1u << 3)), (1u << 1) | (1u << 3));
     assert_int_equal(exchange(tx, rx, senders, 3, (1u << 1) | (1u << 3)), (1u << 1) | (1u << 3));
     /* Every sender (NULL, n_ids 4): 0 .. 3. */
     assert_int_equal(hal_host_net_set_senders(rx, GCH, NULL, 4), 0);
     assert_int_equal(exchange(tx, rx, senders, 3, 0x0Eu), 0x0Eu);
     hal_host_net_get_stats(rx, &s);
-    /* While a change reaches the transport, what its old groups still hold is filtered. */
-    assert_true(s.rx_unwanted <= 8u);
+    /* 2's group stays joined as a spare one after it fell out of the set (the transport keeps
+       a few: a sender often comes back), so its datagrams arrive, and the filter drops them
+       (none was queued: `heard` never had 2 after the change). */
+    assert_true(s.rx_unwanted > 0);
     assert_int_equal(s.rx_dropped_malformed + s.rx_dropped_invalid, 0);
     hal_host_net_close(tx);
     hal_host_net_close(rx);
