@@ -43,6 +43,22 @@ static hal_host_net_t *member(void)
     return n;
 }
 
+/* Waits up to timeout_ms for rx's queue, then adds the sender of every RoundComplete queued to
+ * the bit set. */
+static uint32_t heard_within(hal_host_net_t *rx, int timeout_ms)
+{
+    uint32_t heard = 0;
+    uint8_t b[64];
+    assert_int_equal(hal_host_net_wait(rx, 0, timeout_ms), 0);
+    hal_net_rx_info_t info;
+    while (hal_host_net_receive(rx, 0, &info, b, sizeof b) == 0) {
+        gp_pse_done_t d;
+        assert_int_equal(gp_wire_decode_done(b, info.len, &d), 0);
+        heard |= 1u << d.sender;
+    }
+    return heard;
+}
+
 /* Publishes one datagram of each of `senders` on GCH every 50 ms until the receiver has
  * `want` of them (bounded: 3 s, datagrams may be lost and a group is joined a moment after
  * the wanted set changed); returns the senders heard as a bit set. */
@@ -53,24 +69,11 @@ static uint32_t exchange(hal_host_net_t *tx, hal_host_net_t *rx, const uint32_t 
     for (int round = 0; round < 60 && heard != want; round++) {
         for (int i = 0; i < n; i++)
             assert_int_equal(hal_host_net_publish(tx, GCH, b, done_from(b, sizeof b, senders[i])), 0);
-        assert_int_equal(hal_host_net_wait(rx, 0, 50), 0);
-        hal_net_rx_info_t info;
-        while (hal_host_net_receive(rx, 0, &info, b, sizeof b) == 0) {
-            gp_pse_done_t d;
-            assert_int_equal(gp_wire_decode_done(b, info.len, &d), 0);
-            heard |= 1u << d.sender;
-        }
+        heard |= heard_within(rx, 50);
     }
     /* A little longer: anything unwanted still on its way would show now. */
-    for (int i = 0; i < 4; i++) {
-        assert_int_equal(hal_host_net_wait(rx, 0, 25), 0);
-        hal_net_rx_info_t info;
-        while (hal_host_net_receive(rx, 0, &info, b, sizeof b) == 0) {
-            gp_pse_done_t d;
-            assert_int_equal(gp_wire_decode_done(b, info.len, &d), 0);
-            heard |= 1u << d.sender;
-        }
-    }
+    for (int i = 0; i < 4; i++)
+        heard |= heard_within(rx, 25);
     return heard;
 }
 
