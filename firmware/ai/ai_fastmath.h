@@ -120,6 +120,16 @@ static inline float ai_fm_log1pf(float u)
     return ai_fm_sel(d == 0.0f, u, r);
 }
 
+/* softplus(r) = log(1 + e^r), as max(r, 0) + log1p(e^-|r|): the sigma of a Bayesian weight
+ * from its rho. Inline so that the loops over every rho of a neighbour's state (dinno.c) run
+ * it vectorised; out of line (bnn_softplus) each call cost about 40 ns in a 64-robot fleet,
+ * a quarter of its CPU. */
+static inline float ai_fm_softplusf(float r)
+{
+    const float e = ai_fm_expf(-ai_fm_bits2f(ai_fm_f2bits(r) & 0x7fffffffu)); /* -|r| */
+    return ai_fm_sel(r > 0.0f, r, 0.0f) + ai_fm_log1pf(e);
+}
+
 static inline void ai_fm_sincosf(float x, float *s, float *c)
 {
     float ax = x < 0.0f ? -x : x;

@@ -13,8 +13,7 @@
 /* ---- math helpers ----------------------------------------------------------------------- */
 float bnn_softplus(float r)
 {
-    float e = ai_fm_expf(-fabsf(r));
-    return ai_fm_sel(r > 0.0f, r, 0.0f) + ai_fm_log1pf(e);
+    return ai_fm_softplusf(r);
 }
 
 double bnn_kl_normal(double mu, double s, double p)
