@@ -468,6 +468,15 @@ static void weights(const dinno_node_t *n, float *wm, float *wr)
     }
 }
 
+/* sp[i] = softplus(rho[i]) for the next min(left, PREP_BLOCK) entries: a loop of its own,
+   which vectorises, where the loop that uses them calls libm (sigmoidf_, log) and does not. */
+static void softplus_block(const float *rho, size_t left, float *sp)
+{
+    const size_t ne = left < PREP_BLOCK ? left : PREP_BLOCK;
+    for (size_t i = 0; i < ne; i++)
+        sp[i] = ai_fm_softplusf(rho[i]);
+}
+
 void dinno_add_reg_grad(dinno_node_t *n, float rho_k, float *reg_mu, float *reg_rho, float *dual_dot)
 {
     const size_t P = bnn_n_params(&n->model), M = n->model.n_mu, R = n->model.n_rho;
@@ -492,9 +501,12 @@ void dinno_add_reg_grad(dinno_node_t *n, float rho_k, float *reg_mu, float *reg_
         const size_t mu0 = bnn_rho_to_mu(&n->model, 0);
         const double red = n->cfg.kl_reduce == DINNO_REDUCE_MEAN ? 1.0 / (double)R : 1.0;
         const float kr = (float)((double)rho_k * wr * red);
+        float sp[PREP_BLOCK];
         for (size_t e = 0; e < R; e++) {
+            if (e % PREP_BLOCK == 0)
+                softplus_block(th + M + e, R - e, sp);
             const float r = th[M + e];
-            const double s = ai_fm_softplusf(r), s2 = s * s;
+            const double s = sp[e % PREP_BLOCK], s2 = s * s;
             double q = n->aux1[M + e];
             if (full) {
                 const double mu = th[mu0 + e];
@@ -509,9 +521,12 @@ void dinno_add_reg_grad(dinno_node_t *n, float rho_k, float *reg_mu, float *reg_
     } else if (n->cfg.strategy == DINNO_KL) {
         const double red = n->cfg.kl_reduce == DINNO_REDUCE_MEAN ? 1.0 / (double)R : 1.0;
         const float kr = n->cfg.kl_reduce == DINNO_REDUCE_MEAN ? (float)((double)rho_k * wr * red) : rho_k * wr;
+        float sp[PREP_BLOCK];
         for (size_t e = 0; e < R; e++) {
+            if (e % PREP_BLOCK == 0)
+                softplus_block(th + M + e, R - e, sp);
             const float r = th[M + e];
-            const float s = ai_fm_softplusf(r), inv2 = n->aux1[M + e];
+            const float s = sp[e % PREP_BLOCK], inv2 = n->aux1[M + e];
             g[M + e] += n->dual[M + e] + kr * sigmoidf_(r) * (s * inv2 - m / s);
             dd += (double)r * n->dual[M + e];
             rr += (double)n->aux2[e] - (double)m * log((double)s) + 0.5 * (double)s * s * inv2 - 0.5 * m;

@@ -497,6 +497,9 @@ def more_robots_than_default_tours_made():
             s = starts(run_dir, i)
             check(len(s) == 1 and f"--path {tours}/robot_{i}.csv " in s[0] and "--fleet 9 " in s[0],
                   f"robot {i} was started as {s}")
+            # 9 robots validate every ceil(9 / 8) = 2 rounds by default (7: every round, below)
+            check("--val-every 2 " in s[0], f"robot {i} was started as {s}")
+        check("validation every 2 rounds" in out, f"the launch line does not say the validation's cadence:\n{out}")
         check(run_json(run_dir)["paths"][8].endswith("tours/robot_8.csv"), "run.json names the made tours")
         # paths gen refuses: the launcher stops with its reason, before any robot starts.
         why = "room 3 (Hall) gets 200 robots, but only 99 distinct start cells keep 0.2 m clearance"
@@ -506,7 +509,8 @@ def more_robots_than_default_tours_made():
         # The shipped tours when they are enough: no paths gen.
         rc, out, run_dir = launch(tmp, ["--no-report"], {}, "seven", robots=7)
         check(rc == 0 and "making" not in out and not os.path.exists(os.path.join(run_dir, "tours")) and
-              "--path " + os.path.join(ROOT, "host_sim/plans/apartment/robot_6.csv") in starts(run_dir, 6)[0],
+              "--path " + os.path.join(ROOT, "host_sim/plans/apartment/robot_6.csv") in starts(run_dir, 6)[0] and
+              "--val-every 1 " in starts(run_dir, 6)[0] and "validation every round" in out,
               f"exit {rc}:\n{out}")
     finally:
         shutil.rmtree(tmp, ignore_errors=True)
