@@ -35,8 +35,9 @@
  * datagram costs the channel lookup and a read of its sender field (rx_unwanted). A datagram
  * too short to name a sender passes, and the checks after refuse it. The transport is told
  * too (its optional `senders`): ZeroMQ then filters at the publisher, so most unwanted bytes
- * never arrive at all; LCM does with per-sender groups (hal_host_net_group_by_sender), and
- * without them this check is its filter. */
+ * never arrive at all; LCM with a kernel filter on its socket (hal_host_net_kfilter.h) or
+ * per-sender groups (hal_host_net_group_by_sender); where neither could be had, this check is
+ * the filter. */
 #include "hal_host.h"
 #include "hal_host_auth.h"
 #include "hal_host_msg.h"

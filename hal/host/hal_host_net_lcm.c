@@ -1,9 +1,10 @@
 /* The LCM transport of the host network (hal_host_net_transport.h).
  *
- * By default every datagram goes to the URL's one multicast group, and neighbour-scoped
- * delivery is hal_host_net.c's check on arrival: UDP multicast hands every datagram of the
- * group to every socket, so an unwanted sender's datagram still costs the kernel's copy, one
- * channel lookup and a read of its sender field (no tag check, no copy into the queue).
+ * By default every datagram goes to the URL's one multicast group, which hands every datagram
+ * to every socket. Neighbour-scoped delivery is then a kernel filter on the instance's socket
+ * (hal_host_net_kfilter.h, Linux): an unwanted sender's datagram on a filtered channel is
+ * dropped before it is queued, so it costs no copy into the process and no wake-up. Where no
+ * filter could be put, hal_host_net.c's check on arrival drops it after the kernel's copy.
  *
  * Per-sender groups (hal_host_net_group_by_sender, udpm:// only): one channel (the fleet's
  * state chunks) is carried per sender instead. Sender s publishes it to group BASE + 1 + s on
@@ -37,6 +38,7 @@
  * wanted under `mu` and wake both. A sender newly wanted is joined a moment later: what it sent
  * before is missed, and asked for again like any loss. */
 #include "hal_host.h"
+#include "hal_host_net_kfilter.h"
 #include "hal_host_net_transport.h"
 
 #include <arpa/inet.h>
@@ -118,6 +120,12 @@ typedef struct lcm_ctx {
     uint64_t turn;
     uint32_t n_joined;
     int warned_inbox;
+    /* The kernel filter (hal_host_net_kfilter.h) on the URL group's socket: its descriptor, or
+       -1 (not udpm, or not found), and the filtered channels (under mu). */
+    int kf_fd;
+    uint32_t kf_n;
+    kfilter_rule_t kf_rule[KFILTER_MAX_RULES];
+    int kf_warned;
     struct pollfd pfd[BOARD_MAX_FLEET + HAL_HOST_NET_MAX_SUBS + 2u];
     lcm_t *pfd_lcm[BOARD_MAX_FLEET + HAL_HOST_NET_MAX_SUBS + 2u];
 } lcm_ctx_t;
@@ -188,6 +196,32 @@ static int64_t inbox_of(const lcm_ctx_t *c, const char *channel)
     return -1;
 }
 
+/* The socket LCM receives the URL's group on, or -1: LCM 1.3 keeps it to itself, so it is the
+   datagram socket bound to the URL's port that appears when the instance sets up its receiving
+   side (lcm_get_fileno does). One instance at a time in the process, so that two robots of one
+   test process do not take each other's. */
+static int own_socket(lcm_ctx_t *c)
+{
+    static pthread_mutex_t setup_mu = PTHREAD_MUTEX_INITIALIZER;
+    enum { CAP = 64 };
+    int before[CAP], after[CAP], fd = -1;
+    pthread_mutex_lock(&setup_mu);
+    const int nb = hal_host_net_kfilter_sockets(c->base_port, before, CAP);
+    const int ok = lcm_get_fileno(c->lcm) >= 0;
+    const int na = hal_host_net_kfilter_sockets(c->base_port, after, CAP);
+    pthread_mutex_unlock(&setup_mu);
+    if (!ok || nb < 0 || na != nb + 1 || na > CAP)
+        return -1;
+    for (int i = 0; i < na && fd < 0; i++) {
+        int known = 0;
+        for (int j = 0; j < nb; j++)
+            known |= before[j] == after[i];
+        if (!known)
+            fd = after[i];
+    }
+    return fd;
+}
+
 static int lcm_open(hal_host_net_t *n, const char *url, void **ctx)
 {
     lcm_ctx_t *c = calloc(1, sizeof *c);
@@ -205,6 +239,7 @@ static int lcm_open(hal_host_net_t *n, const char *url, void **ctx)
         return -EIO;
     }
     parse_udpm(c, u);
+    c->kf_fd = c->udpm ? own_socket(c) : -1;
     pthread_mutex_init(&c->mu, NULL);
     pthread_cond_init(&c->joiner_cv, NULL);
     c->making = -1;
@@ -391,12 +426,39 @@ static int lcm_group(void *ctx, const char *channel, int by_receiver)
     return rc;
 }
 
+/* mu held: channel's wanted senders (NULL: all) into the URL group socket's kernel filter. A
+   filter that cannot be put leaves hal_host_net.c's check on arrival alone (said once). */
+static void kernel_filter(lcm_ctx_t *c, const char *channel, const uint8_t *wanted)
+{
+    if (c->kf_fd < 0)
+        return;
+    uint32_t i = 0;
+    while (i < c->kf_n && strcmp(c->kf_rule[i].channel, channel) != 0)
+        i++;
+    if (wanted == NULL && i < c->kf_n) /* every sender: the channel's rule goes */
+        c->kf_rule[i] = c->kf_rule[--c->kf_n];
+    else if (wanted != NULL && i == c->kf_n && c->kf_n == KFILTER_MAX_RULES)
+        return;
+    else if (wanted != NULL) {
+        snprintf(c->kf_rule[i].channel, sizeof c->kf_rule[i].channel, "%s", channel);
+        memcpy(c->kf_rule[i].wanted, wanted, sizeof c->kf_rule[i].wanted);
+        c->kf_n += i == c->kf_n;
+    }
+    const int r = hal_host_net_kfilter_attach(c->kf_fd, c->kf_rule, c->kf_n);
+    if (r != 0 && !c->kf_warned) {
+        fprintf(stderr, "hal_host_net: no kernel filter on the LCM socket (%s): unwanted senders' datagrams "
+                        "are dropped on arrival instead\n", strerror(-r));
+        c->kf_warned = 1;
+    }
+}
+
 static int lcm_senders(void *ctx, const char *channel, const uint8_t *wanted, uint32_t n_ids)
 {
     lcm_ctx_t *c = ctx;
     pthread_mutex_lock(&c->mu);
     if (c->grouped[0] == '\0' || strcmp(channel, c->grouped) != 0) {
-        pthread_mutex_unlock(&c->mu); /* carried on the URL's group: hal_host_net.c filters */
+        kernel_filter(c, channel, wanted); /* carried on the URL's group */
+        pthread_mutex_unlock(&c->mu);
         return 0;
     }
     if (wanted != NULL) {

@@ -1,0 +1,137 @@
+/* The kernel filter of an LCM udpm socket (hal_host_net_kfilter.h). */
+#define _DEFAULT_SOURCE /* SO_ATTACH_FILTER, dirfd() */
+#include "hal_host_net_kfilter.h"
+
+#include <dirent.h>
+#include <errno.h>
+#include <netinet/in.h>
+#include <stdlib.h>
+#include <string.h>
+#include <sys/socket.h>
+
+#if defined(__linux__)
+#include <linux/filter.h>
+#endif
+
+int hal_host_net_kfilter_sockets(uint32_t port, int *fds, int cap)
+{
+    if (fds == NULL || cap < 0 || port == 0 || port > 65535u)
+        return -EINVAL;
+    DIR *d = opendir("/proc/self/fd");
+    if (d == NULL)
+        return -errno;
+    int n = 0;
+    for (struct dirent *e; (e = readdir(d)) != NULL;) {
+        char *end = NULL;
+        const long fd = strtol(e->d_name, &end, 10);
+        if (end == e->d_name || *end != '\0' || fd < 0 || fd == dirfd(d))
+            continue;
+        int type = 0;
+        socklen_t tl = sizeof type;
+        struct sockaddr_in a;
+        socklen_t al = sizeof a;
+        if (getsockopt((int)fd, SOL_SOCKET, SO_TYPE, &type, &tl) != 0 || type != SOCK_DGRAM ||
+            getsockname((int)fd, (struct sockaddr *)&a, &al) != 0 || a.sin_family != AF_INET ||
+            ntohs(a.sin_port) != port)
+            continue;
+        if (n < cap)
+            fds[n] = (int)fd;
+        n++;
+    }
+    closedir(d);
+    return n;
+}
+
+#if defined(__linux__)
+/* Where the filter reads: relative to the IP header (SKF_NET_OFF), so that it does not depend
+   on where the socket layer has the packet start; a 20-byte IP header (checked), the 8-byte
+   UDP header, then LCM's: magic (4), sequence number (4), the channel. */
+#define AT(off) ((uint32_t)(SKF_NET_OFF + 28 + (off)))
+#define LCM_MAGIC_SHORT 0x4c433032u /* "LC02" */
+#define PASS 0xffffffffu
+/* The header checks (7), per rule its channel (a load and a compare per word, per byte of the
+   rest: the jump past a rule must stay within 255), its sender's load, ids and two returns;
+   the final return. */
+#define RULE_MAX (2u * (HAL_NET_CHANNEL_MAX / 4u + 3u) + 1u + KFILTER_MAX_IDS + 2u)
+_Static_assert(RULE_MAX <= 255u, "a classic BPF jump reaches 255 instructions ahead");
+#define PROG_MAX (7u + KFILTER_MAX_RULES * RULE_MAX + 1u)
+
+typedef struct prog {
+    struct sock_filter ins[PROG_MAX];
+    uint32_t n;
+} prog_t;
+
+static void put(prog_t *p, uint16_t code, uint8_t jt, uint8_t jf, uint32_t k)
+{
+    p->ins[p->n++] = (struct sock_filter){code, jt, jf, k};
+}
+
+/* One rule: the channel compared (a mismatch jumps to the next rule, patched at the end), the
+   sender compared with every wanted id (a match jumps to the rule's pass), else drop. */
+static void put_rule(prog_t *p, const kfilter_rule_t *r, const uint32_t *ids, uint32_t n_ids)
+{
+    const size_t len = strlen(r->channel) + 1u; /* the NUL is on the wire */
+    uint32_t mism[HAL_NET_CHANNEL_MAX];
+    uint32_t n_mism = 0;
+    size_t at = 0;
+    for (; at + 4u <= len; at += 4u) {
+        const uint8_t *c = (const uint8_t *)r->channel + at;
+        put(p, BPF_LD | BPF_W | BPF_ABS, 0, 0, AT(8u + at));
+        mism[n_mism++] = p->n;
+        put(p, BPF_JMP | BPF_JEQ | BPF_K, 0, 0, (uint32_t)c[0] << 24 | (uint32_t)c[1] << 16 | (uint32_t)c[2] << 8 | c[3]);
+    }
+    for (; at < len; at++) {
+        put(p, BPF_LD | BPF_B | BPF_ABS, 0, 0, AT(8u + at));
+        mism[n_mism++] = p->n;
+        put(p, BPF_JMP | BPF_JEQ | BPF_K, 0, 0, (uint32_t)(uint8_t)r->channel[at]);
+    }
+    put(p, BPF_LD | BPF_W | BPF_ABS, 0, 0, AT(8u + len + 8u)); /* the sender, after the fingerprint */
+    for (uint32_t i = 0; i < n_ids; i++)
+        put(p, BPF_JMP | BPF_JEQ | BPF_K, (uint8_t)(n_ids - i), 0, ids[i]); /* to this rule's pass */
+    put(p, BPF_RET | BPF_K, 0, 0, 0);    /* an unwanted sender: dropped */
+    put(p, BPF_RET | BPF_K, 0, 0, PASS); /* a wanted one */
+    for (uint32_t i = 0; i < n_mism; i++) /* a mismatch: on to the next rule */
+        p->ins[mism[i]].jf = (uint8_t)(p->n - mism[i] - 1u);
+}
+
+int hal_host_net_kfilter_attach(int fd, const kfilter_rule_t *rules, uint32_t n)
+{
+    if (fd < 0 || (n > 0 && rules == NULL) || n > KFILTER_MAX_RULES)
+        return -EINVAL;
+    static _Thread_local prog_t p; /* 13 KB: not on a receiver thread's stack */
+    p.n = 0;
+    put(&p, BPF_LD | BPF_B | BPF_ABS, 0, 0, (uint32_t)SKF_NET_OFF); /* version and header length */
+    put(&p, BPF_ALU | BPF_AND | BPF_K, 0, 0, 0x0fu);
+    put(&p, BPF_JMP | BPF_JEQ | BPF_K, 1, 0, 5u); /* 20 bytes: on; options: pass */
+    put(&p, BPF_RET | BPF_K, 0, 0, PASS);
+    put(&p, BPF_LD | BPF_W | BPF_ABS, 0, 0, AT(0));
+    put(&p, BPF_JMP | BPF_JEQ | BPF_K, 1, 0, LCM_MAGIC_SHORT); /* a fragment or not LCM: pass */
+    put(&p, BPF_RET | BPF_K, 0, 0, PASS);
+    for (uint32_t i = 0; i < n; i++) {
+        if (!hal_net_channel_valid(rules[i].channel))
+            return -EINVAL;
+        uint32_t ids[KFILTER_MAX_IDS], n_ids = 0;
+        int too_many = 0;
+        for (uint32_t s = 0; s < BOARD_MAX_FLEET && !too_many; s++)
+            if (rules[i].wanted[s / 8u] & (1u << (s % 8u))) {
+                if (n_ids == KFILTER_MAX_IDS)
+                    too_many = 1;
+                else
+                    ids[n_ids++] = s;
+            }
+        if (!too_many)
+            put_rule(&p, &rules[i], ids, n_ids);
+    }
+    put(&p, BPF_RET | BPF_K, 0, 0, PASS);
+    const struct sock_fprog f = {.len = (unsigned short)p.n, .filter = p.ins};
+    return setsockopt(fd, SOL_SOCKET, SO_ATTACH_FILTER, &f, sizeof f) == 0 ? 0 : -errno;
+}
+#else
+int hal_host_net_kfilter_attach(int fd, const kfilter_rule_t *rules, uint32_t n)
+{
+    (void)fd;
+    (void)rules;
+    (void)n;
+    return -ENOTSUP;
+}
+#endif

@@ -1,0 +1,166 @@
+/* The kernel filter on the LCM socket (hal_host_net_kfilter.h), over real udpm:// sockets on
+ * this host: on the URL's one group, a typed channel's unwanted senders are dropped by the
+ * kernel, before the network sees them (no rx_unwanted: hal_host_net.c's check on arrival
+ * would count each one it dropped), the wanted set can change, other channels pass, and two
+ * robots in one process each filter their own socket. */
+#define _GNU_SOURCE 1
+#include <setjmp.h>
+#include <stdarg.h>
+#include <stddef.h>
+#include <stdint.h>
+#include <errno.h>
+#include <stdio.h>
+#include <string.h>
+#include <unistd.h>
+#include <cmocka.h>
+
+#include "hal_host.h"
+#include "hal_host_msg.h"
+#include "hal_host_net_kfilter.h"
+#include "gp/gp_wire.h"
+
+#define TCH "fleetsim/kfilter_test/done"
+#define PLAIN "fleetsim/kfilter_test/other"
+
+static char url[128];
+
+static hal_host_net_t *member(void)
+{
+    hal_host_net_t *n = NULL;
+    assert_int_equal(hal_host_net_open(url, 64, 0, &n), 0);
+    assert_int_equal(hal_host_net_expect_type(n, TCH, HAL_HOST_MSG_ROUND_COMPLETE), 0);
+    assert_int_equal(hal_host_net_subscribe(n, TCH), 0);
+    assert_int_equal(hal_host_net_subscribe(n, PLAIN), 0);
+    return n;
+}
+
+/* Waits up to timeout_ms, then adds the sender of every RoundComplete queued to the bit set
+ * (bit 31: a datagram on PLAIN). */
+static uint32_t heard_within(hal_host_net_t *rx, int timeout_ms)
+{
+    uint32_t heard = 0;
+    uint8_t b[64];
+    assert_int_equal(hal_host_net_wait(rx, 0, timeout_ms), 0);
+    hal_net_rx_info_t info;
+    while (hal_host_net_receive(rx, 0, &info, b, sizeof b) == 0) {
+        if (strcmp(info.channel, PLAIN) == 0) {
+            heard |= 1u << 31;
+            continue;
+        }
+        gp_pse_done_t d;
+        assert_int_equal(gp_wire_decode_done(b, info.len, &d), 0);
+        heard |= 1u << d.sender;
+    }
+    return heard;
+}
+
+/* One RoundComplete of each of senders 1, 2 and 3 and one datagram on PLAIN every 50 ms until
+ * every receiver has heard what it wants (bounded: 3 s), then a little longer; the bit sets
+ * heard into out. */
+static void exchange(hal_host_net_t *tx, hal_host_net_t **rx, const uint32_t *want, uint32_t *out, int n_rx)
+{
+    memset(out, 0, sizeof *out * (size_t)n_rx);
+    uint8_t b[64];
+    for (int round = 0, done = 0; round < 60 && !done; round++) {
+        for (uint32_t s = 1; s <= 3; s++) {
+            const gp_pse_done_t d = {s, 17, 1};
+            const int len = gp_wire_encode_done(&d, b, sizeof b);
+            assert_true(len > 0);
+            assert_int_equal(hal_host_net_publish(tx, TCH, b, (size_t)len), 0);
+        }
+        assert_int_equal(hal_host_net_publish(tx, PLAIN, "x", 1), 0);
+        done = 1;
+        for (int i = 0; i < n_rx; i++) {
+            out[i] |= heard_within(rx[i], 50 / n_rx);
+            done &= out[i] == want[i];
+        }
+    }
+    for (int k = 0; k < 4; k++) /* anything unwanted still on its way would show now */
+        for (int i = 0; i < n_rx; i++)
+            out[i] |= heard_within(rx[i], 25);
+}
+
+static void test_kernel_drops_unwanted_senders(void **state)
+{
+    (void)state;
+    hal_host_net_t *tx = member(), *rx = member();
+    const uint32_t all = 0x0Eu | 1u << 31;
+    uint32_t heard;
+    exchange(tx, &rx, &all, &heard, 1);
+    assert_int_equal(heard, all); /* no filter yet: everyone */
+    const uint8_t w2[1] = {0x04};
+    assert_int_equal(hal_host_net_set_senders(rx, TCH, w2, 8), 0);
+    hal_net_stats_t before, after;
+    hal_host_net_get_stats(rx, &before);
+    const uint32_t want2 = 1u << 2 | 1u << 31;
+    exchange(tx, &rx, &want2, &heard, 1);
+    assert_int_equal(heard, want2);
+    hal_host_net_get_stats(rx, &after);
+    /* 1 and 3 sent as often as 2: none of theirs reached the network to be dropped there. */
+    assert_int_equal(after.rx_unwanted, before.rx_unwanted);
+    const uint8_t w13[1] = {0x0A};
+    assert_int_equal(hal_host_net_set_senders(rx, TCH, w13, 8), 0);
+    const uint32_t want13 = 1u << 1 | 1u << 3 | 1u << 31;
+    exchange(tx, &rx, &want13, &heard, 1);
+    assert_int_equal(heard, want13);
+    assert_int_equal(hal_host_net_set_senders(rx, TCH, NULL, 4), 0); /* every sender again */
+    exchange(tx, &rx, &all, &heard, 1);
+    assert_int_equal(heard, all);
+    hal_host_net_get_stats(rx, &after);
+    assert_int_equal(after.rx_unwanted, before.rx_unwanted);
+    assert_int_equal(after.rx_dropped_malformed + after.rx_dropped_invalid, 0);
+    hal_host_net_close(tx);
+    hal_host_net_close(rx);
+}
+
+/* Two robots of one process on one URL: each filter is on its own robot's socket. */
+static void test_each_robot_filters_its_own_socket(void **state)
+{
+    (void)state;
+    hal_host_net_t *tx = member(), *rx[2] = {member(), member()};
+    const uint8_t w1[1] = {0x02}, w3[1] = {0x08};
+    assert_int_equal(hal_host_net_set_senders(rx[0], TCH, w1, 8), 0);
+    assert_int_equal(hal_host_net_set_senders(rx[1], TCH, w3, 8), 0);
+    const uint32_t want[2] = {1u << 1 | 1u << 31, 1u << 3 | 1u << 31};
+    uint32_t heard[2];
+    exchange(tx, rx, want, heard, 2);
+    assert_int_equal(heard[0], want[0]);
+    assert_int_equal(heard[1], want[1]);
+    for (int i = 0; i < 2; i++) {
+        hal_net_stats_t s;
+        hal_host_net_get_stats(rx[i], &s);
+        assert_int_equal(s.rx_unwanted, 0);
+        hal_host_net_close(rx[i]);
+    }
+    hal_host_net_close(tx);
+}
+
+static void test_refused(void **state)
+{
+    (void)state;
+    kfilter_rule_t r[KFILTER_MAX_RULES + 1];
+    memset(r, 0, sizeof r);
+    for (uint32_t i = 0; i <= KFILTER_MAX_RULES; i++)
+        snprintf(r[i].channel, sizeof r[i].channel, "fleetsim/kfilter_test/c%u", i);
+    int fds[4];
+    assert_int_equal(hal_host_net_kfilter_attach(-1, r, 1), -EINVAL);
+    assert_int_equal(hal_host_net_kfilter_attach(0, NULL, 1), -EINVAL);
+    assert_int_equal(hal_host_net_kfilter_attach(0, r, KFILTER_MAX_RULES + 1), -EINVAL);
+    assert_int_equal(hal_host_net_kfilter_sockets(0, fds, 4), -EINVAL);
+    assert_int_equal(hal_host_net_kfilter_sockets(7667, NULL, 4), -EINVAL);
+    /* Not a socket: the kernel's refusal comes back. */
+    assert_int_equal(hal_host_net_kfilter_attach(STDIN_FILENO, r, 1), -ENOTSOCK);
+}
+
+int main(void)
+{
+    /* A group and ports of our own, so that concurrent runs and fleets on this host do not
+       cross. */
+    snprintf(url, sizeof url, "udpm://239.255.76.69:%u?ttl=0", 12000u + 4u * (unsigned)(getpid() % 500));
+    const struct CMUnitTest tests[] = {
+        cmocka_unit_test(test_kernel_drops_unwanted_senders),
+        cmocka_unit_test(test_each_robot_filters_its_own_socket),
+        cmocka_unit_test(test_refused),
+    };
+    return cmocka_run_group_tests(tests, NULL, NULL);
+}
