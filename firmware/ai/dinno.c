@@ -398,7 +398,9 @@ static float sigmoidf_(float r)
     return e / (1.0f + e);
 }
 
-#define PREP_BLOCK 256u /* rho entries per block of dinno_prepare (a 1 KB array on the stack) */
+/* rho entries per block of the loops over the rho group (a 256-byte array on the AI core's
+   stack, small enough for the Cortex-M boards): 4 AVX-512 vectors of 16 */
+#define PREP_BLOCK 64u
 
 void dinno_prepare(dinno_node_t *n)
 {
