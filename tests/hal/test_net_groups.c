@@ -18,6 +18,7 @@
 #include "hal_host.h"
 #include "hal_host_msg.h"
 #include "gp/gp_wire.h"
+#include "net_heard.h"
 
 #define GCH "fleetsim/groups_test/done"
 #define PLAIN "fleetsim/groups_test/other"
@@ -43,22 +44,6 @@ static hal_host_net_t *member(void)
     return n;
 }
 
-/* Waits up to timeout_ms for rx's queue, then adds the sender of every RoundComplete queued to
- * the bit set. */
-static uint32_t heard_within(hal_host_net_t *rx, int timeout_ms)
-{
-    uint32_t heard = 0;
-    uint8_t b[64];
-    assert_int_equal(hal_host_net_wait(rx, 0, timeout_ms), 0);
-    hal_net_rx_info_t info;
-    while (hal_host_net_receive(rx, 0, &info, b, sizeof b) == 0) {
-        gp_pse_done_t d;
-        assert_int_equal(gp_wire_decode_done(b, info.len, &d), 0);
-        heard |= 1u << d.sender;
-    }
-    return heard;
-}
-
 /* Publishes one datagram of each of `senders` on GCH every 50 ms until the receiver has
  * `want` of them (bounded: 3 s, datagrams may be lost and a group is joined a moment after
  * the wanted set changed); returns the senders heard as a bit set. */
@@ -69,11 +54,11 @@ static uint32_t exchange(hal_host_net_t *tx, hal_host_net_t *rx, const uint32_t 
     for (int round = 0; round < 60 && heard != want; round++) {
         for (int i = 0; i < n; i++)
             assert_int_equal(hal_host_net_publish(tx, GCH, b, done_from(b, sizeof b, senders[i])), 0);
-        heard |= heard_within(rx, 50);
+        heard |= net_heard_within(rx, 50, NULL);
     }
     /* A little longer: anything unwanted still on its way would show now. */
     for (int i = 0; i < 4; i++)
-        heard |= heard_within(rx, 25);
+        heard |= net_heard_within(rx, 25, NULL);
     return heard;
 }
 

@@ -18,6 +18,7 @@
 #include "hal_host_msg.h"
 #include "hal_host_net_kfilter.h"
 #include "gp/gp_wire.h"
+#include "net_heard.h"
 
 #define TCH "fleetsim/kfilter_test/done"
 #define PLAIN "fleetsim/kfilter_test/other"
@@ -32,26 +33,6 @@ static hal_host_net_t *member(void)
     assert_int_equal(hal_host_net_subscribe(n, TCH), 0);
     assert_int_equal(hal_host_net_subscribe(n, PLAIN), 0);
     return n;
-}
-
-/* Waits up to timeout_ms, then adds the sender of every RoundComplete queued to the bit set
- * (bit 31: a datagram on PLAIN). */
-static uint32_t heard_within(hal_host_net_t *rx, int timeout_ms)
-{
-    uint32_t heard = 0;
-    uint8_t b[64];
-    assert_int_equal(hal_host_net_wait(rx, 0, timeout_ms), 0);
-    hal_net_rx_info_t info;
-    while (hal_host_net_receive(rx, 0, &info, b, sizeof b) == 0) {
-        if (strcmp(info.channel, PLAIN) == 0) {
-            heard |= 1u << 31;
-            continue;
-        }
-        gp_pse_done_t d;
-        assert_int_equal(gp_wire_decode_done(b, info.len, &d), 0);
-        heard |= 1u << d.sender;
-    }
-    return heard;
 }
 
 /* One RoundComplete of each of senders 1, 2 and 3 and one datagram on PLAIN every 50 ms until
@@ -71,13 +52,13 @@ static void exchange(hal_host_net_t *tx, hal_host_net_t **rx, const uint32_t *wa
         assert_int_equal(hal_host_net_publish(tx, PLAIN, "x", 1), 0);
         done = 1;
         for (int i = 0; i < n_rx; i++) {
-            out[i] |= heard_within(rx[i], 50 / n_rx);
+            out[i] |= net_heard_within(rx[i], 50 / n_rx, PLAIN);
             done &= out[i] == want[i];
         }
     }
     for (int k = 0; k < 4; k++) /* anything unwanted still on its way would show now */
         for (int i = 0; i < n_rx; i++)
-            out[i] |= heard_within(rx[i], 25);
+            out[i] |= net_heard_within(rx[i], 25, PLAIN);
 }
 
 static void test_kernel_drops_unwanted_senders(void **state)
