@@ -400,7 +400,7 @@ static float sigmoidf_(float r)
 
 /* rho entries per block of the loops over the rho group (a 256-byte array on the AI core's
    stack, small enough for the Cortex-M boards): 4 AVX-512 vectors of 16 */
-#define PREP_BLOCK 64u
+#define RHO_BLOCK 64u
 
 void dinno_prepare(dinno_node_t *n)
 {
@@ -431,9 +431,9 @@ void dinno_prepare(dinno_node_t *n)
         }
         /* The rho group a block at a time: the softplus in a loop of its own, which vectorises,
            and libm's logf (scalar) after it; the same operations per element as one loop. */
-        for (size_t e0 = 0; kl && e0 < R; e0 += PREP_BLOCK) {
-            float sp[PREP_BLOCK];
-            const size_t ne = R - e0 < PREP_BLOCK ? R - e0 : PREP_BLOCK;
+        for (size_t e0 = 0; kl && e0 < R; e0 += RHO_BLOCK) {
+            float sp[RHO_BLOCK];
+            const size_t ne = R - e0 < RHO_BLOCK ? R - e0 : RHO_BLOCK;
             const float *t0 = n->theta0 + M + e0, *t1 = tj + M + e0;
             for (size_t e = 0; e < ne; e++)
                 sp[e] = ai_fm_softplusf(0.5f * (t0[e] + t1[e]));
@@ -470,11 +470,11 @@ static void weights(const dinno_node_t *n, float *wm, float *wr)
     }
 }
 
-/* sp[i] = softplus(rho[i]) for the next min(left, PREP_BLOCK) entries: a loop of its own,
+/* sp[i] = softplus(rho[i]) for the next min(left, RHO_BLOCK) entries: a loop of its own,
    which vectorises, where the loop that uses them calls libm (sigmoidf_, log) and does not. */
 static void softplus_block(const float *rho, size_t left, float *sp)
 {
-    const size_t ne = left < PREP_BLOCK ? left : PREP_BLOCK;
+    const size_t ne = left < RHO_BLOCK ? left : RHO_BLOCK;
     for (size_t i = 0; i < ne; i++)
         sp[i] = ai_fm_softplusf(rho[i]);
 }
@@ -503,12 +503,12 @@ void dinno_add_reg_grad(dinno_node_t *n, float rho_k, float *reg_mu, float *reg_
         const size_t mu0 = bnn_rho_to_mu(&n->model, 0);
         const double red = n->cfg.kl_reduce == DINNO_REDUCE_MEAN ? 1.0 / (double)R : 1.0;
         const float kr = (float)((double)rho_k * wr * red);
-        float sp[PREP_BLOCK];
+        float sp[RHO_BLOCK];
         for (size_t e = 0; e < R; e++) {
-            if (e % PREP_BLOCK == 0)
+            if (e % RHO_BLOCK == 0)
                 softplus_block(th + M + e, R - e, sp);
             const float r = th[M + e];
-            const double s = sp[e % PREP_BLOCK], s2 = s * s;
+            const double s = sp[e % RHO_BLOCK], s2 = s * s;
             double q = n->aux1[M + e];
             if (full) {
                 const double mu = th[mu0 + e];
@@ -523,12 +523,12 @@ void dinno_add_reg_grad(dinno_node_t *n, float rho_k, float *reg_mu, float *reg_
     } else if (n->cfg.strategy == DINNO_KL) {
         const double red = n->cfg.kl_reduce == DINNO_REDUCE_MEAN ? 1.0 / (double)R : 1.0;
         const float kr = n->cfg.kl_reduce == DINNO_REDUCE_MEAN ? (float)((double)rho_k * wr * red) : rho_k * wr;
-        float sp[PREP_BLOCK];
+        float sp[RHO_BLOCK];
         for (size_t e = 0; e < R; e++) {
-            if (e % PREP_BLOCK == 0)
+            if (e % RHO_BLOCK == 0)
                 softplus_block(th + M + e, R - e, sp);
             const float r = th[M + e];
-            const float s = sp[e % PREP_BLOCK], inv2 = n->aux1[M + e];
+            const float s = sp[e % RHO_BLOCK], inv2 = n->aux1[M + e];
             g[M + e] += n->dual[M + e] + kr * sigmoidf_(r) * (s * inv2 - m / s);
             dd += (double)r * n->dual[M + e];
             rr += (double)n->aux2[e] - (double)m * log((double)s) + 0.5 * (double)s * s * inv2 - 0.5 * m;

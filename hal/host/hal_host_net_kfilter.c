@@ -5,6 +5,7 @@
 #include <dirent.h>
 #include <errno.h>
 #include <netinet/in.h>
+#include <pthread.h>
 #include <stdlib.h>
 #include <string.h>
 #include <sys/socket.h>
@@ -98,7 +99,14 @@ int hal_host_net_kfilter_attach(int fd, const kfilter_rule_t *rules, uint32_t n)
 {
     if (fd < 0 || (n > 0 && rules == NULL) || n > KFILTER_MAX_RULES)
         return -EINVAL;
-    static _Thread_local prog_t p; /* 13 KB: not on a receiver thread's stack */
+    for (uint32_t i = 0; i < n; i++)
+        if (!hal_net_channel_valid(rules[i].channel))
+            return -EINVAL;
+    /* One program under construction in the process (8 KB, a static: not on the caller's stack
+       nor in every thread's TLS); the kernel copies it at attach. */
+    static pthread_mutex_t mu = PTHREAD_MUTEX_INITIALIZER;
+    static prog_t p;
+    pthread_mutex_lock(&mu);
     p.n = 0;
     put(&p, BPF_LD | BPF_B | BPF_ABS, 0, 0, (uint32_t)SKF_NET_OFF); /* version and header length */
     put(&p, BPF_ALU | BPF_AND | BPF_K, 0, 0, 0x0fu);
@@ -108,8 +116,6 @@ int hal_host_net_kfilter_attach(int fd, const kfilter_rule_t *rules, uint32_t n)
     put(&p, BPF_JMP | BPF_JEQ | BPF_K, 1, 0, LCM_MAGIC_SHORT); /* a fragment or not LCM: pass */
     put(&p, BPF_RET | BPF_K, 0, 0, PASS);
     for (uint32_t i = 0; i < n; i++) {
-        if (!hal_net_channel_valid(rules[i].channel))
-            return -EINVAL;
         uint32_t ids[KFILTER_MAX_IDS], n_ids = 0;
         int too_many = 0;
         for (uint32_t s = 0; s < BOARD_MAX_FLEET && !too_many; s++)
@@ -124,7 +130,9 @@ int hal_host_net_kfilter_attach(int fd, const kfilter_rule_t *rules, uint32_t n)
     }
     put(&p, BPF_RET | BPF_K, 0, 0, PASS);
     const struct sock_fprog f = {.len = (unsigned short)p.n, .filter = p.ins};
-    return setsockopt(fd, SOL_SOCKET, SO_ATTACH_FILTER, &f, sizeof f) == 0 ? 0 : -errno;
+    const int rc = setsockopt(fd, SOL_SOCKET, SO_ATTACH_FILTER, &f, sizeof f) == 0 ? 0 : -errno;
+    pthread_mutex_unlock(&mu);
+    return rc;
 }
 #else
 int hal_host_net_kfilter_attach(int fd, const kfilter_rule_t *rules, uint32_t n)
