@@ -298,8 +298,10 @@ int gp_pse_on_chunk(gp_pse_t *p, const gp_pse_chunk_t *c, uint64_t now_us)
         return -EBADMSG;
     }
     int rc = note_sender(p, c->sender, c->incarnation, c->round, 0, now_us);
-    if (rc == 0)
+    if (rc == 0) {
+        p->peer[c->sender].on_way = 0; /* it has begun c->round: see gp_pse_on_request */
         rc = window(p, c->round);
+    }
     if (rc != 0)
         return rc;
     p->stats.chunks_received++;
@@ -377,6 +379,7 @@ int gp_pse_on_done(gp_pse_t *p, const gp_pse_done_t *d, uint64_t now_us)
     }
     if (note_sender(p, d->sender, d->incarnation, d->round, 1, now_us) != 0)
         return -ESTALE;
+    p->peer[d->sender].on_way = 0;
     sender_state_sent(p, d->sender, d->round, now_us);
     gp_pse_peer_t *q = &p->peer[d->sender];
     if (!q->has_done || d->round > q->done_round) {
@@ -409,14 +412,13 @@ int gp_pse_on_request(gp_pse_t *p, const gp_pse_request_t *r, uint64_t now_us)
     if (note_sender(p, r->requester, r->incarnation, r->round, 0, now_us) != 0)
         return -ESTALE;
     gp_pse_request_position(p, r, now_us);
-    if (r->n == 0 && !r->has_position && p->in_round && r->round == p->round) {
-        /* A beacon of our round without a position: its sender has not begun the round (it is
-           on its way to it, gp_pse_poll). Its chunks will come by themselves: no request for
-           its position while it keeps saying so. */
-        gp_pse_peer_t *q = &p->peer[r->requester];
-        q->asked_us = now_us;
-        q->pos_backoff = GP_PSE_BACKOFF_MAX;
-    }
+    /* A beacon without a position: its sender has not begun that round (it is on its way to
+       it, gp_pse_poll), whether we had begun it or not when it came. Its position comes with
+       its first word of the round: no request for it while it keeps saying so. (Asking anyway
+       was the storm of a 128-robot fleet whose robots start minutes apart: every robot asked
+       every peer still driving its tour once a second, 13,000 requests a second to everyone.) */
+    p->peer[r->requester].on_way = r->n == 0 && !r->has_position;
+    p->peer[r->requester].on_way_round = r->round;
     if (r->n == 0)
         sender_state_sent(p, r->requester, r->round, now_us);
     if (r->n == 0 || r->target != p->cfg.self)
@@ -590,7 +592,8 @@ void gp_pse_poll(gp_pse_t *p, uint64_t now_us)
         gp_pse_buf_t *b = gp_pse_buf_of(p, i, p->round);
         if (b != NULL && !b->complete && now_us - b->progress_us >= gp_pse_ask_after(p, b->backoff)) {
             ask_again(p, i, b, now_us);
-        } else if (!gp_pse_pos_known(q, p->round) && now_us - p->round_start_us >= p->cfg.resend_after_us &&
+        } else if (!gp_pse_pos_known(q, p->round) && !(q->on_way && q->on_way_round == p->round) &&
+                   now_us - p->round_start_us >= p->cfg.resend_after_us &&
                    (q->pos_backoff == 0 || now_us - q->asked_us >= gp_pse_ask_after(p, q->pos_backoff))) {
             const gp_pse_request_t r = {p->cfg.self, i, p->round, 1, {0}, p->cfg.incarnation, 1, p->x_m, p->y_m,
                                         to_peer(p, i)};

@@ -67,7 +67,9 @@
  * k + 1 are ranked against our position of round k until round k + 1 begins and the list is
  * ranked again; a peer that got in only then is asked for its chunks. A round's states are
  * ready when every live peer's position of the round is known and every listed peer
- * delivered. A peer never heard in the round is asked for its chunk 0 (its position).
+ * delivered. A peer never heard in the round is asked for its chunk 0 (its position), unless
+ * its last word was "on my way to this round" (a beacon without a position): it has not begun
+ * it, and its first word of the round will place it.
  *
  * The handed-out buffers (the contract the zero-copy path rests on): the state buffers
  * gp_pse_neighbours() returns for round k are not written by gp_pse (no eviction by a nearer
@@ -269,6 +271,8 @@ typedef struct gp_pse_peer {
     uint8_t heard, has_inc, has_round, has_done;
     uint8_t absent;             /* left the current round (silent past the timeout) */
     uint8_t has_pos[2];
+    uint8_t on_way;             /* its last word: "on my way to round on_way_round", no position */
+    uint32_t on_way_round;
 } gp_pse_peer_t;
 
 /* The nearest peers of one round within the radius, at most GP_PSE_MAX_NEIGHBOURS, sorted by

@@ -2,7 +2,8 @@
  * one engine, robot 0 of GP_PSE_MAX_NEIGHBOURS + 6 robots, fed chunks by hand. It keeps the
  * states of its nearest peers only (ties by id), gives a state up for a nearer peer's, ranks
  * early chunks of the next round again once that round begins and asks for what it dropped,
- * and asks a peer it never heard in the round for the chunk that places it. */
+ * and asks a peer it never heard in the round for the chunk that places it, but not a peer that
+ * says it is still on its way to the round. */
 #include <setjmp.h>
 #include <stdarg.h>
 #include <stddef.h>
@@ -191,6 +192,35 @@ static void test_a_peer_never_heard_is_asked_where_it_is(void **st)
     expect_neighbours(want, 1);
 }
 
+/* A peer still driving its tour says "on my way to round 0" (a beacon without a position),
+ * heard here before this robot began the round too: it is not asked where it is, however long
+ * it takes (asking was a storm: every robot asked every late peer once a second). Its word of
+ * the round places it; a peer that went quiet after a positioned word is asked as before. */
+static void test_a_peer_on_its_way_is_not_asked_where_it_is(void **st)
+{
+    (void)st;
+    start(5.0);
+    const gp_pse_request_t on_way = {1, 1, 0, 0, {0}, 0, 0, 0.0, 0.0, GP_PSE_TO_ALL};
+    assert_int_equal(gp_pse_on_request(&eng, &on_way, 5), 0); /* before our round 0 */
+    assert_int_equal(gp_pse_begin_round(&eng, 0, mine, 0.0, 0.0, 10), 0);
+    for (uint32_t i = 2; i < N; i++)
+        whole_state_from(i, 0, 100.0, 20); /* all out of reach */
+    for (uint64_t t = RESEND; t <= 8u * RESEND; t += RESEND / 2u) {
+        gp_pse_poll(&eng, t);
+        if (t % (2u * RESEND) == 0) /* it keeps saying so, a beacon period apart */
+            assert_int_equal(gp_pse_on_request(&eng, &on_way, t), 0);
+    }
+    assert_int_equal(n_asked, 0);
+    assert_false(gp_pse_states_ready(&eng));
+    /* It began round 0: its chunk 0 places it in reach; the rest of its state is asked for. */
+    assert_int_equal(chunk_from(1, 0, 0, 1.0, 8u * RESEND + 10u), 0);
+    gp_pse_poll(&eng, 10u * RESEND);
+    assert_int_equal(n_asked, 1);
+    assert_true(asked[0].target == 1 && asked[0].n == 1 && asked[0].chunks[0] == 1);
+    assert_int_equal(chunk_from(1, 0, 1, 1.0, 10u * RESEND + 10u), 0);
+    assert_true(gp_pse_states_ready(&eng));
+}
+
 int main(void)
 {
     const struct CMUnitTest tests[] = {
@@ -198,6 +228,7 @@ int main(void)
         cmocka_unit_test(test_a_tie_at_the_last_slot_goes_to_the_lower_id),
         cmocka_unit_test(test_next_round_is_ranked_again_when_it_begins),
         cmocka_unit_test(test_a_peer_never_heard_is_asked_where_it_is),
+        cmocka_unit_test(test_a_peer_on_its_way_is_not_asked_where_it_is),
     };
     return cmocka_run_group_tests_name("gp/pse_nearest", tests, NULL, NULL);
 }
