@@ -56,7 +56,7 @@ FIELDS = ["transport", "robots", "rounds", "round_ms", "sent_per_robot_B", "rece
           "rss_MB_max", "static_MB_per_image", "wall_s"]
 # Added later: old rows without them are kept (empty cells).
 NEW_FIELDS = ["rss_MB_median", "net_rx_unwanted_per_robot", "fleet_rss_MB_peak", "sock_MB_peak",
-              "states_given_up", "peer_timeouts", "queue_drops", "net_arrived_per_robot_B"]
+              "states_given_up", "peer_timeouts", "queue_drops", "net_arrived_per_robot_B", "mem_used_MB_peak"]
 ALL_FIELDS = FIELDS + NEW_FIELDS
 DEFAULT_RSS_MB = 120.0  # per process, when no smaller fleet was measured
 # What tools/fleet is given for each transport: lcm-groups is LCM with per-sender groups and
@@ -102,15 +102,18 @@ def fleet_pids(run_dir):
 
 
 class Monitor(threading.Thread):
-    """Samples a running fleet every `every` s: summed VmRSS and the bytes queued in its sockets
-    (the kernel's buffers, charged to no process's RSS); keeps the peaks."""
+    """Samples a running fleet every `every` s: summed VmRSS, the bytes queued in its sockets
+    (the kernel's buffers, charged to no process's RSS) and how far the machine's MemAvailable
+    fell since the start; keeps the peaks. The fall is what the fleet costs the machine: summed
+    RSS counts the pages the processes share (libraries, code) once per process."""
 
     def __init__(self, run_dir, every=2.0):
         super().__init__(daemon=True)
         self.run_dir, self.every = run_dir, every
         self.stop = threading.Event()
         self.procs = self.rss_mb = self.sock_mb = 0
-        self.rss_peak_mb = self.sock_peak_mb = 0.0
+        self.rss_peak_mb = self.sock_peak_mb = self.used_peak_mb = 0.0
+        self.avail0_mb = meminfo_mb("MemAvailable")
 
     def sample(self):
         queued = {}
@@ -139,6 +142,7 @@ class Monitor(threading.Thread):
         self.procs, self.rss_mb, self.sock_mb = len(pids), rss / 1e6, sock / 1e6
         self.rss_peak_mb = max(self.rss_peak_mb, self.rss_mb)
         self.sock_peak_mb = max(self.sock_peak_mb, self.sock_mb)
+        self.used_peak_mb = max(self.used_peak_mb, self.avail0_mb - meminfo_mb("MemAvailable"))
 
     def run(self):
         while not self.stop.wait(self.every):
@@ -157,10 +161,12 @@ def measured(run_dir, n):
 
 
 def known_fleets(a):
-    """(transport, N) -> (peak RSS per process MB, socket buffers peak MB or None) of the fleets
-    measured so far: --csv's rows and --results' finished runs. Per process: the fleet's summed
-    RSS at its sampled peak over N when the bench sampled it (the processes do not all peak at
-    once: at 128 robots N x the largest peak was 1.4x the sampled sum), else the largest."""
+    """(transport, N) -> (peak memory per process MB, socket buffers peak MB or None) of the
+    fleets measured so far: --csv's rows and --results' finished runs. Per process: how far the
+    machine's MemAvailable fell at the fleet's peak, over N, when the bench sampled it (shared
+    pages once, socket buffers included: at 64 and 128 robots the summed RSS was 1.3x it); else
+    the fleet's summed RSS at its sampled peak over N (the processes do not all peak at once: at
+    128 robots N x the largest peak was 1.4x the sampled sum); else the largest."""
     known = {}
     if a.csv and os.path.exists(a.csv):
         with open(a.csv) as f:
@@ -168,7 +174,12 @@ def known_fleets(a):
                 try:
                     sock = float(r["sock_MB_peak"]) if r.get("sock_MB_peak") else None
                     n = int(r["robots"])
-                    per = float(r["fleet_rss_MB_peak"]) / n if r.get("fleet_rss_MB_peak") else float(r["rss_MB_max"])
+                    if r.get("mem_used_MB_peak") and float(r["mem_used_MB_peak"]) > 0:
+                        per, sock = float(r["mem_used_MB_peak"]) / n, None  # the fall counts the sockets
+                    elif r.get("fleet_rss_MB_peak") and float(r["fleet_rss_MB_peak"]) > 0:
+                        per = float(r["fleet_rss_MB_peak"]) / n
+                    else:
+                        per = float(r["rss_MB_max"])
                     known[(r["transport"], n)] = (per, sock)
                 except (KeyError, ValueError):
                     pass
@@ -187,12 +198,16 @@ def known_fleets(a):
             try:
                 with open(os.path.join(a.results, d, "bench_mem.json")) as f:
                     mem = json.load(f)
-                sock, fleet_peak = mem.get("sock_MB_peak"), mem.get("fleet_rss_MB_peak")
+                sock, fleet_peak, used = mem.get("sock_MB_peak"), mem.get("fleet_rss_MB_peak"), \
+                    mem.get("mem_used_MB_peak")
             except (OSError, ValueError, AttributeError):
-                pass
+                used = None
             key = (m.group(1), int(m.group(2)))
-            per = fleet_peak / key[1] if isinstance(fleet_peak, (int, float)) and fleet_peak > 0 else \
-                (max(rss) if rss else None)
+            if isinstance(used, (int, float)) and used > 0:
+                per, sock = used / key[1], None  # the machine's fall counts the sockets too
+            else:
+                per = fleet_peak / key[1] if isinstance(fleet_peak, (int, float)) and fleet_peak > 0 else \
+                    (max(rss) if rss else None)
             if per is not None and (key not in known or per > known[key][0]):
                 known[key] = (per, sock if sock is not None else known.get(key, (0, None))[1])
     return known
@@ -207,14 +222,14 @@ def memory_need(a, transport, n):
         return n * DEFAULT_RSS_MB, f"{n} x {DEFAULT_RSS_MB:.0f} MB (no smaller fleet measured)"
     k1 = smaller[-1]
     per = known[k1][0]
-    how = f"{n} x {per:.1f} MB (RSS per process at the peak of {k1[0]} {k1[1]} robots)"
+    how = f"{n} x {per:.1f} MB (per process at the peak of {k1[0]} {k1[1]} robots)"
     two = [k for k in smaller if k[0] == k1[0] and k[1] < k1[1]]
     if two:
         k0 = two[-1]
         slope = (known[k1][0] - known[k0][0]) / (k1[1] - k0[1])
         if slope > 0:
             per = known[k1][0] + slope * (n - k1[1])
-            how = (f"{n} x {per:.1f} MB (RSS per process at the peak {known[k1][0]:.1f} MB at {k1[1]} robots, "
+            how = (f"{n} x {per:.1f} MB (per process at the peak {known[k1][0]:.1f} MB at {k1[1]} robots, "
                    f"+{slope:.2f} MB per robot as from {k0[1]} robots)")
     need = n * per
     if known[k1][1]:
@@ -313,7 +328,8 @@ def measure(a, transport, n, rounds, preset):
            "fleet_rss_MB_peak": mem.get("fleet_rss_MB_peak", ""), "sock_MB_peak": mem.get("sock_MB_peak", ""),
            "states_given_up": lost.get("states_given_up", ""), "peer_timeouts": lost.get("peer_timeouts", ""),
            "queue_drops": lost.get("queue_drops", ""),
-           "net_arrived_per_robot_B": statistics.mean(arrived) if len(arrived) == n else ""}
+           "net_arrived_per_robot_B": statistics.mean(arrived) if len(arrived) == n else "",
+           "mem_used_MB_peak": mem.get("mem_used_MB_peak", "")}
     print(f"BENCH fleet_round_ms_{transport}_{preset}_{n}proc {row['round_ms']:.6g} ms", flush=True)
     return row
 
@@ -359,7 +375,8 @@ def run_fleet(a, cmd, run_dir, what):
         mon.join()
     if rc != 0:
         sys.exit(f"bench_scaling: {' '.join(cmd)} failed (exit {rc}):\n{tail[-3000:]}")
-    return {"fleet_rss_MB_peak": round(mon.rss_peak_mb, 1), "sock_MB_peak": round(mon.sock_peak_mb, 1)}
+    return {"fleet_rss_MB_peak": round(mon.rss_peak_mb, 1), "sock_MB_peak": round(mon.sock_peak_mb, 1),
+            "mem_used_MB_peak": round(mon.used_peak_mb, 1)}
 
 
 def plot(rows, out):
@@ -416,6 +433,8 @@ def main():
     p.add_argument("--progress-s", type=float, default=60.0,
                    help="a progress line after this many seconds without one from tools/fleet (0: none; default 60)")
     a = p.parse_args()
+    # Absolute: the memory monitor finds the fleet's processes by their --out under it.
+    a.results = os.path.abspath(a.results)
     try:
         sizes = [int(x) for x in a.robots.split(",")]
     except ValueError:
