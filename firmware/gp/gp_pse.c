@@ -415,8 +415,9 @@ int gp_pse_on_request(gp_pse_t *p, const gp_pse_request_t *r, uint64_t now_us)
     /* A beacon without a position: its sender has not begun that round (it is on its way to
        it, gp_pse_poll), whether we had begun it or not when it came. Its position comes with
        its first word of the round: no request for it while it keeps saying so. (Asking anyway
-       was the storm of a 128-robot fleet whose robots start minutes apart: every robot asked
-       every peer still driving its tour once a second, 13,000 requests a second to everyone.) */
+       was the storm of a 128-robot fleet whose robots start minutes apart: the robots in the
+       round asked the peers still driving their tours, each up to once a second, and every
+       robot was handed some 1,300 requests a second.) */
     p->peer[r->requester].on_way = r->n == 0 && !r->has_position;
     p->peer[r->requester].on_way_round = r->round;
     if (r->n == 0)
