@@ -160,6 +160,26 @@ def measured(run_dir, n):
         all(os.path.exists(os.path.join(run_dir, f"robot_{i}", "summary.txt")) for i in range(n))
 
 
+def _positive(x):
+    try:
+        v = float(x)
+    except (TypeError, ValueError):
+        return None
+    return v if v > 0 else None
+
+
+def per_process(n, used, fleet_peak, largest, sock):
+    """(MB per process, socket buffers MB to add or None) of a fleet of n, by known_fleets' order:
+    the machine's fall (used, which counts the sockets), the summed RSS (fleet_peak), the
+    largest process."""
+    used, fleet_peak = _positive(used), _positive(fleet_peak)
+    if used is not None:
+        return used / n, None
+    if fleet_peak is not None:
+        return fleet_peak / n, sock
+    return largest, sock
+
+
 def known_fleets(a):
     """(transport, N) -> (peak memory per process MB, socket buffers peak MB or None) of the
     fleets measured so far: --csv's rows and --results' finished runs. Per process: how far the
@@ -174,13 +194,8 @@ def known_fleets(a):
                 try:
                     sock = float(r["sock_MB_peak"]) if r.get("sock_MB_peak") else None
                     n = int(r["robots"])
-                    if r.get("mem_used_MB_peak") and float(r["mem_used_MB_peak"]) > 0:
-                        per, sock = float(r["mem_used_MB_peak"]) / n, None  # the fall counts the sockets
-                    elif r.get("fleet_rss_MB_peak") and float(r["fleet_rss_MB_peak"]) > 0:
-                        per = float(r["fleet_rss_MB_peak"]) / n
-                    else:
-                        per = float(r["rss_MB_max"])
-                    known[(r["transport"], n)] = (per, sock)
+                    known[(r["transport"], n)] = per_process(n, r.get("mem_used_MB_peak"), r.get("fleet_rss_MB_peak"),
+                                                             float(r["rss_MB_max"]), sock)
                 except (KeyError, ValueError):
                     pass
     if os.path.isdir(a.results):
@@ -194,22 +209,20 @@ def known_fleets(a):
                     mm = re.search(r"peak RSS (\S+) MB", f.read())
                 if mm:
                     rss.append(float(mm.group(1)))
-            sock = fleet_peak = None
+            sock = fleet_peak = used = None
             try:
                 with open(os.path.join(a.results, d, "bench_mem.json")) as f:
                     mem = json.load(f)
                 sock, fleet_peak, used = mem.get("sock_MB_peak"), mem.get("fleet_rss_MB_peak"), \
                     mem.get("mem_used_MB_peak")
             except (OSError, ValueError, AttributeError):
-                used = None
+                pass
             key = (m.group(1), int(m.group(2)))
-            if isinstance(used, (int, float)) and used > 0:
-                per, sock = used / key[1], None  # the machine's fall counts the sockets too
-            else:
-                per = fleet_peak / key[1] if isinstance(fleet_peak, (int, float)) and fleet_peak > 0 else \
-                    (max(rss) if rss else None)
+            if sock is None:
+                sock = known.get(key, (0, None))[1]
+            per, sock = per_process(key[1], used, fleet_peak, max(rss) if rss else None, sock)
             if per is not None and (key not in known or per > known[key][0]):
-                known[key] = (per, sock if sock is not None else known.get(key, (0, None))[1])
+                known[key] = (per, sock)
     return known
 
 
