@@ -238,8 +238,7 @@ static int lcm_open(hal_host_net_t *n, const char *url, void **ctx)
     c->wake[0] = c->wake[1] = -1;
     hal_net_stats_t st;
     hal_host_net_get_stats(n, &st);
-    const uint64_t cap = st.queue_depth < LCM_QUEUE_MAX ? st.queue_depth : LCM_QUEUE_MAX;
-    c->lcm_queue_cap = cap > 0 ? (int)cap : 1;
+    c->lcm_queue_cap = (int)(st.queue_depth < LCM_QUEUE_MAX ? st.queue_depth : LCM_QUEUE_MAX); /* depth >= 1: open */
     const char *u = url[0] != '\0' ? url : HAL_HOST_NET_URL_DEFAULT;
     c->lcm = lcm_create(u);
     if (c->lcm == NULL) {
