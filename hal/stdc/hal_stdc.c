@@ -409,6 +409,10 @@ static int hil_sense(void)
     const uint64_t t = now - now % hil.client->rt_period_us;
     if (hil.ticked && t == hil.tick_us)
         return 0;
+    if (hil.st.link_down) {
+        hil.st.link_errors++;
+        return -EIO;
+    }
     if (link_net != NULL)
         hil_send_out();
     const uint64_t sent_ns = hal_stdc_target_link_ns();
@@ -421,8 +425,10 @@ static int hil_sense(void)
         hal_stdc_target_hold(0);
     if (r != 0) {
         hil.st.link_errors++;
+        hil.st.link_down = ++hil.st.unanswered_in_row >= HAL_STDC_HIL_DOWN_AFTER;
         return -EIO;
     }
+    hil.st.unanswered_in_row = 0;
     if (hil.ticked && t != hil.tick_us + hil.client->rt_period_us)
         hil.st.tick_gaps++; /* a period went by without its tick: a deadline missed */
     hil.ticked = hil.sensed = 1;

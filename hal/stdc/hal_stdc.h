@@ -72,7 +72,11 @@ void hal_stdc_uninstall(void);
  * time floored to the client's RT period (the tick's release when the core keeps its rate)
  * less that of the first TICK (the world's time starts at the RT core's first tick, as a host
  * robot's lockstep does), and waits for the answer; the tick's other readings are the same TICK's. A wheel command
- * goes out at once. A link that does not answer makes the reading -EIO. lockstep: the board's
+ * goes out at once. A link that does not answer makes the reading -EIO; after
+ * HAL_STDC_HIL_DOWN_AFTER exchanges in a row went unanswered the world is gone (link_down in
+ * hal_stdc_hil_stats): every reading fails at once from then on, so the board's clock runs again
+ * and its program can see it and end (a dead world would otherwise hold a lockstep board's
+ * clock a whole exchange per reading). lockstep: the board's
  * clock stands still while it waits for the answer (hal_stdc_target_hold), so the world's and
  * the link's time are not the board's. net: NULL (the network stays the RAM loopback), or the
  * fleet's network through the link (hal_stdc_hil_net_t; a full out ring refuses a publish,
@@ -87,6 +91,10 @@ typedef struct hal_stdc_timing {
     uint64_t count, sum_ns, max_ns;
 } hal_stdc_timing_t;
 
+/* Exchanges in a row without an answer (each of the client's `tries` TICKs, timeout each: 10 s
+   at board_robot's defaults) after which the link is down. A world paused for less comes back. */
+#define HAL_STDC_HIL_DOWN_AFTER 10u
+
 typedef struct hal_stdc_hil_stats {
     hal_stdc_timing_t exchange; /* TICK sent to its answer read, in the link's time (held or not) */
     hal_stdc_timing_t response; /* sensors read to the wheel command */
@@ -94,6 +102,8 @@ typedef struct hal_stdc_hil_stats {
                                    the core's wake-up and its work, preempting the others (in
                                    lockstep the link's wait is not the board's time) */
     uint64_t link_errors;
+    uint64_t unanswered_in_row; /* TICK exchanges in a row the world did not answer */
+    int link_down;              /* HAL_STDC_HIL_DOWN_AFTER of them: the world is gone for good */
     uint64_t tick_gaps;         /* TICKs that were not one RT period after the last: an RT tick
                                    released so late (or not at all) that a period went by */
 } hal_stdc_hil_stats_t;

@@ -5,7 +5,8 @@
  * nothing before a HELLO or for another robot, replayed and corrupted frames refused while the
  * serving goes on, the same seed giving the same bytes in a second server, and the server
  * ending on its own when the board goes quiet, its last line counting what it refused; and the
- * firmware's RT core (board_hil) driving its tour through the link; and the same over the serial
+ * firmware's RT core (board_hil) driving its tour through the link, and ending on its own when
+ * its world stops answering; and the same over the serial
  * link (TCP carrying a serial line's bytes): frames cut anywhere, noise, a second connection
  * refused, a board that hangs up and comes back; over Ethernet frames in datagrams; and the
  * bridge of the fleet's datagrams to LCM. */
@@ -17,6 +18,7 @@
 #include <math.h>
 #include <netinet/in.h>
 #include <poll.h>
+#include <signal.h>
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
@@ -459,6 +461,63 @@ static void test_rt_core_drives_through_the_link(void **st)
     assert_true(fabs(world_distance - distance) < 0.15 * distance);
 }
 
+/* A board whose world stops answering (host_sim hil stopped, SIGSTOP: no port-unreachable to
+   tell the board, as a host that froze or lost power) ends on its own: after
+   HAL_STDC_HIL_DOWN_AFTER unanswered exchanges the link is down, board_hil says so and exits 1,
+   long before its --time (the lockstep board's clock stands still while it waits, so --time
+   alone would take an exchange's wait per reading). */
+static void test_board_ends_when_its_world_stops(void **st)
+{
+    (void)st;
+    board_t *b = &b1;
+    start_server(b, "hil_stops", LINK_UDP);
+    char board_bin[PATH_MAX], tour[PATH_MAX], connect[32], log[PATH_MAX];
+    snprintf(board_bin, sizeof board_bin, "%.*s/board_hil", (int)(strrchr(fp_env.bin, '/') - fp_env.bin), fp_env.bin);
+    snprintf(tour, sizeof tour, "%s/robot_0.csv", fp_env.paths);
+    snprintf(connect, sizeof connect, "127.0.0.1:%u", (unsigned)ntohs(b->server.sin_port));
+    snprintf(log, sizeof log, "%s/board_stops.log", fp_env.dir);
+    close(b->fd);
+    const char *argv[] = {board_bin, "--connect", connect, "--tour", tour, "--time", "600", "--timeout-ms", "100",
+                          NULL};
+    const pid_t pid = fp_spawn(argv, log, NULL, NULL);
+    assert_true(pid > 0);
+    char text[8192] = "";
+    for (const double t0 = fp_now(); strstr(text, "board_hil: board ") == NULL; fp_sleep_ms(20)) {
+        FILE *f = fopen(log, "r");
+        if (f != NULL) {
+            text[fread(text, 1, sizeof text - 1, f)] = '\0';
+            fclose(f);
+        }
+        if (fp_now() - t0 > DEADLINE_S) {
+            fp_show_log(log);
+            fail_msg("board_hil did not reach its world within %g s", DEADLINE_S);
+        }
+    }
+    fp_sleep_ms(500); /* driving */
+    assert_int_equal(kill(b->pid, SIGSTOP), 0);
+    const double stopped = fp_now();
+    /* 10 exchanges of 5 TICKs, 100 ms each: 5 s, and the deadline's margin */
+    const int status = fp_wait(pid, stopped + 5.0 + DEADLINE_S);
+    const double took = fp_now() - stopped;
+    fp_kill(b->pid);
+    b->pid = 0;
+    if (status == -1)
+        fp_kill(pid);
+    FILE *f = fopen(log, "r");
+    assert_non_null(f);
+    text[fread(text, 1, sizeof text - 1, f)] = '\0';
+    fclose(f);
+    print_message("board_hil ended %.1f s after its world stopped, status %d\n", took, status);
+    if (status != 1)
+        fp_show_log(log);
+    assert_int_equal(status, 1);
+    assert_non_null(strstr(text, "stopped answering (10 exchanges in a row): the link is down"));
+    unsigned long long ticks = 0;
+    assert_int_equal(sscanf(strstr(text, "result rt_ticks"), "result rt_ticks %llu", &ticks), 1);
+    assert_true(ticks > 0 && ticks < 600u * 50u);
+    assert_true(took >= 4.5); /* it waited for its exchanges: a paused world is not dropped at once */
+}
+
 /* The serial link (a serial line's bytes carried over TCP, as QEMU's -serial tcp: gives
    them): frames cut anywhere and noise between them reach the world, its answers come back
    as a byte stream, a second connection is refused while the board's lasts, and a board that
@@ -674,6 +733,7 @@ int main(void)
         cmocka_unit_test(test_round_trip),
         cmocka_unit_test(test_same_seed_same_bytes),
         cmocka_unit_test(test_rt_core_drives_through_the_link),
+        cmocka_unit_test(test_board_ends_when_its_world_stops),
         cmocka_unit_test(test_serial_stream),
         cmocka_unit_test(test_ether_frames),
         cmocka_unit_test(test_fleet_bridge),

@@ -47,9 +47,11 @@ static void usage(FILE *to)
             "  --robot I            the robot's id, as host_sim hil serves it (default 0)\n"
             "  --time S             stop after S seconds of the board's time (default 600)\n"
             "  --timeout-ms MS      wait for the world's answer to a TICK (default 200)\n"
-            "  --tries N            TICKs sent before the link counts as down (default 5)\n"
+            "  --tries N            TICKs sent before an exchange fails (default 5); the link is\n"
+            "                       down, and the program ends, after %u failed in a row\n"
             "  --lockstep 0|1       1: the board's clock stands still while it waits for the world\n"
-            "                       (the link's time is not the board's; default 1)\n");
+            "                       (the link's time is not the board's; default 1)\n",
+            (unsigned)HAL_STDC_HIL_DOWN_AFTER);
 }
 
 static int parse_opts(int argc, char **argv, hil_opts_t *o)
@@ -165,9 +167,9 @@ int main(int argc, char **argv)
                 overrun_max = done - t - FW_RT_PERIOD_US;
         }
         st = rt.status;
-        if (r < 0 && st.errors > 50) {
-            fprintf(stderr, "board_hil: the RT core's readings keep failing (%lu errors): the link is down\n",
-                    (unsigned long)st.errors);
+        if (after.link_down) {
+            fprintf(stderr, "board_hil: the world on %s %s stopped answering (%u exchanges in a row): the link is "
+                            "down\n", hal_stdc_hil_kind(), o.connect, (unsigned)HAL_STDC_HIL_DOWN_AFTER);
             break;
         }
         if (st.finished)

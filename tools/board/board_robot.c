@@ -13,8 +13,9 @@
  * board's C library and math.
  *
  * The main program runs below the three cores: it reports the rounds as the GP core logs them
- * and ends when the GP core handled the final checkpoint, or when --time ran out. Built for the
- * Cortex-M boards (`make hil BOARD=...`, boards/cross.mk). */
+ * and ends when the GP core handled the final checkpoint, when --time ran out, or when the
+ * world stopped answering (the HAL's link_down). Built for the Cortex-M boards (`make hil
+ * BOARD=...`, boards/cross.mk). */
 #include <errno.h>
 #include <inttypes.h>
 #include <math.h>
@@ -51,7 +52,7 @@ static void usage(FILE *to)
             "fleet `host_sim hil --fleet-lcm URL` serves: it drives ROBOT.csv, trains its DiNNO node and\n"
             "takes part in the fleet's rounds as `host_sim run --fleet N --id I` does, writes\n"
             "OUT/final.bnn, then prints `result <key> <value>` lines. Exit 0 when every round was done\n"
-            "and final.bnn written, 1 otherwise, 2 on bad options.\n\n"
+            "and final.bnn written, 1 otherwise (the link down among them), 2 on bad options.\n\n"
             "  --connect WHERE      the link: eth0 (Ethernet) or uart0..uart3 (serial)\n"
             "  --tour ROBOT.csv     the robot's waypoints (those host_sim hil was given)\n"
             "  --out DIR            where checkpoints go (default: the current directory)\n"
@@ -69,10 +70,11 @@ static void usage(FILE *to)
             "  --ckpt-every N       round checkpoints every N rounds (default 0: final.bnn only)\n"
             "  --time S             stop after S seconds of the board's time (default 3600)\n"
             "  --timeout-ms MS      wait for the world's answer to a TICK (default 200)\n"
-            "  --tries N            TICKs sent before the link counts as down (default 5)\n\n"
+            "  --tries N            TICKs sent before an exchange fails (default 5); the link is\n"
+            "                       down, and the program ends, after %u failed in a row\n\n"
             "This board (%s): pool of %u samples, state chunks of %u bytes; give its host peers\n"
             "--pool-samples %u --chunk-bytes %u to train what this board trains.\n",
-            (unsigned)GP_PSE_MAX_FLEET, BOARD_NAME, (unsigned)AI_POOL_CAPACITY, (unsigned)ROBOT_CHUNK_BYTES,
+            (unsigned)GP_PSE_MAX_FLEET, (unsigned)HAL_STDC_HIL_DOWN_AFTER, BOARD_NAME, (unsigned)AI_POOL_CAPACITY, (unsigned)ROBOT_CHUNK_BYTES,
             (unsigned)AI_POOL_CAPACITY, (unsigned)ROBOT_CHUNK_BYTES);
 }
 
@@ -238,6 +240,7 @@ static void print_results(const robot_opts_t *o, int done)
     printf("result release_to_command_max_us %.2f\n", (double)hs.release.max_ns * 1e-3);
     printf("result link_round_trip_mean_us %.1f\n", mean_us(&hs.exchange));
     printf("result link_errors %llu\n", (unsigned long long)hs.link_errors);
+    printf("result link_down %d\n", hs.link_down);
     printf("result link_datagrams_in %llu\n", (unsigned long long)client.stats.datagrams_in);
     printf("result link_datagrams_out %llu\n", (unsigned long long)client.stats.datagrams_out);
     printf("result tour_finished %u\n", (unsigned)rt->status.finished);
@@ -301,14 +304,22 @@ int main(int argc, char **argv)
     const uint32_t total = o.rounds + (o.fleet > 1 ? o.post_rounds : 0u);
     const uint64_t end = hal_stdc_target_now_us() + (uint64_t)(o.time_s * 1e6);
     uint32_t seen = 0;
-    int done = 0;
-    while (!done && hal_stdc_target_now_us() < end) {
+    int done = 0, down = 0;
+    while (!done && !down && hal_stdc_target_now_us() < end) {
         hal_stdc_target_sleep_until(hal_stdc_target_now_us() + 500000u);
         for (const ai_round_info_t *ri; (ri = gp_core_round(gp, seen)) != NULL; seen++)
             print_round(ri, total);
         done = gp_core_done(gp);
+        hal_stdc_hil_stats_t hs;
+        hal_stdc_hil_stats(&hs);
+        down = hs.link_down;
     }
-    if (!done)
+    if (down)
+        fprintf(stderr, "board_robot: the world on %s %s stopped answering (%u exchanges of %u TICKs in a row, "
+                        "%u ms each): the link is down, stopped after %u of %u rounds\n",
+                hal_stdc_hil_kind(), o.connect, (unsigned)HAL_STDC_HIL_DOWN_AFTER, (unsigned)o.tries,
+                (unsigned)o.timeout_ms, (unsigned)seen, (unsigned)total);
+    else if (!done)
         printf("board_robot: stopped by --time %.0f s after %u of %u rounds\n", o.time_s, (unsigned)seen,
                (unsigned)total);
     print_results(&o, done);

@@ -4,6 +4,8 @@
     tools/board/hil_fleet.py --board B --qemu CMD --elf board_robot.elf --host-sim HOST_SIM [options]
 
 What it does, in order:
+  0. the board alone against a world that stops answering (SIGSTOP): it must end within 60 s,
+     exit 1 and say the link is down (OUT/world-stops/);
   1. asks the board's image (board_robot --help, under QEMU) for its pool and chunk sizes, so that
      the host robots keep what the board keeps (`host_sim run --pool-samples`) and chunk their
      states as it does (`--chunk-bytes`: a chunk's DATAGRAM frame fits one Ethernet frame);
@@ -49,6 +51,9 @@ PROCS = []  # every process started, stopped on the way out
 # the link, its requests came back as resends behind them, and rounds slowed from 6 to 15 s of
 # the board's time in 8 rounds. 1 s leaves the link to the states.
 RESEND_MS = 1000
+# A board whose world stopped answering ends within this: its 10 exchanges in a row unanswered
+# (5 TICKs of 200 ms each: 10 s of the link's time), and QEMU's slack on a busy machine.
+WORLD_STOPS_S = 60
 
 
 def say(msg):
@@ -139,11 +144,13 @@ def host_robot(a, i, run_dir, opts):
 
 
 def start_world(a, run_dir, url):
+    """Robot 0's world (host_sim hil on Ethernet frames), bridged to the fleet on `url` (None:
+    no fleet); waits until it listens: (its process, its port)."""
     os.makedirs(run_dir, exist_ok=True)
     log = open(os.path.join(run_dir, "world.txt"), "w")
     w = subprocess.Popen([a.host_sim, "hil", "--plan", a.plan, "--path", tour(a, 0), "--robot", "0", "--seed",
-                          str(a.seed), "--link", "ether", "--listen", "127.0.0.1:0", "--fleet-lcm", url,
-                          "--idle-timeout", "120"], stdout=log, stderr=subprocess.STDOUT,
+                          str(a.seed), "--link", "ether", "--listen", "127.0.0.1:0", "--idle-timeout", "120"] +
+                         (["--fleet-lcm", url] if url else []), stdout=log, stderr=subprocess.STDOUT,
                          preexec_fn=_die_with_parent)
     PROCS.append(w)
     path = os.path.join(run_dir, "world.txt")
@@ -247,6 +254,44 @@ def run_hil_fleet(a, sizes):
     return os.path.join(out0, "final.bnn"), results
 
 
+def check_world_stops(a):
+    """The board alone against a world that stops answering (host_sim hil stopped with SIGSTOP,
+    as a frozen host: no port-unreachable reaches the board) must end on its own, exit 1 and say
+    the link is down, within WORLD_STOPS_S of the stop. Returns the seconds it took."""
+    run_dir = os.path.join(a.out, "world-stops")
+    world, port = start_world(a, run_dir, None)
+    out0 = os.path.join(run_dir, "robot_0")
+    os.makedirs(out0, exist_ok=True)
+    log_path = os.path.join(out0, "board.txt")
+    cmd = qemu_cmd(a, ["--connect", "eth0", "--tour", tour(a, 0), "--out", out0, "--rounds", "1", "--seed",
+                       str(a.seed)], ["-nic", f"socket,udp=127.0.0.1:{port},localaddr=127.0.0.1:0"])
+    with open(log_path, "w") as log:
+        board = subprocess.Popen(cmd, stdout=log, stderr=subprocess.STDOUT, preexec_fn=_die_with_parent)
+    PROCS.append(board)
+    deadline = time.time() + 60
+    while "board_robot: board " not in open(log_path).read():
+        if board.poll() is not None or time.time() > deadline:
+            fail(f"world stops: the board did not reach its world (see {log_path})")
+        time.sleep(0.2)
+    time.sleep(2)  # driving
+    world.send_signal(signal.SIGSTOP)
+    stopped = time.time()
+    try:
+        board.wait(WORLD_STOPS_S)
+    except subprocess.TimeoutExpired:
+        fail(f"world stops: the board still ran {WORLD_STOPS_S} s after its world stopped answering: it hangs "
+             f"(see {log_path})")
+    finally:
+        world.kill()
+        world.wait()
+    took = time.time() - stopped
+    text = open(log_path).read()
+    if board.returncode != 1 or "the link is down" not in text:
+        fail(f"world stops: the board exited {board.returncode} {took:.0f} s after its world stopped, without "
+             f"saying the link is down (see {log_path})")
+    return took
+
+
 def run_reference(a, sizes):
     run_dir = os.path.join(a.out, "reference")
     url, fleet_id = lcm_url(), random.randrange(1, 1000000)
@@ -295,6 +340,8 @@ def main():
     random.seed(os.getpid() ^ int(time.time()))
     check_machine(False, "239.255.76.67", 7700)
     os.makedirs(a.out, exist_ok=True)
+    took = check_world_stops(a)
+    say(f"world stops: the board ended {took:.0f} s after its world stopped answering, saying the link is down")
     sizes = board_sizes(a)
     say(f"board {a.board}: pool of {sizes[0]} samples, chunks of {sizes[1]} bytes; {a.robots} robots, "
         f"{a.rounds} rounds offline + {a.post_rounds} posterior rounds, seed {a.seed}; results in {a.out}")
