@@ -55,7 +55,9 @@ int hal_host_net_kfilter_sockets(uint32_t port, int *fds, int cap)
    the final return. */
 #define RULE_MAX (2u * (HAL_NET_CHANNEL_MAX / 4u + 3u) + 1u + KFILTER_MAX_IDS + 2u)
 _Static_assert(RULE_MAX <= 255u, "a classic BPF jump reaches 255 instructions ahead");
-#define PROG_MAX (7u + KFILTER_MAX_RULES * RULE_MAX + 1u)
+#define RECEIVED_MAX (2u * (HAL_NET_CHANNEL_MAX / 4u + 3u) + 1u)
+#define PROG_MAX (7u + KFILTER_MAX_RULES * RULE_MAX + KFILTER_MAX_RECEIVED * RECEIVED_MAX + 1u)
+_Static_assert(PROG_MAX <= 4096u, "a classic BPF program holds 4,096 instructions (BPF_MAXINSNS)");
 
 typedef struct prog {
     struct sock_filter ins[PROG_MAX];
@@ -67,40 +69,66 @@ static void put(prog_t *p, uint16_t code, uint8_t jt, uint8_t jf, uint32_t k)
     p->ins[p->n++] = (struct sock_filter){code, jt, jf, k};
 }
 
-/* One rule: the channel compared (a mismatch jumps to the next rule, patched at the end), the
-   sender compared with every wanted id (a match jumps to the rule's pass), else drop. */
-static void put_rule(prog_t *p, const kfilter_rule_t *r, const uint32_t *ids, uint32_t n_ids)
+/* The channel's name and its NUL compared, a word at a time then a byte: the compares' places
+   into mism (the caller points their mismatch jumps); returns with the match's path next. */
+static void put_channel(prog_t *p, const char *channel, uint32_t *mism, uint32_t *n_mism)
 {
-    const size_t len = strlen(r->channel) + 1u; /* the NUL is on the wire */
-    uint32_t mism[HAL_NET_CHANNEL_MAX];
-    uint32_t n_mism = 0;
+    const size_t len = strlen(channel) + 1u; /* the NUL is on the wire */
     size_t at = 0;
     for (; at + 4u <= len; at += 4u) {
-        const uint8_t *c = (const uint8_t *)r->channel + at;
+        const uint8_t *c = (const uint8_t *)channel + at;
         put(p, BPF_LD | BPF_W | BPF_ABS, 0, 0, AT(8u + at));
-        mism[n_mism++] = p->n;
+        mism[(*n_mism)++] = p->n;
         put(p, BPF_JMP | BPF_JEQ | BPF_K, 0, 0, (uint32_t)c[0] << 24 | (uint32_t)c[1] << 16 | (uint32_t)c[2] << 8 | c[3]);
     }
     for (; at < len; at++) {
         put(p, BPF_LD | BPF_B | BPF_ABS, 0, 0, AT(8u + at));
-        mism[n_mism++] = p->n;
-        put(p, BPF_JMP | BPF_JEQ | BPF_K, 0, 0, (uint32_t)(uint8_t)r->channel[at]);
+        mism[(*n_mism)++] = p->n;
+        put(p, BPF_JMP | BPF_JEQ | BPF_K, 0, 0, (uint32_t)(uint8_t)channel[at]);
     }
-    put(p, BPF_LD | BPF_W | BPF_ABS, 0, 0, AT(8u + len + 8u)); /* the sender, after the fingerprint */
+}
+
+/* The mismatch jumps of mism to here. */
+static void point_here(prog_t *p, const uint32_t *mism, uint32_t n_mism)
+{
+    for (uint32_t i = 0; i < n_mism; i++)
+        p->ins[mism[i]].jf = (uint8_t)(p->n - mism[i] - 1u);
+}
+
+/* One rule: the channel compared (a mismatch jumps to the next rule), the sender compared with
+   every wanted id (a match jumps to the rule's pass), else drop. */
+static void put_rule(prog_t *p, const kfilter_rule_t *r, const uint32_t *ids, uint32_t n_ids)
+{
+    uint32_t mism[HAL_NET_CHANNEL_MAX], n_mism = 0;
+    put_channel(p, r->channel, mism, &n_mism);
+    put(p, BPF_LD | BPF_W | BPF_ABS, 0, 0, AT(8u + strlen(r->channel) + 1u + 8u)); /* the sender, after the fingerprint */
     for (uint32_t i = 0; i < n_ids; i++)
         put(p, BPF_JMP | BPF_JEQ | BPF_K, (uint8_t)(n_ids - i), 0, ids[i]); /* to this rule's pass */
     put(p, BPF_RET | BPF_K, 0, 0, 0);    /* an unwanted sender: dropped */
     put(p, BPF_RET | BPF_K, 0, 0, PASS); /* a wanted one */
-    for (uint32_t i = 0; i < n_mism; i++) /* a mismatch: on to the next rule */
-        p->ins[mism[i]].jf = (uint8_t)(p->n - mism[i] - 1u);
+    point_here(p, mism, n_mism);
 }
 
-int hal_host_net_kfilter_attach(int fd, const kfilter_rule_t *rules, uint32_t n)
+/* A channel received: its message passes (a mismatch jumps to the next). */
+static void put_received(prog_t *p, const char *channel)
 {
-    if (fd < 0 || (n > 0 && rules == NULL) || n > KFILTER_MAX_RULES)
+    uint32_t mism[HAL_NET_CHANNEL_MAX], n_mism = 0;
+    put_channel(p, channel, mism, &n_mism);
+    put(p, BPF_RET | BPF_K, 0, 0, PASS);
+    point_here(p, mism, n_mism);
+}
+
+int hal_host_net_kfilter_attach(int fd, const kfilter_rule_t *rules, uint32_t n,
+                                const char (*received)[HAL_NET_CHANNEL_MAX], uint32_t n_received)
+{
+    if (fd < 0 || (n > 0 && rules == NULL) || n > KFILTER_MAX_RULES || (n_received > 0 && received == NULL) ||
+        n_received > KFILTER_MAX_RECEIVED)
         return -EINVAL;
     for (uint32_t i = 0; i < n; i++)
         if (!hal_net_channel_valid(rules[i].channel))
+            return -EINVAL;
+    for (uint32_t i = 0; i < n_received; i++)
+        if (!hal_net_channel_valid(received[i]))
             return -EINVAL;
     /* One program under construction in the process (8 KB, a static: not on the caller's stack
        nor in every thread's TLS); the kernel copies it at attach. */
@@ -128,18 +156,23 @@ int hal_host_net_kfilter_attach(int fd, const kfilter_rule_t *rules, uint32_t n)
         if (!too_many)
             put_rule(&p, &rules[i], ids, n_ids);
     }
-    put(&p, BPF_RET | BPF_K, 0, 0, PASS);
+    for (uint32_t i = 0; i < n_received; i++)
+        put_received(&p, received[i]);
+    put(&p, BPF_RET | BPF_K, 0, 0, n_received > 0 ? 0u : PASS); /* a channel not received: dropped */
     const struct sock_fprog f = {.len = (unsigned short)p.n, .filter = p.ins};
     const int rc = setsockopt(fd, SOL_SOCKET, SO_ATTACH_FILTER, &f, sizeof f) == 0 ? 0 : -errno;
     pthread_mutex_unlock(&mu);
     return rc;
 }
 #else
-int hal_host_net_kfilter_attach(int fd, const kfilter_rule_t *rules, uint32_t n)
+int hal_host_net_kfilter_attach(int fd, const kfilter_rule_t *rules, uint32_t n,
+                                const char (*received)[HAL_NET_CHANNEL_MAX], uint32_t n_received)
 {
     (void)fd;
     (void)rules;
     (void)n;
+    (void)received;
+    (void)n_received;
     return -ENOTSUP;
 }
 #endif

@@ -8,9 +8,10 @@
  * arrival: an LCM short message (magic "LC02", sequence number, channel name and its NUL, the
  * payload), on a filtered channel, whose payload names its sender in bytes 8-11 (big-endian,
  * after the 8-byte fingerprint: hal_host_msg.h), and drops it when that sender is not
- * wanted. Everything else passes: other channels, fragments of long messages (their first
- * fragment alone names the channel), IP headers with options, and a channel whose wanted set
- * is too large for the program (KFILTER_MAX_IDS).
+ * wanted. Given the channels the robot receives, it drops an LCM short message on any other
+ * channel too (LCM would, after the copy). Everything else passes: fragments of long messages
+ * (their first fragment alone names the channel), IP headers with options, and a channel whose
+ * wanted set is too large for the program (KFILTER_MAX_IDS).
  *
  * Two differences from the check on arrival, both on datagrams it would drop too: a datagram
  * of a filtered channel too short to name its sender is dropped unseen (not counted invalid),
@@ -30,6 +31,7 @@
    classic BPF reaches 255 instructions ahead). */
 #define KFILTER_MAX_RULES 4u
 #define KFILTER_MAX_IDS 200u
+#define KFILTER_MAX_RECEIVED HAL_HOST_NET_MAX_SUBS
 
 typedef struct kfilter_rule {
     char channel[HAL_NET_CHANNEL_MAX];
@@ -40,9 +42,14 @@ typedef struct kfilter_rule {
    many there are (more than cap possible), or -errno. */
 int hal_host_net_kfilter_sockets(uint32_t port, int *fds, int cap);
 
-/* Puts on socket fd the program for rules[0..n) (n 0: a program that passes everything):
-   0, -EINVAL (bad arguments), or -errno of setsockopt. A rule whose channel lists more than
-   KFILTER_MAX_IDS senders is left out (its datagrams pass). */
-int hal_host_net_kfilter_attach(int fd, const kfilter_rule_t *rules, uint32_t n);
+/* Puts on socket fd the program for rules[0..n) and, when n_received > 0, the channels the
+   socket's owner receives, received[0..n_received) (those of the rules among them): an LCM
+   short message on any other channel is dropped, as LCM would drop it after the kernel's copy
+   (over one group, what is for one robot alone, another robot's inbox, then costs the others
+   nothing). n 0 and n_received 0: a program that passes everything. 0, -EINVAL (bad
+   arguments), or -errno of setsockopt. A rule whose channel lists more than KFILTER_MAX_IDS
+   senders is left out (its datagrams pass, when its channel is received). */
+int hal_host_net_kfilter_attach(int fd, const kfilter_rule_t *rules, uint32_t n,
+                                const char (*received)[HAL_NET_CHANNEL_MAX], uint32_t n_received);
 
 #endif /* HAL_HOST_NET_KFILTER_H */

@@ -2,8 +2,10 @@
  *
  * By default every datagram goes to the URL's one multicast group, which hands every datagram
  * to every socket. Neighbour-scoped delivery is then a kernel filter on the instance's socket
- * (hal_host_net_kfilter.h, Linux): an unwanted sender's datagram on a filtered channel is
- * dropped before it is queued, so it costs no copy into the process and no wake-up. Where no
+ * (hal_host_net_kfilter.h, Linux): an unwanted sender's datagram on a filtered channel, and any
+ * datagram on a channel the robot does not receive (another robot's own channels, in an
+ * addressed fleet), is dropped before it is queued, so it costs no copy into the process and
+ * no wake-up. Where no
  * filter could be put, hal_host_net.c's check on arrival drops it after the kernel's copy.
  *
  * Per-sender groups (hal_host_net_group_by_sender, udpm:// only): one channel (the fleet's
@@ -129,8 +131,9 @@ typedef struct lcm_ctx {
     /* The kernel filter (hal_host_net_kfilter.h) on the URL group's socket: its descriptor, or
        -1 (not udpm, or not found), and the filtered channels (under mu). */
     int kf_fd;
-    uint32_t kf_n;
+    uint32_t kf_n, kf_n_received;
     kfilter_rule_t kf_rule[KFILTER_MAX_RULES];
+    char kf_received[KFILTER_MAX_RECEIVED][HAL_NET_CHANNEL_MAX]; /* what we subscribed to there */
     int kf_warned;
     struct pollfd pfd[BOARD_MAX_FLEET + HAL_HOST_NET_MAX_SUBS + 2u];
     lcm_t *pfd_lcm[BOARD_MAX_FLEET + HAL_HOST_NET_MAX_SUBS + 2u];
@@ -379,6 +382,8 @@ static void wake_receiver(lcm_ctx_t *c)
     (void)!write(c->wake[1], &b, 1); /* a full pipe already wakes the receiver */
 }
 
+static void attach_filter(lcm_ctx_t *c);
+
 static int lcm_sub(void *ctx, const char *channel)
 {
     lcm_ctx_t *c = ctx;
@@ -403,6 +408,10 @@ static int lcm_sub(void *ctx, const char *channel)
     if (sub == NULL)
         return -EIO;
     c->sub[c->n_subs++] = sub;
+    pthread_mutex_lock(&c->mu); /* the kernel drops the channels we do not receive */
+    snprintf(c->kf_received[c->kf_n_received++], sizeof c->kf_received[0], "%s", channel);
+    attach_filter(c);
+    pthread_mutex_unlock(&c->mu);
     return 0;
 }
 
@@ -443,8 +452,22 @@ static int lcm_group(void *ctx, const char *channel, int by_receiver)
     return rc;
 }
 
-/* mu held: channel's wanted senders (NULL: all) into the URL group socket's kernel filter. A
-   filter that cannot be put leaves hal_host_net.c's check on arrival alone (said once). */
+/* mu held: the URL group socket's kernel filter as the rules and the channels received now say.
+   A filter that cannot be put leaves hal_host_net.c's check on arrival and LCM's on the channel
+   alone (said once). */
+static void attach_filter(lcm_ctx_t *c)
+{
+    if (c->kf_fd < 0)
+        return;
+    const int r = hal_host_net_kfilter_attach(c->kf_fd, c->kf_rule, c->kf_n, c->kf_received, c->kf_n_received);
+    if (r != 0 && !c->kf_warned) {
+        fprintf(stderr, "hal_host_net: no kernel filter on the LCM socket (%s): unwanted senders' datagrams "
+                        "are dropped on arrival instead\n", strerror(-r));
+        c->kf_warned = 1;
+    }
+}
+
+/* mu held: channel's wanted senders (NULL: all) into the URL group socket's kernel filter. */
 static void kernel_filter(lcm_ctx_t *c, const char *channel, const uint8_t *wanted)
 {
     if (c->kf_fd < 0)
@@ -461,12 +484,7 @@ static void kernel_filter(lcm_ctx_t *c, const char *channel, const uint8_t *want
         memcpy(c->kf_rule[i].wanted, wanted, sizeof c->kf_rule[i].wanted);
         c->kf_n += i == c->kf_n;
     }
-    const int r = hal_host_net_kfilter_attach(c->kf_fd, c->kf_rule, c->kf_n);
-    if (r != 0 && !c->kf_warned) {
-        fprintf(stderr, "hal_host_net: no kernel filter on the LCM socket (%s): unwanted senders' datagrams "
-                        "are dropped on arrival instead\n", strerror(-r));
-        c->kf_warned = 1;
-    }
+    attach_filter(c);
 }
 
 static int lcm_senders(void *ctx, const char *channel, const uint8_t *wanted, uint32_t n_ids)

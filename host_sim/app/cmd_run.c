@@ -543,8 +543,9 @@ static int run_image(job_t *j)
         f->resend_after_us = (uint32_t)llround(o->resend_ms * 1e3);
         f->join_timeout_us = (uint32_t)llround(o->join_timeout * 1e6);
         f->positions_from_tour = o->offline;
-        /* A copy per connection (ZeroMQ) or per inbox group (LCM groups): each to its one robot. */
-        f->addressed = o->transport == RUN_TRANSPORT_ZMQ || o->lcm_groups;
+        /* A copy per connection (ZeroMQ), per inbox group (LCM groups) or on the robot's own
+           channels, which the other robots' kernel filters drop (LCM addressed). */
+        f->addressed = o->transport == RUN_TRANSPORT_ZMQ || o->lcm_groups || o->lcm_addressed;
         f->ordered = o->transport == RUN_TRANSPORT_ZMQ;   /* TCP keeps each sender's order */
         f->post_rounds = o->encoding == DINNO_CODEC_FP32 ? (uint32_t)o->post_rounds : 0u;
         f->tour = j->tour;

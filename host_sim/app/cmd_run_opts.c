@@ -122,6 +122,10 @@ static const cli_opt_t run_opts[] = {
              "and what is for one robot (requests for its chunks, chunks it asked for) on its inbox group (+ 1025 + "
              "its id); a robot joins its neighbours' groups and its inbox only, so the others' states never reach "
              "it; every member alike"},
+    {.names = "--lcm-addressed", CLI_FLAG(run_opts_t, lcm_addressed, 1),
+     .help = "lcm: what is for one robot (requests for its chunks, chunks it asked for) on its own channels on the "
+             "URL's group, which the others' kernels drop (a filter on their sockets, Linux), and no state taken "
+             "from a peer before it is placed; every member alike (--lcm-groups implies it)"},
     {.names = "--net", .meta = "URL", CLI_STRING(run_opts_t, net), CLI_GIVEN(run_opts_t, net_given),
      .help = "the same (alone: default memq://, in-process; 'none' for no network)", .def = ""},
     {.names = "--radius", .meta = "M", CLI_DOUBLE(run_opts_t, radius, 0.0, 1e6),
@@ -370,6 +374,10 @@ int run_parse(int argc, char **argv, run_opts_t *o, char *url)
     if (o->lcm_groups && (o->fleet < 2 || o->transport != RUN_TRANSPORT_LCM ||
                           (o->net[0] != '\0' && strncmp(o->net, "udpm://", 7) != 0))) {
         fprintf(stderr, "host_sim run: --lcm-groups is for a fleet over LCM multicast (--fleet N, --lcm-url udpm://...)\n");
+        return -1;
+    }
+    if (o->lcm_addressed && (o->fleet < 2 || o->transport != RUN_TRANSPORT_LCM)) {
+        fprintf(stderr, "host_sim run: --lcm-addressed is for a fleet over LCM (--fleet N; ZeroMQ is addressed)\n");
         return -1;
     }
     if (o->peers != NULL && o->transport != RUN_TRANSPORT_ZMQ) {

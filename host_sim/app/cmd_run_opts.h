@@ -31,6 +31,7 @@ typedef struct run_opts {
     int online_given, offline_given; /* --online / --offline given (both: refused) */
     int transport;          /* --transport: RUN_TRANSPORT_LCM or RUN_TRANSPORT_ZMQ */
     int lcm_groups;         /* --lcm-groups: state chunks on per-sender multicast groups */
+    int lcm_addressed;      /* --lcm-addressed: one robot's traffic on its own channels */
     const char *peers;      /* --peers HOST:PORT,... (zmq: every member, in id order) */
     const char *net_faults; /* --net-faults SPEC, checked at parse time; NULL: none */
     const char *key_file;   /* --key-file: a keyed fleet; NULL: unkeyed */

@@ -53,6 +53,7 @@ static char *slurp(const char *path, size_t *len)
 
 static int g_zmq;    /* the next fleet over ZeroMQ/TCP on loopback instead of LCM */
 static int g_groups; /* the next fleet over LCM with per-sender groups and inboxes */
+static int g_addressed; /* the next fleet over LCM's one group, addressed (--lcm-addressed) */
 
 /* The fleet: NPROC `host_sim run --fleet` processes into DIR/<tag>/robot_<i>. */
 static void run_fleet(const char *tag, const char *encoding, const char *drop_every)
@@ -71,6 +72,8 @@ static void run_fleet(const char *tag, const char *encoding, const char *drop_ev
     }
     if (g_groups)
         args[n++] = "--lcm-groups";
+    if (g_addressed)
+        args[n++] = "--lcm-addressed";
     args[n] = NULL;
     fp_fleet_init(&f, tag, NPROC, NULL, args);
     fp_fleet_start(&f, drop_every ? "FLEETSIM_NET_DROP_EVERY" : NULL, drop_every);
@@ -165,6 +168,23 @@ static void test_lcm_groups_equal_inproc(void **st)
     assert_true(traffic_sum("groups-lossy", "chunks_requested") > 0);
     assert_true(traffic_sum("groups-lossy", "chunks_resent") > 0);
     assert_int_equal(traffic_sum("groups-lossy", "timeouts"), 0);
+}
+
+/* LCM's one group, addressed (--lcm-addressed: requests and the chunks sent again on the
+ * robot's own channels, which the others' kernel filters drop), every 7th datagram lost at the
+ * sender: the lost chunks come back on the requesters' channels, and the models are the
+ * in-process reference's. */
+static void test_lcm_addressed_equals_inproc(void **st)
+{
+    (void)st;
+    g_addressed = 1;
+    run_fleet("addressed-lossy", "fp32", "7");
+    g_addressed = 0;
+    fp_inproc_reference(NPROC, ROUNDS, REF_DEADLINE_S);
+    fp_expect_reference_models("addressed-lossy", NPROC);
+    assert_true(traffic_sum("addressed-lossy", "chunks_requested") > 0);
+    assert_true(traffic_sum("addressed-lossy", "chunks_resent") > 0);
+    assert_int_equal(traffic_sum("addressed-lossy", "timeouts"), 0);
 }
 
 static void test_int8_states(void **st)
@@ -331,6 +351,7 @@ int main(void)
         cmocka_unit_test_teardown(test_lost_datagrams_are_recovered, teardown_case),
         cmocka_unit_test_teardown(test_zmq_equals_inproc, teardown_case),
         cmocka_unit_test_teardown(test_lcm_groups_equal_inproc, teardown_case),
+        cmocka_unit_test_teardown(test_lcm_addressed_equals_inproc, teardown_case),
         cmocka_unit_test_teardown(test_int8_states, teardown_case),
         cmocka_unit_test_teardown(test_killed_robot_stops_the_fleet, teardown_case),
         cmocka_unit_test_teardown(test_ctrl_c_stops_the_fleet, teardown_case),

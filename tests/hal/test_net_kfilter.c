@@ -2,7 +2,8 @@
  * this host: on the URL's one group, a typed channel's unwanted senders are dropped by the
  * kernel, before the network sees them (no rx_unwanted: hal_host_net.c's check on arrival
  * would count each one it dropped), the wanted set can change, other channels pass, and two
- * robots in one process each filter their own socket. */
+ * robots in one process each filter their own socket; given the channels received, the
+ * program drops every other channel (on a socket of the test's own, datagram by datagram). */
 #define _GNU_SOURCE 1
 #include <setjmp.h>
 #include <stdarg.h>
@@ -11,6 +12,10 @@
 #include <errno.h>
 #include <stdio.h>
 #include <string.h>
+#include <arpa/inet.h>
+#include <netinet/in.h>
+#include <poll.h>
+#include <sys/socket.h>
 #include <unistd.h>
 #include <cmocka.h>
 
@@ -116,6 +121,64 @@ static void test_each_robot_filters_its_own_socket(void **state)
     hal_host_net_close(tx);
 }
 
+/* An LCM short message on `channel` (its payload: an 8-byte fingerprint, then `sender`) sent
+   to fd's address: 1 when it came through fd's filter, 0 when it did not. */
+static int passes(int tx, int fd, const char *channel, uint32_t sender)
+{
+    uint8_t d[128] = {'L', 'C', '0', '2', 0, 0, 0, 1};
+    const size_t cl = strlen(channel) + 1u;
+    memcpy(d + 8, channel, cl);
+    uint8_t *pl = d + 8 + cl;
+    memset(pl, 0xAB, 8);
+    pl[8] = (uint8_t)(sender >> 24), pl[9] = (uint8_t)(sender >> 16), pl[10] = (uint8_t)(sender >> 8);
+    pl[11] = (uint8_t)sender;
+    struct sockaddr_in a;
+    socklen_t al = sizeof a;
+    assert_int_equal(getsockname(fd, (struct sockaddr *)&a, &al), 0);
+    assert_int_equal(sendto(tx, d, 8 + cl + 12, 0, (struct sockaddr *)&a, al), (ssize_t)(8 + cl + 12));
+    struct pollfd p = {.fd = fd, .events = POLLIN};
+    if (poll(&p, 1, 100) != 1) /* loopback delivers at once: 100 ms is plenty */
+        return 0;
+    uint8_t in[128];
+    return recv(fd, in, sizeof in, 0) == (ssize_t)(8 + cl + 12);
+}
+
+/* Given the channels received, the program drops every other channel's short messages in the
+   kernel (another robot's own channels over one group), keeps a rule's sender check, and passes
+   what is not an LCM short message; without them, every channel passes as before. */
+static void test_channels_not_received_are_dropped(void **state)
+{
+    (void)state;
+    const int fd = socket(AF_INET, SOCK_DGRAM, 0), tx = socket(AF_INET, SOCK_DGRAM, 0);
+    assert_true(fd >= 0 && tx >= 0);
+    struct sockaddr_in a = {.sin_family = AF_INET, .sin_addr.s_addr = htonl(INADDR_LOOPBACK)};
+    assert_int_equal(bind(fd, (struct sockaddr *)&a, sizeof a), 0);
+    kfilter_rule_t r[1];
+    memset(r, 0, sizeof r);
+    snprintf(r[0].channel, sizeof r[0].channel, "%s", TCH);
+    r[0].wanted[0] = 0x04; /* sender 2 */
+    char received[3][HAL_NET_CHANNEL_MAX] = {TCH, "fleetsim/kfilter_test/resend/7", PLAIN};
+    assert_int_equal(hal_host_net_kfilter_attach(fd, r, 1, NULL, 0), 0);
+    assert_true(passes(tx, fd, "fleetsim/kfilter_test/resend/8", 1));
+    assert_int_equal(hal_host_net_kfilter_attach(fd, r, 1, (const char (*)[HAL_NET_CHANNEL_MAX])received, 3), 0);
+    assert_true(passes(tx, fd, "fleetsim/kfilter_test/resend/7", 1));
+    assert_false(passes(tx, fd, "fleetsim/kfilter_test/resend/8", 1));
+    assert_false(passes(tx, fd, "fleetsim/kfilter_test/resend/70", 1));
+    assert_false(passes(tx, fd, "fleetsim/kfilter_test/resend/", 1));
+    assert_true(passes(tx, fd, PLAIN, 5));
+    assert_true(passes(tx, fd, TCH, 2));
+    assert_false(passes(tx, fd, TCH, 3)); /* the rule's sender check still */
+    /* Not an LCM short message (a fragment's magic): passes. */
+    const uint8_t frag[16] = {'L', 'C', '0', '3'};
+    socklen_t al = sizeof a;
+    assert_int_equal(getsockname(fd, (struct sockaddr *)&a, &al), 0);
+    assert_int_equal(sendto(tx, frag, sizeof frag, 0, (struct sockaddr *)&a, al), (ssize_t)sizeof frag);
+    struct pollfd p = {.fd = fd, .events = POLLIN};
+    assert_int_equal(poll(&p, 1, 1000), 1);
+    close(fd);
+    close(tx);
+}
+
 static void test_refused(void **state)
 {
     (void)state;
@@ -124,13 +187,13 @@ static void test_refused(void **state)
     for (uint32_t i = 0; i <= KFILTER_MAX_RULES; i++)
         snprintf(r[i].channel, sizeof r[i].channel, "fleetsim/kfilter_test/c%u", i);
     int fds[4];
-    assert_int_equal(hal_host_net_kfilter_attach(-1, r, 1), -EINVAL);
-    assert_int_equal(hal_host_net_kfilter_attach(0, NULL, 1), -EINVAL);
-    assert_int_equal(hal_host_net_kfilter_attach(0, r, KFILTER_MAX_RULES + 1), -EINVAL);
+    assert_int_equal(hal_host_net_kfilter_attach(-1, r, 1, NULL, 0), -EINVAL);
+    assert_int_equal(hal_host_net_kfilter_attach(0, NULL, 1, NULL, 0), -EINVAL);
+    assert_int_equal(hal_host_net_kfilter_attach(0, r, KFILTER_MAX_RULES + 1, NULL, 0), -EINVAL);
     assert_int_equal(hal_host_net_kfilter_sockets(0, fds, 4), -EINVAL);
     assert_int_equal(hal_host_net_kfilter_sockets(7667, NULL, 4), -EINVAL);
     /* Not a socket: the kernel's refusal comes back. */
-    assert_int_equal(hal_host_net_kfilter_attach(STDIN_FILENO, r, 1), -ENOTSOCK);
+    assert_int_equal(hal_host_net_kfilter_attach(STDIN_FILENO, r, 1, NULL, 0), -ENOTSOCK);
 }
 
 int main(void)
@@ -141,6 +204,7 @@ int main(void)
     const struct CMUnitTest tests[] = {
         cmocka_unit_test(test_kernel_drops_unwanted_senders),
         cmocka_unit_test(test_each_robot_filters_its_own_socket),
+        cmocka_unit_test(test_channels_not_received_are_dropped),
         cmocka_unit_test(test_refused),
     };
     return cmocka_run_group_tests(tests, NULL, NULL);
