@@ -157,17 +157,24 @@ static void test_zmq_equals_inproc(void **st)
  * sender, requests and the chunks sent again on the robot's own inbox group), every 7th
  * datagram lost at the sender: the lost chunks come back through the inboxes, and the models
  * are the in-process reference's. */
+/* A fleet with *mode set, every 7th datagram lost at the sender: chunks were asked for and
+   sent again, nobody timed out, and the models are the in-process reference's. */
+static void lossy_fleet_equals_inproc(const char *tag, int *mode)
+{
+    *mode = 1;
+    run_fleet(tag, "fp32", "7");
+    *mode = 0;
+    fp_inproc_reference(NPROC, ROUNDS, REF_DEADLINE_S);
+    fp_expect_reference_models(tag, NPROC);
+    assert_true(traffic_sum(tag, "chunks_requested") > 0);
+    assert_true(traffic_sum(tag, "chunks_resent") > 0);
+    assert_int_equal(traffic_sum(tag, "timeouts"), 0);
+}
+
 static void test_lcm_groups_equal_inproc(void **st)
 {
     (void)st;
-    g_groups = 1;
-    run_fleet("groups-lossy", "fp32", "7");
-    g_groups = 0;
-    fp_inproc_reference(NPROC, ROUNDS, REF_DEADLINE_S);
-    fp_expect_reference_models("groups-lossy", NPROC);
-    assert_true(traffic_sum("groups-lossy", "chunks_requested") > 0);
-    assert_true(traffic_sum("groups-lossy", "chunks_resent") > 0);
-    assert_int_equal(traffic_sum("groups-lossy", "timeouts"), 0);
+    lossy_fleet_equals_inproc("groups-lossy", &g_groups);
 }
 
 /* LCM's one group, addressed (--lcm-addressed: requests and the chunks sent again on the
@@ -177,14 +184,7 @@ static void test_lcm_groups_equal_inproc(void **st)
 static void test_lcm_addressed_equals_inproc(void **st)
 {
     (void)st;
-    g_addressed = 1;
-    run_fleet("addressed-lossy", "fp32", "7");
-    g_addressed = 0;
-    fp_inproc_reference(NPROC, ROUNDS, REF_DEADLINE_S);
-    fp_expect_reference_models("addressed-lossy", NPROC);
-    assert_true(traffic_sum("addressed-lossy", "chunks_requested") > 0);
-    assert_true(traffic_sum("addressed-lossy", "chunks_resent") > 0);
-    assert_int_equal(traffic_sum("addressed-lossy", "timeouts"), 0);
+    lossy_fleet_equals_inproc("addressed-lossy", &g_addressed);
 }
 
 static void test_int8_states(void **st)

@@ -400,6 +400,26 @@ static void test_same_seed_same_bytes(void **st)
     }
 }
 
+/* board_hil (beside host_sim) started on robot 0's tour against b's server, over UDP, with
+   `--time time_s` and `extra` (NULL-ended, or NULL), its output into fp_env.dir/<name>.log
+   (into log): its pid. The test's own socket to the server is closed first. */
+static pid_t start_board_hil(board_t *b, const char *name, const char *time_s, const char *const *extra,
+                             char log[PATH_MAX])
+{
+    static char board_bin[PATH_MAX], tour[PATH_MAX], connect[32];
+    snprintf(board_bin, sizeof board_bin, "%.*s/board_hil", (int)(strrchr(fp_env.bin, '/') - fp_env.bin), fp_env.bin);
+    snprintf(tour, sizeof tour, "%s/robot_0.csv", fp_env.paths);
+    snprintf(connect, sizeof connect, "127.0.0.1:%u", (unsigned)ntohs(b->server.sin_port));
+    snprintf(log, PATH_MAX, "%s/%s.log", fp_env.dir, name);
+    close(b->fd);
+    const char *argv[16] = {board_bin, "--connect", connect, "--tour", tour, "--time", time_s};
+    for (int i = 0, n = 7; extra != NULL && extra[i] != NULL && n < 15; i++)
+        argv[n++] = extra[i];
+    const pid_t pid = fp_spawn(argv, log, NULL, NULL);
+    assert_true(pid > 0);
+    return pid;
+}
+
 /* The firmware's RT core on a board stand-in (board_hil, a process on the stdc back end) in
    the loop with the world: it drives its tour over UDP, every reading a TICK's answer, and
    both ends count the same distance. */
@@ -408,15 +428,8 @@ static void test_rt_core_drives_through_the_link(void **st)
     (void)st;
     board_t *b = &b1;
     start_server(b, "hil_rt", LINK_UDP);
-    char board_bin[PATH_MAX], tour[PATH_MAX], connect[32], log[PATH_MAX];
-    snprintf(board_bin, sizeof board_bin, "%.*s/board_hil", (int)(strrchr(fp_env.bin, '/') - fp_env.bin), fp_env.bin);
-    snprintf(tour, sizeof tour, "%s/robot_0.csv", fp_env.paths);
-    snprintf(connect, sizeof connect, "127.0.0.1:%u", (unsigned)ntohs(b->server.sin_port));
-    snprintf(log, sizeof log, "%s/board_hil.log", fp_env.dir);
-    close(b->fd);
-    const char *argv[] = {board_bin, "--connect", connect, "--tour", tour, "--time", "4", NULL};
-    const pid_t pid = fp_spawn(argv, log, NULL, NULL);
-    assert_true(pid > 0);
+    char log[PATH_MAX];
+    const pid_t pid = start_board_hil(b, "board_hil", "4", NULL, log);
     const int status = fp_wait(pid, fp_now() + DEADLINE_S);
     if (status != 0)
         fp_show_log(log);
@@ -471,16 +484,9 @@ static void test_board_ends_when_its_world_stops(void **st)
     (void)st;
     board_t *b = &b1;
     start_server(b, "hil_stops", LINK_UDP);
-    char board_bin[PATH_MAX], tour[PATH_MAX], connect[32], log[PATH_MAX];
-    snprintf(board_bin, sizeof board_bin, "%.*s/board_hil", (int)(strrchr(fp_env.bin, '/') - fp_env.bin), fp_env.bin);
-    snprintf(tour, sizeof tour, "%s/robot_0.csv", fp_env.paths);
-    snprintf(connect, sizeof connect, "127.0.0.1:%u", (unsigned)ntohs(b->server.sin_port));
-    snprintf(log, sizeof log, "%s/board_stops.log", fp_env.dir);
-    close(b->fd);
-    const char *argv[] = {board_bin, "--connect", connect, "--tour", tour, "--time", "600", "--timeout-ms", "100",
-                          NULL};
-    const pid_t pid = fp_spawn(argv, log, NULL, NULL);
-    assert_true(pid > 0);
+    char log[PATH_MAX];
+    const char *const fast[] = {"--timeout-ms", "100", NULL};
+    const pid_t pid = start_board_hil(b, "board_stops", "600", fast, log);
     char text[8192] = "";
     for (const double t0 = fp_now(); strstr(text, "board_hil: board ") == NULL; fp_sleep_ms(20)) {
         FILE *f = fopen(log, "r");
