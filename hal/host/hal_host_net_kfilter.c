@@ -130,7 +130,7 @@ int hal_host_net_kfilter_attach(int fd, const kfilter_rule_t *rules, uint32_t n,
     for (uint32_t i = 0; i < n_received; i++)
         if (!hal_net_channel_valid(received[i]))
             return -EINVAL;
-    /* One program under construction in the process (8 KB, a static: not on the caller's stack
+    /* One program under construction in the process (13 KB, a static: not on the caller's stack
        nor in every thread's TLS); the kernel copies it at attach. */
     static pthread_mutex_t mu = PTHREAD_MUTEX_INITIALIZER;
     static prog_t p;
