@@ -5,8 +5,8 @@
  * (hal_host_net_kfilter.h, Linux): an unwanted sender's datagram on a filtered channel, and any
  * datagram on a channel the robot does not receive (another robot's own channels, in an
  * addressed fleet), is dropped before it is queued, so it costs no copy into the process and
- * no wake-up. Where no
- * filter could be put, hal_host_net.c's check on arrival drops it after the kernel's copy.
+ * no wake-up. Where no filter could be put, hal_host_net.c's check on arrival drops it after the
+ * kernel's copy.
  *
  * Per-sender groups (hal_host_net_group_by_sender, udpm:// only): one channel (the fleet's
  * state chunks) is carried per sender instead. Sender s publishes it to group BASE + 1 + s on

@@ -74,8 +74,8 @@ static void usage(FILE *to)
             "                       down, and the program ends, after %u failed in a row\n\n"
             "This board (%s): pool of %u samples, state chunks of %u bytes; give its host peers\n"
             "--pool-samples %u --chunk-bytes %u to train what this board trains.\n",
-            (unsigned)GP_PSE_MAX_FLEET, (unsigned)HAL_STDC_HIL_DOWN_AFTER, BOARD_NAME, (unsigned)AI_POOL_CAPACITY, (unsigned)ROBOT_CHUNK_BYTES,
-            (unsigned)AI_POOL_CAPACITY, (unsigned)ROBOT_CHUNK_BYTES);
+            (unsigned)GP_PSE_MAX_FLEET, (unsigned)HAL_STDC_HIL_DOWN_AFTER, BOARD_NAME, (unsigned)AI_POOL_CAPACITY,
+            (unsigned)ROBOT_CHUNK_BYTES, (unsigned)AI_POOL_CAPACITY, (unsigned)ROBOT_CHUNK_BYTES);
 }
 
 static int parse_opts(int argc, char **argv, robot_opts_t *o)
