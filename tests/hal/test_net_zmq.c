@@ -19,6 +19,7 @@
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
+#include <time.h>
 #include <unistd.h>
 #include <cmocka.h>
 #include <zmq.h>
@@ -30,6 +31,19 @@
 
 #define N 3
 #define CH "fleetsim/9/state"
+
+/* How long a connection or a subscription may take to cross TCP. Bounded by the clock, not by
+ * a count of waits: a wait returns as soon as anything arrives, so while other datagrams keep
+ * coming 100 waits of 50 ms took far less than 5 s, and on a loaded CI machine they ran out
+ * before a subscription change had reached its publisher. */
+#define CROSS_MS 20000
+
+static long long now_ms(void)
+{
+    struct timespec t;
+    clock_gettime(CLOCK_MONOTONIC, &t);
+    return (long long)t.tv_sec * 1000 + t.tv_nsec / 1000000;
+}
 
 static unsigned base_port(void)
 {
@@ -56,12 +70,12 @@ static hal_host_net_t *open_robot(int i, unsigned base)
     return n;
 }
 
-/* Publishes from `from` until every other robot received `want` datagrams of the channel (the
- * first ones may go before the connections are up: ZeroMQ's slow joiner), at most 5 s. */
+/* Publishes from `from` until every other robot received a datagram of the channel (the first
+ * ones may go before the connections are up: ZeroMQ's slow joiner), at most CROSS_MS. */
 static void exchange(hal_host_net_t **net, int from, const uint8_t *msg, size_t len, int *got)
 {
     static uint8_t buf[HAL_NET_MTU_BYTES + 64];
-    for (int tries = 0; tries < 100; tries++) {
+    for (const long long end = now_ms() + CROSS_MS; now_ms() < end;) {
         assert_int_equal(hal_host_net_publish(net[from], CH, msg, len), 0);
         int all = 1;
         for (int i = 0; i < N; i++) {
@@ -80,7 +94,7 @@ static void exchange(hal_host_net_t **net, int from, const uint8_t *msg, size_t 
         if (all)
             return;
     }
-    fail_msg("robot %d's datagrams did not reach every peer within 5 s", from);
+    fail_msg("robot %d's datagrams did not reach every peer within %d ms", from, CROSS_MS);
 }
 
 static void test_three_robots_exchange(void **st)
@@ -134,7 +148,7 @@ static void test_foreign_frames_refused(void **st)
     int got = 0;
     /* Until a second batch's good frame came: the first may have gone out half before the
        connection was up (ZeroMQ's slow joiner), the second went whole after it. */
-    for (int tries = 0; tries < 100 && got < 2; tries++) {
+    for (const long long end = now_ms() + CROSS_MS; got < 2 && now_ms() < end;) {
         send_raw(pub, two_frames, sizeof two_frames - 1u, "hello");
         send_raw(pub, no_nul, sizeof no_nul - 1u, NULL);
         send_raw(pub, bad_topic, sizeof bad_topic - 1u, NULL);
@@ -175,7 +189,7 @@ static void test_keyed_over_zmq(void **st)
     const uint8_t msg[64] = {1, 2, 3};
     int got[N] = {0};
     static uint8_t buf[HAL_NET_MTU_BYTES];
-    for (int tries = 0; tries < 100 && got[1] == 0; tries++) {
+    for (const long long end = now_ms() + CROSS_MS; got[1] == 0 && now_ms() < end;) {
         assert_int_equal(hal_host_net_publish(net[0], CH, msg, sizeof msg), 0);
         assert_int_equal(hal_host_net_publish(net[2], CH, msg, sizeof msg), 0); /* not a member */
         assert_int_equal(hal_host_net_wait(net[1], 0, 50), 0);
@@ -187,7 +201,7 @@ static void test_keyed_over_zmq(void **st)
     }
     assert_true(got[1] > 0);
     hal_net_stats_t s;
-    for (int tries = 0; tries < 100; tries++) {
+    for (const long long end = now_ms() + CROSS_MS; now_ms() < end;) {
         hal_host_net_get_stats(net[1], &s);
         if (s.rx_dropped_unauth > 0)
             break;
@@ -302,22 +316,23 @@ static void run_filter(unsigned base, int keyed)
         exchange(net, from, m, sizeof m, g);
     }
     int got[32] = {0};
-    /* Everyone heard on FCH: at most 5 s. */
-    for (int t = 0; t < 100 && (got[1] == 0 || got[2] == 0 || got[17] == 0); t++)
+    /* Everyone heard on FCH: at most CROSS_MS. */
+    for (const long long end = now_ms() + CROSS_MS;
+         (got[1] == 0 || got[2] == 0 || got[17] == 0) && now_ms() < end;)
         step(net, got);
     assert_true(got[1] > 0 && got[2] > 0 && got[17] > 0);
     assert_int_equal(unwanted_at(net[0]), 0);
 
     /* Robot 0 wants only sender 1 of 32. Until the change reached both publishers what was in
        flight still arrives and is dropped here (rx_unwanted); then nothing of 2 or 17 is sent
-       to it: 10 quiet steps in a row, at most 5 s. */
+       to it: 10 quiet steps in a row, at most CROSS_MS. */
     static const uint8_t only1[4] = {0x02, 0, 0, 0};
     assert_int_equal(hal_host_net_set_senders(net[0], FCH, only1, 32), 0);
     assert_int_equal(hal_host_net_set_senders(net[0], FCH, only1, 32), 0); /* the same: no work */
     assert_int_equal(hal_host_net_set_senders(net[0], CH, only1, 32), -EINVAL); /* untyped */
     assert_int_equal(hal_host_net_set_senders(net[0], "fleetsim/9/other", only1, 32), -EINVAL);
     int quiet = 0;
-    for (int t = 0; t < 100 && quiet < 10; t++) {
+    for (const long long end = now_ms() + CROSS_MS; quiet < 10 && now_ms() < end;) {
         const uint64_t u = unwanted_at(net[0]);
         memset(got, 0, sizeof got);
         step(net, got);
@@ -346,10 +361,10 @@ static void run_filter(unsigned base, int keyed)
     }
     assert_true(heard17 > 0);
 
-    /* NULL: every sender again, at most 5 s. */
+    /* NULL: every sender again, at most CROSS_MS. */
     assert_int_equal(hal_host_net_set_senders(net[0], FCH, NULL, 0), 0);
     memset(got, 0, sizeof got);
-    for (int t = 0; t < 100 && (got[2] == 0 || got[17] == 0); t++)
+    for (const long long end = now_ms() + CROSS_MS; (got[2] == 0 || got[17] == 0) && now_ms() < end;)
         step(net, got);
     assert_true(got[1] > 0 && got[2] > 0 && got[17] > 0);
     hal_net_stats_t s;
