@@ -160,6 +160,7 @@ int gp_fleet_init(gp_fleet_t *f, const gp_fleet_cfg_t *cfg)
         .burst = GP_FLEET_SEND_BURST,
         .addressed = cfg->addressed != 0,
         .ordered = cfg->ordered != 0,
+        .same_position_from = cfg->post_rounds > 0 ? cfg->rounds : 0u, /* begin(): the posterior rounds */
     };
     int r = gp_round_init(&f->drv, &pc, cfg->rounds + cfg->post_rounds);
     if (r != 0)

@@ -150,6 +150,18 @@ static int heard_within(const gp_pse_t *p, const gp_pse_peer_t *q, uint64_t now_
     return q->heard && now_us - q->heard_us < p->cfg.peer_timeout_us;
 }
 
+/* A round where every member gives the same position (cfg.same_position_from): peer i is where
+   we are, known without a word from it. Its own word, when it comes, says the same (or counts
+   as invalid, gp_pse_note_position). */
+static void place_at_ours(gp_pse_t *p, uint32_t i, uint32_t round)
+{
+    gp_pse_peer_t *q = &p->peer[i];
+    if (i == p->cfg.self || p->cfg.same_position_from == 0 || round < p->cfg.same_position_from ||
+        gp_pse_pos_known(q, round))
+        return;
+    gp_pse_set_position(q, round & 1u, round, p->x_m, p->y_m);
+}
+
 int gp_pse_begin_round(gp_pse_t *p, uint32_t round, const uint8_t *state, double x_m, double y_m, uint64_t now_us)
 {
     if (p == NULL || state == NULL || !isfinite(x_m) || !isfinite(y_m) || (p->in_round && round <= p->round))
@@ -168,6 +180,8 @@ int gp_pse_begin_round(gp_pse_t *p, uint32_t round, const uint8_t *state, double
     p->x_m = x_m;
     p->y_m = y_m;
     memset(p->resent_at, 0, sizeof p->resent_at);
+    for (uint32_t i = 0; i < p->cfg.n_peers; i++)
+        place_at_ours(p, i, round);
     /* Chunks of this round that came early were ranked against our previous position. */
     gp_pse_near_rank(p, round, now_us);
     for (uint32_t m = 0; m < p->near[round & 1u].n; m++) {
@@ -208,6 +222,8 @@ static void peer_restarted(gp_pse_t *p, uint32_t i, uint64_t now_us)
     gp_pse_peer_t *q = &p->peer[i];
     q->has_round = q->has_done = 0;
     q->has_pos[0] = q->has_pos[1] = 0;
+    if (p->in_round)
+        place_at_ours(p, i, p->round);
     for (uint32_t par = 0; par < 2u; par++)
         if (p->near[par].valid && !(p->taken && p->near[par].round == p->round)) /* the next nearest takes its place */
             gp_pse_near_rank(p, p->near[par].round, now_us); /* (a handed-out round stays as it is) */

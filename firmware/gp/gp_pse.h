@@ -69,7 +69,11 @@
  * ready when every live peer's position of the round is known and every listed peer
  * delivered. A peer never heard in the round is asked for its chunk 0 (its position), unless
  * its last word was "on my way to this round" (a beacon without a position): it has not begun
- * it, and its first word of the round will place it.
+ * it, and its first word of the round will place it. In a round from cfg.same_position_from on
+ * every member gives the same position, so every peer is placed when the round begins (a dead
+ * one too: a listed peer that crashed keeps its slot and times out like any listed peer; the
+ * round goes on with the states that came) and nobody is asked where it is: with 256 robots
+ * whose neighbours were all the lowest 32 ids, those asks were 878 MB of copies from robot 0.
  *
  * The handed-out buffers (the contract the zero-copy path rests on): the state buffers
  * gp_pse_neighbours() returns for round k are not written by gp_pse (no eviction by a nearer
@@ -199,6 +203,10 @@ typedef struct gp_pse_cfg {
                                    sent (TCP: ZeroMQ), so a state's first request waits for the
                                    sender's next word to everyone rather than one resend period
                                    (gp_pse_ask_after); 0: datagrams may come in any order (UDP) */
+    uint32_t same_position_from; /* > 0: from this round on every member gives the same position
+                                   (gp_fleet's posterior rounds), so a round begins with every
+                                   peer placed at ours, none asked where it is; its neighbours
+                                   are the lowest ids. 0: none */
 } gp_pse_cfg_t;
 
 typedef struct gp_pse_stats {

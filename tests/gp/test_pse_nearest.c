@@ -3,7 +3,9 @@
  * states of its nearest peers only (ties by id), gives a state up for a nearer peer's, ranks
  * early chunks of the next round again once that round begins and asks for what it dropped,
  * and asks a peer it never heard in the round for the chunk that places it, but not a peer that
- * says it is still on its way to the round. */
+ * says it is still on its way to the round. In rounds where every member gives the same position
+ * (the posterior rounds) every peer is placed when the round begins: nobody is asked where it
+ * is, and a listed peer that never speaks costs one timeout. */
 #include <setjmp.h>
 #include <stdarg.h>
 #include <stddef.h>
@@ -35,13 +37,19 @@ static int capture(void *ctx, gp_pse_kind_t kind, const void *m)
     return 0;
 }
 
-static void start(double radius)
+static void start_from(double radius, uint32_t same_position_from)
 {
-    const gp_pse_cfg_t c = {0, N, STATE_BYTES, CHUNK, radius, RESEND, TIMEOUT, 0, capture, NULL, 0, 0, 0, 0, 0};
+    const gp_pse_cfg_t c = {0, N, STATE_BYTES, CHUNK, radius, RESEND, TIMEOUT, 0, capture, NULL, 0, 0, 0, 0, 0,
+                            same_position_from};
     assert_int_equal(gp_pse_init(&eng, &c), 0);
     n_asked = 0;
     memset(mine, 7, sizeof mine);
     memset(theirs, 9, sizeof theirs);
+}
+
+static void start(double radius)
+{
+    start_from(radius, 0);
 }
 
 /* Peer i's chunk `chunk` of `round`, sent from (x, 0). */
@@ -221,6 +229,43 @@ static void test_a_peer_on_its_way_is_not_asked_where_it_is(void **st)
     assert_true(gp_pse_states_ready(&eng));
 }
 
+/* Round 1 on, every robot at one position: the round begins with every peer placed, so the
+ * network is told to keep the lowest K ids at once, nobody is asked where it is (37 asks for
+ * chunk 0 without it), the listed peers heard in the round are asked for their states, and
+ * listed peer 5, never heard, is waited for one timeout, then the round goes on without it. */
+static void test_one_position_for_all_places_every_peer(void **st)
+{
+    (void)st;
+    start_from(5.0, 1);
+    assert_int_equal(gp_pse_begin_round(&eng, 1, mine, 0.0, 0.0, 0), 0);
+    uint8_t bits[GP_PSE_WANTED_BYTES];
+    assert_int_equal(gp_pse_wanted(&eng, bits), K);
+    for (uint32_t i = 0; i < N; i++)
+        assert_int_equal((bits[i / 8u] >> (i % 8u)) & 1u, i >= 1u && i <= K);
+    for (uint32_t i = 1; i < N; i++)
+        if (i != 5u) { /* in round 1: a request to another peer, which does not say where it is */
+            const gp_pse_request_t word = {i, i == 1u ? 2u : 1u, 1, 1, {0}, 0, 0, 0.0, 0.0, GP_PSE_TO_ALL};
+            assert_int_equal(gp_pse_on_request(&eng, &word, 10), 0);
+        }
+    gp_pse_poll(&eng, RESEND + 20);
+    assert_int_equal(n_asked, K - 1u);
+    for (uint32_t j = 0; j < n_asked; j++)
+        assert_true(asked[j].target >= 1u && asked[j].target <= K && asked[j].target != 5u && asked[j].n == 2);
+    for (uint32_t i = 1; i <= K; i++)
+        if (i != 5u)
+            whole_state_from(i, 1, 0.0, RESEND + 30);
+    assert_false(gp_pse_states_ready(&eng)); /* listed peer 5 may still come */
+    for (uint64_t t = RESEND + 40u; t <= TIMEOUT + RESEND; t += RESEND / 2u) /* polled as gp_fleet polls */
+        gp_pse_poll(&eng, t);
+    assert_int_equal(eng.stats.timeouts, 1);
+    assert_true(gp_pse_states_ready(&eng));
+    uint32_t want[K - 1u];
+    for (uint32_t j = 0, i = 1; i <= K; i++)
+        if (i != 5u)
+            want[j++] = i;
+    expect_neighbours(want, K - 1u);
+}
+
 int main(void)
 {
     const struct CMUnitTest tests[] = {
@@ -229,6 +274,7 @@ int main(void)
         cmocka_unit_test(test_next_round_is_ranked_again_when_it_begins),
         cmocka_unit_test(test_a_peer_never_heard_is_asked_where_it_is),
         cmocka_unit_test(test_a_peer_on_its_way_is_not_asked_where_it_is),
+        cmocka_unit_test(test_one_position_for_all_places_every_peer),
     };
     return cmocka_run_group_tests_name("gp/pse_nearest", tests, NULL, NULL);
 }

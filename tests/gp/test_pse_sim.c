@@ -85,6 +85,8 @@ typedef struct schedule {
     uint8_t addressed;          /* 1: requests go to their target, resends to their requester
                                    alone, and each sender's datagrams reach a robot in the order
                                    sent (point to point over TCP: the engines are `ordered`) */
+    uint32_t same_from;         /* > 0: from this round on every robot gives the same position
+                                   (the posterior rounds), placed by all without a word */
 } schedule_t;
 
 /* From the first robot's start to the last one's: a first round may wait that much longer. */
@@ -147,7 +149,7 @@ static const schedule_t *cur;
 typedef struct totals {
     uint64_t schedules, loss_only, sent, dropped, duplicated, corrupted, late, partitioned, overflow;
     uint64_t pauses, crashes, restarts, timeouts, rejoins, skipped, cut, missed, crc, old_inc, used;
-    uint64_t big, nearest_checked, beyond_slots, evictions, staggered, addressed;
+    uint64_t big, nearest_checked, beyond_slots, evictions, staggered, addressed, same;
 } totals_t;
 static totals_t tot;
 
@@ -286,6 +288,10 @@ static void deliver_due(void)
 /* ---- the robots ------------------------------------------------------------------------- */
 static void position(int id, uint32_t round, double *x, double *y)
 {
+    if (cur->same_from > 0 && round >= cur->same_from) {
+        *x = *y = 0.0;
+        return;
+    }
     /* Robots on circles that cross: the disk graph changes from round to round. */
     const double a = 0.4 * (double)round + 1.3 * (double)id;
     *x = 5.0 + 4.0 * cos(a) + 0.5 * (double)id;
@@ -302,7 +308,7 @@ static void start_engine(robot_t *r)
 {
     gp_pse_cfg_t c = {(uint32_t)r->id, (uint32_t)cur->n, STATE_BYTES, CHUNK, cur->radius, RESEND_US, TIMEOUT_US,
                       JOIN_US, net_send, &rob_ctx[r->id], 0, r->incarnation, 1, cur->addressed,
-                      cur->addressed};
+                      cur->addressed, cur->same_from};
     assert_int_equal(gp_round_init(&r->drv, &c, (uint32_t)cur->rounds), 0);
     r->timing = 0;
 }
@@ -500,12 +506,12 @@ static void run(const schedule_t *s, uint8_t out[MAXN][STATE_BYTES], uint64_t *t
     if (trace)
         fprintf(stderr, "schedule %llu: %d robots, %d rounds, radius %g, drop %g dup %g corrupt %g late %g delay %llu us; "
                         "partition %d (split %d, %.3f..%.3f s); pause robot %d (%.3f s for %.3f s); crash robot %d "
-                        "(%.3f s, restart after %.3f s); starts %.3f s apart; resends %s\n",
+                        "(%.3f s, restart after %.3f s); starts %.3f s apart; resends %s; same position from round %u\n",
                 (unsigned long long)s->seed, s->n, s->rounds, s->radius, s->drop, s->dup, s->corrupt, s->late,
                 (unsigned long long)s->delay_us, s->partition, s->split, (double)s->p_from * 1e-6,
                 (double)s->p_until * 1e-6, s->pause_robot, (double)s->pause_from * 1e-6, (double)s->pause_len * 1e-6,
                 s->crash_robot, (double)s->crash_at * 1e-6, (double)s->restart_after * 1e-6,
-                (double)s->stagger_us * 1e-6, s->addressed ? "addressed" : "multicast");
+                (double)s->stagger_us * 1e-6, s->addressed ? "addressed" : "multicast", s->same_from);
     qn = 0;
     seq = 0;
     memset(fifo_at, 0, sizeof fifo_at);
@@ -668,6 +674,10 @@ static void draw(uint64_t seed, schedule_t *s)
         if (s->drop > 0.2)
             s->drop = 0.2;
     }
+    /* One in four: the last rounds at one position for all (gp_fleet's posterior rounds), every
+       peer placed when a round begins, crashed ones too. Drawn last, as above. */
+    if (rnd_below(4) == 0)
+        s->same_from = 1u + (uint32_t)rnd_below((uint64_t)s->rounds);
 }
 
 static uint64_t env_u64(const char *name, uint64_t dflt)
@@ -692,6 +702,7 @@ static void check_schedule(uint64_t seed)
     tot.big += s.n >= (int)BIG_N_MIN;
     tot.staggered += s.stagger_us != 0;
     tot.addressed += s.addressed;
+    tot.same += s.same_from > 0;
     uint64_t timeouts = 0, cut = 0;
     run(&s, got_model, &timeouts, &cut);
     if (!loss_only(&s))
@@ -724,10 +735,10 @@ static void test_seeded_schedules(void **st)
     for (uint64_t i = 0; i < n; i++)
         check_schedule(one ? one : base + i);
     print_message("pse_sim: %llu schedules (%llu loss only, %llu with pauses, %llu crashes, %llu restarts, %llu "
-                  "starting one robot at a time, %llu addressed), seeds %llu..%llu\n",
+                  "starting one robot at a time, %llu addressed, %llu ending at one position), seeds %llu..%llu\n",
                   (unsigned long long)tot.schedules, (unsigned long long)tot.loss_only, (unsigned long long)tot.pauses,
                   (unsigned long long)tot.crashes, (unsigned long long)tot.restarts, (unsigned long long)tot.staggered,
-                  (unsigned long long)tot.addressed,
+                  (unsigned long long)tot.addressed, (unsigned long long)tot.same,
                   (unsigned long long)(one ? one : base), (unsigned long long)(one ? one : base + n - 1u));
     print_message("pse_sim: injected: %llu sends, %llu copies dropped, %llu duplicated, %llu corrupted, %llu late, "
                   "%llu cut by partitions, %llu lost to a full network\n",
