@@ -101,7 +101,7 @@ static void start(double radius)
     qn = 0;
     chunk2_dropped = 0;
     for (int i = 0; i < N; i++) {
-        gp_pse_cfg_t c = {(uint32_t)i, N, STATE_BYTES, CHUNK, radius, RESEND, TIMEOUT, 0, net_send, &sender_id[i], 0, 0, 0, 0, 0};
+        gp_pse_cfg_t c = {(uint32_t)i, N, STATE_BYTES, CHUNK, radius, RESEND, TIMEOUT, 0, net_send, &sender_id[i], 0, 0, 0, 0, 0, 0};
         assert_int_equal(gp_pse_init(&eng[i], &c), 0);
         for (int r = 0; r < 2; r++)
             for (uint32_t b = 0; b < STATE_BYTES; b++)
@@ -433,7 +433,7 @@ static void test_encodings(void **st)
     static uint8_t junk[CHUNK];
     for (uint32_t e = 0; e <= GP_PSE_ENCODINGS; e++) {
         qn = 0;
-        gp_pse_cfg_t c = {0, N, STATE_BYTES, CHUNK, 0.0, RESEND, TIMEOUT, 0, net_send, &sender_id[0], (uint8_t)e, 0, 0, 0, 0};
+        gp_pse_cfg_t c = {0, N, STATE_BYTES, CHUNK, 0.0, RESEND, TIMEOUT, 0, net_send, &sender_id[0], (uint8_t)e, 0, 0, 0, 0, 0};
         if (e == GP_PSE_ENCODINGS) {
             assert_int_equal(gp_pse_init(&eng[0], &c), -EINVAL);
             c.encoding = 255;
@@ -693,7 +693,7 @@ static int lone_chunk(uint32_t from, uint32_t inc, uint32_t round, uint32_t chun
 static void test_handed_out_buffers_are_not_written(void **st)
 {
     (void)st;
-    const gp_pse_cfg_t c = {0, LONE_N, STATE_BYTES, CHUNK, 0.0, RESEND, TIMEOUT, 0, lone_send, NULL, 0, 0, 0, 0, 0};
+    const gp_pse_cfg_t c = {0, LONE_N, STATE_BYTES, CHUNK, 0.0, RESEND, TIMEOUT, 0, lone_send, NULL, 0, 0, 0, 0, 0, 0};
     assert_int_equal(gp_pse_init(&lone, &c), 0);
     const uint32_t n_chunks = (STATE_BYTES + CHUNK - 1u) / CHUNK;
     for (uint32_t i = 0; i < LONE_N; i++)

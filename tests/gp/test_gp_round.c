@@ -47,7 +47,7 @@ static int setup(void **st)
     now = 1000;
     muted[0] = muted[1] = 0;
     for (int i = 0; i < 2; i++) {
-        gp_pse_cfg_t c = {(uint32_t)i, 2u, STATE_BYTES, CHUNK, 0.0, RESEND, TIMEOUT, 0, net_send, &ids[i], 0, 1u, 0, 0, 0};
+        gp_pse_cfg_t c = {(uint32_t)i, 2u, STATE_BYTES, CHUNK, 0.0, RESEND, TIMEOUT, 0, net_send, &ids[i], 0, 1u, 0, 0, 0, 0};
         assert_int_equal(gp_round_init(&drv[i], &c, ROUNDS), 0);
         memset(mine[i], 0x10 + i, STATE_BYTES);
     }
