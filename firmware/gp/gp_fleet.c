@@ -270,19 +270,7 @@ static void update_senders(gp_fleet_t *f)
     if (f->senders_off)
         return;
     uint8_t bits[GP_PSE_WANTED_BYTES];
-    uint32_t n = gp_pse_wanted(&f->drv.pse, bits);
-    /* The posterior rounds' neighbours are known before any beacon: every robot gives the same
-       position there (begin()), so they are the lowest ids. Wanted from the last training round
-       on, when the first posteriors may come: otherwise their chunks were dropped as those of
-       unplaced peers, and in an addressed fleet each robot then asked for them alone (256
-       robots: robot 0 re-sent 878 MB of its posterior). */
-    if (f->cfg.post_rounds > 0 && f->drv.pse.round + 1u >= f->cfg.rounds)
-        for (uint32_t i = 0, k = 0; i < f->cfg.n_peers && k < GP_PSE_MAX_NEIGHBOURS; i++)
-            if (i != f->cfg.self) {
-                n += !((bits[i / 8u] >> (i % 8u)) & 1u);
-                bits[i / 8u] |= (uint8_t)(1u << (i % 8u));
-                k++;
-            }
+    const uint32_t n = gp_pse_wanted(&f->drv.pse, bits);
     const int all = n + 1u >= f->cfg.n_peers;
     if (all ? f->senders_all : !f->senders_all && memcmp(bits, f->senders, sizeof bits) == 0)
         return;

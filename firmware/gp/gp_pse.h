@@ -355,7 +355,8 @@ uint32_t gp_pse_peer_incarnation(const gp_pse_t *p, uint32_t id);
  * An addressed fleet (cfg.addressed) wants no peer before it is placed: there the first state
  * of every member would otherwise cross every connection (in round 0 of 256 robots over
  * ZeroMQ, 255 x 134 KB per robot, which ran a 24 GB machine out of memory), and a state
- * asked for costs one copy. Returns the number of ids in the set. */
+ * asked for costs one copy. From the round before cfg.same_position_from on, the lowest ids
+ * (that round's neighbours) are in it too. Returns the number of ids in the set. */
 uint32_t gp_pse_wanted(const gp_pse_t *p, uint8_t bits[GP_PSE_WANTED_BYTES]);
 
 /* Our node update of round k is done: RoundComplete(k) goes out. 0 or -EINVAL. */

@@ -258,6 +258,17 @@ uint32_t gp_pse_wanted(const gp_pse_t *p, uint8_t bits[GP_PSE_WANTED_BYTES])
         for (uint32_t m = 0; m < nr->n; m++)
             bits[nr->id[m] / 8u] |= (uint8_t)(1u << (nr->id[m] % 8u));
     }
+    /* A round of one position for all (cfg.same_position_from) has the lowest ids for
+       neighbours, known before any word from them: wanted from the round before it on, when
+       its first chunks may come. Otherwise they were dropped as those of unplaced peers, and in
+       an addressed fleet each robot then asked for them alone (256 robots: robot 0 re-sent
+       878 MB of its posterior). */
+    if (p->cfg.same_position_from != 0 && p->round + 1u >= p->cfg.same_position_from)
+        for (uint32_t i = 0, k = 0; i < p->cfg.n_peers && k < GP_PSE_MAX_NEIGHBOURS; i++)
+            if (i != p->cfg.self) {
+                bits[i / 8u] |= (uint8_t)(1u << (i % 8u));
+                k++;
+            }
     uint32_t n = 0;
     for (uint32_t i = 0; i < p->cfg.n_peers; i++) {
         const gp_pse_peer_t *q = &p->peer[i];
