@@ -265,6 +265,7 @@ static void inject(hal_host_net_t *n, hal_host_msg_type_t type, const char *chan
     }
     n->stats.fault_duplicated += d.copies > 1u;
     n->stats.fault_reordered += d.reordered != 0;
+    const uint64_t hold_us = (uint64_t)n->fault.hold_ms * 1000u;
     for (uint32_t c = 0; c < d.copies; c++) {
         const uint32_t passes = c == 0 ? d.passes : 0u;
         if ((d.delay_us[c] == 0 && passes == 0) || n->hold.cap == 0) {
@@ -274,12 +275,12 @@ static void inject(hal_host_net_t *n, hal_host_msg_type_t type, const char *chan
         n->stats.fault_delayed += d.delay_us[c] > 0;
         const uint64_t due = now + d.delay_us[c];
         int rc = hal_host_netfault_hold_put(&n->hold, channel, data, len, due, passes,
-                                            due + HAL_HOST_NETFAULT_REORDER_HOLD_US);
+                                            due + hold_us);
         if (rc == -ENOSPC) {
             /* Full: the one due first goes now, so nothing is lost to the holding area. */
             release_held(n, hal_host_netfault_hold_oldest(&n->hold));
             rc = hal_host_netfault_hold_put(&n->hold, channel, data, len, due, passes,
-                                            due + HAL_HOST_NETFAULT_REORDER_HOLD_US);
+                                            due + hold_us);
         }
         if (rc != 0) /* not expected (checked datagram, room made): deliver rather than lose */
             deliver(n, channel, data, len);

@@ -11,7 +11,7 @@
 #define SPEC_MAX 512u
 #define GOLDEN 0x9E3779B97F4A7C15ull
 
-static const char *const KEYS = "drop, dup, reorder, delay_ms, seed, partition, from, until";
+static const char *const KEYS = "drop, dup, reorder, delay_ms, seed, partition, from, until, hold_ms";
 
 static int fail(char *err, size_t errlen, const char *fmt, ...)
 {
@@ -95,7 +95,7 @@ static int parse_partition(const char *v, hal_host_netfault_cfg_t *cfg, char *er
 /* One key=value; `seen` marks the keys already given. */
 static int parse_item(char *item, hal_host_netfault_cfg_t *cfg, unsigned *seen, char *err, size_t errlen)
 {
-    static const char *const names[] = {"drop", "dup", "reorder", "delay_ms", "seed", "partition", "from", "until"};
+    static const char *const names[] = {"drop", "dup", "reorder", "delay_ms", "seed", "partition", "from", "until", "hold_ms"};
     char *eq = strchr(item, '=');
     if (eq == NULL)
         return fail(err, errlen, "'%s' is not key=value (keys: %s)", item, KEYS);
@@ -135,6 +135,12 @@ static int parse_item(char *item, hal_host_netfault_cfg_t *cfg, unsigned *seen, 
         return 0;
     case 5:
         return parse_partition(v, cfg, err, errlen);
+    case 8:
+        if (parse_u64(v, HAL_HOST_NETFAULT_MAX_DELAY_MS, &u) != 0 || u == 0)
+            return fail(err, errlen, "hold_ms=%s: not a whole number of milliseconds 1 .. %u", v,
+                        HAL_HOST_NETFAULT_MAX_DELAY_MS);
+        cfg->hold_ms = (uint32_t)u;
+        return 0;
     default:
         if (parse_double(v, &d) != 0 || d < 0.0)
             return fail(err, errlen, "%s=%s: not a time in seconds >= 0", k, v);
@@ -149,6 +155,7 @@ int hal_host_netfault_parse(const char *spec, hal_host_netfault_cfg_t *cfg, char
         return -EINVAL;
     memset(cfg, 0, sizeof *cfg);
     cfg->until_s = INFINITY;
+    cfg->hold_ms = HAL_HOST_NETFAULT_REORDER_HOLD_MS;
     if (err != NULL && errlen > 0)
         err[0] = '\0';
     if (spec == NULL || spec[0] == '\0')
@@ -173,6 +180,8 @@ int hal_host_netfault_parse(const char *spec, hal_host_netfault_cfg_t *cfg, char
     const unsigned window = (1u << 6) | (1u << 7);
     if ((seen & window) && !cfg->has_partition)
         return fail(err, errlen, "from= and until= need partition=");
+    if ((seen & (1u << 8)) && !(cfg->reorder > 0.0))
+        return fail(err, errlen, "hold_ms= needs reorder=");
     if (!(cfg->until_s > cfg->from_s))
         return fail(err, errlen, "until=%g is not after from=%g", cfg->until_s, cfg->from_s);
     return 0;

@@ -5,7 +5,10 @@
  *   drop=P        probability a datagram is lost
  *   dup=P         probability it is delivered twice
  *   reorder=P     probability it is held back until 1 .. HAL_HOST_NETFAULT_REORDER_MAX later
- *                 datagrams passed it (or HAL_HOST_NETFAULT_REORDER_HOLD_US passed)
+ *                 datagrams passed it, or hold_ms passed when no later one came
+ *   hold_ms=H     that bound, 1 .. HAL_HOST_NETFAULT_MAX_DELAY_MS ms (default
+ *                 HAL_HOST_NETFAULT_REORDER_HOLD_MS); a longer one keeps the reordering when
+ *                 a busy machine stalls the receiver between datagrams
  *   delay_ms=D    each datagram delayed by a uniform 0 .. D ms
  *   seed=S        base of the injector's random stream (default: the run seed); every robot
  *                 mixes in its own id, so the robots differ and a run repeats
@@ -48,12 +51,13 @@ extern "C" {
 #define HAL_HOST_NETFAULT_MAX_ID 256u          /* robot ids 0 .. 255 in a partition */
 #define HAL_HOST_NETFAULT_MAX_DELAY_MS 10000u
 #define HAL_HOST_NETFAULT_REORDER_MAX 3u       /* a reordered datagram waits for 1 .. 3 later ones */
-#define HAL_HOST_NETFAULT_REORDER_HOLD_US 20000u /* ... or this long, when no later one comes */
+#define HAL_HOST_NETFAULT_REORDER_HOLD_MS 20u  /* ... or this long by default, when no later one comes */
 #define HAL_HOST_NETFAULT_DRAWS 6u             /* random draws per datagram */
 
 typedef struct hal_host_netfault_cfg {
     double drop, dup, reorder;   /* probabilities, 0 .. 1 */
     uint32_t delay_ms;           /* 0 .. HAL_HOST_NETFAULT_MAX_DELAY_MS */
+    uint32_t hold_ms;            /* a reordered datagram's longest hold, 1 .. HAL_HOST_NETFAULT_MAX_DELAY_MS */
     int has_seed;
     uint64_t seed;
     int has_partition;

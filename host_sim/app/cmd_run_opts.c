@@ -154,7 +154,7 @@ static const cli_opt_t run_opts[] = {
              "run): recordings of other runs are refused"},
     {.names = "--net-faults", .meta = "SPEC", CLI_CUSTOM(run_opts_t, net_faults, parse_net_faults),
      .help = "inject faults into what this robot receives, comma-separated: drop=P, dup=P, reorder=P "
-             "(probabilities), delay_ms=D (uniform 0..D), seed=S (default: the run seed; each robot mixes in its "
+             "(probabilities; a reordered one is held at most hold_ms=H, default 20), delay_ms=D (uniform 0..D), seed=S (default: the run seed; each robot mixes in its "
              "id), partition=A/B (robot ids '.'-separated, e.g. 0.1/2.3) with from=T1, until=T2 (seconds since the "
              "network opened); counted in summary.txt"},
     {.names = "--sched", CLI_CHOICE(run_opts_t, sched, "serial|parallel"),

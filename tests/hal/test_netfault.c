@@ -64,6 +64,9 @@ static void test_parse_good(void **st)
     assert_true(in_group(&c, 0, 0) && in_group(&c, 0, 1) && !in_group(&c, 0, 2));
     assert_true(in_group(&c, 1, 2) && in_group(&c, 1, 3) && in_group(&c, 1, 255) && !in_group(&c, 1, 0));
     assert_true(c.from_s == 1.5 && c.until_s == 9.0);
+    assert_int_equal(c.hold_ms, HAL_HOST_NETFAULT_REORDER_HOLD_MS);
+    assert_int_equal(hal_host_netfault_parse("reorder=0.5,hold_ms=10000", &c, err, sizeof err), 0);
+    assert_int_equal(c.hold_ms, 10000);
 
     /* Each alone is active; probability 0 is not. */
     const char *one[] = {"drop=1", "dup=0.5", "reorder=1e-3", "delay_ms=1", "partition=4/5"};
@@ -108,6 +111,9 @@ static void test_parse_bad(void **st)
         {"partition=0/256", "partition=0/256: '256' is not a robot id"},
         {"partition=0.1/1.2", "partition=0.1/1.2: robot 1 is in both groups"},
         {"from=1", "from= and until= need partition="},
+        {"reorder=0.1,hold_ms=0", "hold_ms=0: not a whole number of milliseconds 1 .. 10000"},
+        {"reorder=0.1,hold_ms=10001", "hold_ms=10001: not a whole number"},
+        {"hold_ms=5", "hold_ms= needs reorder="},
         {"until=1,drop=0.1", "from= and until= need partition="},
         {"partition=0/1,from=-1", "from=-1: not a time in seconds >= 0"},
         {"partition=0/1,from=5,until=5", "until=5 is not after from=5"},
@@ -338,15 +344,17 @@ static void test_hold_area(void **st)
 /* ---- through the real queue (memq://, the receiver thread) ------------------------------ */
 #define CH "fleetsim/faults"
 /* LCM's memq:// hands a message to the receiver thread through a GLib queue whose lock
- * ThreadSanitizer cannot see (GMutex is a bare futex): a burst of publishes then reads as a
- * race inside LCM. Under TSan the publishes are paced (the receiver takes each one before the
- * next is sent) and fewer. */
+ * ThreadSanitizer cannot see (GMutex is a bare futex); only the notify pipe, written when the
+ * queue was empty, orders a publish before its receipt. A burst then reads as a race inside
+ * LCM. Under TSan every publish waits until the receiver took it (its bytes counted under the
+ * network's mutex), so the queue is empty at the next one, however busy the machine; and fewer
+ * are sent. */
 #if defined(__SANITIZE_THREAD__)
 #define N_DGRAMS 600u
-#define PACE_US 2000L
+#define PACED 1
 #else
 #define N_DGRAMS 3000u
-#define PACE_US 0L
+#define PACED 0
 #endif
 #define BATCH 100u
 static uint8_t msg[HAL_NET_MTU_BYTES];
@@ -365,19 +373,42 @@ static void dgram_fill(uint8_t *p, uint32_t i)
         p[k] = (uint8_t)(i * 13u + k);
 }
 
-static void pace(void)
-{
-    if (PACE_US > 0) {
-        const struct timespec ts = {0, PACE_US * 1000L};
-        nanosleep(&ts, NULL);
-    }
-}
-
 static uint64_t now_ms(void)
 {
     struct timespec ts;
     clock_gettime(CLOCK_MONOTONIC, &ts);
     return (uint64_t)ts.tv_sec * 1000u + (uint64_t)ts.tv_nsec / 1000000u;
+}
+
+static uint64_t arrived_bytes(const hal_host_net_t *n)
+{
+    hal_net_stats_t s;
+    if (n != NULL) {
+        hal_host_net_get_stats(n, &s);
+    } else {
+        memset(&s, 0, sizeof s);
+        assert_int_equal(hal_net_get_stats(&s), 0);
+    }
+    return s.rx_arrived_bytes;
+}
+
+/* Publishes on `n` (NULL: the installed board's network); paced as the header says. */
+static void publish_paced(hal_host_net_t *n, const char *ch, const void *data, size_t len)
+{
+    const uint64_t before = PACED ? arrived_bytes(n) : 0u;
+    if (n != NULL)
+        assert_int_equal(hal_host_net_publish(n, ch, data, len), 0);
+    else
+        assert_int_equal(hal_net_publish(ch, data, len), 0);
+    if (!PACED)
+        return;
+    const uint64_t end = now_ms() + 10000u;
+    while (arrived_bytes(n) < before + len) {
+        if (now_ms() >= end)
+            fail_msg("the receiver thread took no datagram of %zu bytes on '%s' in 10 s", len, ch);
+        const struct timespec ts = {0, 200000L};
+        nanosleep(&ts, NULL);
+    }
 }
 
 /* Takes what arrives until `want` datagrams came or timeout_ms passed; checks each is intact.
@@ -440,8 +471,7 @@ static void test_net_delivers_exactly_what_was_decided(void **st)
         uint32_t want = 0;
         for (uint32_t i = b; i < b + BATCH; i++) {
             dgram_fill(msg, i);
-            assert_int_equal(hal_host_net_publish(n, CH, msg, dgram_len(i)), 0);
-            pace();
+            publish_paced(n, CH, msg, dgram_len(i));
             want += copies[i];
         }
         const uint32_t got = drain(n, want, 5000u, &last, &inversions);
@@ -483,17 +513,18 @@ static void test_net_reorder_comes_later(void **st)
     assert_int_equal(hal_host_net_open("memq://", 64, 0, &n), 0);
     hal_host_netfault_cfg_t c;
     char err[200];
-    assert_int_equal(hal_host_netfault_parse("reorder=0.5", &c, err, sizeof err), 0);
+    /* A held datagram is released after hold_ms even when no later one passed it; a second
+       makes the check independent of how long a loaded machine stalls the threads. */
+    assert_int_equal(hal_host_netfault_parse("reorder=0.5,hold_ms=1000", &c, err, sizeof err), 0);
     assert_int_equal(hal_host_net_set_faults(n, &c, 77, 0), 0);
     assert_int_equal(hal_host_net_subscribe(n, CH), 0);
     memset(seen, 0, sizeof seen);
     uint32_t pos[M] = {0}, order = 0;
     for (uint32_t i = 0; i < M; i++) {
         dgram_fill(msg, i);
-        assert_int_equal(hal_host_net_publish(n, CH, msg, dgram_len(i)), 0);
-        pace();
+        publish_paced(n, CH, msg, dgram_len(i));
     }
-    const uint64_t end = now_ms() + 5000u;
+    const uint64_t end = now_ms() + 10000u;
     while (order < M && now_ms() < end) {
         assert_int_equal(hal_host_net_wait(n, 0, 20), 0);
         hal_net_rx_info_t info;
@@ -506,9 +537,9 @@ static void test_net_reorder_comes_later(void **st)
         }
     }
     assert_int_equal(order, M);
-    /* A reordered datagram waits for 1 .. 3 later deliveries, or 20 ms when none comes. The
-       burst of M publishes reaches the receiver thread within microseconds, so only a thread
-       stalled for 20 ms mid-burst releases one by its deadline: tolerated for a quarter. */
+    /* A reordered datagram waits for 1 .. 3 later deliveries, or hold_ms when none comes. Only
+       a receiver stalled for a whole second mid-burst releases one by its deadline: tolerated
+       for a quarter. */
     uint32_t reordered = 0, later = 0;
     for (uint32_t i = 0; i < M; i++) {
         hal_host_netfault_decision_t d;
@@ -543,8 +574,7 @@ static void publish_rc(hal_host_net_t *n, int32_t sender, int32_t round)
     uint8_t b[256];
     int len = fleetsim_round_complete_t_encode(b, 0, (int)sizeof b, &m);
     assert_true(len > 12);
-    assert_int_equal(hal_host_net_publish(n, "fleetsim/rc", b, (size_t)len), 0);
-    pace();
+    publish_paced(n, "fleetsim/rc", b, (size_t)len);
 }
 
 /* The senders heard (bit per sender) within a bounded wait. */
@@ -629,8 +659,7 @@ static void test_board_config(void **st)
     assert_int_equal(hal_board_install(hal_host_board(h)), 0);
     assert_int_equal(hal_net_subscribe("q"), 0);
     for (int i = 0; i < 4; i++) {
-        assert_int_equal(hal_net_publish("q", &i, sizeof i), 0);
-        pace();
+        publish_paced(NULL, "q", &i, sizeof i);
     }
     hal_net_stats_t s = {0};
     const uint64_t end = now_ms() + 3000u;
