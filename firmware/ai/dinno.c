@@ -55,6 +55,7 @@ dinno_cfg_t dinno_default_cfg(void)
         .rejoin_gap = DINNO_REJOIN_GAP_DEFAULT,
         .codec = DINNO_CODEC_FP32,
         .key_every = DINNO_KEY_EVERY_DEFAULT,
+        .reg_values = 1,
     };
     return c;
 }
@@ -81,7 +82,8 @@ static int cfg_ok(const dinno_cfg_t *c, const bnn_config_t *b)
            (c->kl_reduce == DINNO_REDUCE_SUM || c->kl_reduce == DINNO_REDUCE_MEAN) &&
            (c->rho_pred_grad == 0 || c->rho_pred_grad == 1) && isfinite(c->screen_radius) &&
            c->screen_radius >= 0.0f && (c->dual_rule == DINNO_DUAL_NODE || c->dual_rule == DINNO_DUAL_LINK) &&
-           (unsigned)c->codec < DINNO_CODEC_COUNT && c->key_every >= 1;
+           (unsigned)c->codec < DINNO_CODEC_COUNT && c->key_every >= 1 &&
+           (c->reg_values == 0 || c->reg_values == 1);
 }
 
 int dinno_node_init(dinno_node_t *n, const dinno_cfg_t *cfg, const bnn_config_t *bcfg,
@@ -407,6 +409,7 @@ void dinno_prepare(dinno_node_t *n)
     const size_t P = bnn_n_params(&n->model), M = n->model.n_mu, R = n->model.n_rho;
     const int kl = n->cfg.strategy == DINNO_KL;
     const dinno_kl_form_t form = n->cfg.kl_form;
+    const int values = n->cfg.reg_values; /* mid_sq and aux2 serve the reported values only */
     const size_t mu0 = R ? bnn_rho_to_mu(&n->model, 0) : 0; /* rho e pairs with mean mu0 + e */
     memset(n->aux1, 0, P * sizeof(float));
     memset(n->aux2, 0, R * sizeof(float));
@@ -422,12 +425,14 @@ void dinno_prepare(dinno_node_t *n)
         for (size_t i = 0; i < M; i++) {
             const float mid = 0.5f * (n->theta0[i] + tj[i]);
             n->aux1[i] += mid;
-            sq[0] += (double)mid * mid;
+            if (values) /* a chain of dependent adds: without it the loop vectorises */
+                sq[0] += (double)mid * mid;
         }
         for (size_t i = M; !kl && i < P; i++) {
             const float mid = 0.5f * (n->theta0[i] + tj[i]);
             n->aux1[i] += mid;
-            sq[1] += (double)mid * mid;
+            if (values)
+                sq[1] += (double)mid * mid;
         }
         /* The rho group a block at a time: the softplus in a loop of its own, which vectorises,
            and libm's logf (scalar) after it; the same operations per element as one loop. */
@@ -450,7 +455,7 @@ void dinno_prepare(dinno_node_t *n)
                     a3[e] += mj * mj;
                 }
             }
-            for (size_t e = 0; e < ne; e++)
+            for (size_t e = 0; values && e < ne; e++)
                 a2[e] += logf(sp[e]);
         }
     }
@@ -488,13 +493,18 @@ void dinno_add_reg_grad(dinno_node_t *n, float rho_k, float *reg_mu, float *reg_
     float wm, wr;
     weights(n, &wm, &wr);
     const float cm = 2.0f * rho_k * wm, cr = 2.0f * rho_k * wr;
+    /* The values (reg_mu, reg_rho, dual_dot) are chains of dependent double adds and a log per
+       rho entry; without them (cfg.reg_values 0) the gradient loops vectorise. */
+    const int values = n->cfg.reg_values;
     double dd = 0.0, tsq = 0.0, tdot = 0.0;
     for (size_t i = 0; i < M; i++) {
         const float t = th[i];
         g[i] += n->dual[i] + cm * (m * t - n->aux1[i]);
-        dd += (double)t * n->dual[i];
-        tsq += (double)t * t;
-        tdot += (double)t * n->aux1[i];
+        if (values) {
+            dd += (double)t * n->dual[i];
+            tsq += (double)t * t;
+            tdot += (double)t * n->aux1[i];
+        }
     }
     const double rmu = (double)m * tsq - 2.0 * tdot + n->mid_sq[0];
     double rr = 0.0;
@@ -516,8 +526,10 @@ void dinno_add_reg_grad(dinno_node_t *n, float rho_k, float *reg_mu, float *reg_
                 q += dm > 0.0 ? dm : 0.0; /* a sum of squares; cancellation must not make it negative */
             }
             g[M + e] += n->dual[M + e] + kr * sigmoidf_(r) * (float)((double)m / s - q / (s2 * s));
-            dd += (double)r * n->dual[M + e];
-            rr += (double)m * log(s) - (double)n->aux2[e] + 0.5 * q / s2 - 0.5 * m;
+            if (values) {
+                dd += (double)r * n->dual[M + e];
+                rr += (double)m * log(s) - (double)n->aux2[e] + 0.5 * q / s2 - 0.5 * m;
+            }
         }
         rr *= red;
     } else if (n->cfg.strategy == DINNO_KL) {
@@ -530,8 +542,10 @@ void dinno_add_reg_grad(dinno_node_t *n, float rho_k, float *reg_mu, float *reg_
             const float r = th[M + e];
             const float s = sp[e % RHO_BLOCK], inv2 = n->aux1[M + e];
             g[M + e] += n->dual[M + e] + kr * sigmoidf_(r) * (s * inv2 - m / s);
-            dd += (double)r * n->dual[M + e];
-            rr += (double)n->aux2[e] - (double)m * log((double)s) + 0.5 * (double)s * s * inv2 - 0.5 * m;
+            if (values) {
+                dd += (double)r * n->dual[M + e];
+                rr += (double)n->aux2[e] - (double)m * log((double)s) + 0.5 * (double)s * s * inv2 - 0.5 * m;
+            }
         }
         rr *= red;
     } else {
@@ -539,18 +553,20 @@ void dinno_add_reg_grad(dinno_node_t *n, float rho_k, float *reg_mu, float *reg_
         for (size_t i = M; i < P; i++) {
             const float t = th[i];
             g[i] += n->dual[i] + cr * (m * t - n->aux1[i]);
-            dd += (double)t * n->dual[i];
-            tsq += (double)t * t;
-            tdot += (double)t * n->aux1[i];
+            if (values) {
+                dd += (double)t * n->dual[i];
+                tsq += (double)t * t;
+                tdot += (double)t * n->aux1[i];
+            }
         }
         rr = (double)m * tsq - 2.0 * tdot + n->mid_sq[1];
     }
     if (reg_mu)
-        *reg_mu = (float)rmu;
+        *reg_mu = values ? (float)rmu : NAN;
     if (reg_rho)
-        *reg_rho = (float)rr;
+        *reg_rho = values ? (float)rr : NAN;
     if (dual_dot)
-        *dual_dot = (float)dd;
+        *dual_dot = values ? (float)dd : NAN;
 }
 
 double dinno_reg_value(const dinno_node_t *n, float rho_k)

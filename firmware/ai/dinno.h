@@ -183,6 +183,10 @@ typedef struct dinno_cfg {
     dinno_codec_t codec;   /* how states travel (default FP32); the EF codecs keep public copies */
     uint32_t key_every;    /* EF codecs: rounds k with k % key_every == 0 send the whole state (>= 1,
                               default DINNO_KEY_EVERY_DEFAULT) */
+    int reg_values;        /* 1 (default): the round stats carry reg_mu, reg_rho and dual_dot; 0:
+                              they are NaN, and the sums and logs only they need are skipped (the
+                              gradients, so the models, are the same bytes). The image reports
+                              none of them and turns them off. */
 } dinno_cfg_t;
 
 /* The neighbour states of one round, read in place: entries 0 .. count-1, in ascending robot

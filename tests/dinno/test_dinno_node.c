@@ -1,6 +1,7 @@
 /* DiNNO node update on a tiny BNN: the dual update and the midpoint (L2) terms against
  * hand-computed values, the KL strategy's rho gradient against finite differences, uniform ==
- * separate at unit weights, a node without neighbours trains alone, no allocation. */
+ * separate at unit weights, the same models without the regulariser values, a node without
+ * neighbours trains alone, no allocation. */
 #include <errno.h>
 #include <math.h>
 #include <setjmp.h>
@@ -351,6 +352,28 @@ static void test_literal_rho_loss_moves_rho_only_by_consensus(void **st)
     }
 }
 
+/* Two nodes, each the other's neighbour, for `rounds` rounds; node's final parameters to out and
+   its last round's stats to *last (when non-NULL). */
+static void run_pair_cfg(const dinno_cfg_t *c0, float *out, int rounds, dinno_round_stats_t *last)
+{
+    bnn_config_t b = tiny();
+    const dinno_cfg_t cfg = *c0, *const c = &cfg;
+    assert_int_equal(dinno_node_init(&node, c, &b, 5, 100, 0), 0);
+    assert_int_equal(dinno_node_init(&other, c, &b, 5, 101, 1), 0);
+    float tn[28], to[28];
+    for (int k = 0; k < rounds; k++) {
+        memcpy(tn, bnn_params(&node.model), sizeof tn);
+        memcpy(to, bnn_params(&other.model), sizeof to);
+        nb_clear(&node);
+        nb_clear(&other);
+        assert_int_equal(nb_put(&node, 1, (uint32_t)k, to, 28), 0);
+        assert_int_equal(nb_put(&other, 0, (uint32_t)k, tn, 28), 0);
+        assert_int_equal(dinno_node_round(&node, data, 128, last), 0);
+        assert_int_equal(dinno_node_round(&other, data + 128, 128, NULL), 0);
+    }
+    memcpy(out, bnn_params(&node.model), 28 * sizeof(float));
+}
+
 static void run_pair(dinno_strategy_t s, float w_rho, float *out, int rounds)
 {
     bnn_config_t b = tiny();
@@ -381,6 +404,37 @@ static void test_uniform_equals_separate_at_unit_weights(void **st)
     assert_memory_equal(u, s, sizeof u);
     run_pair(DINNO_SEPARATE, 5.0f, s2, 6);
     assert_memory_not_equal(u, s2, sizeof u);
+}
+
+/* reg_values 0 (the image's setting) skips the values' sums and logs: the same parameters, bit
+   for bit, for every strategy and KL form, and NaN where the values would be. */
+static void test_reg_values_off_same_models(void **st)
+{
+    (void)st;
+    static const struct {
+        dinno_strategy_t s;
+        dinno_kl_form_t form;
+    } cases[] = {{DINNO_UNIFORM, DINNO_KL_OWN_MEAN}, {DINNO_SEPARATE, DINNO_KL_OWN_MEAN},
+                 {DINNO_KL, DINNO_KL_OWN_MEAN},      {DINNO_KL, DINNO_KL_REVERSE},
+                 {DINNO_KL, DINNO_KL_FULL}};
+    for (size_t i = 0; i < sizeof cases / sizeof cases[0]; i++) {
+        dinno_cfg_t c = cfg_of(cases[i].s);
+        c.kl_form = cases[i].form;
+        float on[28], off[28];
+        dinno_round_stats_t st_on, st_off;
+        run_pair_cfg(&c, on, 6, &st_on);
+        c.reg_values = 0;
+        run_pair_cfg(&c, off, 6, &st_off);
+        assert_memory_equal(on, off, sizeof on);
+        assert_true(isfinite(st_on.reg_mu) && isfinite(st_on.reg_rho) && isfinite(st_on.dual_dot));
+        assert_true(st_on.reg_mu > 0.0f);
+        assert_true(isnan(st_off.reg_mu) && isnan(st_off.reg_rho) && isnan(st_off.dual_dot));
+        assert_true(st_on.pred_total == st_off.pred_total && st_on.neighbours == st_off.neighbours);
+    }
+    dinno_cfg_t bad = cfg_of(DINNO_KL);
+    bnn_config_t b = tiny();
+    bad.reg_values = 2;
+    assert_int_equal(dinno_node_init(&node, &bad, &b, 1, 2, 0), -EINVAL);
 }
 
 static void test_slot_round_mismatch_rejected(void **st)
@@ -535,6 +589,7 @@ int main(void)
         cmocka_unit_test(test_literal_rho_loss_moves_rho_only_by_consensus),
         cmocka_unit_test(test_uniform_equals_separate_at_unit_weights),
         cmocka_unit_test(test_slot_round_mismatch_rejected),
+        cmocka_unit_test(test_reg_values_off_same_models),
         cmocka_unit_test(test_no_neighbours_trains_alone),
         cmocka_unit_test(test_screen_leaves_out_bad_states),
         cmocka_unit_test(test_round_allocates_nothing),
