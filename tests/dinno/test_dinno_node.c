@@ -354,10 +354,9 @@ static void test_literal_rho_loss_moves_rho_only_by_consensus(void **st)
 
 /* Two nodes, each the other's neighbour, for `rounds` rounds; node's final parameters to out and
    its last round's stats to *last (when non-NULL). */
-static void run_pair_cfg(const dinno_cfg_t *c0, float *out, int rounds, dinno_round_stats_t *last)
+static void run_pair_cfg(const dinno_cfg_t *c, float *out, int rounds, dinno_round_stats_t *last)
 {
     bnn_config_t b = tiny();
-    const dinno_cfg_t cfg = *c0, *const c = &cfg;
     assert_int_equal(dinno_node_init(&node, c, &b, 5, 100, 0), 0);
     assert_int_equal(dinno_node_init(&other, c, &b, 5, 101, 1), 0);
     float tn[28], to[28];
@@ -376,23 +375,9 @@ static void run_pair_cfg(const dinno_cfg_t *c0, float *out, int rounds, dinno_ro
 
 static void run_pair(dinno_strategy_t s, float w_rho, float *out, int rounds)
 {
-    bnn_config_t b = tiny();
     dinno_cfg_t c = cfg_of(s);
     c.w_rho = w_rho;
-    assert_int_equal(dinno_node_init(&node, &c, &b, 5, 100, 0), 0);
-    assert_int_equal(dinno_node_init(&other, &c, &b, 5, 101, 1), 0);
-    float tn[28], to[28];
-    for (int k = 0; k < rounds; k++) {
-        memcpy(tn, bnn_params(&node.model), sizeof tn);
-        memcpy(to, bnn_params(&other.model), sizeof to);
-        nb_clear(&node);
-        nb_clear(&other);
-        assert_int_equal(nb_put(&node, 1, (uint32_t)k, to, 28), 0);
-        assert_int_equal(nb_put(&other, 0, (uint32_t)k, tn, 28), 0);
-        assert_int_equal(dinno_node_round(&node, data, 128, NULL), 0);
-        assert_int_equal(dinno_node_round(&other, data + 128, 128, NULL), 0);
-    }
-    memcpy(out, bnn_params(&node.model), 28 * sizeof(float));
+    run_pair_cfg(&c, out, rounds, NULL);
 }
 
 static void test_uniform_equals_separate_at_unit_weights(void **st)
