@@ -10,7 +10,7 @@ import sys
 import threading
 import time
 
-from fleet_common import say
+from fleet_common import fail, say
 
 ROUND_RE = re.compile(
     r"^round\s+(\d+)/(\d+).*?val (\S+).*?dis (\S+)\s+sent (\d+) B\s+lost (\d+)\s+recovered \d+\s+resent (\d+)")
@@ -183,15 +183,20 @@ class Progress:
                 self.next_pct += 5
 
 
-def supervise(robots, restarts, prog, interrupted, deaths):
+def supervise(robots, restarts, prog, interrupted, deaths, services=()):
     """Watches the robots until all finished, one died past its restarts (returned), or an
     interruption. A robot that dies (non-zero exit, killed: the launcher stops robots only after
     this returns) is started again with --resume while it has restarts left; each death goes
-    into `deaths`."""
+    into `deaths`. A service the robots need (name, process, log: the ZeroMQ proxy) that exits
+    ends the run with an error naming it (the caller's `finally` stops the robots)."""
     while True:
         time.sleep(0.5)
         if interrupted:
             return None
+        for name, proc, log in services:
+            if proc.poll() is not None:
+                fail(f"{name} exited with status {proc.returncode} while the robots ran; its log: {log}; "
+                     f"stopping the robots")
         done = [r for r in robots if r.proc.poll() is not None]
         for r in (x for x in done if x.proc.returncode != 0):
             if r.restarts >= restarts:

@@ -35,6 +35,7 @@
 #ifndef HAL_HOST_H
 #define HAL_HOST_H
 
+#include <stdatomic.h>
 #include <stddef.h>
 #include <stdint.h>
 
@@ -256,6 +257,21 @@ FS_MUST_CHECK int hal_host_net_group_by_sender(hal_host_net_t *n, const char *ch
  * its chunks, the chunks it asked for). The same rules as hal_host_net_group_by_sender; at most
  * 4 prefixes. */
 FS_MUST_CHECK int hal_host_net_group_by_receiver(hal_host_net_t *n, const char *prefix);
+
+/* The ZeroMQ proxy of a fleet too large for the full mesh (host_sim zmq-proxy): binds
+ * tcp://HOST:PORT, which the robots' publishers connect to ("zmq://?proxy=HOST:PORT"), and
+ * tcp://HOST:PORT+1, which their subscribers connect to, and forwards each datagram to the
+ * robots subscribed to its topic (neighbour-scoped delivery holds), subscriptions the other
+ * way, until *stop is set (within 200 ms). Each robot then holds 2 connections instead of
+ * 2 (N - 1). `progress` (or NULL) is called after every poll with the running counts.
+ * 0 when stopped, -EINVAL (a bad host or port), -EIO (cannot bind, or ZeroMQ failed). */
+typedef struct hal_host_zmq_proxy_stats {
+    uint64_t frames, bytes;             /* datagrams forwarded to subscribers, and their bytes */
+    uint64_t subscriptions, sub_bytes;  /* (un)subscriptions forwarded to publishers */
+} hal_host_zmq_proxy_stats_t;
+FS_MUST_CHECK int hal_host_zmq_proxy_run(const char *host, unsigned port, const atomic_int *stop,
+                                         void (*progress)(const hal_host_zmq_proxy_stats_t *s, void *user),
+                                         void *user);
 
 /* Storage in a directory. Thread-safe as far as the file system is (one writer per name). */
 typedef struct hal_host_storage hal_host_storage_t;

@@ -142,17 +142,35 @@ static int endpoint_of(const char *s, size_t len, char *out, size_t cap)
     return snprintf(out, cap, "tcp://%.*s", (int)len, s) < (int)cap ? 0 : -1;
 }
 
+/* "HOST:PORT" of a proxy (PORT 1..65534): its two endpoints, PORT for publishers and PORT + 1
+   for subscribers. 0 or -1. */
+static int proxy_endpoints(const char *s, char *in, char *out)
+{
+    const char *colon = strrchr(s, ':');
+    if (endpoint_of(s, strlen(s), in, ENDPOINT_MAX) != 0 || colon == NULL)
+        return -1;
+    const long port = strtol(colon + 1, NULL, 10);
+    return port < 65535 &&
+           snprintf(out, ENDPOINT_MAX, "tcp://%.*s:%ld", (int)(colon - s), s, port + 1) < ENDPOINT_MAX ? 0 : -1;
+}
+
 static int zmq_open_url(hal_host_net_t *n, const char *url, void **out)
 {
     const char *bind = url + 6; /* after "zmq://" */
     const char *q = strstr(bind, "?peers=");
-    if (q == NULL) {
+    const int via_proxy = strncmp(bind, "?proxy=", 7) == 0;
+    char ep[ENDPOINT_MAX], ep_sub[ENDPOINT_MAX];
+    if (via_proxy) {
+        if (proxy_endpoints(bind + 7, ep, ep_sub) != 0) {
+            fprintf(stderr, "hal_host_net: zmq: '%s' is not HOST:PORT of a proxy (host_sim zmq-proxy: its port "
+                            "and the next)\n", bind + 7);
+            return -EINVAL;
+        }
+    } else if (q == NULL) {
         fprintf(stderr, "hal_host_net: '%s' is not zmq://HOST:PORT?peers=HOST:PORT,... (the endpoint this robot "
-                        "binds, then its peers')\n", url);
+                        "binds, then its peers') or zmq://?proxy=HOST:PORT\n", url);
         return -EINVAL;
-    }
-    char ep[ENDPOINT_MAX];
-    if (endpoint_of(bind, (size_t)(q - bind), ep, sizeof ep) != 0) {
+    } else if (endpoint_of(bind, (size_t)(q - bind), ep, sizeof ep) != 0) {
         fprintf(stderr, "hal_host_net: zmq: '%.*s' is not HOST:PORT to bind (e.g. *:7701)\n", (int)(q - bind), bind);
         return -EINVAL;
     }
@@ -181,6 +199,17 @@ static int zmq_open_url(hal_host_net_t *n, const char *url, void **out)
         fprintf(stderr, "hal_host_net: zmq: cannot set up the sockets: %s\n", zmq_strerror(zmq_errno()));
         zmq_close_all(c);
         return -EIO;
+    }
+    if (via_proxy) { /* both sockets connect: asynchronous, reconnected by themselves */
+        if (set_int(c->pub, ZMQ_RECONNECT_IVL, 100) != 0 || set_int(c->pub, ZMQ_RECONNECT_IVL_MAX, 2000) != 0 ||
+            zmq_connect(c->pub, ep) != 0 || zmq_connect(c->sub, ep_sub) != 0) {
+            fprintf(stderr, "hal_host_net: zmq: cannot connect to the proxy %s / %s: %s\n", ep, ep_sub,
+                    zmq_strerror(zmq_errno()));
+            zmq_close_all(c);
+            return -EIO;
+        }
+        *out = c;
+        return 0;
     }
     if (zmq_bind(c->pub, ep) != 0) {
         fprintf(stderr, "hal_host_net: zmq: cannot bind %s: %s\n", ep, zmq_strerror(zmq_errno()));
@@ -401,3 +430,93 @@ static int zmq_handle(void *ctx, int timeout_ms)
 
 const hal_host_net_transport_t hal_host_net_zmq = {"zmq",   zmq_open_url, zmq_close_ctx, zmq_pub,
                                                    zmq_sub, zmq_handle,   zmq_senders, NULL};
+
+/* ---- The proxy (host_sim zmq-proxy) ----
+ * One XSUB bound on PORT that every robot's PUB connects to, one XPUB on PORT + 1 that every
+ * SUB connects to. A subscription (topic) goes up from the XPUB to the XSUB and on to every
+ * publisher, so a publisher still sends a topic nobody wants nowhere; the XPUB sends each
+ * frame only to the subscribers of its topic, so neighbour-scoped delivery holds. Order per
+ * sender is kept (one connection in, one out, one thread between). A subscriber past its
+ * high-water mark loses frames, as over the full mesh. Not zmq_proxy(): this loop stops on a
+ * flag within PROXY_POLL_MS and counts what it forwards. */
+#define PROXY_POLL_MS 200
+
+/* Up to 256 messages (all their frames) from `from` to `to`, none waiting. Adds to frames and
+   bytes; 0, or -1 on an error other than "nothing more" / "interrupted". */
+static int proxy_move(void *from, void *to, uint64_t *frames, uint64_t *bytes)
+{
+    zmq_msg_t m;
+    zmq_msg_init(&m);
+    int rc = 0;
+    for (int k = 0; k < 256; k++) {
+        int more = 1;
+        while (more) {
+            const int got = zmq_msg_recv(&m, from, ZMQ_DONTWAIT);
+            if (got < 0) {
+                rc = zmq_errno() == EAGAIN || zmq_errno() == EINTR ? 0 : -1;
+                goto done;
+            }
+            more = zmq_msg_more(&m);
+            *bytes += (uint64_t)got;
+            /* XPUB drops past a subscriber's high-water mark and never blocks; XSUB takes
+               subscriptions at once. A failure is a frame lost, as on a lossy link. */
+            if (zmq_msg_send(&m, to, (more ? ZMQ_SNDMORE : 0) | ZMQ_DONTWAIT) < 0)
+                zmq_msg_close(&m), zmq_msg_init(&m);
+        }
+        (*frames)++;
+    }
+done:
+    zmq_msg_close(&m);
+    return rc;
+}
+
+int hal_host_zmq_proxy_run(const char *host, unsigned port, const atomic_int *stop,
+                           void (*progress)(const hal_host_zmq_proxy_stats_t *s, void *user), void *user)
+{
+    char hp[ENDPOINT_MAX], in[ENDPOINT_MAX], out[ENDPOINT_MAX];
+    if (port < 1 || port > 65534 || snprintf(hp, sizeof hp, "%s:%u", host, port) >= (int)sizeof hp ||
+        proxy_endpoints(hp, in, out) != 0) {
+        fprintf(stderr, "hal_host_zmq_proxy: '%s' port %u: not a host to bind and a port 1..65534\n", host, port);
+        return -EINVAL;
+    }
+    void *ctx = zmq_ctx_new();
+    void *xsub = ctx ? zmq_socket(ctx, ZMQ_XSUB) : NULL, *xpub = ctx ? zmq_socket(ctx, ZMQ_XPUB) : NULL;
+    const int64_t max_msg = (int64_t)FRAME_MAX;
+    int rc = -EIO;
+    if (xsub == NULL || xpub == NULL || set_int(xsub, ZMQ_RCVHWM, ZMQ_HWM) != 0 || set_int(xsub, ZMQ_LINGER, 0) != 0 ||
+        zmq_setsockopt(xsub, ZMQ_MAXMSGSIZE, &max_msg, sizeof max_msg) != 0 ||
+        set_int(xpub, ZMQ_SNDHWM, ZMQ_HWM) != 0 || set_int(xpub, ZMQ_LINGER, 0) != 0) {
+        fprintf(stderr, "hal_host_zmq_proxy: cannot set up the sockets: %s\n", zmq_strerror(zmq_errno()));
+        goto out;
+    }
+    if (zmq_bind(xsub, in) != 0 || zmq_bind(xpub, out) != 0) {
+        fprintf(stderr, "hal_host_zmq_proxy: cannot bind %s and %s: %s\n", in, out, zmq_strerror(zmq_errno()));
+        goto out;
+    }
+    hal_host_zmq_proxy_stats_t s = {0};
+    zmq_pollitem_t it[2] = {{xsub, 0, ZMQ_POLLIN, 0}, {xpub, 0, ZMQ_POLLIN, 0}};
+    rc = 0;
+    while (rc == 0 && !atomic_load(stop)) {
+        const int r = zmq_poll(it, 2, PROXY_POLL_MS);
+        if (r < 0 && zmq_errno() != EINTR) {
+            fprintf(stderr, "hal_host_zmq_proxy: poll: %s\n", zmq_strerror(zmq_errno()));
+            rc = -EIO;
+        }
+        if (r > 0 && (it[0].revents & ZMQ_POLLIN) && proxy_move(xsub, xpub, &s.frames, &s.bytes) != 0)
+            rc = -EIO;
+        if (r > 0 && (it[1].revents & ZMQ_POLLIN) && proxy_move(xpub, xsub, &s.subscriptions, &s.sub_bytes) != 0)
+            rc = -EIO;
+        if (progress != NULL)
+            progress(&s, user);
+    }
+    if (rc != 0)
+        fprintf(stderr, "hal_host_zmq_proxy: forwarding failed: %s\n", zmq_strerror(zmq_errno()));
+out:
+    if (xsub != NULL)
+        zmq_close(xsub);
+    if (xpub != NULL)
+        zmq_close(xpub);
+    if (ctx != NULL)
+        zmq_ctx_term(ctx);
+    return rc;
+}

@@ -115,6 +115,9 @@ static const cli_opt_t run_opts[] = {
     {.names = "--peers", .meta = "H:P,...", CLI_STRING(run_opts_t, peers),
      .help = "zmq: every member's HOST:PORT in id order, this robot's own included (it binds *:PORT of its "
              "entry and connects to the others)"},
+    {.names = "--zmq-proxy", .meta = "H:P", CLI_STRING(run_opts_t, zmq_proxy),
+     .help = "zmq: through the proxy at HOST:PORT (host_sim zmq-proxy) instead of --peers' full mesh: two TCP "
+             "connections per robot instead of 2 (N - 1); for fleets of hundreds"},
     {.names = "--lcm-url", .meta = "URL", CLI_STRING(run_opts_t, net), CLI_GIVEN(run_opts_t, net_given),
      .def = HAL_HOST_NET_URL_DEFAULT, .help = "LCM URL"},
     {.names = "--lcm-groups", CLI_FLAG(run_opts_t, lcm_groups, 1),
@@ -184,6 +187,7 @@ static void run_usage(FILE *out)
             "       host_sim run --plan FILE.svg --explore [--explore-policy P] --out DIR [options]\n"
             "       host_sim run ... --fleet N --id I [--fleet-id F] [--transport lcm] [--lcm-url URL]\n"
             "       host_sim run ... --fleet N --id I --transport zmq --peers HOST:PORT,HOST:PORT,...\n"
+            "       host_sim run ... --fleet N --id I --transport zmq --zmq-proxy HOST:PORT\n"
             "\n"
             "Runs ONE robot's firmware image in this process: the RT core (50 Hz control, 10 Hz scans\n"
             "-> samples -> ring), the AI core (sample pool, BNN preset '%s', DiNNO node update) and the\n"
@@ -231,10 +235,18 @@ static void run_usage(FILE *out)
  * The URL (hal_host_net_zmq.c) into url. */
 static int zmq_url(const run_opts_t *o, char *url)
 {
-    if (o->peers == NULL) {
-        fprintf(stderr, "host_sim run: --transport zmq needs --peers HOST:PORT,... (every member in id order, this "
-                        "one's included; tools/fleet --transport zmq makes the list)\n");
+    if ((o->peers == NULL) == (o->zmq_proxy == NULL)) {
+        fprintf(stderr, "host_sim run: --transport zmq needs either --peers HOST:PORT,... (every member in id order, "
+                        "this one's included; tools/fleet --transport zmq makes the list) or --zmq-proxy HOST:PORT\n");
         return -1;
+    }
+    if (o->zmq_proxy != NULL) { /* the transport checks HOST:PORT */
+        const int w = snprintf(url, RUN_NET_URL_MAX, "zmq://?proxy=%s", o->zmq_proxy);
+        if (w < 0 || w >= RUN_NET_URL_MAX) {
+            fprintf(stderr, "host_sim run: --zmq-proxy is too long\n");
+            return -1;
+        }
+        return 0;
     }
     const char *own = NULL;
     size_t own_len = 0, k = (size_t)snprintf(url, RUN_NET_URL_MAX, "zmq://*:");
@@ -367,7 +379,7 @@ int run_parse(int argc, char **argv, run_opts_t *o, char *url)
             return -1;
         }
     }
-    if ((o->transport == RUN_TRANSPORT_ZMQ || o->peers != NULL) && o->fleet < 2) {
+    if ((o->transport == RUN_TRANSPORT_ZMQ || o->peers != NULL || o->zmq_proxy != NULL) && o->fleet < 2) {
         fprintf(stderr, "host_sim run: --transport zmq and --peers are for a fleet (--fleet N, N >= 2)\n");
         return -1;
     }
@@ -380,8 +392,9 @@ int run_parse(int argc, char **argv, run_opts_t *o, char *url)
         fprintf(stderr, "host_sim run: --lcm-addressed is for a fleet over LCM (--fleet N; ZeroMQ is addressed)\n");
         return -1;
     }
-    if (o->peers != NULL && o->transport != RUN_TRANSPORT_ZMQ) {
-        fprintf(stderr, "host_sim run: --peers is for --transport zmq (LCM finds its peers by multicast)\n");
+    if ((o->peers != NULL || o->zmq_proxy != NULL) && o->transport != RUN_TRANSPORT_ZMQ) {
+        fprintf(stderr, "host_sim run: --peers and --zmq-proxy are for --transport zmq (LCM finds its peers by "
+                        "multicast)\n");
         return -1;
     }
     if (o->key_file != NULL && o->fleet < 2) {

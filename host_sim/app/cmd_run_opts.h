@@ -33,6 +33,7 @@ typedef struct run_opts {
     int lcm_groups;         /* --lcm-groups: state chunks on per-sender multicast groups */
     int lcm_addressed;      /* --lcm-addressed: one robot's traffic on its own channels */
     const char *peers;      /* --peers HOST:PORT,... (zmq: every member, in id order) */
+    const char *zmq_proxy;  /* --zmq-proxy HOST:PORT (zmq: through host_sim zmq-proxy instead) */
     const char *net_faults; /* --net-faults SPEC, checked at parse time; NULL: none */
     const char *key_file;   /* --key-file: a keyed fleet; NULL: unkeyed */
     uint64_t run_id;

@@ -18,6 +18,7 @@ int cmd_key(int argc, char **argv);   /* cmd_key.c */
 int cmd_defaults(int argc, char **argv); /* cmd_defaults.c */
 int cmd_coverage(int argc, char **argv); /* cmd_coverage.c */
 int cmd_hil(int argc, char **argv);      /* cmd_hil.c */
+int cmd_zmq_proxy(int argc, char **argv); /* cmd_zmq_proxy.c */
 
 /* One row per sub-command, in the order `--help` lists them. */
 static const host_sim_cmd_t commands[] = {
@@ -29,6 +30,7 @@ static const host_sim_cmd_t commands[] = {
     {"fleet", cmd_fleet, "DiNNO fleet in one process (--inproc): train N BNNs, baselines, metrics, maps"},
     {"run", cmd_run, "one robot's firmware image (RT/AI/GP cores) in lockstep with the world, online learning"},
     {"hil", cmd_hil, "one robot's world served over the hardware-in-the-loop link to firmware running elsewhere"},
+    {"zmq-proxy", cmd_zmq_proxy, "the forwarder of a ZeroMQ fleet too large for the full mesh (run --zmq-proxy)"},
     {"key", cmd_key, "the fleet key of a keyed fleet: write a new one, check one"},
     {"maps", cmd_maps, "consensus of a fleet's final models: consensus.bnn, maps as .npy, ROS map (PGM+YAML), PNGs"},
     {"coverage", cmd_coverage, "unite robots' coverage.bin files: the fleet's coverage.csv (share of free space seen)"},

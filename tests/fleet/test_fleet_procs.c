@@ -52,6 +52,7 @@ static char *slurp(const char *path, size_t *len)
 }
 
 static int g_zmq;    /* the next fleet over ZeroMQ/TCP on loopback instead of LCM */
+static char g_proxy[32]; /* with g_zmq: "HOST:PORT" of a host_sim zmq-proxy instead of --peers */
 static int g_groups; /* the next fleet over LCM with per-sender groups and inboxes */
 static int g_addressed; /* the next fleet over LCM's one group, addressed (--lcm-addressed) */
 
@@ -67,8 +68,8 @@ static void run_fleet(const char *tag, const char *encoding, const char *drop_ev
     if (g_zmq) {
         args[n++] = "--transport";
         args[n++] = "zmq";
-        args[n++] = "--peers";
-        args[n++] = peers;
+        args[n++] = g_proxy[0] ? "--zmq-proxy" : "--peers";
+        args[n++] = g_proxy[0] ? g_proxy : peers;
     }
     if (g_groups)
         args[n++] = "--lcm-groups";
@@ -151,6 +152,51 @@ static void test_zmq_equals_inproc(void **st)
     assert_true(traffic_sum("zmq-lossy", "chunks_resent") > 0);
     assert_int_equal(traffic_sum("zmq-lossy", "timeouts"), 0);
     assert_int_equal(traffic_sum("zmq", "timeouts"), 0);
+}
+
+/* The same lossy fleet through one `host_sim zmq-proxy` process instead of the full mesh:
+ * every robot's two connections to it carry the protocol as the mesh did (the addressed
+ * resends included: the proxy sends them to the one robot subscribed), the models are the
+ * reference's, and the proxy stops on SIGTERM with exit 0, having forwarded datagrams. */
+static void test_zmq_proxy_equals_inproc(void **st)
+{
+    (void)st;
+    const unsigned port = 24000u + (unsigned)(getpid() % 1000) * 8u + 4u; /* beside run_fleet's 3 */
+    char port_s[16], log[PATH_MAX + 32];
+    snprintf(port_s, sizeof port_s, "%u", port);
+    snprintf(g_proxy, sizeof g_proxy, "127.0.0.1:%u", port);
+    snprintf(log, sizeof log, "%s/zmq_proxy.log", fp_env.dir);
+    const char *argv[] = {fp_env.bin, "zmq-proxy", "--port", port_s, "--every", "1", NULL};
+    const pid_t proxy = fp_spawn(argv, log, NULL, NULL);
+    assert_true(proxy > 0);
+    g_zmq = 1;
+    run_fleet("zmq-proxy", "fp32", "7");
+    g_zmq = 0;
+    g_proxy[0] = '\0';
+    assert_int_equal(kill(proxy, SIGTERM), 0);
+    const int rc = fp_wait(proxy, fp_now() + 10.0);
+    if (rc != 0)
+        fp_show_log(log);
+    assert_int_equal(rc, 0);
+    size_t len = 0;
+    char *text = slurp(log, &len);
+    assert_non_null(text);
+    assert_non_null(strstr(text, "stopped by SIGTERM"));
+    unsigned long long frames = 0;
+    const char *last = NULL;
+    for (const char *t = strstr(text, "datagrams"); t != NULL; t = strstr(t + 1, "datagrams"))
+        last = t;
+    assert_non_null(last);
+    while (last > text && last[-1] != ':')
+        last--;
+    frames = strtoull(last, NULL, 10);
+    free(text);
+    printf("# zmq proxy: %llu datagrams forwarded for %d robots\n", frames, NPROC);
+    assert_true(frames > 0);
+    fp_inproc_reference(NPROC, ROUNDS, REF_DEADLINE_S);
+    fp_expect_reference_models("zmq-proxy", NPROC);
+    assert_true(traffic_sum("zmq-proxy", "chunks_resent") > 0);
+    assert_int_equal(traffic_sum("zmq-proxy", "timeouts"), 0);
 }
 
 /* LCM with per-sender groups and inboxes (--lcm-groups: the states on a multicast group per
@@ -350,6 +396,7 @@ int main(void)
         cmocka_unit_test_teardown(test_three_processes_equal_inproc, teardown_case),
         cmocka_unit_test_teardown(test_lost_datagrams_are_recovered, teardown_case),
         cmocka_unit_test_teardown(test_zmq_equals_inproc, teardown_case),
+        cmocka_unit_test_teardown(test_zmq_proxy_equals_inproc, teardown_case),
         cmocka_unit_test_teardown(test_lcm_groups_equal_inproc, teardown_case),
         cmocka_unit_test_teardown(test_lcm_addressed_equals_inproc, teardown_case),
         cmocka_unit_test_teardown(test_int8_states, teardown_case),

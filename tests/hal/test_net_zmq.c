@@ -16,6 +16,8 @@
 #include <stddef.h>
 #include <stdint.h>
 #include <errno.h>
+#include <pthread.h>
+#include <stdatomic.h>
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
@@ -45,9 +47,18 @@ static long long now_ms(void)
     return (long long)t.tv_sec * 1000 + t.tv_nsec / 1000000;
 }
 
+/* Three ports per test, all below the kernel's ephemeral range (32768 .. 60999 by default):
+ * a port there may be a live connection's local end, and binding it then fails. Blocks of
+ * 6,000 from `from`: 2000 .. 7999, 8000 .. 13999, 23000 .. 28999, 26000 .. 31999 (the filter
+ * tests take 14000 .. 19999 and the proxy 20000 .. 21999). */
+static unsigned ports_from(unsigned from)
+{
+    return from + (unsigned)(getpid() % 2000) * 3u;
+}
+
 static unsigned base_port(void)
 {
-    return 23000u + (unsigned)(getpid() % 2000) * 3u;
+    return ports_from(23000u);
 }
 
 /* The URL of robot i of N on ports base .. base + N - 1. */
@@ -61,22 +72,34 @@ static void url_of(char *url, size_t cap, int i, unsigned base)
         }
 }
 
+/* 0: the robots form the full mesh; else they all go through the proxy on this port. */
+static unsigned g_proxy_port;
+
 static hal_host_net_t *open_robot(int i, unsigned base)
 {
     char url[256];
-    url_of(url, sizeof url, i, base);
+    if (g_proxy_port != 0)
+        snprintf(url, sizeof url, "zmq://?proxy=127.0.0.1:%u", g_proxy_port);
+    else
+        url_of(url, sizeof url, i, base);
     hal_host_net_t *n = NULL;
     assert_int_equal(hal_host_net_open(url, 256, 0, &n), 0);
+    if (g_proxy_port != 0) /* as host_sim does: its own typed datagrams, back from the proxy, dropped */
+        assert_int_equal(hal_host_net_set_self(n, (uint32_t)i), 0);
     return n;
 }
 
-/* Publishes from `from` until every other robot received a datagram of the channel (the first
- * ones may go before the connections are up: ZeroMQ's slow joiner), at most CROSS_MS. */
+/* Publishes msg (len >= 1, its first byte replaced by `from`) from `from` until every other
+ * robot received a datagram of the channel (the first ones may go before the connections are
+ * up: ZeroMQ's slow joiner), at most CROSS_MS. Through the proxy a robot also hears its own
+ * (its first byte says whose), which is skipped. */
 static void exchange(hal_host_net_t **net, int from, const uint8_t *msg, size_t len, int *got)
 {
-    static uint8_t buf[HAL_NET_MTU_BYTES + 64];
+    static uint8_t buf[HAL_NET_MTU_BYTES + 64], out[HAL_NET_MTU_BYTES];
+    memcpy(out, msg, len);
+    out[0] = (uint8_t)from;
     for (const long long end = now_ms() + CROSS_MS; now_ms() < end;) {
-        assert_int_equal(hal_host_net_publish(net[from], CH, msg, len), 0);
+        assert_int_equal(hal_host_net_publish(net[from], CH, out, len), 0);
         int all = 1;
         for (int i = 0; i < N; i++) {
             if (i == from)
@@ -85,8 +108,10 @@ static void exchange(hal_host_net_t **net, int from, const uint8_t *msg, size_t 
             hal_net_rx_info_t info;
             while (hal_host_net_receive(net[i], 0, &info, buf, sizeof buf) == 0) {
                 assert_string_equal(info.channel, CH);
+                if (g_proxy_port != 0 && info.len > 0 && buf[0] != out[0])
+                    continue; /* another exchange's: its own, back from the proxy */
                 assert_int_equal(info.len, len);
-                assert_memory_equal(buf, msg, len);
+                assert_memory_equal(buf, out, len);
                 got[i]++;
             }
             all &= got[i] > 0;
@@ -112,14 +137,16 @@ static void test_three_robots_exchange(void **st)
     for (int from = 0; from < N; from++) {
         int got[N] = {0};
         exchange(net, from, msg, from == 0 ? sizeof msg : 1000u + (size_t)from, got);
-        hal_net_stats_t s;
-        hal_host_net_get_stats(net[from], &s);
-        assert_int_equal(hal_host_net_queued(net[from]), 0); /* never to the sender */
+        if (g_proxy_port == 0) /* never to the sender (through the proxy it hears its own, as over LCM) */
+            assert_int_equal(hal_host_net_queued(net[from]), 0);
     }
     /* A channel nobody subscribed to is kept out. */
     assert_int_equal(hal_host_net_publish(net[0], "fleetsim/9/other", msg, 10), 0);
     assert_int_equal(hal_host_net_wait(net[1], 0, 200), 0);
-    assert_int_equal(hal_host_net_queued(net[1]), 0);
+    hal_net_rx_info_t info;
+    static uint8_t buf[HAL_NET_MTU_BYTES];
+    while (hal_host_net_receive(net[1], 0, &info, buf, sizeof buf) == 0) /* through the proxy: its own, late */
+        assert_true(g_proxy_port != 0 && strcmp(info.channel, CH) == 0);
     for (int i = 0; i < N; i++)
         hal_host_net_close(net[i]);
 }
@@ -175,7 +202,7 @@ static void test_foreign_frames_refused(void **st)
 static void test_keyed_over_zmq(void **st)
 {
     (void)st;
-    const unsigned base = base_port() + 3000u;
+    const unsigned base = ports_from(26000u);
     hal_host_auth_t a;
     memset(a.key, 5, sizeof a.key);
     a.run_id = 77;
@@ -224,7 +251,7 @@ static void test_bad_urls_and_a_taken_port(void **st)
     assert_int_equal(hal_host_net_open("zmq://127.0.0.1:7000?peers=host", 8, 0, &n), -EINVAL);
     assert_null(n);
     char url[128];
-    const unsigned port = base_port() + 6000u;
+    const unsigned port = ports_from(8000u);
     snprintf(url, sizeof url, "zmq://127.0.0.1:%u?peers=", port);
     hal_host_net_t *a = NULL, *b = NULL;
     assert_int_equal(hal_host_net_open(url, 8, 0, &a), 0); /* a fleet of one: no peers */
@@ -236,7 +263,7 @@ static void test_bad_urls_and_a_taken_port(void **st)
 static void test_peer_restart_reconnects(void **st)
 {
     (void)st;
-    const unsigned base = base_port() + 9000u;
+    const unsigned base = ports_from(2000u);
     hal_host_net_t *net[N];
     for (int i = 0; i < N; i++) {
         net[i] = open_robot(i, base);
@@ -279,6 +306,8 @@ static void step(hal_host_net_t **net, int *got)
     hal_net_rx_info_t info;
     while (hal_host_net_receive(net[0], 0, &info, b, sizeof b) == 0) {
         gp_pse_done_t d;
+        if (g_proxy_port != 0 && strcmp(info.channel, CH) == 0)
+            continue; /* its own exchange's datagrams, back from the proxy */
         assert_string_equal(info.channel, FCH);
         assert_int_equal(gp_wire_decode_done(b, info.len, &d), 0);
         assert_true(d.sender < 32);
@@ -352,7 +381,7 @@ static void run_filter(unsigned base, int keyed)
     printf("# zmq filter%s: %llu datagrams in flight dropped on arrival while the subscription moved, "
            "then none sent\n", keyed ? " (keyed)" : "", (unsigned long long)u0);
     /* The others still hear everyone: robot 1 hears 2 and 17. */
-    uint8_t b[64];
+    uint8_t b[256]; /* through the proxy its own 100-byte datagrams of the exchange come first */
     hal_net_rx_info_t info;
     int heard17 = 0;
     while (hal_host_net_receive(net[1], 0, &info, b, sizeof b) == 0) {
@@ -364,8 +393,8 @@ static void run_filter(unsigned base, int keyed)
     /* NULL: every sender again, at most CROSS_MS. */
     assert_int_equal(hal_host_net_set_senders(net[0], FCH, NULL, 0), 0);
     memset(got, 0, sizeof got);
-    for (const long long end = now_ms() + CROSS_MS; (got[2] == 0 || got[17] == 0) && now_ms() < end;)
-        step(net, got);
+    for (const long long end = now_ms() + CROSS_MS; (got[1] == 0 || got[2] == 0 || got[17] == 0) && now_ms() < end;)
+        step(net, got); /* all three: two connections (two publishers, or two into the proxy) keep no order between them */
     assert_true(got[1] > 0 && got[2] > 0 && got[17] > 0);
     hal_net_stats_t s;
     hal_host_net_get_stats(net[0], &s);
@@ -394,6 +423,64 @@ static void test_senders_filtered_keyed(void **st)
     run_filter(filter_base(1), 1);
 }
 
+/* The proxy (host_sim zmq-proxy) on a thread of this process. */
+typedef struct proxy {
+    atomic_int stop;
+    unsigned port;
+    int rc;
+    hal_host_zmq_proxy_stats_t last;
+    pthread_t th;
+} proxy_t;
+
+static void proxy_seen(const hal_host_zmq_proxy_stats_t *s, void *user)
+{
+    ((proxy_t *)user)->last = *s;
+}
+
+static void *proxy_main(void *arg)
+{
+    proxy_t *p = arg;
+    p->rc = hal_host_zmq_proxy_run("127.0.0.1", p->port, &p->stop, proxy_seen, p);
+    return NULL;
+}
+
+/* Every robot through one proxy instead of the full mesh: the same exchange (each robot's
+ * datagrams whole at both others) and the same neighbour-scoped delivery (a robot that wants
+ * only sender 1 is not even sent 2's or 17's: the proxy's XPUB filters by topic, as the
+ * publishers do in the mesh). The proxy counts what it forwarded, refuses a port taken and
+ * bad arguments, and stops when asked. Ports 20000 .. 21999 (the others' are elsewhere). */
+static void test_through_the_proxy(void **st)
+{
+    (void)st;
+    hal_host_net_t *n = NULL;
+    assert_int_equal(hal_host_net_open("zmq://?proxy=", 8, 0, &n), -EINVAL);
+    assert_int_equal(hal_host_net_open("zmq://?proxy=host", 8, 0, &n), -EINVAL);
+    assert_int_equal(hal_host_net_open("zmq://?proxy=127.0.0.1:65535", 8, 0, &n), -EINVAL); /* no PORT + 1 */
+    assert_null(n);
+    static proxy_t p;
+    atomic_init(&p.stop, 0);
+    p.port = 20000u + (unsigned)(getpid() % 1000) * 2u;
+    assert_int_equal(hal_host_zmq_proxy_run("127.0.0.1", 0, &p.stop, NULL, NULL), -EINVAL);
+    assert_int_equal(hal_host_zmq_proxy_run("a b", p.port, &p.stop, NULL, NULL), -EINVAL);
+    assert_int_equal(pthread_create(&p.th, NULL, proxy_main, &p), 0);
+    g_proxy_port = p.port;
+    test_three_robots_exchange(st);
+    run_filter(0, 0);
+    g_proxy_port = 0;
+    atomic_int no = 0;
+    /* Bound already by the thread's proxy (it binds before its first poll, and the exchange
+       above went through it). */
+    assert_int_equal(hal_host_zmq_proxy_run("127.0.0.1", p.port, &no, NULL, NULL), -EIO);
+    atomic_store(&p.stop, 1);
+    assert_int_equal(pthread_join(p.th, NULL), 0);
+    assert_int_equal(p.rc, 0);
+    assert_true(p.last.frames > 0);
+    assert_true(p.last.subscriptions > 0);
+    printf("# zmq proxy: %llu datagrams (%llu bytes) and %llu subscription changes forwarded\n",
+           (unsigned long long)p.last.frames, (unsigned long long)p.last.bytes,
+           (unsigned long long)p.last.subscriptions);
+}
+
 int main(void)
 {
     const struct CMUnitTest tests[] = {
@@ -404,6 +491,7 @@ int main(void)
         cmocka_unit_test(test_peer_restart_reconnects),
         cmocka_unit_test(test_senders_filtered_at_the_publisher),
         cmocka_unit_test(test_senders_filtered_keyed),
+        cmocka_unit_test(test_through_the_proxy),
     };
     return cmocka_run_group_tests(tests, NULL, NULL);
 }
