@@ -105,14 +105,16 @@ static uint64_t repeat_every(const gp_pse_t *p, uint64_t base_us)
    periods instead: its chunks may only be queued behind a busy CPU, and whatever it says to
    everyone next (its RoundComplete, or a beacon, at most a beacon period later) comes after
    them, so what is still missing then is lost and asked for at once (sender_state_sent). Over
-   ZeroMQ a 128-robot fleet's timer asks were half of them for chunks still on their way. */
+   ZeroMQ a 128-robot fleet's timer asks were half of them for chunks still on their way.
+   Later waits double up to GP_PSE_BACKOFF_MAX periods, GP_PSE_BACKOFF_MAX_ORDERED there. */
 uint64_t gp_pse_ask_after(const gp_pse_t *p, uint32_t backoff)
 {
     if (backoff == 0 && p->cfg.ordered) {
         const uint64_t word = 2u * repeat_every(p, p->cfg.resend_after_us);
         return word > p->cfg.resend_after_us ? word : p->cfg.resend_after_us;
     }
-    return p->cfg.resend_after_us << (backoff < GP_PSE_BACKOFF_MAX ? backoff : GP_PSE_BACKOFF_MAX);
+    const uint32_t most = p->cfg.ordered ? GP_PSE_BACKOFF_MAX_ORDERED : GP_PSE_BACKOFF_MAX;
+    return p->cfg.resend_after_us << (backoff < most ? backoff : most);
 }
 
 static int state_complete(const gp_pse_t *p, uint32_t i, uint32_t round)
@@ -493,7 +495,7 @@ static void ask_again(gp_pse_t *p, uint32_t i, gp_pse_buf_t *b, uint64_t now_us)
     p->stats.requests_sent++;
     p->stats.chunks_requested += r.n;
     b->progress_us = now_us;
-    if (b->backoff < GP_PSE_BACKOFF_MAX)
+    if (b->backoff < GP_PSE_BACKOFF_MAX_ORDERED) /* ask_after caps it per link */
         b->backoff++;
 }
 

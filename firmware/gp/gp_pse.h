@@ -258,6 +258,12 @@ _Static_assert(GP_PSE_MAX_STATE_BYTES % 4u == 0u, "a state buffer holds whole fp
  * a peer or a network too busy to answer is not buried under more requests, whose answers
  * every robot of the fleet receives. A chunk of the state starts over at one period. */
 #define GP_PSE_BACKOFF_MAX 1u
+/* On an ordered link (cfg.ordered: TCP) up to 2^GP_PSE_BACKOFF_MAX_ORDERED periods: there an
+ * answer is lost only when a receive queue overflowed, and is far more often still queued
+ * behind a busy CPU or a proxy; each request that outruns it costs one more copy of the chunk
+ * to the asker. 128 robots through one ZeroMQ proxy on 2 cores, capped at 2 periods, asked
+ * for every chunk about 15 times in round 0 (docs/scaling.md). */
+#define GP_PSE_BACKOFF_MAX_ORDERED 4u
 
 #define GP_PSE_HAVE 1u
 #define GP_PSE_ASKED 2u

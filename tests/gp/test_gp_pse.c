@@ -639,6 +639,33 @@ static void test_ordered_link_asks_on_the_senders_word(void **st)
     assert_int_equal(eng[0].stats.requests_sent, 1);
 }
 
+/* Requests that bring nothing: the wait before the next one doubles, up to 2 resend periods
+ * over UDP and 16 over an ordered link (its answers are queued, rarely lost): peer 1's chunks
+ * never reach robot 0, and robot 0 asks at the times the caps give, never sooner. */
+static void test_backoff_caps_per_link(void **st)
+{
+    (void)st;
+    for (int ordered = 0; ordered < 2; ordered++) {
+        start_round0_over((uint8_t)ordered, (uint8_t)ordered);
+        held_n = 0;
+        deliver(0, hold_chunks_of_1_to_0); /* and never delivered */
+        const gp_pse_request_t beacon = {1, 1, 0, 0, {0}, 0, 1, 1.0, 0.0, GP_PSE_TO_ALL}; /* all sent */
+        uint64_t t = 2u * RESEND;
+        assert_int_equal(gp_pse_on_request(&eng[0], &beacon, t - 1u), 0);
+        gp_pse_poll(&eng[0], t);
+        assert_int_equal(eng[0].stats.requests_sent, 1); /* the first: the sender said it sent all */
+        const uint32_t most = ordered ? GP_PSE_BACKOFF_MAX_ORDERED : GP_PSE_BACKOFF_MAX;
+        for (uint32_t k = 1; k <= most + 2u; k++) {
+            const uint64_t wait = (uint64_t)RESEND << (k < most ? k : most);
+            gp_pse_poll(&eng[0], t + wait - 1u);
+            assert_int_equal(eng[0].stats.requests_sent, k); /* not sooner */
+            t += wait;
+            gp_pse_poll(&eng[0], t);
+            assert_int_equal(eng[0].stats.requests_sent, k + 1u);
+        }
+    }
+}
+
 /* Whose chunks a robot takes (gp_pse_wanted): over multicast every peer not placed yet (it may
  * be near); in an addressed fleet only the peers placed among the nearest, whatever else asked
  * for once placed. */
@@ -757,6 +784,7 @@ int main(void)
         cmocka_unit_test(test_join_timeout_restarts_at_each_newcomer),
         cmocka_unit_test(test_invalid_messages_change_nothing),
         cmocka_unit_test(test_ordered_link_asks_on_the_senders_word),
+        cmocka_unit_test(test_backoff_caps_per_link),
         cmocka_unit_test(test_encodings),
         cmocka_unit_test(test_forged_chunk_does_not_block_the_state),
         cmocka_unit_test(test_disk_neighbours_match_dinno_graph),

@@ -533,8 +533,10 @@ static void run(const schedule_t *s, uint8_t out[MAXN][STATE_BYTES], uint64_t *t
     }
     /* Liveness bound per round (the rule in gp_pse.h): one peer timeout (the join timeout in a
        robot's first round), with slack for compute, latency and resends: 20 request periods,
-       each up to 2^GP_PSE_BACKOFF_MAX resend periods once requests go unanswered. */
-    slack_us = 30000u + 4u * s->delay_us + 20u * (RESEND_US << GP_PSE_BACKOFF_MAX);
+       each up to 2^GP_PSE_BACKOFF_MAX resend periods once requests go unanswered
+       (2^GP_PSE_BACKOFF_MAX_ORDERED on the addressed schedules' ordered links). */
+    slack_us = 30000u + 4u * s->delay_us +
+               20u * (RESEND_US << (s->addressed ? GP_PSE_BACKOFF_MAX_ORDERED : GP_PSE_BACKOFF_MAX));
     const uint64_t bound = JOIN_US + TIMEOUT_US + slack_us;
     const uint64_t deadline =
         (uint64_t)s->rounds * bound + start_span(s) + s->pause_len + s->restart_after + 5000000u;

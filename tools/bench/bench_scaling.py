@@ -1,10 +1,11 @@
 #!/usr/bin/python3
 """How the cost of a fleet grows with its size: N host_sim processes on this machine, over LCM
 multicast (lcm; lcm-groups: a multicast group per sender and per robot, --lcm-groups on) and over
-ZeroMQ/TCP, offline, keyed, `small` preset (docs/scaling.md).
+ZeroMQ/TCP (zmq: the full mesh; zmq-proxy: every robot through one host_sim zmq-proxy, whose own
+memory is not in the fleet's RSS), offline, keyed, `small` preset (docs/scaling.md).
 
     tools/bench/bench_scaling.py [--bin build/release-host-small/bin/host_sim] [--robots 7,16,32,64]
-                                 [--transports lcm,lcm-groups,zmq] [--rounds 100] [--rounds-for 128:20,...]
+                                 [--transports lcm,lcm-groups,zmq,zmq-proxy] [--rounds 100] [--rounds-for 128:20,...]
                                  [--csv docs/scaling.csv] [--plot docs/scaling.png]
                                  [--mem-margin-gb 2] [--progress-s 60]
 
@@ -63,7 +64,8 @@ DEFAULT_RSS_MB = 120.0  # per process, when no smaller fleet was measured
 # inboxes (--lcm-groups: each robot joins its neighbours' groups only).
 TRANSPORT_ARGS = {"lcm": ["--transport", "lcm", "--lcm-groups", "off"],
                   "lcm-groups": ["--transport", "lcm", "--lcm-groups", "on"],
-                  "zmq": ["--transport", "zmq"]}
+                  "zmq": ["--transport", "zmq", "--zmq-proxy", "off"],
+                  "zmq-proxy": ["--transport", "zmq", "--zmq-proxy", "on"]}
 
 
 def meminfo_mb(key):
@@ -200,7 +202,7 @@ def known_fleets(a):
                     pass
     if os.path.isdir(a.results):
         for d in os.listdir(a.results):
-            m = re.fullmatch(r"(lcm-groups|lcm|zmq)-(\d+)-r\d+", d)
+            m = re.fullmatch(r"(lcm-groups|lcm|zmq-proxy|zmq)-(\d+)-r\d+", d)
             if not m or not measured(os.path.join(a.results, d), int(m.group(2))):
                 continue
             rss = []
@@ -401,7 +403,7 @@ def plot(rows, out):
         print("bench_scaling: no plot (python3-matplotlib is missing)")
         return
     fig, ax = plt.subplots(1, 2, figsize=(10, 4))
-    for t, mark in (("lcm", "o-"), ("lcm-groups", "^-"), ("zmq", "s-")):
+    for t, mark in (("lcm", "o-"), ("lcm-groups", "^-"), ("zmq", "s-"), ("zmq-proxy", "D-")):
         rs = [r for r in rows if r["transport"] == t]
         if not rs:
             continue
@@ -459,7 +461,7 @@ def main():
     transports = a.transports.split(",")
     if not all(t in TRANSPORT_ARGS for t in transports) or min([a.rounds] + list(rounds_for.values())) < 5 or \
             not all(1 < n <= 1024 for n in sizes):
-        p.error("--transports lcm,lcm-groups,zmq; --rounds (and --rounds-for) >= 5; --robots 2 .. 1024")
+        p.error("--transports lcm,lcm-groups,zmq,zmq-proxy; --rounds (and --rounds-for) >= 5; --robots 2 .. 1024")
     if not os.access(a.bin, os.X_OK):
         sys.exit(f"bench_scaling: {a.bin} not found: build first (make)")
     os.makedirs(a.results, exist_ok=True)
