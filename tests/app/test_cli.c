@@ -158,6 +158,31 @@ static void test_png_outputs_named_png(void **st)
     assert_int_not_equal(access(jpg, F_OK), 0);
 }
 
+/* The ZeroMQ proxy and the run options that use it: bad usage is refused with the reason. */
+static void test_zmq_proxy_refusals(void **st)
+{
+    (void)st;
+    assert_int_equal(HS("zmq-proxy"), 2);
+    has(g_err, "stderr", "--port");
+    assert_int_equal(HS("zmq-proxy", "--port", "0"), 2);
+    assert_int_equal(HS("zmq-proxy", "--port", "65535"), 2); /* no P + 1 */
+    assert_int_equal(HS("zmq-proxy", "--port", "7000", "--bind", "a b"), 2);
+    has(g_err, "stderr", "not a host");
+    assert_int_equal(HS("zmq-proxy", "--help"), 0);
+    has(g_out, "zmq-proxy --help", "--zmq-proxy HOST:P");
+    char out[PATH_MAX];
+    in_dir(out, "proxied");
+    assert_int_equal(HS("run", "--plan", g_plan, "--path", g_tour, "--out", out, "--fleet", "2", "--id", "0",
+                        "--transport", "zmq", "--zmq-proxy", "127.0.0.1:7000", "--peers", "127.0.0.1:1,127.0.0.1:2"),
+                     2);
+    has(g_err, "stderr", "either --peers");
+    assert_int_equal(HS("run", "--plan", g_plan, "--path", g_tour, "--out", out, "--fleet", "2", "--id", "0",
+                        "--zmq-proxy", "127.0.0.1:7000"),
+                     2);
+    has(g_err, "stderr", "are for --transport zmq");
+    assert_int_not_equal(access(out, F_OK), 0); /* refused before anything was made */
+}
+
 static void write_file(const char *path, const char *text, mode_t mode)
 {
     FILE *f = fopen(path, "w");
@@ -208,6 +233,7 @@ int main(void)
         cmocka_unit_test(test_two_modes_refused),
         cmocka_unit_test(test_png_outputs_named_png),
         cmocka_unit_test(test_key_check_reads_the_contents_first),
+        cmocka_unit_test(test_zmq_proxy_refusals),
         cmocka_unit_test(test_missing_tour_has_no_line),
     };
     return cmocka_run_group_tests_name("app/cli", tests, setup, teardown);
