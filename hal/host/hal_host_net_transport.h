@@ -6,7 +6,8 @@
  *   - LCM (any LCM URL: udpm:// multicast on one host or a routed segment, memq:// in one
  *     process): hal_host_net_lcm.c;
  *   - ZeroMQ over TCP ("zmq://BIND?peers=EP,EP,...", hal_host_net_zmq.c): peer to peer, each
- *     process binds one PUB endpoint and connects its SUB to every peer's.
+ *     process binds one PUB endpoint and connects its SUB to every peer's; or
+ *     "zmq://?proxy=HOST:PORT", every process through one forwarder (host_sim zmq-proxy).
  * Neighbour-scoped delivery (hal_host_net_set_senders): hal_host_net.c drops an unwanted
  * sender's datagram on arrival whatever the transport; a transport that can do better (ZeroMQ:
  * at the publisher, so the bytes never cross TCP; LCM with per-sender groups: the kernel never

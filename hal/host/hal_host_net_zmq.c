@@ -1,10 +1,13 @@
 /* The ZeroMQ transport of the host network (hal_host_net_transport.h): the source paper's
- * "direct TCP connections", peer to peer, no broker in the data path.
+ * "direct TCP connections", peer to peer, no broker in the data path; or, for fleets of
+ * hundreds, every robot through one forwarder (the proxy at the end of this file).
  *
  * URL: "zmq://BIND?peers=HOST:PORT,HOST:PORT,..." (host_sim run --transport zmq --peers builds
  * it). The process binds one PUB socket on tcp://BIND (e.g. "*:7701") and connects one SUB
- * socket to every peer's PUB. Every datagram goes out as one frame, the topic, a NUL, then its
- * bytes, to every connected peer that subscribed to its topic (a prefix of the frame). One
+ * socket to every peer's PUB. Or "zmq://?proxy=HOST:PORT" (--zmq-proxy): the PUB connects to
+ * the proxy's PORT, the SUB to its PORT + 1, and everything below holds as over the mesh,
+ * except that a robot hears its own datagrams of the topics it subscribes to.
+ * Every datagram goes out as one frame, the topic, a NUL, then its bytes, to every connected peer that subscribed to its topic (a prefix of the frame). One
  * frame, not two: libzmq 4.3 aborts a subscriber whose connection drops while half of a
  * multipart message is in its pipe (an assertion in its session's clean-up, zeromq/libzmq#3442),
  * which killed a robot of a 128-robot fleet as its peers exited. PUB/SUB carries what is for
@@ -460,8 +463,10 @@ static int proxy_move(void *from, void *to, uint64_t *frames, uint64_t *bytes)
             *bytes += (uint64_t)got;
             /* XPUB drops past a subscriber's high-water mark and never blocks; XSUB takes
                subscriptions at once. A failure is a frame lost, as on a lossy link. */
-            if (zmq_msg_send(&m, to, (more ? ZMQ_SNDMORE : 0) | ZMQ_DONTWAIT) < 0)
-                zmq_msg_close(&m), zmq_msg_init(&m);
+            if (zmq_msg_send(&m, to, (more ? ZMQ_SNDMORE : 0) | ZMQ_DONTWAIT) < 0) {
+                zmq_msg_close(&m); /* not sent: still ours */
+                zmq_msg_init(&m);
+            }
         }
         (*frames)++;
     }
