@@ -7,8 +7,8 @@
  * socket to every peer's PUB. Or "zmq://?proxy=HOST:PORT" (--zmq-proxy): the PUB connects to
  * the proxy's PORT, the SUB to its PORT + 1, and everything below holds as over the mesh,
  * except that a robot hears its own datagrams of the topics it subscribes to.
- * Every datagram goes out as one frame, the topic, a NUL, then its bytes, to every connected peer that subscribed to its topic (a prefix of the frame). One
- * frame, not two: libzmq 4.3 aborts a subscriber whose connection drops while half of a
+ * Every datagram goes out as one frame, the topic, a NUL, then its bytes, to every connected
+ * peer that subscribed to its topic (a prefix of the frame). One frame, not two: libzmq 4.3 aborts a subscriber whose connection drops while half of a
  * multipart message is in its pipe (an assertion in its session's clean-up, zeromq/libzmq#3442),
  * which killed a robot of a 128-robot fleet as its peers exited. PUB/SUB carries what is for
  * everyone (states, beacons, RoundCompletes) as LCM's multicast did, and what is for one robot
