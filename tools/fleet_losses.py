@@ -21,6 +21,8 @@ import csv
 import os
 import re
 
+from fleet_common import fail
+
 KEYS = ("states_given_up", "peer_timeouts", "queue_drops")  # also run.json's keys
 WORDS = {"states_given_up": "states given up", "peer_timeouts": "peer timeouts",
          "queue_drops": "datagrams dropped by full queues"}
@@ -132,6 +134,30 @@ def verdict(totals, gaps):
         return ("not a lossless run: a busy CPU let receive queues overflow; no state was given up (the "
                 "datagrams were asked for again), so the models should still be the lossless run's")
     return "not all of it could be counted, so the run is not known to be lossless"
+
+
+def record(info, run_dir, robots):
+    """The fleet's totals into info (run.json: None for a total no robot wrote; losses_uncounted:
+    why a total is only a lower bound). (totals, gaps)."""
+    totals, gaps = fleet_losses(run_dir, range(robots))
+    info.update(totals)
+    info["losses_uncounted"] = gaps
+    return totals, gaps
+
+
+def said(totals, gaps):
+    """The totals and, unless the run was lossless, what that means for the models."""
+    text = totals_text(totals, gaps)
+    return text if lossless(totals, gaps) else f"{text}: {verdict(totals, gaps)}"
+
+
+def strict_exit(strict, totals, gaps):
+    """0, or with `strict` (tools/fleet --strict) exit 3 naming the totals when the run was not
+    lossless (the caller has written everything by then)."""
+    if not strict or lossless(totals, gaps):
+        return 0
+    why = "".join(f"\n  {g}" for g in gaps[:5]) + (f"\n  ... and {len(gaps) - 5} more" if len(gaps) > 5 else "")
+    fail(f"--strict: {said(totals, gaps)}{why}", 3)
 
 
 def main(argv=None):

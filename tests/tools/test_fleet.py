@@ -114,6 +114,17 @@ if args[:2] == ["paths", "gen"]:  # host_sim paths gen ... --out DIR: a tour per
         with open(os.path.join(opt("--out"), f"robot_{i}.csv"), "w") as f:
             f.write("x_m,y_m\n1,1\n2,1\n")
     sys.exit(0)
+if args[:1] == ["zmq-proxy"]:  # the forwarder: runs until SIGTERM; FAKE_PROXY_DIE: exits 1 at once
+    print(f"zmq-proxy: publishers to tcp://127.0.0.1:{opt('--port')}", flush=True)
+    if os.environ.get("FAKE_PROXY_DIE"):
+        sys.exit(1)
+
+    def stopped(sig, frame):
+        print("zmq-proxy: stopped by SIGTERM", flush=True)
+        sys.exit(0)
+    signal.signal(signal.SIGTERM, stopped)
+    while True:
+        time.sleep(1)
 out, me, rounds = opt("--out"), int(opt("--id")), int(opt("--rounds"))
 resume = "--resume" in args
 os.makedirs(out, exist_ok=True)
@@ -547,6 +558,33 @@ def own_tours_made():
               f"exit {rc}:\n{out}")
         rc, out, run_dir = launch(tmp, ["--no-report", "--tour-rooms", "some"], {}, "own-bad")
         check(rc == 2 and "invalid choice: 'some'" in out and not os.path.exists(run_dir), f"exit {rc}:\n{out}")
+    finally:
+        shutil.rmtree(tmp, ignore_errors=True)
+
+
+@test
+def zmq_proxy_started_and_watched():
+    """--zmq-proxy on: the launcher starts `host_sim zmq-proxy` first, gives every robot
+    --zmq-proxy 127.0.0.1:PORT instead of --peers, keeps the proxy's log and stops it at the end
+    (SIGTERM); run.json says so. A proxy that exits while the robots run fails the run, naming
+    it and its log. Refused without --transport zmq."""
+    tmp = tempfile.mkdtemp()
+    try:
+        rc, out, run_dir = launch(tmp, ["--no-report", "--transport", "zmq", "--zmq-proxy", "on"], {}, "proxy")
+        check(rc == 0 and "through one proxy" in out, f"exit {rc}:\n{out}")
+        for i in range(3):
+            t = starts(run_dir, i)[0].split()
+            check("--peers" not in t and t[t.index("--zmq-proxy") + 1].startswith("127.0.0.1:"), f"robot {i}: {t}")
+        check(run_json(run_dir)["zmq_proxy"] is True, "run.json: zmq_proxy")
+        with open(os.path.join(run_dir, "zmq_proxy.log")) as f:
+            log = f.read()
+        check("publishers to tcp://127.0.0.1:" in log and "stopped by SIGTERM" in log, f"zmq_proxy.log:\n{log}")
+        rc, out, run_dir = launch(tmp, ["--no-report", "--transport", "zmq", "--zmq-proxy", "on", "--rounds", "100"],
+                                  {"FAKE_PROXY_DIE": "1"}, "proxy-dies")
+        check(rc == 1 and "the ZeroMQ proxy (host_sim zmq-proxy) exited with status 1 while the robots ran" in out
+              and "zmq_proxy.log" in out, f"exit {rc}:\n{out}")
+        rc, out, run_dir = launch(tmp, ["--no-report", "--zmq-proxy", "on"], {}, "proxy-lcm")
+        check(rc == 2 and "--zmq-proxy is for --transport zmq" in out, f"exit {rc}:\n{out}")
     finally:
         shutil.rmtree(tmp, ignore_errors=True)
 
