@@ -8,8 +8,9 @@
  * the proxy's PORT, the SUB to its PORT + 1, and everything below holds as over the mesh,
  * except that a robot hears its own datagrams of the topics it subscribes to.
  * Every datagram goes out as one frame, the topic, a NUL, then its bytes, to every connected
- * peer that subscribed to its topic (a prefix of the frame). One frame, not two: libzmq 4.3 aborts a subscriber whose connection drops while half of a
- * multipart message is in its pipe (an assertion in its session's clean-up, zeromq/libzmq#3442),
+ * peer that subscribed to its topic (a prefix of the frame). One frame, not two: libzmq 4.3
+ * aborts a subscriber whose connection drops while half of a multipart message is in its pipe
+ * (an assertion in its session's clean-up, zeromq/libzmq#3442),
  * which killed a robot of a 128-robot fleet as its peers exited. PUB/SUB carries what is for
  * everyone (states, beacons, RoundCompletes) as LCM's multicast did, and what is for one robot
  * (a request naming chunks, the chunks sent again) on that robot's own channel, which only it

@@ -380,7 +380,8 @@ int run_parse(int argc, char **argv, run_opts_t *o, char *url)
         }
     }
     if ((o->transport == RUN_TRANSPORT_ZMQ || o->peers != NULL || o->zmq_proxy != NULL) && o->fleet < 2) {
-        fprintf(stderr, "host_sim run: --transport zmq and --peers are for a fleet (--fleet N, N >= 2)\n");
+        fprintf(stderr, "host_sim run: --transport zmq, --peers and --zmq-proxy are for a fleet (--fleet N, "
+                        "N >= 2)\n");
         return -1;
     }
     if (o->lcm_groups && (o->fleet < 2 || o->transport != RUN_TRANSPORT_LCM ||

@@ -393,8 +393,10 @@ static void run_filter(unsigned base, int keyed)
     /* NULL: every sender again, at most CROSS_MS. */
     assert_int_equal(hal_host_net_set_senders(net[0], FCH, NULL, 0), 0);
     memset(got, 0, sizeof got);
+    /* All three: two connections (two publishers, or two into the proxy) keep no order between
+       them. */
     for (const long long end = now_ms() + CROSS_MS; (got[1] == 0 || got[2] == 0 || got[17] == 0) && now_ms() < end;)
-        step(net, got); /* all three: two connections (two publishers, or two into the proxy) keep no order between them */
+        step(net, got);
     assert_true(got[1] > 0 && got[2] > 0 && got[17] > 0);
     hal_net_stats_t s;
     hal_host_net_get_stats(net[0], &s);
