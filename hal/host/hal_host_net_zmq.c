@@ -504,10 +504,8 @@ int hal_host_zmq_proxy_run(const char *host, unsigned port, const atomic_int *st
     rc = 0;
     while (rc == 0 && !atomic_load(stop)) {
         const int r = zmq_poll(it, 2, PROXY_POLL_MS);
-        if (r < 0 && zmq_errno() != EINTR) {
-            fprintf(stderr, "hal_host_zmq_proxy: poll: %s\n", zmq_strerror(zmq_errno()));
-            rc = -EIO;
-        }
+        if (r < 0 && zmq_errno() != EINTR)
+            rc = -EIO; /* said below, once, as a forwarding failure */
         if (r > 0 && (it[0].revents & ZMQ_POLLIN) && proxy_move(xsub, xpub, &s.frames, &s.bytes) != 0)
             rc = -EIO;
         if (r > 0 && (it[1].revents & ZMQ_POLLIN) && proxy_move(xpub, xsub, &s.subscriptions, &s.sub_bytes) != 0)

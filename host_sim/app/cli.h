@@ -1,5 +1,6 @@
 /* Helpers shared by the host_sim sub-commands: strict option-value parsing with messages,
- * preparing output directories, the shared DiNNO option table (options: cli_opts.h). */
+ * preparing output directories, the shared DiNNO option table (options: cli_opts.h), the wall
+ * clock of progress lines. */
 #ifndef HOST_SIM_APP_CLI_H
 #define HOST_SIM_APP_CLI_H
 
@@ -9,10 +10,19 @@
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
+#include <time.h>
 
 #include "ai/dinno.h"
 #include "cli_opts.h"
 #include "hal_host_file.h"
+
+/* Monotonic wall time in seconds (progress lines, timings; never the simulation's clock). */
+static inline double cmd_wall_now(void)
+{
+    struct timespec ts;
+    clock_gettime(CLOCK_MONOTONIC, &ts);
+    return (double)ts.tv_sec + 1e-9 * (double)ts.tv_nsec;
+}
 
 static inline int cmd_parse_double(const char *s, const char *opt, double lo, double hi, double *out)
 {

@@ -73,13 +73,6 @@ static int load_ckpt(bnn_model_t *m, const char *file)
     return rc;
 }
 
-static double wall_now(void)
-{
-    struct timespec ts;
-    clock_gettime(CLOCK_MONOTONIC, &ts);
-    return (double)ts.tv_sec + 1e-9 * (double)ts.tv_nsec;
-}
-
 static int val_round(const run_opts_t *o, uint32_t round)
 {
     return (round + 1u) % (uint32_t)o->val_every == 0 || round + 1u == (uint32_t)o->rounds;
@@ -169,7 +162,7 @@ static void on_round(const ai_round_info_t *in, void *user)
     }
     if (c->rows_in - c->rows_out == RUN_PENDING)
         flush_rows(c, 1); /* never expected: the fleet's log runs one round behind at most */
-    c->rows[c->rows_in % RUN_PENDING] = (run_row_t){*in, val, wall_now() - c->t0, deferred};
+    c->rows[c->rows_in % RUN_PENDING] = (run_row_t){*in, val, cmd_wall_now() - c->t0, deferred};
     c->rows_in++;
     flush_rows(c, 0);
 }
@@ -470,7 +463,7 @@ static int run_image(job_t *j)
     c->post_rounds = o->fleet > 1 && o->encoding == DINNO_CODEC_FP32 ? (uint32_t)o->post_rounds : 0u;
     c->n_val = j->n_val;
     c->last_val = NAN;
-    c->t0 = wall_now();
+    c->t0 = cmd_wall_now();
     sim_image_cfg_t ic;
     sim_image_cfg_default(&ic);
     ic.seed = (uint64_t)o->seed;

@@ -2,7 +2,6 @@
  * (hal_host_zmq_proxy_run). Runs until SIGINT or SIGTERM, then prints what it forwarded. */
 #include <errno.h>
 #include <stdio.h>
-#include <time.h>
 
 #include "cli.h"
 #include "commands.h"
@@ -54,14 +53,9 @@ static void proxy_usage(FILE *out)
 typedef struct proxy_run {
     atomic_int stop;
     const proxy_opts_t *o;
-    struct timespec t0, said;
+    double t0_s, said_s; /* cmd_wall_now() at the start, at the last progress line */
     hal_host_zmq_proxy_stats_t last;
 } proxy_run_t;
-
-static double since(const struct timespec *a, const struct timespec *b)
-{
-    return (double)(b->tv_sec - a->tv_sec) + 1e-9 * (double)(b->tv_nsec - a->tv_nsec);
-}
 
 static void proxy_line(const hal_host_zmq_proxy_stats_t *s, double t)
 {
@@ -77,11 +71,10 @@ static void proxy_progress(const hal_host_zmq_proxy_stats_t *s, void *user)
     r->last = *s;
     if (hal_host_stop_signal() != 0)
         atomic_store(&r->stop, 1);
-    struct timespec now;
-    clock_gettime(CLOCK_MONOTONIC, &now);
-    if (!r->o->quiet && since(&r->said, &now) >= r->o->every_s) {
-        r->said = now;
-        proxy_line(s, since(&r->t0, &now));
+    const double now_s = cmd_wall_now();
+    if (!r->o->quiet && now_s - r->said_s >= r->o->every_s) {
+        r->said_s = now_s;
+        proxy_line(s, now_s - r->t0_s);
     }
 }
 
@@ -95,16 +88,13 @@ int cmd_zmq_proxy(int argc, char **argv)
     hal_host_stop_set_mode(HAL_HOST_STOP_ASK); /* the loop sees the request within 200 ms */
     proxy_run_t r = {.o = &o};
     atomic_init(&r.stop, 0);
-    clock_gettime(CLOCK_MONOTONIC, &r.t0);
-    r.said = r.t0;
+    r.t0_s = r.said_s = cmd_wall_now();
     printf("zmq-proxy: publishers to tcp://%s:%d, subscribers to tcp://%s:%d\n", o.bind, o.port, o.bind, o.port + 1);
     fflush(stdout);
     const int rc = hal_host_zmq_proxy_run(o.bind, (unsigned)o.port, &r.stop, proxy_progress, &r);
     if (rc == -EINVAL)
         return 2;
-    struct timespec now;
-    clock_gettime(CLOCK_MONOTONIC, &now);
-    proxy_line(&r.last, since(&r.t0, &now));
+    proxy_line(&r.last, cmd_wall_now() - r.t0_s);
     if (rc == 0)
         printf("zmq-proxy: stopped by %s\n", hal_host_stop_signal_name(hal_host_stop_signal()));
     return rc == 0 ? 0 : 1; /* a stop asked for is this service's normal end */
