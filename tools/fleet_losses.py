@@ -9,6 +9,8 @@ Read from each robot_<i>/ as `host_sim run` writes it (host_sim/app/cmd_run.c):
                 "faults survived: ... N peer states gone without, ..."   its `states_missed`
                 "waiting for peers: ... network queue drops N (queue full M, ...)"
                                                              hal net stats `rx_dropped_full`
+                "... sent into a full queue N ..."          `tx_dropped_full` (ZeroMQ's
+                                                             high-water mark at the sender)
                 "resumed: from ... (round c), rounds S .. E run by this start"
                 "fleet: ..."                                 absent for a robot alone
   traffic.csv   per round: `states_missed`, `timeouts`
@@ -16,6 +18,10 @@ summary.txt counts the last start of the process, its start-up and posterior rou
 traffic.csv carries the rows of the rounds before a --resume over from the starts that died.
 So a robot's figure is summary.txt's plus traffic.csv's rows of rounds < S. The queue drops of
 a start that died are written nowhere: they are missing from the totals, and said so.
+ZeroMQ's queues (a sender's, the proxy's) drop past their high-water marks without a word, so
+what is counted there is each overflow, one lost datagram or more: the queue drops are then a
+lower bound. A fleet through a ZeroMQ proxy adds the proxy's overflows, from the last line of
+the run's zmq_proxy.log (host_sim zmq-proxy's final counts).
 """
 import csv
 import os
@@ -31,6 +37,8 @@ SUMMARY_RE = {
     "peer_timeouts": re.compile(r"^losses:.*?\b(\d+) peer timeouts\b", re.M),
     "queue_drops": re.compile(r"^waiting for peers:.*?network queue drops \d+ \(queue full (\d+)\b", re.M),
 }
+TX_FULL_RE = re.compile(r"^waiting for peers:.*?; receiver queue overflows on the way (\d+)\b", re.M)  # older: absent
+PROXY_RE = re.compile(r"^zmq-proxy: .*? forwarded, (\d+) subscriber queue overflows\b", re.M)
 TRAFFIC_COL = {"states_given_up": "states_missed", "peer_timeouts": "timeouts"}  # queue drops: not per round
 RESUMED_RE = re.compile(r"^resumed: from \S+ \(round \d+\), rounds (\d+) \.\.", re.M)
 FLEET_RE = re.compile(r"^fleet: \d+ robots", re.M)
@@ -92,7 +100,22 @@ def robot_losses(robot_dir):
                         f"{start} (at least)")
         else:
             got[key] = int(m.group(1)) + (earlier.get(key, 0) if start else 0)
+    m = TX_FULL_RE.search(text)
+    if m is not None and "queue_drops" in got:
+        got["queue_drops"] += int(m.group(1))  # its sends' overflows on the way (one copy or more each)
     return got, gaps
+
+
+def proxy_drops(run_dir):
+    """(the overflows of the run's ZeroMQ proxy at its subscribers' queues, or None, [gaps]); (0, [])
+    for a run without a proxy."""
+    path = os.path.join(run_dir, "zmq_proxy.log")
+    if not os.path.exists(path):
+        return 0, []
+    found = PROXY_RE.findall(read_summary(path) or "")
+    if not found:
+        return None, ["zmq_proxy.log: no count of the proxy's overflows (it never said its counts)"]
+    return int(found[-1]), []
 
 
 def fleet_losses(run_dir, robots):
@@ -106,6 +129,9 @@ def fleet_losses(run_dir, robots):
             if k in got:
                 totals[k] += got[k]
                 known[k] = True
+    lost, g = proxy_drops(run_dir)
+    gaps += g
+    totals["queue_drops"] += lost or 0
     return {k: (totals[k] if known[k] else None) for k in KEYS}, gaps
 
 

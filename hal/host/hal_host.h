@@ -267,6 +267,8 @@ FS_MUST_CHECK int hal_host_net_group_by_receiver(hal_host_net_t *n, const char *
  * 0 when stopped, -EINVAL (a bad host or port), -EIO (cannot bind, or ZeroMQ failed). */
 typedef struct hal_host_zmq_proxy_stats {
     uint64_t frames, bytes;             /* datagrams forwarded to subscribers, and their bytes */
+    uint64_t overflows;                 /* a subscriber's queue found full (its high-water mark):
+                                           its copy dropped, and its next ones until it drained */
     uint64_t subscriptions, sub_bytes;  /* (un)subscriptions forwarded to publishers */
 } hal_host_zmq_proxy_stats_t;
 FS_MUST_CHECK int hal_host_zmq_proxy_run(const char *host, unsigned port, const atomic_int *stop,

@@ -493,9 +493,11 @@ int hal_host_net_set_auth(hal_host_net_t *n, const hal_host_auth_t *auth)
 static int tx_count(hal_host_net_t *n, int rc, size_t len)
 {
     pthread_mutex_lock(&n->mu);
-    if (rc == 0) {
+    if (rc >= 0) {
         n->stats.tx_messages++;
         n->stats.tx_bytes += len;
+        n->stats.tx_overflows += rc > 0; /* sent, but a receiver's queue overflowed */
+        rc = 0;
     } else {
         n->stats.tx_rejected++;
     }

@@ -32,7 +32,8 @@ typedef struct hal_host_net_transport {
     void (*close)(void *ctx);
     /* Sends one datagram (any thread, one at a time: hal_host_net.c serialises). `sender` is the
        robot id the datagram names (a typed channel's sender field, 0 .. UINT32_MAX), -1 when it
-       names none (an untyped channel, too short) or the transport has no `senders`. 0, -EIO. */
+       names none (an untyped channel, too short) or the transport has no `senders`. 0, 1 (sent,
+       but some receiver's queue overflowed and lost its copy: ZeroMQ's high-water mark), -EIO. */
     int (*publish)(void *ctx, const char *channel, const void *data, size_t len, int64_t sender);
     /* Adds a channel (the caller's thread, before or while the receiver runs). 0, -EIO. */
     int (*subscribe)(void *ctx, const char *channel);

@@ -196,7 +196,7 @@ static int zmq_open_url(hal_host_net_t *n, const char *url, void **out)
     c->sub = c->ctx ? zmq_socket(c->ctx, ZMQ_SUB) : NULL;
     const int64_t max_msg = (int64_t)FRAME_MAX;
     if (c->pub == NULL || c->sub == NULL || set_int(c->pub, ZMQ_SNDHWM, ZMQ_HWM) != 0 ||
-        set_int(c->pub, ZMQ_LINGER, 0) != 0 || set_int(c->sub, ZMQ_RCVHWM, ZMQ_HWM) != 0 ||
+        set_int(c->pub, ZMQ_LINGER, 0) != 0 || set_int(c->pub, ZMQ_XPUB_NODROP, 1) != 0 || set_int(c->sub, ZMQ_RCVHWM, ZMQ_HWM) != 0 ||
         set_int(c->sub, ZMQ_LINGER, 0) != 0 || set_int(c->sub, ZMQ_RECONNECT_IVL, 100) != 0 ||
         set_int(c->sub, ZMQ_RECONNECT_IVL_MAX, 2000) != 0 ||
         zmq_setsockopt(c->sub, ZMQ_MAXMSGSIZE, &max_msg, sizeof max_msg) != 0) {
@@ -246,6 +246,22 @@ static void zmq_close_ctx(void *ctx)
     zmq_close_all(ctx);
 }
 
+/* PUB and XPUB never block: past a subscriber's high-water mark its copy is dropped (a lossy
+   link). ZeroMQ drops it silently, so the sockets are set ZMQ_XPUB_NODROP, under which a send
+   that would drop fails with EAGAIN instead; then it goes out lossy (every other subscriber still
+   gets its copy) and says so. That lossy send parks the full subscriber until its queue drains
+   below the low-water mark, and what it misses meanwhile is dropped without a word: so this
+   counts overflows, each one copy or more lost. 0 sent whole, 1 an overflow, -1 failed. */
+static int send_counting_drops(void *sock, const void *frame, size_t len)
+{
+    if (zmq_send(sock, frame, len, ZMQ_DONTWAIT) >= 0)
+        return 0;
+    if (zmq_errno() != EAGAIN || set_int(sock, ZMQ_XPUB_NODROP, 0) != 0)
+        return -1;
+    const int sent = zmq_send(sock, frame, len, ZMQ_DONTWAIT) >= 0;
+    return set_int(sock, ZMQ_XPUB_NODROP, 1) == 0 && sent ? 1 : -1;
+}
+
 /* "CHANNEL#" and, for sender >= 0, its 8 hex digits: the topic's length. */
 static int topic_of(char *out, const char *channel, int64_t sender)
 {
@@ -262,9 +278,9 @@ static int zmq_pub(void *ctx, const char *channel, const void *data, size_t len,
     c->tx[tl] = '\0';
     if (len > 0)
         memcpy(c->tx + tl + 1, data, len);
-    /* PUB never blocks: past the high-water mark a peer's copy is dropped (a lossy link); a
-       peer that did not subscribe to the topic gets nothing. */
-    return zmq_send(c->pub, c->tx, (size_t)tl + 1u + len, 0) < 0 ? -EIO : 0;
+    /* A peer that did not subscribe to the topic gets nothing. */
+    const int r = send_counting_drops(c->pub, c->tx, (size_t)tl + 1u + len);
+    return r < 0 ? -EIO : r;
 }
 
 /* Tells the receiver thread that the wanted subscriptions changed (a full pipe has told it). */
@@ -441,13 +457,14 @@ const hal_host_net_transport_t hal_host_net_zmq = {"zmq",   zmq_open_url, zmq_cl
  * publisher, so a publisher still sends a topic nobody wants nowhere; the XPUB sends each
  * frame only to the subscribers of its topic, so neighbour-scoped delivery holds. Order per
  * sender is kept (one connection in, one out, one thread between). A subscriber past its
- * high-water mark loses frames, as over the full mesh. Not zmq_proxy(): this loop stops on a
- * flag within PROXY_POLL_MS and counts what it forwards. */
+ * high-water mark loses frames, as over the full mesh, and the proxy counts its overflows. Not
+ * zmq_proxy(): this loop stops on a flag within PROXY_POLL_MS and counts what it forwards. */
 #define PROXY_POLL_MS 200
 
 /* Up to 256 messages (all their frames) from `from` to `to`, none waiting. Adds to frames and
-   bytes; 0, or -1 on an error other than "nothing more" / "interrupted". */
-static int proxy_move(void *from, void *to, uint64_t *frames, uint64_t *bytes)
+   bytes, and to *overflows (NULL: not counted) each time a subscriber's queue was found full;
+   0, or -1 on an error other than "nothing more" / "interrupted". */
+static int proxy_move(void *from, void *to, uint64_t *frames, uint64_t *bytes, uint64_t *overflows)
 {
     zmq_msg_t m;
     zmq_msg_init(&m);
@@ -462,9 +479,17 @@ static int proxy_move(void *from, void *to, uint64_t *frames, uint64_t *bytes)
             }
             more = zmq_msg_more(&m);
             *bytes += (uint64_t)got;
-            /* XPUB drops past a subscriber's high-water mark and never blocks; XSUB takes
-               subscriptions at once. A failure is a frame lost, as on a lossy link. */
-            if (zmq_msg_send(&m, to, (more ? ZMQ_SNDMORE : 0) | ZMQ_DONTWAIT) < 0) {
+            /* XSUB takes subscriptions at once. The XPUB is set ZMQ_XPUB_NODROP: a frame that
+               some subscriber's full queue would lose fails with EAGAIN, and goes out lossy
+               (send_counting_drops), counted as an overflow. A failure is a frame lost, as on a lossy link. */
+            int sent = zmq_msg_send(&m, to, (more ? ZMQ_SNDMORE : 0) | ZMQ_DONTWAIT) >= 0;
+            if (!sent && overflows != NULL && zmq_errno() == EAGAIN && set_int(to, ZMQ_XPUB_NODROP, 0) == 0) {
+                sent = zmq_msg_send(&m, to, (more ? ZMQ_SNDMORE : 0) | ZMQ_DONTWAIT) >= 0;
+                (*overflows)++;
+                if (set_int(to, ZMQ_XPUB_NODROP, 1) != 0)
+                    overflows = NULL; /* lossy from now on, as libzmq's own proxy; counted no more */
+            }
+            if (!sent) {
                 zmq_msg_close(&m); /* not sent: still ours */
                 zmq_msg_init(&m);
             }
@@ -491,7 +516,8 @@ int hal_host_zmq_proxy_run(const char *host, unsigned port, const atomic_int *st
     int rc = -EIO;
     if (xsub == NULL || xpub == NULL || set_int(xsub, ZMQ_RCVHWM, ZMQ_HWM) != 0 || set_int(xsub, ZMQ_LINGER, 0) != 0 ||
         zmq_setsockopt(xsub, ZMQ_MAXMSGSIZE, &max_msg, sizeof max_msg) != 0 ||
-        set_int(xpub, ZMQ_SNDHWM, ZMQ_HWM) != 0 || set_int(xpub, ZMQ_LINGER, 0) != 0) {
+        set_int(xpub, ZMQ_SNDHWM, ZMQ_HWM) != 0 || set_int(xpub, ZMQ_LINGER, 0) != 0 ||
+        set_int(xpub, ZMQ_XPUB_NODROP, 1) != 0) {
         fprintf(stderr, "hal_host_zmq_proxy: cannot set up the sockets: %s\n", zmq_strerror(zmq_errno()));
         goto out;
     }
@@ -506,9 +532,9 @@ int hal_host_zmq_proxy_run(const char *host, unsigned port, const atomic_int *st
         const int r = zmq_poll(it, 2, PROXY_POLL_MS);
         if (r < 0 && zmq_errno() != EINTR)
             rc = -EIO; /* said below, once, as a forwarding failure */
-        if (r > 0 && (it[0].revents & ZMQ_POLLIN) && proxy_move(xsub, xpub, &s.frames, &s.bytes) != 0)
+        if (r > 0 && (it[0].revents & ZMQ_POLLIN) && proxy_move(xsub, xpub, &s.frames, &s.bytes, &s.overflows) != 0)
             rc = -EIO;
-        if (r > 0 && (it[1].revents & ZMQ_POLLIN) && proxy_move(xpub, xsub, &s.subscriptions, &s.sub_bytes) != 0)
+        if (r > 0 && (it[1].revents & ZMQ_POLLIN) && proxy_move(xpub, xsub, &s.subscriptions, &s.sub_bytes, NULL) != 0)
             rc = -EIO;
         if (progress != NULL)
             progress(&s, user);

@@ -59,8 +59,10 @@ typedef struct proxy_run {
 
 static void proxy_line(const hal_host_zmq_proxy_stats_t *s, double t)
 {
-    printf("zmq-proxy: %.0f s: %llu datagrams (%.1f MB) forwarded, %llu subscription changes\n", t,
-           (unsigned long long)s->frames, (double)s->bytes / 1e6, (unsigned long long)s->subscriptions);
+    printf("zmq-proxy: %.0f s: %llu datagrams (%.1f MB) forwarded, %llu subscriber queue overflows (copies "
+           "dropped), %llu subscription changes\n",
+           t, (unsigned long long)s->frames, (double)s->bytes / 1e6, (unsigned long long)s->overflows,
+           (unsigned long long)s->subscriptions);
     fflush(stdout);
 }
 

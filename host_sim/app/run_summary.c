@@ -57,12 +57,12 @@ void run_summary_fleet(FILE *f, const run_opts_t *o, const sim_image_result_t *r
        someone else's bytes: counted apart so that each figure means one thing. */
     fprintf(f, "waiting for peers: %.2f s wall in all (%.2f ms per round); network queue drops %llu "
                "(queue full %llu, buffer too small %llu); malformed datagrams dropped %llu; "
-               "sends refused %llu\n",
+               "sends refused %llu; receiver queue overflows on the way %llu (copies dropped)\n",
             (double)res->fleet.wait_us * 1e-6, (double)res->fleet.wait_us * 1e-3 / R,
             (unsigned long long)(res->net.rx_dropped_full + res->net.rx_dropped_small),
             (unsigned long long)res->net.rx_dropped_full, (unsigned long long)res->net.rx_dropped_small,
             (unsigned long long)(res->net.rx_dropped_malformed + res->net.rx_dropped_invalid),
-            (unsigned long long)res->pse.send_failures);
+            (unsigned long long)res->pse.send_failures, (unsigned long long)res->net.tx_overflows);
     fprintf(f, "network queue: a ring of %llu B for %u messages at most; high-water mark %llu B\n",
             (unsigned long long)res->net.queue_bytes_cap, (unsigned)res->net.queue_depth,
             (unsigned long long)res->net.queue_bytes_max);

@@ -8,7 +8,9 @@
  * topic, so its rx_unwanted stays 0 once the subscription reached them), ids match exactly
  * (wanting 1 does not bring 17), NULL brings everyone back, and keyed members filter the same.
  * A datagram is one frame (topic, NUL, bytes): a foreign publisher's frames of another shape
- * (two frames, no NUL, a topic not ours) are counted invalid and never delivered.
+ * (two frames, no NUL, a topic not ours) are counted invalid and never delivered. A subscriber
+ * that stops reading costs copies at its publisher's high-water mark, counted at the robot or
+ * at the proxy, while the other subscribers still get theirs.
  * The fleet over ZeroMQ as real processes: tests/fleet. */
 #define _GNU_SOURCE 1
 #include <setjmp.h>
@@ -483,6 +485,104 @@ static void test_through_the_proxy(void **st)
            (unsigned long long)p.last.subscriptions);
 }
 
+/* A raw SUB of the test's on `ep`, wanting every topic; `lazy`: it never reads, and holds one
+ * message (its high-water mark) and a small socket buffer, so its publisher's queue fills. */
+static void *raw_sub(void *ctx, const char *ep, int lazy)
+{
+    void *sub = zmq_socket(ctx, ZMQ_SUB);
+    const int one = 1, small = 4096;
+    assert_non_null(sub);
+    if (lazy) {
+        assert_int_equal(zmq_setsockopt(sub, ZMQ_RCVHWM, &one, sizeof one), 0);
+        assert_int_equal(zmq_setsockopt(sub, ZMQ_RCVBUF, &small, sizeof small), 0);
+    }
+    assert_int_equal(zmq_setsockopt(sub, ZMQ_SUBSCRIBE, "", 0), 0);
+    assert_int_equal(zmq_connect(sub, ep), 0);
+    return sub;
+}
+
+/* Publishes 4 KB datagrams from n until `count` says a copy was dropped, then 100 more, at most
+ * CROSS_MS; the reading SUB drains as it goes. Returns how many it received after the first
+ * drop. */
+static int publish_until_dropped(hal_host_net_t *n, void *reader, uint64_t (*count)(void *), void *arg)
+{
+    static uint8_t msg[4096], buf[8192];
+    int after = 0, more = -1;
+    for (const long long end = now_ms() + CROSS_MS; now_ms() < end && (more < 100 || after < 10);) {
+        assert_int_equal(hal_host_net_publish(n, CH, msg, sizeof msg), 0);
+        more += more >= 0 || count(arg) > 0;
+        while (zmq_recv(reader, buf, sizeof buf, ZMQ_DONTWAIT) >= 0)
+            after += more >= 0;
+    }
+    assert_true(more >= 100);
+    return after;
+}
+
+static uint64_t robot_tx_dropped(void *arg)
+{
+    hal_net_stats_t s;
+    hal_host_net_get_stats(arg, &s);
+    return s.tx_overflows;
+}
+
+static uint64_t proxy_dropped(void *arg)
+{
+    return atomic_load(&((proxy_t *)arg)->stop) ? 0 : ((proxy_t *)arg)->last.overflows;
+}
+
+/* A subscriber that stops reading loses its copies at its publisher's high-water mark, and that
+ * overflow is counted, not silent: a robot's publisher (the mesh) counts tx_overflows, the
+ * proxy its `overflows`. The publish still succeeds, and a subscriber that reads still gets its copies
+ * after the drops began (a lossy link for one, not a stalled sender for all). Ports 22000 ..
+ * 22999. */
+static void test_full_queues_counted(void **st)
+{
+    (void)st;
+    const unsigned port = 22000u + (unsigned)(getpid() % 333) * 3u;
+    char url[128], ep[64];
+    void *ctx = zmq_ctx_new();
+    assert_non_null(ctx);
+    /* The mesh: robot 0 binds `port`, the test's two SUBs connect to it. */
+    snprintf(url, sizeof url, "zmq://127.0.0.1:%u?peers=127.0.0.1:%u", port, port + 1u);
+    hal_host_net_t *n = NULL;
+    assert_int_equal(hal_host_net_open(url, 256, 0, &n), 0);
+    snprintf(ep, sizeof ep, "tcp://127.0.0.1:%u", port);
+    void *lazy = raw_sub(ctx, ep, 1), *reader = raw_sub(ctx, ep, 0);
+    const int after = publish_until_dropped(n, reader, robot_tx_dropped, n);
+    hal_net_stats_t s;
+    hal_host_net_get_stats(n, &s);
+    assert_int_equal(s.tx_rejected, 0);
+    assert_true(s.tx_overflows > 0 && s.tx_overflows < s.tx_messages);
+    printf("# mesh: %llu overflows in %llu datagrams at the lazy subscriber; the reader got %d after\n",
+           (unsigned long long)s.tx_overflows, (unsigned long long)s.tx_messages, after);
+    assert_true(after >= 10);
+    zmq_close(lazy);
+    zmq_close(reader);
+    hal_host_net_close(n);
+    /* The proxy on port + 1 (and + 2): robot 0 publishes through it. */
+    static proxy_t p;
+    atomic_init(&p.stop, 0);
+    p.port = port + 1u;
+    assert_int_equal(pthread_create(&p.th, NULL, proxy_main, &p), 0);
+    snprintf(url, sizeof url, "zmq://?proxy=127.0.0.1:%u", p.port);
+    assert_int_equal(hal_host_net_open(url, 256, 0, &n), 0);
+    snprintf(ep, sizeof ep, "tcp://127.0.0.1:%u", p.port + 1u);
+    lazy = raw_sub(ctx, ep, 1);
+    reader = raw_sub(ctx, ep, 0);
+    const int after_proxy = publish_until_dropped(n, reader, proxy_dropped, &p);
+    atomic_store(&p.stop, 1);
+    assert_int_equal(pthread_join(p.th, NULL), 0);
+    assert_int_equal(p.rc, 0);
+    assert_true(p.last.overflows > 0 && p.last.overflows < p.last.frames);
+    printf("# proxy: %llu overflows in %llu datagrams at the lazy subscriber; the reader got %d after\n",
+           (unsigned long long)p.last.overflows, (unsigned long long)p.last.frames, after_proxy);
+    assert_true(after_proxy >= 10);
+    zmq_close(lazy);
+    zmq_close(reader);
+    hal_host_net_close(n);
+    zmq_ctx_term(ctx);
+}
+
 int main(void)
 {
     const struct CMUnitTest tests[] = {
@@ -494,6 +594,7 @@ int main(void)
         cmocka_unit_test(test_senders_filtered_at_the_publisher),
         cmocka_unit_test(test_senders_filtered_keyed),
         cmocka_unit_test(test_through_the_proxy),
+        cmocka_unit_test(test_full_queues_counted),
     };
     return cmocka_run_group_tests(tests, NULL, NULL);
 }

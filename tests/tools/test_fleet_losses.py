@@ -17,8 +17,9 @@ ROOT = os.path.dirname(os.path.dirname(os.path.dirname(os.path.realpath(__file__
 PROG = os.path.join(ROOT, "tools", "fleet_losses.py")
 
 
-def robot(run, i, states, timeouts, full):
-    """robot_<i>/summary.txt with the three lines fleet_losses.py reads, as host_sim run writes them."""
+def robot(run, i, states, timeouts, full, overflows=None):
+    """robot_<i>/summary.txt with the three lines fleet_losses.py reads, as host_sim run writes them
+    (`overflows`: its ZeroMQ sends' receiver queue overflows; None: a host_sim that wrote none)."""
     d = os.path.join(run, f"robot_{i}")
     os.makedirs(d)
     with open(os.path.join(d, "summary.txt"), "w") as f:
@@ -28,7 +29,9 @@ def robot(run, i, states, timeouts, full):
                 f"faults survived: 0 chunks lost (never received), 0 recovered by a request; {states} peer states "
                 "gone without, 0 rounds cut short by a later round, 0 rounds skipped to catch up\n"
                 f"waiting for peers: 1.00 s wall in all (10.00 ms per round); network queue drops {full} "
-                f"(queue full {full}, buffer too small 0); malformed datagrams dropped 0; sends refused 0\n")
+                f"(queue full {full}, buffer too small 0); malformed datagrams dropped 0; sends refused 0" +
+                ("" if overflows is None else f"; receiver queue overflows on the way {overflows} (copies dropped)") +
+                "\n")
 
 
 def run(*args):
@@ -56,6 +59,28 @@ def lossy_fleet_summed_and_strict_exits_3():
         check(r.stdout.startswith("3 states given up, 3 peer timeouts, 5 datagrams dropped by full queues: "
                                   "the models are NOT"), repr(r.stdout))
         check(run(d, "2", "--strict").returncode == 3, "--strict on a lossy run: not exit 3")
+
+
+@test
+def zmq_overflows_counted_as_queue_drops():
+    """A sender's overflows and the proxy's (the last of zmq_proxy.log's count lines) are queue
+    drops; a proxy log without its counts makes the totals a lower bound, said."""
+    with tempfile.TemporaryDirectory() as d:
+        robot(d, 0, 0, 0, 1, overflows=2)
+        robot(d, 1, 0, 0, 0, overflows=0)
+        with open(os.path.join(d, "zmq_proxy.log"), "w") as f:
+            for t, n in ((30, 4), (41, 7)):
+                f.write(f"zmq-proxy: {t} s: 900 datagrams (5.0 MB) forwarded, {n} subscriber queue overflows "
+                        "(copies dropped), 12 subscription changes\n")
+        r = run(d, "2", "--strict")
+        check(r.returncode == 3, f"exit {r.returncode}")
+        check(r.stdout.startswith("0 states given up, 0 peer timeouts, 10 datagrams dropped by full queues: "
+                                  "not a lossless run"), repr(r.stdout))
+        with open(os.path.join(d, "zmq_proxy.log"), "w") as f:
+            f.write("zmq-proxy: publishers to tcp://127.0.0.1:7700, subscribers to tcp://127.0.0.1:7701\n")
+        r = run(d, "2")
+        check(r.stdout.startswith("at least 0 states given up, 0 peer timeouts, 3 datagrams") and
+              "zmq_proxy.log: no count" in r.stdout, repr(r.stdout))
 
 
 @test

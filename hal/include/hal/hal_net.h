@@ -49,6 +49,9 @@ typedef struct hal_net_stats {
     uint64_t tx_messages;       /* published */
     uint64_t tx_bytes;
     uint64_t tx_rejected;       /* publishes refused (-EMSGSIZE, -EINVAL, -EIO) */
+    uint64_t tx_overflows;      /* publishes that found a receiver's queue full on the way (the
+                                   host's ZeroMQ: a high-water mark): its copy was dropped, and so
+                                   are its next ones, uncounted, until that queue drains */
     uint64_t rx_messages;       /* handed to the caller */
     uint64_t rx_bytes;
     uint64_t rx_dropped_full;   /* dropped because the queue was full */
