@@ -450,13 +450,18 @@ def deaths_section(s):
     if not deaths and not failed:
         return []
     L = []
-    if isinstance(failed, dict):
+    if isinstance(failed, dict) and "service" in failed:
+        L += [f"**The fleet failed: {md_cell(failed['service'])} exited ({md_cell(failed.get('how', '?'))}) while "
+              f"the robots ran (its log: `{md_cell(failed.get('log', '?'))}`); the robots were stopped, so no robot "
+              "has a final model and there are no maps.**", ""]
+    elif isinstance(failed, dict):
         L += [f"**The fleet failed: robot {md_cell(failed.get('robot', '?'))} died at round "
               f"{md_cell(failed.get('round', '?'))} ({md_cell(failed.get('how', '?'))}); the other robots were "
               "stopped, so no robot has a final model and there are no maps.**", ""]
     if not isinstance(deaths, list):
         deaths = [deaths]
-    L += ["## Robots that died", ""] + [death_line(d) for d in deaths] + [""]
+    if deaths:
+        L += ["## Robots that died", ""] + [death_line(d) for d in deaths] + [""]
     return L
 
 

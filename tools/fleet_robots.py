@@ -109,6 +109,29 @@ class Robot:
         return {"robot": self.i, "round": rnd, "how": self.how(), "error": tail[-1] if tail else "",
                 "restarted": restarted, "restart": self.restarts if restarted else None}
 
+    def failed_record(self, deaths):
+        """run.json's "failed" when this robot stopped the fleet: its death, the last recorded."""
+        return deaths[-1]
+
+    def failure_text(self, record):
+        return (f"robot {self.i} failed at round {record['round']} ({self.why()})\n  stopped the other robots; its "
+                f"logs: {self.dir}/stderr.log, {self.dir}/stdout.log")
+
+
+class ServiceDied:
+    """A service the robots need (name, process, log: the ZeroMQ proxy) that exited while they
+    ran: what supervise() returns then, in place of the robot that failed."""
+
+    def __init__(self, name, proc, log):
+        self.name, self.proc, self.log = name, proc, log
+
+    def failed_record(self, deaths):
+        return {"service": self.name, "how": f"exit status {self.proc.returncode}", "log": self.log}
+
+    def failure_text(self, record):
+        return f"{self.name} exited with status {self.proc.returncode} while the robots ran; its log: {self.log}\n" \
+               "  stopped the robots"
+
 
 def stop_all(robots, extra=()):
     procs = [r.proc for r in robots if r.proc and r.proc.poll() is None] + [p for p in extra if p.poll() is None]
@@ -188,15 +211,15 @@ def supervise(robots, restarts, prog, interrupted, deaths, services=()):
     interruption. A robot that dies (non-zero exit, killed: the launcher stops robots only after
     this returns) is started again with --resume while it has restarts left; each death goes
     into `deaths`. A service the robots need (name, process, log: the ZeroMQ proxy) that exits
-    ends the run with an error naming it (the caller's `finally` stops the robots)."""
+    ends the run too: a ServiceDied naming it is returned (the caller's `finally` stops the
+    robots)."""
     while True:
         time.sleep(0.5)
         if interrupted:
             return None
         for name, proc, log in services:
             if proc.poll() is not None:
-                fail(f"{name} exited with status {proc.returncode} while the robots ran; its log: {log}; "
-                     f"stopping the robots")
+                return ServiceDied(name, proc, log)
         done = [r for r in robots if r.proc.poll() is not None]
         for r in (x for x in done if x.proc.returncode != 0):
             if r.restarts >= restarts:

@@ -567,7 +567,7 @@ def zmq_proxy_started_and_watched():
     """--zmq-proxy on: the launcher starts `host_sim zmq-proxy` first, gives every robot
     --zmq-proxy 127.0.0.1:PORT instead of --peers, keeps the proxy's log and stops it at the end
     (SIGTERM); run.json says so. A proxy that exits while the robots run fails the run, naming
-    it and its log. Refused without --transport zmq."""
+    it and its log, and run.json records it as what failed. Refused without --transport zmq."""
     tmp = tempfile.mkdtemp()
     try:
         rc, out, run_dir = launch(tmp, ["--no-report", "--transport", "zmq", "--zmq-proxy", "on"], {}, "proxy")
@@ -583,6 +583,9 @@ def zmq_proxy_started_and_watched():
                                   {"FAKE_PROXY_DIE": "1"}, "proxy-dies")
         check(rc == 1 and "the ZeroMQ proxy (host_sim zmq-proxy) exited with status 1 while the robots ran" in out
               and "zmq_proxy.log" in out, f"exit {rc}:\n{out}")
+        failed = run_json(run_dir).get("failed") or {}  # the run is recorded all the same
+        check(failed.get("service") == "the ZeroMQ proxy (host_sim zmq-proxy)" and failed.get("how") == "exit status 1"
+              and failed.get("log", "").endswith("zmq_proxy.log"), f"run.json failed: {failed}")
         rc, out, run_dir = launch(tmp, ["--no-report", "--zmq-proxy", "on"], {}, "proxy-lcm")
         check(rc == 2 and "--zmq-proxy is for --transport zmq" in out, f"exit {rc}:\n{out}")
     finally:
