@@ -13,7 +13,8 @@
 #      one machine K nodes (K slurmd, each its own node name and port) and the job -N K, so the
 #      peers list spans nodes (tasks in blocks, 2(x2) for K = 2). SLURM_TEST_ROBOTS=N (2 .. 16,
 #      default 4) sets the fleet's size; beyond the default plan's 7 tours the job makes its own
-#      (host_sim paths gen into RESULTS/tours);
+#      (host_sim paths gen into RESULTS/tours). SLURM_TEST_PROXY=on sends the robots through one
+#      `host_sim zmq-proxy` (the job's ZMQ_PROXY; default auto: the full mesh at these sizes);
 #   4. checks it: the job succeeded, every robot_<i>/final.bnn exists, every summary.txt says it
 #      was robot i of a keyed fleet of N with the job's run id, and the N final models equal
 #      `host_sim fleet --inproc`'s of the same settings (and tours) bit for bit;
@@ -28,6 +29,7 @@ HOST_SIM=${1:-}
 KEEP=0
 [ "${2:-}" = "--keep" ] && KEEP=1
 N=${SLURM_TEST_ROBOTS:-4} ROUNDS=10 SEED=3
+PROXY=${SLURM_TEST_PROXY:-auto}
 DEADLINE=${SLURM_TEST_DEADLINE_S:-600}
 NODES=${SLURM_TEST_NODES:-1}
 case "$NODES" in 1|2|3|4) ;; *) echo "test-slurm: SLURM_TEST_NODES must be 1 .. 4" >&2; exit 2 ;; esac
@@ -233,7 +235,8 @@ t0=$(date +%s)
 # is bounded (the job id, printed at submission, lets the cleanup cancel a hung job).
 (cd "$ROOT" && exec sbatch --wait --parsable -N "$NODES" -n "$N" --overcommit --time=$(( (DEADLINE + 59) / 60 )) \
     --output="$S/job.out" tools/slurm/fleet.sbatch \
-    ROOT="$ROOT" HOST_SIM="$HOST_SIM" RESULTS="$S/results" ROUNDS=$ROUNDS SEED=$SEED PORT_BASE=$PORT_BASE) \
+    ROOT="$ROOT" HOST_SIM="$HOST_SIM" RESULTS="$S/results" ROUNDS=$ROUNDS SEED=$SEED PORT_BASE=$PORT_BASE \
+    ZMQ_PROXY="$PROXY") \
     >"$S/sbatch.out" 2>"$S/sbatch.err" &
 sbatch_pid=$!
 wait_for 30 grep -qE '^[0-9]+' "$S/sbatch.out" && job=$(grep -oE '^[0-9]+' "$S/sbatch.out" | head -1)
@@ -254,7 +257,8 @@ wall=$(( $(date +%s) - t0 ))
 info=$(scontrol -o show job "$job" 2>/dev/null | grep -oE '(JobState|ExitCode)=[^ ]*' | tr '\n' ' ')
 if [ "$sbatch_rc" -eq 0 ]; then
     layout=$(sed -n 's/.* robots on \(.*\), tasks per node \(.*\)/\1, tasks per node \2/p' "$S/job.out" | head -1)
-    ok "job $job: $N robots over ZeroMQ on $layout, sbatch --wait exit 0 in $wall s ($info)"
+    via=$(grep -q "through one proxy" "$S/job.out" && echo "through one proxy" || echo "full mesh")
+    ok "job $job: $N robots over ZeroMQ ($via) on $layout, sbatch --wait exit 0 in $wall s ($info)"
 else
     show_tail "$S/sbatch.err" 10
     bad "job $job: sbatch --wait exit $sbatch_rc after $wall s ($info)"
