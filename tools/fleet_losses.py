@@ -9,7 +9,8 @@ Read from each robot_<i>/ as `host_sim run` writes it (host_sim/app/cmd_run.c):
                 "faults survived: ... N peer states gone without, ..."   its `states_missed`
                 "waiting for peers: ... network queue drops N (queue full M, ...)"
                                                              hal net stats `rx_dropped_full`
-                "... sent into a full queue N ..."          `tx_dropped_full` (ZeroMQ's
+                "... receiver queue overflows on the way N ..."
+                                                             `tx_overflows` (ZeroMQ's
                                                              high-water mark at the sender)
                 "resumed: from ... (round c), rounds S .. E run by this start"
                 "fleet: ..."                                 absent for a robot alone
