@@ -411,28 +411,6 @@ int gp_pse_on_done(gp_pse_t *p, const gp_pse_done_t *d, uint64_t now_us)
     return 0; /* a round further ahead still tells where the peer is */
 }
 
-/* Over an ordered addressed link: 1 when chunk c went to peer q alone within the hold (asked
-   again, the answer is most likely still queued: not sent again); else 0, and c is noted as sent
-   to q now. The chunks of one hold are kept as a range: one between two sent is held too,
-   which costs its asker one hold at most. */
-static int answer_held(gp_pse_t *p, gp_pse_peer_t *q, uint32_t c, uint64_t now_us)
-{
-    const uint64_t hold = (uint64_t)p->cfg.resend_after_us * GP_PSE_ANSWER_HOLD_PERIODS;
-    const uint64_t since = now_us > q->answered_us ? now_us - q->answered_us : 0; /* it is now | 1 */
-    const int open = q->answered_us != 0 && q->answered_round == p->round && since < hold;
-    if (open && c >= q->answered_lo && c <= q->answered_hi)
-        return 1;
-    if (!open) {
-        q->answered_us = now_us | 1u;
-        q->answered_round = p->round;
-        q->answered_lo = q->answered_hi = (uint16_t)c;
-    } else {
-        q->answered_lo = (uint16_t)(c < q->answered_lo ? c : q->answered_lo);
-        q->answered_hi = (uint16_t)(c > q->answered_hi ? c : q->answered_hi);
-    }
-    return 0;
-}
-
 int gp_pse_on_request(gp_pse_t *p, const gp_pse_request_t *r, uint64_t now_us)
 {
     if (r == NULL || r->requester >= p->cfg.n_peers || r->requester == p->cfg.self || r->target >= p->cfg.n_peers ||
@@ -474,8 +452,7 @@ int gp_pse_on_request(gp_pse_t *p, const gp_pse_request_t *r, uint64_t now_us)
         send_beacon(p, p->round, now_us);
     /* Multicast: a resend reaches every peer, so one per chunk per half resend period serves
        all the peers that asked for it meanwhile, instead of a storm of copies. Addressed: each
-       requester gets its own (its requests are paced by its backoff), and nobody else one; over
-       an ordered link not twice within GP_PSE_ANSWER_HOLD_PERIODS (answer_held). */
+       requester gets its own (its requests are paced by its backoff), and nobody else one. */
     for (uint32_t i = 0; i < r->n; i++) {
         const uint32_t c = r->chunks[i];
         if (!p->cfg.addressed) {
@@ -484,9 +461,6 @@ int gp_pse_on_request(gp_pse_t *p, const gp_pse_request_t *r, uint64_t now_us)
                 continue;
             }
             p->resent_at[c] = now_us | 1u;
-        } else if (p->cfg.ordered && answer_held(p, &p->peer[r->requester], c, now_us)) {
-            p->stats.resends_merged++;
-            continue;
         }
         send_chunk(p, c, to_peer(p, r->requester), now_us);
         p->stats.chunks_resent++;

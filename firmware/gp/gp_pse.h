@@ -264,13 +264,6 @@ _Static_assert(GP_PSE_MAX_STATE_BYTES % 4u == 0u, "a state buffer holds whole fp
  * to the asker. 128 robots through one ZeroMQ proxy on 2 cores, capped at 2 periods, asked
  * for every chunk about 15 times in round 0 (docs/scaling.md). */
 #define GP_PSE_BACKOFF_MAX_ORDERED 4u
-/* And on such a link, addressed, a chunk re-sent to one asker is not sent to it again within
- * that longest wait (2^GP_PSE_BACKOFF_MAX_ORDERED resend periods): its next request most often
- * crossed the answer, which is still queued. A chunk arriving resets the asker's backoff, so a
- * state's later chunks were asked for again every period or two while the first answer waited
- * in the sender's one connection: 256 robots through one proxy re-sent 192,000 chunks in 3
- * rounds, and the queues that overflowed cost states and timeouts (docs/scaling.md). */
-#define GP_PSE_ANSWER_HOLD_PERIODS (1u << GP_PSE_BACKOFF_MAX_ORDERED)
 
 #define GP_PSE_HAVE 1u
 #define GP_PSE_ASKED 2u
@@ -294,11 +287,6 @@ typedef struct gp_pse_peer {
     uint8_t has_pos[2];
     uint8_t on_way;             /* its last word: "on my way to round on_way_round", no position */
     uint32_t on_way_round;
-    /* Our chunks re-sent to it alone (addressed and ordered fleets): chunks answered_lo ..
-       answered_hi of round answered_round, the first at answered_us (0: none). */
-    uint64_t answered_us;
-    uint32_t answered_round;
-    uint16_t answered_lo, answered_hi;
 } gp_pse_peer_t;
 
 /* The nearest peers of one round within the radius, at most GP_PSE_MAX_NEIGHBOURS, sorted by

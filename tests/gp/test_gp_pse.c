@@ -581,60 +581,6 @@ static void test_addressed_requests_and_resends(void **st)
     assert_int_equal(eng[0].stats.duplicates + eng[2].stats.duplicates, 0); /* one copy each */
 }
 
-/* Peer 0 asks peer 1 alone for its chunks lo .. hi of round 0 at `now`. */
-static void ask_1_for(uint32_t lo, uint32_t hi, uint64_t now)
-{
-    gp_pse_request_t r = {0, 1, 0, hi - lo + 1u, {0}, 0, 0, 0.0, 0.0, 1};
-    for (uint32_t c = lo; c <= hi; c++)
-        r.chunks[c - lo] = c;
-    assert_int_equal(gp_pse_on_request(&eng[1], &r, now), 0);
-}
-
-static int chunks_queued(void)
-{
-    int n = 0;
-    for (int i = 0; i < qn; i++)
-        n += q[i].kind == GP_PSE_CHUNK;
-    return n;
-}
-
-/* Addressed over an ordered link (ZeroMQ): a chunk re-sent to one asker is not sent to it again
- * within GP_PSE_ANSWER_HOLD_PERIODS resend periods (its repeat most likely crossed the answer,
- * still queued), chunks it had not been sent yet are, and after the hold all are again. Over an
- * unordered addressed link (LCM's addressed channels) every request is answered. */
-static void test_answers_held_on_an_ordered_link(void **st)
-{
-    (void)st;
-    const uint64_t hold = (uint64_t)RESEND * GP_PSE_ANSWER_HOLD_PERIODS;
-    start_round0_over(1, 1);
-    qn = 0;
-    ask_1_for(1, 2, 10);
-    assert_int_equal(chunks_queued(), 2);
-    ask_1_for(1, 2, 10 + RESEND); /* asked again within the hold: nothing */
-    assert_int_equal(chunks_queued(), 2);
-    assert_int_equal(eng[1].stats.resends_merged, 2);
-    ask_1_for(1, 4, 10 + 2 * RESEND); /* 3 and 4 are new: sent */
-    assert_int_equal(chunks_queued(), 4);
-    ask_1_for(1, 4, 20 + hold); /* the hold is over: all of them again */
-    assert_int_equal(chunks_queued(), 8);
-    assert_int_equal(eng[1].stats.chunks_resent, 8);
-    uint32_t sent[5] = {0};
-    for (int i = 0; i < qn; i++)
-        if (q[i].kind == GP_PSE_CHUNK) {
-            assert_int_equal(q[i].chunk.to, 0);
-            sent[q[i].chunk.chunk]++;
-        }
-    assert_int_equal(sent[0], 0);
-    for (int c = 1; c <= 4; c++)
-        assert_int_equal(sent[c], 2);
-    start_round0_over(1, 0); /* unordered: each request answered */
-    qn = 0;
-    ask_1_for(1, 2, 10);
-    ask_1_for(1, 2, 10 + RESEND);
-    assert_int_equal(chunks_queued(), 4);
-    assert_int_equal(eng[1].stats.resends_merged, 0);
-}
-
 /* Peer 1's chunks 2 .. 4 to peer 0 are held (on their way: held_n of them kept in held[]). */
 static msg_t held[QMAX];
 static int held_n;
@@ -828,7 +774,6 @@ int main(void)
     const struct CMUnitTest tests[] = {
         cmocka_unit_test(test_requests_for_one_chunk_merge),
         cmocka_unit_test(test_addressed_requests_and_resends),
-        cmocka_unit_test(test_answers_held_on_an_ordered_link),
         cmocka_unit_test(test_wanted_waits_for_a_position_when_addressed),
         cmocka_unit_test(test_no_loss_two_rounds),
         cmocka_unit_test(test_lost_chunk_is_asked_for_again),
