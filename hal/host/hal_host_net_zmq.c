@@ -98,7 +98,7 @@ typedef struct zmq_ctx {
     int dirty;
     uint32_t n_chans;
     zmq_chan_t chans[HAL_HOST_NET_MAX_SUBS];
-    uint8_t tx[FRAME_MAX];       /* the publishing thread's frame: topic, NUL, datagram */
+    char tx_topic[TOPIC_MAX];    /* the publishing thread's topic (its frame: topic, NUL, datagram) */
     uint8_t rx[FRAME_MAX];       /* the receiver thread's */
 } zmq_ctx_t;
 
@@ -251,15 +251,17 @@ static void zmq_close_ctx(void *ctx)
    that would drop fails with EAGAIN instead; then it goes out lossy (every other subscriber still
    gets its copy) and says so. That lossy send parks the full subscriber until its queue drains
    below the low-water mark, and what it misses meanwhile is dropped without a word: so this
-   counts overflows, each one copy or more lost. 0 sent whole, 1 an overflow, -1 failed. */
-static int send_counting_drops(void *sock, const void *frame, size_t len)
+   counts overflows, each one copy or more lost. The robots' PUB and the proxy's XPUB alike.
+   0 sent whole, 1 an overflow, -1 failed (m is still the caller's: zmq_msg_send's rule). */
+static int msg_send_counting(void *sock, zmq_msg_t *m, int flags)
 {
-    if (zmq_send(sock, frame, len, ZMQ_DONTWAIT) >= 0)
+    if (zmq_msg_send(m, sock, flags | ZMQ_DONTWAIT) >= 0)
         return 0;
     if (zmq_errno() != EAGAIN || set_int(sock, ZMQ_XPUB_NODROP, 0) != 0)
         return -1;
-    const int sent = zmq_send(sock, frame, len, ZMQ_DONTWAIT) >= 0;
-    return set_int(sock, ZMQ_XPUB_NODROP, 1) == 0 && sent ? 1 : -1;
+    const int sent = zmq_msg_send(m, sock, flags | ZMQ_DONTWAIT) >= 0;
+    (void)set_int(sock, ZMQ_XPUB_NODROP, 1); /* the option just set on this socket: cannot fail */
+    return sent ? 1 : -1;
 }
 
 /* "CHANNEL#" and, for sender >= 0, its 8 hex digits: the topic's length. */
@@ -272,14 +274,20 @@ static int topic_of(char *out, const char *channel, int64_t sender)
 static int zmq_pub(void *ctx, const char *channel, const void *data, size_t len, int64_t sender)
 {
     zmq_ctx_t *c = ctx;
-    const int tl = topic_of((char *)c->tx, channel, sender <= (int64_t)UINT32_MAX ? sender : -1);
-    if (tl < 0 || (size_t)tl + 1u + len > sizeof c->tx)
+    const int tl = topic_of(c->tx_topic, channel, sender <= (int64_t)UINT32_MAX ? sender : -1);
+    zmq_msg_t m;
+    if (tl < 0 || (size_t)tl >= sizeof c->tx_topic || (size_t)tl + 1u + len > FRAME_MAX ||
+        zmq_msg_init_size(&m, (size_t)tl + 1u + len) != 0)
         return -EIO;
-    c->tx[tl] = '\0';
+    uint8_t *frame = zmq_msg_data(&m);
+    memcpy(frame, c->tx_topic, (size_t)tl); /* the topic, then a NUL, then the datagram */
+    frame[tl] = '\0';
     if (len > 0)
-        memcpy(c->tx + tl + 1, data, len);
+        memcpy(frame + tl + 1, data, len);
     /* A peer that did not subscribe to the topic gets nothing. */
-    const int r = send_counting_drops(c->pub, c->tx, (size_t)tl + 1u + len);
+    const int r = msg_send_counting(c->pub, &m, 0);
+    if (r < 0)
+        zmq_msg_close(&m); /* not sent: still ours */
     return r < 0 ? -EIO : r;
 }
 
@@ -479,17 +487,12 @@ static int proxy_move(void *from, void *to, uint64_t *frames, uint64_t *bytes, u
             }
             more = zmq_msg_more(&m);
             *bytes += (uint64_t)got;
-            /* XSUB takes subscriptions at once. The XPUB is set ZMQ_XPUB_NODROP: a frame that
-               some subscriber's full queue would lose fails with EAGAIN, and goes out lossy
-               (send_counting_drops), counted as an overflow. A failure is a frame lost, as on a lossy link. */
-            int sent = zmq_msg_send(&m, to, (more ? ZMQ_SNDMORE : 0) | ZMQ_DONTWAIT) >= 0;
-            if (!sent && overflows != NULL && zmq_errno() == EAGAIN && set_int(to, ZMQ_XPUB_NODROP, 0) == 0) {
-                sent = zmq_msg_send(&m, to, (more ? ZMQ_SNDMORE : 0) | ZMQ_DONTWAIT) >= 0;
+            /* XSUB takes subscriptions at once; the XPUB counts an overflow (msg_send_counting).
+               A failure is a frame lost, as on a lossy link. */
+            const int r = msg_send_counting(to, &m, more ? ZMQ_SNDMORE : 0);
+            if (r > 0 && overflows != NULL)
                 (*overflows)++;
-                if (set_int(to, ZMQ_XPUB_NODROP, 1) != 0)
-                    overflows = NULL; /* lossy from now on, as libzmq's own proxy; counted no more */
-            }
-            if (!sent) {
+            if (r < 0) {
                 zmq_msg_close(&m); /* not sent: still ours */
                 zmq_msg_init(&m);
             }
