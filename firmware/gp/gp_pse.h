@@ -67,7 +67,8 @@
  * k + 1 are ranked against our position of round k until round k + 1 begins and the list is
  * ranked again; a peer that got in only then is asked for its chunks. A round's states are
  * ready when every live peer's position of the round is known and every listed peer
- * delivered. A peer never heard in the round is asked for its chunk 0 (its position), unless
+ * delivered. A peer never heard in the round is asked where it is (a position ask, once a
+ * beacon period of the round passed without its repeated beacon), unless
  * its last word was "on my way to this round" (a beacon without a position): it has not begun
  * it, and its first word of the round will place it. In a round from cfg.same_position_from on
  * every member gives the same position, so every peer is placed when the round begins (a dead
@@ -143,15 +144,17 @@ typedef struct gp_pse_done {
 
 /* "Send again these chunks of your state of `round`" (fleetsim.chunk_request_t). With n = 0 it
  * is a beacon, "the requester is in round `round`", for every peer (target is the requester);
- * with has_position it also says where the requester is in that round. */
+ * with has_position it also says where the requester is in that round. With n = 0 and another
+ * target it asks that target where it is in `round` (a position ask): answered by the
+ * target's positioned beacon, a few dozen bytes, not by a chunk of its state. */
 typedef struct gp_pse_request {
     uint32_t requester, target, round, n;
     uint32_t chunks[GP_PSE_MAX_REQUEST];
     uint32_t incarnation;    /* the requester's */
     uint8_t has_position;    /* 1: x_m, y_m are the requester's position for `round` */
     double x_m, y_m;
-    uint32_t to;             /* GP_PSE_TO_ALL, or the target alone (a request naming chunks, with
-                                cfg.addressed). Not on the wire, as for a chunk (gp_fleet: the
+    uint32_t to;             /* GP_PSE_TO_ALL, or the target alone (a request naming chunks, or
+                                a position ask, with cfg.addressed). Not on the wire, as for a chunk (gp_fleet: the
                                 target's own request channel) */
 } gp_pse_request_t;
 
@@ -214,6 +217,7 @@ typedef struct gp_pse_stats {
     uint64_t duplicates, stale, future, invalid, crc_failures;
     uint64_t requests_sent, requests_answered;
     uint64_t chunks_requested;  /* chunk indices named in our requests (lost or late chunks) */
+    uint64_t positions_asked;   /* position asks sent (peers not heard in a round for a beacon period) */
     uint64_t done_resent;       /* our RoundComplete sent again while waiting for the others */
     uint64_t resends_merged;    /* requested chunks not sent again: one went out just before */
     uint64_t send_failures;
@@ -273,7 +277,7 @@ _Static_assert(GP_PSE_MAX_STATE_BYTES % 4u == 0u, "a state buffer holds whole fp
  * and buffers are kept by round parity: rounds k and k + 1. */
 typedef struct gp_pse_peer {
     uint64_t heard_us;          /* last progress from it (see the liveness rule above) */
-    uint64_t asked_us;          /* last request for its position (its chunk 0) */
+    uint64_t asked_us;          /* last position ask to it */
     uint32_t pos_backoff;       /* such requests this round (the wait doubles as for a state) */
     uint64_t gap_srtt_us, gap_var_us; /* its gaps between signs of progress, smoothed */
     double x_m[2], y_m[2];      /* its position of round pos_round[parity] (with has_pos) */

@@ -219,6 +219,11 @@ void gp_pse_request_position(gp_pse_t *p, const gp_pse_request_t *r, uint64_t no
         if (b != NULL)
             gp_pse_buf_reset(b, r->round, p->n_chunks, now_us);
     }
+    /* Placed after we asked where it is: it began the round a beacon period ago at least, so
+       its state went out and missed us; asked for at the next poll, not a wait later. */
+    gp_pse_buf_t *b = gp_pse_buf_of(p, r->requester, r->round);
+    if (q->pos_backoff > 0 && r->round == k && b != NULL && b->got == 0 && b->backoff == 0)
+        b->progress_us = now_us - gp_pse_ask_after(p, 0);
 }
 
 uint32_t gp_pse_neighbours(gp_pse_t *p, uint32_t ids[GP_PSE_MAX_NEIGHBOURS],

@@ -30,9 +30,10 @@ void run_summary_fleet(FILE *f, const run_opts_t *o, const sim_image_result_t *r
                                                                    "robot mixed the lowest ids' posteriors only"
                                                                  : "");
     fprintf(f, "nearest: at most %u neighbour states per round; %llu chunks of peers beyond the radius or the "
-               "nearest only placed their sender, %llu states given up for a nearer peer's\n",
+               "nearest only placed their sender, %llu states given up for a nearer peer's; %llu peers asked "
+               "where they were\n",
             (unsigned)GP_PSE_MAX_NEIGHBOURS, (unsigned long long)p->not_nearest,
-            (unsigned long long)p->evictions);
+            (unsigned long long)p->evictions, (unsigned long long)p->positions_asked);
     fprintf(f, "losses: %llu chunks requested again, %llu re-sent; %llu duplicates, %llu stale, %llu invalid, "
                "%llu CRC failures; %llu peer timeouts, %llu rejoins; %llu own echoes\n",
             (unsigned long long)p->chunks_requested, (unsigned long long)p->chunks_resent,

@@ -26,14 +26,22 @@
 
 static gp_pse_t eng;
 static uint8_t mine[STATE_BYTES], theirs[STATE_BYTES];
-static gp_pse_request_t asked[4 * N]; /* the requests the engine sent */
+static gp_pse_request_t asked[4 * N]; /* the requests the engine sent (position asks too) */
 static uint32_t n_asked;
+static gp_pse_request_t beacon_sent;   /* its last beacon, and how many it sent */
+static uint32_t n_beacons, n_chunks_sent;
 
 static int capture(void *ctx, gp_pse_kind_t kind, const void *m)
 {
     (void)ctx;
-    if (kind == GP_PSE_REQUEST && ((const gp_pse_request_t *)m)->n > 0 && n_asked < 4 * N)
-        asked[n_asked++] = *(const gp_pse_request_t *)m;
+    const gp_pse_request_t *r = m;
+    if (kind == GP_PSE_CHUNK)
+        n_chunks_sent++;
+    else if (kind == GP_PSE_REQUEST && r->n == 0 && r->target == r->requester) {
+        beacon_sent = *r;
+        n_beacons++;
+    } else if (kind == GP_PSE_REQUEST && n_asked < 4 * N)
+        asked[n_asked++] = *r;
     return 0;
 }
 
@@ -42,7 +50,7 @@ static void start_from(double radius, uint32_t same_position_from)
     const gp_pse_cfg_t c = {0, N, STATE_BYTES, CHUNK, radius, RESEND, TIMEOUT, 0, capture, NULL, 0, 0, 0, 0, 0,
                             same_position_from};
     assert_int_equal(gp_pse_init(&eng, &c), 0);
-    n_asked = 0;
+    n_asked = n_beacons = n_chunks_sent = 0;
     memset(mine, 7, sizeof mine);
     memset(theirs, 9, sizeof theirs);
 }
@@ -183,21 +191,55 @@ static void test_a_peer_never_heard_is_asked_where_it_is(void **st)
        positioned beacon and every chunk of it were lost. */
     const gp_pse_request_t other = {1, 2, 0, 1, {0}, 0, 0, 0.0, 0.0, GP_PSE_TO_ALL};
     assert_int_equal(gp_pse_on_request(&eng, &other, 10), 0);
-    gp_pse_poll(&eng, 20);
-    assert_int_equal(n_asked, 0); /* within a resend period of the round's start: in flight */
+    /* Its beacon is repeated every beacon period (N / 8 resend periods, at most a quarter
+       timeout): not asked before one passed. */
+    const uint64_t period = TIMEOUT / 4u;
+    gp_pse_poll(&eng, period - 1u);
+    assert_int_equal(n_asked, 0);
     assert_false(gp_pse_states_ready(&eng));
-    gp_pse_poll(&eng, RESEND + 20);
-    assert_int_equal(n_asked, 1);
-    assert_true(asked[0].target == 1 && asked[0].round == 0 && asked[0].n == 1 && asked[0].chunks[0] == 0);
-    gp_pse_poll(&eng, RESEND + 30);
+    gp_pse_poll(&eng, period);
+    assert_int_equal(n_asked, 1); /* a position ask: no chunk named */
+    assert_true(asked[0].target == 1 && asked[0].round == 0 && asked[0].n == 0 && asked[0].has_position);
+    assert_int_equal(eng.stats.positions_asked, 1);
+    gp_pse_poll(&eng, period + 10u);
     assert_int_equal(n_asked, 1); /* once per resend period */
-    /* Its chunk 0 places it in reach: now its whole state is needed. */
-    assert_int_equal(chunk_from(1, 0, 0, 1.0, RESEND + 40), 0);
+    /* Its positioned beacon answers and places it in reach: its state is asked for at once
+       (sent already, and lost). */
+    const gp_pse_request_t beacon = {1, 1, 0, 0, {0}, 0, 1, 1.0, 0.0, GP_PSE_TO_ALL};
+    assert_int_equal(gp_pse_on_request(&eng, &beacon, period + 20u), 0);
+    gp_pse_poll(&eng, period + 30u);
+    assert_int_equal(n_asked, 2);
+    assert_true(asked[1].target == 1 && asked[1].n == 2);
+    assert_int_equal(chunk_from(1, 0, 0, 1.0, period + 40u), 0);
     assert_false(gp_pse_states_ready(&eng));
-    assert_int_equal(chunk_from(1, 0, 1, 1.0, RESEND + 50), 0);
+    assert_int_equal(chunk_from(1, 0, 1, 1.0, period + 50u), 0);
     assert_true(gp_pse_states_ready(&eng));
     const uint32_t want[] = {1};
     expect_neighbours(want, 1);
+}
+
+/* Asked where it is, a robot answers with its positioned beacon, never a chunk of its state
+ * (the asker mostly keeps other states: 256 robots asked each of their peers three to four
+ * times in round 0), at most one per half resend period however many ask; a position ask to
+ * another robot is not answered. */
+static void test_a_position_ask_is_answered_by_a_beacon(void **st)
+{
+    (void)st;
+    start(5.0);
+    assert_int_equal(gp_pse_begin_round(&eng, 0, mine, 2.0, 3.0, 0), 0);
+    const uint32_t beacons = n_beacons, chunks = n_chunks_sent;
+    gp_pse_request_t ask = {1, 0, 0, 0, {0}, 0, 1, 1.0, 0.0, GP_PSE_TO_ALL};
+    assert_int_equal(gp_pse_on_request(&eng, &ask, RESEND), 0);
+    assert_int_equal(n_beacons, beacons + 1u);
+    assert_true(beacon_sent.has_position && beacon_sent.x_m == 2.0 && beacon_sent.y_m == 3.0 && beacon_sent.round == 0);
+    ask.requester = 2;
+    assert_int_equal(gp_pse_on_request(&eng, &ask, RESEND + RESEND / 4u), 0); /* within half a period */
+    ask.requester = 3;
+    ask.target = 4; /* to another robot */
+    assert_int_equal(gp_pse_on_request(&eng, &ask, 2u * RESEND), 0);
+    assert_int_equal(n_beacons, beacons + 1u);
+    assert_int_equal(n_chunks_sent, chunks);
+    assert_int_equal(eng.stats.requests_answered, 0);
 }
 
 /* A peer still driving its tour says "on my way to round 0" (a beacon without a position),
@@ -273,6 +315,7 @@ int main(void)
         cmocka_unit_test(test_a_tie_at_the_last_slot_goes_to_the_lower_id),
         cmocka_unit_test(test_next_round_is_ranked_again_when_it_begins),
         cmocka_unit_test(test_a_peer_never_heard_is_asked_where_it_is),
+        cmocka_unit_test(test_a_position_ask_is_answered_by_a_beacon),
         cmocka_unit_test(test_a_peer_on_its_way_is_not_asked_where_it_is),
         cmocka_unit_test(test_one_position_for_all_places_every_peer),
     };
