@@ -444,7 +444,8 @@ int gp_pse_on_request(gp_pse_t *p, const gp_pse_request_t *r, uint64_t now_us)
     /* Asked where we are: our positioned beacon (to everyone, as a beacon goes: the peers that
        asked meanwhile want the same), at most one per half resend period. A chunk would say it
        too, at the cost of a chunk to a peer that mostly keeps the states of others (256 robots
-       asked each of their 255 peers three to four times in round 0: 2.8 GB of chunk 0s). */
+       asked each of their 255 peers three or four times in round 0, each answered by a 15 KB
+       chunk for the asker alone: docs/scaling.md). */
     if (position_ask && r->target == p->cfg.self && p->in_round && r->round == p->round &&
         now_us - p->pos_sent_us >= p->cfg.resend_after_us / 2u)
         send_beacon(p, p->round, now_us);

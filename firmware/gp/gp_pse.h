@@ -154,8 +154,8 @@ typedef struct gp_pse_request {
     uint8_t has_position;    /* 1: x_m, y_m are the requester's position for `round` */
     double x_m, y_m;
     uint32_t to;             /* GP_PSE_TO_ALL, or the target alone (a request naming chunks, or
-                                a position ask, with cfg.addressed). Not on the wire, as for a chunk (gp_fleet: the
-                                target's own request channel) */
+                                a position ask, with cfg.addressed). Not on the wire, as for a
+                                chunk (gp_fleet: the target's own request channel) */
 } gp_pse_request_t;
 
 /* Sends one message (msg points to the struct of `kind`). 0, or a negative code (counted:
