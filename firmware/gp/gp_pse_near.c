@@ -214,15 +214,15 @@ void gp_pse_request_position(gp_pse_t *p, const gp_pse_request_t *r, uint64_t no
             gp_pse_set_position(q, par, r->round, r->x_m, r->y_m);
         return;
     }
-    if (gp_pse_note_position(p, r->requester, r->round, r->x_m, r->y_m, now_us)) {
-        gp_pse_buf_t *b = gp_pse_buf_of(p, r->requester, r->round); /* its state starts over, as for a chunk */
-        if (b != NULL)
-            gp_pse_buf_reset(b, r->round, p->n_chunks, now_us);
-    }
+    const int moved = gp_pse_note_position(p, r->requester, r->round, r->x_m, r->y_m, now_us);
+    gp_pse_buf_t *b = gp_pse_buf_of(p, r->requester, r->round); /* placed among the nearest, or NULL */
+    if (b == NULL)
+        return;
+    if (moved)
+        gp_pse_buf_reset(b, r->round, p->n_chunks, now_us); /* its state starts over, as for a chunk */
     /* Placed after we asked where it is: it began the round a beacon period ago at least, so
        its state went out and missed us; asked for at the next poll, not a wait later. */
-    gp_pse_buf_t *b = gp_pse_buf_of(p, r->requester, r->round);
-    if (q->pos_backoff > 0 && r->round == k && b != NULL && b->got == 0 && b->backoff == 0)
+    if (q->pos_backoff > 0 && r->round == k && b->got == 0 && b->backoff == 0)
         b->progress_us = now_us - gp_pse_ask_after(p, 0);
 }
 
