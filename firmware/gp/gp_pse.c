@@ -100,6 +100,13 @@ static uint64_t repeat_every(const gp_pse_t *p, uint64_t base_us)
     return every < most ? every : base_us > most ? base_us : most;
 }
 
+/* The beacon period: how often a robot says which round it is in (and where) when it has
+   nothing else to send, so a peer silent this long in a round was not only between beacons. */
+static uint64_t beacon_period(const gp_pse_t *p)
+{
+    return repeat_every(p, p->cfg.resend_after_us);
+}
+
 /* The wait before asking for what a state misses: one resend period, doubled per request that
    brought nothing. On an ordered link (cfg.ordered) the first wait is two of the sender's beacon
    periods instead: its chunks may only be queued behind a busy CPU, and whatever it says to
@@ -110,7 +117,7 @@ static uint64_t repeat_every(const gp_pse_t *p, uint64_t base_us)
 uint64_t gp_pse_ask_after(const gp_pse_t *p, uint32_t backoff)
 {
     if (backoff == 0 && p->cfg.ordered) {
-        const uint64_t word = 2u * repeat_every(p, p->cfg.resend_after_us);
+        const uint64_t word = 2u * beacon_period(p);
         return word > p->cfg.resend_after_us ? word : p->cfg.resend_after_us;
     }
     const uint32_t most = p->cfg.ordered ? GP_PSE_BACKOFF_MAX_ORDERED : GP_PSE_BACKOFF_MAX;
@@ -558,7 +565,7 @@ void gp_pse_poll(gp_pse_t *p, uint64_t now_us)
         /* Not begun yet (starting, or driving the tour first): "on my way to round 0", without
            a position, every resend period, so that the peers already waiting can tell a robot
            that is slow to start (a busy CPU) from one that never will. */
-        if (now_us - p->sent_us >= repeat_every(p, p->cfg.resend_after_us))
+        if (now_us - p->sent_us >= beacon_period(p))
             send_beacon(p, p->round, now_us);
         return;
     }
@@ -621,7 +628,7 @@ void gp_pse_poll(gp_pse_t *p, uint64_t now_us)
         if (b != NULL && !b->complete && now_us - b->progress_us >= gp_pse_ask_after(p, b->backoff)) {
             ask_again(p, i, b, now_us);
         } else if (!gp_pse_pos_known(q, p->round) && !(q->on_way && q->on_way_round == p->round) &&
-                   now_us - p->round_start_us >= repeat_every(p, p->cfg.resend_after_us) &&
+                   now_us - p->round_start_us >= beacon_period(p) &&
                    (q->pos_backoff == 0 || now_us - q->asked_us >= gp_pse_ask_after(p, q->pos_backoff))) {
             /* Not heard in the round for a beacon period, in which its beacon is repeated: asked
                where it is (gp_pse_request_t: a position ask). */
@@ -650,7 +657,7 @@ void gp_pse_poll(gp_pse_t *p, uint64_t now_us)
     }
     /* Nothing sent for a resend period (computing, or waiting with nothing to ask): say which
        round we are in, so that the peers ahead keep us and the peers behind catch up. */
-    if (now_us - p->sent_us >= repeat_every(p, p->cfg.resend_after_us))
+    if (now_us - p->sent_us >= beacon_period(p))
         send_beacon(p, p->round, now_us);
 }
 
