@@ -29,7 +29,7 @@
  * chooses again later. Nothing left to learn within reach (-ENOENT): GP_GOAL_MSG_DONE.
  *
  * No I/O of its own besides the mailboxes; claims go out through gp_goal's send callback.
- * Storage: gp_explore_t (about 100 KB, inside gp_core_t), no allocation. One thread. */
+ * Storage: gp_explore_t (about 120 KB, inside gp_core_t), no allocation. One thread. */
 #ifndef GP_GP_EXPLORE_H
 #define GP_GP_EXPLORE_H
 

@@ -23,7 +23,7 @@ int gp_goal_init(gp_goal_t *g, const gp_goal_cfg_t *cfg)
         cfg->res_m <= 0.0 || !isfinite(cfg->origin_x_m) || !isfinite(cfg->origin_y_m) || cfg->occ_max == 0u ||
         !finite_nonneg(cfg->sensor_radius_m) || !finite_nonneg(cfg->lambda) || !isfinite(cfg->min_info_m2) ||
         cfg->min_info_m2 <= 0.0 || !finite_nonneg(cfg->claim_radius_m) || !finite_nonneg(cfg->claim_discount) ||
-        !finite_nonneg(cfg->claim_tie_m) || !finite_nonneg(cfg->claim_speed_mps) ||
+        !finite_nonneg(cfg->claim_tie_m) || !finite_nonneg(cfg->claim_speed_mps) || !finite_nonneg(cfg->claim_window_m) ||
         cfg->claim_discount > 1.0 || cfg->claim_period_us == 0u || cfg->claim_lifetime_us <= cfg->claim_period_us ||
         cfg->claim_lifetime_us > cfg->claim_max_lifetime_us || cfg->claim_max_lifetime_us > GP_GOAL_MAX_LIFETIME_US)
         return -EINVAL;
@@ -85,24 +85,37 @@ static void search(gp_goal_t *g, const gp_goal_grid_t *grid, uint32_t start)
     }
 }
 
-/* sat[(y + 1) (w + 1) + x + 1] = the sum of known over cells [0, x] x [0, y]: any window's sum
- * in four reads, so the info of every cell costs O(cells), whatever the sensor radius. */
+/* sat[(y + 1) (w + 1) + x + 1] = the sum of unknown over cells [0, x] x [0, y]: any window's
+ * sum in four reads, so the info of every cell costs O(cells), whatever the sensor radius;
+ * sat_left the same without the cells the claims took (apply_claims). */
 static void summed_area(gp_goal_t *g, const gp_goal_grid_t *grid)
 {
     const uint32_t w = g->cfg.w, h = g->cfg.h, s = w + 1u;
     memset(g->sat, 0, sizeof g->sat[0] * s * (h + 1u));
+    memset(g->sat_left, 0, sizeof g->sat_left[0] * s * (h + 1u));
     for (uint32_t y = 0; y < h; y++)
-        for (uint32_t x = 0; x < w; x++)
-            g->sat[(y + 1u) * s + x + 1u] =
-                grid->unknown[y * w + x] + g->sat[y * s + x + 1u] + g->sat[(y + 1u) * s + x] - g->sat[y * s + x];
+        for (uint32_t x = 0; x < w; x++) {
+            const uint32_t u = grid->unknown[y * w + x], left = g->taken[y * w + x] ? 0u : u;
+            g->sat[(y + 1u) * s + x + 1u] = u + g->sat[y * s + x + 1u] + g->sat[(y + 1u) * s + x] - g->sat[y * s + x];
+            g->sat_left[(y + 1u) * s + x + 1u] =
+                left + g->sat_left[y * s + x + 1u] + g->sat_left[(y + 1u) * s + x] - g->sat_left[y * s + x];
+        }
 }
 
-static uint32_t window_sum(const gp_goal_t *g, uint32_t cx, uint32_t cy, uint32_t r)
+static uint32_t window_sum(const gp_goal_t *g, const uint32_t *sat, uint32_t cx, uint32_t cy, uint32_t r)
 {
     const uint32_t w = g->cfg.w, h = g->cfg.h, s = w + 1u;
     const uint32_t x0 = cx > r ? cx - r : 0u, y0 = cy > r ? cy - r : 0u;
     const uint32_t x1 = cx + r < w ? cx + r + 1u : w, y1 = cy + r < h ? cy + r + 1u : h;
-    return g->sat[y1 * s + x1] - g->sat[y0 * s + x1] - g->sat[y1 * s + x0] + g->sat[y0 * s + x0];
+    return sat[y1 * s + x1] - sat[y0 * s + x1] - sat[y1 * s + x0] + sat[y0 * s + x0];
+}
+
+/* A window's half side in cells: round(m / res), capped where it covers the grid anyway (which
+ * also keeps the sums' indices small). */
+static uint32_t half_side(const gp_goal_cfg_t *cfg, double m)
+{
+    const double rr = floor(m / cfg->res_m + 0.5);
+    return rr > (double)GP_GOAL_MAX_W + GP_GOAL_MAX_H ? GP_GOAL_MAX_W + GP_GOAL_MAX_H : (uint32_t)rr;
 }
 
 /* Drops the claims whose expiry passed (expiry <= now: a claim lives until its expiry). */
@@ -126,13 +139,27 @@ static int claim_holds(const gp_goal_cfg_t *cfg, const gp_goal_claim_t *c, doubl
     return !(theirs > ours_m + tie || (fabs(theirs - ours_m) <= tie && c->sender > cfg->self));
 }
 
-/* The discount of every cell from the claims their claimants keep against us. */
+/* The cells within the claim window of a kept claim's cell gc are taken (what its claimant will
+ * see). */
+static void take_window(gp_goal_t *g, uint32_t gc)
+{
+    const gp_goal_cfg_t *cfg = &g->cfg;
+    const uint32_t r = half_side(cfg, cfg->claim_window_m), cx = gc % cfg->w, cy = gc / cfg->w;
+    const uint32_t x0 = cx > r ? cx - r : 0u, y0 = cy > r ? cy - r : 0u;
+    const uint32_t x1 = cx + r < cfg->w ? cx + r + 1u : cfg->w, y1 = cy + r < cfg->h ? cy + r + 1u : cfg->h;
+    for (uint32_t y = y0; y < y1; y++)
+        memset(&g->taken[y * cfg->w + x0], 1, x1 - x0);
+}
+
+/* The discount of every cell from the claims their claimants keep against us, and the cells
+ * their windows take. */
 static void apply_claims(gp_goal_t *g, uint64_t now_us)
 {
     const gp_goal_cfg_t *cfg = &g->cfg;
     const uint32_t n = cfg->w * cfg->h;
     for (uint32_t i = 0; i < n; i++)
         g->discount[i] = 1.0;
+    memset(g->taken, 0, n);
     const double r = cfg->claim_radius_m, r2 = r * r;
     for (uint32_t k = 0; k < GP_GOAL_MAX_CLAIMS; k++) {
         const gp_goal_held_t *hc = &g->claims[k];
@@ -143,6 +170,8 @@ static void apply_claims(gp_goal_t *g, uint64_t now_us)
             if (!claim_holds(cfg, &hc->c, g->steps[gc] * cfg->res_m, now_us))
                 continue; /* we are nearer, or as near and the lower id */
         }
+        if (cfg->claim_window_m > 0.0)
+            take_window(g, gc);
         /* Cells whose centre lies within the claim radius of the claimed point. */
         const double fx0 = floor((hc->c.x_m - r - cfg->origin_x_m) / cfg->res_m);
         const double fy0 = floor((hc->c.y_m - r - cfg->origin_y_m) / cfg->res_m);
@@ -216,12 +245,9 @@ int gp_goal_select(gp_goal_t *g, const gp_goal_grid_t *grid, double x_m, double 
     const gp_goal_cfg_t *cfg = &g->cfg;
     expire(g, now_us);
     search(g, grid, start);
+    apply_claims(g, now_us); /* the claims' verdicts need the costs, the sums the taken cells */
     summed_area(g, grid);
-    apply_claims(g, now_us);
-    /* The window's half side in cells; beyond the grid it changes nothing, so it is capped
-     * there (which also keeps the sums' indices small). */
-    double rr = floor(cfg->sensor_radius_m / cfg->res_m + 0.5);
-    const uint32_t r = rr > (double)GP_GOAL_MAX_W + GP_GOAL_MAX_H ? GP_GOAL_MAX_W + GP_GOAL_MAX_H : (uint32_t)rr;
+    const uint32_t r = half_side(cfg, cfg->sensor_radius_m);
     const double cell_m2 = cfg->res_m * cfg->res_m;
     int found = 0, claimed = 0;
     gp_goal_pick_t best = {0};
@@ -229,14 +255,15 @@ int gp_goal_select(gp_goal_t *g, const gp_goal_grid_t *grid, double x_m, double 
         if (g->steps[c] == UNREACHED || grid->occ[c] >= cfg->occ_max)
             continue;
         const uint32_t cx = c % cfg->w, cy = c / cfg->w;
-        const double info = window_sum(g, cx, cy, r) / 255.0 * cell_m2;
+        const double info = window_sum(g, g->sat, cx, cy, r) / 255.0 * cell_m2;
         if (info < cfg->min_info_m2)
             continue;
-        if (g->discount[c] <= 0.0) { /* worth a look, but a nearer peer's */
+        const double left = window_sum(g, g->sat_left, cx, cy, r) / 255.0 * cell_m2;
+        if (g->discount[c] <= 0.0 || left < cfg->min_info_m2) { /* worth a look, but a nearer peer's */
             claimed = 1;
             continue;
         }
-        const double cost = g->steps[c] * cfg->res_m, info_d = info * g->discount[c];
+        const double cost = g->steps[c] * cfg->res_m, info_d = left * g->discount[c];
         const double u = info_d - cfg->lambda * cost;
         /* Strictly greater: the first (lowest) index wins a tie. */
         if (!found || u > best.utility) {

@@ -12,23 +12,28 @@
  * gp_goal_select(grid, x, y, now), in this order:
  *   cost    a breadth-first search over traversable cells (4-neighbours) from the robot's cell:
  *           cost_m(c) = res_m x steps (the robot's own cell counts as traversable);
- *   info    info_m2(c) = res_m^2 x sum(unknown / 255) over the square of half side
- *           round(sensor_radius_m / res_m) cells around c (a summed-area table: one pass):
- *           the area of prior uncertainty a visit could remove, m^2;
  *   claims  for every live claim (peer p, goal g, its cost when sent c): p's cost now is taken
  *           as cp = max(0, c - claim_speed_mps x the claim's age), its age now - (expiry -
  *           claim_lifetime_us) (the fleet shares one lifetime); p keeps g against us when
  *           cp < our cost_m(g) - claim_tie_m, or the two within claim_tie_m and p < self, or g
  *           is unreachable for us (robots driving side by side to one goal, each comparing
  *           its fresh cost with the other's older one, would both keep it); then every
- *           candidate within claim_radius_m of g has its info multiplied by claim_discount
- *           (once per such claim; 0 removes those candidates);
+ *           candidate within claim_radius_m of g has its info (below) multiplied by claim_discount
+ *           (once per such claim; 0 removes those candidates); with claim_window_m > 0, the
+ *           unknown of the cells within claim_window_m (a square, as the info window) of such a
+ *           g is also taken out of every candidate's info: what the claimant will see is not
+ *           ours to learn, so a goal just beyond the claim radius no longer counts the
+ *           claimed room (Burgard's utility reduction of what the assigned robot sees);
+ *   info    info_m2(c) = res_m^2 x sum(unknown / 255) over the square of half side
+ *           round(sensor_radius_m / res_m) cells around c (a summed-area table: one pass):
+ *           the area of prior uncertainty a visit could remove, m^2;
  *   utility u(c) = info_m2(c) - lambda x cost_m(c)   (lambda in m^2 per metre of path);
  *   goal    the reachable candidate of the highest utility among those with info_m2 >=
- *           min_info_m2 before the discount (ties: the lowest cell index); none: -ENOENT,
+ *           min_info_m2 before the claims (ties: the lowest cell index); none: -ENOENT,
  *           exploration is finished for us (nothing left to learn within reach), or -EBUSY
- *           when there were such candidates but a discount of 0 removed them all (what is
- *           left is nearer peers': try again later).
+ *           when there were such candidates but the claims removed them all (a discount of 0,
+ *           or less than min_info_m2 left outside the claims' windows: what is left is nearer
+ *           peers': try again later).
  * Our claim (sender = self, the goal's centre, its cost aged as above, seq + 1, expiry = now +
  * claim_lifetime_us) goes out when the goal changes, and again every claim_period_us from
  * gp_goal_select or gp_goal_poll while the goal stands. A failed send is counted; the next
@@ -46,7 +51,7 @@
  * place of the one that expires first when that one expires before it, else -ENOSPC.
  *
  * Deterministic: the same calls with the same arguments give the same goals and claims (no
- * clock, no randomness, ties by index/id). Memory: everything inside gp_goal_t (about 70 KB
+ * clock, no randomness, ties by index/id). Memory: everything inside gp_goal_t (about 90 KB
  * with the 64 x 64 grid), no allocation. One thread (the GP core). */
 #ifndef GP_GP_GOAL_H
 #define GP_GP_GOAL_H
@@ -92,6 +97,8 @@ typedef struct gp_goal_cfg {
     double min_info_m2;              /* > 0: less is nothing left to learn there */
     double claim_radius_m;           /* >= 0: a kept claim discounts candidates this near it */
     double claim_discount;           /* 0 .. 1: their info is multiplied by it */
+    double claim_window_m;           /* >= 0: half side of the square of unknown a kept claim takes
+                                        out of every candidate's info (0: none) */
     double claim_tie_m;              /* >= 0: costs this close are a tie (above); 0: equal only */
     double claim_speed_mps;          /* >= 0: a claimant's cost falls this fast with the claim's age */
     uint64_t claim_period_us;        /* > 0: our claim is sent again this often */
@@ -125,6 +132,8 @@ typedef struct gp_goal {
     uint16_t steps[GP_GOAL_MAX_CELLS];                /* BFS steps from our cell; 0xFFFF unreached */
     uint16_t queue[GP_GOAL_MAX_CELLS];
     uint32_t sat[(GP_GOAL_MAX_W + 1u) * (GP_GOAL_MAX_H + 1u)]; /* summed-area table of unknown */
+    uint32_t sat_left[(GP_GOAL_MAX_W + 1u) * (GP_GOAL_MAX_H + 1u)]; /* the same outside the claims' windows */
+    uint8_t taken[GP_GOAL_MAX_CELLS];                /* 1: inside a kept claim's window */
     double discount[GP_GOAL_MAX_CELLS];              /* per candidate, from the claims */
     int has_goal;
     gp_goal_pick_t goal;                             /* ours (with has_goal) */

@@ -218,6 +218,35 @@ static void test_contested_goal_and_all_claimed(void **st)
     assert_int_equal(gp_goal_select(&gb, &grid, BX, Y, 6 * S, &p), -ENOENT);
 }
 
+/* A kept claim's window (claim_window_m) takes what its claimant will see out of every
+ * candidate's info: B, whose claim radius covers only G's own cell, goes to a cell beside G
+ * (two thirds of G in its window) without the window, and to H with it; when G is all that is
+ * left, B waits (-EBUSY), it is not done. */
+static void test_a_claims_window_is_not_ours_to_learn(void **st)
+{
+    (void)st;
+    gp_goal_cfg_t cb = config(1, &ob);
+    cb.claim_radius_m = 0.5;
+    assert_int_equal(gp_goal_init(&gb, &cb), 0);
+    assert_int_equal(pick(&ga, AX, Y, 0), CELL(8, 4));
+    assert_int_equal(gp_goal_on_claim(&gb, &oa.sent[0], 1), 0);
+    const uint32_t beside = pick(&gb, BX, Y, 2);
+    assert_int_equal(beside, CELL(9, 4));
+    cb.claim_window_m = 1.0; /* G's 3 x 3 patch, what A sees there */
+    assert_int_equal(gp_goal_init(&gb, &cb), 0);
+    assert_int_equal(gp_goal_on_claim(&gb, &oa.sent[0], 1), 0);
+    assert_int_equal(pick(&gb, BX, Y, 2), CELL(13, 1));
+    patch(13, 1, 0);
+    gp_goal_pick_t p;
+    assert_int_equal(gp_goal_select(&gb, &grid, BX, Y, 3, &p), -EBUSY);
+    /* A's claim expired: G is B's to learn again. */
+    assert_int_equal(pick(&gb, BX, Y, 6 * S), CELL(8, 4));
+    cb.claim_window_m = -1.0;
+    assert_int_equal(gp_goal_init(&gb, &cb), -EINVAL);
+    cb.claim_window_m = NAN;
+    assert_int_equal(gp_goal_init(&gb, &cb), -EINVAL);
+}
+
 static void test_lost_claim_then_delivered(void **st)
 {
     (void)st;
@@ -452,6 +481,7 @@ int main(void)
         cmocka_unit_test_setup(test_costs_within_the_tie_margin_go_to_the_lower_id, setup),
         cmocka_unit_test_setup(test_contested_goal_and_all_claimed, setup),
         cmocka_unit_test_setup(test_tie_goes_to_the_lower_id, setup),
+        cmocka_unit_test_setup(test_a_claims_window_is_not_ours_to_learn, setup),
         cmocka_unit_test_setup(test_lost_claim_then_delivered, setup),
         cmocka_unit_test_setup(test_late_claims_change_nothing, setup),
         cmocka_unit_test_setup(test_forged_claims_are_refused, setup),
