@@ -4,6 +4,7 @@
 #include <stdio.h>
 #include <stdlib.h>
 
+#include "ai/ai_core.h"
 #include "ai/ai_pool.h"
 #include "ai/bnn.h"
 #include "ai/dinno.h"
@@ -41,6 +42,7 @@ static const char *const keys_help =
     "  lcm_url           the LCM URL of a fleet (UDP multicast on this host)\n"
     "  max_fleet         the largest fleet this build runs (board and host_sim paths gen)\n"
     "  max_neighbours    the neighbour states a robot keeps per round (its nearest; the board's slots)\n"
+    "  max_rounds        the most DiNNO rounds a run takes (--rounds)\n"
     "  fleet_robots      the launchers' fleet: robots (the default plan's tours)\n"
     "  fleet_rounds      its DiNNO rounds\n"
     "  fleet_mode        offline or online\n"
@@ -113,6 +115,7 @@ static void defaults_print(void)
     printf("lcm_url=%s\n", HAL_HOST_NET_URL_DEFAULT);
     printf("max_fleet=%d\n", (int)GP_PSE_MAX_FLEET < SIM_PATHS_MAX_ROBOTS ? (int)GP_PSE_MAX_FLEET : SIM_PATHS_MAX_ROBOTS);
     printf("max_neighbours=%u\n", (unsigned)GP_PSE_MAX_NEIGHBOURS);
+    printf("max_rounds=%u\n", (unsigned)AI_CORE_MAX_ROUNDS);
     printf("fleet_robots=%d\nfleet_rounds=%d\nfleet_mode=%s\nfleet_val_poses=%d\n", SIM_DEF_FLEET_ROBOTS,
            SIM_DEF_FLEET_ROUNDS, SIM_DEF_FLEET_MODE, SIM_DEF_FLEET_VAL_POSES);
     put_double("fleet_map_res_m", SIM_DEF_FLEET_MAP_RES_M);

@@ -18,7 +18,8 @@
     state chunks, every fleet message keyed, every tag valid under the run's key (skipped, said,
     where multicast or lcm-logger is missing);
   - --explore with the real host_sim over udpm: goal claims taken between real processes, the
-    same trajectories and models on two runs of one seed.
+    same trajectories and models on two runs of one seed; exploring, the rounds default to five
+    per simulated second of --explore-time, at most host_sim's largest --rounds.
 The stand-in for host_sim is tests/tools/test_fleet.py's.
 
     python3 tests/tools/test_fleet_launcher.py      prints "N passed, M failed", exit 1 on failure
@@ -351,6 +352,26 @@ def explore_fleet_claims_same_twice():
                     check(a.read() == b.read(), f"robot {i}'s {f} differs between two runs of one seed")
     finally:
         shutil.rmtree(tmp, ignore_errors=True)
+
+
+@test
+def explore_rounds_follow_the_exploration_time():
+    import importlib.machinery
+    import importlib.util
+    loader = importlib.machinery.SourceFileLoader("fleet_launcher", FLEET)
+    spec = importlib.util.spec_from_loader("fleet_launcher", loader)
+    mod = importlib.util.module_from_spec(spec)
+    loader.exec_module(mod)
+    argv = sys.argv
+    try:
+        for extra, want in ((["--explore"], 1500), (["--explore", "--explore-time", "2"], 10),
+                            (["--explore", "--explore-time", "1e5"], 100000),
+                            (["--explore", "--rounds", "7"], 7), ([], 1500)):
+            sys.argv = ["tools/fleet", "--bin", HOST_SIM] + extra
+            a = mod.parse()
+            check(a.rounds == want, f"{extra}: rounds {a.rounds}, not {want}")
+    finally:
+        sys.argv = argv
 
 
 if __name__ == "__main__":
