@@ -58,6 +58,7 @@ resend_ms=50
 peer_timeout_s=10
 lcm_url=udpm://239.255.76.67:7667?ttl=0&recv_buf_size=33554432
 max_fleet=1024
+max_rounds=100000
 fleet_robots=7
 fleet_rounds=1500
 fleet_mode=offline
