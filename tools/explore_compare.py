@@ -26,7 +26,8 @@ Writes (DIR by default):
   explore_compare_<plan>.png: coverage against robot-seconds, the mean over the seeds with a
       min..max band, one line per policy (up to the shortest of the policy's runs)
   explore_compare.md: per plan and policy the mean robot-seconds to 90 % and 95 %, and the
-      difference of uncertainty against coordinated in robot-seconds to 95 %
+      difference of uncertainty against coordinated in robot-seconds to 95 % (a run that never
+      reached it counted at its whole budget, robots x exploration time, and said so)
 A run that fails is reported (its log's last lines) and the others go on; exit 1 then.
 """
 import argparse
@@ -280,20 +281,26 @@ def explore_policy(policy):
 
 # ---- figures and table -----------------------------------------------------------------------
 
-def versus_coordinated(name, u, c):
-    """The line of explore_compare.md comparing policy `name`'s runs u with coordinated's c."""
+def versus_coordinated(name, u, c, budget_rs):
+    """The line of explore_compare.md comparing policy `name`'s runs u with coordinated's c. A run
+    that never reached 95 % counts at its whole budget (budget_rs robot-seconds), said so: a
+    policy that stalls short of 95 % is not left out of its own mean."""
     if not u or not c:
         return f"{name} vs coordinated: not both run on this plan."
     tu = [r["robot_seconds_to_95"] for r in u]
     tc = [r["robot_seconds_to_95"] for r in c]
-    if None in tu or None in tc:
-        return (f"{name} vs coordinated, robot-seconds to 95 %: not comparable, 95 % not reached in every run "
-                f"({name} {sum(t is not None for t in tu)}/{len(tu)}, coordinated "
-                f"{sum(t is not None for t in tc)}/{len(tc)}).")
+    short = None in tu or None in tc
+    tu = [budget_rs if t is None else t for t in tu]
+    tc = [budget_rs if t is None else t for t in tc]
     mu, mc = sum(tu) / len(tu), sum(tc) / len(tc)
     d = 100.0 * (mu - mc) / mc if mc > 0 else float("nan")
-    return (f"{name} vs coordinated, robot-seconds to 95 %: {mu:.0f} vs {mc:.0f}, {d:+.1f} % "
-            f"({name + ' faster' if d < 0 else name + ' slower' if d > 0 else 'the same'}).")
+    said = (f"{name} vs coordinated, robot-seconds to 95 %: {mu:.0f} vs {mc:.0f}, {d:+.1f} % "
+            f"({name + ' faster' if d < 0 else name + ' slower' if d > 0 else 'the same'})")
+    if not short:
+        return said + "."
+    return (said + f"; a run that never reached 95 % counted at its whole budget, {budget_rs:.0f} robot-s "
+            f"(reached: {name} {sum(t is not None for t in (r['robot_seconds_to_95'] for r in u))}/{len(u)}, "
+            f"coordinated {sum(t is not None for t in (r['robot_seconds_to_95'] for r in c))}/{len(c)}).")
 
 
 def curves(np, a, label, policy):
@@ -378,7 +385,7 @@ def markdown(a, rows, labels):
             by[policy] = rs
         L.append("")
         for name in ("uncertainty", "uncertainty-counts"):
-            L.append(versus_coordinated(name, by.get(name), by.get("coordinated")))
+            L.append(versus_coordinated(name, by.get(name), by.get("coordinated"), a.robots * a.explore_time))
         if os.path.isfile(os.path.join(a.results, f"explore_compare_{label}.png")):
             L += ["", f"![{label}](explore_compare_{label}.png)"]
         L.append("")

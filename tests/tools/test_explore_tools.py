@@ -217,5 +217,22 @@ def run_row_from_a_synthetic_run():
         check(text.splitlines()[1].startswith("apartment,frontier,1,2,1,40,50,15,0.6,3,1,3"), text)
 
 
+@test
+def versus_coordinated_counts_a_stalled_run_at_its_budget():
+    def runs(*t95):
+        return [{"robot_seconds_to_95": t} for t in t95]
+    said = explore_compare.versus_coordinated("uncertainty", runs(100.0, 200.0), runs(150.0, 250.0), 450.0)
+    check(said == "uncertainty vs coordinated, robot-seconds to 95 %: 150 vs 200, -25.0 % (uncertainty faster).",
+          said)
+    # the stall of 123, 134 and a third run short of 95 %: (123 + 134 + 450) / 3 = 235.7 against 200
+    said = explore_compare.versus_coordinated("uncertainty", runs(123.0, 134.0, None), runs(200.0, 190.0, 210.0),
+                                              450.0)
+    check(said.startswith("uncertainty vs coordinated, robot-seconds to 95 %: 236 vs 200, +17.8 % "
+                          "(uncertainty slower); a run that never reached 95 % counted at its whole budget, "
+                          "450 robot-s (reached: uncertainty 2/3, coordinated 3/3)."), said)
+    check(explore_compare.versus_coordinated("uncertainty", [], runs(1.0), 450.0) ==
+          "uncertainty vs coordinated: not both run on this plan.", "no runs")
+
+
 if __name__ == "__main__":
     sys.exit(main())
