@@ -85,29 +85,36 @@ static void search(gp_goal_t *g, const gp_goal_grid_t *grid, uint32_t start)
     }
 }
 
-/* sat[(y + 1) (w + 1) + x + 1] = the sum of unknown over cells [0, x] x [0, y]: any window's
- * sum in four reads, so the info of every cell costs O(cells), whatever the sensor radius;
- * sat_left the same without the cells the claims took (apply_claims). */
-static void summed_area(gp_goal_t *g, const gp_goal_grid_t *grid)
+/* sat[(y + 1) (w + 1) + x + 1] = the sum of unknown over cells [0, x] x [0, y], `taken` cells
+ * counted as 0 when skip_taken: any window's sum in four reads, so the info of every cell costs
+ * O(cells), whatever the sensor radius. */
+static void summed_area(const gp_goal_t *g, const gp_goal_grid_t *grid, int skip_taken, uint32_t *sat)
 {
     const uint32_t w = g->cfg.w, h = g->cfg.h, s = w + 1u;
-    memset(g->sat, 0, sizeof g->sat[0] * s * (h + 1u));
-    memset(g->sat_left, 0, sizeof g->sat_left[0] * s * (h + 1u));
+    memset(sat, 0, sizeof sat[0] * s * (h + 1u));
     for (uint32_t y = 0; y < h; y++)
         for (uint32_t x = 0; x < w; x++) {
-            const uint32_t u = grid->unknown[y * w + x], left = g->taken[y * w + x] ? 0u : u;
-            g->sat[(y + 1u) * s + x + 1u] = u + g->sat[y * s + x + 1u] + g->sat[(y + 1u) * s + x] - g->sat[y * s + x];
-            g->sat_left[(y + 1u) * s + x + 1u] =
-                left + g->sat_left[y * s + x + 1u] + g->sat_left[(y + 1u) * s + x] - g->sat_left[y * s + x];
+            const uint32_t u = skip_taken && g->taken[y * w + x] ? 0u : grid->unknown[y * w + x];
+            sat[(y + 1u) * s + x + 1u] = u + sat[y * s + x + 1u] + sat[(y + 1u) * s + x] - sat[y * s + x];
         }
+}
+
+/* The square of half side r cells around (cx, cy), cut to the grid: columns [x0, x1), rows [y0, y1). */
+typedef struct window {
+    uint32_t x0, y0, x1, y1;
+} window_t;
+
+static window_t window_at(const gp_goal_cfg_t *cfg, uint32_t cx, uint32_t cy, uint32_t r)
+{
+    return (window_t){cx > r ? cx - r : 0u, cy > r ? cy - r : 0u, cx + r < cfg->w ? cx + r + 1u : cfg->w,
+                      cy + r < cfg->h ? cy + r + 1u : cfg->h};
 }
 
 static uint32_t window_sum(const gp_goal_t *g, const uint32_t *sat, uint32_t cx, uint32_t cy, uint32_t r)
 {
-    const uint32_t w = g->cfg.w, h = g->cfg.h, s = w + 1u;
-    const uint32_t x0 = cx > r ? cx - r : 0u, y0 = cy > r ? cy - r : 0u;
-    const uint32_t x1 = cx + r < w ? cx + r + 1u : w, y1 = cy + r < h ? cy + r + 1u : h;
-    return sat[y1 * s + x1] - sat[y0 * s + x1] - sat[y1 * s + x0] + sat[y0 * s + x0];
+    const uint32_t s = g->cfg.w + 1u;
+    const window_t b = window_at(&g->cfg, cx, cy, r);
+    return sat[b.y1 * s + b.x1] - sat[b.y0 * s + b.x1] - sat[b.y1 * s + b.x0] + sat[b.y0 * s + b.x0];
 }
 
 /* A window's half side in cells: round(m / res), capped where it covers the grid anyway (which
@@ -144,11 +151,9 @@ static int claim_holds(const gp_goal_cfg_t *cfg, const gp_goal_claim_t *c, doubl
 static void take_window(gp_goal_t *g, uint32_t gc)
 {
     const gp_goal_cfg_t *cfg = &g->cfg;
-    const uint32_t r = half_side(cfg, cfg->claim_window_m), cx = gc % cfg->w, cy = gc / cfg->w;
-    const uint32_t x0 = cx > r ? cx - r : 0u, y0 = cy > r ? cy - r : 0u;
-    const uint32_t x1 = cx + r < cfg->w ? cx + r + 1u : cfg->w, y1 = cy + r < cfg->h ? cy + r + 1u : cfg->h;
-    for (uint32_t y = y0; y < y1; y++)
-        memset(&g->taken[y * cfg->w + x0], 1, x1 - x0);
+    const window_t b = window_at(cfg, gc % cfg->w, gc / cfg->w, half_side(cfg, cfg->claim_window_m));
+    for (uint32_t y = b.y0; y < b.y1; y++)
+        memset(&g->taken[y * cfg->w + b.x0], 1, b.x1 - b.x0);
 }
 
 /* The discount of every cell from the claims their claimants keep against us, and the cells
@@ -246,7 +251,13 @@ int gp_goal_select(gp_goal_t *g, const gp_goal_grid_t *grid, double x_m, double 
     expire(g, now_us);
     search(g, grid, start);
     apply_claims(g, now_us); /* the claims' verdicts need the costs, the sums the taken cells */
-    summed_area(g, grid);
+    summed_area(g, grid, 0, g->sat);
+    /* what the claims leave: without a window, all of it (the same table) */
+    const uint32_t *sat_left = g->sat;
+    if (cfg->claim_window_m > 0.0) {
+        summed_area(g, grid, 1, g->sat_left);
+        sat_left = g->sat_left;
+    }
     const uint32_t r = half_side(cfg, cfg->sensor_radius_m);
     const double cell_m2 = cfg->res_m * cfg->res_m;
     int found = 0, claimed = 0;
@@ -258,7 +269,7 @@ int gp_goal_select(gp_goal_t *g, const gp_goal_grid_t *grid, double x_m, double 
         const double info = window_sum(g, g->sat, cx, cy, r) / 255.0 * cell_m2;
         if (info < cfg->min_info_m2)
             continue;
-        const double left = window_sum(g, g->sat_left, cx, cy, r) / 255.0 * cell_m2;
+        const double left = window_sum(g, sat_left, cx, cy, r) / 255.0 * cell_m2;
         if (g->discount[c] <= 0.0 || left < cfg->min_info_m2) { /* worth a look, but a nearer peer's */
             claimed = 1;
             continue;
