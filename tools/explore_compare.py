@@ -289,18 +289,16 @@ def versus_coordinated(name, u, c, budget_rs):
         return f"{name} vs coordinated: not both run on this plan."
     tu = [r["robot_seconds_to_95"] for r in u]
     tc = [r["robot_seconds_to_95"] for r in c]
-    short = None in tu or None in tc
-    tu = [budget_rs if t is None else t for t in tu]
-    tc = [budget_rs if t is None else t for t in tc]
-    mu, mc = sum(tu) / len(tu), sum(tc) / len(tc)
+    reached_u, reached_c = sum(t is not None for t in tu), sum(t is not None for t in tc)
+    mu = sum(budget_rs if t is None else t for t in tu) / len(tu)
+    mc = sum(budget_rs if t is None else t for t in tc) / len(tc)
     d = 100.0 * (mu - mc) / mc if mc > 0 else float("nan")
     said = (f"{name} vs coordinated, robot-seconds to 95 %: {mu:.0f} vs {mc:.0f}, {d:+.1f} % "
             f"({name + ' faster' if d < 0 else name + ' slower' if d > 0 else 'the same'})")
-    if not short:
+    if reached_u == len(tu) and reached_c == len(tc):
         return said + "."
     return (said + f"; a run that never reached 95 % counted at its whole budget, {budget_rs:.0f} robot-s "
-            f"(reached: {name} {sum(t is not None for t in (r['robot_seconds_to_95'] for r in u))}/{len(u)}, "
-            f"coordinated {sum(t is not None for t in (r['robot_seconds_to_95'] for r in c))}/{len(c)}).")
+            f"(reached: {name} {reached_u}/{len(tu)}, coordinated {reached_c}/{len(tc)}).")
 
 
 def curves(np, a, label, policy):
