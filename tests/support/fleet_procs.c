@@ -500,6 +500,36 @@ void fp_wait_for_file(const fp_robot_t *r, const char *prefix, const char *suffi
     }
 }
 
+/* 1 when the log at `path` holds `text`. */
+static int log_has(const char *path, const char *text)
+{
+    size_t n = 0;
+    char *b = (char *)test_slurp(path, &n);
+    const int yes = b != NULL && strstr(b, text) != NULL;
+    free(b);
+    return yes;
+}
+
+void fp_wait_for_log(const fp_robot_t *r, const char *text, double deadline)
+{
+    const double t0 = fp_now();
+    while (!log_has(r->log, text)) {
+        int st = 0;
+        if (r->pid > 0 && waitpid(r->pid, &st, WNOHANG) == r->pid) {
+            forget(r->pid);
+            fp_show_log(r->log);
+            fail_msg("robot %d exited (status %d) before it said '%s'", r->id,
+                     WIFEXITED(st) ? WEXITSTATUS(st) : 128 + WTERMSIG(st), text);
+        }
+        if (fp_now() >= deadline) {
+            fp_show_log(r->log);
+            fail_msg("robot %d did not say '%s' within %.0f s (it hangs or is too slow)", r->id, text,
+                     deadline - t0);
+        }
+        fp_sleep_ms(20);
+    }
+}
+
 double fp_summary_number(const char *file, const char *line, const char *what, int after)
 {
     size_t n = 0;

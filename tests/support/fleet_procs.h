@@ -103,6 +103,8 @@ double fp_fleet_wait_ok(fp_fleet_t *f, double deadline_s);
  * the robot and the file it waited for, when the deadline passes or the robot exits first. */
 void fp_wait_for_file(const fp_robot_t *r, const char *prefix, const char *suffix, double deadline);
 
+/* The same for a line of its log (r->log) holding `text`. */
+void fp_wait_for_log(const fp_robot_t *r, const char *text, double deadline);
 /* The in-process reference of a test fleet: `host_sim fleet --inproc` with the settings
  * fp_fleet_init gives the robots (3 robots, seed 3, disk graph of 6 m, strategy kl) and
  * `rounds`, into fp_env.dir/inproc (made once per program: later calls return at once).
