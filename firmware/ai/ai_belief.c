@@ -58,7 +58,8 @@ int ai_belief_init(ai_belief_t *b, const ai_belief_cfg_t *cfg)
      * logit of 0, and 255 is what a fresh posterior gives everywhere. */
     memset(b->occ, 128, sizeof b->occ);
     memset(b->unknown, 255, sizeof b->unknown);
-    b->unknown_mean = 1.0;
+    memset(b->post_unknown, 255, sizeof b->post_unknown);
+    b->unknown_mean = b->post_unknown_mean = 1.0;
     return 0;
 }
 
@@ -100,12 +101,12 @@ int ai_belief_update(ai_belief_t *b, bnn_model_t *m, bnn_post_t *post, ai_seen_t
     const ai_belief_cfg_t *c = &b->cfg;
     const uint32_t n = c->w * c->h;
     b->valid = 0;
-    b->unknown_mean = 1.0;
+    b->unknown_mean = b->post_unknown_mean = 1.0;
     if (seen && ai_seen_flood(seen) != 0)
         return -EINVAL;
     /* The sum in double over at most 4096 floats in (0, 1] in cell order: exact enough, and
      * the same order every time, so the same bits. */
-    double sum = 0.0;
+    double sum = 0.0, post_sum = 0.0;
     for (uint32_t i0 = 0; i0 < n; i0 += AI_BELIEF_BATCH) {
         const uint32_t nb = n - i0 < AI_BELIEF_BATCH ? n - i0 : AI_BELIEF_BATCH;
         for (uint32_t k = 0; k < nb; k++) {
@@ -122,13 +123,16 @@ int ai_belief_update(ai_belief_t *b, bnn_model_t *m, bnn_post_t *post, ai_seen_t
                 return -EDOM;
             b->occ[i0 + k] = quant_share(sigmoid((double)b->logit[k]));
             /* whichever says more is left: the posterior, or the counts (ai_seen.h) */
-            const double u_seen = seen ? ai_seen_share(seen, i0 + k) : 0.0;
-            const double u = (double)b->share[k] > u_seen ? (double)b->share[k] : u_seen;
+            const double u_post = (double)b->share[k], u_seen = seen ? ai_seen_share(seen, i0 + k) : 0.0;
+            const double u = u_post > u_seen ? u_post : u_seen;
             b->unknown[i0 + k] = quant_info(u);
+            b->post_unknown[i0 + k] = quant_info(u_post);
             sum += u;
+            post_sum += u_post;
         }
     }
     b->unknown_mean = sum / (double)n;
+    b->post_unknown_mean = post_sum / (double)n;
     b->valid = 1;
     b->updates++;
     return 0;

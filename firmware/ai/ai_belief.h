@@ -20,6 +20,9 @@
  *          features being global, the posterior alone comes to say it knows rooms no ray
  *          entered. (gp_goal.h's unknown, byte for byte; rt_grid.h's known is the other way
  *          round, see ai_belief_to_rt_grid.)
+ *   post_unknown  the same byte of the posterior's share alone (without a count grid, unknown
+ *          itself): what the uncertainty policy steers by first, the counts' layer (unknown)
+ *          being its fallback when this one has nothing left (gp/gp_explore.h).
  * The model sees positions normalised over the plan's bounding box (ai/ai_sample.h):
  * x_n = 2 (x - min_x) / (max_x - min_x) - 1, likewise y; cells outside the box are evaluated
  * all the same (the model extrapolates there, the posterior says it knows nothing).
@@ -37,7 +40,7 @@
  * 104 M multiply-adds for a 64 x 64 grid (docs/architecture.md). Plus, once after the
  * posterior changed, its factorisation (bnn_post_factor).
  *
- * Memory: everything inside ai_belief_t (AI_BELIEF_BYTES, about 12 KiB), no allocation.
+ * Memory: everything inside ai_belief_t (AI_BELIEF_BYTES, about 16 KiB), no allocation.
  * Thread-safety: one thread at a time per belief, and the model and posterior it reads must
  * not be used by another thread during an update (their scratch is clobbered). Deterministic:
  * the same model, posterior and geometry give the same bytes. */
@@ -80,8 +83,10 @@ typedef struct ai_belief {
     uint32_t updates;              /* successful ai_belief_update calls since init */
     uint32_t valid;                /* 1: occ and unknown are the last update's; 0 before it or after a failed one */
     double unknown_mean;           /* mean unknown share of the last update (exact floats, not the bytes) */
+    double post_unknown_mean;      /* the same of the posterior's share alone */
     uint8_t occ[AI_BELIEF_MAX_CELLS];   /* first w * h used */
     uint8_t unknown[AI_BELIEF_MAX_CELLS];
+    uint8_t post_unknown[AI_BELIEF_MAX_CELLS];
     float xy[2u * AI_BELIEF_BATCH];     /* scratch: a batch's normalised centres */
     float logit[AI_BELIEF_BATCH];
     float share[AI_BELIEF_BATCH];
@@ -89,7 +94,7 @@ typedef struct ai_belief {
 
 #define AI_BELIEF_BYTES sizeof(ai_belief_t)
 _Static_assert(sizeof(((ai_belief_t *)0)->occ) == AI_BELIEF_MAX_CELLS, "one occupancy byte per cell");
-_Static_assert(sizeof(ai_belief_t) <= 16u * 1024u, "the belief grid stays a small fixed block");
+_Static_assert(sizeof(ai_belief_t) <= 20u * 1024u, "the belief grid stays a small fixed block");
 _Static_assert(sizeof(ai_belief_t) <= BOARD_RAM_AI_BYTES / 16u, "the belief grid must stay a small part of the AI RAM");
 
 /* 1 when cfg is a geometry ai_belief_init accepts (the bounds above), else 0 (NULL too). */
@@ -100,7 +105,8 @@ int ai_belief_cfg_ok(const ai_belief_cfg_t *cfg);
 FS_MUST_CHECK int ai_belief_init(ai_belief_t *b, const ai_belief_cfg_t *cfg);
 
 /* Evaluates every cell centre through bnn_post_predict(post, m) in batches of AI_BELIEF_BATCH
- * and writes occ and known (above); unknown_mean becomes the mean of the unknown shares.
+ * and writes occ, unknown and post_unknown (above); unknown_mean and post_unknown_mean become
+ * the means of their shares.
  * post: over m's configuration (post->dim = S + 1); it is factored when it changed (post is
  * written then), m's activation scratch is clobbered, neither's data is. 0, -EINVAL (NULL, a
  * belief not initialised, a posterior of another dimension), -EDOM (the posterior not positive

@@ -85,7 +85,7 @@ int ai_core_init(ai_core_t *ai, const ai_core_cfg_t *cfg, const fw_link_t *link)
         r = ai_belief_init(&ai->belief, &ai->belief_cfg);
         if (r == 0)
             r = ai_seen_init(&ai->seen, &ai->belief_cfg);
-        ai->seen_shared = cfg->explore_counts && cfg->explore_share_post &&
+        ai->seen_shared = cfg->explore_share_post &&
                           BNN_POST_STATE_FLOATS(ai->post.dim) + AI_SEEN_STATE_FLOATS(cfg->belief->w * cfg->belief->h) <=
                               bnn_n_params(&ai->node.model);
     }
@@ -339,20 +339,27 @@ static int publish_belief(ai_core_t *ai, uint64_t now_us)
 {
     int r = observe_staged(ai);
     if (r == 0)
-        r = ai_belief_update(&ai->belief, &ai->node.model, &ai->post, ai->cfg.explore_counts ? &ai->seen : NULL);
+        r = ai_belief_update(&ai->belief, &ai->node.model, &ai->post, &ai->seen);
     if (r != 0) {
         ai->belief_errors++;
         return r;
     }
     const uint32_t n = ai->belief_cfg.w * ai->belief_cfg.h;
+    const ai_belief_t *b = &ai->belief;
     ai_belief_msg_t *m = mbox_write_buffer(ai->link->ai_belief);
     m->stamp_us = now_us;
     m->round = ai->next_round;
     m->w = ai->belief_cfg.w;
     m->h = ai->belief_cfg.h;
-    m->unknown_mean = (float)ai->belief.unknown_mean;
-    memcpy(m->occ, ai->belief.occ, n);
-    memcpy(m->unknown, ai->belief.unknown, n);
+    /* the posterior first, the counts when it has nothing left; explore_counts: both at once */
+    m->unknown_mean = (float)(ai->cfg.explore_counts ? b->unknown_mean : b->post_unknown_mean);
+    memcpy(m->occ, b->occ, n);
+    memcpy(m->unknown, ai->cfg.explore_counts ? b->unknown : b->post_unknown, n);
+    if (ai->cfg.explore_counts)
+        memcpy(m->fallback, b->unknown, n);
+    else /* the fallback: where no ray went, beyond what rays reached (ai_seen.h), all of it */
+        for (uint32_t i = 0; i < n; i++)
+            m->fallback[i] = ai->seen.beyond[i] ? 255u : b->post_unknown[i];
     (void)mbox_publish(ai->link->ai_belief);
     return 0;
 }
@@ -374,7 +381,7 @@ int ai_core_tick(void *arg, const fw_tick_t *tick)
             /* exploring: counted in the belief grid's cells at once, with the posterior's
                weight (N once the counts are the fleet's estimate) */
             const double w = ai->post_fleet && ai->seen_shared ? (double)ai->cfg.fleet_size : 1.0;
-            if (ai->cfg.explore_counts && ai_seen_add(&ai->seen, &s, 1, w) != 0)
+            if (ai->cfg.explore_budget_us > 0 && ai_seen_add(&ai->seen, &s, 1, w) != 0)
                 rc = -EINVAL;
         }
     }

@@ -47,11 +47,13 @@
  * from the first such round on, the robot's new points go in with weight N (bnn_post_observe_
  * weighted), so the mean of the estimates stays the sum of the robots' posteriors while each
  * one is mixed towards it. The posterior rounds after the DiNNO rounds continue the same.
- * Exploring with explore_counts, the belief also counts what the lidar covered (ai_seen.h:
- * the posterior's global features alone come to say they know rooms no ray entered); in a
- * fleet the counts are reached by the same consensus, in the same rounds, after the posterior
- * in the state when the state has room for both (not in the `mcu` preset: there each robot
- * counts its own).
+ * Exploring, the AI core also counts what the lidar covered (ai_seen.h: the posterior's global
+ * features alone come to say they know rooms no ray entered); the belief it sends holds the
+ * posterior's layer, which the goal choice reads first, and as its fallback the same with the
+ * cells no ray reached beyond the reached ones unknown (ai_link.h; with explore_counts the
+ * first layer is the larger of the posterior's and the counts' shares, and the fallback too). In a fleet the counts are reached by the same consensus, in the same rounds, after
+ * the posterior in the state when the state has room for both (not in the `mcu` preset: there
+ * each robot counts its own).
  * Storage: ai_core_t is static (the image declares it): the DiNNO node (model, duals, the
  * view of the neighbours), the pool of AI_POOL_CAPACITY samples and a minibatch buffer, checked with the
  * AI core's links against BOARD_RAM_AI_BYTES. No allocation. One AI core per image. */
@@ -104,8 +106,9 @@ typedef struct ai_core_cfg {
     uint64_t belief_period_us;      /* > 0 with explore_budget_us */
     int explore_share_post;         /* 0/1, with explore_budget_us and fleet_size >= 1: every odd
                                        round shares the posterior (above) */
-    int explore_counts;             /* 0/1, with explore_budget_us: the belief also counts where
-                                       the rays went (ai_seen.h; above) */
+    int explore_counts;             /* 0/1, with explore_budget_us: the belief's first layer also
+                                       counts where the rays went (ai_seen.h; above); 0: the
+                                       posterior's alone, the counts in its fallback layer */
 } ai_core_cfg_t;
 
 /* The seeds of robot `robot` of a run seeded `run_seed`: the model's initial weights (the same

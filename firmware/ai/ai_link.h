@@ -68,16 +68,22 @@ typedef struct ai_state_msg {
     _Alignas(64) float theta[BNN_N_PARAMS];
 } ai_state_msg_t;
 
-/* AI -> GP: the coarse belief grid (ai/ai_belief.h), after each round while exploring: the
- * model's occupancy and the share of its prior variance left, per cell of the GP goal grid. */
+/* AI -> GP: the coarse belief grid (ai/ai_belief.h), every belief period while exploring: the
+ * model's occupancy and how much is left to learn, per cell of the GP goal grid, in two layers:
+ * unknown, the one the goal choice reads (the posterior's share, or with explore_counts the
+ * larger of it and the counts'), and fallback, the one it reads when unknown has nothing left
+ * within reach (gp/gp_explore.h): 255 on the cells no ray reached beyond the cells rays did
+ * (ai_seen.h's `beyond`: the unseen rest of the building), elsewhere the posterior's (with
+ * explore_counts: unknown itself). */
 #define AI_BELIEF_MSG_MAX_CELLS 4096u
 typedef struct ai_belief_msg {
     uint64_t stamp_us;
     uint32_t round;          /* the round whose model it shows */
     uint32_t w, h;
-    float unknown_mean;      /* mean unknown share over the cells, [0, 1] */
+    float unknown_mean;      /* mean share of unknown over the cells, [0, 1] */
     uint8_t occ[AI_BELIEF_MSG_MAX_CELLS];
     uint8_t unknown[AI_BELIEF_MSG_MAX_CELLS];
+    uint8_t fallback[AI_BELIEF_MSG_MAX_CELLS];
 } ai_belief_msg_t;
 
 /* Static bytes of the AI core's links: its status, state, ckpt and belief mailboxes. */

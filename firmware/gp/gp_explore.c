@@ -52,14 +52,19 @@ int gp_explore_on_claim(gp_explore_t *x, const gp_goal_claim_t *c, uint64_t now_
     return r;
 }
 
+/* 1 when the goal is chosen on the AI core's belief (the uncertainty policy, once one came). */
+static int uses_belief(const gp_explore_t *x)
+{
+    return x->cfg.policy == GP_EXPLORE_UNCERTAINTY && x->have_belief;
+}
+
 /* The grid gp_goal_select sees (gp_explore.h): occ from the robot's own scans, unknown by
- * policy, nothing to learn on the spent cells. */
-static void build_grid(gp_explore_t *x)
+ * policy (the belief's fallback layer with `fallback`), nothing to learn on the spent cells. */
+static void build_grid(gp_explore_t *x, int fallback)
 {
     const uint32_t n = x->cfg.goal.w * x->cfg.goal.h;
-    const int use_belief = x->cfg.policy == GP_EXPLORE_UNCERTAINTY && x->have_belief;
     memcpy(x->grid.occ, x->seen.occ, n);
-    const uint8_t *u = use_belief ? x->belief.unknown : x->seen.unknown;
+    const uint8_t *u = !uses_belief(x) ? x->seen.unknown : fallback ? x->belief.fallback : x->belief.unknown;
     for (uint32_t i = 0; i < n; i++)
         x->grid.unknown[i] = x->spent[i] ? 0u : u[i];
 }
@@ -140,7 +145,7 @@ int gp_explore_tick(gp_explore_t *x, const fw_link_t *link, const rt_status_t *r
         gp_goal_poll(&x->goal, now_us); /* our claim again every period */
         return 0;
     }
-    build_grid(x);
+    build_grid(x, 0);
     x->selected_us = now_us;
     x->stats.selections++;
     /* the pose clamped into the map: GPS noise at a wall may put it a hair outside */
@@ -149,6 +154,12 @@ int gp_explore_tick(gp_explore_t *x, const fw_link_t *link, const rt_status_t *r
     double py = fmin(fmax((double)rt->y_m, y0 + 1e-6), y0 + (double)h * res - 1e-6);
     gp_goal_pick_t pick;
     r = gp_goal_select(&x->goal, &x->grid, px, py, now_us, &pick);
+    if (r == -ENOENT && uses_belief(x)) { /* the posterior has nothing left: where no ray went */
+        build_grid(x, 1);
+        r = gp_goal_select(&x->goal, &x->grid, px, py, now_us, &pick);
+        if (r == 0)
+            x->stats.fallbacks++;
+    }
     if (r == -EBUSY) /* all that is left is claimed by nearer peers: wait for the next choice */
         return 0;
     if (r == -ENOENT) {

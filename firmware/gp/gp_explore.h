@@ -9,10 +9,14 @@
  *   occ      the seen grid's (what the robot's own lidar observed is what it can drive on;
  *            cells it never observed are open, as the planner takes them);
  *   unknown  by policy: GP_EXPLORE_UNCERTAINTY the belief's (the model's epistemic share; the
- *            seen grid's until the first belief arrives); GP_EXPLORE_FRONTIER and
- *            GP_EXPLORE_COORDINATED the seen grid's never-observed share (frontier
- *            exploration on the robot's own scans, Yamauchi 1997; coordinated: with the
- *            peers' claims, Burgard et al. 2005);
+ *            seen grid's until the first belief arrives), and when that leaves nothing within
+ *            reach, the belief's fallback layer (the same, with every cell that no ray of the
+ *            fleet reached, beyond the cells rays did, unknown: ai/ai_seen.h): the posterior's
+ *            features are global, so it comes to call a room seen only through its door
+ *            known, and alone it stopped robots short of the whole building;
+ *            GP_EXPLORE_FRONTIER and GP_EXPLORE_COORDINATED the seen grid's never-observed
+ *            share (frontier exploration on the robot's own scans, Yamauchi 1997;
+ *            coordinated: with the peers' claims, Burgard et al. 2005);
  * and unknown 0 on every spent cell: the cells of the window gp_goal sums around each goal the RT
  * core reached or gave up (rt_status_t.goal_reached, goal_failed: unreachable, or stuck
  * there). A spent goal is not chosen again: the belief lags the robot by a belief period, and a
@@ -26,7 +30,8 @@
  * sharing one belief do, part within a round instead of driving on side by side); a different
  * cell goes out to the RT core as a new goal (gp_goal_msg_t, seq + 1), the same cell does not.
  * Only goals nearer peers claimed (gp_goal_select's -EBUSY): the robot keeps its course and
- * chooses again later. Nothing left to learn within reach (-ENOENT): GP_GOAL_MSG_DONE.
+ * chooses again later. Nothing left to learn within reach (-ENOENT, on the fallback too):
+ * GP_GOAL_MSG_DONE.
  *
  * No I/O of its own besides the mailboxes; claims go out through gp_goal's send callback.
  * Storage: gp_explore_t (about 120 KB, inside gp_core_t), no allocation. One thread. */
@@ -57,6 +62,7 @@ typedef struct gp_explore_stats {
     uint64_t selections;             /* gp_goal_select calls */
     uint64_t goals;                  /* goals sent (seq) */
     uint64_t reached, failed;        /* reported by the RT core */
+    uint64_t fallbacks;              /* goals chosen on the belief's fallback layer */
     uint64_t belief_updates, seen_updates;
     uint64_t bad_inputs;             /* a seen grid or belief of another geometry (never expected) */
     uint32_t done;                   /* 1: nothing left, GP_GOAL_MSG_DONE sent */

@@ -1,7 +1,8 @@
 /* The AI core's coarse belief grid (ai/ai_belief.h): a fresh posterior knows nothing anywhere;
  * data in one corner lowers known there and not far away; occ is the mean weights' forward
  * pass at each cell centre; the same inputs give the same bytes; the copies into the GP and RT
- * grids; a count grid keeps the cells no ray reached unknown; every refusal; and no allocation
+ * grids; a count grid keeps the cells no ray reached unknown, beside the posterior's own layer;
+ * every refusal; and no allocation
  * during an update. */
 #include <setjmp.h>
 #include <stdarg.h>
@@ -300,6 +301,10 @@ static void test_count_grid_keeps_unreached_cells_unknown(void **state)
     for (uint32_t i = 0; i < GW * GH; i++) {
         assert_true(bel2.unknown[i] >= bel.unknown[i]);
         assert_int_equal(bel2.occ[i], bel.occ[i]);
+        /* the posterior's layer is the posterior's alone, counts or not (and without counts
+           the same as unknown) */
+        assert_int_equal(bel2.post_unknown[i], bel.unknown[i]);
+        assert_int_equal(bel.post_unknown[i], bel.unknown[i]);
         if (seen.n[i] == 0.0f) {
             assert_int_equal(bel2.unknown[i], 255);
             unreached++;
@@ -314,6 +319,7 @@ static void test_count_grid_keeps_unreached_cells_unknown(void **state)
                   "left out\n", kept, NOBS, unreached, far_post / 36.0);
     assert_true(far_post / 36.0 < 200.0); /* the posterior alone does think it knows the corner */
     assert_true(ai_belief_known_share(&bel2) > ai_belief_known_share(&bel));
+    assert_true(bel2.post_unknown_mean == bel.unknown_mean && bel.post_unknown_mean == bel.unknown_mean);
     /* a count grid of another size is refused */
     ai_belief_cfg_t small = c;
     small.w = GW - 1u;

@@ -1,8 +1,8 @@
 /* The GP core's exploration step (firmware/gp/gp_explore.h) through the image's real mailboxes
  * (fw_link): no goal before the RT core's first seen grid; a goal where the unknown share is;
  * a reached or given-up goal is spent and the next one follows; nothing left: DONE; the
- * uncertainty policy reads the AI core's belief, the frontier policy the robot's own scans and
- * ignores claims; a grid of another geometry is refused. Grid: 16 x 8 cells of 1 m, all free
+ * uncertainty policy reads the AI core's belief, and its counts' layer when the posterior's has
+ * nothing left; the frontier policy the robot's own scans and ignores claims; a grid of another geometry is refused. Grid: 16 x 8 cells of 1 m, all free
  * and observed but two unknown 3 x 3 patches, P around (3, 4) and Q around (12, 4); the robot
  * at (1.5, 4.5). */
 #include <setjmp.h>
@@ -159,6 +159,58 @@ static void test_uncertainty_reads_the_belief(void **state)
     assert_true(fabsf(m.x_m - 3.5f) < 1e-6f);
 }
 
+/* The posterior has nothing left (its features are global: a room glimpsed through a door
+ * counts as known), the counts say Q was never reached: the robot goes to Q instead of calling
+ * itself done; with nothing left on either layer it is done. */
+static void test_uncertainty_falls_back_to_the_counts(void **state)
+{
+    (void)state;
+    setup_grids();
+    const gp_explore_cfg_t cfg = config(GP_EXPLORE_UNCERTAINTY);
+    assert_int_equal(gp_explore_init(&ex, &cfg), 0);
+    const fw_link_t *link = fw_link_get();
+    rt_status_t st = pose();
+    gp_goal_msg_t m;
+    patch(belief.fallback, 12, 4, 255); /* belief.unknown: 0 everywhere */
+    assert_int_equal(mbox_put(link->rt_seen, &seen), 0);
+    assert_int_equal(mbox_put(link->ai_belief, &belief), 0);
+    assert_int_equal(gp_explore_tick(&ex, link, &st, 1 * S), 0);
+    assert_int_equal(take_goal(&m), 1);
+    assert_int_equal(m.mode, GP_GOAL_MSG_GO);
+    assert_true(fabsf(m.x_m - 12.5f) < 1e-6f);
+    assert_int_equal(ex.stats.fallbacks, 1);
+    assert_int_equal(ex.stats.done, 0);
+
+    /* The posterior sees P again: it comes first, the fallback is not used. */
+    patch(belief.unknown, 3, 4, 255);
+    assert_int_equal(mbox_put(link->ai_belief, &belief), 0);
+    assert_int_equal(gp_explore_tick(&ex, link, &st, 7 * S), 0);
+    assert_int_equal(take_goal(&m), 1);
+    assert_true(fabsf(m.x_m - 3.5f) < 1e-6f);
+    assert_int_equal(ex.stats.fallbacks, 1);
+
+    /* Nothing left on either layer: done. */
+    memset(belief.unknown, 0, sizeof belief.unknown);
+    memset(belief.fallback, 0, sizeof belief.fallback);
+    assert_int_equal(mbox_put(link->ai_belief, &belief), 0);
+    assert_int_equal(gp_explore_tick(&ex, link, &st, 13 * S), 0);
+    assert_int_equal(take_goal(&m), 1);
+    assert_int_equal(m.mode, GP_GOAL_MSG_DONE);
+    assert_int_equal(ex.stats.done, 1);
+
+    /* The frontier policy never reads the belief, so it has no fallback either. */
+    setup_grids();
+    const gp_explore_cfg_t fcfg = config(GP_EXPLORE_FRONTIER);
+    assert_int_equal(gp_explore_init(&ex, &fcfg), 0);
+    patch(belief.fallback, 12, 4, 255);
+    assert_int_equal(mbox_put(link->rt_seen, &seen), 0);
+    assert_int_equal(mbox_put(link->ai_belief, &belief), 0);
+    assert_int_equal(gp_explore_tick(&ex, link, &st, 1 * S), 0);
+    assert_int_equal(take_goal(&m), 1);
+    assert_true(fabsf(m.x_m - 3.5f) < 1e-6f);
+    assert_int_equal(ex.stats.fallbacks, 0);
+}
+
 static void test_claims_by_policy(void **state)
 {
     (void)state;
@@ -249,6 +301,7 @@ int main(void)
     const struct CMUnitTest tests[] = {
         cmocka_unit_test(test_goal_then_next_then_done),
         cmocka_unit_test(test_uncertainty_reads_the_belief),
+        cmocka_unit_test(test_uncertainty_falls_back_to_the_counts),
         cmocka_unit_test(test_claims_by_policy),
         cmocka_unit_test(test_contested_goal_chosen_again),
         cmocka_unit_test(test_bad_inputs),
