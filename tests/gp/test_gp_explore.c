@@ -129,33 +129,36 @@ static void test_goal_then_next_then_done(void **state)
     assert_int_equal(take_goal(&m), 0); /* done stays done */
 }
 
-static void test_uncertainty_reads_the_belief(void **state)
+/* A fresh explorer of `policy` given the seen grid and the belief as they are (after
+ * setup_grids and the caller's patches) and ticked once, at 1 s: the goal it sends. */
+static gp_goal_msg_t first_goal(gp_explore_policy_t policy)
 {
-    (void)state;
-    setup_grids();
-    const gp_explore_cfg_t cfg = config(GP_EXPLORE_UNCERTAINTY);
+    const gp_explore_cfg_t cfg = config(policy);
     assert_int_equal(gp_explore_init(&ex, &cfg), 0);
     const fw_link_t *link = fw_link_get();
     rt_status_t st = pose();
     gp_goal_msg_t m;
-    /* The model knows P (a peer mapped it) but not Q. */
-    patch(belief.unknown, 12, 4, 255);
     assert_int_equal(mbox_put(link->rt_seen, &seen), 0);
     assert_int_equal(mbox_put(link->ai_belief, &belief), 0);
     assert_int_equal(gp_explore_tick(&ex, link, &st, 1 * S), 0);
     assert_int_equal(take_goal(&m), 1);
+    return m;
+}
+
+static void test_uncertainty_reads_the_belief(void **state)
+{
+    (void)state;
+    /* The model knows P (a peer mapped it) but not Q. */
+    setup_grids();
+    patch(belief.unknown, 12, 4, 255);
+    gp_goal_msg_t m = first_goal(GP_EXPLORE_UNCERTAINTY);
     assert_true(fabsf(m.x_m - 12.5f) < 1e-6f);
     assert_int_equal(ex.stats.belief_updates, 1);
 
     /* The frontier policy, same inputs: its own scans say P. */
     setup_grids();
-    const gp_explore_cfg_t fcfg = config(GP_EXPLORE_FRONTIER);
-    assert_int_equal(gp_explore_init(&ex, &fcfg), 0);
     patch(belief.unknown, 12, 4, 255);
-    assert_int_equal(mbox_put(link->rt_seen, &seen), 0);
-    assert_int_equal(mbox_put(link->ai_belief, &belief), 0);
-    assert_int_equal(gp_explore_tick(&ex, link, &st, 1 * S), 0);
-    assert_int_equal(take_goal(&m), 1);
+    m = first_goal(GP_EXPLORE_FRONTIER);
     assert_true(fabsf(m.x_m - 3.5f) < 1e-6f);
 }
 
@@ -166,16 +169,10 @@ static void test_uncertainty_falls_back_to_the_counts(void **state)
 {
     (void)state;
     setup_grids();
-    const gp_explore_cfg_t cfg = config(GP_EXPLORE_UNCERTAINTY);
-    assert_int_equal(gp_explore_init(&ex, &cfg), 0);
+    patch(belief.fallback, 12, 4, 255); /* belief.unknown: 0 everywhere */
+    gp_goal_msg_t m = first_goal(GP_EXPLORE_UNCERTAINTY);
     const fw_link_t *link = fw_link_get();
     rt_status_t st = pose();
-    gp_goal_msg_t m;
-    patch(belief.fallback, 12, 4, 255); /* belief.unknown: 0 everywhere */
-    assert_int_equal(mbox_put(link->rt_seen, &seen), 0);
-    assert_int_equal(mbox_put(link->ai_belief, &belief), 0);
-    assert_int_equal(gp_explore_tick(&ex, link, &st, 1 * S), 0);
-    assert_int_equal(take_goal(&m), 1);
     assert_int_equal(m.mode, GP_GOAL_MSG_GO);
     assert_true(fabsf(m.x_m - 12.5f) < 1e-6f);
     assert_int_equal(ex.stats.fallbacks, 1);
@@ -200,13 +197,8 @@ static void test_uncertainty_falls_back_to_the_counts(void **state)
 
     /* The frontier policy never reads the belief, so it has no fallback either. */
     setup_grids();
-    const gp_explore_cfg_t fcfg = config(GP_EXPLORE_FRONTIER);
-    assert_int_equal(gp_explore_init(&ex, &fcfg), 0);
     patch(belief.fallback, 12, 4, 255);
-    assert_int_equal(mbox_put(link->rt_seen, &seen), 0);
-    assert_int_equal(mbox_put(link->ai_belief, &belief), 0);
-    assert_int_equal(gp_explore_tick(&ex, link, &st, 1 * S), 0);
-    assert_int_equal(take_goal(&m), 1);
+    m = first_goal(GP_EXPLORE_FRONTIER);
     assert_true(fabsf(m.x_m - 3.5f) < 1e-6f);
     assert_int_equal(ex.stats.fallbacks, 0);
 }
