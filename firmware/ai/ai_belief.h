@@ -21,8 +21,8 @@
  *          entered. (gp_goal.h's unknown, byte for byte; rt_grid.h's known is the other way
  *          round, see ai_belief_to_rt_grid.)
  *   post_unknown  the same byte of the posterior's share alone (without a count grid, unknown
- *          itself): what the uncertainty policy steers by first, the counts' layer (unknown)
- *          being its fallback when this one has nothing left (gp/gp_explore.h).
+ *          itself): what the uncertainty policy steers by first, unknown (with the count grid's
+ *          unreached_only) being its fallback when this one has nothing left (gp/gp_explore.h).
  * The model sees positions normalised over the plan's bounding box (ai/ai_sample.h):
  * x_n = 2 (x - min_x) / (max_x - min_x) - 1, likewise y; cells outside the box are evaluated
  * all the same (the model extrapolates there, the posterior says it knows nothing).

@@ -85,6 +85,8 @@ int ai_core_init(ai_core_t *ai, const ai_core_cfg_t *cfg, const fw_link_t *link)
         r = ai_belief_init(&ai->belief, &ai->belief_cfg);
         if (r == 0)
             r = ai_seen_init(&ai->seen, &ai->belief_cfg);
+        /* without explore_counts the counts give the fallback layer: the unreached cells only */
+        ai->seen.unreached_only = !cfg->explore_counts;
         ai->seen_shared = cfg->explore_share_post &&
                           BNN_POST_STATE_FLOATS(ai->post.dim) + AI_SEEN_STATE_FLOATS(cfg->belief->w * cfg->belief->h) <=
                               bnn_n_params(&ai->node.model);
@@ -355,11 +357,7 @@ static int publish_belief(ai_core_t *ai, uint64_t now_us)
     m->unknown_mean = (float)(ai->cfg.explore_counts ? b->unknown_mean : b->post_unknown_mean);
     memcpy(m->occ, b->occ, n);
     memcpy(m->unknown, ai->cfg.explore_counts ? b->unknown : b->post_unknown, n);
-    if (ai->cfg.explore_counts)
-        memcpy(m->fallback, b->unknown, n);
-    else /* the fallback: where no ray went, beyond what rays reached (ai_seen.h), all of it */
-        for (uint32_t i = 0; i < n; i++)
-            m->fallback[i] = ai->seen.beyond[i] ? 255u : b->post_unknown[i];
+    memcpy(m->fallback, b->unknown, n); /* without explore_counts: 255 where no ray went */
     (void)mbox_publish(ai->link->ai_belief);
     return 0;
 }

@@ -50,10 +50,11 @@
  * Exploring, the AI core also counts what the lidar covered (ai_seen.h: the posterior's global
  * features alone come to say they know rooms no ray entered); the belief it sends holds the
  * posterior's layer, which the goal choice reads first, and as its fallback the same with the
- * cells no ray reached beyond the reached ones unknown (ai_link.h; with explore_counts the
- * first layer is the larger of the posterior's and the counts' shares, and the fallback too). In a fleet the counts are reached by the same consensus, in the same rounds, after
- * the posterior in the state when the state has room for both (not in the `mcu` preset: there
- * each robot counts its own).
+ * cells no ray reached beyond the reached ones unknown (ai_link.h, ai_seen_t.unreached_only;
+ * with explore_counts the first layer is the larger of the posterior's and the counts' shares,
+ * and the fallback too). In a fleet the counts are reached by the same consensus, in the same
+ * rounds, after the posterior in the state when the state has room for both (not in the `mcu`
+ * preset: there each robot counts its own).
  * Storage: ai_core_t is static (the image declares it): the DiNNO node (model, duals, the
  * view of the neighbours), the pool of AI_POOL_CAPACITY samples and a minibatch buffer, checked with the
  * AI core's links against BOARD_RAM_AI_BYTES. No allocation. One AI core per image. */

@@ -67,6 +67,8 @@ double ai_seen_share(const ai_seen_t *s, uint32_t i)
 {
     if (!s || i >= s->cfg.w * s->cfg.h)
         return 0.0;
+    if (s->n[i] > 0.0f && s->unreached_only)
+        return 0.0;
     if (s->n[i] > 0.0f) { /* exp(-n / m), m spots of AI_SEEN_SPOT_M in the cell */
         const double spots = ((double)s->cfg.res_m / AI_SEEN_SPOT_M) * ((double)s->cfg.res_m / AI_SEEN_SPOT_M);
         return exp(-(double)s->n[i] / (spots > 1.0 ? spots : 1.0));

@@ -58,6 +58,10 @@ typedef struct ai_seen {
     uint8_t beyond[AI_BELIEF_MAX_CELLS]; /* 1: no ray reached it, joined to an open cell (above) */
     uint16_t queue[AI_BELIEF_MAX_CELLS]; /* scratch of ai_seen_flood */
     int dirty;                        /* the counts changed since the last ai_seen_flood */
+    int unreached_only;               /* 0 (ai_seen_init's): the share above; 1: a cell rays
+                                         reached says nothing (0), only the unreached cells
+                                         beyond count (the uncertainty policy's fallback layer,
+                                         ai_link.h) */
 } ai_seen_t;
 
 #define AI_SEEN_BYTES sizeof(ai_seen_t)
@@ -78,8 +82,8 @@ FS_MUST_CHECK int ai_seen_scale(ai_seen_t *s, double a);
  * since the last call: one breadth-first pass over the grid. 0 or -EINVAL. */
 FS_MUST_CHECK int ai_seen_flood(ai_seen_t *s);
 
-/* The share above for cell index i < w h (as of the last ai_seen_flood); 0 for a NULL s or a
- * cell outside. */
+/* The share above for cell index i < w h (as of the last ai_seen_flood; with unreached_only, 0
+ * where rays reached); 0 for a NULL s or a cell outside. */
 double ai_seen_share(const ai_seen_t *s, uint32_t i);
 
 /* Writes the state form (AI_SEEN_STATE_FLOATS(w h) floats) into out. 0, -EINVAL, -ENOSPC. */

@@ -2,8 +2,7 @@
  * data in one corner lowers known there and not far away; occ is the mean weights' forward
  * pass at each cell centre; the same inputs give the same bytes; the copies into the GP and RT
  * grids; a count grid keeps the cells no ray reached unknown, beside the posterior's own layer;
- * every refusal; and no allocation
- * during an update. */
+ * every refusal; and no allocation during an update. */
 #include <setjmp.h>
 #include <stdarg.h>
 #include <stddef.h>

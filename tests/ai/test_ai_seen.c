@@ -62,6 +62,9 @@ static void test_samples_land_in_their_cell(void **state)
                 s.n[cell(3, 2)] == 2.0f);
     /* where samples fell: the share of the cell's 25 spots of 0.1 m none fell on */
     assert_true(fabs(ai_seen_share(&s, cell(0, 0)) - exp(-2.0 / 25.0)) < 1e-9);
+    s.unreached_only = 1; /* the fallback layer's counts: a reached cell says nothing */
+    assert_true(ai_seen_share(&s, cell(0, 0)) == 0.0);
+    s.unreached_only = 0;
     assert_int_equal(ai_seen_scale(&s, 0.5), 0);
     assert_true(s.n[cell(0, 0)] == 1.0f && s.hits[cell(7, 5)] == 1.0f);
     assert_true(ai_seen_share(&s, GW * GH) == 0.0 && ai_seen_share(NULL, 0) == 0.0);
@@ -98,6 +101,10 @@ static void test_beyond_an_open_cell_not_behind_a_wall(void **state)
         for (uint32_t col = 4; col < GW; col++)
             if (!(col == 4 && row == 2))
                 assert_true(ai_seen_share(&s, cell(col, row)) == 1.0);
+    /* the fallback layer's counts: the unseen building beyond as before, the reached cells 0 */
+    s.unreached_only = 1;
+    assert_true(ai_seen_share(&s, cell(6, 4)) == 1.0 && ai_seen_share(&s, cell(3, 1)) == 0.0 &&
+                ai_seen_share(&s, cell(4, 2)) == 0.0);
 }
 
 /* Dynamic average consensus, as the AI core runs it: each robot's grid starts at N times its

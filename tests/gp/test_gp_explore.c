@@ -2,9 +2,9 @@
  * (fw_link): no goal before the RT core's first seen grid; a goal where the unknown share is;
  * a reached or given-up goal is spent and the next one follows; nothing left: DONE; the
  * uncertainty policy reads the AI core's belief, and its counts' layer when the posterior's has
- * nothing left; the frontier policy the robot's own scans and ignores claims; a grid of another geometry is refused. Grid: 16 x 8 cells of 1 m, all free
- * and observed but two unknown 3 x 3 patches, P around (3, 4) and Q around (12, 4); the robot
- * at (1.5, 4.5). */
+ * nothing left; the frontier policy the robot's own scans and ignores claims; a grid of another
+ * geometry is refused. Grid: 16 x 8 cells of 1 m, all free and observed but two unknown 3 x 3
+ * patches, P around (3, 4) and Q around (12, 4); the robot at (1.5, 4.5). */
 #include <setjmp.h>
 #include <stdarg.h>
 #include <stddef.h>
