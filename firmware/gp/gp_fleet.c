@@ -81,12 +81,39 @@ uint32_t gp_fleet_state_bytes(dinno_codec_t enc)
 static void update_senders(gp_fleet_t *f);
 
 /* ---- sending: the protocol's callback ---------------------------------------------------- */
+/* Our claim of the round, ahead of every message that may be the first to place us in it: chunk 0
+   of our state (sent or sent again) and our positioned beacon. A peer cannot end the round
+   before it placed us, and each sender's datagrams arrive in order on the transports here, so
+   the claim is in every peer's inbox before its round ends, even a peer that started after
+   the state first went out (gp_fleet_cfg_t.claims). A lost claim is the one case left. */
+static void send_claim_before(gp_fleet_t *f, gp_pse_kind_t kind, const void *msg)
+{
+    if (!f->claim_out_held)
+        return;
+    uint32_t round;
+    if (kind == GP_PSE_CHUNK && ((const gp_pse_chunk_t *)msg)->chunk == 0)
+        round = ((const gp_pse_chunk_t *)msg)->round;
+    else if (kind == GP_PSE_REQUEST && ((const gp_pse_request_t *)msg)->has_position)
+        round = ((const gp_pse_request_t *)msg)->round;
+    else
+        return;
+    if (round != f->claim_out.seq)
+        return;
+    uint8_t buf[GP_WIRE_CLAIM_BYTES];
+    const int n = gp_wire_encode_claim(&f->claim_out, buf, sizeof buf);
+    if (n < 0 || hal_net_publish(f->channel[GP_FLEET_CH_CLAIM], buf, (size_t)n) != 0)
+        f->stats.tx_failed++;
+    else
+        f->stats.claims_sent++;
+}
+
 static int fleet_send(void *ctx, gp_pse_kind_t kind, const void *msg)
 {
     gp_fleet_t *f = ctx;
     int n;
     const char *ch;
     uint32_t to = GP_PSE_TO_ALL;
+    send_claim_before(f, kind, msg);
     switch (kind) {
     case GP_PSE_CHUNK:
         n = gp_wire_encode_chunk(msg, f->tx, sizeof f->tx);
@@ -166,7 +193,10 @@ int gp_fleet_init(gp_fleet_t *f, const gp_fleet_cfg_t *cfg)
     if (r != 0)
         return r;
     memset(&f->mark, 0, sizeof f->mark);
-    memset(f->claim_held, 0, sizeof f->claim_held);
+    memset(f->claim_in, 0, sizeof f->claim_in);
+    f->claim_out_held = 0;
+    f->claims_handed_any = 0;
+    f->claims_handed_upto = 0;
     for (int c = 0; c < GP_FLEET_CHANNELS; c++) {
         r = gp_fleet_channel_of(cfg, (gp_fleet_channel_t)c, f->channel[c], sizeof f->channel[c]);
         if (r == -ENOENT) {
@@ -192,8 +222,8 @@ static uint64_t net_now(void)
    could go on as long as the peers kept sending, silent meanwhile, and be timed out). */
 #define GP_FLEET_DRAIN_BATCH 64u
 
-/* A peer's claim, kept until our round reaches its seq (gp_fleet_cfg_t.claims): the newest per
-   peer; gp_goal_on_claim checks the rest when it is handed over. */
+/* A peer's claim, kept until our round reaches its seq (gp_fleet_cfg_t.claims, gp_goal_inbox_t);
+   gp_goal_on_claim checks the rest when it is handed over. */
 static void take_claim(gp_fleet_t *f, size_t len)
 {
     gp_goal_claim_t c;
@@ -206,10 +236,9 @@ static void take_claim(gp_fleet_t *f, size_t len)
         return;
     }
     f->stats.claims_received++;
-    if (!f->claim_held[c.sender] || c.seq >= f->claim_in[c.sender].seq) {
-        f->claim_in[c.sender] = c;
-        f->claim_held[c.sender] = 1;
-    }
+    if (f->claims_handed_any && c.seq <= f->claims_handed_upto)
+        return; /* a copy of one handed over already (sent again for a late peer) */
+    gp_goal_inbox_put(&f->claim_in[c.sender], &c);
 }
 
 /* Hands up to GP_FLEET_DRAIN_BATCH queued messages to the protocol; returns how many it took. */
@@ -478,13 +507,10 @@ static int begin(gp_fleet_t *f, const gp_exchange_req_t *req)
     f->cur_started_us = net_now();
     f->have_cur = 1;
     f->view_filled = 0;
-    if (f->cfg.claims && req->claim != NULL) { /* before the state: it arrives first on an ordered link */
-        const int n = gp_wire_encode_claim(req->claim, f->tx, sizeof f->tx);
-        if (n < 0 || hal_net_publish(f->channel[GP_FLEET_CH_CLAIM], f->tx, (size_t)n) != 0)
-            f->stats.tx_failed++;
-        else
-            f->stats.claims_sent++;
-    }
+    /* our claim of the round as it stands now, sent ahead of the state (send_claim_before) */
+    f->claim_out_held = f->cfg.claims && req->claim != NULL && req->claim->seq == req->round;
+    if (f->claim_out_held)
+        f->claim_out = *req->claim;
     return gp_round_begin(&f->drv, f->mine, x, y, net_now());
 }
 
@@ -532,10 +558,11 @@ static uint32_t fleet_claims(void *ctx, uint32_t round, gp_goal_claim_t *out, ui
     gp_fleet_t *f = ctx;
     uint32_t n = 0;
     for (uint32_t p = 0; f->cfg.claims && p < f->cfg.n_peers && n < max; p++)
-        if (f->claim_held[p] && f->claim_in[p].seq <= round) {
-            out[n++] = f->claim_in[p];
-            f->claim_held[p] = 0;
-        }
+        n += (uint32_t)gp_goal_inbox_take(&f->claim_in[p], round, &out[n]);
+    if (f->cfg.claims && (!f->claims_handed_any || round > f->claims_handed_upto)) {
+        f->claims_handed_upto = round;
+        f->claims_handed_any = 1;
+    }
     f->stats.claims_handed += n;
     return n;
 }

@@ -112,10 +112,12 @@ typedef struct gp_fleet_cfg {
     const rt_waypoint_t *tour;       /* copied; needed with positions_from_tour */
     int32_t n_tour;
     int claims;                      /* 1: exploring with goal claims: the claim channel is used.
-                                        A claim goes out just before the round's first chunk (so
-                                        it arrives before the state on an ordered link), seq =
-                                        its round; received ones are kept per peer (the newest)
-                                        and handed over at our round k for seq <= k. */
+                                        Our claim of round k (seq = k) goes out ahead of chunk 0
+                                        of our state of k and of each positioned beacon of k, sent
+                                        or sent again: whatever places us reaches a peer after it
+                                        (each sender's order holds). Received ones are kept per
+                                        peer (gp_goal_inbox_t) and handed over at our round k for
+                                        seq <= k, each once. */
     int addressed;                   /* 1: a request goes to the robot asked alone and a chunk
                                         sent again to the robot that asked alone, each on that
                                         robot's own channel (gp_pse_cfg_t's), for a point-to-
@@ -163,8 +165,11 @@ typedef struct gp_fleet {
     int view_filled;                 /* the neighbour view holds the states of the round begun */
     char channel[GP_FLEET_CHANNELS][HAL_NET_CHANNEL_MAX]; /* CH_RESEND, CH_ASK: our own */
     char channel_to[HAL_NET_CHANNEL_MAX]; /* the channel of the one robot a message goes to */
-    gp_goal_claim_t claim_in[GP_PSE_MAX_FLEET]; /* per peer: its newest claim not handed over yet */
-    uint8_t claim_held[GP_PSE_MAX_FLEET];
+    gp_goal_inbox_t claim_in[GP_PSE_MAX_FLEET]; /* per peer: its claims not handed over yet */
+    uint32_t claims_handed_upto;     /* with claims_handed_any: the round last handed over */
+    int claims_handed_any;
+    gp_goal_claim_t claim_out;       /* our claim of the round begun, with claim_out_held */
+    int claim_out_held;
     /* The peers whose chunks the network delivers (gp_pse_wanted); all of them while
        senders_all, and always when the board cannot filter (senders_off). */
     uint8_t senders[GP_PSE_WANTED_BYTES];

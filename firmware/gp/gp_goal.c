@@ -376,3 +376,26 @@ int gp_goal_claim_of(const gp_goal_t *g, uint32_t id, uint64_t now_us, gp_goal_c
         }
     return -ENOENT;
 }
+
+void gp_goal_inbox_put(gp_goal_inbox_t *in, const gp_goal_claim_t *c)
+{
+    const uint32_t i = c->seq & 1u;
+    if (!(in->held >> i & 1u) || c->seq >= in->slot[i].seq) {
+        in->slot[i] = *c;
+        in->held |= (uint8_t)(1u << i);
+    }
+}
+
+int gp_goal_inbox_take(gp_goal_inbox_t *in, uint32_t round, gp_goal_claim_t *out)
+{
+    int found = 0;
+    for (uint32_t i = 0; i < 2u; i++) {
+        if (!(in->held >> i & 1u) || in->slot[i].seq > round)
+            continue;
+        if (!found || in->slot[i].seq > out->seq)
+            *out = in->slot[i];
+        found = 1;
+        in->held &= (uint8_t)~(1u << i);
+    }
+    return found;
+}

@@ -83,6 +83,25 @@ typedef struct gp_goal_claim {
     uint64_t expiry_us;
 } gp_goal_claim_t;
 
+/* A peer's claims on their way to gp_goal_on_claim: a fleet hands robot p's claims of rounds
+ * up to k over at its round k, so that every run takes the same ones at the same simulated
+ * instant whatever the order claims and round ends come in. p may be a round ahead (it began
+ * round k + 1 once it had our position of k, while we still wait for another's state), so its
+ * claim of k + 1 must not replace the one of k not handed over yet: two slots, by seq parity
+ * (a peer's unhanded claims are of k and k + 1 while the fleet keeps its lockstep). */
+typedef struct gp_goal_inbox {
+    gp_goal_claim_t slot[2];
+    uint8_t held;                    /* bit i: slot[i] holds a claim */
+} gp_goal_inbox_t;
+
+/* Keeps c (sender and the rest are checked when it is handed over): a newer or equal seq
+ * replaces the claim held in its slot, an older one is dropped. */
+void gp_goal_inbox_put(gp_goal_inbox_t *in, const gp_goal_claim_t *c);
+
+/* The newest held claim of seq <= round into *out (1), and every held one of seq <= round
+ * dropped; 0 when none. Claims of later rounds stay. */
+int gp_goal_inbox_take(gp_goal_inbox_t *in, uint32_t round, gp_goal_claim_t *out);
+
 /* Sends our claim. 0, or a negative code (counted, sent again next period). */
 typedef int (*gp_goal_send_fn)(void *ctx, const gp_goal_claim_t *c);
 

@@ -472,6 +472,48 @@ static void test_wire(void **st)
     assert_memory_equal(&back, &untouched, sizeof back);
 }
 
+/* A peer a round ahead: its claim of round k + 1 comes before our round k ends. Both orders
+ * of arrival hand the same claims at the same rounds (the fleet's determinism). */
+static void test_inbox_hands_each_round_its_own_claim(void **st)
+{
+    (void)st;
+    const gp_goal_claim_t k = {2, 7, 1.0, 1.0, 3.0, 5 * S}, k1 = {2, 8, 4.0, 1.0, 2.0, 6 * S};
+    const gp_goal_claim_t k1_again = {2, 8, 4.5, 1.0, 2.0, 6 * S}, old = {2, 6, 9.0, 9.0, 1.0, 4 * S};
+    for (int order = 0; order < 2; order++) {
+        gp_goal_inbox_t in;
+        memset(&in, 0, sizeof in);
+        gp_goal_inbox_put(&in, order ? &k1 : &k);
+        gp_goal_inbox_put(&in, order ? &k : &k1);
+        gp_goal_claim_t out;
+        assert_int_equal(gp_goal_inbox_take(&in, 6, &out), 0); /* nothing of round 6 or before */
+        assert_int_equal(gp_goal_inbox_take(&in, 7, &out), 1);
+        assert_memory_equal(&out, &k, sizeof out);
+        assert_int_equal(gp_goal_inbox_take(&in, 7, &out), 0); /* handed once */
+        gp_goal_inbox_put(&in, &k1_again);                    /* the same seq again: the later copy */
+        assert_int_equal(gp_goal_inbox_take(&in, 8, &out), 1);
+        assert_memory_equal(&out, &k1_again, sizeof out);
+        assert_int_equal(in.held, 0);
+    }
+    /* Behind by more (a robot that skipped rounds): the newest of seq <= round, the rest dropped. */
+    gp_goal_inbox_t in;
+    memset(&in, 0, sizeof in);
+    gp_goal_inbox_put(&in, &k);
+    gp_goal_inbox_put(&in, &k1);
+    gp_goal_claim_t out;
+    assert_int_equal(gp_goal_inbox_take(&in, 20, &out), 1);
+    assert_memory_equal(&out, &k1, sizeof out);
+    assert_int_equal(in.held, 0);
+    /* An older seq in a held slot's parity is dropped: k (7) is held, 5 would share its slot. */
+    gp_goal_inbox_put(&in, &k);
+    const gp_goal_claim_t older = {2, 5, 0.5, 0.5, 1.0, 3 * S};
+    gp_goal_inbox_put(&in, &older);
+    assert_int_equal(gp_goal_inbox_take(&in, 7, &out), 1);
+    assert_memory_equal(&out, &k, sizeof out);
+    gp_goal_inbox_put(&in, &old);
+    assert_int_equal(gp_goal_inbox_take(&in, 6, &out), 1);
+    assert_memory_equal(&out, &old, sizeof out);
+}
+
 int main(void)
 {
     const struct CMUnitTest tests[] = {
@@ -491,6 +533,7 @@ int main(void)
         cmocka_unit_test_setup(test_deterministic, setup),
         cmocka_unit_test_setup(test_claim_table_and_config, setup),
         cmocka_unit_test_setup(test_wire, setup),
+        cmocka_unit_test_setup(test_inbox_hands_each_round_its_own_claim, setup),
     };
     return cmocka_run_group_tests(tests, NULL, NULL);
 }

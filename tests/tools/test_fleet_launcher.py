@@ -321,7 +321,8 @@ def record_keyed_fleet():
 @test
 def explore_fleet_claims_same_twice():
     """A real 2-robot exploring fleet over LCM udpm (keyed), twice with one seed: each robot takes
-    its peer's goal claims, and both runs drive the same trajectories and train the same models."""
+    its peer's goal claims, the same number in both runs (robot 1 starts after robot 0's first
+    claim may have gone out), and both runs drive the same trajectories and train the same models."""
     if not os.access(HOST_SIM, os.X_OK):
         raise AssertionError(f"{HOST_SIM} not built (make)")
     tmp = tempfile.mkdtemp()
@@ -338,12 +339,18 @@ def explore_fleet_claims_same_twice():
             check(rc == 0 and "0 states given up" in out, said)
             runs.append(os.path.join(tmp, name))
         for i in range(2):
+            taken_per_run = []
+            for run in runs:
+                with open(os.path.join(run, f"robot_{i}", "summary.txt")) as f:
+                    summary = f.read()
+                claims = [l for l in summary.splitlines() if l.startswith("claims: ")]
+                check(len(claims) == 1, f"robot {i}: no claims line:\n{summary}")
+                taken = int(claims[0].split(" received, ")[1].split(" taken")[0])
+                check(taken >= 1 and "0 invalid" in claims[0], f"robot {i} took no claim: {claims[0]}")
+                taken_per_run.append(taken)
+            check(taken_per_run[0] == taken_per_run[1], f"robot {i} took {taken_per_run} claims in the two runs")
             with open(os.path.join(runs[0], f"robot_{i}", "summary.txt")) as f:
                 summary = f.read()
-            claims = [l for l in summary.splitlines() if l.startswith("claims: ")]
-            check(len(claims) == 1, f"robot {i}: no claims line:\n{summary}")
-            taken = int(claims[0].split(" received, ")[1].split(" taken")[0])
-            check(taken >= 1 and "0 invalid" in claims[0], f"robot {i} took no claim: {claims[0]}")
             check("explore: policy coordinated" in summary and "belief from the fleet's posterior" in summary and
                   "collisions: 0" in summary, summary)
             for f in ("final.bnn", "explore.csv"):
