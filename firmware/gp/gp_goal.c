@@ -25,7 +25,8 @@ int gp_goal_init(gp_goal_t *g, const gp_goal_cfg_t *cfg)
         cfg->min_info_m2 <= 0.0 || !finite_nonneg(cfg->claim_radius_m) || !finite_nonneg(cfg->claim_discount) ||
         !finite_nonneg(cfg->claim_tie_m) || !finite_nonneg(cfg->claim_speed_mps) || !finite_nonneg(cfg->claim_window_m) ||
         cfg->claim_discount > 1.0 || cfg->claim_period_us == 0u || cfg->claim_lifetime_us <= cfg->claim_period_us ||
-        cfg->claim_lifetime_us > cfg->claim_max_lifetime_us || cfg->claim_max_lifetime_us > GP_GOAL_MAX_LIFETIME_US)
+        cfg->claim_lifetime_us > cfg->claim_max_lifetime_us || cfg->claim_max_lifetime_us > GP_GOAL_MAX_LIFETIME_US ||
+        (cfg->info_by_path != 0 && cfg->info_by_path != 1))
         return -EINVAL;
     /* The map's corners must stay finite too (a huge origin or cell would overflow them). */
     if (!isfinite(cfg->origin_x_m + cfg->res_m * cfg->w) || !isfinite(cfg->origin_y_m + cfg->res_m * cfg->h))
@@ -63,7 +64,9 @@ static double centre(double origin, double res, uint32_t i)
  * (-x, +x, -y, +y), so the steps are a pure function of the grid: 4-connected steps of one
  * cell are the cost, which a coarse grid makes good enough for ranking goals and cheap
  * (one pass, no heap). */
-static void search(gp_goal_t *g, const gp_goal_grid_t *grid, uint32_t start)
+/* Breadth-first steps from start; returns how many cells it reached (g->queue holds them in
+ * the order of their steps). */
+static uint32_t search(gp_goal_t *g, const gp_goal_grid_t *grid, uint32_t start)
 {
     const uint32_t w = g->cfg.w, n = w * g->cfg.h;
     for (uint32_t i = 0; i < n; i++)
@@ -83,6 +86,7 @@ static void search(gp_goal_t *g, const gp_goal_grid_t *grid, uint32_t start)
             g->queue[tail++] = (uint16_t)m;
         }
     }
+    return tail;
 }
 
 /* sat[(y + 1) (w + 1) + x + 1] = the sum of unknown over cells [0, x] x [0, y], `taken` cells
@@ -115,6 +119,36 @@ static uint32_t window_sum(const gp_goal_t *g, const uint32_t *sat, uint32_t cx,
     const uint32_t s = g->cfg.w + 1u;
     const window_t b = window_at(&g->cfg, cx, cy, r);
     return sat[b.y1 * s + b.x1] - sat[b.y0 * s + b.x1] - sat[b.y1 * s + b.x0] + sat[b.y0 * s + b.x0];
+}
+
+/* A 2-D Fenwick tree over the grid in the same (w + 1) x (h + 1) layout as a summed-area
+ * table: cells are added one by one (info_by_path: in the order of their path steps) and a
+ * window's sum is read with the same four prefix sums. */
+static void bit_add(const gp_goal_t *g, uint32_t *bit, uint32_t cell, uint32_t v)
+{
+    const uint32_t w = g->cfg.w, h = g->cfg.h, s = w + 1u;
+    if (v == 0u)
+        return;
+    for (uint32_t i = cell / w + 1u; i <= h; i += i & (0u - i))
+        for (uint32_t j = cell % w + 1u; j <= w; j += j & (0u - j))
+            bit[i * s + j] += v;
+}
+
+static uint32_t bit_prefix(const gp_goal_t *g, const uint32_t *bit, uint32_t x1, uint32_t y1)
+{
+    const uint32_t s = g->cfg.w + 1u;
+    uint32_t sum = 0;
+    for (uint32_t i = y1; i > 0u; i -= i & (0u - i))
+        for (uint32_t j = x1; j > 0u; j -= j & (0u - j))
+            sum += bit[i * s + j];
+    return sum;
+}
+
+static uint32_t bit_window_sum(const gp_goal_t *g, const uint32_t *bit, uint32_t cx, uint32_t cy, uint32_t r)
+{
+    const window_t b = window_at(&g->cfg, cx, cy, r);
+    return bit_prefix(g, bit, b.x1, b.y1) - bit_prefix(g, bit, b.x0, b.y1) - bit_prefix(g, bit, b.x1, b.y0) +
+           bit_prefix(g, bit, b.x0, b.y0);
 }
 
 /* A window's half side in cells: round(m / res), capped where it covers the grid anyway (which
@@ -249,35 +283,53 @@ int gp_goal_select(gp_goal_t *g, const gp_goal_grid_t *grid, double x_m, double 
         return -EINVAL;
     const gp_goal_cfg_t *cfg = &g->cfg;
     expire(g, now_us);
-    search(g, grid, start);
+    const uint32_t reached = search(g, grid, start);
     apply_claims(g, now_us); /* the claims' verdicts need the costs, the sums the taken cells */
-    summed_area(g, grid, 0, g->sat);
-    /* what the claims leave: without a window, all of it (the same table) */
-    const uint32_t *sat_left = g->sat;
-    if (cfg->claim_window_m > 0.0) {
-        summed_area(g, grid, 1, g->sat_left);
-        sat_left = g->sat_left;
-    }
     const uint32_t r = half_side(cfg, cfg->sensor_radius_m);
+    const uint32_t *sat_left = g->sat;
+    if (cfg->info_by_path) { /* filled as the candidates come, in the order of their steps */
+        const size_t bytes = sizeof g->sat[0] * (cfg->w + 1u) * (cfg->h + 1u);
+        memset(g->sat, 0, bytes);
+        memset(g->sat_left, 0, bytes);
+        sat_left = g->sat_left;
+    } else {
+        summed_area(g, grid, 0, g->sat);
+        /* what the claims leave: without a window, all of it (the same table) */
+        if (cfg->claim_window_m > 0.0) {
+            summed_area(g, grid, 1, g->sat_left);
+            sat_left = g->sat_left;
+        }
+    }
     const double cell_m2 = cfg->res_m * cfg->res_m;
     int found = 0, claimed = 0;
     gp_goal_pick_t best = {0};
-    for (uint32_t c = 0; c < cfg->w * cfg->h; c++) {
+    uint32_t added = 0;
+    for (uint32_t k = 0; k < (cfg->info_by_path ? reached : cfg->w * cfg->h); k++) {
+        const uint32_t c = cfg->info_by_path ? g->queue[k] : k;
+        if (cfg->info_by_path) /* the unknown a look from c takes in: reached within r steps past c */
+            for (; added < reached && g->steps[g->queue[added]] <= (uint32_t)g->steps[c] + r; added++) {
+                const uint32_t m = g->queue[added];
+                bit_add(g, g->sat, m, grid->unknown[m]);
+                bit_add(g, g->sat_left, m, g->taken[m] ? 0u : grid->unknown[m]);
+            }
         if (g->steps[c] == UNREACHED || grid->occ[c] >= cfg->occ_max)
             continue;
         const uint32_t cx = c % cfg->w, cy = c / cfg->w;
-        const double info = window_sum(g, g->sat, cx, cy, r) / 255.0 * cell_m2;
+        const double info = (cfg->info_by_path ? bit_window_sum(g, g->sat, cx, cy, r) : window_sum(g, g->sat, cx, cy, r)) /
+                            255.0 * cell_m2;
         if (info < cfg->min_info_m2)
             continue;
-        const double left = window_sum(g, sat_left, cx, cy, r) / 255.0 * cell_m2;
+        const double left = (cfg->info_by_path ? bit_window_sum(g, sat_left, cx, cy, r)
+                                               : window_sum(g, sat_left, cx, cy, r)) /
+                            255.0 * cell_m2;
         if (g->discount[c] <= 0.0 || left < cfg->min_info_m2) { /* worth a look, but a nearer peer's */
             claimed = 1;
             continue;
         }
         const double cost = g->steps[c] * cfg->res_m, info_d = left * g->discount[c];
         const double u = info_d - cfg->lambda * cost;
-        /* Strictly greater: the first (lowest) index wins a tie. */
-        if (!found || u > best.utility) {
+        /* The lowest index wins a tie (with info_by_path the cells come by steps, not index). */
+        if (!found || u > best.utility || (u == best.utility && c < best.cell)) {
             found = 1;
             best = (gp_goal_pick_t){c,      centre(cfg->origin_x_m, cfg->res_m, cx),
                                     centre(cfg->origin_y_m, cfg->res_m, cy),

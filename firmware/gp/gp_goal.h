@@ -25,8 +25,12 @@
  *           ours to learn, so a goal just beyond the claim radius no longer counts the
  *           claimed room (Burgard's utility reduction of what the assigned robot sees);
  *   info    info_m2(c) = res_m^2 x sum(unknown / 255) over the square of half side
- *           round(sensor_radius_m / res_m) cells around c (a summed-area table: one pass):
- *           the area of prior uncertainty a visit could remove, m^2;
+ *           r = round(sensor_radius_m / res_m) cells around c (a summed-area table: one pass):
+ *           the area of prior uncertainty a visit could remove, m^2; with info_by_path only
+ *           over the cells of that square the search reaches within r steps past c's own
+ *           (steps(u) <= steps(c) + r): a room behind a wall the robot has seen, reached the
+ *           long way round, is not what a look from beside the wall takes in (the cells are
+ *           added in the order of their steps to a 2-D Fenwick tree, O(cells log^2) a choice);
  *   utility u(c) = info_m2(c) - lambda x cost_m(c)   (lambda in m^2 per metre of path);
  *   goal    the reachable candidate of the highest utility among those with info_m2 >=
  *           min_info_m2 before the claims (ties: the lowest cell index); none: -ENOENT,
@@ -119,6 +123,7 @@ typedef struct gp_goal_cfg {
     double claim_window_m;           /* >= 0: half side of the square of unknown a kept claim takes
                                         out of every candidate's info (0: none) */
     double claim_tie_m;              /* >= 0: costs this close are a tie (above); 0: equal only */
+    int info_by_path;                /* 1: info counts only what a look takes in (above) */
     double claim_speed_mps;          /* >= 0: a claimant's cost falls this fast with the claim's age */
     uint64_t claim_period_us;        /* > 0: our claim is sent again this often */
     uint64_t claim_lifetime_us;      /* > claim_period_us, <= claim_max_lifetime_us: ours */

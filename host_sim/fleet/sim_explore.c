@@ -66,6 +66,12 @@ int sim_explore_gp_cfg(const sim_explore_geom_t *g, const sim_explore_opts_t *o,
        good on all four plans. Coordinated frontier gains from it too (Burgard's utility
        reduction of what the assigned robot sees), so its baseline has it as well. */
     c->claim_window_m = 3.0;
+    /* What a look from a cell takes in is what lies on its side of the walls the robot has seen:
+       summed over the square alone, the cells beside a wall looked into the room behind it,
+       whose door was elsewhere, and robots went to stand there again and again while their
+       peers waited on their claims (docs/exploration.md: 3 robots, six seeds on four plans,
+       24 to 40 % fewer robot-seconds to 95 % with every policy). */
+    c->info_by_path = 1;
     c->claim_tie_m = 1.0;       /* the claims' costs are path lengths on 0.2-0.5 m cells */
     c->claim_speed_mps = 0.2;   /* a robot heading for its goal, a little under v_max (0.22) */
     const double life_s = fmin(1.5 * o->budget_s / boundaries, 50.0);

@@ -514,6 +514,38 @@ static void test_inbox_hands_each_round_its_own_claim(void **st)
     assert_memory_equal(&out, &old, sizeof out);
 }
 
+/* info_by_path: a wall at x = 10 (rows 0-6, a door in row 7), the robot at (8, 1) beside it,
+ * unknown only behind it (a 3 x 3 patch around (12, 1)). Summed over the square window, the
+ * cells just this side of the wall look into the patch, though from there the lidar sees
+ * the wall; counted only where the robot gets within the window's half side past the
+ * candidate, the patch is worth a look only from its own side, through the door. */
+static void test_info_by_path_sees_nothing_through_a_known_wall(void **st)
+{
+    (void)st;
+    memset(&grid, 0, sizeof grid);
+    patch(12, 1, 255);
+    for (uint32_t y = 0; y < 7u; y++)
+        grid.occ[CELL(10, y)] = 255;
+    gp_goal_cfg_t c = config(0, &oa);
+    c.sensor_radius_m = 2.0;
+    c.lambda = 0.5;
+    gp_goal_pick_t window, by_path;
+    assert_int_equal(gp_goal_init(&ga, &c), 0);
+    assert_int_equal(gp_goal_select(&ga, &grid, 8.5, 1.5, 0, &window), 0);
+    assert_true(window.cell % 16u < 10u); /* this side of the wall: two steps away */
+    c.info_by_path = 1;
+    assert_int_equal(gp_goal_init(&ga, &c), 0);
+    assert_int_equal(gp_goal_select(&ga, &grid, 8.5, 1.5, 0, &by_path), 0);
+    assert_true(by_path.cell % 16u > 10u); /* the room's side, the long way round */
+    assert_true(by_path.cost_m >= 13.0 && by_path.info_m2 >= 0.5);
+    /* Nothing walled off: the patch is worth a look from this side, a few steps away. */
+    memset(grid.occ, 0, sizeof grid.occ);
+    assert_int_equal(gp_goal_select(&ga, &grid, 8.5, 1.5, 0, &by_path), 0);
+    assert_true(by_path.cell % 16u >= 10u && by_path.cost_m <= 4.0 && by_path.info_m2 >= 4.0);
+    c.info_by_path = 2;
+    assert_int_equal(gp_goal_init(&ga, &c), -EINVAL);
+}
+
 int main(void)
 {
     const struct CMUnitTest tests[] = {
@@ -534,6 +566,7 @@ int main(void)
         cmocka_unit_test_setup(test_claim_table_and_config, setup),
         cmocka_unit_test_setup(test_wire, setup),
         cmocka_unit_test_setup(test_inbox_hands_each_round_its_own_claim, setup),
+        cmocka_unit_test_setup(test_info_by_path_sees_nothing_through_a_known_wall, setup),
     };
     return cmocka_run_group_tests(tests, NULL, NULL);
 }
