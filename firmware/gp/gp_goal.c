@@ -151,6 +151,13 @@ static uint32_t bit_window_sum(const gp_goal_t *g, const uint32_t *bit, uint32_t
            bit_prefix(g, bit, b.x0, b.y0);
 }
 
+/* A window's sum of the table gp_goal_select filled: a Fenwick tree with info_by_path, else a
+ * summed-area table. */
+static uint32_t info_sum(const gp_goal_t *g, const uint32_t *table, uint32_t cx, uint32_t cy, uint32_t r)
+{
+    return g->cfg.info_by_path ? bit_window_sum(g, table, cx, cy, r) : window_sum(g, table, cx, cy, r);
+}
+
 /* A window's half side in cells: round(m / res), capped where it covers the grid anyway (which
  * also keeps the sums' indices small). */
 static uint32_t half_side(const gp_goal_cfg_t *cfg, double m)
@@ -304,31 +311,29 @@ int gp_goal_select(gp_goal_t *g, const gp_goal_grid_t *grid, double x_m, double 
     int found = 0, claimed = 0;
     gp_goal_pick_t best = {0};
     uint32_t added = 0;
-    for (uint32_t k = 0; k < (cfg->info_by_path ? reached : cfg->w * cfg->h); k++) {
-        const uint32_t c = cfg->info_by_path ? g->queue[k] : k;
+    /* The reachable cells, in the search's order (the tie rule below keeps the lowest index). */
+    for (uint32_t k = 0; k < reached; k++) {
+        const uint32_t c = g->queue[k];
         if (cfg->info_by_path) /* the unknown a look from c takes in: reached within r steps past c */
             for (; added < reached && g->steps[g->queue[added]] <= (uint32_t)g->steps[c] + r; added++) {
                 const uint32_t m = g->queue[added];
                 bit_add(g, g->sat, m, grid->unknown[m]);
                 bit_add(g, g->sat_left, m, g->taken[m] ? 0u : grid->unknown[m]);
             }
-        if (g->steps[c] == UNREACHED || grid->occ[c] >= cfg->occ_max)
-            continue;
+        if (grid->occ[c] >= cfg->occ_max)
+            continue; /* the robot's own cell, which the search starts from whatever it holds */
         const uint32_t cx = c % cfg->w, cy = c / cfg->w;
-        const double info = (cfg->info_by_path ? bit_window_sum(g, g->sat, cx, cy, r) : window_sum(g, g->sat, cx, cy, r)) /
-                            255.0 * cell_m2;
+        const double info = info_sum(g, g->sat, cx, cy, r) / 255.0 * cell_m2;
         if (info < cfg->min_info_m2)
             continue;
-        const double left = (cfg->info_by_path ? bit_window_sum(g, sat_left, cx, cy, r)
-                                               : window_sum(g, sat_left, cx, cy, r)) /
-                            255.0 * cell_m2;
+        const double left = info_sum(g, sat_left, cx, cy, r) / 255.0 * cell_m2;
         if (g->discount[c] <= 0.0 || left < cfg->min_info_m2) { /* worth a look, but a nearer peer's */
             claimed = 1;
             continue;
         }
         const double cost = g->steps[c] * cfg->res_m, info_d = left * g->discount[c];
         const double u = info_d - cfg->lambda * cost;
-        /* The lowest index wins a tie (with info_by_path the cells come by steps, not index). */
+        /* The lowest index wins a tie (the cells come by steps, not index). */
         if (!found || u > best.utility || (u == best.utility && c < best.cell)) {
             found = 1;
             best = (gp_goal_pick_t){c,      centre(cfg->origin_x_m, cfg->res_m, cx),
