@@ -273,8 +273,9 @@ $(O)/obj/tests/%.c.o: tests/%.c | $(GEN)/.stamp
 	@mkdir -p $(@D)
 	$(call say,CC,$<)$(CC) $(CFLAGS) $(TEST_INC) -c $< -o $@
 
-# LCM message types: generated at build time, never committed.
-$(GEN)/.stamp: $(MSG_LCM)
+# LCM message types: generated at build time, never committed. After `deps` (order-only): a
+# parallel make on a fresh machine would otherwise run lcm-gen before it is installed.
+$(GEN)/.stamp: $(MSG_LCM) | deps
 	@rm -rf $(GEN)/lcm && mkdir -p $(GEN)/lcm
 	$(call say,GEN,$(GEN)/lcm)$(if $(MSG_LCM),$(LCMGEN) -c --c-cpath $(GEN)/lcm --c-hpath $(GEN)/lcm --cinclude lcm $(MSG_LCM))
 	@touch $@
@@ -284,7 +285,7 @@ $(GEN)/.stamp: $(MSG_LCM)
 # time, never committed. Made before any object (the list at the end of this file); -MMD tracks
 # who includes it after.
 MSG_LAYOUT := $(MSG_GEN)/msg/msg_layout.h
-$(MSG_LAYOUT): tools/lcmgen.py $(MSG_LCM)
+$(MSG_LAYOUT): tools/lcmgen.py $(MSG_LCM) | deps
 	$(call say,GEN,$@)$(PYTHON) tools/lcmgen.py -o $@ $(MSG_LCM)
 
 # What `host_sim --version` says (host_sim/app/cmd_version.c): the commit (`git describe --always
