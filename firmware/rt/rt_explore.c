@@ -210,12 +210,14 @@ static int is_obstacle(const rt_explore_t *x, int32_t i)
 /* 1 when an obstacle cell's centre lies within robot_radius_m + margin_m / 2 + half a cell
  * diagonal of (px, py): its square then comes closer than radius + margin / 2. A fresh plan
  * keeps every obstacle centre at least radius + margin + half a diagonal away (rt_plan.h), so
- * it never trips this, and a path that does trip it has lost half its margin. */
+ * it never trips this, and a path that does trip it has lost half its margin. A tight plan
+ * (RT_PLAN_TIGHT) keeps them radius + margin + (1 - 1/sqrt(2)) cells away, and is held to
+ * radius + margin / 2 + that. */
 static int point_blocked(const rt_explore_t *x, float px, float py)
 {
     const rt_grid_t *g = &x->grid;
     const float rad = x->cfg.plan.robot_radius_m + 0.5f * x->cfg.plan.margin_m +
-                      0.70710678f * g->res;
+                      (x->tight ? 0.29289322f : 0.70710678f) * g->res;
     int32_t c0 = (int32_t)floorf((px - rad - g->origin_x) / g->res);
     int32_t c1 = (int32_t)floorf((px + rad - g->origin_x) / g->res);
     int32_t r0 = (int32_t)floorf((py - rad - g->origin_y) / g->res);
@@ -268,14 +270,38 @@ static void give_up(rt_explore_t *x)
     x->state = RT_EXPLORE_IDLE;
 }
 
-/* Plans from the pose to the goal: DRIVE on success, the goal given up on any failure. */
+/* The distance from the end of plan p to the goal, m. */
+static float end_to_goal(const rt_explore_t *x, const rt_plan_result_t *p)
+{
+    return hypotf(p->wps[p->n_wps - 1].x - x->goal_x, p->wps[p->n_wps - 1].y - x->goal_y);
+}
+
+/* Plans from the pose to the goal: DRIVE on success, the goal given up on any failure. When
+ * the band closes the way to the goal (RT_PLAN_GOAL_MOVED), the tight band is tried and taken
+ * when it ends more than a cell nearer the goal: a door the robot came in through, narrower in
+ * its grid than the full band passes, lets it out again (rt_plan.h). */
 static void plan_to_goal(rt_explore_t *x, float px, float py, const rt_follow_cfg_t *follow)
 {
     x->plans++;
     x->window_set = 0; /* a new path starts a new stuck window */
     x->path_check = 0;
+    x->tight = 0;
     int r = rt_plan_path(&x->grid, &x->cfg.plan, px, py, x->goal_x, x->goal_y, &x->ws,
                          &x->plan_res);
+    if (r == 0 && (x->plan_res.flags & RT_PLAN_GOAL_MOVED) != 0) {
+        /* into plan_res itself (no second result in the RT core's RAM): the full band's plan
+           again when the tight one is no better */
+        const float full_end = end_to_goal(x, &x->plan_res);
+        rt_plan_cfg_t tight = x->cfg.plan;
+        tight.flags |= RT_PLAN_TIGHT;
+        if (rt_plan_path(&x->grid, &tight, px, py, x->goal_x, x->goal_y, &x->ws, &x->plan_res) == 0 &&
+            end_to_goal(x, &x->plan_res) < full_end - x->grid.res) {
+            x->tight = 1;
+            x->tight_plans++;
+        } else {
+            r = rt_plan_path(&x->grid, &x->cfg.plan, px, py, x->goal_x, x->goal_y, &x->ws, &x->plan_res);
+        }
+    }
     if (r == 0)
         r = rt_follow_init(&x->follow, follow);
     if (r != 0) {
@@ -465,6 +491,7 @@ void rt_explore_status(const rt_explore_t *x, rt_status_t *st)
     st->goal_failed = x->goal_failed;
     st->plans = x->plans;
     st->plan_failures = x->plan_failures;
+    st->tight_plans = x->tight_plans;
     st->stuck_events = x->stuck_events;
     st->avoid_stops = x->avoid_stops;
 }

@@ -121,9 +121,11 @@ typedef struct rt_explore {
     uint32_t seen_updates;
     /* counters (rt_status_t's exploration fields) */
     uint32_t goal_reached, goal_failed, plans, plan_failures, stuck_events, avoid_stops;
+    uint32_t tight_plans;           /* plans through the tight band (plan_to_goal) */
     uint32_t scans_integrated;
     /* storage */
     rt_plan_result_t plan_res;
+    int32_t tight;                  /* 1: plan_res is a tight plan (point_blocked's bound) */
     rt_grid_t grid;
     uint8_t mark[RT_GRID_MAX_CELLS]; /* per scan: 0 untouched, 1 missed, 2 hit */
     rt_plan_workspace_t ws;
@@ -167,7 +169,7 @@ FS_MUST_CHECK int rt_explore_step(rt_explore_t *x, const gp_goal_msg_t *goal, fl
 FS_MUST_CHECK int rt_explore_seen(rt_explore_t *x, uint64_t now_us, rt_seen_t *out);
 
 /* Copies the exploration fields (goal_seq, goal_reached, goal_failed, plans, plan_failures,
- * stuck_events, avoid_stops) into *st. */
+ * stuck_events, avoid_stops, tight_plans) into *st. */
 void rt_explore_status(const rt_explore_t *x, rt_status_t *st);
 
 #endif /* RT_RT_EXPLORE_H */

@@ -30,6 +30,7 @@ typedef struct rt_status {
     uint32_t plans, plan_failures; /* A* runs, and runs that found no path */
     uint32_t stuck_events;   /* no progress for the stuck window: backed off and re-planned */
     uint32_t avoid_stops;    /* ticks the reactive avoidance stopped the robot */
+    uint32_t tight_plans;    /* plans through a door the full clearance band closes (rt_plan.h) */
 } rt_status_t;
 
 /* RT -> GP: a coarse view of the robot's own lidar grid, for goal selection (the frontier

@@ -30,7 +30,7 @@ static int cfg_ok(const rt_plan_cfg_t *c)
     return isfinite(c->robot_radius_m) && c->robot_radius_m > 0.0f && isfinite(c->margin_m) &&
            c->margin_m >= 0.0f && isfinite(c->k_clear_m) && c->k_clear_m >= 0.0f &&
            c->occ_threshold > 0 && c->unknown_is_obstacle <= 1 &&
-           (c->flags & ~RT_PLAN_NEAREST_GOAL) == 0;
+           (c->flags & ~(RT_PLAN_NEAREST_GOAL | RT_PLAN_TIGHT)) == 0;
 }
 
 static int is_obstacle(const rt_grid_t *g, const rt_plan_cfg_t *c, int32_t i)
@@ -343,6 +343,14 @@ static int simplify(const plan_ctx_t *p, float k, int32_t m, rt_plan_result_t *o
     return 0;
 }
 
+/* The band of rt_plan.h step 3, squared: allowed iff clear2 >= it. */
+static double band2(const rt_grid_t *grid, const rt_plan_cfg_t *cfg)
+{
+    const double band = (double)(cfg->robot_radius_m + cfg->margin_m) / grid->res +
+                        ((cfg->flags & RT_PLAN_TIGHT) != 0 ? 1.0 : SQRT2);
+    return band * band;
+}
+
 int rt_plan_path(const rt_grid_t *grid, const rt_plan_cfg_t *cfg, float sx, float sy, float gx,
                  float gy, rt_plan_workspace_t *ws, rt_plan_result_t *out)
 {
@@ -362,9 +370,7 @@ int rt_plan_path(const rt_grid_t *grid, const rt_plan_cfg_t *cfg, float sx, floa
     r = rt_plan_clearance(grid, cfg, ws);
     if (r != 0)
         return r;
-    plan_ctx_t p = {.grid = grid, .ws = ws, .w = grid->w, .h = grid->h};
-    double band = (double)(cfg->robot_radius_m + cfg->margin_m) / grid->res + SQRT2;
-    p.allow2 = band * band;
+    plan_ctx_t p = {.grid = grid, .ws = ws, .w = grid->w, .h = grid->h, .allow2 = band2(grid, cfg)};
     const int nearest_goal = (cfg->flags & RT_PLAN_NEAREST_GOAL) != 0;
     int32_t s = sr * p.w + sc, t = gr * p.w + gc;
     if (!allowed(&p, sc, sr)) {

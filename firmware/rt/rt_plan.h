@@ -14,6 +14,12 @@
  *    at least R from every obstacle cell's square. Paths only cross allowed cells, hence
  *    every point of a returned path is at least R from every obstacle cell (the price: a
  *    corridor must be about 2 R + 3 cells wide to be passable).
+ *    RT_PLAN_TIGHT: d >= R / res + 1 instead, half a cell side for each of the two cells: the
+ *    guarantee of R holds against obstacle cells in the same row or column (walls along the
+ *    grid, the sides of a door), and R - (sqrt(2) - 1) res diagonally. A door 2 R + 2 cells
+ *    wide in the grid is passable: on a 0.16 m grid the robot with its margin (0.155 m) passes
+ *    4 free cells, where the full band asks for 5 (a 0.64 m door, which a 0.21 m robot drove
+ *    in through before its jambs were seen, and then could not plan out of).
  * 4. A* over the allowed cells, 8-connected; a diagonal step needs both cells it cuts past
  *    allowed (no corner cutting). Step cost = L * (1 + k_clear_m / c), L the step's length
  *    (res or res * sqrt(2)), c the clearance in metres of the cell stepped into: paths keep
@@ -54,6 +60,7 @@
 
 /* cfg->flags */
 #define RT_PLAN_NEAREST_GOAL 1u /* go to the nearest reachable allowed cell instead of -ENOENT */
+#define RT_PLAN_TIGHT 4u        /* the band of 3. with one cell instead of sqrt(2) */
 /* result->flags */
 #define RT_PLAN_START_MOVED 1u /* the start cell was forbidden: started from the nearest allowed */
 #define RT_PLAN_GOAL_MOVED 2u  /* the goal was not reached: ends at the nearest reached cell */
@@ -64,7 +71,7 @@ typedef struct rt_plan_cfg {
     float k_clear_m;             /* >= 0: soft cost weight (0 = shortest allowed path) */
     uint8_t occ_threshold;       /* 1 .. 255: obstacle when occ >= occ_threshold */
     uint8_t unknown_is_obstacle; /* 0: unknown cells are open (optimistic), 1: obstacles */
-    uint32_t flags;              /* RT_PLAN_NEAREST_GOAL or 0 */
+    uint32_t flags;              /* RT_PLAN_NEAREST_GOAL, RT_PLAN_TIGHT, or 0 */
 } rt_plan_cfg_t;
 
 /* Caller-owned scratch for one call (about 1.3 MiB at the default RT_GRID_MAX_CELLS: give it

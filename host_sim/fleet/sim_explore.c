@@ -207,18 +207,21 @@ void sim_explore_summary(FILE *f, const sim_explore_opts_t *o, const rt_status_t
                          const gp_goal_stats_t *claims, const gp_fleet_stats_t *fleet)
 {
     char fell[96] = "";
+    char tight[64] = "";
+    if (rt->tight_plans > 0)
+        snprintf(tight, sizeof tight, ", %u through a door only the tight band passes", rt->tight_plans);
     if (x->fallbacks > 0)
         snprintf(fell, sizeof fell, ", %llu chosen on the counts when the posterior had nothing left",
                  (unsigned long long)x->fallbacks);
     fprintf(f, "explore: policy %s, %.0f s budget, belief from %s%s; %llu goals (%llu reached, %llu given up)%s%s; "
-               "%u plans (%u failed); %u stuck events; %u avoidance stops\n",
+               "%u plans (%u failed%s); %u stuck events; %u avoidance stops\n",
             gp_explore_policy_name(o->policy), o->budget_s,
             fleet != NULL && !o->own_posterior ? "the fleet's posterior" : "its own posterior",
             !o->counts ? "" : fleet != NULL && !o->own_posterior ? " and counts" : " and its own counts",
             (unsigned long long)x->goals,
             (unsigned long long)x->reached, (unsigned long long)x->failed, fell,
-            x->done ? ", then nothing left to learn within reach" : "", rt->plans, rt->plan_failures, rt->stuck_events,
-            rt->avoid_stops);
+            x->done ? ", then nothing left to learn within reach" : "", rt->plans, rt->plan_failures, tight,
+            rt->stuck_events, rt->avoid_stops);
     if (fleet != NULL && o->policy != GP_EXPLORE_FRONTIER)
         fprintf(f, "claims: %llu sent, %llu received, %llu taken; refused: %llu invalid, %llu late, %llu reordered, "
                    "%llu duplicates, %llu table full; %llu expired\n",

@@ -4,7 +4,8 @@
  * room the robot has not seen yet is reached around the wall, with a unicycle integrator and a
  * ray-cast lidar in this file (no ODE), the robot never closer to a wall than its radius; a
  * robot that does not move is found stuck, backs off, re-plans, and gives the goal up after
- * max_stuck; a plan failure gives the goal up; GP_GOAL_MSG_DONE and the budget stop it; the
+ * max_stuck; a plan failure gives the goal up; a door the grid narrowed below the clearance
+ * band is left through the tight band; GP_GOAL_MSG_DONE and the budget stop it; the
  * configuration is checked; two runs give the same bytes; nothing is allocated. */
 #include <setjmp.h>
 #include <stdarg.h>
@@ -430,6 +431,52 @@ static void test_plan_failure_gives_up(void **st)
     assert_true(ex.goal_x < 6.0f);
 }
 
+/* A robot in a room whose door its 0.16 m grid narrowed to 4 cells (a wall two cells thick, as
+ * in office64): the full band closes the door, so the tight one plans the way out, and the
+ * robot drives it; with the door at 2 cells neither passes and the plan stops short. */
+static void test_tight_band_leaves_a_narrowed_door(void **st)
+{
+    (void)st;
+    rt_explore_cfg_t c = rt_explore_default_cfg();
+    c.res_m = 0.16f;
+    c.w = 20;
+    c.h = 20;
+    c.seen_factor = 4;
+    c.seen_w = 5;
+    c.seen_h = 5;
+    assert_int_equal(rt_explore_init(&ex, &c), 0);
+    for (int r = 0; r < 20; r++)
+        for (int col = 0; col < 20; col++) {
+            const int wall = (r == 0 || r == 19 || col == 0 || col == 19 || r == 9 || r == 10) &&
+                             !(r == 10 && col >= 8 && col <= 11) && !(r == 9 && col >= 7 && col <= 13);
+            assert_int_equal(rt_grid_set(&ex.grid, col, r, wall ? 255 : 0, 255), 0);
+        }
+    const rt_follow_cfg_t fc = rt_follow_default_cfg();
+    rt_follow_cmd_t cmd;
+    gp_goal_msg_t goal = go(1, 1.68f, 0.72f); /* cell (10, 4), below the wall; the robot at (10, 15) */
+    alloc_count_reset();
+    assert_int_equal(rt_explore_step(&ex, &goal, 1.68f, 2.48f, -PI_F / 2, NULL, 0, &fc, &cmd), 0);
+    assert_int_equal(alloc_count_allocations(), 0);
+    assert_int_equal(ex.state, RT_EXPLORE_DRIVE);
+    assert_int_equal(ex.tight, 1);
+    assert_int_equal(ex.tight_plans, 1);
+    assert_int_equal(ex.plan_res.flags, 0);
+    assert_true(cmd.v > 0.0f);
+    rt_status_t s;
+    memset(&s, 0, sizeof s);
+    rt_explore_status(&ex, &s);
+    assert_int_equal(s.tight_plans, 1);
+    /* Two cells: the full band's plan, to the nearest cell it reaches (above the wall). */
+    assert_int_equal(rt_grid_set(&ex.grid, 10, 10, 255, 255), 0);
+    assert_int_equal(rt_grid_set(&ex.grid, 11, 10, 255, 255), 0);
+    goal = go(2, 1.68f, 0.72f);
+    assert_int_equal(rt_explore_step(&ex, &goal, 1.68f, 2.48f, -PI_F / 2, NULL, 20000, &fc, &cmd), 0);
+    assert_int_equal(ex.tight, 0);
+    assert_int_equal(ex.tight_plans, 1);
+    assert_int_equal(ex.plan_res.flags, RT_PLAN_GOAL_MOVED);
+    assert_true(ex.plan_res.goal_row > 10);
+}
+
 static void test_done_and_budget_stop(void **st)
 {
     (void)st;
@@ -522,6 +569,7 @@ int main(void)
         cmocka_unit_test(test_replans_when_path_blocked),
         cmocka_unit_test(test_stuck_backs_off_replans_and_gives_up),
         cmocka_unit_test(test_plan_failure_gives_up),
+        cmocka_unit_test(test_tight_band_leaves_a_narrowed_door),
         cmocka_unit_test(test_done_and_budget_stop),
         cmocka_unit_test(test_cfg_checked),
     };

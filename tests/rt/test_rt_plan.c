@@ -1,5 +1,6 @@
 /* The RT core's planner on hand-made belief grids: the clearance transform against brute force,
- * a corridor, a wall with a door (wide and too narrow), a U-trap, a sealed room, a start
+ * a corridor, a wall with a door (wide and too narrow), the tight band through a door the
+ * grid narrowed, a U-trap, a sealed room, a start
  * inside the forbidden band, unknown cells both ways, the soft clearance cost, determinism,
  * too many waypoints, bad arguments, and no allocation. Every path is checked point by point
  * (every 1 cm) against the obstacle squares, not against the planner's own transform. */
@@ -32,8 +33,10 @@ static int plan_cells(const rt_plan_cfg_t *cfg, int sc, int sr, int gc, int gr)
     if (r == 0) {
         pt_obstacles(&grid, cfg, obst);
         pt_truth_t t = {grid.w, grid.h, grid.res, grid.origin_x, grid.origin_y, obst};
+        /* the tight band's guarantee diagonally (rt_plan.h) */
+        const double loss = (cfg->flags & RT_PLAN_TIGHT) != 0 ? (sqrt(2.0) - 1.0) * grid.res : 0.0;
         double lowest = pt_check_path(&grid, &res, res.start_col, res.start_row, res.goal_col,
-                                      res.goal_row, &t, cfg->robot_radius_m + cfg->margin_m);
+                                      res.goal_row, &t, cfg->robot_radius_m + cfg->margin_m - loss);
         if (lowest < 0)
             fail_msg("path (%d,%d)->(%d,%d) breaks the clearance or its ends", sc, sr, gc, gr);
     }
@@ -160,6 +163,53 @@ static void test_wall_with_door(void **st)
     assert_int_equal(plan_cells(&cfg, 5, 4, 25, 24), 0);
     cfg.unknown_is_obstacle = 1;
     assert_int_equal(plan_cells(&cfg, 5, 4, 25, 24), -ENOENT);
+}
+
+/* The door of a 64-room office as a robot's 0.16 m grid holds it: a wall two cells thick, the
+ * door 4 cells (0.64 m) where narrowest. The full band (0.97 + 1.41 cells) closes it; the tight
+ * band (0.97 + 1) passes it, the door's cells at least R from its sides. */
+static void test_tight_band_passes_a_grid_narrowed_door(void **st)
+{
+    (void)st;
+    char rows[20][21];
+    for (int r = 0; r < 20; r++) {
+        for (int c = 0; c < 20; c++)
+            rows[r][c] = (r == 0 || r == 19 || c == 0 || c == 19 || r == 9 || r == 10) ? '#' : '.';
+        rows[r][20] = 0;
+    }
+    for (int c = 8; c <= 11; c++)
+        rows[10][c] = '.';
+    for (int c = 7; c <= 13; c++)
+        rows[9][c] = '.';
+    const char *p[20];
+    for (int r = 0; r < 20; r++)
+        p[r] = rows[r];
+    pt_grid_ascii(&grid, p, 20, 0.16f);
+    rt_plan_cfg_t cfg = rt_plan_default_cfg();
+    cfg.flags = RT_PLAN_NEAREST_GOAL;
+    assert_int_equal(plan_cells(&cfg, 10, 15, 10, 4), 0);
+    assert_int_equal(res.flags, RT_PLAN_GOAL_MOVED);
+    assert_true(res.goal_row > 10); /* kept on the start's side */
+    cfg.flags = RT_PLAN_NEAREST_GOAL | RT_PLAN_TIGHT;
+    assert_int_equal(plan_cells(&cfg, 10, 15, 10, 4), 0);
+    assert_int_equal(res.flags, 0);
+    pt_obstacles(&grid, &cfg, obst);
+    pt_truth_t t = {grid.w, grid.h, grid.res, grid.origin_x, grid.origin_y, obst};
+    for (int i = 1; i < res.n_wps; i++) /* through the door, every point R from its sides */
+        for (int k = 0; k <= 100; k++) {
+            const double s = k / 100.0;
+            const double x = res.wps[i - 1].x + s * (res.wps[i].x - res.wps[i - 1].x);
+            const double y = res.wps[i - 1].y + s * (res.wps[i].y - res.wps[i - 1].y);
+            if (y > 9 * 0.16 && y < 11 * 0.16)
+                assert_true(pt_clearance(&t, x, y, 1.0) >= cfg.robot_radius_m + cfg.margin_m - 1e-4);
+        }
+    /* Three cells (0.48 m) still pass the tight band, two do not. */
+    assert_int_equal(rt_grid_set(&grid, 11, 10, 255, 255), 0);
+    assert_int_equal(plan_cells(&cfg, 10, 15, 10, 4), 0);
+    assert_int_equal(res.flags, 0);
+    assert_int_equal(rt_grid_set(&grid, 10, 10, 255, 255), 0);
+    assert_int_equal(plan_cells(&cfg, 10, 15, 10, 4), 0);
+    assert_int_equal(res.flags, RT_PLAN_GOAL_MOVED);
 }
 
 /* A U open to the left with the start inside and the goal behind its base: the path leaves
@@ -318,7 +368,7 @@ static void test_bad_arguments(void **st)
     bad[2].k_clear_m = INFINITY;
     bad[3].occ_threshold = 0;
     bad[4].unknown_is_obstacle = 2;
-    bad[5].flags = 4;
+    bad[5].flags = 8;
     for (int i = 0; i < 6; i++) {
         assert_int_equal(rt_plan_path(&grid, &bad[i], 1, 1, 1.5f, 1.5f, &ws, &res), -EINVAL);
         assert_int_equal(rt_plan_clearance(&grid, &bad[i], &ws), -EINVAL);
@@ -360,7 +410,8 @@ int main(void)
 {
     const struct CMUnitTest tests[] = {
         cmocka_unit_test(test_clearance_exact),  cmocka_unit_test(test_corridor),
-        cmocka_unit_test(test_wall_with_door),   cmocka_unit_test(test_u_trap),
+        cmocka_unit_test(test_wall_with_door),   cmocka_unit_test(test_tight_band_passes_a_grid_narrowed_door),
+        cmocka_unit_test(test_u_trap),
         cmocka_unit_test(test_no_path),          cmocka_unit_test(test_clearance_cost),
         cmocka_unit_test(test_deterministic),    cmocka_unit_test(test_too_many_waypoints),
         cmocka_unit_test(test_bad_arguments),
