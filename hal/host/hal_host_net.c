@@ -205,6 +205,8 @@ static void enqueue(hal_host_net_t *n, const char *channel, const void *data, ui
         n->tail = 0;
     n->used += pad + esize;
     n->fill++;
+    if (n->fill > n->stats.queue_fill_max)
+        n->stats.queue_fill_max = n->fill;
     n->stats.queue_bytes = n->used;
     if (n->used > n->stats.queue_bytes_max)
         n->stats.queue_bytes_max = n->used;

@@ -455,6 +455,7 @@ static void test_ring_fills_to_the_byte(void **state)
     hal_host_net_get_stats(n, &s);
     assert_int_equal(s.queue_bytes, 0);
     assert_int_equal(s.queue_bytes_max, cap);
+    assert_int_equal(s.queue_fill_max, 4); /* the messages' high-water mark, kept once drained */
     assert_int_equal(s.rx_messages, 4);
     /* Empty again: the whole ring is free, an MTU-sized datagram and the rest fit again. */
     for (uint32_t i = 0; i < 4; i++)

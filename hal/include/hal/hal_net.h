@@ -83,6 +83,7 @@ typedef struct hal_net_stats {
     uint64_t queue_bytes;       /* bytes in use now (headers and padding included) */
     uint64_t queue_bytes_max;   /* high-water mark of queue_bytes since start */
     uint64_t queue_bytes_cap;   /* the ring's size */
+    uint32_t queue_fill_max;    /* high-water mark of queue_fill since start (the host) */
 } hal_net_stats_t;
 
 typedef struct hal_net_ops {
