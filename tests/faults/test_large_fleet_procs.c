@@ -6,13 +6,13 @@
  * what is for one robot (requests for its chunks, the chunks it asked for) travels on its own
  * channels, which the others' kernels drop (--lcm-addressed): multicast resends reached every
  * robot, and a robot off the core while 39 peers re-sent chunks for one another filled its
- * queue with copies it did not need (569 dropped in one CI run). Their tours come from `host_sim paths gen --robots 40`
- * (five robots per room of the default plan). With the default peer timeout (10 s) a robot
- * waiting for the core must not be taken for a crashed one: no peer timeout, no state given
- * up, no datagram dropped by a full queue, and the final models equal `host_sim fleet
- * --inproc`'s bit for bit (the protocol engine and the in-process graph choose the same
- * nearest, and the DiNNO slots sum them in the same order). Bounded like every fleet test
- * (tests/support/fleet_procs.h): a hang is a failure. About 45 s on this machine. */
+ * queue with copies it did not need (569 dropped in one CI run). Their tours come from
+ * `host_sim paths gen --robots 40` (five robots per room of the default plan). With the default
+ * peer timeout (10 s) a robot waiting for the core must not be taken for a crashed one: no peer
+ * timeout, no state given up, no datagram dropped by a full queue, and the final models equal
+ * `host_sim fleet --inproc`'s bit for bit (the protocol engine and the in-process graph
+ * choose the same nearest, and the DiNNO slots sum them in the same order). Bounded like every
+ * fleet test (tests/support/fleet_procs.h): a hang is a failure. About 45 s on this machine. */
 #define _GNU_SOURCE /* sched_setaffinity */
 #include <limits.h>
 #include <setjmp.h>
