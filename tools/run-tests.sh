@@ -59,7 +59,7 @@ bound() {
     esac
 }
 
-passed=0 skipped=0 failed=0 broken=()
+passed=0 skipped=0 failed=0 broken=() times=()
 for p in "${progs[@]}"; do
     echo "=== $p"
     out=$(mktemp)
@@ -76,6 +76,7 @@ for p in "${progs[@]}"; do
     fi
     np=$(count PASSED "$out") nf=$(count FAILED "$out") ns=$(count SKIPPED "$out")
     rm -f "$out"
+    times+=("$((SECONDS - t0)) $p")
     passed=$((passed + np))
     failed=$((failed + nf))
     skipped=$((skipped + ns))
@@ -94,6 +95,9 @@ for p in "${progs[@]}"; do
     [ "$rc" -ne 0 ] && [ "$nf" -gt 0 ] && broken+=("$p")
 done
 
+# Where the suite's time went: the slowest programs, so a step that grows shows up in CI's log.
+echo "slowest programs (s):"
+printf '%s\n' "${times[@]}" | sort -rn | head -8 | sed 's/^/  /'
 if [ ${#broken[@]} -gt 0 ]; then
     echo "failing programs:"
     printf '  %s\n' "${broken[@]}"
