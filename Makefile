@@ -376,8 +376,10 @@ layering:
 # The fault tests are built with the others (so they keep compiling) but run only by test-faults.
 tests: all $(TEST_BIN) $(FAULTS_TEST_BIN)
 
-# The Python tools' tests run with the release tests (they need no build of their own).
-TEST_PY := $(if $(filter release,$(BUILD)),$(sort $(wildcard tests/tools/test_*.py)))
+# The Python tools' tests run with the default build's tests: they start its programs
+# (build/release-host-small/bin), so another build (LA_BACKEND=ref, CC=clang, a sanitizer)
+# would only run them again on the same binaries.
+TEST_PY := $(if $(filter $(DEFAULT_CONFIG),$(CONFIG)),$(sort $(wildcard tests/tools/test_*.py)))
 test: tests
 	@tools/run-tests.sh $(TEST_BIN) $(TEST_PY)
 

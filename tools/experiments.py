@@ -18,7 +18,8 @@ clone, and the report can be rebuilt from the archive alone (--report-only).
 
 The runs (full: 3 seeds, 1500 rounds, 100 validation poses, 50 MC passes; --quick: one seed,
 60 rounds, 20 poses, 10 passes, the single robot and the online fleet on `small`, the `paper`
-network only in its 8-round row):
+network only in its 8-round row; 21 runs: one reading of each choice, one prior weight, each
+online pool once):
   data-s<S>          7 tours scanned in the ODE world (seed S) and a validation set
   kl-table           uniform / separate / kl, each reading of the open choices one at a time
                      (kl form, reduction, W_rho, literal Algorithm 2, kl_weight, network), seeds
@@ -64,6 +65,13 @@ class Settings:
         self.online_rpc = 1 if quick else 10    # DiNNO rounds per communication round
         self.big = "small" if quick else "paper"  # the preset of the paper's own experiments
         self.coverage_rounds = 60 if quick else 300
+        # --quick keeps one run of each kind the report draws (the pipeline, not the answers):
+        # the KL table's baseline and one reading of each kind of choice, one prior weight, the
+        # online fleet with each pool once. 21 runs instead of 41 (CI runs it on 2 cores).
+        self.readings = READINGS if not quick else [r for r in READINGS if r[1] in ("defaults", "reverse", "0.1")]
+        self.kl_weights = KL_WEIGHTS if not quick else KL_WEIGHTS[-1:]
+        self.klw_readings = KLW_READINGS if not quick else [r for r in KLW_READINGS if not r[1]]
+        self.online = ONLINE if not quick else [o for o in ONLINE if o in (("cdr", 8), ("dr", 18))]
 
 
 class Run:
@@ -135,6 +143,8 @@ READINGS = [
     ("w_rho", "10", ("separate", "kl"), ["--w-rho", "10"]),
 ]
 KL_WEIGHTS = ("5e-3", "5e-1")
+# The online fleet (section 6.2): (pool, communication rounds).
+ONLINE = [("cdr", 8), ("cdr", 18), ("cdr", 25), ("dr", 18)]
 # At those prior weights: the strategies and the KL forms again (sigma moves there).
 KLW_READINGS = [("uniform", []), ("separate", ["--w-rho", "0.1"]), ("kl", []), ("kl", ["--w-rho", "0.1"]),
                 ("kl", ["--kl-form", "reverse"]), ("kl", ["--kl-form", "full"])]
@@ -167,13 +177,13 @@ def kl_table_runs(s, args):
             runs.append(Run(name, fleet_cmds(s, b[preset], data, rounds, ROBOTS, strategy, extra, mc_curve, seed),
                             tags, needs=[f"data-s{seed}"]))
 
-        for row, reading, strategies, extra in READINGS:
+        for row, reading, strategies, extra in s.readings:
             for st in strategies:
                 add(row, reading, st, extra, mc_curve=(row == "baseline"))
         if seed == s.seeds[0]:
             add("baseline", "defaults", "separate", [])  # == uniform, shown once
-        for w in KL_WEIGHTS:
-            for st, extra in KLW_READINGS:
+        for w in s.kl_weights:
+            for st, extra in s.klw_readings:
                 add(f"kl_weight_{w}", label(extra), st, ["--kl-weight", w] + extra)
         for st, extra in (("uniform", []), ("separate", ["--w-rho", "0.1"]), ("kl", [])):
             add("network", "paper, " + label(extra), st, extra, preset="paper")
@@ -199,7 +209,7 @@ def online_runs(s, args):
     b = bins(args)[s.big]
     seed = s.seeds[0]
     runs = []
-    for pool, comm in (("cdr", 8), ("cdr", 18), ("cdr", 25), ("dr", 18)):
+    for pool, comm in s.online:
         rounds = comm * s.online_rpc
         name = f"online-{s.big}-{pool}{comm}-s{seed}"
         cmd = [sys.executable, "tools/fleet", "--bin", b, "--mode", "online", "--rounds", str(rounds),

@@ -158,8 +158,13 @@ def campaign_definitions():
         names = [r.name for r in runs]
         check(len(names) == len(set(names)), "unique folders")
         strategies = {(r.tags.get("row"), r.tags.get("strategy")) for r in runs if r.tags["kind"] == "kl_table"}
-        for row in ("baseline", "network", "kl_weight_5e-3", "kl_weight_5e-1"):
+        rows = ("baseline", "network", "kl_weight_5e-1") + (() if quick else ("kl_weight_5e-3",))
+        for row in rows:
             check((row, "uniform") in strategies and (row, "kl") in strategies, f"{row}: uniform and kl")
+        # --quick keeps a reading of each kind of choice the report has a table for
+        every = {r.tags["row"] for r in runs if r.tags["kind"] == "kl_table"}
+        check({"baseline", "kl_form", "w_rho", "network"} <= every, f"rows {every}")
+        check(len(runs) == (21 if quick else 107), f"{len(runs)} runs")
         kinds = {r.tags["kind"] for r in runs}
         check(kinds == {"data", "single", "kl_table", "online", "coverage"}, f"kinds {kinds}")
         seeds = {r.tags["seed"] for r in runs}
