@@ -4,7 +4,7 @@
 
     tools/explore_compare.py [--plans apartment,office64,gen] [--seeds 1,2,3] [--robots 3]
         [--policies uncertainty,uncertainty-own,uncertainty-counts,coordinated,frontier,tours] [--explore-time S] [--rounds R]
-        [--bin host_sim] [--results DIR] [--csv OUT.csv] [--fleet tools/fleet]
+        [--bin host_sim] [--results DIR] [--csv OUT.csv] [--fleet tools/fleet] [--no-fence]
 
 Each run is `tools/fleet ... --no-report --results DIR --name <plan>-<policy>-<N>robots-seed<S>`:
 an exploration policy with --explore --explore-policy P --explore-time S, "tours" the fixed tours
@@ -268,6 +268,8 @@ def fleet_cmd(a, label, plan, policy, seed, name):
             cmd += ["--explore-own-posterior"]
         if counts:
             cmd += ["--explore-counts"]
+        if a.no_fence:
+            cmd += ["--explore-no-fence"]
     return cmd
 
 
@@ -427,6 +429,8 @@ def parse(argv):
     ap.add_argument("--csv", default=None, help="the table of runs (default RESULTS/explore_compare.csv)")
     ap.add_argument("--fleet", default=os.environ.get("EXPLORE_COMPARE_FLEET", os.path.join(ROOT, "tools", "fleet")),
                     help="the launcher (default $EXPLORE_COMPARE_FLEET, else tools/fleet)")
+    ap.add_argument("--no-fence", action="store_true",
+                    help="every exploring run without the keep-in fence (tools/fleet --explore-no-fence: the ablation)")
     ap.add_argument("--gen-seed", type=int, default=1, help="seed of the generated plan 'gen' (default 1)")
     ap.add_argument("--gen-rooms", type=int, default=8, help="rooms of the generated plan (default 8)")
     a = ap.parse_args(argv)

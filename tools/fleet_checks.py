@@ -44,7 +44,7 @@ LAUNCHER_SETS = {"--plan": "--plan", "--path": "--paths", "--out": "--results/--
                  "--no-maps": "--no-report", "--net-faults": "--net-faults", "--key-file": "--key-file",
                  "--run-id": None, "--explore": "--explore", "--explore-policy": "--explore-policy",
                  "--explore-own-posterior": "--explore-own-posterior", "--explore-counts": "--explore-counts",
-                 "--explore-time": "--explore-time"}
+                 "--explore-no-fence": "--explore-no-fence", "--explore-time": "--explore-time"}
 
 
 OPT_ROW = re.compile(r"^  (--[\w-]+(?:, --[\w-]+)*)(?: (\S+))?(?:\s{2,}|$)")

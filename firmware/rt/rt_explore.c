@@ -9,6 +9,7 @@
 #define OCC_FIRST 128u /* a cell's occ before its first update: P = 0.5 */
 #define MARK_MISS 1u
 #define MARK_HIT 2u
+#define MARK_FENCE 3u /* outside the keep-in fence: above any scan's mark, never cleared */
 /* Lattice coordinates beyond this (in cells) are not traced: far outside any grid, and
  * floorf of them would no longer fit an int32_t. */
 #define LATTICE_LIMIT 1.0e6f
@@ -82,7 +83,19 @@ int rt_explore_init(rt_explore_t *x, const rt_explore_cfg_t *cfg)
     x->cfg = *cfg;
     x->state = RT_EXPLORE_IDLE;
     memset(x->mark, 0, sizeof x->mark);
-    return rt_grid_init(&x->grid, cfg->res_m, cfg->origin_x_m, cfg->origin_y_m, cfg->w, cfg->h);
+    r = rt_grid_init(&x->grid, cfg->res_m, cfg->origin_x_m, cfg->origin_y_m, cfg->w, cfg->h);
+    if (r != 0 || cfg->keep_in == NULL)
+        return r;
+    for (int32_t i = 0; i < cfg->w * cfg->h; i++)
+        if (cfg->keep_in[i] == 0u) {
+            x->grid.occ[i] = 255u;
+            x->grid.known[i] = 255u;
+            x->mark[i] = MARK_FENCE;
+            x->fenced++;
+        }
+    x->grid_dirty = x->fenced > 0u; /* the GP core's first seen view has the fence */
+    x->cfg.keep_in = NULL;           /* read here only: the caller's buffer may go */
+    return 0;
 }
 
 int rt_explore_clock(rt_explore_t *x, uint64_t now_us)
@@ -177,7 +190,7 @@ int rt_explore_integrate_scan(rt_explore_t *x, const rt_scan_view_t *scan, float
     int32_t changed = 0;
     for (int32_t i = 0; i < n; i++) {
         uint8_t m = x->mark[i];
-        if (m == 0)
+        if (m == 0 || m == MARK_FENCE)
             continue;
         x->mark[i] = 0;
         unsigned occ = g->known[i] ? g->occ[i] : OCC_FIRST;

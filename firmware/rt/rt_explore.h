@@ -46,6 +46,13 @@
  * Goals outside the grid are clamped to its outermost cell centres (the planner's
  * NEAREST_GOAL then takes the reachable cell nearest to it).
  *
+ * Keep-in fence (cfg.keep_in, optional): the area to explore, one byte per fine cell (0 =
+ * outside it). rt_explore_init makes every outside cell an obstacle the robot has observed
+ * (occ 255, known 255) that no scan changes, so the planner never routes through it, the path
+ * check re-plans around it and the seen view tells the GP core it is wall, not frontier. What
+ * a deployed robot gets as its site's geofence; host_sim gives the building's outline, so that
+ * robots that leave by the entrance do not explore the yards around it (docs/exploration.md).
+ *
  * Storage: rt_explore_t holds the fine grid, the planner's workspace (about 1.4 MB at the
  * default RT_GRID_MAX_CELLS: static storage only), the plan and a per-cell scan mark. */
 #ifndef RT_RT_EXPLORE_H
@@ -87,6 +94,8 @@ typedef struct rt_explore_cfg {
     float reach_goal_m;             /* > 0 */
     uint64_t budget_us;             /* exploration time from the first tick; 0 = no limit */
     uint8_t occ_hit, occ_miss;      /* 1 .. 255 each: the saturating update steps */
+    const uint8_t *keep_in;         /* NULL: no fence; else w * h bytes, 0 = outside (above);
+                                       read by rt_explore_init only */
 } rt_explore_cfg_t;
 
 enum {
@@ -123,11 +132,12 @@ typedef struct rt_explore {
     uint32_t goal_reached, goal_failed, plans, plan_failures, stuck_events, avoid_stops;
     uint32_t tight_plans;           /* plans through the tight band (plan_to_goal) */
     uint32_t scans_integrated;
+    uint32_t fenced;                /* cells outside the keep-in fence */
     /* storage */
     rt_plan_result_t plan_res;
     int32_t tight;                  /* 1: plan_res is a tight plan (point_blocked's bound) */
     rt_grid_t grid;
-    uint8_t mark[RT_GRID_MAX_CELLS]; /* per scan: 0 untouched, 1 missed, 2 hit */
+    uint8_t mark[RT_GRID_MAX_CELLS]; /* per scan: 0 untouched, 1 missed, 2 hit; 3 fenced, for good */
     rt_plan_workspace_t ws;
 } rt_explore_t;
 
@@ -140,7 +150,8 @@ rt_explore_cfg_t rt_explore_default_cfg(void);
 /* 0 when cfg is usable (the ranges above), else -EINVAL (-ENOSPC: grid too large). */
 FS_MUST_CHECK int rt_explore_check_cfg(const rt_explore_cfg_t *cfg);
 
-/* Validates cfg and resets x: every cell unknown, IDLE, counters 0. 0, -EINVAL or -ENOSPC. */
+/* Validates cfg and resets x: every cell unknown (but the fenced ones, above), IDLE, counters 0.
+ * 0, -EINVAL or -ENOSPC. */
 FS_MUST_CHECK int rt_explore_init(rt_explore_t *x, const rt_explore_cfg_t *cfg);
 
 /* The time budget: the first call starts it. Returns 1 when exploration is over (budget

@@ -74,6 +74,9 @@ static const cli_opt_t run_opts[] = {
     {.names = "--explore-own-posterior", CLI_FLAG(run_opts_t, explore_own_posterior, 1),
      .help = "explore in a fleet: each robot's belief from its own data alone (the ablation); by default every other "
              "round shares the epistemic posterior, so the belief is the fleet's (needs --encoding fp32)"},
+    {.names = "--explore-no-fence", CLI_FLAG(run_opts_t, explore_no_fence, 1),
+     .help = "explore: no keep-in fence (the ablation); by default the robot plans only inside the building's "
+             "outline, its site's geofence, so that it does not explore the yards beyond the entrance"},
     {.names = "--explore-counts", CLI_FLAG(run_opts_t, explore_counts, 1),
      .help = "explore: the belief also counts where the rays went, so that rooms no ray entered stay unknown (the "
              "posterior's features are global); for large buildings and long runs (docs/exploration.md)"},
@@ -325,6 +328,10 @@ int run_parse(int argc, char **argv, run_opts_t *o, char *url)
     }
     if (o->explore_own_posterior && !o->explore) {
         fprintf(stderr, "host_sim run: --explore-own-posterior is an option of --explore\n");
+        return -1;
+    }
+    if (o->explore_no_fence && !o->explore) {
+        fprintf(stderr, "host_sim run: --explore-no-fence is an option of --explore\n");
         return -1;
     }
     if (o->explore_counts && (!o->explore || o->explore_policy != GP_EXPLORE_UNCERTAINTY)) {

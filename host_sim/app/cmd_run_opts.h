@@ -44,6 +44,7 @@ typedef struct run_opts {
     double explore_time;    /* --explore-time: simulated seconds */
     int explore_own_posterior; /* --explore-own-posterior: the belief from the robot's data alone */
     int explore_counts;        /* --explore-counts: the belief also counts where the rays went */
+    int explore_no_fence;      /* --explore-no-fence: the RT core not fenced into the building */
 } run_opts_t;
 
 /* o = the defaults (sim_defaults.h, gp_fleet.h's GP_FLEET_*_DEFAULT, dinno_default_cfg). */

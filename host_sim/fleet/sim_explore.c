@@ -7,6 +7,8 @@
 #include <stdlib.h>
 #include <string.h>
 
+#include "sim_grid.h"
+
 int sim_explore_geometry(const sim_plan_t *plan, sim_explore_geom_t *g)
 {
     if (plan == NULL || g == NULL)
@@ -118,6 +120,20 @@ void sim_explore_belief_cfg(const sim_plan_t *plan, const sim_explore_geom_t *g,
     out->max_y = (float)plan->max.y;
 }
 
+int sim_explore_keep_in(const sim_plan_t *plan, const sim_explore_geom_t *g, uint8_t *inside, size_t n)
+{
+    if (plan == NULL || g == NULL || inside == NULL || g->fine_w < 1 || g->fine_h < 1 ||
+        (size_t)g->fine_w * (size_t)g->fine_h > n)
+        return -EINVAL;
+    for (int32_t r = 0; r < g->fine_h; r++)
+        for (int32_t c = 0; c < g->fine_w; c++) {
+            const double x = g->origin_x_m + ((double)c + 0.5) * g->fine_res_m;
+            const double y = g->origin_y_m + ((double)r + 0.5) * g->fine_res_m;
+            inside[(size_t)r * (size_t)g->fine_w + (size_t)c] = sim_plan_classify_point(plan, x, y) != SIM_CELL_OUTSIDE;
+        }
+    return 0;
+}
+
 int sim_explore_start(const sim_plan_t *plan, uint64_t seed, int robot, int n_robots, sim_path_t *out, char *err,
                       size_t errlen)
 {
@@ -213,9 +229,9 @@ void sim_explore_summary(FILE *f, const sim_explore_opts_t *o, const rt_status_t
     if (x->fallbacks > 0)
         snprintf(fell, sizeof fell, ", %llu chosen on the counts when the posterior had nothing left",
                  (unsigned long long)x->fallbacks);
-    fprintf(f, "explore: policy %s, %.0f s budget, belief from %s%s; %llu goals (%llu reached, %llu given up)%s%s; "
+    fprintf(f, "explore: policy %s, %.0f s budget, %s, belief from %s%s; %llu goals (%llu reached, %llu given up)%s%s; "
                "%u plans (%u failed%s); %u stuck events; %u avoidance stops\n",
-            gp_explore_policy_name(o->policy), o->budget_s,
+            gp_explore_policy_name(o->policy), o->budget_s, o->no_fence ? "no fence" : "fenced into the building",
             fleet != NULL && !o->own_posterior ? "the fleet's posterior" : "its own posterior",
             !o->counts ? "" : fleet != NULL && !o->own_posterior ? " and counts" : " and its own counts",
             (unsigned long long)x->goals,

@@ -27,6 +27,8 @@ typedef struct sim_explore_opts {
     int own_posterior;      /* 1: in a fleet, each robot's belief from its own posterior only (the
                                ablation); 0: the posterior shared every other round (ai_core.h) */
     int counts;             /* 1: the belief also counts where the rays went (ai/ai_seen.h) */
+    int no_fence;           /* 1: no keep-in fence (the ablation); 0: the RT core is fenced into
+                               the building's outline (sim_explore_keep_in) */
 } sim_explore_opts_t;
 
 #define SIM_EXPLORE_BUDGET_S_DEFAULT 300.0
@@ -53,6 +55,13 @@ int sim_explore_gp_cfg(const sim_explore_geom_t *g, const sim_explore_opts_t *o,
 int sim_explore_rt_cfg(const sim_explore_geom_t *g, const sim_explore_opts_t *o, rt_core_cfg_t *rc,
                        rt_explore_cfg_t *out);
 void sim_explore_belief_cfg(const sim_plan_t *plan, const sim_explore_geom_t *g, ai_belief_cfg_t *out);
+
+/* The RT core's keep-in fence (rt_explore.h): one byte per fine cell, 1 when the cell's centre
+ * is in the building (a room, a door opening or a wall: sim_grid.h's rule), 0 outside it, where
+ * the yards and courtyards a robot could drive to through the entrance are. The building's
+ * outline is what a site gives a deployed robot as its geofence; the walls inside it stay the
+ * robot's to find. inside: at least fine_w * fine_h bytes (n). 0, or -EINVAL. */
+int sim_explore_keep_in(const sim_plan_t *plan, const sim_explore_geom_t *g, uint8_t *inside, size_t n);
 
 /* Where robot `robot` of n_robots starts: the start of the tour `host_sim paths gen` would give
  * it (a room of its own while there are rooms enough), as a two-point path (the start and the

@@ -208,17 +208,20 @@ int sim_image_run(const sim_plan_t *plan, const sim_path_t *path, const sim_imag
     static gp_explore_cfg_t gx;     /* read by the cores' init only: copied there */
     static ai_belief_cfg_t bx;
     static rt_explore_cfg_t rx;
+    static uint8_t keep_in[RT_GRID_MAX_CELLS]; /* the fence, read by the RT core's init */
     if (cfg->explore != NULL) {
         sim_explore_geom_t geom;
         const uint32_t n_peers = cfg->fleet != NULL ? cfg->fleet->n_peers : 1u;
         if (sim_explore_geometry(plan, &geom) != 0 ||
             sim_explore_gp_cfg(&geom, cfg->explore, cfg->robot, n_peers,
                                cfg->rounds / (cfg->rounds_per_boundary ? cfg->rounds_per_boundary : 1u), &gx) != 0 ||
-            sim_explore_rt_cfg(&geom, cfg->explore, &fc.rt, &rx) != 0) {
+            sim_explore_rt_cfg(&geom, cfg->explore, &fc.rt, &rx) != 0 ||
+            (!cfg->explore->no_fence && sim_explore_keep_in(plan, &geom, keep_in, sizeof keep_in) != 0)) {
             snprintf(err, errlen, "image: the plan's box is too large for the exploration grids");
             rc = -EINVAL;
             goto out;
         }
+        rx.keep_in = cfg->explore->no_fence ? NULL : keep_in;
         sim_explore_belief_cfg(plan, &geom, &bx);
         fc.gp.explore = &gx;
         fc.ai.explore_budget_us = (uint64_t)llround(cfg->explore->budget_s * 1e6);

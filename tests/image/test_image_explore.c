@@ -1,7 +1,8 @@
 /* The robot image exploring (docs/exploration.md): no tour, the three cores choose, plan and
  * drive to goals against the ODE world. A minute of the default plan per run: the robot reaches
  * goals and sees more of the building, never touches a wall, allocates nothing across a round,
- * and the same seed gives the same trajectory and model; the frontier policy works as well. */
+ * and the same seed gives the same trajectory and model; the frontier policy works as well.
+ * The keep-in fence host_sim gives the RT core keeps office64's courtyards out. */
 #include <setjmp.h>
 #include <stdarg.h>
 #include <stddef.h>
@@ -82,7 +83,7 @@ static void run_with(gp_explore_policy_t policy, int counts, sim_image_result_t 
 {
     static sim_coverage_t cov;
     assert_int_equal(sim_coverage_from_plan(&cov, &g_plan, SIM_COVERAGE_RES_M), 0);
-    const sim_explore_opts_t xo = {policy, BUDGET_S, SIM_EXPLORE_BELIEF_PERIOD_S_DEFAULT, 0, counts};
+    const sim_explore_opts_t xo = {policy, BUDGET_S, SIM_EXPLORE_BELIEF_PERIOD_S_DEFAULT, 0, counts, 0};
     sim_image_cfg_t c;
     sim_image_cfg_default(&c);
     c.seed = 11;
@@ -112,6 +113,46 @@ static void run_with(gp_explore_policy_t policy, int counts, sim_image_result_t 
     coverage[0] = sim_coverage_at(&cov, 0.0);
     coverage[1] = sim_coverage_at(&cov, BUDGET_S);
     sim_coverage_free(&cov);
+}
+
+/* The keep-in fence of office64 (sim_explore_keep_in): its courtyards, which a robot reaches
+ * through the entrance, are outside; its rooms, corridors and the robots' starts inside. */
+static void test_keep_in_fence_of_office64(void **st)
+{
+    (void)st;
+    static sim_plan_t plan;
+    static uint8_t inside[RT_GRID_MAX_CELLS];
+    char err[512];
+    assert_int_equal(sim_plan_load("host_sim/plans/office64.svg", 0, &plan, err, sizeof err), 0);
+    sim_explore_geom_t g;
+    assert_int_equal(sim_explore_geometry(&plan, &g), 0);
+    const size_t n = (size_t)g.fine_w * (size_t)g.fine_h;
+    assert_int_equal(sim_explore_keep_in(&plan, &g, inside, n - 1), -EINVAL); /* too small */
+    assert_int_equal(sim_explore_keep_in(&plan, &g, inside, sizeof inside), 0);
+    size_t out = 0;
+    for (size_t i = 0; i < n; i++) {
+        assert_true(inside[i] <= 1u);
+        out += inside[i] == 0u;
+    }
+    print_message("office64: %zu of %zu fine cells outside the building\n", out, n);
+    assert_true(out > n / 10 && out < n / 3); /* the courtyards and the margins: about a fifth */
+    for (int robot = 0; robot < 7; robot++) { /* every start is inside */
+        sim_path_t start;
+        sim_path_init(&start);
+        assert_int_equal(sim_explore_start(&plan, 1, robot, 7, &start, err, sizeof err), 0);
+        const int c = (int)floor((start.p[0].x - g.origin_x_m) / g.fine_res_m);
+        const int r = (int)floor((start.p[0].y - g.origin_y_m) / g.fine_res_m);
+        assert_int_equal(inside[r * g.fine_w + c], 1);
+        sim_path_free(&start);
+    }
+    /* two courtyards (between the wings), two corridors */
+    const double probe[][3] = {{15.0, 38.0, 0}, {15.0, 11.0, 0}, {15.0, 30.5, 1}, {15.0, 17.0, 1}};
+    for (size_t k = 0; k < sizeof probe / sizeof probe[0]; k++) {
+        const int c = (int)floor((probe[k][0] - g.origin_x_m) / g.fine_res_m);
+        const int r = (int)floor((probe[k][1] - g.origin_y_m) / g.fine_res_m);
+        assert_int_equal(inside[r * g.fine_w + c], (int)probe[k][2]);
+    }
+    sim_plan_free(&plan);
 }
 
 static void run(gp_explore_policy_t policy, sim_image_result_t *r, probe_t *p, double *coverage)
@@ -201,6 +242,7 @@ static void test_frontier_policy(void **st)
 int main(void)
 {
     const struct CMUnitTest tests[] = {
+        cmocka_unit_test(test_keep_in_fence_of_office64),
         cmocka_unit_test(test_explores_without_touching_a_wall),
         cmocka_unit_test(test_same_seed_same_exploration),
         cmocka_unit_test(test_explores_with_counts),

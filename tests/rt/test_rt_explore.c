@@ -5,7 +5,8 @@
  * ray-cast lidar in this file (no ODE), the robot never closer to a wall than its radius; a
  * robot that does not move is found stuck, backs off, re-plans, and gives the goal up after
  * max_stuck; a plan failure gives the goal up; a door the grid narrowed below the clearance
- * band is left through the tight band; GP_GOAL_MSG_DONE and the budget stop it; the
+ * band is left through the tight band; a keep-in fence keeps the robot out of the cells it
+ * fences, whatever the scans see; GP_GOAL_MSG_DONE and the budget stop it; the
  * configuration is checked; two runs give the same bytes; nothing is allocated. */
 #include <setjmp.h>
 #include <stdarg.h>
@@ -230,8 +231,8 @@ static void test_seen_view(void **st)
 typedef struct run_out {
     float x, y, th;
     float min_clear;
-    float max_y;
-    int reached_tick;
+    float max_x, max_y;
+    int64_t reached_tick; /* 64 bits: no padding before hash (the runs are compared byte for byte) */
     uint64_t hash;
 } run_out_t;
 
@@ -243,15 +244,17 @@ static uint64_t fnv(uint64_t h, const void *p, size_t n)
     return h;
 }
 
-/* From (1, 1) facing east to a goal behind the inner wall, the room unseen at first. */
-static run_out_t run_room(int max_ticks)
+/* From (1, 1) facing east to a goal behind the inner wall, the room unseen at first; keep_in:
+ * the fence (NULL: none). */
+static run_out_t run_room(int max_ticks, const uint8_t *keep_in)
 {
     room_build();
     rt_explore_cfg_t c = room_cfg();
+    c.keep_in = keep_in;
     assert_int_equal(rt_explore_init(&ex, &c), 0);
     const rt_follow_cfg_t fc = rt_follow_default_cfg();
     gp_goal_msg_t goal = go(1, 5.0f, 1.0f);
-    run_out_t o = {1.0f, 1.0f, 0.0f, 1.0f, 0.0f, -1, 14695981039346656037ull};
+    run_out_t o = {1.0f, 1.0f, 0.0f, 1.0f, 0.0f, 0.0f, -1, 14695981039346656037ull};
     rt_scan_view_t v = {0};
     int have_scan = 0;
     for (int k = 0; k < max_ticks; k++) {
@@ -277,6 +280,7 @@ static run_out_t run_room(int max_ticks)
         o.y += vel * sinf(o.th) * DT_S;
         o.th = rt_wrap_angle(o.th + om * DT_S);
         o.min_clear = fminf(o.min_clear, room_clearance(o.x, o.y));
+        o.max_x = fmaxf(o.max_x, o.x);
         o.max_y = fmaxf(o.max_y, o.y);
     }
     o.hash = fnv(o.hash, ex.grid.occ, (size_t)(ROOM_W * ROOM_H));
@@ -288,7 +292,7 @@ static void test_goal_behind_wall_reached_around_it(void **st)
 {
     (void)st;
     alloc_count_reset();
-    run_out_t o = run_room(150 * 50); /* 150 s */
+    run_out_t o = run_room(150 * 50, NULL); /* 150 s */
     assert_int_equal(alloc_count_allocations(), 0);
     assert_true(o.reached_tick > 0);
     assert_true(hypotf(o.x - 5.0f, o.y - 1.0f) <= 0.3f + 1e-3f);
@@ -313,11 +317,53 @@ static void test_goal_behind_wall_reached_around_it(void **st)
     assert_true(cmd.v == 0.0f && cmd.wheel_left == 0.0f && cmd.wheel_right == 0.0f);
 }
 
+/* The keep-in fence: everything east of the inner wall (columns 61 on, x >= 3.05 m) is outside
+ * the area to explore. The goal there is not driven to: the robot stops at the reachable cell
+ * nearest it, west of the wall, and says reached; no scan through the gap wears the fence away;
+ * the seen view has the fenced cells as observed wall from the start. */
+static void test_fence_keeps_the_robot_in(void **st)
+{
+    (void)st;
+    static uint8_t inside[ROOM_W * ROOM_H];
+    for (int r = 0; r < ROOM_H; r++)
+        for (int c = 0; c < ROOM_W; c++)
+            inside[r * ROOM_W + c] = c <= 60;
+    rt_explore_cfg_t c = room_cfg();
+    c.keep_in = inside;
+    assert_int_equal(rt_explore_init(&ex, &c), 0);
+    assert_int_equal(ex.fenced, (ROOM_W - 61) * ROOM_H);
+    assert_int_equal(rt_explore_seen(&ex, 0, &seen), 1); /* due at once: the fence is news */
+    for (uint32_t cy = 0; cy < seen.h; cy++)
+        for (uint32_t cx = 0; cx < seen.w; cx++) {
+            const uint32_t k = cy * seen.w + cx;
+            if (cx * 4 >= 61) { /* wholly fenced: observed, and wall */
+                assert_int_equal(seen.occ[k], 255);
+                assert_int_equal(seen.unknown[k], 0);
+            } else if (cx * 4 + 3 < 61) { /* wholly inside: never observed yet */
+                assert_int_equal(seen.unknown[k], 255);
+            }
+        }
+    alloc_count_reset();
+    run_out_t o = run_room(150 * 50, inside);
+    assert_int_equal(alloc_count_allocations(), 0);
+    assert_true(o.reached_tick > 0);                /* the nearest reachable cell */
+    assert_true(o.max_x < 3.05f - 0.105f);          /* never into the fenced half, body included */
+    assert_true(hypotf(o.x - 5.0f, o.y - 1.0f) > 2.0f);
+    assert_int_equal(ex.goal_failed, 0);
+    for (int r = 0; r < ROOM_H; r++)
+        for (int cc = 61; cc < ROOM_W; cc++) {
+            assert_int_equal(occ_at(cc, r), 255);
+            assert_int_equal(known_at(cc, r), 255);
+        }
+    /* a cfg's keep_in is read at init only */
+    assert_null(ex.cfg.keep_in);
+}
+
 static void test_deterministic(void **st)
 {
     (void)st;
-    run_out_t a = run_room(60 * 50);
-    run_out_t b = run_room(60 * 50);
+    run_out_t a = run_room(60 * 50, NULL);
+    run_out_t b = run_room(60 * 50, NULL);
     assert_true(a.hash == b.hash);
     assert_memory_equal(&a, &b, sizeof a);
 }
@@ -565,6 +611,7 @@ int main(void)
         cmocka_unit_test(test_scan_marks_free_and_occupied),
         cmocka_unit_test(test_seen_view),
         cmocka_unit_test(test_goal_behind_wall_reached_around_it),
+        cmocka_unit_test(test_fence_keeps_the_robot_in),
         cmocka_unit_test(test_deterministic),
         cmocka_unit_test(test_replans_when_path_blocked),
         cmocka_unit_test(test_stuck_backs_off_replans_and_gives_up),

@@ -108,6 +108,8 @@ def bad_options_touch_nothing():
             (["--explore", "--explore-policy", "frontier", "--explore-counts"],
              "--explore-counts is an option of --explore with --explore-policy uncertainty"),
             (["--explore", "--extra", "--explore-counts"], "the launcher sets --explore-counts"),
+            (["--explore-no-fence"], "--explore-no-fence is an option of --explore"),
+            (["--explore", "--extra", "--explore-no-fence"], "the launcher sets --explore-no-fence"),
             (["--map-res", "0"], "--map-res: "),
             (["--fleet-id", "99999999"], "--fleet-id: "),
             (["--lcm-url", "xx"], "--lcm-url xx: not an LCM multicast URL"),
