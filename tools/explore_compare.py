@@ -144,11 +144,12 @@ def settings_differ(run_dir, plan, policy, seed, a):
         return "no readable run.json"
     e = s.get("explore") if isinstance(s, dict) else None
     pol, own, counts = explore_policy(policy)
+    # a run.json without "fence" is of a launcher before the keep-in fence: unfenced
     want = {"robots": a.robots, "seed": seed, "plan": os.path.basename(plan),
-            "explore": None if policy == "tours" else (pol, float(a.explore_time), own, counts)}
+            "explore": None if policy == "tours" else (pol, float(a.explore_time), own, counts, not a.no_fence)}
     got = {"robots": s.get("robots"), "seed": s.get("seed"), "plan": os.path.basename(str(s.get("plan"))),
            "explore": (e.get("policy"), float(e.get("time_s", -1)), bool(e.get("own_posterior")),
-                       bool(e.get("counts"))) if isinstance(e, dict) else None}
+                       bool(e.get("counts")), bool(e.get("fence", False))) if isinstance(e, dict) else None}
     if a.rounds is not None:
         want["rounds"], got["rounds"] = a.rounds, s.get("rounds")
     bad = [k for k in want if want[k] != got[k]]

@@ -181,10 +181,10 @@ def run_row_from_a_synthetic_run():
         check((r["stuck_events"], r["collisions"], r["goals_failed"]) == (3, 1, 3), r)
         with open(os.path.join(run, "run.json"), "w") as f:
             json.dump({"robots": 2, "seed": 1, "rounds": 6, "plan": "host_sim/plans/apartment.svg",
-                       "explore": {"policy": "frontier", "time_s": 30.0}}, f)
+                       "explore": {"policy": "frontier", "time_s": 30.0, "fence": True}}, f)
 
         class A:
-            robots, explore_time, rounds = 2, 30.0, 6
+            robots, explore_time, rounds, no_fence = 2, 30.0, 6, False
         differ = explore_compare.settings_differ
         check(differ(run, "/x/apartment.svg", "frontier", 1, A) is None, "the same settings taken for others")
         A.explore_time = 60.0
@@ -194,19 +194,33 @@ def run_row_from_a_synthetic_run():
         A.explore_time = 30.0
         with open(os.path.join(run, "run.json"), "w") as f:
             json.dump({"robots": 2, "seed": 1, "rounds": 6, "plan": "host_sim/plans/apartment.svg",
-                       "explore": {"policy": "uncertainty", "time_s": 30.0, "own_posterior": True}}, f)
+                       "explore": {"policy": "uncertainty", "time_s": 30.0, "own_posterior": True,
+                                   "fence": True}}, f)
         check(differ(run, "/x/apartment.svg", "uncertainty-own", 1, A) is None, "the ablation's run not recognised")
         check(differ(run, "/x/apartment.svg", "uncertainty", 1, A) is not None, "the ablation taken for the policy")
         A.fleet, A.bin, A.results = "fleet", "host_sim", d
         cmd = explore_compare.fleet_cmd(A, "apartment", "/x/apartment.svg", "uncertainty-own", 1, "n")
         check(cmd[cmd.index("--explore-policy") + 1] == "uncertainty" and "--explore-own-posterior" in cmd, cmd)
         cmd = explore_compare.fleet_cmd(A, "apartment", "/x/apartment.svg", "uncertainty", 1, "n")
-        check("--explore-own-posterior" not in cmd and "--explore-counts" not in cmd, cmd)
+        check("--explore-own-posterior" not in cmd and "--explore-counts" not in cmd and
+              "--explore-no-fence" not in cmd, cmd)
+        # the ablation without the keep-in fence: another run, and a run.json of before the fence
+        # (no "fence") is one without it
+        A.no_fence = True
+        check("--explore-no-fence" in explore_compare.fleet_cmd(A, "apartment", "/x/apartment.svg", "uncertainty", 1,
+                                                               "n"), "--no-fence not passed on")
+        check(differ(run, "/x/apartment.svg", "uncertainty-own", 1, A) is not None, "a fenced run taken unfenced")
+        with open(os.path.join(run, "run.json"), "w") as f:
+            json.dump({"robots": 2, "seed": 1, "rounds": 6, "plan": "host_sim/plans/apartment.svg",
+                       "explore": {"policy": "uncertainty", "time_s": 30.0, "own_posterior": True}}, f)
+        check(differ(run, "/x/apartment.svg", "uncertainty-own", 1, A) is None, "a run of before the fence not unfenced")
+        A.no_fence = False
+        check(differ(run, "/x/apartment.svg", "uncertainty-own", 1, A) is not None, "an unfenced run taken fenced")
         # the belief that also counts where the rays went is another run too
         with open(os.path.join(run, "run.json"), "w") as f:
             json.dump({"robots": 2, "seed": 1, "rounds": 6, "plan": "host_sim/plans/apartment.svg",
                        "explore": {"policy": "uncertainty", "time_s": 30.0, "own_posterior": False,
-                                   "counts": True}}, f)
+                                   "counts": True, "fence": True}}, f)
         check(differ(run, "/x/apartment.svg", "uncertainty-counts", 1, A) is None, "the counts' run not recognised")
         check(differ(run, "/x/apartment.svg", "uncertainty", 1, A) is not None, "the counts' run taken for the policy")
         cmd = explore_compare.fleet_cmd(A, "apartment", "/x/apartment.svg", "uncertainty-counts", 1, "n")
