@@ -236,6 +236,15 @@ run: $(TEST_DEPS) $(IMAGE) $(HOST_BIN) $(RUN_DEPS)
 	@$(HOST_BIN) $(PROG_ARGS) > $(R)/host.txt
 	@tools/board/board_check.py $(R)/run.txt $(R)/host.txt
 
+# The profile of the run: the image's memory by module and the instructions per step
+# (profile.md, profile.json). Lost once in a refactor, after which `make profile-board` printed
+# "Nothing to be done" and ran no board for a week: tests/tools/test_board.py now checks that
+# every goal the top Makefile hands this file has a rule here.
+profile: run
+	@tools/board/board_profile.py --board $(XBOARD) --preset $(PRESET) --board-h boards/$(XBOARD)/board.h \
+	    --elf $(IMAGE) --map $(X)/fleetsim.map --obj $(X)/obj --cross $(BOARD_CROSS) \
+	    --run $(R)/run.txt $(if $(RUN_DEPS),--insn-log $(R)/insn.log) --out $(R)
+
 # Hardware in the loop (docs/boards.md): the firmware's RT core (tools/board/board_hil.c, built
 # for the board with its link ports) under the board's QEMU, in the loop with `host_sim hil` of
 # the host build (HOST_SIM=, the top Makefile passes it) for HIL_SECONDS of the board's time;

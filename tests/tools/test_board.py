@@ -1,8 +1,10 @@
 #!/usr/bin/python3
 """The board tools: board_train (the image's program, built for the host exactly as the
 reference of `make run-board` builds it, so no cross toolchain is needed) on good and bad
-input, board_check's verdicts, and board_profile's reading of board.h and of a link map."""
+input, board_check's verdicts, board_profile's reading of board.h and of a link map, and a rule
+in boards/cross.mk for every goal the top Makefile hands it."""
 import os
+import re
 import struct
 import subprocess
 import sys
@@ -130,6 +132,18 @@ MAP = """Linker script and memory map
 .debug_info     0x00000000     0x9999
  .debug_info    0x00000000     0x9999 /b/obj/hal/stdc/hal_stdc.c.o
 """
+
+
+@test
+def every_cross_goal_has_a_rule():
+    """`make cross|run-board|profile-board|hil|hil-rt` hand boards/cross.mk the goals image, run,
+    profile, hil and hil-rt. A goal without a rule there is not an error to make (it is .PHONY):
+    `profile` lost its rule once, and for a week `make profile-board` printed "Nothing to be
+    done" and ran no board."""
+    with open(os.path.join(ROOT, "boards", "cross.mk")) as f:
+        text = f.read()
+    for goal in ("image", "run", "profile", "hil", "hil-rt"):
+        check(re.search(rf"^{re.escape(goal)}:(?!=)", text, re.M), f"boards/cross.mk has no rule for {goal}")
 
 
 @test
