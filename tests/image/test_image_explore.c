@@ -115,6 +115,15 @@ static void run_with(gp_explore_policy_t policy, int counts, sim_image_result_t 
     sim_coverage_free(&cov);
 }
 
+/* The fence's byte of the fine cell holding (x, y). */
+static uint8_t fence_at(const sim_explore_geom_t *g, const uint8_t *inside, double x, double y)
+{
+    const int c = (int)floor((x - g->origin_x_m) / g->fine_res_m);
+    const int r = (int)floor((y - g->origin_y_m) / g->fine_res_m);
+    assert_true(c >= 0 && c < g->fine_w && r >= 0 && r < g->fine_h);
+    return inside[r * g->fine_w + c];
+}
+
 /* The keep-in fence of office64 (sim_explore_keep_in): its courtyards, which a robot reaches
  * through the entrance, are outside; its rooms, corridors and the robots' starts inside. */
 static void test_keep_in_fence_of_office64(void **st)
@@ -140,18 +149,13 @@ static void test_keep_in_fence_of_office64(void **st)
         sim_path_t start;
         sim_path_init(&start);
         assert_int_equal(sim_explore_start(&plan, 1, robot, 7, &start, err, sizeof err), 0);
-        const int c = (int)floor((start.p[0].x - g.origin_x_m) / g.fine_res_m);
-        const int r = (int)floor((start.p[0].y - g.origin_y_m) / g.fine_res_m);
-        assert_int_equal(inside[r * g.fine_w + c], 1);
+        assert_int_equal(fence_at(&g, inside, start.p[0].x, start.p[0].y), 1);
         sim_path_free(&start);
     }
     /* two courtyards (between the wings), two corridors */
     const double probe[][3] = {{15.0, 38.0, 0}, {15.0, 11.0, 0}, {15.0, 30.5, 1}, {15.0, 17.0, 1}};
-    for (size_t k = 0; k < sizeof probe / sizeof probe[0]; k++) {
-        const int c = (int)floor((probe[k][0] - g.origin_x_m) / g.fine_res_m);
-        const int r = (int)floor((probe[k][1] - g.origin_y_m) / g.fine_res_m);
-        assert_int_equal(inside[r * g.fine_w + c], (int)probe[k][2]);
-    }
+    for (size_t k = 0; k < sizeof probe / sizeof probe[0]; k++)
+        assert_int_equal(fence_at(&g, inside, probe[k][0], probe[k][1]), (int)probe[k][2]);
     sim_plan_free(&plan);
 }
 
