@@ -3,7 +3,7 @@
 (tools/fleet) with the same seeds, plan by plan:
 
     tools/explore_compare.py [--plans apartment,office64,gen] [--seeds 1,2,3] [--robots 3]
-        [--policies uncertainty,uncertainty-own,uncertainty-counts,coordinated,frontier,tours] [--explore-time S] [--rounds R]
+        [--policies uncertainty,uncertainty-own,uncertainty-posterior,coordinated,frontier,tours] [--explore-time S] [--rounds R]
         [--bin host_sim] [--results DIR] [--csv OUT.csv] [--fleet tools/fleet] [--no-fence]
 
 Each run is `tools/fleet ... --no-report --results DIR --name <plan>-<policy>-<N>robots-seed<S>`:
@@ -49,8 +49,9 @@ sys.path.pop(0)
 PROG = "explore_compare"
 # "uncertainty-own": the uncertainty policy with each robot's own posterior (--explore-own-posterior),
 # the ablation of the fleet's shared one.
-# "uncertainty-counts": the uncertainty policy whose belief also counts where the rays went (--explore-counts).
-EXPLORE_POLICIES = ("uncertainty", "uncertainty-own", "uncertainty-counts", "coordinated", "frontier")
+# "uncertainty-posterior": the uncertainty policy with the posterior's layer first and the counts of where the
+# rays went only when it has nothing left (--explore-posterior-first), the ablation of the two from the start.
+EXPLORE_POLICIES = ("uncertainty", "uncertainty-own", "uncertainty-posterior", "coordinated", "frontier")
 POLICIES = EXPLORE_POLICIES + ("tours",)
 PLANS = {"apartment": "host_sim/plans/apartment.svg", "office64": "host_sim/plans/office64.svg"}
 THRESHOLDS = (0.90, 0.95)
@@ -60,7 +61,7 @@ CSV_COLUMNS = ("plan", "policy", "seed", "robots", "coverage_final", "robot_seco
 POLICY_STYLE = {
     "uncertainty": ("#7b2cbf", "-"),
     "uncertainty-own": ("#c77dff", ":"),
-    "uncertainty-counts": ("#2ca02c", "-"),
+    "uncertainty-posterior": ("#2ca02c", "-"),
     "coordinated": ("#1f77b4", "-"),
     "frontier": ("#e67e22", "-."),
     "tours": ("#444444", "--"),
@@ -143,13 +144,16 @@ def settings_differ(run_dir, plan, policy, seed, a):
     except (OSError, ValueError):
         return "no readable run.json"
     e = s.get("explore") if isinstance(s, dict) else None
-    pol, own, counts = explore_policy(policy)
-    # a run.json without "fence" is of a launcher before the keep-in fence: unfenced
+    pol, own, post_first = explore_policy(policy)
+    # a run.json without "fence" is of a launcher before the keep-in fence: unfenced; an uncertainty
+    # run's without "posterior_first" of a launcher before the counts from the start: posterior first
+    # unless "counts" (the frontier policies read no belief)
     want = {"robots": a.robots, "seed": seed, "plan": os.path.basename(plan),
-            "explore": None if policy == "tours" else (pol, float(a.explore_time), own, counts, not a.no_fence)}
+            "explore": None if policy == "tours" else (pol, float(a.explore_time), own, post_first, not a.no_fence)}
     got = {"robots": s.get("robots"), "seed": s.get("seed"), "plan": os.path.basename(str(s.get("plan"))),
            "explore": (e.get("policy"), float(e.get("time_s", -1)), bool(e.get("own_posterior")),
-                       bool(e.get("counts")), bool(e.get("fence", False))) if isinstance(e, dict) else None}
+                       e.get("policy") == "uncertainty" and bool(e.get("posterior_first", not e.get("counts"))),
+                       bool(e.get("fence", False))) if isinstance(e, dict) else None}
     if a.rounds is not None:
         want["rounds"], got["rounds"] = a.rounds, s.get("rounds")
     bad = [k for k in want if want[k] != got[k]]
@@ -263,22 +267,23 @@ def fleet_cmd(a, label, plan, policy, seed, name):
         if paths:
             cmd += ["--paths", paths]
     else:
-        pol, own, counts = explore_policy(policy)
+        pol, own, post_first = explore_policy(policy)
         cmd += ["--explore", "--explore-policy", pol, "--explore-time", f"{a.explore_time:g}"]
         if own:
             cmd += ["--explore-own-posterior"]
-        if counts:
-            cmd += ["--explore-counts"]
+        if post_first:
+            cmd += ["--explore-posterior-first"]
         if a.no_fence:
             cmd += ["--explore-no-fence"]
     return cmd
 
 
 def explore_policy(policy):
-    """(tools/fleet's --explore-policy, --explore-own-posterior, --explore-counts) of one of EXPLORE_POLICIES."""
-    for suffix, own, counts in (("-own", True, False), ("-counts", False, True)):
+    """(tools/fleet's --explore-policy, --explore-own-posterior, --explore-posterior-first) of one of
+    EXPLORE_POLICIES."""
+    for suffix, own, post_first in (("-own", True, False), ("-posterior", False, True)):
         if policy.endswith(suffix):
-            return policy[:-len(suffix)], own, counts
+            return policy[:-len(suffix)], own, post_first
     return policy, False, False
 
 
@@ -385,7 +390,7 @@ def markdown(a, rows, labels):
             L.append("| " + " | ".join(cells) + " |")
             by[policy] = rs
         L.append("")
-        for name in ("uncertainty", "uncertainty-counts"):
+        for name in ("uncertainty", "uncertainty-posterior"):
             L.append(versus_coordinated(name, by.get(name), by.get("coordinated"), a.robots * a.explore_time))
         if os.path.isfile(os.path.join(a.results, f"explore_compare_{label}.png")):
             L += ["", f"![{label}](explore_compare_{label}.png)"]

@@ -43,7 +43,7 @@ LAUNCHER_SETS = {"--plan": "--plan", "--path": "--paths", "--out": "--results/--
                  "--peer-timeout": "--peer-timeout", "--resend-ms": "--resend-ms", "--quiet": None,
                  "--no-maps": "--no-report", "--net-faults": "--net-faults", "--key-file": "--key-file",
                  "--run-id": None, "--explore": "--explore", "--explore-policy": "--explore-policy",
-                 "--explore-own-posterior": "--explore-own-posterior", "--explore-counts": "--explore-counts",
+                 "--explore-own-posterior": "--explore-own-posterior", "--explore-posterior-first": "--explore-posterior-first",
                  "--explore-no-fence": "--explore-no-fence", "--explore-time": "--explore-time"}
 
 

@@ -65,21 +65,21 @@ static void build_grid(gp_explore_t *x, int fallback)
     const uint32_t n = x->cfg.goal.w * x->cfg.goal.h;
     memcpy(x->grid.occ, x->seen.occ, n);
     const uint8_t *u = !uses_belief(x) ? x->seen.unknown : fallback ? x->belief.fallback : x->belief.unknown;
+    /* On the belief, no more than our own scans left: what our lidar observed (and the fence:
+       outside the building, the outer walls, the map's edge) the fleet's belief cannot hold
+       unknown, however its 0.8 m counts or global features put it. */
+    const uint8_t *own = x->seen.unknown;
     for (uint32_t i = 0; i < n; i++)
-        x->grid.unknown[i] = x->spent[i] ? 0u : u[i];
+        x->grid.unknown[i] = x->spent[i] ? 0u : u[i] < own[i] ? u[i] : own[i];
 }
 
-/* The goal's window: the cells gp_goal sums its information over (half side round(sensor radius
- * / res) cells around the goal's cell), in cells, so that none is left out by rounding. */
-static void spend(gp_explore_t *x, uint32_t goal_cell)
+/* What a look from the goal took in (gp_goal_look: its window, the cells behind walls our own
+ * scans saw left out) is spent. The whole square spent the unseen room behind a wall beside a
+ * goal in the corridor, and the robots that had stood there never went in. */
+static int spend(gp_explore_t *x, uint32_t goal_cell)
 {
-    const gp_goal_cfg_t *c = &x->cfg.goal;
-    const int64_t r = (int64_t)floor(c->sensor_radius_m / c->res_m + 0.5);
-    const int64_t gc = goal_cell % c->w, gr = goal_cell / c->w;
-    for (int64_t row = gr - r; row <= gr + r; row++)
-        for (int64_t col = gc - r; col <= gc + r; col++)
-            if (row >= 0 && row < (int64_t)c->h && col >= 0 && col < (int64_t)c->w)
-                x->spent[row * c->w + col] = 1u;
+    memcpy(x->grid.occ, x->seen.occ, x->cfg.goal.w * x->cfg.goal.h);
+    return gp_goal_look(&x->goal, &x->grid, goal_cell, x->spent);
 }
 
 static int send_goal(gp_explore_t *x, const fw_link_t *link, uint32_t mode, float gx, float gy, uint64_t now_us)
@@ -138,7 +138,9 @@ int gp_explore_tick(gp_explore_t *x, const fw_link_t *link, const rt_status_t *r
         spent = 1;
     }
     if (spent) {
-        spend(x, x->goal.goal.cell);
+        r = spend(x, x->goal.goal.cell);
+        if (r != 0)
+            return r;
         again = 1;
     }
     if (!again) {
@@ -154,7 +156,8 @@ int gp_explore_tick(gp_explore_t *x, const fw_link_t *link, const rt_status_t *r
     double py = fmin(fmax((double)rt->y_m, y0 + 1e-6), y0 + (double)h * res - 1e-6);
     gp_goal_pick_t pick;
     r = gp_goal_select(&x->goal, &x->grid, px, py, now_us, &pick);
-    if (r == -ENOENT && uses_belief(x)) { /* the posterior has nothing left: where no ray went */
+    /* the first layer has nothing left: the fallback, where it differs (the posterior first) */
+    if (r == -ENOENT && uses_belief(x) && memcmp(x->belief.unknown, x->belief.fallback, (size_t)w * h) != 0) {
         build_grid(x, 1);
         r = gp_goal_select(&x->goal, &x->grid, px, py, now_us, &pick);
         if (r == 0)

@@ -8,18 +8,20 @@
  * and picks a goal with gp_goal_select (gp/gp_goal.h) on a grid made of
  *   occ      the seen grid's (what the robot's own lidar observed is what it can drive on;
  *            cells it never observed are open, as the planner takes them);
- *   unknown  by policy: GP_EXPLORE_UNCERTAINTY the belief's (the model's epistemic share; the
- *            seen grid's until the first belief arrives), and when that leaves nothing within
- *            reach, the belief's fallback layer (the same, with every cell that no ray of the
- *            fleet reached, beyond the cells rays did, unknown: ai/ai_seen.h): the posterior's
- *            features are global, so it comes to call a room seen only through its door
- *            known, and alone it stopped robots short of the whole building;
+ *   unknown  by policy: GP_EXPLORE_UNCERTAINTY the belief's (the model's epistemic share, by
+ *            default the larger of the posterior's and the counts' of where the fleet's rays
+ *            went: ai/ai_seen.h; the seen grid's until the first belief arrives), and when that
+ *            leaves nothing within reach and the belief's fallback layer differs (the
+ *            posterior first: its first layer the posterior's alone), that layer; either at
+ *            most the seen grid's never-observed share, cell by cell: what our own lidar
+ *            observed, and the fence and the map's edge, is not unknown whatever the coarse
+ *            belief says;
  *            GP_EXPLORE_FRONTIER and GP_EXPLORE_COORDINATED the seen grid's never-observed
  *            share (frontier exploration on the robot's own scans, Yamauchi 1997;
  *            coordinated: with the peers' claims, Burgard et al. 2005);
- * and unknown 0 on every spent cell: the cells of the window gp_goal sums around each goal the RT
- * core reached or gave up (rt_status_t.goal_reached, goal_failed: unreachable, or stuck
- * there). A spent goal is not chosen again: the belief lags the robot by a belief period, and a
+ * and unknown 0 on every spent cell: what a look from each goal the RT core reached or gave up
+ * takes in (gp_goal_look: the goal's window, less the cells behind walls the search from it does
+ * not reach; rt_status_t.goal_reached, goal_failed: unreachable, or stuck there). A spent goal is not chosen again: the belief lags the robot by a belief period, and a
  * goal the robot cannot get near (outside the building, inside a wall block: the coarse grid's
  * search may leak there, the RT core's planner then stops at the nearest reachable cell and
  * says reached) would otherwise be chosen again and again. A mask, not a list: however many

@@ -64,9 +64,9 @@ static double centre(double origin, double res, uint32_t i)
  * (-x, +x, -y, +y), so the steps are a pure function of the grid: 4-connected steps of one
  * cell are the cost, which a coarse grid makes good enough for ranking goals and cheap
  * (one pass, no heap). */
-/* Breadth-first steps from start; returns how many cells it reached (g->queue holds them in
- * the order of their steps). */
-static uint32_t search(gp_goal_t *g, const gp_goal_grid_t *grid, uint32_t start)
+/* Breadth-first steps from start, up to max_steps; returns how many cells it reached (g->queue
+ * holds them in the order of their steps). */
+static uint32_t search(gp_goal_t *g, const gp_goal_grid_t *grid, uint32_t start, uint32_t max_steps)
 {
     const uint32_t w = g->cfg.w, n = w * g->cfg.h;
     for (uint32_t i = 0; i < n; i++)
@@ -80,7 +80,7 @@ static uint32_t search(gp_goal_t *g, const gp_goal_grid_t *grid, uint32_t start)
                                 cy > 0u ? c - w : UINT32_MAX, cy + 1u < g->cfg.h ? c + w : UINT32_MAX};
         for (int k = 0; k < 4; k++) {
             const uint32_t m = nb[k];
-            if (m == UINT32_MAX || g->steps[m] != UNREACHED || grid->occ[m] >= g->cfg.occ_max)
+            if (m == UINT32_MAX || g->steps[m] != UNREACHED || grid->occ[m] >= g->cfg.occ_max || g->steps[c] >= max_steps)
                 continue;
             g->steps[m] = (uint16_t)(g->steps[c] + 1u);
             g->queue[tail++] = (uint16_t)m;
@@ -290,7 +290,7 @@ int gp_goal_select(gp_goal_t *g, const gp_goal_grid_t *grid, double x_m, double 
         return -EINVAL;
     const gp_goal_cfg_t *cfg = &g->cfg;
     expire(g, now_us);
-    const uint32_t reached = search(g, grid, start);
+    const uint32_t reached = search(g, grid, start, UNREACHED);
     apply_claims(g, now_us); /* the claims' verdicts need the costs, the sums the taken cells */
     const uint32_t r = half_side(cfg, cfg->sensor_radius_m);
     const uint32_t *sat_left = g->sat;
@@ -356,6 +356,28 @@ int gp_goal_select(gp_goal_t *g, const gp_goal_grid_t *grid, double x_m, double 
         send_claim(g, now_us);
     }
     *out = best;
+    return 0;
+}
+
+int gp_goal_look(gp_goal_t *g, const gp_goal_grid_t *grid, uint32_t cell, uint8_t *mark)
+{
+    if (g == NULL || grid == NULL || mark == NULL || cell >= g->cfg.w * g->cfg.h)
+        return -EINVAL;
+    const gp_goal_cfg_t *cfg = &g->cfg;
+    const uint32_t r = half_side(cfg, cfg->sensor_radius_m);
+    const window_t b = window_at(cfg, cell % cfg->w, cell / cfg->w, r);
+    if (!cfg->info_by_path) {
+        for (uint32_t y = b.y0; y < b.y1; y++)
+            memset(&mark[y * cfg->w + b.x0], 1, b.x1 - b.x0);
+        return 0;
+    }
+    /* A corner of the window is 2 r steps away along the grid's axes. */
+    const uint32_t reached = search(g, grid, cell, 2u * r);
+    for (uint32_t k = 0; k < reached; k++) {
+        const uint32_t m = g->queue[k], x = m % cfg->w, y = m / cfg->w;
+        if (x >= b.x0 && x < b.x1 && y >= b.y0 && y < b.y1)
+            mark[m] = 1u;
+    }
     return 0;
 }
 

@@ -183,6 +183,14 @@ FS_MUST_CHECK int gp_goal_select(gp_goal_t *g, const gp_goal_grid_t *grid, doubl
  * -EINVAL for a NULL argument); every refusal is counted and changes nothing else. */
 FS_MUST_CHECK int gp_goal_on_claim(gp_goal_t *g, const gp_goal_claim_t *c, uint64_t now_us);
 
+/* Sets mark[i] = 1 on the cells a look from `cell` takes in, as a goal's info counts them: its
+ * window (half side round(sensor_radius_m / res_m) cells), with info_by_path only the window's
+ * cells the search from `cell` over grid's traversable cells reaches (within 2 r steps, the
+ * window's corners): a room behind a wall beside the goal is not among them. Other marks are
+ * left as they are. Uses the search's scratch (the next gp_goal_select fills it again).
+ * 0, or -EINVAL (a NULL argument, cell outside the grid). */
+FS_MUST_CHECK int gp_goal_look(gp_goal_t *g, const gp_goal_grid_t *grid, uint32_t cell, uint8_t *mark);
+
 /* Drops expired claims and sends our claim again when a period passed. */
 void gp_goal_poll(gp_goal_t *g, uint64_t now_us);
 

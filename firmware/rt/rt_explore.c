@@ -474,16 +474,22 @@ int rt_explore_seen(rt_explore_t *x, uint64_t now_us, rt_seen_t *out)
     const uint32_t all = f * f;
     for (uint32_t cy = 0; cy < sh; cy++)
         for (uint32_t cx = 0; cx < sw; cx++) {
-            uint32_t observed = 0, occupied = 0;
+            /* Fine cells beyond the fine grid are outside the map: nothing to see or drive on
+               there, so they count as observed obstacles (never observed, the last row and
+               column of coarse cells, mostly beyond the grid, looked unexplored for ever). */
+            uint32_t observed = 0, occupied = 0, in_grid = 0;
             for (uint32_t fy = cy * f; fy < (cy + 1u) * f && fy < (uint32_t)g->h; fy++)
                 for (uint32_t fx = cx * f; fx < (cx + 1u) * f && fx < (uint32_t)g->w; fx++) {
                     int32_t i = (int32_t)(fy * (uint32_t)g->w + fx);
+                    in_grid++;
                     if (g->known[i] == 0)
                         continue;
                     observed++;
                     occupied += (uint32_t)is_obstacle(x, i);
                 }
-            /* Fine cells beyond the fine grid are never observed. Rounded half up. */
+            observed += all - in_grid;
+            occupied += all - in_grid;
+            /* Rounded half up. */
             uint32_t k = cy * sw + cx;
             out->occ[k] = observed ? (uint8_t)((255u * occupied + observed / 2u) / observed) : 0u;
             out->unknown[k] = (uint8_t)((255u * (all - observed) + all / 2u) / all);

@@ -37,7 +37,9 @@ typedef struct rt_status {
  * policies' information, and every policy's traversability). Geometry: the GP goal grid's
  * (gp/gp_goal.h): w x h cells, row-major, each covering factor x factor cells of the RT grid.
  *   occ      round(255 x occupied / observed) over the cell's observed fine cells (0 if none);
- *   unknown  round(255 x never observed / all) over its fine cells (255: never seen). */
+ *   unknown  round(255 x never observed / all) over its fine cells (255: never seen);
+ * a coarse cell of the last row or column may reach past the fine grid: its fine cells there
+ * count as observed and occupied (outside the map). */
 #define RT_SEEN_MAX_CELLS 4096u
 typedef struct rt_seen {
     uint64_t stamp_us;       /* simulated time of the scan that last changed it */

@@ -501,7 +501,8 @@ static int run_image(job_t *j)
     j->explore = (sim_explore_opts_t){(gp_explore_policy_t)o->explore_policy, o->explore_time,
                                       SIM_EXPLORE_BELIEF_PERIOD_S_DEFAULT,
                                       o->explore_own_posterior || o->encoding != DINNO_CODEC_FP32,
-                                      o->explore_counts, o->explore_no_fence};
+                                      o->explore_policy == GP_EXPLORE_UNCERTAINTY && !o->explore_posterior_first,
+                                      o->explore_no_fence};
     if (o->explore && o->fleet > 1 && !o->explore_own_posterior && o->encoding != DINNO_CODEC_FP32)
         fprintf(stderr, "host_sim run: robot %lld: --encoding is not fp32, so the posterior is not shared while "
                         "exploring: each robot's belief is its own\n", o->robot);

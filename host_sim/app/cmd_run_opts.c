@@ -77,9 +77,11 @@ static const cli_opt_t run_opts[] = {
     {.names = "--explore-no-fence", CLI_FLAG(run_opts_t, explore_no_fence, 1),
      .help = "explore: no keep-in fence (the ablation); by default the robot plans only inside the building's "
              "outline, its site's geofence, so that it does not explore the yards beyond the entrance"},
-    {.names = "--explore-counts", CLI_FLAG(run_opts_t, explore_counts, 1),
-     .help = "explore: the belief also counts where the rays went, so that rooms no ray entered stay unknown (the "
-             "posterior's features are global); for large buildings and long runs (docs/exploration.md)"},
+    {.names = "--explore-posterior-first", CLI_FLAG(run_opts_t, explore_posterior_first, 1),
+     .help = "explore (uncertainty): goals from the posterior alone while it has any, then from where the rays went "
+             "(the ablation); by default the belief is the larger of the posterior's share and the counts' of where "
+             "the rays went from the start (the posterior's features are global: alone it calls rooms no ray entered "
+             "known)"},
     {.names = "--out", .meta = "DIR", CLI_STRING(run_opts_t, out), .required = 1, .help = "output folder"},
     {.names = "--online", CLI_FLAG(run_opts_t, offline, 0), CLI_GIVEN(run_opts_t, online_given),
      .help = "rounds at distance boundaries (default)"},
@@ -334,8 +336,8 @@ int run_parse(int argc, char **argv, run_opts_t *o, char *url)
         fprintf(stderr, "host_sim run: --explore-no-fence is an option of --explore\n");
         return -1;
     }
-    if (o->explore_counts && (!o->explore || o->explore_policy != GP_EXPLORE_UNCERTAINTY)) {
-        fprintf(stderr, "host_sim run: --explore-counts is an option of --explore with --explore-policy uncertainty "
+    if (o->explore_posterior_first && (!o->explore || o->explore_policy != GP_EXPLORE_UNCERTAINTY)) {
+        fprintf(stderr, "host_sim run: --explore-posterior-first is an option of --explore with --explore-policy uncertainty "
                         "(the only policy that reads the belief)\n");
         return -1;
     }

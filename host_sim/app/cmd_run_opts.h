@@ -43,7 +43,7 @@ typedef struct run_opts {
     int explore_policy;     /* --explore-policy: gp_explore_policy_t */
     double explore_time;    /* --explore-time: simulated seconds */
     int explore_own_posterior; /* --explore-own-posterior: the belief from the robot's data alone */
-    int explore_counts;        /* --explore-counts: the belief also counts where the rays went */
+    int explore_posterior_first; /* --explore-posterior-first: the belief's first layer the posterior's alone */
     int explore_no_fence;      /* --explore-no-fence: the RT core not fenced into the building */
 } run_opts_t;
 

@@ -52,9 +52,11 @@ int sim_explore_gp_cfg(const sim_explore_geom_t *g, const sim_explore_opts_t *o,
     c->origin_y_m = g->origin_y_m;
     c->occ_max = 128;           /* more than half of what the lidar saw there was wall */
     c->sensor_radius_m = 2.5;   /* what a visit reveals: inside the 3.5 m lidar's reach, walls aside */
-    /* m^2 of unknown area one metre of path is worth: the frontier policies go to the nearest
-       frontier (Yamauchi), the uncertainty policy trades the two */
-    c->lambda = o->policy == GP_EXPLORE_UNCERTAINTY ? 0.5 : 2.0;
+    /* m^2 of unknown area one metre of path is worth, the same for every policy: they differ in
+       what they count as unknown. 0.5 for the uncertainty policy sent its robots across office64
+       for a little more information, past rooms nobody had seen, and each robot where the others
+       had been (beyond the 6 m radius their posteriors had not met yet); docs/exploration.md. */
+    c->lambda = 2.0;
     /* The uncertainty policy on the fleet's posterior: what is left late is small pockets
        (0.5 m^2 stopped 7 robots at 0.93 coverage, 0.2 m^2 at 0.997), and robots sharing one
        belief would follow a kept claim at x 0.1, so its cells are removed for the others. */
@@ -120,17 +122,52 @@ void sim_explore_belief_cfg(const sim_plan_t *plan, const sim_explore_geom_t *g,
     out->max_y = (float)plan->max.y;
 }
 
+/* While sim_explore_keep_in works: a wall cell (1 in what it returns, unless an outer wall's),
+ * and one going outside in this sweep. */
+#define WALL 2u
+#define GOING 3u
+/* How deep into the walls the outside goes: a little over the thickest outer wall of the plans
+ * (CubiCasa5K's 0.2-0.3 m). */
+#define OUTER_WALL_M 0.4
+
 int sim_explore_keep_in(const sim_plan_t *plan, const sim_explore_geom_t *g, uint8_t *inside, size_t n)
 {
     if (plan == NULL || g == NULL || inside == NULL || g->fine_w < 1 || g->fine_h < 1 ||
         (size_t)g->fine_w * (size_t)g->fine_h > n)
         return -EINVAL;
-    for (int32_t r = 0; r < g->fine_h; r++)
-        for (int32_t c = 0; c < g->fine_w; c++) {
+    const int32_t w = g->fine_w, h = g->fine_h;
+    for (int32_t r = 0; r < h; r++)
+        for (int32_t c = 0; c < w; c++) {
             const double x = g->origin_x_m + ((double)c + 0.5) * g->fine_res_m;
             const double y = g->origin_y_m + ((double)r + 0.5) * g->fine_res_m;
-            inside[(size_t)r * (size_t)g->fine_w + (size_t)c] = sim_plan_classify_point(plan, x, y) != SIM_CELL_OUTSIDE;
+            const int k = sim_plan_classify_point(plan, x, y);
+            inside[(size_t)r * (size_t)w + (size_t)c] = k == SIM_CELL_OUTSIDE ? 0u : k == SIM_CELL_WALL ? WALL : 1u;
         }
+    /* The outer walls go outside too: the wall cells within OUTER_WALL_M of the outside (or the
+       grid's edge) through wall cells. A lidar sees a wall's face, never its inside, so an outer
+       wall's cells would stay unobserved for ever and look like the edge of something unexplored
+       to every policy (robots drove along office64's outer walls for minutes to look at them).
+       Each sweep moves the outside one cell into the walls (GOING, then out once the sweep is
+       done, so the depth is counted in cells); an inner wall joining the outer one loses its end. */
+    const int sweeps = (int)ceil(OUTER_WALL_M / g->fine_res_m);
+    for (int s = 0; s < sweeps; s++) {
+        for (int32_t r = 0; r < h; r++)
+            for (int32_t c = 0; c < w; c++) {
+                uint8_t *v = &inside[(size_t)r * (size_t)w + (size_t)c];
+                int out = 0;
+                for (int32_t dr = -1; dr <= 1 && !out && *v == WALL; dr++)
+                    for (int32_t dc = -1; dc <= 1 && !out; dc++) {
+                        const int32_t rr = r + dr, cc = c + dc;
+                        out = rr < 0 || rr >= h || cc < 0 || cc >= w || inside[(size_t)rr * (size_t)w + (size_t)cc] == 0u;
+                    }
+                if (out)
+                    *v = GOING;
+            }
+        for (size_t i = 0; i < (size_t)w * (size_t)h; i++)
+            inside[i] = inside[i] == GOING ? 0u : inside[i];
+    }
+    for (size_t i = 0; i < (size_t)w * (size_t)h; i++)
+        inside[i] = inside[i] != 0u;
     return 0;
 }
 

@@ -203,6 +203,42 @@ static void test_uncertainty_falls_back_to_the_counts(void **state)
     assert_int_equal(ex.stats.fallbacks, 0);
 }
 
+/* The belief is bounded by the robot's own scans: P, which our lidar observed, is not unknown
+ * however the belief puts it (its 1 m counts, the posterior's global features), on either
+ * layer; Q, which neither saw, is the goal. */
+static void test_belief_bounded_by_own_scans(void **state)
+{
+    (void)state;
+    gp_goal_msg_t m;
+    for (int fallback = 0; fallback <= 1; fallback++) {
+        setup_grids();
+        uint8_t *layer = fallback ? belief.fallback : belief.unknown;
+        patch(seen.unknown, 3, 4, 0);
+        patch(layer, 3, 4, 255);
+        patch(layer, 12, 4, 255);
+        m = first_goal(GP_EXPLORE_UNCERTAINTY);
+        assert_true(fabsf(m.x_m - 12.5f) < 1e-6f);
+        assert_int_equal(ex.stats.fallbacks, (uint64_t)fallback);
+    }
+
+    /* Our scans say Q is unknown, the belief that a peer saw it: it is the belief's. */
+    setup_grids();
+    patch(seen.unknown, 3, 4, 0);
+    patch(belief.unknown, 12, 4, 255);
+    memcpy(belief.fallback, belief.unknown, sizeof belief.fallback);
+    patch(belief.unknown, 12, 4, 0);
+    patch(belief.fallback, 12, 4, 0);
+    const gp_explore_cfg_t cfg = config(GP_EXPLORE_UNCERTAINTY);
+    assert_int_equal(gp_explore_init(&ex, &cfg), 0);
+    const fw_link_t *link = fw_link_get();
+    rt_status_t st = pose();
+    assert_int_equal(mbox_put(link->rt_seen, &seen), 0);
+    assert_int_equal(mbox_put(link->ai_belief, &belief), 0);
+    assert_int_equal(gp_explore_tick(&ex, link, &st, 1 * S), 0);
+    assert_int_equal(take_goal(&m), 1);
+    assert_int_equal(m.mode, GP_GOAL_MSG_DONE);
+}
+
 static void test_claims_by_policy(void **state)
 {
     (void)state;
@@ -294,6 +330,7 @@ int main(void)
         cmocka_unit_test(test_goal_then_next_then_done),
         cmocka_unit_test(test_uncertainty_reads_the_belief),
         cmocka_unit_test(test_uncertainty_falls_back_to_the_counts),
+        cmocka_unit_test(test_belief_bounded_by_own_scans),
         cmocka_unit_test(test_claims_by_policy),
         cmocka_unit_test(test_contested_goal_chosen_again),
         cmocka_unit_test(test_bad_inputs),

@@ -546,6 +546,44 @@ static void test_info_by_path_sees_nothing_through_a_known_wall(void **st)
     assert_int_equal(gp_goal_init(&ga, &c), -EINVAL);
 }
 
+/* What a look from a goal takes in (gp_goal_look): its window, without the cells behind a wall
+ * the search from it does not reach within the window's steps; the whole window without
+ * info_by_path. The wall at column 10 (rows 0-6) with a goal at (9, 1): the window's cells beyond
+ * the wall are left out, those on this side in. */
+static void test_a_look_stops_at_walls(void **st)
+{
+    (void)st;
+    memset(&grid, 0, sizeof grid);
+    for (uint32_t y = 0; y < 7u; y++)
+        grid.occ[CELL(10, y)] = 255;
+    gp_goal_cfg_t c = config(0, &oa);
+    c.sensor_radius_m = 2.0;
+    c.info_by_path = 1;
+    assert_int_equal(gp_goal_init(&ga, &c), 0);
+    static uint8_t mark[GP_GOAL_MAX_CELLS];
+    memset(mark, 0, sizeof mark);
+    assert_int_equal(gp_goal_look(&ga, &grid, CELL(9, 1), mark), 0);
+    uint32_t marked = 0;
+    for (uint32_t y = 0; y < 8u; y++)
+        for (uint32_t x = 0; x < 16u; x++) {
+            const int in_window = x >= 7u && x <= 11u && y <= 3u;
+            if (!in_window || x >= 10u)
+                assert_int_equal(mark[CELL(x, y)], 0); /* outside, the wall and behind it */
+            else
+                assert_int_equal(mark[CELL(x, y)], 1);
+            marked += mark[CELL(x, y)];
+        }
+    assert_int_equal(marked, 3u * 4u);
+    /* Marks already set stay, and the whole window without info_by_path. */
+    c.info_by_path = 0;
+    assert_int_equal(gp_goal_init(&ga, &c), 0);
+    assert_int_equal(gp_goal_look(&ga, &grid, CELL(9, 1), mark), 0);
+    for (uint32_t x = 7u; x <= 11u; x++)
+        assert_int_equal(mark[CELL(x, 3)], 1);
+    assert_int_equal(gp_goal_look(&ga, &grid, 16u * 8u, mark), -EINVAL);
+    assert_int_equal(gp_goal_look(&ga, NULL, 0, mark), -EINVAL);
+}
+
 int main(void)
 {
     const struct CMUnitTest tests[] = {
@@ -567,6 +605,7 @@ int main(void)
         cmocka_unit_test_setup(test_wire, setup),
         cmocka_unit_test_setup(test_inbox_hands_each_round_its_own_claim, setup),
         cmocka_unit_test_setup(test_info_by_path_sees_nothing_through_a_known_wall, setup),
+        cmocka_unit_test_setup(test_a_look_stops_at_walls, setup),
     };
     return cmocka_run_group_tests(tests, NULL, NULL);
 }

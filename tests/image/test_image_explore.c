@@ -152,6 +152,37 @@ static void test_keep_in_fence_of_office64(void **st)
         assert_int_equal(fence_at(&g, inside, start.p[0].x, start.p[0].y), 1);
         sim_path_free(&start);
     }
+    /* Rooms in, the outside out; the outer walls out (a lidar never sees inside them), the
+       walls within the building in (they stay the robot's to find). */
+    size_t inner_walls = 0;
+    const int sweeps = (int)ceil(0.4 / g.fine_res_m);
+    for (int r = 0; r < g.fine_h; r++)
+        for (int c = 0; c < g.fine_w; c++) {
+            const double x = g.origin_x_m + (c + 0.5) * g.fine_res_m, y = g.origin_y_m + (r + 0.5) * g.fine_res_m;
+            const int k = sim_plan_classify_point(&plan, x, y), v = inside[r * g.fine_w + c];
+            if (k != SIM_CELL_WALL) {
+                assert_int_equal(v, k == SIM_CELL_FREE);
+                continue;
+            }
+            int near_out = 0, touches_out = 0; /* an outside cell within `sweeps` cells, and next to it */
+            for (int dr = -sweeps - 1; dr <= sweeps + 1; dr++)
+                for (int dc = -sweeps - 1; dc <= sweeps + 1; dc++) {
+                    const int rr = r + dr, cc = c + dc;
+                    const double xx = g.origin_x_m + (cc + 0.5) * g.fine_res_m, yy = g.origin_y_m + (rr + 0.5) * g.fine_res_m;
+                    const int out = rr < 0 || rr >= g.fine_h || cc < 0 || cc >= g.fine_w ||
+                                    sim_plan_classify_point(&plan, xx, yy) == SIM_CELL_OUTSIDE;
+                    near_out |= out;
+                    touches_out |= out && abs(dr) <= 1 && abs(dc) <= 1;
+                }
+            if (touches_out)
+                assert_int_equal(v, 0);
+            if (!near_out) {
+                assert_int_equal(v, 1);
+                inner_walls++;
+            }
+        }
+    print_message("office64: %zu fine cells of walls inside the building kept in\n", inner_walls);
+    assert_true(inner_walls > 1000);
     /* two courtyards (between the wings), two corridors */
     const double probe[][3] = {{15.0, 38.0, 0}, {15.0, 11.0, 0}, {15.0, 30.5, 1}, {15.0, 17.0, 1}};
     for (size_t k = 0; k < sizeof probe / sizeof probe[0]; k++)

@@ -183,7 +183,7 @@ static void test_seen_view(void **st)
     (void)st;
     rt_explore_cfg_t c = rt_explore_default_cfg();
     c.res_m = 0.1f;
-    c.w = 38; /* the coarse grid overhangs the fine one: those fine cells are never observed */
+    c.w = 38; /* the coarse grid overhangs the fine one: those fine cells count as observed walls */
     c.h = 40;
     c.seen_factor = 10;
     c.seen_w = c.seen_h = 4;
@@ -205,7 +205,12 @@ static void test_seen_view(void **st)
             unsigned obs = 0, occ = 0;
             for (int fy = cy * 10; fy < cy * 10 + 10; fy++)
                 for (int fx = cx * 10; fx < cx * 10 + 10; fx++) {
-                    if (fx >= c.w || fy >= c.h || !known_at(fx, fy))
+                    if (fx >= c.w || fy >= c.h) { /* outside the map */
+                        obs++;
+                        occ++;
+                        continue;
+                    }
+                    if (!known_at(fx, fy))
                         continue;
                     obs++;
                     occ += occ_at(fx, fy) >= c.plan.occ_threshold;
@@ -217,6 +222,10 @@ static void test_seen_view(void **st)
             any_occ |= occ > 0;
         }
     assert_true(any_occ);
+    /* The last column's coarse cells, 2 of 10 fine columns beyond the grid, are a fifth
+       known wall however little the scan saw of them. */
+    for (int cy = 0; cy < 4; cy++)
+        assert_true(seen.unknown[cy * 4 + 3] <= 204 && seen.occ[cy * 4 + 3] >= 51);
     /* Changed again within the second: not due; after it: due; unchanged: never due. */
     assert_true(rt_explore_integrate_scan(&ex, &v, 1.05f, 1.05f, 0.0f, 6000) > 0);
     assert_int_equal(rt_explore_seen(&ex, 1099999, &seen), 0);

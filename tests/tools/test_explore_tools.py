@@ -195,14 +195,14 @@ def run_row_from_a_synthetic_run():
         with open(os.path.join(run, "run.json"), "w") as f:
             json.dump({"robots": 2, "seed": 1, "rounds": 6, "plan": "host_sim/plans/apartment.svg",
                        "explore": {"policy": "uncertainty", "time_s": 30.0, "own_posterior": True,
-                                   "fence": True}}, f)
+                                   "posterior_first": False, "fence": True}}, f)
         check(differ(run, "/x/apartment.svg", "uncertainty-own", 1, A) is None, "the ablation's run not recognised")
         check(differ(run, "/x/apartment.svg", "uncertainty", 1, A) is not None, "the ablation taken for the policy")
         A.fleet, A.bin, A.results = "fleet", "host_sim", d
         cmd = explore_compare.fleet_cmd(A, "apartment", "/x/apartment.svg", "uncertainty-own", 1, "n")
         check(cmd[cmd.index("--explore-policy") + 1] == "uncertainty" and "--explore-own-posterior" in cmd, cmd)
         cmd = explore_compare.fleet_cmd(A, "apartment", "/x/apartment.svg", "uncertainty", 1, "n")
-        check("--explore-own-posterior" not in cmd and "--explore-counts" not in cmd and
+        check("--explore-own-posterior" not in cmd and "--explore-posterior-first" not in cmd and
               "--explore-no-fence" not in cmd, cmd)
         # the ablation without the keep-in fence: another run, and a run.json of before the fence
         # (no "fence") is one without it
@@ -212,19 +212,24 @@ def run_row_from_a_synthetic_run():
         check(differ(run, "/x/apartment.svg", "uncertainty-own", 1, A) is not None, "a fenced run taken unfenced")
         with open(os.path.join(run, "run.json"), "w") as f:
             json.dump({"robots": 2, "seed": 1, "rounds": 6, "plan": "host_sim/plans/apartment.svg",
-                       "explore": {"policy": "uncertainty", "time_s": 30.0, "own_posterior": True}}, f)
+                       "explore": {"policy": "uncertainty", "time_s": 30.0, "own_posterior": True,
+                                   "posterior_first": False}}, f)
         check(differ(run, "/x/apartment.svg", "uncertainty-own", 1, A) is None, "a run of before the fence not unfenced")
         A.no_fence = False
         check(differ(run, "/x/apartment.svg", "uncertainty-own", 1, A) is not None, "an unfenced run taken fenced")
-        # the belief that also counts where the rays went is another run too
-        with open(os.path.join(run, "run.json"), "w") as f:
-            json.dump({"robots": 2, "seed": 1, "rounds": 6, "plan": "host_sim/plans/apartment.svg",
-                       "explore": {"policy": "uncertainty", "time_s": 30.0, "own_posterior": False,
-                                   "counts": True, "fence": True}}, f)
-        check(differ(run, "/x/apartment.svg", "uncertainty-counts", 1, A) is None, "the counts' run not recognised")
-        check(differ(run, "/x/apartment.svg", "uncertainty", 1, A) is not None, "the counts' run taken for the policy")
-        cmd = explore_compare.fleet_cmd(A, "apartment", "/x/apartment.svg", "uncertainty-counts", 1, "n")
-        check(cmd[cmd.index("--explore-policy") + 1] == "uncertainty" and "--explore-counts" in cmd and
+        # the posterior first is another run too, and so is a run.json of before the counts from the
+        # start without "counts" (the posterior first then)
+        for explore in ({"posterior_first": True}, {}):
+            with open(os.path.join(run, "run.json"), "w") as f:
+                json.dump({"robots": 2, "seed": 1, "rounds": 6, "plan": "host_sim/plans/apartment.svg",
+                           "explore": dict({"policy": "uncertainty", "time_s": 30.0, "own_posterior": False,
+                                            "fence": True}, **explore)}, f)
+            check(differ(run, "/x/apartment.svg", "uncertainty-posterior", 1, A) is None,
+                  f"the posterior-first run not recognised ({explore})")
+            check(differ(run, "/x/apartment.svg", "uncertainty", 1, A) is not None,
+                  f"the posterior-first run taken for the policy ({explore})")
+        cmd = explore_compare.fleet_cmd(A, "apartment", "/x/apartment.svg", "uncertainty-posterior", 1, "n")
+        check(cmd[cmd.index("--explore-policy") + 1] == "uncertainty" and "--explore-posterior-first" in cmd and
               "--explore-own-posterior" not in cmd, cmd)
         text = explore_compare.csv_text([r])
         check(text.splitlines()[0] == ",".join(explore_compare.CSV_COLUMNS), text)
