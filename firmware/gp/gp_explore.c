@@ -156,8 +156,7 @@ int gp_explore_tick(gp_explore_t *x, const fw_link_t *link, const rt_status_t *r
     double py = fmin(fmax((double)rt->y_m, y0 + 1e-6), y0 + (double)h * res - 1e-6);
     gp_goal_pick_t pick;
     r = gp_goal_select(&x->goal, &x->grid, px, py, now_us, &pick);
-    /* the first layer has nothing left: the fallback, where it differs (the posterior first) */
-    if (r == -ENOENT && uses_belief(x) && memcmp(x->belief.unknown, x->belief.fallback, (size_t)w * h) != 0) {
+    if (r == -ENOENT && uses_belief(x)) { /* the first layer has nothing left: the fallback */
         build_grid(x, 1);
         r = gp_goal_select(&x->goal, &x->grid, px, py, now_us, &pick);
         if (r == 0)

@@ -11,17 +11,18 @@
  *   unknown  by policy: GP_EXPLORE_UNCERTAINTY the belief's (the model's epistemic share, by
  *            default the larger of the posterior's and the counts' of where the fleet's rays
  *            went: ai/ai_seen.h; the seen grid's until the first belief arrives), and when that
- *            leaves nothing within reach and the belief's fallback layer differs (the
- *            posterior first: its first layer the posterior's alone), that layer; either at
- *            most the seen grid's never-observed share, cell by cell: what our own lidar
- *            observed, and the fence and the map's edge, is not unknown whatever the coarse
- *            belief says;
+ *            leaves nothing within reach, the belief's fallback layer (with the posterior
+ *            first, where the first layer is the posterior's alone, the cells no ray reached;
+ *            else the same layer again); either at most the seen grid's never-observed share,
+ *            cell by cell: what our own lidar observed, and the fence and the map's edge, is
+ *            not unknown whatever the coarse belief says;
  *            GP_EXPLORE_FRONTIER and GP_EXPLORE_COORDINATED the seen grid's never-observed
  *            share (frontier exploration on the robot's own scans, Yamauchi 1997;
  *            coordinated: with the peers' claims, Burgard et al. 2005);
  * and unknown 0 on every spent cell: what a look from each goal the RT core reached or gave up
- * takes in (gp_goal_look: the goal's window, less the cells behind walls the search from it does
- * not reach; rt_status_t.goal_reached, goal_failed: unreachable, or stuck there). A spent goal is not chosen again: the belief lags the robot by a belief period, and a
+ * takes in (gp_goal_look: the goal's window, less the cells behind walls the search from it
+ * does not reach; rt_status_t.goal_reached, goal_failed: unreachable, or stuck there). A spent
+ * goal is not chosen again: the belief lags the robot by a belief period, and a
  * goal the robot cannot get near (outside the building, inside a wall block: the coarse grid's
  * search may leak there, the RT core's planner then stops at the nearest reachable cell and
  * says reached) would otherwise be chosen again and again. A mask, not a list: however many

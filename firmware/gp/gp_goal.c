@@ -76,11 +76,13 @@ static uint32_t search(gp_goal_t *g, const gp_goal_grid_t *grid, uint32_t start,
     uint32_t head = 0, tail = 1;
     while (head < tail) {
         const uint32_t c = g->queue[head++], cx = c % w, cy = c / w;
+        if (g->steps[c] >= max_steps)
+            break; /* the queue is in the order of the steps: the rest are as far */
         const uint32_t nb[4] = {cx > 0u ? c - 1u : UINT32_MAX, cx + 1u < w ? c + 1u : UINT32_MAX,
                                 cy > 0u ? c - w : UINT32_MAX, cy + 1u < g->cfg.h ? c + w : UINT32_MAX};
         for (int k = 0; k < 4; k++) {
             const uint32_t m = nb[k];
-            if (m == UINT32_MAX || g->steps[m] != UNREACHED || grid->occ[m] >= g->cfg.occ_max || g->steps[c] >= max_steps)
+            if (m == UINT32_MAX || g->steps[m] != UNREACHED || grid->occ[m] >= g->cfg.occ_max)
                 continue;
             g->steps[m] = (uint16_t)(g->steps[c] + 1u);
             g->queue[tail++] = (uint16_t)m;

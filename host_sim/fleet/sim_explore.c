@@ -154,8 +154,10 @@ int sim_explore_keep_in(const sim_plan_t *plan, const sim_explore_geom_t *g, uin
         for (int32_t r = 0; r < h; r++)
             for (int32_t c = 0; c < w; c++) {
                 uint8_t *v = &inside[(size_t)r * (size_t)w + (size_t)c];
+                if (*v != WALL)
+                    continue;
                 int out = 0;
-                for (int32_t dr = -1; dr <= 1 && !out && *v == WALL; dr++)
+                for (int32_t dr = -1; dr <= 1 && !out; dr++)
                     for (int32_t dc = -1; dc <= 1 && !out; dc++) {
                         const int32_t rr = r + dr, cc = c + dc;
                         out = rr < 0 || rr >= h || cc < 0 || cc >= w || inside[(size_t)rr * (size_t)w + (size_t)cc] == 0u;
