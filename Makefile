@@ -317,6 +317,14 @@ $(LIB)/libmsg.a: $(GEN)/.stamp
 # ---- libraries and programs -------------------------------------------------------------
 $(LIB)/libfirmware.a: $(FW_OBJ)
 $(LIB)/libhal.a: $(HAL_COMMON_OBJ)
+# The layering check gates the two archives every board links (order-only: it is not archived):
+# a host call in firmware/ (a debug print) stops the build before a program links it, not beside
+# a link that runs in parallel with the check and leaves a program built from code that fails it.
+LAYERING_OK := $(O)/layering.ok
+$(LAYERING_OK): $(shell find firmware hal/common -name '*.[ch]' -o -name '*.cpp') tools/check-layering.sh
+	@tools/check-layering.sh
+	@mkdir -p $(@D) && touch $@
+$(LIB)/libfirmware.a $(LIB)/libhal.a: | $(LAYERING_OK)
 $(LIB)/libhal_host.a: $(HAL_OBJ)
 $(LIB)/libhal_stdc.a: $(HAL_STDC_OBJ)
 $(LIB)/libsim.a: $(SIM_OBJ)

@@ -21,7 +21,7 @@ int gp_goal_init(gp_goal_t *g, const gp_goal_cfg_t *cfg)
     if (cfg->n_peers < 1u || cfg->n_peers > GP_GOAL_MAX_FLEET || cfg->self >= cfg->n_peers || cfg->w < 1u ||
         cfg->w > GP_GOAL_MAX_W || cfg->h < 1u || cfg->h > GP_GOAL_MAX_H || !isfinite(cfg->res_m) ||
         cfg->res_m <= 0.0 || !isfinite(cfg->origin_x_m) || !isfinite(cfg->origin_y_m) || cfg->occ_max == 0u ||
-        !finite_nonneg(cfg->sensor_radius_m) || !finite_nonneg(cfg->lambda) || !isfinite(cfg->min_info_m2) ||
+        !finite_nonneg(cfg->sensor_radius_m) || !finite_nonneg(cfg->lambda) || !finite_nonneg(cfg->keep_m) || !isfinite(cfg->min_info_m2) ||
         cfg->min_info_m2 <= 0.0 || !finite_nonneg(cfg->claim_radius_m) || !finite_nonneg(cfg->claim_discount) ||
         !finite_nonneg(cfg->claim_tie_m) || !finite_nonneg(cfg->claim_speed_mps) || !finite_nonneg(cfg->claim_window_m) ||
         cfg->claim_discount > 1.0 || cfg->claim_period_us == 0u || cfg->claim_lifetime_us <= cfg->claim_period_us ||
@@ -334,7 +334,9 @@ int gp_goal_select(gp_goal_t *g, const gp_goal_grid_t *grid, double x_m, double 
             continue;
         }
         const double cost = g->steps[c] * cfg->res_m, info_d = left * g->discount[c];
-        const double u = info_d - cfg->lambda * cost;
+        /* the goal held, not contested: its path is counted keep_m shorter */
+        const double kept = g->has_goal && c == g->goal.cell && g->discount[c] >= 1.0 ? cfg->keep_m : 0.0;
+        const double u = info_d - cfg->lambda * (cost - kept);
         /* The lowest index wins a tie (the cells come by steps, not index). */
         if (!found || u > best.utility || (u == best.utility && c < best.cell)) {
             found = 1;

@@ -31,7 +31,10 @@
  *           (steps(u) <= steps(c) + r): a room behind a wall the robot has seen, reached the
  *           long way round, is not what a look from beside the wall takes in (the cells are
  *           added in the order of their steps to a 2-D Fenwick tree, O(cells log^2) a choice);
- *   utility u(c) = info_m2(c) - lambda x cost_m(c)   (lambda in m^2 per metre of path);
+ *   utility u(c) = info_m2(c) - lambda x cost_m(c)   (lambda in m^2 per metre of path); the
+ *           goal held (not contested: no claim discounts it) counts keep_m nearer, cost_m -
+ *           keep_m: hysteresis, since the coarse search's cost to it can grow while the RT core
+ *           drives a finer path round a wall, and another goal would win at every choice;
  *   goal    the reachable candidate of the highest utility among those with info_m2 >=
  *           min_info_m2 before the claims (ties: the lowest cell index); none: -ENOENT,
  *           exploration is finished for us (nothing left to learn within reach), or -EBUSY
@@ -118,6 +121,7 @@ typedef struct gp_goal_cfg {
     double sensor_radius_m;          /* >= 0: half side of the square a goal's info sums */
     double lambda;                   /* >= 0: m^2 of info one metre of path is worth */
     double min_info_m2;              /* > 0: less is nothing left to learn there */
+    double keep_m;                   /* >= 0: the goal held counts this much nearer (above) */
     double claim_radius_m;           /* >= 0: a kept claim discounts candidates this near it */
     double claim_discount;           /* 0 .. 1: their info is multiplied by it */
     double claim_window_m;           /* >= 0: half side of the square of unknown a kept claim takes

@@ -36,6 +36,12 @@ int sim_explore_geometry(const sim_plan_t *plan, sim_explore_geom_t *g)
     return -EINVAL;
 }
 
+double sim_explore_lambda(const sim_explore_geom_t *g, uint32_t n_robots)
+{
+    const double side_m = sqrt((double)g->fine_w * g->fine_h / (n_robots > 0 ? n_robots : 1u)) * g->fine_res_m;
+    return fmin(side_m / SIM_EXPLORE_LAMBDA_SIDE_M, SIM_EXPLORE_LAMBDA_MAX);
+}
+
 int sim_explore_gp_cfg(const sim_explore_geom_t *g, const sim_explore_opts_t *o, uint32_t self, uint32_t n_peers,
                        uint32_t boundaries, gp_explore_cfg_t *out)
 {
@@ -52,11 +58,12 @@ int sim_explore_gp_cfg(const sim_explore_geom_t *g, const sim_explore_opts_t *o,
     c->origin_y_m = g->origin_y_m;
     c->occ_max = 128;           /* more than half of what the lidar saw there was wall */
     c->sensor_radius_m = 2.5;   /* what a visit reveals: inside the 3.5 m lidar's reach, walls aside */
-    /* m^2 of unknown area one metre of path is worth, the same for every policy: they differ in
-       what they count as unknown. 0.5 for the uncertainty policy sent its robots across office64
-       for a little more information, past rooms nobody had seen, and each robot where the others
-       had been (beyond the 6 m radius their posteriors had not met yet); docs/exploration.md. */
-    c->lambda = 2.0;
+    c->lambda = sim_explore_lambda(g, n_peers);
+    /* The goal held counts 8 m nearer: the coarse search's cost to it can grow while the robot
+       follows the RT core's finer path round a wall the 0.8 m cells do not hold, and another goal
+       then won at the next reselect. On office64 a robot drove back and forth in one corridor for
+       1,600 s between two goals it never reached (docs/exploration.md, "The goal held"). */
+    c->keep_m = 8.0;
     /* The uncertainty policy on the fleet's posterior: what is left late is small pockets
        (0.5 m^2 stopped 7 robots at 0.93 coverage, 0.2 m^2 at 0.997), and robots sharing one
        belief would follow a kept claim at x 0.1, so its cells are removed for the others. */

@@ -45,6 +45,19 @@ typedef struct sim_explore_geom {
 /* 0, or -EINVAL (a plan box too large for the grids even at their coarsest). */
 int sim_explore_geometry(const sim_plan_t *plan, sim_explore_geom_t *g);
 
+/* The path weight of the goal's utility (gp_goal.h: lambda, m^2 of unknown one metre of path is
+ * worth), the same for every policy (they differ in what they count as unknown): the side of a
+ * robot's share of the plan's box, sqrt(box / n_robots), over SIM_EXPLORE_LAMBDA_SIDE_M, at most
+ * SIM_EXPLORE_LAMBDA_MAX. Where a robot's share is large there is unknown near it, and a goal
+ * across the building is worth little: 0.5 sent 3 robots across office64 (a 509 m^2 share each)
+ * past rooms nobody had seen, towards each other's wings. Where it is small, what is near it its
+ * peers see too: 1 and 0.5 did better than 2 on the apartment and the generated plans (36-56 m^2
+ * a robot) and with 7 robots (15 m^2). The rule gives 0.8-1.0 there, 0.52 for 7 robots and 3 on
+ * office64, where 4 did worse (docs/exploration.md, "A path weight from the robot's share"). */
+#define SIM_EXPLORE_LAMBDA_SIDE_M 7.5
+#define SIM_EXPLORE_LAMBDA_MAX 3.0
+double sim_explore_lambda(const sim_explore_geom_t *g, uint32_t n_robots);
+
 /* The GP core's and the AI core's exploration configurations for robot `self` of n_peers,
  * with `boundaries` communication rounds over the budget (claims travel once per round: they
  * live a round and a half, at most 50 s). */

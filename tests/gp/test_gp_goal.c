@@ -115,6 +115,27 @@ static void test_single_robot_picks_the_most_information_near_it(void **st)
     assert_true(p.cost_m == 13.0);
 }
 
+/* The goal held counts keep_m nearer (hysteresis against the coarse search's cost, which grows
+ * while the robot follows the RT core's finer path round a wall): from (14, 3) an H as rich as
+ * G is 3 m away and G 7 m. Held, G is kept with keep_m 5 (7 - 5 < 3), not with 3; a robot
+ * holding no goal takes H. */
+static void test_the_goal_held_is_counted_keep_m_nearer(void **st)
+{
+    (void)st;
+    patch(13, 1, 255);
+    const double keeps[] = {0.0, 3.0, 5.0};
+    const uint32_t from_h_side[] = {CELL(13, 1), CELL(13, 1), CELL(8, 4)};
+    for (size_t k = 0; k < 3; k++) {
+        gp_goal_cfg_t c = config(0, &oa);
+        c.keep_m = keeps[k];
+        assert_int_equal(gp_goal_init(&ga, &c), 0);
+        assert_int_equal(pick(&ga, 14.5, 3.5, 0), CELL(13, 1)); /* nothing held: the nearer */
+        assert_int_equal(gp_goal_init(&ga, &c), 0);
+        assert_int_equal(pick(&ga, AX, Y, 0), CELL(8, 4));
+        assert_int_equal(pick(&ga, 14.5, 3.5, 1), from_h_side[k]);
+    }
+}
+
 static void test_two_robots_without_claims_pick_the_same_goal(void **st)
 {
     (void)st;
@@ -423,8 +444,8 @@ static void test_claim_table_and_config(void **st)
     assert_int_equal(gp_goal_claim_of(&ga, 1, 0, &held), -ENOENT);
     assert_int_equal(gp_goal_claim_of(&ga, 35, 0, &held), 0);
     /* Configurations out of range. */
-    gp_goal_cfg_t bad[8];
-    for (int i = 0; i < 8; i++)
+    gp_goal_cfg_t bad[9];
+    for (int i = 0; i < 9; i++)
         bad[i] = config(0, &oa);
     bad[0].self = 4;
     bad[1].w = GP_GOAL_MAX_W + 1u;
@@ -434,7 +455,8 @@ static void test_claim_table_and_config(void **st)
     bad[5].claim_max_lifetime_us = GP_GOAL_MAX_LIFETIME_US + 1u;
     bad[6].min_info_m2 = 0.0;
     bad[7].origin_x_m = NAN;
-    for (int i = 0; i < 8; i++)
+    bad[8].keep_m = -1.0;
+    for (int i = 0; i < 9; i++)
         assert_int_equal(gp_goal_init(&ga, &bad[i]), -EINVAL);
 }
 
@@ -588,6 +610,7 @@ int main(void)
 {
     const struct CMUnitTest tests[] = {
         cmocka_unit_test_setup(test_single_robot_picks_the_most_information_near_it, setup),
+        cmocka_unit_test_setup(test_the_goal_held_is_counted_keep_m_nearer, setup),
         cmocka_unit_test_setup(test_two_robots_without_claims_pick_the_same_goal, setup),
         cmocka_unit_test_setup(test_with_claims_the_nearer_keeps_the_goal, setup),
         cmocka_unit_test_setup(test_costs_within_the_tie_margin_go_to_the_lower_id, setup),

@@ -190,6 +190,36 @@ static void test_keep_in_fence_of_office64(void **st)
     sim_plan_free(&plan);
 }
 
+/* The path weight follows a robot's share of the plan's box (sim_explore_lambda): heavier on
+ * office64 than on the apartment, lighter with more robots, capped, and what the GP core gets
+ * whatever the policy. */
+static void test_path_weight_from_share(void **st)
+{
+    (void)st;
+    static sim_plan_t office;
+    char err[512];
+    assert_int_equal(sim_plan_load("host_sim/plans/office64.svg", 0, &office, err, sizeof err), 0);
+    sim_explore_geom_t apt, off;
+    assert_int_equal(sim_explore_geometry(&g_plan, &apt), 0);
+    assert_int_equal(sim_explore_geometry(&office, &off), 0);
+    const double apt3 = sim_explore_lambda(&apt, 3), apt7 = sim_explore_lambda(&apt, 7);
+    const double off3 = sim_explore_lambda(&off, 3), off1 = sim_explore_lambda(&off, 1);
+    print_message("lambda: apartment 3 robots %.2f, 7 robots %.2f; office64 3 robots %.2f\n", apt3, apt7, off3);
+    /* the apartment's box is 12 x 9 m, office64's 32 x 48 m */
+    assert_true(fabs(apt3 - sqrt(12.0 * 9.0 / 3.0) / SIM_EXPLORE_LAMBDA_SIDE_M) < 0.05);
+    assert_true(apt7 < apt3 && apt3 < off3);
+    assert_true(fabs(apt7 / apt3 - sqrt(3.0 / 7.0)) < 1e-9);
+    assert_true(off3 <= SIM_EXPLORE_LAMBDA_MAX && off1 == SIM_EXPLORE_LAMBDA_MAX);
+    const gp_explore_policy_t policies[] = {GP_EXPLORE_UNCERTAINTY, GP_EXPLORE_FRONTIER, GP_EXPLORE_COORDINATED};
+    for (size_t k = 0; k < sizeof policies / sizeof policies[0]; k++) {
+        sim_explore_opts_t o = {.policy = policies[k], .budget_s = 150.0};
+        gp_explore_cfg_t c;
+        assert_int_equal(sim_explore_gp_cfg(&apt, &o, 0, 7, 750, &c), 0);
+        assert_true(c.goal.lambda == apt7);
+    }
+    sim_plan_free(&office);
+}
+
 static void run(gp_explore_policy_t policy, sim_image_result_t *r, probe_t *p, double *coverage)
 {
     run_with(policy, 0, r, p, coverage);
@@ -278,6 +308,7 @@ int main(void)
 {
     const struct CMUnitTest tests[] = {
         cmocka_unit_test(test_keep_in_fence_of_office64),
+        cmocka_unit_test(test_path_weight_from_share),
         cmocka_unit_test(test_explores_without_touching_a_wall),
         cmocka_unit_test(test_same_seed_same_exploration),
         cmocka_unit_test(test_explores_with_counts),
