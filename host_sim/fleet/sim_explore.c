@@ -62,7 +62,8 @@ int sim_explore_gp_cfg(const sim_explore_geom_t *g, const sim_explore_opts_t *o,
     /* The goal held counts 8 m nearer: the coarse search's cost to it can grow while the robot
        follows the RT core's finer path round a wall the 0.8 m cells do not hold, and another goal
        then won at the next reselect. On office64 a robot drove back and forth in one corridor for
-       1,600 s between two goals it never reached (docs/exploration.md, "The goal held"). */
+       1,600 s between two goals it never reached (docs/exploration.md, "A path weight from the
+       robot's share, and the goal held"). */
     c->keep_m = 8.0;
     /* The uncertainty policy on the fleet's posterior: what is left late is small pockets
        (0.5 m^2 stopped 7 robots at 0.93 coverage, 0.2 m^2 at 0.997), and robots sharing one
