@@ -106,7 +106,8 @@ typedef struct gp_fleet_cfg {
     uint32_t resend_after_us;        /* ask again for missing chunks (GP_FLEET_RESEND_AFTER_US_DEFAULT) */
     uint32_t peer_timeout_us;        /* a silent peer leaves the round (GP_FLEET_PEER_TIMEOUT_US_DEFAULT) */
     uint32_t join_timeout_us;        /* the same before a peer was ever heard (..._JOIN_TIMEOUT_...) */
-    uint32_t poll_us;                /* longest single hal_net_wait (GP_FLEET_POLL_US_DEFAULT) */
+    uint32_t poll_us;                /* longest single hal_net_wait while our state goes out
+                                        (GP_FLEET_POLL_US_DEFAULT); else gp_pse_idle_us, if longer */
     int positions_from_tour;         /* 1: round k at fraction k / rounds of the tour (offline);
                                         0: the robot's pose when the round starts (online) */
     const rt_waypoint_t *tour;       /* copied; needed with positions_from_tour */

@@ -661,6 +661,11 @@ void gp_pse_poll(gp_pse_t *p, uint64_t now_us)
         send_beacon(p, p->round, now_us);
 }
 
+uint64_t gp_pse_idle_us(const gp_pse_t *p)
+{
+    return p->in_round && p->next_send < p->n_chunks ? 0u : p->cfg.resend_after_us / 8u;
+}
+
 int gp_pse_states_ready(const gp_pse_t *p)
 {
     if (!p->in_round)

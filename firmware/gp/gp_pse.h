@@ -343,6 +343,12 @@ int gp_pse_on_request(gp_pse_t *pse, const gp_pse_request_t *r, uint64_t now_us)
 /* Resend requests and timeouts; call every tick of the round. */
 void gp_pse_poll(gp_pse_t *pse, uint64_t now_us);
 
+/* How long the caller may go without a poll when no message comes: 0 while chunks of our state
+ * wait for the send window (the next poll sends them), else an eighth of the resend period.
+ * Every timer of the poll is a quarter of a resend period or longer, so each then fires within
+ * an eighth of a period of its time; a message is handled, and the poll run, as it comes. */
+uint64_t gp_pse_idle_us(const gp_pse_t *pse);
+
 /* 1 when every other peer delivered its state of round k or left the round. */
 int gp_pse_states_ready(const gp_pse_t *pse);
 

@@ -13,6 +13,9 @@
 #include <string.h>
 #include <time.h>
 #include <unistd.h>
+#ifdef __linux__
+#include <sys/prctl.h>
+#endif
 
 hal_host_config_t hal_host_config_default(void)
 {
@@ -282,6 +285,15 @@ int hal_host_create(const hal_host_config_t *cfg, hal_host_t **out)
     }
     *out = h;
     return 0;
+}
+
+void hal_host_name_thread(const char *name)
+{
+#ifdef __linux__
+    (void)prctl(PR_SET_NAME, (unsigned long)name, 0UL, 0UL, 0UL); /* cut at 15 characters */
+#else
+    (void)name;
+#endif
 }
 
 const hal_board_t *hal_host_board(const hal_host_t *h)

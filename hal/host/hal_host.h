@@ -155,6 +155,10 @@ void hal_host_destroy(hal_host_t *h);
 /* Simulated now, microseconds. */
 uint64_t hal_host_now_us(const hal_host_t *h);
 
+/* Names the calling thread for top, perf and gdb ("rt", "gp", "ai", "net-rx", ...: at most 15
+ * characters); a no-op where the OS has no such name. */
+void hal_host_name_thread(const char *name);
+
 typedef struct hal_host_core_stats {
     int started;               /* 1 once hal_core_start() succeeded for this core */
     int finished;              /* 1 once its entry returned */

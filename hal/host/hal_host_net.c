@@ -109,6 +109,7 @@ struct hal_host_net {
     pthread_mutex_t tx_mu;
     pthread_mutex_t mu;    /* the queue, its stats, the typed table, pump_stamp_us */
     pthread_cond_t cv;     /* signalled when a message is queued (CLOCK_MONOTONIC) */
+    int wake_waiter;       /* a message was queued: broadcast cv once mu is released */
     pthread_t rx_thread;
     int rx_started;
     atomic_int rx_stop;
@@ -210,7 +211,19 @@ static void enqueue(hal_host_net_t *n, const char *channel, const void *data, ui
     n->stats.queue_bytes = n->used;
     if (n->used > n->stats.queue_bytes_max)
         n->stats.queue_bytes_max = n->used;
-    pthread_cond_broadcast(&n->cv);
+    n->wake_waiter = 1;
+}
+
+/* Unlocks mu, then wakes the waiter when something was queued meanwhile. After the unlock, not
+ * before: a waiter woken under the lock only blocks again on the mutex (two more futex calls per
+ * datagram, and on a busy CPU the woken core waited for the receiver's next time slice). */
+static void unlock_and_wake(hal_host_net_t *n)
+{
+    const int wake = n->wake_waiter;
+    n->wake_waiter = 0;
+    pthread_mutex_unlock(&n->mu);
+    if (wake)
+        pthread_cond_broadcast(&n->cv);
 }
 
 /* mu held: a datagram the injector let through reaches the queue; what waits for later ones
@@ -302,7 +315,7 @@ static int rx_timeout_ms(hal_host_net_t *n)
         if (wake != UINT64_MAX)
             ms = wake <= now ? 1 : wake - now >= 50000u ? 50 : (int)((wake - now + 999u) / 1000u);
     }
-    pthread_mutex_unlock(&n->mu);
+    unlock_and_wake(n);
     return ms;
 }
 
@@ -311,6 +324,7 @@ static int rx_timeout_ms(hal_host_net_t *n)
 static void *rx_main(void *arg)
 {
     hal_host_net_t *n = arg;
+    hal_host_name_thread("net-rx");
     while (!atomic_load(&n->rx_stop)) {
         if (n->tp->handle(n->tp_ctx, rx_timeout_ms(n)) < 0) {
             atomic_store(&n->rx_failed, 1);
@@ -585,28 +599,28 @@ void hal_host_net_on_datagram(hal_host_net_t *n, const char *channel, const void
         pthread_mutex_unlock(&n->mu);
         return;
     }
-    if (n->keyed) {
-        const hal_host_auth_verdict_t v = hal_host_auth_open(&n->auth, channel, data, len, &len);
-        if (v != HAL_HOST_AUTH_OK) {
-            if (v == HAL_HOST_AUTH_OTHER_RUN)
-                n->stats.rx_dropped_replay++;
-            else
-                n->stats.rx_dropped_unauth++;
-            pthread_mutex_unlock(&n->mu);
-            return;
-        }
-    }
-    /* Typed channels: the bytes are checked here, before anything can decode them. */
-    if (hal_host_msg_check(type, data, len) != HAL_HOST_MSG_OK) {
+    const int keyed = n->keyed;
+    pthread_mutex_unlock(&n->mu);
+    /* The tag and the bounds are checked outside the lock: the tag reads the whole datagram
+       (Poly1305 over up to 60 KB) and the key, set once before any datagram (set_auth). Under the
+       lock the GP core's receive waited for every check; with 64 robots on 2 cores a receiver
+       preempted in one held it off for a time slice. */
+    hal_host_auth_verdict_t v = HAL_HOST_AUTH_OK;
+    if (keyed)
+        v = hal_host_auth_open(&n->auth, channel, data, len, &len);
+    const int well_formed = v == HAL_HOST_AUTH_OK && hal_host_msg_check(type, data, len) == HAL_HOST_MSG_OK;
+    pthread_mutex_lock(&n->mu);
+    if (v == HAL_HOST_AUTH_OTHER_RUN)
+        n->stats.rx_dropped_replay++;
+    else if (v != HAL_HOST_AUTH_OK)
+        n->stats.rx_dropped_unauth++;
+    else if (!well_formed) /* typed channels: checked before anything can decode them */
         n->stats.rx_dropped_malformed++;
-        pthread_mutex_unlock(&n->mu);
-        return;
-    }
-    if (n->faults_on)
+    else if (n->faults_on)
         inject(n, type, channel, data, (uint32_t)len);
     else
         enqueue(n, channel, data, (uint32_t)len);
-    pthread_mutex_unlock(&n->mu);
+    unlock_and_wake(n);
 }
 
 int hal_host_net_subscribe(hal_host_net_t *n, const char *channel)

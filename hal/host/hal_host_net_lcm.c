@@ -557,6 +557,7 @@ static int64_t next_missing(const lcm_ctx_t *c)
 static void *joiner_main(void *arg)
 {
     lcm_ctx_t *c = arg;
+    hal_host_name_thread("lcm-join");
     pthread_mutex_lock(&c->mu);
     for (;;) {
         int64_t s;

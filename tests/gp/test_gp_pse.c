@@ -197,6 +197,44 @@ static void test_lost_chunk_is_asked_for_again(void **st)
     assert_true(eng[1].stats.requests_answered >= 1 && eng[1].stats.chunks_resent >= 1);
 }
 
+/* A caller that polls only when gp_pse_idle_us says (or when a message comes) loses nothing:
+ * while a send window holds chunks back the bound is 0, then an eighth of a resend period, and
+ * a lost chunk is still asked for within that eighth of the time it is due. */
+static void test_idle_bound_keeps_the_timers(void **st)
+{
+    (void)st;
+    start(0.0);
+    for (int i = 0; i < N; i++) {
+        gp_pse_cfg_t c = eng[i].cfg;
+        c.burst = 2; /* 5 chunks: 2 at the start, 2 and 1 at the next polls */
+        assert_int_equal(gp_pse_init(&eng[i], &c), 0);
+    }
+    for (int i = 0; i < N; i++)
+        assert_int_equal(gp_pse_idle_us(&eng[i]), RESEND / 8u); /* not in a round: beacons only */
+    uint64_t now = 0;
+    for (int i = 0; i < N; i++)
+        begin(i, 0, now);
+    for (; gp_pse_idle_us(&eng[0]) == 0; now++) {
+        assert_true(now < 3);
+        deliver(now, drop_chunk2_of_1);
+        for (int i = 0; i < N; i++)
+            gp_pse_poll(&eng[i], now + 1);
+    }
+    deliver(now, drop_chunk2_of_1);
+    assert_int_equal(eng[0].next_send, 5u);
+    assert_false(gp_pse_states_ready(&eng[0]));
+    const uint64_t sent_last = now, idle = gp_pse_idle_us(&eng[0]);
+    assert_int_equal(idle, RESEND / 8u);
+    while (eng[0].stats.requests_sent == 0) {
+        now += idle;
+        assert_true(now < sent_last + RESEND + idle);
+        for (int i = 0; i < N; i++)
+            gp_pse_poll(&eng[i], now);
+    }
+    deliver(now, NULL);
+    check_states(0);
+}
+
 static void test_duplicated_and_reordered(void **st)
 {
     (void)st;
@@ -777,6 +815,7 @@ int main(void)
         cmocka_unit_test(test_wanted_waits_for_a_position_when_addressed),
         cmocka_unit_test(test_no_loss_two_rounds),
         cmocka_unit_test(test_lost_chunk_is_asked_for_again),
+        cmocka_unit_test(test_idle_bound_keeps_the_timers),
         cmocka_unit_test(test_duplicated_and_reordered),
         cmocka_unit_test(test_later_round_first),
         cmocka_unit_test(test_corrupted_chunk),
