@@ -727,6 +727,18 @@ int gp_pse_all_left(const gp_pse_t *p, uint64_t now_us)
     return 1;
 }
 
+int gp_pse_all_past(const gp_pse_t *p)
+{
+    if (!p->leaving)
+        return 0;
+    for (uint32_t i = 0; i < p->cfg.n_peers; i++) {
+        const gp_pse_peer_t *q = &p->peer[i];
+        if (i != p->cfg.self && !(q->has_round && q->at_round > p->round))
+            return 0;
+    }
+    return 1;
+}
+
 uint32_t gp_pse_next_round(const gp_pse_t *p, uint64_t now_us)
 {
     uint32_t next = p->in_round ? p->round + 1u : 0u;

@@ -402,4 +402,9 @@ void gp_pse_leave(gp_pse_t *pse, uint64_t now_us);
 #define GP_PSE_LEAVE_SAID 3u
 int gp_pse_all_left(const gp_pse_t *pse, uint64_t now_us);
 
+/* 1 when we are leaving and every other peer, given up or not, was heard past our round: each
+ * finished it (it had our RoundComplete, or gave up on us), so nobody waits for a word of ours
+ * and the caller may go at once, without lingering. */
+int gp_pse_all_past(const gp_pse_t *pse);
+
 #endif /* GP_GP_PSE_H */

@@ -74,14 +74,15 @@ gp_round_event_t gp_round_step(gp_round_t *d, uint64_t now_us)
             return GP_ROUND_WAIT;
         /* Linger: a peer that missed our RoundComplete still waits for us, and our beacons
            ("past the last round") end its wait; stay until every peer was heard leaving and
-           two resend periods passed (for them to hear ours), one peer timeout at most. */
+           two resend periods passed (for them to hear ours), one peer timeout at most; at once
+           when every peer was heard past the round (gp_pse_all_past: nobody waits for us). */
         gp_pse_leave(p, now_us);
         d->grace_us = now_us + 2u * p->cfg.resend_after_us;
         d->cap_us = now_us + p->cfg.peer_timeout_us;
         d->phase = GP_ROUND_LEAVING;
         return GP_ROUND_WAIT;
     case GP_ROUND_LEAVING:
-        if (now_us < d->cap_us && (now_us < d->grace_us || !gp_pse_all_left(p, now_us)))
+        if (now_us < d->cap_us && !gp_pse_all_past(p) && (now_us < d->grace_us || !gp_pse_all_left(p, now_us)))
             return GP_ROUND_WAIT;
         d->phase = GP_ROUND_LEFT;
         return GP_ROUND_DONE;

@@ -105,8 +105,9 @@ static void test_lossless_rounds(void **st)
         }
         assert_int_equal(gp_round_node_done(&drv[1], k, final, now), 0);
     }
-    /* Both completed the last round: each leaves after the grace of two resend periods, and
-       only then, nothing more is wanted of it. */
+    /* Both completed the last round: each leaves as soon as it heard the other past it (nobody
+       waits for a word of it then), well before the grace of two resend periods a robot keeps
+       while a peer may still need its beacons (test_quiet_peer_taken_as_left). */
     assert_int_equal(gp_round_want(&drv[0], ROUNDS - 1u, now), -EINVAL);
     const uint64_t t0 = now;
     gp_round_event_t ev0 = GP_ROUND_WAIT, ev1 = GP_ROUND_WAIT;
@@ -118,8 +119,7 @@ static void test_lossless_rounds(void **st)
     }
     assert_int_equal(ev0, GP_ROUND_DONE);
     assert_int_equal(ev1, GP_ROUND_DONE);
-    assert_true(now - t0 >= 2u * RESEND);
-    assert_true(now - t0 < TIMEOUT);
+    assert_true(now - t0 < 2u * RESEND);
     assert_int_equal(gp_round_step(&drv[0], now), GP_ROUND_WAIT); /* DONE once */
 }
 
