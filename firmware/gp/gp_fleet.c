@@ -317,8 +317,8 @@ static void update_senders(gp_fleet_t *f)
 
 /* The longest single wait for a message: poll_us while our state goes out, else the protocol's
  * idle bound when that is longer. A 64-robot fleet's robots used to wake every 2 ms while
- * they waited for their peers, with nothing to do: 32,000 wake-ups a second on 2 cores, about
- * a sixth of a round (docs/scaling.md). */
+ * they waited for their peers, with nothing to do: up to 32,000 wake-ups a second on 2 cores
+ * (docs/scaling.md). */
 static uint32_t wait_us(const gp_fleet_t *f)
 {
     const uint64_t idle = gp_pse_idle_us(&f->drv.pse);

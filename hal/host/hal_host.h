@@ -155,7 +155,7 @@ void hal_host_destroy(hal_host_t *h);
 /* Simulated now, microseconds. */
 uint64_t hal_host_now_us(const hal_host_t *h);
 
-/* Names the calling thread for top, perf and gdb ("rt", "gp", "ai", "net-rx", ...: at most 15
+/* Names the calling thread for top, perf and gdb ("RT", "GP", "AI", "net-rx", ...: at most 15
  * characters); a no-op where the OS has no such name. */
 void hal_host_name_thread(const char *name);
 

@@ -83,7 +83,7 @@ static void *core_main(void *arg)
     host_core_t *c = arg;
     hal_host_t *h = c->h;
     hal_host_tls_core = c;
-    hal_host_name_thread(c->id == HAL_CORE_RT ? "rt" : c->id == HAL_CORE_GP ? "gp" : "ai");
+    hal_host_name_thread(hal_core_name(c->id));
     uint8_t *top = core_stack[c->id] + core_stack_size[c->id];
     size_t above = (size_t)(top - (uint8_t *)__builtin_frame_address(0));
     if (above > STACK_RESERVE)
