@@ -30,7 +30,7 @@
 
 /* Neighbour states one round keeps (DiNNO's slots; a fleet up to 33 robots uses every state). */
 #define BOARD_MAX_PEERS 32u
-/* Largest fleet (robot ids 0 .. BOARD_MAX_FLEET - 1): about 80 bytes of GP RAM per robot;
+/* Largest fleet (robot ids 0 .. BOARD_MAX_FLEET - 1): about 140 bytes of GP RAM per robot;
  * each round keeps the states of the BOARD_MAX_PEERS nearest within the radius. */
 #define BOARD_MAX_FLEET 1024u
 

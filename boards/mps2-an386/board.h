@@ -50,7 +50,7 @@
 
 /* Neighbour states per round: every other robot of the paper's fleet of 7, and a spare. */
 #define BOARD_MAX_PEERS 8u
-/* Largest fleet (robot ids 0 .. BOARD_MAX_FLEET - 1): about 80 bytes of GP RAM per robot;
+/* Largest fleet (robot ids 0 .. BOARD_MAX_FLEET - 1): about 140 bytes of GP RAM per robot;
  * each round keeps the states of the BOARD_MAX_PEERS nearest within the radius. */
 #define BOARD_MAX_FLEET 256u
 

@@ -25,7 +25,7 @@
 #define BOARD_NET_MTU_BYTES (60u * 1024u)
 
 #define BOARD_MAX_PEERS 8u
-/* Largest fleet (robot ids 0 .. BOARD_MAX_FLEET - 1): about 80 bytes of GP RAM per robot;
+/* Largest fleet (robot ids 0 .. BOARD_MAX_FLEET - 1): about 140 bytes of GP RAM per robot;
  * each round keeps the states of the BOARD_MAX_PEERS nearest within the radius. */
 #define BOARD_MAX_FLEET 1024u
 

@@ -492,6 +492,22 @@ static int fill_slots(gp_fleet_t *f, uint32_t round, const float *own_theta, din
     return (int)k;
 }
 
+/* Our position of `round` when the round alone says it: 1 and *x, *y; 0 when it is where the
+   RT core has us then (the AI core's request says); -EINVAL for a tour that has none. */
+static int scheduled_position(const gp_fleet_t *f, uint32_t round, double *x, double *y)
+{
+    if (round >= f->cfg.rounds) {
+        /* a posterior round: every robot gives the same position, so that the disk graph is the
+           whole fleet (the nearest GP_PSE_MAX_NEIGHBOURS by id) and one round of the 1/N
+           average reaches the fleet's sum (ai_core.h) */
+        *x = *y = 0.0;
+        return 1;
+    }
+    if (!f->cfg.positions_from_tour)
+        return 0;
+    return rt_path_point_frac(f->tour, f->cfg.n_tour, round, f->cfg.rounds, x, y) != 0 ? -EINVAL : 1;
+}
+
 /* Round k began for us: a new record, our state encoded (our buffer of round k - 1 is free now,
    the driver said so) and sent with our position of round k. */
 static int begin(gp_fleet_t *f, const gp_exchange_req_t *req)
@@ -501,15 +517,8 @@ static int begin(gp_fleet_t *f, const gp_exchange_req_t *req)
     if (r != 0)
         return r;
     double x = req->x_m, y = req->y_m;
-    if (req->round >= f->cfg.rounds) {
-        /* a posterior round: every robot gives the same position, so that the disk graph is the
-           whole fleet (the nearest GP_PSE_MAX_NEIGHBOURS by id) and one round of the 1/N
-           average reaches the fleet's sum (ai_core.h) */
-        x = y = 0.0;
-    } else if (f->cfg.positions_from_tour &&
-               rt_path_point_frac(f->tour, f->cfg.n_tour, req->round, f->cfg.rounds, &x, &y) != 0) {
+    if (scheduled_position(f, req->round, &x, &y) < 0)
         return -EINVAL;
-    }
     f->mark = f->drv.pse.stats;
     memset(&f->cur, 0, sizeof f->cur);
     f->cur.round = req->round;
@@ -546,7 +555,11 @@ static int fleet_exchange(void *ctx, const gp_exchange_req_t *req, dinno_nbrs_t 
 static void fleet_round_done(void *ctx, uint32_t round, int final)
 {
     gp_fleet_t *f = ctx;
-    if (gp_round_node_done(&f->drv, round, final, net_now()) != 0 || !final)
+    /* Where we will be in round + 1, when the schedule says: our RoundComplete carries it, and
+       round + 1 then opens without a beacon to everyone (gp_pse.h). */
+    double next[2];
+    const int known = !final && round < UINT32_MAX && scheduled_position(f, round + 1u, &next[0], &next[1]) == 1;
+    if (gp_round_node_done(&f->drv, round, final, known ? next : NULL, net_now()) != 0 || !final)
         return;
     /* The last round: stay until the fleet no longer needs us (gp_round.h), within the
        protocol's timeouts. */

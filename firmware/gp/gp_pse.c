@@ -54,7 +54,12 @@ static void send_chunk(gp_pse_t *p, uint32_t chunk, uint32_t to, uint64_t now_us
 
 static void send_done(gp_pse_t *p, uint64_t now_us)
 {
-    const gp_pse_done_t d = {p->cfg.self, p->round, p->cfg.incarnation};
+    gp_pse_done_t d = {p->cfg.self, p->round, p->cfg.incarnation, 0, 0.0, 0.0};
+    if (p->next_known) {
+        d.has_next_position = 1;
+        d.next_x_m = p->next_x_m;
+        d.next_y_m = p->next_y_m;
+    }
     send_msg(p, GP_PSE_DONE, &d, now_us);
     p->done_sent_us = now_us;
 }
@@ -77,6 +82,8 @@ int gp_pse_init(gp_pse_t *p, const gp_pse_cfg_t *c)
     p->sent_us = p->pos_sent_us = p->polled_us = p->newcomer_us = 0;
     p->mine = NULL;
     p->x_m = p->y_m = 0.0;
+    p->next_known = 0;
+    p->next_x_m = p->next_y_m = 0.0;
     memset(p->near, 0, sizeof p->near);
     for (uint32_t par = 0; par < 2u; par++)
         for (uint32_t s = 0; s < GP_PSE_MAX_NEIGHBOURS; s++)
@@ -171,12 +178,29 @@ static void place_at_ours(gp_pse_t *p, uint32_t i, uint32_t round)
     gp_pse_set_position(q, round & 1u, round, p->x_m, p->y_m);
 }
 
+/* Peer i's RoundComplete said where it is in `round` and came while we were two rounds behind
+   (busy: 64 robots on 2 cores), when it could not be placed yet: placed now, without a word.
+   Else it would wait a beacon period to be placed, its own beacon not sent (gp_pse_complete). */
+static void place_announced(gp_pse_t *p, uint32_t i, uint32_t round)
+{
+    gp_pse_peer_t *q = &p->peer[i];
+    if (i == p->cfg.self || !q->has_ahead || q->ahead_round != round || gp_pse_pos_known(q, round))
+        return;
+    gp_pse_set_position(q, round & 1u, round, q->ahead_x_m, q->ahead_y_m);
+    p->stats.placed_ahead++;
+}
+
 int gp_pse_begin_round(gp_pse_t *p, uint32_t round, const uint8_t *state, double x_m, double y_m, uint64_t now_us)
 {
     if (p == NULL || state == NULL || !isfinite(x_m) || !isfinite(y_m) || (p->in_round && round <= p->round))
         return -EINVAL;
     if (p->in_round && round > p->round + 1u)
         p->stats.rounds_skipped += round - p->round - 1u;
+    /* Our RoundComplete of the round before said where we are in this one: every peer that
+       heard it placed us already. */
+    const int announced = p->in_round && p->next_known && round == p->round + 1u && p->next_x_m == x_m &&
+                          p->next_y_m == y_m;
+    p->next_known = 0;
     p->round = round;
     p->in_round = 1;
     p->completed = 0;
@@ -189,8 +213,10 @@ int gp_pse_begin_round(gp_pse_t *p, uint32_t round, const uint8_t *state, double
     p->x_m = x_m;
     p->y_m = y_m;
     memset(p->resent_at, 0, sizeof p->resent_at);
-    for (uint32_t i = 0; i < p->cfg.n_peers; i++)
+    for (uint32_t i = 0; i < p->cfg.n_peers; i++) {
         place_at_ours(p, i, round);
+        place_announced(p, i, round);
+    }
     /* Chunks of this round that came early were ranked against our previous position. */
     gp_pse_near_rank(p, round, now_us);
     for (uint32_t m = 0; m < p->near[round & 1u].n; m++) {
@@ -217,8 +243,13 @@ int gp_pse_begin_round(gp_pse_t *p, uint32_t round, const uint8_t *state, double
             p->later_heard = 1;
     }
     /* Where we are this round, first and in a few bytes: a peer that does not take our state
-       (beyond its radius or its nearest, and told its network so) still needs our position. */
-    send_beacon(p, round, now_us);
+       (beyond its radius or its nearest, and told its network so) still needs our position.
+       Not when our RoundComplete said it: a peer that missed every copy of that places us from
+       our next beacon (a beacon period on) or asks, as it would a peer whose beacon was lost. */
+    if (announced)
+        p->stats.openings_announced++;
+    else
+        send_beacon(p, round, now_us);
     p->next_send = 0;
     send_window(p, now_us);
     return 0;
@@ -230,7 +261,7 @@ static void peer_restarted(gp_pse_t *p, uint32_t i, uint64_t now_us)
 {
     gp_pse_peer_t *q = &p->peer[i];
     q->has_round = q->has_done = 0;
-    q->has_pos[0] = q->has_pos[1] = 0;
+    q->has_pos[0] = q->has_pos[1] = q->has_ahead = 0;
     if (p->in_round)
         place_at_ours(p, i, p->round);
     for (uint32_t par = 0; par < 2u; par++)
@@ -398,7 +429,9 @@ int gp_pse_on_chunk(gp_pse_t *p, const gp_pse_chunk_t *c, uint64_t now_us)
 
 int gp_pse_on_done(gp_pse_t *p, const gp_pse_done_t *d, uint64_t now_us)
 {
-    if (d == NULL || d->sender >= p->cfg.n_peers || d->sender == p->cfg.self) {
+    if (d == NULL || d->sender >= p->cfg.n_peers || d->sender == p->cfg.self || d->has_next_position > 1u ||
+        (d->has_next_position &&
+         (d->round == UINT32_MAX || !isfinite(d->next_x_m) || !isfinite(d->next_y_m)))) {
         p->stats.invalid++;
         return -EBADMSG;
     }
@@ -410,6 +443,16 @@ int gp_pse_on_done(gp_pse_t *p, const gp_pse_done_t *d, uint64_t now_us)
     if (!q->has_done || d->round > q->done_round) {
         q->done_round = d->round;
         q->has_done = 1;
+    }
+    /* Where it will be in the round after (gp_pse.h): placed there now, as its beacon opening
+       that round would place it. */
+    if (d->has_next_position && (!q->has_ahead || d->round + 1u >= q->ahead_round)) {
+        q->has_ahead = 1;
+        q->ahead_round = d->round + 1u;
+        q->ahead_x_m = d->next_x_m;
+        q->ahead_y_m = d->next_y_m;
+        if (gp_pse_place(p, d->sender, d->round + 1u, d->next_x_m, d->next_y_m, now_us))
+            p->stats.placed_ahead++;
     }
     if (p->in_round && d->round < p->round) {
         p->stats.stale++;
@@ -689,10 +732,20 @@ uint32_t gp_pse_peer_incarnation(const gp_pse_t *p, uint32_t id)
     return p != NULL && id < GP_PSE_MAX_FLEET && p->peer[id].has_inc ? p->peer[id].incarnation : 0u;
 }
 
-int gp_pse_complete(gp_pse_t *p, uint64_t now_us)
+int gp_pse_complete(gp_pse_t *p, const double next_xy[2], uint64_t now_us)
 {
-    if (p == NULL || !p->in_round)
+    if (p == NULL || !p->in_round ||
+        (next_xy != NULL && (p->round == UINT32_MAX || !isfinite(next_xy[0]) || !isfinite(next_xy[1]))))
         return -EINVAL;
+    if (next_xy != NULL) {
+        p->next_known = 1;
+        p->next_x_m = next_xy[0];
+        p->next_y_m = next_xy[1];
+        /* Chunks of k + 1 that came already were ranked against where we are in k. */
+        const gp_pse_nearest_t *nr = &p->near[(p->round + 1u) & 1u];
+        if (nr->valid && nr->round == p->round + 1u)
+            gp_pse_near_rank(p, p->round + 1u, now_us);
+    }
     send_done(p, now_us);
     p->completed = 1;
     p->completed_us = now_us;

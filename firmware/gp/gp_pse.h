@@ -28,8 +28,10 @@
  *                 the positions only, never on arrival times. It hands out the reassembly
  *                 buffers themselves, and from then on round k's states are frozen (the
  *                 contract below);
- *   gp_pse_complete(now)  after the node update: RoundComplete(k) goes out (and again every
- *                 resend_after_us until the next round begins);
+ *   gp_pse_complete(next, now)  after the node update: RoundComplete(k) goes out (and again
+ *                 every resend_after_us until the next round begins), with our position of
+ *                 round k + 1 when the caller knows it already (`next`; NULL: not known): every
+ *                 peer then places us in k + 1 from it, and round k + 1 opens without a beacon;
  *   gp_pse_round_finished()  every peer in the round completed k, or a later round was heard;
  *   gp_pse_next_round(now)  the round to begin next: k + 1, or the round a live peer is in
  *                 when that is further (a robot that fell behind skips to the fleet);
@@ -60,7 +62,12 @@
  * BOARD_MAX_FLEET), but a round keeps the states of GP_PSE_MAX_NEIGHBOURS peers at most (the
  * board's BOARD_MAX_PEERS, DiNNO's slots). A round opens with a beacon that carries its
  * sender's position (so do its requests and every chunk), so the first word of a peer in a
- * round places it, and gp_pse_wanted() tells the GP core whose chunks it may keep: its network
+ * round places it; a RoundComplete of k that carries the position of k + 1 places its sender
+ * for k + 1 before it begins that round, and the sender then opens k + 1 without the beacon
+ * (one fleet-wide message per robot and round fewer: 64 robots each received 63 of them a
+ * round, docs/scaling.md). Our own list of k + 1 is ranked against our own announced position,
+ * so the network keeps the right chunks of k + 1 before we begin it. Where the RoundComplete
+ * was lost, the sender's next beacon or a position ask places it, as for any unplaced peer; and gp_pse_wanted() tells the GP core whose chunks it may keep: its network
  * drops the others' before they cost anything (hal_net_set_senders; ZeroMQ never sends them).
  * Each round keeps a list of its nearest peers within the radius, sorted by (squared distance, id), and only those own a state buffer; a
  * nearer peer heard later takes the buffer of the farthest (an eviction). Chunks of round
@@ -88,7 +95,7 @@
  * Round k + 1's chunks go to the other pool meanwhile.
  *
  * Memory: everything is inside gp_pse_t (static in the image): a table of GP_PSE_MAX_FLEET
- * peers (about 80 bytes each) and a pool of 2 x GP_PSE_MAX_NEIGHBOURS state buffers of the
+ * peers (about 140 bytes each) and a pool of 2 x GP_PSE_MAX_NEIGHBOURS state buffers of the
  * preset's state size; no allocation. One thread (the GP core). */
 #ifndef GP_GP_PSE_H
 #define GP_GP_PSE_H
@@ -140,6 +147,8 @@ typedef struct gp_pse_chunk {
 typedef struct gp_pse_done {
     uint32_t sender, round;
     uint32_t incarnation;    /* the sender's */
+    uint8_t has_next_position; /* 1: next_x_m, next_y_m are the sender's position for round + 1 */
+    double next_x_m, next_y_m;
 } gp_pse_done_t;
 
 /* "Send again these chunks of your state of `round`" (fleetsim.chunk_request_t). With n = 0 it
@@ -218,6 +227,8 @@ typedef struct gp_pse_stats {
     uint64_t requests_sent, requests_answered;
     uint64_t chunks_requested;  /* chunk indices named in our requests (lost or late chunks) */
     uint64_t positions_asked;   /* position asks sent (peers not heard in a round for a beacon period) */
+    uint64_t placed_ahead;      /* peers placed in round k + 1 by their RoundComplete of k */
+    uint64_t openings_announced; /* rounds we opened without a beacon: our RoundComplete said where */
     uint64_t done_resent;       /* our RoundComplete sent again while waiting for the others */
     uint64_t resends_merged;    /* requested chunks not sent again: one went out just before */
     uint64_t send_failures;
@@ -273,7 +284,7 @@ _Static_assert(GP_PSE_MAX_STATE_BYTES % 4u == 0u, "a state buffer holds whole fp
 #define GP_PSE_ASKED 2u
 #define GP_PSE_NO_BUF 0xFFFFu
 
-/* What we know of one fleet member (every id of the fleet has one; about 80 bytes). Positions
+/* What we know of one fleet member (every id of the fleet has one; about 140 bytes). Positions
  * and buffers are kept by round parity: rounds k and k + 1. */
 typedef struct gp_pse_peer {
     uint64_t heard_us;          /* last progress from it (see the liveness rule above) */
@@ -291,6 +302,9 @@ typedef struct gp_pse_peer {
     uint8_t has_pos[2];
     uint8_t on_way;             /* its last word: "on my way to round on_way_round", no position */
     uint32_t on_way_round;
+    uint8_t has_ahead;          /* its RoundComplete said where it is in round ahead_round, */
+    uint32_t ahead_round;       /* perhaps before we began the round before that one: placed */
+    double ahead_x_m, ahead_y_m; /* when we begin it */
 } gp_pse_peer_t;
 
 /* The nearest peers of one round within the radius, at most GP_PSE_MAX_NEIGHBOURS, sorted by
@@ -318,6 +332,8 @@ typedef struct gp_pse {
     uint32_t next_send;         /* our next chunk not sent yet this round (the send window) */
     uint32_t my_crc32;
     double x_m, y_m;            /* ours of round k (before the first round: 0, 0) */
+    int next_known;             /* our RoundComplete of k said where we are in k + 1: */
+    double next_x_m, next_y_m;  /* there (until round k + 1 begins) */
     uint64_t resent_at[GP_PSE_MAX_CHUNKS]; /* when each chunk of ours was last re-sent (0: never) */
     gp_pse_nearest_t near[2];   /* by round parity */
     gp_pse_buf_t pool[2][GP_PSE_MAX_NEIGHBOURS]; /* by round parity */
@@ -375,9 +391,11 @@ uint32_t gp_pse_peer_incarnation(const gp_pse_t *p, uint32_t id);
  * (that round's neighbours) are in it too. Returns the number of ids in the set. */
 uint32_t gp_pse_wanted(const gp_pse_t *p, uint8_t bits[GP_PSE_WANTED_BYTES]);
 
-/* Our node update of round k is done: RoundComplete(k) goes out. 0 or -EINVAL. */
-
-FS_MUST_CHECK int gp_pse_complete(gp_pse_t *pse, uint64_t now_us);
+/* Our node update of round k is done: RoundComplete(k) goes out, saying where we will be in
+ * round k + 1 when next_xy is not NULL (two finite metres: what gp_pse_begin_round of k + 1
+ * will be given; a round begun elsewhere or later opens with its beacon as usual). 0 or
+ * -EINVAL. */
+FS_MUST_CHECK int gp_pse_complete(gp_pse_t *pse, const double next_xy[2], uint64_t now_us);
 
 /* 1 when round k is over for us: every peer still in the round completed it, or a later round
  * was heard. */

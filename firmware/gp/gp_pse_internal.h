@@ -42,6 +42,9 @@ void gp_pse_set_position(gp_pse_peer_t *q, uint32_t par, uint32_t round, double 
 /* Peer i said where it is in `round`: placed among the nearest, or the round ranked again when
    it disagrees with the round's earlier word (counted invalid). 1 when it moved, else 0. */
 int gp_pse_note_position(gp_pse_t *p, uint32_t i, uint32_t round, double x_m, double y_m, uint64_t now_us);
+/* Peer i said where it is in `round` (a beacon, a request, or its RoundComplete of the round
+   before): placed when the round is k or k + 1. 1 when it was placed or its position kept. */
+int gp_pse_place(gp_pse_t *p, uint32_t i, uint32_t round, double x_m, double y_m, uint64_t now_us);
 /* A beacon or request with its sender's position of round k or k + 1 places it. */
 void gp_pse_request_position(gp_pse_t *p, const gp_pse_request_t *r, uint64_t now_us);
 

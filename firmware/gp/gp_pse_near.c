@@ -59,7 +59,10 @@ static int in_reach(const gp_pse_t *p, uint32_t i, uint32_t par, double *d2)
         *d2 = 0.0;
         return 1;
     }
-    const double dx = p->peer[i].x_m[par] - p->x_m, dy = p->peer[i].y_m[par] - p->y_m;
+    /* ours of that round: the one our RoundComplete announced for k + 1 (gp_pse_complete) */
+    const int ahead = p->next_known && p->in_round && round == p->round + 1u;
+    const double ox = ahead ? p->next_x_m : p->x_m, oy = ahead ? p->next_y_m : p->y_m;
+    const double dx = p->peer[i].x_m[par] - ox, dy = p->peer[i].y_m[par] - oy;
     *d2 = dx * dx + dy * dy;
     return p->cfg.radius_m <= 0.0 || *d2 <= p->cfg.radius_m * p->cfg.radius_m;
 }
@@ -120,7 +123,8 @@ static void near_place(gp_pse_t *p, uint32_t i, uint32_t round, uint64_t now_us)
     if (!near_insert(p, par, i, &out))
         return;
     if (out != GP_PSE_NO_BUF) {
-        if (p->peer[out].buf[par] != GP_PSE_NO_BUF)
+        const gp_pse_buf_t *b = gp_pse_cbuf_of(p, out, round);
+        if (b != NULL && b->got > 0) /* a state given up; an empty buffer only changes hands */
             p->stats.evictions++;
         buf_release(p, par, out);
     }
@@ -198,32 +202,39 @@ int gp_pse_note_position(gp_pse_t *p, uint32_t i, uint32_t round, double x_m, do
     return 1;
 }
 
-/* A beacon that says where its sender is in round k or k + 1 places it (gp_pse.h, "Fleets
-   larger than the neighbour slots"), as its chunk 0 would. */
-void gp_pse_request_position(gp_pse_t *p, const gp_pse_request_t *r, uint64_t now_us)
+/* A word that says where peer i is in round k or k + 1 places it (gp_pse.h, "Fleets larger
+   than the neighbour slots"), as its chunk 0 would. */
+int gp_pse_place(gp_pse_t *p, uint32_t i, uint32_t round, double x_m, double y_m, uint64_t now_us)
 {
     const uint32_t k = p->in_round ? p->round : 0u;
-    if (!r->has_position || r->round < k || r->round > k + 1u)
-        return;
-    const uint32_t par = r->round & 1u;
-    if (!p->near[par].valid || p->near[par].round != r->round)
-        gp_pse_near_reset(p, r->round);
-    gp_pse_peer_t *q = &p->peer[r->requester];
-    if (p->taken && r->round == p->round) { /* frozen (gp_pse.h): noted, not ranked */
-        if (!gp_pse_pos_known(q, r->round))
-            gp_pse_set_position(q, par, r->round, r->x_m, r->y_m);
-        return;
+    if (round < k || round > k + 1u)
+        return 0;
+    const uint32_t par = round & 1u;
+    if (!p->near[par].valid || p->near[par].round != round)
+        gp_pse_near_reset(p, round);
+    gp_pse_peer_t *q = &p->peer[i];
+    if (p->taken && round == p->round) { /* frozen (gp_pse.h): noted, not ranked */
+        if (!gp_pse_pos_known(q, round))
+            gp_pse_set_position(q, par, round, x_m, y_m);
+        return 1;
     }
-    const int moved = gp_pse_note_position(p, r->requester, r->round, r->x_m, r->y_m, now_us);
-    gp_pse_buf_t *b = gp_pse_buf_of(p, r->requester, r->round); /* placed among the nearest, or NULL */
+    const int moved = gp_pse_note_position(p, i, round, x_m, y_m, now_us);
+    gp_pse_buf_t *b = gp_pse_buf_of(p, i, round); /* placed among the nearest, or NULL */
     if (b == NULL)
-        return;
+        return 1;
     if (moved)
-        gp_pse_buf_reset(b, r->round, p->n_chunks, now_us); /* its state starts over, as for a chunk */
+        gp_pse_buf_reset(b, round, p->n_chunks, now_us); /* its state starts over, as for a chunk */
     /* Placed after we asked where it is: it began the round a beacon period ago at least, so
        its state went out and missed us; asked for at the next poll, not a wait later. */
-    if (q->pos_backoff > 0 && r->round == k && b->got == 0 && b->backoff == 0)
+    if (q->pos_backoff > 0 && round == k && b->got == 0 && b->backoff == 0)
         b->progress_us = now_us - gp_pse_ask_after(p, 0);
+    return 1;
+}
+
+void gp_pse_request_position(gp_pse_t *p, const gp_pse_request_t *r, uint64_t now_us)
+{
+    if (r->has_position)
+        (void)gp_pse_place(p, r->requester, r->round, r->x_m, r->y_m, now_us);
 }
 
 uint32_t gp_pse_neighbours(gp_pse_t *p, uint32_t ids[GP_PSE_MAX_NEIGHBOURS],

@@ -44,7 +44,7 @@ int gp_round_want(gp_round_t *d, uint32_t k, uint64_t now_us)
     }
     /* The node update of the round before is over even if nobody said so (an error on the
        way): the peers still waiting for our RoundComplete must hear it. */
-    if (p->in_round && !p->completed && gp_pse_complete(p, now_us) != 0)
+    if (p->in_round && !p->completed && gp_pse_complete(p, NULL, now_us) != 0)
         return -EINVAL;
     d->want = k;
     d->phase = GP_ROUND_CLOSING;
@@ -110,12 +110,12 @@ uint32_t gp_round_next_round(const gp_round_t *d, uint32_t k, uint64_t now_us)
     return next > last ? last : next;
 }
 
-int gp_round_node_done(gp_round_t *d, uint32_t k, int final, uint64_t now_us)
+int gp_round_node_done(gp_round_t *d, uint32_t k, int final, const double next_xy[2], uint64_t now_us)
 {
     gp_pse_t *p = &d->pse;
     if (d->phase >= GP_ROUND_FINISHING || !p->in_round || p->round != k || p->completed)
         return -EINVAL;
-    int r = gp_pse_complete(p, now_us);
+    int r = gp_pse_complete(p, final ? NULL : next_xy, now_us);
     if (r != 0)
         return r;
     d->phase = final ? GP_ROUND_FINISHING : GP_ROUND_IDLE;

@@ -14,7 +14,8 @@
  *   step -> READY         every peer's state of round k arrived or the peer left the round:
  *                         the caller reads the neighbours (gp_pse_neighbours, in place) and
  *                         asks gp_round_next_round for the round the AI core runs after k;
- *   gp_round_node_done(k) the node update of round k is over: RoundComplete(k) goes out;
+ *   gp_round_node_done(k) the node update of round k is over: RoundComplete(k) goes out (with
+ *                         our position of k + 1 when known ahead);
  *                         after the last round the driver stays until every peer finished it
  *                         (one of them may still need our state), then lingers as a leaver
  *                         (gp_pse_leave) until every peer was heard leaving and two resend
@@ -82,9 +83,10 @@ FS_MUST_CHECK int gp_round_begin(gp_round_t *d, const uint8_t *state, double x_m
 /* After READY for round k: the round to run after k (skip-ahead, see above). */
 uint32_t gp_round_next_round(const gp_round_t *d, uint32_t k, uint64_t now_us);
 
-/* The node update of round k is over: RoundComplete(k). With final (k is the last round) the
- * driver goes on to leave; step says DONE when it may stop. 0, or -EINVAL (not the round
- * being updated). */
-FS_MUST_CHECK int gp_round_node_done(gp_round_t *d, uint32_t k, int final, uint64_t now_us);
+/* The node update of round k is over: RoundComplete(k), carrying our position of round k + 1
+ * when next_xy is not NULL (gp_pse_complete: known ahead, the peers place us without our
+ * beacon). With final (k is the last round) the driver goes on to leave; step says DONE when
+ * it may stop. 0, or -EINVAL (not the round being updated, a position not finite). */
+FS_MUST_CHECK int gp_round_node_done(gp_round_t *d, uint32_t k, int final, const double next_xy[2], uint64_t now_us);
 
 #endif /* GP_GP_ROUND_H */

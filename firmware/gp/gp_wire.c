@@ -272,7 +272,8 @@ int gp_wire_decode_done(const uint8_t *buf, size_t len, gp_pse_done_t *out)
     memset(&d, 0, sizeof d);
     if (out == NULL || decode(&DONE, buf, len, &d) != 0)
         return -EBADMSG;
-    if (!NONNEG(d.sender) || !NONNEG(d.round))
+    if (!NONNEG(d.sender) || !NONNEG(d.round) || d.has_next_position > 1u ||
+        (d.has_next_position && (!isfinite(d.next_x_m) || !isfinite(d.next_y_m))))
         return -EBADMSG;
     *out = d;
     return 0;

@@ -31,9 +31,11 @@ void run_summary_fleet(FILE *f, const run_opts_t *o, const sim_image_result_t *r
                                                                  : "");
     fprintf(f, "nearest: at most %u neighbour states per round; %llu chunks of peers beyond the radius or the "
                "nearest only placed their sender, %llu states given up for a nearer peer's; %llu peers asked "
-               "where they were\n",
+               "where they were; %llu rounds opened without a beacon (our RoundComplete said where), %llu "
+               "peers placed a round ahead by theirs\n",
             (unsigned)GP_PSE_MAX_NEIGHBOURS, (unsigned long long)p->not_nearest,
-            (unsigned long long)p->evictions, (unsigned long long)p->positions_asked);
+            (unsigned long long)p->evictions, (unsigned long long)p->positions_asked,
+            (unsigned long long)p->openings_announced, (unsigned long long)p->placed_ahead);
     fprintf(f, "losses: %llu chunks requested again, %llu re-sent; %llu duplicates, %llu stale, %llu invalid, "
                "%llu CRC failures; %llu peer timeouts, %llu rejoins; %llu own echoes\n",
             (unsigned long long)p->chunks_requested, (unsigned long long)p->chunks_resent,

@@ -95,7 +95,7 @@ static void state(seq_t *s, uint32_t sender, uint32_t round, uint32_t inc)
 static void done(seq_t *s, unsigned d, uint32_t sender, uint32_t round, uint32_t inc)
 {
     uint8_t dg[GP_WIRE_DONE_BYTES];
-    const gp_pse_done_t m = {sender, round, inc};
+    const gp_pse_done_t m = {sender, round, inc, 0, 0.0, 0.0};
     put_datagram(s, FUZZ_WIRE_DONE, d, dg, gp_wire_encode_done(&m, dg, sizeof dg));
 }
 

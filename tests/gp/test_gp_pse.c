@@ -143,7 +143,7 @@ static void check_states(uint32_t round)
 static void complete_all(uint64_t now)
 {
     for (int i = 0; i < N; i++)
-        assert_int_equal(gp_pse_complete(&eng[i], now), 0);
+        assert_int_equal(gp_pse_complete(&eng[i], NULL, now), 0);
 }
 
 static void test_no_loss_two_rounds(void **st)
@@ -387,11 +387,11 @@ static void test_silent_peer_leaves_and_rejoins(void **st)
     assert_int_equal(ids[0], 1);
     /* Peer 2 speaks again within the round: it is not taken back before the round boundary,
        so the others finish round 0 without waiting for it again. */
-    assert_int_equal(gp_pse_complete(&eng[2], TIMEOUT + 10), 0);
+    assert_int_equal(gp_pse_complete(&eng[2], NULL, TIMEOUT + 10), 0);
     deliver(TIMEOUT + 10, NULL);
     assert_int_equal(eng[0].stats.rejoins, 0);
-    assert_int_equal(gp_pse_complete(&eng[0], TIMEOUT + 20), 0);
-    assert_int_equal(gp_pse_complete(&eng[1], TIMEOUT + 20), 0);
+    assert_int_equal(gp_pse_complete(&eng[0], NULL, TIMEOUT + 20), 0);
+    assert_int_equal(gp_pse_complete(&eng[1], NULL, TIMEOUT + 20), 0);
     deliver(TIMEOUT + 20, NULL);
     for (int i = 0; i < N; i++)
         assert_true(gp_pse_round_finished(&eng[i]));
@@ -403,8 +403,8 @@ static void test_silent_peer_leaves_and_rejoins(void **st)
     check_states(1);
     /* Silent through the rest of round 1 after completing: the others finish without it. */
     const uint64_t t1 = TIMEOUT + 40;
-    assert_int_equal(gp_pse_complete(&eng[0], t1), 0);
-    assert_int_equal(gp_pse_complete(&eng[1], t1), 0);
+    assert_int_equal(gp_pse_complete(&eng[0], NULL, t1), 0);
+    assert_int_equal(gp_pse_complete(&eng[1], NULL, t1), 0);
     deliver(t1, NULL);
     assert_false(gp_pse_round_finished(&eng[0])); /* still waiting for peer 2's RoundComplete */
     /* Polled all along (time it did not run would not count). Its timeout may be stretched by
@@ -454,7 +454,7 @@ static void test_invalid_messages_change_nothing(void **st)
     r.target = 0;
     r.chunks[0] = 99;
     assert_int_equal(gp_pse_on_request(&eng[0], &r, 0), -EBADMSG);
-    gp_pse_done_t d = {7, 0, 0};
+    gp_pse_done_t d = {7, 0, 0, 0, 0.0, 0.0};
     assert_int_equal(gp_pse_on_done(&eng[0], &d, 0), -EBADMSG);
     assert_int_equal(eng[0].stats.invalid, 9);
     assert_int_equal(eng[0].stats.future, 1);
@@ -800,7 +800,7 @@ static void test_handed_out_buffers_are_not_written(void **st)
         assert_int_equal(got[0][b], 0);
     assert_int_equal(gp_pse_neighbours(&lone, ids, got), LONE_K); /* the same buffers again */
     /* Round 1 begins: the rules are the usual ones again, the nearest peer is kept. */
-    assert_int_equal(gp_pse_complete(&lone, t + 4), 0);
+    assert_int_equal(gp_pse_complete(&lone, NULL, t + 4), 0);
     assert_int_equal(gp_pse_begin_round(&lone, 1, mine_, 0.0, 0.0, t + 5), 0);
     for (uint32_t k = 0; k < n_chunks; k++)
         assert_int_equal(lone_chunk(LONE_K + 1u, 0, 1, k, 0.5, lone_other, t + 6), 0);

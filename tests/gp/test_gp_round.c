@@ -94,16 +94,16 @@ static void test_lossless_rounds(void **st)
             assert_int_equal(gp_round_next_round(&drv[i], k, now), k + 1u);
         }
         const int final = k + 1u == ROUNDS;
-        assert_int_equal(gp_round_node_done(&drv[0], k + 1u, final, now), -EINVAL); /* wrong round */
-        assert_int_equal(gp_round_node_done(&drv[0], k, final, now), 0);
-        assert_int_equal(gp_round_node_done(&drv[0], k, final, now), -EINVAL);     /* twice */
+        assert_int_equal(gp_round_node_done(&drv[0], k + 1u, final, NULL, now), -EINVAL); /* wrong round */
+        assert_int_equal(gp_round_node_done(&drv[0], k, final, NULL, now), 0);
+        assert_int_equal(gp_round_node_done(&drv[0], k, final, NULL, now), -EINVAL);     /* twice */
         if (!final) {
             /* Robot 1 has not completed k: robot 0 may not begin k + 1, its state of k may
                still be asked for. */
             assert_int_equal(gp_round_want(&drv[0], k + 1u, now), 0);
             assert_int_equal(step_until_event(0, 5), GP_ROUND_WAIT);
         }
-        assert_int_equal(gp_round_node_done(&drv[1], k, final, now), 0);
+        assert_int_equal(gp_round_node_done(&drv[1], k, final, NULL, now), 0);
     }
     /* Both completed the last round: each leaves as soon as it heard the other past it (nobody
        waits for a word of it then), well before the grace of two resend periods a robot keeps
@@ -141,7 +141,7 @@ static void test_quiet_peer_taken_as_left(void **st)
             assert_int_equal(gp_round_next_round(&drv[i], k, now), k + 1u);
         }
         for (int i = 0; i < 2; i++)
-            assert_int_equal(gp_round_node_done(&drv[i], k, k + 1u == ROUNDS, now), 0);
+            assert_int_equal(gp_round_node_done(&drv[i], k, k + 1u == ROUNDS, NULL, now), 0);
     }
     const uint64_t beacons0 = drv[0].pse.stats.beacons_sent;
     muted[1] = 1; /* its RoundComplete arrived, nothing after it will */
@@ -164,7 +164,7 @@ static void test_out_of_order_refused(void **st)
     (void)st;
     assert_int_equal(gp_round_want(&drv[0], ROUNDS, now), -EINVAL);    /* past the last */
     assert_int_equal(gp_round_begin(&drv[0], mine[0], 0, 0, now), -EINVAL); /* no BEGIN yet */
-    assert_int_equal(gp_round_node_done(&drv[0], 0, 0, now), -EINVAL); /* nothing begun */
+    assert_int_equal(gp_round_node_done(&drv[0], 0, 0, NULL, now), -EINVAL); /* nothing begun */
     assert_int_equal(gp_round_step(&drv[0], now), GP_ROUND_WAIT);      /* nothing wanted */
     assert_int_equal(gp_round_want(&drv[0], 1, now), 0);
     assert_int_equal(gp_round_want(&drv[0], 0, now), -EINVAL);         /* an earlier round */
@@ -182,7 +182,7 @@ static void test_unbegun_round_gives_way(void **st)
     (void)st;
     assert_int_equal(gp_round_want(&drv[0], 0, now), 0);
     assert_int_equal(gp_round_step(&drv[0], now), GP_ROUND_BEGIN);
-    assert_int_equal(gp_round_node_done(&drv[0], 0, 0, now), -EINVAL); /* never begun */
+    assert_int_equal(gp_round_node_done(&drv[0], 0, 0, NULL, now), -EINVAL); /* never begun */
     assert_int_equal(gp_round_want(&drv[0], 1, now), 0);
     assert_int_equal(gp_round_want(&drv[0], 0, now), -EINVAL);
     assert_int_equal(gp_round_step(&drv[0], now), GP_ROUND_BEGIN);

@@ -38,8 +38,8 @@ static void test_same_as_lcm_gen(void **st)
     assert_int_equal(back.incarnation, 9);
     assert_memory_equal(back.data, data, 3000);
 
-    const gp_pse_done_t d = {4, 77, 5};
-    fleetsim_round_complete_t ld = {4, 77, 5};
+    const gp_pse_done_t d = {4, 77, 5, 0, 0.0, 0.0};
+    fleetsim_round_complete_t ld = {4, 77, 5, 0, 0.0, 0.0};
     const int nd = gp_wire_encode_done(&d, mine, sizeof mine);
     assert_int_equal(fleetsim_round_complete_t_encode(theirs, 0, (int)sizeof theirs, &ld), nd);
     assert_memory_equal(mine, theirs, (size_t)nd);
@@ -62,6 +62,18 @@ static void test_same_as_lcm_gen(void **st)
     assert_int_equal(fleetsim_round_complete_t_encode(theirs, 0, (int)sizeof theirs, &ld), nd);
     assert_int_equal(gp_wire_decode_done(theirs, (size_t)nd, &db), 0);
     assert_int_equal(db.incarnation, 5);
+    assert_int_equal(db.has_next_position, 0);
+
+    /* with the position of the next round */
+    const gp_pse_done_t dn = {4, 77, 5, 1, -3.75, 12.5};
+    fleetsim_round_complete_t ldn = {4, 77, 5, 1, -3.75, 12.5};
+    const int nn = gp_wire_encode_done(&dn, mine, sizeof mine);
+    assert_int_equal(nn, nd);
+    assert_int_equal(fleetsim_round_complete_t_encode(theirs, 0, (int)sizeof theirs, &ldn), nn);
+    assert_memory_equal(mine, theirs, (size_t)nn);
+    assert_int_equal(gp_wire_decode_done(theirs, (size_t)nn, &db), 0);
+    assert_int_equal(db.has_next_position, 1);
+    assert_true(db.next_x_m == -3.75 && db.next_y_m == 12.5);
 }
 
 static void put32(uint8_t *p, uint32_t v)
@@ -102,10 +114,19 @@ static void test_crafted_refused(void **st)
     put32(mine + 41, 0x7FFFFFFFu); /* n_chunks = INT_MAX (after the fingerprint, 4 ints and the position) */
     gp_pse_request_t rb;
     assert_int_equal(gp_wire_decode_request(mine, (size_t)nr, &rb), -EBADMSG);
-    gp_pse_done_t d = {1, 1, 0};
+    gp_pse_done_t d = {1, 1, 0, 0, 0.0, 0.0};
     const int nd = gp_wire_encode_done(&d, mine, sizeof mine);
     gp_pse_done_t db;
     assert_int_equal(gp_wire_decode_done(mine, (size_t)nd + 1, &db), -EBADMSG); /* trailing byte */
+    const size_t at_has = 8 + 12; /* has_next_position: after the fingerprint and 3 ints */
+    mine[at_has] = 2;
+    assert_int_equal(gp_wire_decode_done(mine, (size_t)nd, &db), -EBADMSG);
+    mine[at_has] = 1;
+    memset(mine + at_has + 1, 0xFF, 8); /* next_x_m: a NaN */
+    assert_int_equal(gp_wire_decode_done(mine, (size_t)nd, &db), -EBADMSG);
+    memset(mine + at_has + 1, 0, 8);
+    assert_int_equal(gp_wire_decode_done(mine, (size_t)nd, &db), 0);
+    assert_true(db.has_next_position == 1 && db.next_x_m == 0.0);
 }
 
 static void test_fuzz(void **st)

@@ -5,11 +5,14 @@
  * and asks a peer it never heard in the round for the chunk that places it, but not a peer that
  * says it is still on its way to the round. In rounds where every member gives the same position
  * (the posterior rounds) every peer is placed when the round begins: nobody is asked where it
- * is, and a listed peer that never speaks costs one timeout. */
+ * is, and a listed peer that never speaks costs one timeout. A RoundComplete that says where its
+ * sender is next places it a round ahead, and its sender opens that round without a beacon. */
 #include <setjmp.h>
 #include <stdarg.h>
 #include <stddef.h>
 #include <stdint.h>
+#include <errno.h>
+#include <math.h>
 #include <string.h>
 #include <cmocka.h>
 
@@ -30,6 +33,7 @@ static gp_pse_request_t asked[4 * N]; /* the requests the engine sent (position 
 static uint32_t n_asked;
 static gp_pse_request_t beacon_sent;   /* its last beacon, and how many it sent */
 static uint32_t n_beacons, n_chunks_sent;
+static gp_pse_done_t done_sent;        /* its last RoundComplete */
 
 static int capture(void *ctx, gp_pse_kind_t kind, const void *m)
 {
@@ -37,6 +41,8 @@ static int capture(void *ctx, gp_pse_kind_t kind, const void *m)
     const gp_pse_request_t *r = m;
     if (kind == GP_PSE_CHUNK)
         n_chunks_sent++;
+    else if (kind == GP_PSE_DONE)
+        done_sent = *(const gp_pse_done_t *)m;
     else if (kind == GP_PSE_REQUEST && r->n == 0 && r->target == r->requester) {
         beacon_sent = *r;
         n_beacons++;
@@ -160,7 +166,7 @@ static void test_next_round_is_ranked_again_when_it_begins(void **st)
     /* Round 1 begins at x = N: now the far end is the nearest; what was dropped is asked for. */
     for (uint32_t i = 1; i < N; i++)
         whole_state_from(i, 0, (double)i, 20);
-    assert_int_equal(gp_pse_complete(&eng, 30), 0);
+    assert_int_equal(gp_pse_complete(&eng, NULL, 30), 0);
     assert_int_equal(gp_pse_begin_round(&eng, 1, mine, (double)N, 0.0, 40), 0);
     assert_false(gp_pse_states_ready(&eng));
     n_asked = 0;
@@ -308,6 +314,70 @@ static void test_one_position_for_all_places_every_peer(void **st)
     expect_neighbours(want, K - 1u);
 }
 
+/* A RoundComplete of round 0 that says where its sender is in round 1 places it there (every
+ * peer, before anyone began round 1), our own list of round 1 is ranked against the position our
+ * RoundComplete announced, and round 1 opens without our beacon: nobody is asked where it is, the
+ * network keeps the right senders of round 1 before it begins. A round begun elsewhere than
+ * announced opens with its beacon; a RoundComplete with a bad position is refused. */
+static void test_a_round_complete_places_its_sender_a_round_ahead(void **st)
+{
+    (void)st;
+    start(5.0);
+    assert_int_equal(gp_pse_begin_round(&eng, 0, mine, 0.0, 0.0, 0), 0);
+    const uint32_t beacons0 = n_beacons;
+    for (uint32_t i = 1; i < N; i++)
+        whole_state_from(i, 0, 100.0, 10); /* round 0: all out of reach */
+    assert_true(gp_pse_states_ready(&eng));
+    /* Round 1: the odd ids next to where we will be (x = 50), the even ones where we are now. */
+    for (uint32_t i = 1; i < N; i++) {
+        const gp_pse_done_t d = {i, 0, 0, 1, i % 2u ? 51.0 : 0.0, 0.0};
+        assert_int_equal(gp_pse_on_done(&eng, &d, 20), 0);
+    }
+    assert_int_equal(eng.stats.placed_ahead, N - 1u);
+    const double next[2] = {50.0, 0.0};
+    assert_int_equal(gp_pse_complete(&eng, next, 30), 0);
+    assert_true(done_sent.round == 0 && done_sent.has_next_position == 1 && done_sent.next_x_m == 50.0 &&
+                done_sent.next_y_m == 0.0);
+    uint8_t bits[GP_PSE_WANTED_BYTES];
+    (void)gp_pse_wanted(&eng, bits);
+    for (uint32_t i = 1; i < N; i++) /* round 1's kept senders: ranked against x = 50, not x = 0 */
+        assert_int_equal((bits[i / 8u] >> (i % 8u)) & 1u, i % 2u);
+    assert_int_equal(gp_pse_begin_round(&eng, 1, mine, 50.0, 0.0, 40), 0);
+    assert_int_equal(n_beacons, beacons0); /* opened without a beacon */
+    assert_int_equal(eng.stats.openings_announced, 1);
+    for (uint64_t t = 50; t <= TIMEOUT / 4u + RESEND; t += RESEND / 2u) /* past a beacon period */
+        gp_pse_poll(&eng, t);
+    assert_int_equal(eng.stats.positions_asked, 0); /* every peer placed */
+    assert_false(gp_pse_states_ready(&eng));
+    const uint64_t t1 = TIMEOUT / 4u + 2u * RESEND;
+    for (uint32_t i = 1; i < N; i += 2u)
+        whole_state_from(i, 1, 51.0, t1);
+    assert_true(gp_pse_states_ready(&eng));
+    uint32_t want[N / 2u], n_want = 0;
+    for (uint32_t i = 1; i < N; i += 2u)
+        want[n_want++] = i;
+    expect_neighbours(want, n_want);
+    /* Round 2 begun elsewhere than announced: its beacon goes out. */
+    const double next2[2] = {60.0, 0.0};
+    assert_int_equal(gp_pse_complete(&eng, next2, t1 + 10u), 0);
+    const uint32_t beacons1 = n_beacons;
+    assert_int_equal(gp_pse_begin_round(&eng, 2, mine, 61.0, 0.0, t1 + 20u), 0);
+    assert_int_equal(n_beacons, beacons1 + 1u);
+    assert_true(beacon_sent.has_position && beacon_sent.x_m == 61.0 && beacon_sent.round == 2);
+    assert_int_equal(eng.stats.openings_announced, 1);
+    /* Refused: a flag other than 0 or 1, a position not finite; and nobody announces our NaN. */
+    const uint64_t invalid = eng.stats.invalid;
+    gp_pse_done_t bad = {1, 2, 0, 2, 1.0, 1.0};
+    assert_int_equal(gp_pse_on_done(&eng, &bad, t1 + 30u), -EBADMSG);
+    bad.has_next_position = 1;
+    bad.next_y_m = NAN;
+    assert_int_equal(gp_pse_on_done(&eng, &bad, t1 + 30u), -EBADMSG);
+    assert_int_equal(eng.stats.invalid, invalid + 2u);
+    assert_int_equal(eng.stats.placed_ahead, N - 1u);
+    const double nan_xy[2] = {NAN, 0.0};
+    assert_int_equal(gp_pse_complete(&eng, nan_xy, t1 + 40u), -EINVAL);
+}
+
 int main(void)
 {
     const struct CMUnitTest tests[] = {
@@ -318,6 +388,7 @@ int main(void)
         cmocka_unit_test(test_a_position_ask_is_answered_by_a_beacon),
         cmocka_unit_test(test_a_peer_on_its_way_is_not_asked_where_it_is),
         cmocka_unit_test(test_one_position_for_all_places_every_peer),
+        cmocka_unit_test(test_a_round_complete_places_its_sender_a_round_ahead),
     };
     return cmocka_run_group_tests_name("gp/pse_nearest", tests, NULL, NULL);
 }

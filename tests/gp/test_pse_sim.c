@@ -87,6 +87,9 @@ typedef struct schedule {
                                    sent (point to point over TCP: the engines are `ordered`) */
     uint32_t same_from;         /* > 0: from this round on every robot gives the same position
                                    (the posterior rounds), placed by all without a word */
+    uint8_t announce;           /* whose RoundComplete says where it is next (offline tours: known
+                                   ahead), so that it opens the next round without a beacon:
+                                   0 nobody, 1 every robot, 2 the odd ids (a fleet of both) */
 } schedule_t;
 
 /* From the first robot's start to the last one's: a first round may wait that much longer. */
@@ -150,6 +153,7 @@ typedef struct totals {
     uint64_t schedules, loss_only, sent, dropped, duplicated, corrupted, late, partitioned, overflow;
     uint64_t pauses, crashes, restarts, timeouts, rejoins, skipped, cut, missed, crc, old_inc, used;
     uint64_t big, nearest_checked, beyond_slots, evictions, staggered, addressed, same;
+    uint64_t announcing, openings_announced, placed_ahead;
 } totals_t;
 static totals_t tot;
 
@@ -461,7 +465,11 @@ static void step(robot_t *r)
         (void)gp_round_step(&r->drv, now_us); /* the GP core serves the network while the AI trains */
         if (now_us < r->wake_us)
             break;
-        assert_int_equal(gp_round_node_done(&r->drv, r->round, r->round == last, now_us), 0);
+        double next[2];
+        const int announce = cur->announce == 1 || (cur->announce == 2 && (r->id & 1));
+        if (announce)
+            position(r->id, r->round + 1u, &next[0], &next[1]);
+        assert_int_equal(gp_round_node_done(&r->drv, r->round, r->round == last, announce ? next : NULL, now_us), 0);
         memcpy(r->ckpt, r->model, STATE_BYTES);
         r->ckpt_round = (int32_t)r->round;
         TRACE(r, "complete");
@@ -497,6 +505,8 @@ static void add_stats(const gp_pse_stats_t *s)
     tot.crc += s->crc_failures;
     tot.old_inc += s->old_incarnation;
     tot.evictions += s->evictions;
+    tot.openings_announced += s->openings_announced;
+    tot.placed_ahead += s->placed_ahead;
 }
 
 /* Runs one schedule; the final models land in out (per robot) when it is given. */
@@ -506,12 +516,14 @@ static void run(const schedule_t *s, uint8_t out[MAXN][STATE_BYTES], uint64_t *t
     if (trace)
         fprintf(stderr, "schedule %llu: %d robots, %d rounds, radius %g, drop %g dup %g corrupt %g late %g delay %llu us; "
                         "partition %d (split %d, %.3f..%.3f s); pause robot %d (%.3f s for %.3f s); crash robot %d "
-                        "(%.3f s, restart after %.3f s); starts %.3f s apart; resends %s; same position from round %u\n",
+                        "(%.3f s, restart after %.3f s); starts %.3f s apart; resends %s; same position from round %u; "
+                        "next position announced by %s\n",
                 (unsigned long long)s->seed, s->n, s->rounds, s->radius, s->drop, s->dup, s->corrupt, s->late,
                 (unsigned long long)s->delay_us, s->partition, s->split, (double)s->p_from * 1e-6,
                 (double)s->p_until * 1e-6, s->pause_robot, (double)s->pause_from * 1e-6, (double)s->pause_len * 1e-6,
                 s->crash_robot, (double)s->crash_at * 1e-6, (double)s->restart_after * 1e-6,
-                (double)s->stagger_us * 1e-6, s->addressed ? "addressed" : "multicast", s->same_from);
+                (double)s->stagger_us * 1e-6, s->addressed ? "addressed" : "multicast", s->same_from,
+                s->announce == 0 ? "nobody" : s->announce == 1 ? "every robot" : "the odd ids");
     qn = 0;
     seq = 0;
     memset(fifo_at, 0, sizeof fifo_at);
@@ -680,6 +692,7 @@ static void draw(uint64_t seed, schedule_t *s)
        peer placed when a round begins, crashed ones too. Drawn last, as above. */
     if (rnd_below(4) == 0)
         s->same_from = 1u + (uint32_t)rnd_below((uint64_t)s->rounds);
+    s->announce = (uint8_t)rnd_below(3); /* drawn last, as above */
 }
 
 static uint64_t env_u64(const char *name, uint64_t dflt)
@@ -705,6 +718,7 @@ static void check_schedule(uint64_t seed)
     tot.staggered += s.stagger_us != 0;
     tot.addressed += s.addressed;
     tot.same += s.same_from > 0;
+    tot.announcing += s.announce > 0;
     uint64_t timeouts = 0, cut = 0;
     run(&s, got_model, &timeouts, &cut);
     if (!loss_only(&s))
@@ -737,10 +751,11 @@ static void test_seeded_schedules(void **st)
     for (uint64_t i = 0; i < n; i++)
         check_schedule(one ? one : base + i);
     print_message("pse_sim: %llu schedules (%llu loss only, %llu with pauses, %llu crashes, %llu restarts, %llu "
-                  "starting one robot at a time, %llu addressed, %llu ending at one position), seeds %llu..%llu\n",
+                  "starting one robot at a time, %llu addressed, %llu ending at one position, %llu announcing the next "
+                  "position), seeds %llu..%llu\n",
                   (unsigned long long)tot.schedules, (unsigned long long)tot.loss_only, (unsigned long long)tot.pauses,
                   (unsigned long long)tot.crashes, (unsigned long long)tot.restarts, (unsigned long long)tot.staggered,
-                  (unsigned long long)tot.addressed, (unsigned long long)tot.same,
+                  (unsigned long long)tot.addressed, (unsigned long long)tot.same, (unsigned long long)tot.announcing,
                   (unsigned long long)(one ? one : base), (unsigned long long)(one ? one : base + n - 1u));
     print_message("pse_sim: injected: %llu sends, %llu copies dropped, %llu duplicated, %llu corrupted, %llu late, "
                   "%llu cut by partitions, %llu lost to a full network\n",
@@ -760,6 +775,11 @@ static void test_seeded_schedules(void **st)
                   (unsigned long long)tot.big, BIG_N_MIN, MAXN, (unsigned)GP_PSE_MAX_NEIGHBOURS,
                   (unsigned long long)tot.nearest_checked, (unsigned long long)tot.beyond_slots,
                   (unsigned long long)tot.evictions);
+    print_message("pse_sim: %llu rounds opened without a beacon (the RoundComplete before said where), %llu peers "
+                  "placed a round ahead by it\n",
+                  (unsigned long long)tot.openings_announced, (unsigned long long)tot.placed_ahead);
+    if (n >= 50u)
+        assert_true(tot.openings_announced > 0 && tot.placed_ahead > 0); /* the path is exercised */
 }
 
 int main(void)

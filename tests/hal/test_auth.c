@@ -211,7 +211,7 @@ static void test_own_datagrams_dropped_before_the_tag(void **st)
     assert_int_equal(hal_host_net_set_self(NULL, 4), -EINVAL);
     uint8_t buf[64], got[64];
     for (uint32_t sender = 3; sender <= 4; sender++) {
-        const gp_pse_done_t d = {sender, 17, 1};
+        const gp_pse_done_t d = {sender, 17, 1, 0, 0.0, 0.0};
         const int len = gp_wire_encode_done(&d, buf, sizeof buf);
         assert_true(len > 0);
         assert_int_equal(hal_host_net_publish(n, ch, buf, (size_t)len), 0);

@@ -45,7 +45,7 @@ static void test_valid_messages_pass_and_decode(void **st)
     assert_int_equal(fleetsim_state_chunk_t_decode(buf, 0, n, &d), n);
     assert_int_equal(d.n_bytes, 1000);
     fleetsim_state_chunk_t_decode_cleanup(&d);
-    fleetsim_round_complete_t rc = {3, 9, 1};
+    fleetsim_round_complete_t rc = {3, 9, 1, 0, 0.0, 0.0};
     n = fleetsim_round_complete_t_encode(buf, 0, (int)sizeof buf, &rc);
     assert_int_equal(hal_host_msg_check(HAL_HOST_MSG_ROUND_COMPLETE, buf, (size_t)n), HAL_HOST_MSG_OK);
     int32_t chunks[3] = {0, 4, 7};
@@ -97,7 +97,7 @@ static void test_fuzz_decoder_only_sees_checked_bytes(void **st)
         if (type == HAL_HOST_MSG_STATE_CHUNK) {
             n = encode_chunk(64, 64);
         } else if (type == HAL_HOST_MSG_ROUND_COMPLETE) {
-            fleetsim_round_complete_t rc = {1, it, 1};
+            fleetsim_round_complete_t rc = {1, it, 1, 0, 0.0, 0.0};
             n = fleetsim_round_complete_t_encode(buf, 0, (int)sizeof buf, &rc);
         } else {
             int32_t c[4] = {0, 1, 2, 3};

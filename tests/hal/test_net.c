@@ -215,7 +215,7 @@ static void test_queue_overflow_drops_and_counts(void **state)
 /* A RoundComplete of `sender` (a typed datagram: fingerprint, then the sender). */
 static size_t done_from(uint8_t *buf, size_t cap, uint32_t sender)
 {
-    const gp_pse_done_t d = {sender, 17, 1};
+    const gp_pse_done_t d = {sender, 17, 1, 0, 0.0, 0.0};
     const int len = gp_wire_encode_done(&d, buf, cap);
     assert_true(len > 0);
     return (size_t)len;

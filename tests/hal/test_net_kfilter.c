@@ -49,7 +49,7 @@ static void exchange(hal_host_net_t *tx, hal_host_net_t **rx, const uint32_t *wa
     uint8_t b[64];
     for (int round = 0, done = 0; round < 60 && !done; round++) {
         for (uint32_t s = 1; s <= 3; s++) {
-            const gp_pse_done_t d = {s, 17, 1};
+            const gp_pse_done_t d = {s, 17, 1, 0, 0.0, 0.0};
             const int len = gp_wire_encode_done(&d, b, sizeof b);
             assert_true(len > 0);
             assert_int_equal(hal_host_net_publish(tx, TCH, b, (size_t)len), 0);

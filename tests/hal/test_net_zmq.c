@@ -290,7 +290,7 @@ static void test_peer_restart_reconnects(void **st)
 static void publish_done(hal_host_net_t *n, uint32_t sender)
 {
     uint8_t b[64];
-    const gp_pse_done_t d = {sender, 3, 1};
+    const gp_pse_done_t d = {sender, 3, 1, 0, 0.0, 0.0};
     const int len = gp_wire_encode_done(&d, b, sizeof b);
     assert_true(len > 0);
     assert_int_equal(hal_host_net_publish(n, FCH, b, (size_t)len), 0);

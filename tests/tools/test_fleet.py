@@ -149,13 +149,16 @@ loss = os.environ.get("FAKE_LOSSES")
 lr, ls, lt, ld = (int(x) for x in loss.split(":")) if loss else (-1, 0, 0, 0)
 ls, lt, ld = (ls, lt, ld) if me == lr else (0, 0, 0)
 n = int(opt("--fleet"))
-with open(os.path.join(out, "traffic.csv"), "w") as f:
+# Written whole, then renamed: host_sim writes traffic.csv's header when it starts, so a robot
+# the launcher stops (another robot died) never leaves it empty, as a half-written file here did.
+with open(os.path.join(out, "traffic.csv.part"), "w") as f:
     f.write("round,wall_ms,wait_ms,bytes_sent,bytes_received,chunks_sent,chunks_received,chunks_resent,"
             "chunks_requested,duplicates,stale,timeouts,rejoins,crc_failures,invalid,chunks_recovered,chunks_lost,"
             "states_missed,rounds_skipped,beacons_sent,peer_restarts,old_incarnation\n")
     for k in range(rounds):
         t, m = (lt, ls) if k == rounds - 1 else (0, 0)
         f.write(f"{k},1.0,0.1,100,100,1,1,0,0,0,0,{t},0,0,0,0,0,{m},0,0,0,0\n")
+os.replace(os.path.join(out, "traffic.csv.part"), os.path.join(out, "traffic.csv"))
 with open(os.path.join(out, "summary.txt"), "w") as f:
     f.write("seed: 1\npreset: small (33601 parameters)\nincarnation: 1\n")
     if resume:

@@ -29,7 +29,7 @@ ENV = dict(os.environ, MPLBACKEND="Agg")
 
 SYNC = struct.pack(">I", 0xEDA1DA01)
 FP_STATE = 0xDF65602B2D04BF15
-FP_DONE = 0x9EC25DAEB3A35535
+FP_DONE = 0x4BAED42FB1823BC9  # with the next round's position (0x9EC25DAEB3A35535 before)
 FP_REQUEST = 0x1A0EE5130E4FFF0D
 
 
@@ -54,8 +54,10 @@ def state_chunk(sender, rnd, chunk, n_chunks, payload, state_bytes=1000, encodin
     return head + payload
 
 
-def done(sender, rnd):
-    return struct.pack(">Qiii", FP_DONE, sender, rnd, 1)
+def done(sender, rnd, next_xy=None):
+    has = next_xy is not None
+    x, y = next_xy if has else (0.0, 0.0)
+    return struct.pack(">Qiiibdd", FP_DONE, sender, rnd, 1, 1 if has else 0, x, y)
 
 
 def request(requester, target, rnd, chunks):
@@ -160,7 +162,7 @@ def lcm_traffic_keyed():
               event(2, t0 + 20, "fleetsim/7/state", keyed(state_chunk(1, 0, 0, 1, b"c" * 80))),
               event(3, t0 + 30, "fleetsim/7/request", keyed(request(1, 0, 0, [1]))),
               event(4, t0 + 40, "fleetsim/7/done", keyed(done(0, 0))),
-              event(5, t0 + 50, "fleetsim/7/done", keyed(done(1, 0)))]
+              event(5, t0 + 50, "fleetsim/7/done", keyed(done(1, 0, (2.0, -1.0))))]
         with open(log, "wb") as f:
             f.write(b"".join(ev))
         csv = os.path.join(d, "traffic.csv")
