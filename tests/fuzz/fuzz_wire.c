@@ -127,7 +127,9 @@ static void tick(harness_t *h, uint64_t now)
     if (!p->completed) {
         if (gp_pse_states_ready(p)) {
             check_neighbours(h);
-            CHECK(gp_pse_complete(p, now) == 0);
+            /* says where it goes next, as gp_fleet does offline: round + 1 at (2 + round, 2) */
+            const double next_xy[2] = {2.0 + p->round, 2.0};
+            CHECK(gp_pse_complete(p, next_xy, now) == 0);
         }
         return;
     }
