@@ -67,14 +67,15 @@
  * (one fleet-wide message per robot and round fewer: 64 robots each received 63 of them a
  * round, docs/scaling.md). Our own list of k + 1 is ranked against our own announced position,
  * so the network keeps the right chunks of k + 1 before we begin it. Where the RoundComplete
- * was lost, the sender's next beacon or a position ask places it, as for any unplaced peer; and gp_pse_wanted() tells the GP core whose chunks it may keep: its network
- * drops the others' before they cost anything (hal_net_set_senders; ZeroMQ never sends them).
- * Each round keeps a list of its nearest peers within the radius, sorted by (squared distance, id), and only those own a state buffer; a
- * nearer peer heard later takes the buffer of the farthest (an eviction). Chunks of round
- * k + 1 are ranked against our position of round k until round k + 1 begins and the list is
- * ranked again; a peer that got in only then is asked for its chunks. A round's states are
- * ready when every live peer's position of the round is known and every listed peer
- * delivered. A peer never heard in the round is asked where it is (a position ask, once a
+ * was lost, the sender's next beacon or a position ask places it, as for any unplaced peer.
+ * gp_pse_wanted() tells the GP core whose chunks it may keep: its network drops the others'
+ * before they cost anything (hal_net_set_senders; ZeroMQ never sends them).
+ * Each round keeps a list of its nearest peers within the radius, sorted by (squared distance,
+ * id), and only those own a state buffer; a nearer peer heard later takes the buffer of the
+ * farthest (an eviction). Chunks of round k + 1 are ranked against our announced position of
+ * k + 1 (else our position of round k) until round k + 1 begins and the list is ranked again;
+ * a peer that got in only then is asked for its chunks. A round's states are ready when every
+ * live peer's position of the round is known and every listed peer delivered. A peer never heard in the round is asked where it is (a position ask, once a
  * beacon period of the round passed without its repeated beacon), unless
  * its last word was "on my way to this round" (a beacon without a position): it has not begun
  * it, and its first word of the round will place it. In a round from cfg.same_position_from on
