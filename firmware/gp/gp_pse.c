@@ -797,8 +797,19 @@ uint32_t gp_pse_next_round(const gp_pse_t *p, uint64_t now_us)
     uint32_t next = p->in_round ? p->round + 1u : 0u;
     for (uint32_t i = 0; i < p->cfg.n_peers; i++) {
         const gp_pse_peer_t *q = &p->peer[i];
-        if (i != p->cfg.self && q->has_round && q->at_round > next && heard_within(p, q, now_us))
-            next = q->at_round;
+        if (i == p->cfg.self || !q->has_round || !heard_within(p, q, now_us))
+            continue;
+        /* A peer that completed round j is on its way to j + 1: the round to catch up with. Its
+           next round opens without a beacon when its RoundComplete said where (gp_pse_complete),
+           so that beacon no longer tells us first; a robot alone after a partition, running a
+           round every few ms, was otherwise caught up one round late again and again. (A
+           lossless run never skips for it: a peer completes j only after our RoundComplete of
+           j - 1.) */
+        const uint32_t at = q->has_done && q->done_round >= q->at_round && q->done_round < UINT32_MAX
+                                ? q->done_round + 1u
+                                : q->at_round;
+        if (at > next)
+            next = at;
     }
     return next;
 }
