@@ -1,5 +1,6 @@
 /* Peers state exchange: see gp_pse.h. The nearest peers of a round, their buffers and
-   gp_pse_neighbours()/gp_pse_wanted() are in gp_pse_near.c (gp_pse_internal.h). */
+   gp_pse_neighbours()/gp_pse_wanted() are in gp_pse_near.c; where the fleet is (a round over for
+   everyone, the round to begin next) in gp_pse_where.c (both share gp_pse_internal.h). */
 #include "gp/gp_pse.h"
 #include "gp/gp_pse_internal.h"
 
@@ -161,11 +162,6 @@ static void send_beacon(gp_pse_t *p, uint32_t round, uint64_t now_us)
     p->stats.beacons_sent++;
 }
 
-static int heard_within(const gp_pse_t *p, const gp_pse_peer_t *q, uint64_t now_us)
-{
-    return q->heard && now_us - q->heard_us < p->cfg.peer_timeout_us;
-}
-
 /* A round where every member gives the same position (cfg.same_position_from): peer i is where
    we are, known without a word from it. Its own word, when it comes, says the same (or counts
    as invalid, gp_pse_note_position). */
@@ -233,7 +229,7 @@ int gp_pse_begin_round(gp_pse_t *p, uint32_t round, const uint8_t *state, double
            heard lately in the round before this one or later: it is on its way to this round.
            So a crashed peer costs one timeout, not one per round, and a peer that keeps
            failing cannot make the others wait again within a round. */
-        if (q->absent && heard_within(p, q, now_us) && q->has_round && q->at_round + 1u >= round) {
+        if (q->absent && gp_pse_heard_within(p, q, now_us) && q->has_round && q->at_round + 1u >= round) {
             q->absent = 0;
             p->stats.rejoins++;
         }
@@ -752,20 +748,6 @@ int gp_pse_complete(gp_pse_t *p, const double next_xy[2], uint64_t now_us)
     return 0;
 }
 
-int gp_pse_round_finished(const gp_pse_t *p)
-{
-    if (!p->in_round || !p->completed)
-        return 0;
-    if (p->later_heard)
-        return 1;
-    for (uint32_t i = 0; i < p->cfg.n_peers; i++) {
-        const gp_pse_peer_t *q = &p->peer[i];
-        if (i != p->cfg.self && !q->absent && !(q->has_done && q->done_round >= p->round))
-            return 0;
-    }
-    return 1;
-}
-
 int gp_pse_all_left(const gp_pse_t *p, uint64_t now_us)
 {
     if (!p->leaving || p->leave_said < GP_PSE_LEAVE_SAID)
@@ -778,38 +760,4 @@ int gp_pse_all_left(const gp_pse_t *p, uint64_t now_us)
             return 0;
     }
     return 1;
-}
-
-int gp_pse_all_past(const gp_pse_t *p)
-{
-    if (!p->leaving)
-        return 0;
-    for (uint32_t i = 0; i < p->cfg.n_peers; i++) {
-        const gp_pse_peer_t *q = &p->peer[i];
-        if (i != p->cfg.self && !(q->has_round && q->at_round > p->round))
-            return 0;
-    }
-    return 1;
-}
-
-uint32_t gp_pse_next_round(const gp_pse_t *p, uint64_t now_us)
-{
-    uint32_t next = p->in_round ? p->round + 1u : 0u;
-    for (uint32_t i = 0; i < p->cfg.n_peers; i++) {
-        const gp_pse_peer_t *q = &p->peer[i];
-        if (i == p->cfg.self || !q->has_round || !heard_within(p, q, now_us))
-            continue;
-        /* A peer that completed round j is on its way to j + 1: the round to catch up with. Its
-           next round opens without a beacon when its RoundComplete said where (gp_pse_complete),
-           so that beacon no longer tells us first; a robot alone after a partition, running a
-           round every few ms, was otherwise caught up one round late again and again. (A
-           lossless run never skips for it: a peer completes j only after our RoundComplete of
-           j - 1.) */
-        const uint32_t at = q->has_done && q->done_round >= q->at_round && q->done_round < UINT32_MAX
-                                ? q->done_round + 1u
-                                : q->at_round;
-        if (at > next)
-            next = at;
-    }
-    return next;
 }

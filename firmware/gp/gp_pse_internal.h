@@ -28,6 +28,12 @@ static inline int gp_pse_pos_known(const gp_pse_peer_t *q, uint32_t round)
     return q->has_pos[round & 1u] && q->pos_round[round & 1u] == round;
 }
 
+/* Peer q was heard within the peer timeout. */
+static inline int gp_pse_heard_within(const gp_pse_t *p, const gp_pse_peer_t *q, uint64_t now_us)
+{
+    return q->heard && now_us - q->heard_us < p->cfg.peer_timeout_us;
+}
+
 /* How long a state's buffer waits without progress before its chunks are asked for, after
    `backoff` requests that brought nothing. */
 uint64_t gp_pse_ask_after(const gp_pse_t *p, uint32_t backoff);
