@@ -1,8 +1,7 @@
 /* The kernel filter of an LCM udpm socket (hal_host_net_kfilter.h). */
-#define _DEFAULT_SOURCE /* SO_ATTACH_FILTER, dirfd() */
+#define _DEFAULT_SOURCE /* SO_ATTACH_FILTER */
 #include "hal_host_net_kfilter.h"
 
-#include <dirent.h>
 #include <errno.h>
 #include <netinet/in.h>
 #include <pthread.h>
@@ -13,35 +12,6 @@
 #if defined(__linux__)
 #include <linux/filter.h>
 #endif
-
-int hal_host_net_kfilter_sockets(uint32_t port, int *fds, int cap)
-{
-    if (fds == NULL || cap < 0 || port == 0 || port > 65535u)
-        return -EINVAL;
-    DIR *d = opendir("/proc/self/fd");
-    if (d == NULL)
-        return -errno;
-    int n = 0;
-    for (struct dirent *e; (e = readdir(d)) != NULL;) {
-        char *end = NULL;
-        const long fd = strtol(e->d_name, &end, 10);
-        if (end == e->d_name || *end != '\0' || fd < 0 || fd == dirfd(d))
-            continue;
-        int type = 0;
-        socklen_t tl = sizeof type;
-        struct sockaddr_in a;
-        socklen_t al = sizeof a;
-        if (getsockopt((int)fd, SOL_SOCKET, SO_TYPE, &type, &tl) != 0 || type != SOCK_DGRAM ||
-            getsockname((int)fd, (struct sockaddr *)&a, &al) != 0 || a.sin_family != AF_INET ||
-            ntohs(a.sin_port) != port)
-            continue;
-        if (n < cap)
-            fds[n] = (int)fd;
-        n++;
-    }
-    closedir(d);
-    return n;
-}
 
 #if defined(__linux__)
 /* Where the filter reads: relative to the IP header (SKF_NET_OFF), so that it does not depend

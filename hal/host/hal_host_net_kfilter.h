@@ -1,6 +1,6 @@
 /* A kernel filter for an LCM udpm socket: the sender check of hal_host_net.c done by Linux
  * before the datagram is queued, so that an unwanted sender's datagram costs no copy into the
- * process, no wake-up of LCM's reader thread and no trip through LCM's ring.
+ * process and no wake-up of its receiver.
  *
  * Over LCM's one multicast group the kernel hands every member's datagram to every socket; a
  * robot that keeps its 32 nearest of 64 was handed 50 MB a round and kept 4 MB of it. A
@@ -37,10 +37,6 @@ typedef struct kfilter_rule {
     char channel[HAL_NET_CHANNEL_MAX];
     uint8_t wanted[HAL_HOST_NET_SENDER_BYTES]; /* bit s: sender s kept */
 } kfilter_rule_t;
-
-/* The AF_INET datagram sockets of this process bound to `port`, into fds (at most cap): how
-   many there are (more than cap possible), or -errno. */
-int hal_host_net_kfilter_sockets(uint32_t port, int *fds, int cap);
 
 /* Puts on socket fd the program for rules[0..n) and, when n_received > 0, the channels the
    socket's owner receives, received[0..n_received) (those of the rules among them): an LCM

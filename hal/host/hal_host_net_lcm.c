@@ -1,7 +1,12 @@
 /* The LCM transport of the host network (hal_host_net_transport.h).
  *
+ * LCM publishes. Over udpm:// the URL's group is received on a socket of our own, joined as LCM
+ * joins it and read in batches by the receiver thread (hal_host_net_udpm.h), not through LCM's
+ * reader thread, ring and notification pipe; other providers (memq://) and the per-sender and
+ * inbox groups below receive through LCM.
+ *
  * By default every datagram goes to the URL's one multicast group, which hands every datagram
- * to every socket. Neighbour-scoped delivery is then a kernel filter on the instance's socket
+ * to every socket. Neighbour-scoped delivery is then a kernel filter on the robot's socket
  * (hal_host_net_kfilter.h, Linux): an unwanted sender's datagram on a filtered channel, and any
  * datagram on a channel the robot does not receive (another robot's own channels, in an
  * addressed fleet), is dropped before it is queued, so it costs no copy into the process and
@@ -42,6 +47,7 @@
 #include "hal_host.h"
 #include "hal_host_net_kfilter.h"
 #include "hal_host_net_transport.h"
+#include "hal_host_net_udpm.h"
 
 #include <arpa/inet.h>
 #include <errno.h>
@@ -82,6 +88,9 @@ typedef struct lcm_ctx {
     int lcm_queue_cap; /* LCM's per-subscription message bound (subscribe_exact) */
     lcm_t *lcm;
     hal_host_net_t *n;
+    /* udpm://: the URL group's socket, read by the receiver thread itself (hal_host_net_udpm.h);
+       LCM's instance only publishes there. NULL: LCM receives (memq:// and the like). */
+    udpm_rx_t *rx;
     uint32_t n_subs;
     lcm_subscription_t *sub[HAL_HOST_NET_MAX_SUBS];
     /* Per-sender groups: the URL's group, port and options ('?' included, or ""). */
@@ -129,7 +138,7 @@ typedef struct lcm_ctx {
     uint32_t n_joined;
     int warned_inbox;
     /* The kernel filter (hal_host_net_kfilter.h) on the URL group's socket: its descriptor, or
-       -1 (not udpm, or not found), and the filtered channels (under mu). */
+       -1 (not udpm), and the filtered channels (under mu). */
     int kf_fd;
     uint32_t kf_n, kf_n_received;
     kfilter_rule_t kf_rule[KFILTER_MAX_RULES];
@@ -205,30 +214,41 @@ static int64_t inbox_of(const lcm_ctx_t *c, const char *channel)
     return -1;
 }
 
-/* The socket LCM receives the URL's group on, or -1: LCM 1.3 keeps it to itself, so it is the
-   datagram socket bound to the URL's port that appears when the instance sets up its receiving
-   side (lcm_get_fileno does). One instance at a time in the process, so that two robots of one
-   test process do not take each other's. */
-static int own_socket(lcm_ctx_t *c)
+/* The value of option `key` in the URL's options ("?a=1&b=2"), or -1 when absent or not a
+   whole number that fits an int. */
+static int url_option(const char *opts, const char *key)
 {
-    static pthread_mutex_t setup_mu = PTHREAD_MUTEX_INITIALIZER;
-    enum { CAP = 64 };
-    int before[CAP], after[CAP], fd = -1;
-    pthread_mutex_lock(&setup_mu);
-    const int nb = hal_host_net_kfilter_sockets(c->base_port, before, CAP);
-    const int ok = lcm_get_fileno(c->lcm) >= 0;
-    const int na = hal_host_net_kfilter_sockets(c->base_port, after, CAP);
-    pthread_mutex_unlock(&setup_mu);
-    if (!ok || nb < 0 || na != nb + 1 || na > CAP)
-        return -1;
-    for (int i = 0; i < na && fd < 0; i++) {
-        int known = 0;
-        for (int j = 0; j < nb; j++)
-            known |= before[j] == after[i];
-        if (!known)
-            fd = after[i];
+    const size_t kl = strlen(key);
+    for (const char *p = opts; p != NULL && *p != '\0'; p = strchr(p, '&')) {
+        p += *p == '?' || *p == '&';
+        if (strncmp(p, key, kl) == 0 && p[kl] == '=') {
+            char *end = NULL;
+            const long v = strtol(p + kl + 1, &end, 10);
+            return end != p + kl + 1 && (*end == '\0' || *end == '&') && v >= 0 && v <= 0x7fffffffL ? (int)v : -1;
+        }
     }
-    return fd;
+    return -1;
+}
+
+/* A datagram of the URL's group, from its socket (hal_host_net_udpm.h): what hal_host_net.c
+   takes, or counted invalid. A long message is more than any subscribed channel may carry:
+   invalid when it is on one of ours, LCM's business (ignored) when not. */
+static void on_udpm(void *user, const udpm_datagram_t *g)
+{
+    lcm_ctx_t *c = user;
+    if (g->kind == UDPM_MESSAGE) {
+        hal_host_net_on_datagram(c->n, g->channel, g->payload, g->len);
+    } else if (g->kind == UDPM_INVALID) {
+        hal_host_net_on_datagram(c->n, NULL, NULL, 0);
+    } else if (g->kind == UDPM_TOO_LONG) {
+        pthread_mutex_lock(&c->mu);
+        int ours = 0;
+        for (uint32_t i = 0; i < c->kf_n_received && !ours; i++)
+            ours = strcmp(c->kf_received[i], g->channel) == 0;
+        pthread_mutex_unlock(&c->mu);
+        if (ours)
+            hal_host_net_on_datagram(c->n, g->channel, NULL, 1u); /* no data, a length: invalid */
+    }
 }
 
 static int lcm_open(hal_host_net_t *n, const char *url, void **ctx)
@@ -251,7 +271,17 @@ static int lcm_open(hal_host_net_t *n, const char *url, void **ctx)
         return -EIO;
     }
     parse_udpm(c, u);
-    c->kf_fd = c->udpm ? own_socket(c) : -1;
+    c->kf_fd = -1;
+    if (c->udpm) {
+        const int rcvbuf = url_option(c->opts, "recv_buf_size"); /* -1: the kernel's default */
+        const int rc = udpm_rx_open(c->base_addr, c->base_port, rcvbuf > 0 ? rcvbuf : 0, &c->rx);
+        if (rc != 0) {
+            lcm_destroy(c->lcm);
+            free(c);
+            return -EIO;
+        }
+        c->kf_fd = udpm_rx_fd(c->rx);
+    }
     pthread_mutex_init(&c->mu, NULL);
     pthread_cond_init(&c->joiner_cv, NULL);
     c->making = -1;
@@ -272,8 +302,10 @@ static void lcm_close(void *ctx)
     for (uint32_t i = 0; i < c->n_retire; i++)
         lcm_destroy(c->retire[i]);
     for (uint32_t i = 0; i < c->n_subs; i++)
-        (void)lcm_unsubscribe(c->lcm, c->sub[i]);
+        if (c->sub[i] != NULL)
+            (void)lcm_unsubscribe(c->lcm, c->sub[i]);
     lcm_destroy(c->lcm);
+    udpm_rx_close(c->rx);
     for (uint32_t s = 0; s < BOARD_MAX_FLEET; s++) {
         if (c->joined[s] != NULL)
             lcm_destroy(c->joined[s]);
@@ -404,10 +436,13 @@ static int lcm_sub(void *ctx, const char *channel)
     }
     if (c->n_subs == HAL_HOST_NET_MAX_SUBS)
         return -ENOSPC;
-    lcm_subscription_t *sub = subscribe_exact(c, c->lcm, channel);
-    if (sub == NULL)
-        return -EIO;
-    c->sub[c->n_subs++] = sub;
+    if (c->rx == NULL) { /* over udpm:// the channels are told apart above (hal_host_net.c) */
+        lcm_subscription_t *sub = subscribe_exact(c, c->lcm, channel);
+        if (sub == NULL)
+            return -EIO;
+        c->sub[c->n_subs] = sub;
+    }
+    c->n_subs++;
     pthread_mutex_lock(&c->mu); /* the kernel drops the channels we do not receive */
     snprintf(c->kf_received[c->kf_n_received++], sizeof c->kf_received[0], "%s", channel);
     attach_filter(c);
@@ -667,13 +702,16 @@ static void apply_groups(lcm_ctx_t *c)
 static int lcm_handle_for(void *ctx, int timeout_ms)
 {
     lcm_ctx_t *c = ctx;
-    if (c->wake[0] < 0) /* no grouped channel: the URL's group alone */
+    if (c->wake[0] < 0) { /* no grouped channel: the URL's group alone */
+        if (c->rx != NULL)
+            return udpm_rx_handle(c->rx, timeout_ms, on_udpm, c) < 0 ? -EIO : 0;
         return lcm_handle_timeout(c->lcm, timeout_ms) < 0 ? -EIO : 0;
+    }
     apply_groups(c);
     uint32_t k = 0;
     c->pfd[k] = (struct pollfd){.fd = c->wake[0], .events = POLLIN};
     c->pfd_lcm[k++] = NULL;
-    c->pfd[k] = (struct pollfd){.fd = lcm_get_fileno(c->lcm), .events = POLLIN};
+    c->pfd[k] = (struct pollfd){.fd = c->rx != NULL ? udpm_rx_fd(c->rx) : lcm_get_fileno(c->lcm), .events = POLLIN};
     c->pfd_lcm[k++] = c->lcm;
     for (uint32_t i = 0; i < c->n_inbox_done; i++)
         if (c->inbox[i] != NULL) {
@@ -688,7 +726,8 @@ static int lcm_handle_for(void *ctx, int timeout_ms)
     const int r = poll(c->pfd, k, timeout_ms);
     if (r < 0)
         return errno == EINTR ? 0 : -EIO;
-    if ((c->pfd[1].revents & POLLIN) && lcm_handle(c->lcm) < 0)
+    if ((c->pfd[1].revents & POLLIN) &&
+        (c->rx != NULL ? udpm_rx_handle(c->rx, 0, on_udpm, c) : lcm_handle(c->lcm)) < 0)
         return -EIO;
     for (uint32_t i = 2; i < k; i++)
         if (c->pfd[i].revents & POLLIN)
