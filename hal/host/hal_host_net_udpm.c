@@ -67,9 +67,15 @@ struct udpm_rx {
 
 int udpm_rx_open(uint32_t group, uint32_t port, int rcvbuf, udpm_rx_t **out)
 {
-    if (out == NULL || (group >> 28) != 0xEu || port == 0 || port > 65535u || rcvbuf < 0)
+    if (out == NULL || port == 0 || port > 65535u || rcvbuf < 0)
         return -EINVAL;
     *out = NULL;
+    if ((group >> 28) != 0xEu) {
+        fprintf(stderr, "hal_host_net: udpm: %u.%u.%u.%u is not a multicast group (224.0.0.0 to 239.255.255.255)\n",
+                (unsigned)(group >> 24), (unsigned)(group >> 16) & 255u, (unsigned)(group >> 8) & 255u,
+                (unsigned)group & 255u);
+        return -EINVAL;
+    }
     udpm_rx_t *r = calloc(1, sizeof *r);
     /* calloc: a buffer's pages are mapped when a datagram first fills them */
     uint8_t(*buf)[UDPM_RX_DATAGRAM_MAX] = calloc(UDPM_RX_BATCH, UDPM_RX_DATAGRAM_MAX);

@@ -95,6 +95,25 @@ static void test_every_cut_and_flip(void **state)
 }
 
 /* ---- over a socket ----------------------------------------------------------------------- */
+/* What cannot be a udpm group or port is refused, said, and nothing is left open. */
+static void test_open_refused(void **state)
+{
+    (void)state;
+    udpm_rx_t *r = (udpm_rx_t *)(uintptr_t)1;
+    assert_int_equal(udpm_rx_open(0x7F000001u, port, 0, &r), -EINVAL); /* 127.0.0.1 */
+    assert_null(r);
+    assert_int_equal(udpm_rx_open(0xEFFF4C47u, 0, 0, &r), -EINVAL);
+    assert_int_equal(udpm_rx_open(0xEFFF4C47u, 70000, 0, &r), -EINVAL);
+    assert_int_equal(udpm_rx_open(0xEFFF4C47u, port, -1, &r), -EINVAL);
+    assert_int_equal(udpm_rx_open(0xEFFF4C47u, port, 0, NULL), -EINVAL);
+    assert_int_equal(udpm_rx_handle(NULL, 0, NULL, NULL), -EINVAL);
+    assert_int_equal(udpm_rx_fd(NULL), -1);
+    udpm_rx_close(NULL);
+    hal_host_net_t *n = NULL;
+    assert_int_equal(hal_host_net_open("udpm://127.0.0.1:7667?ttl=0", 4, 0, &n), -EIO);
+    assert_null(n);
+}
+
 static hal_host_net_t *open_rx(void)
 {
     hal_host_net_t *n = NULL;
@@ -204,6 +223,7 @@ int main(void)
         cmocka_unit_test(test_fragments),
         cmocka_unit_test(test_not_lcm),
         cmocka_unit_test(test_every_cut_and_flip),
+        cmocka_unit_test(test_open_refused),
         cmocka_unit_test(test_many_at_once_in_order),
         cmocka_unit_test(test_crafted_datagrams_counted),
     };
