@@ -727,7 +727,7 @@ static int lcm_handle_for(void *ctx, int timeout_ms)
     if (r < 0)
         return errno == EINTR ? 0 : -EIO;
     if ((c->pfd[1].revents & POLLIN) &&
-        (c->rx != NULL ? udpm_rx_handle(c->rx, 0, on_udpm, c) : lcm_handle(c->lcm)) < 0)
+        (c->rx != NULL ? udpm_rx_drain(c->rx, on_udpm, c) : lcm_handle(c->lcm)) < 0)
         return -EIO;
     for (uint32_t i = 2; i < k; i++)
         if (c->pfd[i].revents & POLLIN)

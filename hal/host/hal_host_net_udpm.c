@@ -156,16 +156,10 @@ static int take_batch(udpm_rx_t *r, size_t *len)
     return got;
 }
 
-int udpm_rx_handle(udpm_rx_t *r, int timeout_ms, udpm_rx_fn fn, void *user)
+int udpm_rx_drain(udpm_rx_t *r, udpm_rx_fn fn, void *user)
 {
     if (r == NULL || fn == NULL)
         return -EINVAL;
-    struct pollfd p = {.fd = r->fd, .events = POLLIN};
-    const int ready = poll(&p, 1, timeout_ms);
-    if (ready < 0)
-        return errno == EINTR ? 0 : -EIO;
-    if (ready == 0)
-        return 0;
     int total = 0;
     size_t len[UDPM_RX_BATCH];
     for (;;) {
@@ -181,4 +175,15 @@ int udpm_rx_handle(udpm_rx_t *r, int timeout_ms, udpm_rx_fn fn, void *user)
         if (got < (int)UDPM_RX_BATCH || total >= 8 * (int)UDPM_RX_BATCH)
             return total;
     }
+}
+
+int udpm_rx_handle(udpm_rx_t *r, int timeout_ms, udpm_rx_fn fn, void *user)
+{
+    if (r == NULL || fn == NULL)
+        return -EINVAL;
+    struct pollfd p = {.fd = r->fd, .events = POLLIN};
+    const int ready = poll(&p, 1, timeout_ms);
+    if (ready < 0)
+        return errno == EINTR ? 0 : -EIO;
+    return ready == 0 ? 0 : udpm_rx_drain(r, fn, user);
 }

@@ -57,8 +57,12 @@ int udpm_rx_open(uint32_t group, uint32_t port, int rcvbuf, udpm_rx_t **out);
 void udpm_rx_close(udpm_rx_t *r);
 int udpm_rx_fd(const udpm_rx_t *r);
 
-/* Waits up to timeout_ms for the socket, then takes what is queued there, a batch at a time,
-   handing each datagram to fn: the number of datagrams (0 when none came), or -EIO. */
+/* Takes what is queued on the socket without waiting, a batch at a time (at most 8 batches),
+   handing each datagram to fn: the number of datagrams (0 when none was there), or -EIO. For a
+   caller that polled the descriptor itself (udpm_rx_fd). */
+int udpm_rx_drain(udpm_rx_t *r, udpm_rx_fn fn, void *user);
+
+/* Waits up to timeout_ms for the socket, then udpm_rx_drain. */
 int udpm_rx_handle(udpm_rx_t *r, int timeout_ms, udpm_rx_fn fn, void *user);
 
 #endif /* HAL_HOST_NET_UDPM_H */

@@ -107,6 +107,7 @@ static void test_open_refused(void **state)
     assert_int_equal(udpm_rx_open(0xEFFF4C47u, port, -1, &r), -EINVAL);
     assert_int_equal(udpm_rx_open(0xEFFF4C47u, port, 0, NULL), -EINVAL);
     assert_int_equal(udpm_rx_handle(NULL, 0, NULL, NULL), -EINVAL);
+    assert_int_equal(udpm_rx_drain(NULL, NULL, NULL), -EINVAL);
     assert_int_equal(udpm_rx_fd(NULL), -1);
     udpm_rx_close(NULL);
     hal_host_net_t *n = NULL;
