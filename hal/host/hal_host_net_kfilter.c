@@ -1,8 +1,11 @@
 /* The kernel filter of an LCM udpm socket (hal_host_net_kfilter.h). */
 #define _DEFAULT_SOURCE /* SO_ATTACH_FILTER */
 #include "hal_host_net_kfilter.h"
+#include "hal_host_net_kfilter_ebpf.h"
 
 #include <errno.h>
+#include <stdio.h>
+#include <unistd.h>
 #include <netinet/in.h>
 #include <pthread.h>
 #include <stdlib.h>
@@ -146,3 +149,85 @@ int hal_host_net_kfilter_attach(int fd, const kfilter_rule_t *rules, uint32_t n,
     return -ENOTSUP;
 }
 #endif
+
+void hal_host_net_kfilter_init(hal_host_net_kfilter_t *k, int fd, int ebpf)
+{
+    memset(k, 0, sizeof *k);
+    k->fd = fd;
+    k->ebpf = ebpf ? 0 : -1;
+    k->map_fd = -1;
+}
+
+/* The program for the rules and channels now: eBPF when it can be (tried once; a refusal, or a
+   program the kernel will not take, leaves classic programs for good), else classic. */
+static int put_program(hal_host_net_kfilter_t *k)
+{
+    if (k->fd < 0)
+        return 0;
+    if (k->ebpf == 0) {
+        k->map_fd = kfilter_ebpf_map();
+        k->ebpf = k->map_fd >= 0 ? 1 : -1;
+    }
+    k->installed = 0;
+    if (k->ebpf == 1) {
+        if (kfilter_ebpf_attach(k->map_fd, k->fd, k->rule, k->n, k->received, k->n_received) == 0) {
+            k->installed = 1;
+            k->programs++;
+            return 0;
+        }
+        close(k->map_fd);
+        k->map_fd = -1;
+        k->ebpf = -1;
+    }
+    const int rc = hal_host_net_kfilter_attach(k->fd, k->rule, k->n, k->received, k->n_received);
+    k->programs += rc == 0;
+    return rc;
+}
+
+int hal_host_net_kfilter_receive(hal_host_net_kfilter_t *k, const char *channel)
+{
+    if (k == NULL || !hal_net_channel_valid(channel))
+        return -EINVAL;
+    if (k->n_received == KFILTER_MAX_RECEIVED)
+        return -ENOSPC;
+    snprintf(k->received[k->n_received++], sizeof k->received[0], "%s", channel);
+    return put_program(k);
+}
+
+int hal_host_net_kfilter_senders(hal_host_net_kfilter_t *k, const char *channel, const uint8_t *wanted)
+{
+    if (k == NULL || !hal_net_channel_valid(channel))
+        return -EINVAL;
+    uint32_t i = 0;
+    while (i < k->n && strcmp(k->rule[i].channel, channel) != 0)
+        i++;
+    if (wanted != NULL && i < k->n) { /* a new set of a channel the program knows */
+        memcpy(k->rule[i].wanted, wanted, sizeof k->rule[i].wanted);
+        if (k->installed) {
+            const int rc = kfilter_ebpf_set(k->map_fd, i, wanted);
+            k->sets += rc == 0;
+            return rc;
+        }
+        return put_program(k);
+    }
+    if (wanted == NULL && i == k->n)
+        return 0; /* unfiltered already */
+    if (wanted == NULL) /* every sender: the channel's rule goes */
+        k->rule[i] = k->rule[--k->n];
+    else if (k->n == KFILTER_MAX_RULES)
+        return 0; /* left unfiltered */
+    else {
+        snprintf(k->rule[i].channel, sizeof k->rule[i].channel, "%s", channel);
+        memcpy(k->rule[i].wanted, wanted, sizeof k->rule[i].wanted);
+        k->n++;
+    }
+    return put_program(k);
+}
+
+void hal_host_net_kfilter_close(hal_host_net_kfilter_t *k)
+{
+    if (k != NULL && k->map_fd >= 0)
+        close(k->map_fd);
+    if (k != NULL)
+        k->map_fd = -1;
+}

@@ -18,7 +18,13 @@
  * and so is the robot's own echo when it does not want itself (not counted as one).
  *
  * Linux only; elsewhere, and whenever a filter cannot be attached, hal_host_net.c's check on
- * arrival remains the filter (it runs whatever the kernel did). */
+ * arrival remains the filter (it runs whatever the kernel did).
+ *
+ * A socket's filter and what it holds is a hal_host_net_kfilter_t. Where the process may use
+ * bpf() (root or CAP_BPF on Debian), the program is an eBPF one reading the wanted senders from
+ * a map (hal_host_net_kfilter_ebpf.h): a new wanted set is then a map update, not a new program
+ * compiled by the kernel. Elsewhere each change puts a new classic program
+ * (hal_host_net_kfilter_attach). */
 #ifndef HAL_HOST_NET_KFILTER_H
 #define HAL_HOST_NET_KFILTER_H
 
@@ -47,5 +53,32 @@ typedef struct kfilter_rule {
    senders is left out (its datagrams pass, when its channel is received). */
 int hal_host_net_kfilter_attach(int fd, const kfilter_rule_t *rules, uint32_t n,
                                 const char (*received)[HAL_NET_CHANNEL_MAX], uint32_t n_received);
+
+typedef struct hal_host_net_kfilter {
+    int fd;        /* the socket, or -1: nothing to filter */
+    int ebpf;      /* 1: the eBPF program and its map; 0: not tried yet; -1: classic programs */
+    int map_fd;    /* the eBPF program's wanted sets (hal_host_net_kfilter_ebpf.h), or -1 */
+    int installed; /* the eBPF program for the current channels is on the socket */
+    uint32_t n, n_received;
+    kfilter_rule_t rule[KFILTER_MAX_RULES];
+    char received[KFILTER_MAX_RECEIVED][HAL_NET_CHANNEL_MAX];
+    uint32_t programs; /* programs put on the socket */
+    uint32_t sets;     /* wanted sets changed in the eBPF map, with no new program */
+} hal_host_net_kfilter_t;
+
+/* Nothing on socket fd yet (-1: a transport without one). ebpf 0: classic programs only. */
+void hal_host_net_kfilter_init(hal_host_net_kfilter_t *k, int fd, int ebpf);
+
+/* The socket's owner receives `channel` from now on: short messages on channels it does not
+   receive are dropped. 0, -ENOSPC (KFILTER_MAX_RECEIVED channels already: the filter stays as
+   it was), or the error of putting the program (hal_host_net_kfilter_attach). */
+int hal_host_net_kfilter_receive(hal_host_net_kfilter_t *k, const char *channel);
+
+/* Channel's wanted senders (HAL_HOST_NET_SENDER_BYTES; NULL: all) from now on. A channel beyond
+   KFILTER_MAX_RULES is left unfiltered (0). 0 or the error of putting the program or the set. */
+int hal_host_net_kfilter_senders(hal_host_net_kfilter_t *k, const char *channel, const uint8_t *wanted);
+
+/* The eBPF map (the socket keeps its program until it is closed). */
+void hal_host_net_kfilter_close(hal_host_net_kfilter_t *k);
 
 #endif /* HAL_HOST_NET_KFILTER_H */

@@ -139,10 +139,7 @@ typedef struct lcm_ctx {
     int warned_inbox;
     /* The kernel filter (hal_host_net_kfilter.h) on the URL group's socket: its descriptor, or
        -1 (not udpm), and the filtered channels (under mu). */
-    int kf_fd;
-    uint32_t kf_n, kf_n_received;
-    kfilter_rule_t kf_rule[KFILTER_MAX_RULES];
-    char kf_received[KFILTER_MAX_RECEIVED][HAL_NET_CHANNEL_MAX]; /* what we subscribed to there */
+    hal_host_net_kfilter_t kf;
     int kf_warned;
     struct pollfd pfd[BOARD_MAX_FLEET + HAL_HOST_NET_MAX_SUBS + 2u];
     lcm_t *pfd_lcm[BOARD_MAX_FLEET + HAL_HOST_NET_MAX_SUBS + 2u];
@@ -243,8 +240,8 @@ static void on_udpm(void *user, const udpm_datagram_t *g)
     } else if (g->kind == UDPM_TOO_LONG) {
         pthread_mutex_lock(&c->mu);
         int ours = 0;
-        for (uint32_t i = 0; i < c->kf_n_received && !ours; i++)
-            ours = strcmp(c->kf_received[i], g->channel) == 0;
+        for (uint32_t i = 0; i < c->kf.n_received && !ours; i++)
+            ours = strcmp(c->kf.received[i], g->channel) == 0;
         pthread_mutex_unlock(&c->mu);
         if (ours)
             hal_host_net_on_datagram(c->n, g->channel, NULL, 1u); /* no data, a length: invalid */
@@ -271,7 +268,6 @@ static int lcm_open(hal_host_net_t *n, const char *url, void **ctx)
         return -EIO;
     }
     parse_udpm(c, u);
-    c->kf_fd = -1;
     if (c->udpm) {
         const int rcvbuf = url_option(c->opts, "recv_buf_size"); /* -1: the kernel's default */
         const int rc = udpm_rx_open(c->base_addr, c->base_port, rcvbuf > 0 ? rcvbuf : 0, &c->rx);
@@ -280,8 +276,8 @@ static int lcm_open(hal_host_net_t *n, const char *url, void **ctx)
             free(c);
             return -EIO;
         }
-        c->kf_fd = udpm_rx_fd(c->rx);
     }
+    hal_host_net_kfilter_init(&c->kf, c->udpm ? udpm_rx_fd(c->rx) : -1, 1);
     pthread_mutex_init(&c->mu, NULL);
     pthread_cond_init(&c->joiner_cv, NULL);
     c->making = -1;
@@ -306,6 +302,7 @@ static void lcm_close(void *ctx)
             (void)lcm_unsubscribe(c->lcm, c->sub[i]);
     lcm_destroy(c->lcm);
     udpm_rx_close(c->rx);
+    hal_host_net_kfilter_close(&c->kf);
     for (uint32_t s = 0; s < BOARD_MAX_FLEET; s++) {
         if (c->joined[s] != NULL)
             lcm_destroy(c->joined[s]);
@@ -414,7 +411,7 @@ static void wake_receiver(lcm_ctx_t *c)
     (void)!write(c->wake[1], &b, 1); /* a full pipe already wakes the receiver */
 }
 
-static void attach_filter(lcm_ctx_t *c);
+static void filter_said(lcm_ctx_t *c, int r);
 
 static int lcm_sub(void *ctx, const char *channel)
 {
@@ -444,8 +441,7 @@ static int lcm_sub(void *ctx, const char *channel)
     }
     c->n_subs++;
     pthread_mutex_lock(&c->mu); /* the kernel drops the channels we do not receive */
-    snprintf(c->kf_received[c->kf_n_received++], sizeof c->kf_received[0], "%s", channel);
-    attach_filter(c);
+    filter_said(c, hal_host_net_kfilter_receive(&c->kf, channel));
     pthread_mutex_unlock(&c->mu);
     return 0;
 }
@@ -487,39 +483,15 @@ static int lcm_group(void *ctx, const char *channel, int by_receiver)
     return rc;
 }
 
-/* mu held: the URL group socket's kernel filter as the rules and the channels received now say.
-   A filter that cannot be put leaves hal_host_net.c's check on arrival and LCM's on the channel
-   alone (said once). */
-static void attach_filter(lcm_ctx_t *c)
+/* mu held: a kernel filter that could not be put leaves hal_host_net.c's check on arrival and
+   LCM's on the channel alone (said once). */
+static void filter_said(lcm_ctx_t *c, int r)
 {
-    if (c->kf_fd < 0)
-        return;
-    const int r = hal_host_net_kfilter_attach(c->kf_fd, c->kf_rule, c->kf_n, c->kf_received, c->kf_n_received);
-    if (r != 0 && !c->kf_warned) {
+    if (r != 0 && r != -ENOSPC && !c->kf_warned) {
         fprintf(stderr, "hal_host_net: no kernel filter on the LCM socket (%s): unwanted senders' datagrams "
                         "are dropped on arrival instead\n", strerror(-r));
         c->kf_warned = 1;
     }
-}
-
-/* mu held: channel's wanted senders (NULL: all) into the URL group socket's kernel filter. */
-static void kernel_filter(lcm_ctx_t *c, const char *channel, const uint8_t *wanted)
-{
-    if (c->kf_fd < 0)
-        return;
-    uint32_t i = 0;
-    while (i < c->kf_n && strcmp(c->kf_rule[i].channel, channel) != 0)
-        i++;
-    if (wanted == NULL && i < c->kf_n) /* every sender: the channel's rule goes */
-        c->kf_rule[i] = c->kf_rule[--c->kf_n];
-    else if (wanted != NULL && i == c->kf_n && c->kf_n == KFILTER_MAX_RULES)
-        return;
-    else if (wanted != NULL) {
-        snprintf(c->kf_rule[i].channel, sizeof c->kf_rule[i].channel, "%s", channel);
-        memcpy(c->kf_rule[i].wanted, wanted, sizeof c->kf_rule[i].wanted);
-        c->kf_n += i == c->kf_n;
-    }
-    attach_filter(c);
 }
 
 static int lcm_senders(void *ctx, const char *channel, const uint8_t *wanted, uint32_t n_ids)
@@ -527,7 +499,7 @@ static int lcm_senders(void *ctx, const char *channel, const uint8_t *wanted, ui
     lcm_ctx_t *c = ctx;
     pthread_mutex_lock(&c->mu);
     if (c->grouped[0] == '\0' || strcmp(channel, c->grouped) != 0) {
-        kernel_filter(c, channel, wanted); /* carried on the URL's group */
+        filter_said(c, hal_host_net_kfilter_senders(&c->kf, channel, wanted)); /* carried on the URL's group */
         pthread_mutex_unlock(&c->mu);
         return 0;
     }

@@ -3,7 +3,8 @@
  * kernel, before the network sees them (no rx_unwanted: hal_host_net.c's check on arrival
  * would count each one it dropped), the wanted set can change, other channels pass, and two
  * robots in one process each filter their own socket; given the channels received, the
- * program drops every other channel (on a socket of the test's own, datagram by datagram). */
+ * program drops every other channel (on a socket of the test's own, datagram by datagram); the
+ * eBPF program decides as the classic one through changing sets, with no new program each. */
 #define _GNU_SOURCE 1
 #include <setjmp.h>
 #include <stdarg.h>
@@ -179,6 +180,72 @@ static void test_channels_not_received_are_dropped(void **state)
     close(tx);
 }
 
+/* A socket's filter kept by hal_host_net_kfilter_t, eBPF (ebpf 1) or classic programs (0): the
+   same decisions, datagram by datagram, through the wanted set's changes; over eBPF a change is
+   a map update and the program stays. */
+static void filter_follows_the_sets(int ebpf)
+{
+    const int fd = socket(AF_INET, SOCK_DGRAM, 0), tx = socket(AF_INET, SOCK_DGRAM, 0);
+    assert_true(fd >= 0 && tx >= 0);
+    struct sockaddr_in a = {.sin_family = AF_INET, .sin_addr.s_addr = htonl(INADDR_LOOPBACK)};
+    assert_int_equal(bind(fd, (struct sockaddr *)&a, sizeof a), 0);
+    hal_host_net_kfilter_t k;
+    hal_host_net_kfilter_init(&k, fd, ebpf);
+    assert_true(passes(tx, fd, TCH, 9)); /* nothing on the socket yet */
+    assert_int_equal(hal_host_net_kfilter_receive(&k, TCH), 0);
+    assert_int_equal(hal_host_net_kfilter_receive(&k, PLAIN), 0);
+    if (ebpf && geteuid() == 0)
+        assert_int_equal(k.ebpf, 1); /* root may use bpf(): the eBPF program is on */
+    if (!ebpf)
+        assert_int_equal(k.ebpf, -1);
+    printf("# kernel filter: %s programs\n", k.ebpf == 1 ? "eBPF" : "classic");
+    assert_true(passes(tx, fd, PLAIN, 5));
+    assert_false(passes(tx, fd, "fleetsim/kfilter_test/resend/8", 1)); /* not received */
+    uint8_t w[HAL_HOST_NET_SENDER_BYTES];
+    memset(w, 0, sizeof w);
+    w[0] = 0x04; /* sender 2 */
+    assert_int_equal(hal_host_net_kfilter_senders(&k, TCH, w), 0);
+    const uint32_t programs = k.programs;
+    assert_true(passes(tx, fd, TCH, 2));
+    assert_false(passes(tx, fd, TCH, 3));
+    assert_false(passes(tx, fd, TCH, (uint32_t)BOARD_MAX_FLEET)); /* beyond the fleet */
+    assert_true(passes(tx, fd, PLAIN, 3));
+    /* Sets that change: ids over the whole fleet, the highest included. */
+    const uint32_t ids[4] = {0u, 77u, 130u, (uint32_t)BOARD_MAX_FLEET - 1u};
+    for (uint32_t i = 0; i < 4; i++) {
+        memset(w, 0, sizeof w);
+        w[ids[i] / 8u] = (uint8_t)(1u << (ids[i] % 8u));
+        assert_int_equal(hal_host_net_kfilter_senders(&k, TCH, w), 0);
+        assert_true(passes(tx, fd, TCH, ids[i]));
+        assert_false(passes(tx, fd, TCH, ids[i] ^ 1u));
+        assert_false(passes(tx, fd, TCH, 2));
+    }
+    if (k.ebpf == 1) {
+        assert_int_equal(k.programs, programs); /* four new sets, no new program */
+        assert_int_equal(k.sets, 4);
+    } else {
+        assert_int_equal(k.programs, programs + 4u);
+    }
+    assert_int_equal(hal_host_net_kfilter_senders(&k, TCH, NULL), 0); /* every sender again */
+    assert_true(passes(tx, fd, TCH, 3));
+    assert_true(passes(tx, fd, TCH, (uint32_t)BOARD_MAX_FLEET));
+    hal_host_net_kfilter_close(&k);
+    close(fd);
+    close(tx);
+}
+
+static void test_ebpf_filter_follows_the_sets(void **state)
+{
+    (void)state;
+    filter_follows_the_sets(1);
+}
+
+static void test_classic_filter_follows_the_sets(void **state)
+{
+    (void)state;
+    filter_follows_the_sets(0);
+}
+
 static void test_refused(void **state)
 {
     (void)state;
@@ -202,6 +269,8 @@ int main(void)
         cmocka_unit_test(test_kernel_drops_unwanted_senders),
         cmocka_unit_test(test_each_robot_filters_its_own_socket),
         cmocka_unit_test(test_channels_not_received_are_dropped),
+        cmocka_unit_test(test_ebpf_filter_follows_the_sets),
+        cmocka_unit_test(test_classic_filter_follows_the_sets),
         cmocka_unit_test(test_refused),
     };
     return cmocka_run_group_tests(tests, NULL, NULL);
