@@ -598,6 +598,17 @@ static void discount_stall(gp_pse_t *p, uint64_t now_us)
         p->newcomer_us = now_us - p->newcomer_us > gap ? p->newcomer_us + gap : now_us;
 }
 
+/* How long into a round to wait for peer q's word of where it is before asking. A beacon
+   period when q may still say it: its chunk 0 or its beacon, repeated every period. One resend
+   period when its RoundComplete of the round came already: its state went out before we
+   listened (a robot that started late), and what it repeats now, its RoundComplete, says where
+   it will be next round, not in this one. A 64-robot fleet's late starters waited two seconds
+   of a beacon period (256 ms x 64 / 8) for those asks, every robot idle. */
+static uint64_t position_wait(const gp_pse_t *p, const gp_pse_peer_t *q)
+{
+    return q->has_done && q->done_round >= p->round ? gp_pse_ask_after(p, 0) : beacon_period(p);
+}
+
 void gp_pse_poll(gp_pse_t *p, uint64_t now_us)
 {
     if (!p->in_round) {
@@ -667,10 +678,9 @@ void gp_pse_poll(gp_pse_t *p, uint64_t now_us)
         if (b != NULL && !b->complete && now_us - b->progress_us >= gp_pse_ask_after(p, b->backoff)) {
             ask_again(p, i, b, now_us);
         } else if (!gp_pse_pos_known(q, p->round) && !(q->on_way && q->on_way_round == p->round) &&
-                   now_us - p->round_start_us >= beacon_period(p) &&
+                   now_us - p->round_start_us >= position_wait(p, q) &&
                    (q->pos_backoff == 0 || now_us - q->asked_us >= gp_pse_ask_after(p, q->pos_backoff))) {
-            /* Not heard in the round for a beacon period, in which its beacon is repeated: asked
-               where it is (gp_pse_request_t: a position ask). */
+            /* Where it is unknown after the wait: asked (gp_pse_request_t: a position ask). */
             const gp_pse_request_t r = {p->cfg.self, i, p->round, 0, {0}, p->cfg.incarnation, 1, p->x_m, p->y_m,
                                         to_peer(p, i)};
             send_msg(p, GP_PSE_REQUEST, &r, now_us);

@@ -224,6 +224,32 @@ static void test_a_peer_never_heard_is_asked_where_it_is(void **st)
     expect_neighbours(want, 1);
 }
 
+/* A late starter: peer 1's RoundComplete of round 0 comes, but its state went out before we
+ * listened. What it repeats now says where it will be in round 1, not where it was: asked where
+ * it is after one resend period, not a beacon period. */
+static void test_a_peer_done_before_we_listened_is_asked_after_a_resend_period(void **st)
+{
+    (void)st;
+    start(5.0);
+    assert_int_equal(gp_pse_begin_round(&eng, 0, mine, 0.0, 0.0, 0), 0);
+    for (uint32_t i = 2; i < N; i++)
+        whole_state_from(i, 0, 100.0, 10); /* all out of reach */
+    const gp_pse_done_t d = {1, 0, 0, 1, 100.0, 0.0}; /* round 1 far away: says nothing of round 0 */
+    assert_int_equal(gp_pse_on_done(&eng, &d, 10), 0);
+    gp_pse_poll(&eng, RESEND - 1u);
+    assert_int_equal(n_asked, 0);
+    gp_pse_poll(&eng, RESEND);
+    assert_int_equal(n_asked, 1); /* a position ask, a beacon period (TIMEOUT / 4) early */
+    assert_true(asked[0].target == 1 && asked[0].round == 0 && asked[0].n == 0 && asked[0].has_position);
+    assert_true(RESEND < TIMEOUT / 4u);
+    /* Placed in reach by its answer: its lost state is asked for at once. */
+    const gp_pse_request_t beacon = {1, 1, 0, 0, {0}, 0, 1, 1.0, 0.0, GP_PSE_TO_ALL};
+    assert_int_equal(gp_pse_on_request(&eng, &beacon, RESEND + 10u), 0);
+    gp_pse_poll(&eng, RESEND + 20u);
+    assert_int_equal(n_asked, 2);
+    assert_true(asked[1].target == 1 && asked[1].n == 2);
+}
+
 /* Asked where it is, a robot answers with its positioned beacon, never a chunk of its state
  * (the asker mostly keeps other states: 256 robots asked each of their peers three to four
  * times in round 0), at most one per half resend period however many ask; a position ask to
@@ -385,6 +411,7 @@ int main(void)
         cmocka_unit_test(test_a_tie_at_the_last_slot_goes_to_the_lower_id),
         cmocka_unit_test(test_next_round_is_ranked_again_when_it_begins),
         cmocka_unit_test(test_a_peer_never_heard_is_asked_where_it_is),
+        cmocka_unit_test(test_a_peer_done_before_we_listened_is_asked_after_a_resend_period),
         cmocka_unit_test(test_a_position_ask_is_answered_by_a_beacon),
         cmocka_unit_test(test_a_peer_on_its_way_is_not_asked_where_it_is),
         cmocka_unit_test(test_one_position_for_all_places_every_peer),
