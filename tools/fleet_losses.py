@@ -22,7 +22,11 @@ a start that died are written nowhere: they are missing from the totals, and sai
 ZeroMQ's queues (a sender's, the proxy's) drop past their high-water marks without a word, so
 what is counted there is each overflow, one lost datagram or more: the queue drops are then a
 lower bound. A fleet through a ZeroMQ proxy adds the proxy's overflows, from the last line of
-the run's zmq_proxy.log (host_sim zmq-proxy's final counts).
+the run's zmq_proxy.log (host_sim zmq-proxy's final counts). A fleet over LCM adds the datagrams
+the kernel dropped because a socket's receive buffer was full (UdpRcvbufErrors of
+/proc/net/snmp over the run, written by tools/fleet to kernel_udp_drops.txt): where a robot
+receives inline, with no receiver thread (hal/host/hal_host_net_rx.c), that buffer is its queue.
+The count is the whole machine's, so another program's UDP drops during the run count too.
 """
 import csv
 import os
@@ -119,6 +123,27 @@ def proxy_drops(run_dir):
     return int(found[-1]), []
 
 
+def kernel_udp_drops(path="/proc/net/snmp"):
+    """UdpRcvbufErrors of the machine so far, or None (not Linux, unreadable)."""
+    try:
+        with open(path, encoding="ascii", errors="replace") as f:
+            rows = [line.split() for line in f if line.startswith("Udp:")]
+        return int(rows[1][rows[0].index("RcvbufErrors")])
+    except (OSError, IndexError, ValueError):
+        return None
+
+
+def kernel_drops(run_dir):
+    """The run's kernel receive-buffer drops (kernel_udp_drops.txt: "BEFORE AFTER"), 0 when the
+    launcher did not count them."""
+    try:
+        with open(os.path.join(run_dir, "kernel_udp_drops.txt"), encoding="ascii") as f:
+            before, after = (int(v) for v in f.read().split())
+    except (OSError, ValueError):
+        return 0
+    return max(0, after - before)
+
+
 def fleet_losses(run_dir, robots):
     """{key: total over the folders robot_<i> of i in robots, None when no robot says}, [gaps]."""
     totals, gaps = {k: 0 for k in KEYS}, []
@@ -132,7 +157,7 @@ def fleet_losses(run_dir, robots):
                 known[k] = True
     lost, g = proxy_drops(run_dir)
     gaps += g
-    totals["queue_drops"] += lost or 0
+    totals["queue_drops"] += (lost or 0) + kernel_drops(run_dir)
     return {k: (totals[k] if known[k] else None) for k in KEYS}, gaps
 
 

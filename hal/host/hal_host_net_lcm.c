@@ -707,5 +707,22 @@ static int lcm_handle_for(void *ctx, int timeout_ms)
     return 0;
 }
 
+/* Inline receiving (hal_host_net_transport.h): the URL group's socket, when it is all we
+   receive on (no grouped channel, no inbox group: those are LCM instances) and the kernel
+   buffers at least the queue's bytes (recv_buf_size within net.core.rmem_max). */
+static int lcm_inline_fd(void *ctx, size_t queue_bytes)
+{
+    lcm_ctx_t *c = ctx;
+    if (c->rx == NULL || c->wake[0] >= 0 || udpm_rx_rcvbuf(c->rx) < queue_bytes)
+        return -1;
+    return udpm_rx_fd(c->rx);
+}
+
+static int lcm_take(void *ctx, uint32_t max)
+{
+    lcm_ctx_t *c = ctx;
+    return udpm_rx_take(c->rx, max, on_udpm, c) < 0 ? -EIO : 0;
+}
+
 const hal_host_net_transport_t hal_host_net_lcm = {"lcm",          lcm_open,    lcm_close, lcm_pub, lcm_sub,
-                                                   lcm_handle_for, lcm_senders, lcm_group};
+                                                   lcm_handle_for, lcm_senders, lcm_group, lcm_inline_fd, lcm_take};

@@ -1,7 +1,8 @@
 /* The transports under the host network (hal_host_net.c): what moves datagrams between
  * processes. hal_host_net.c owns everything above them (the bounded queue, the keyed fleet's
  * tag check, the bounds check, fault injection, the counters) and runs one receiver thread
- * that calls the transport's `handle`; the transport hands each datagram it receives to
+ * that calls the transport's `handle`, or none where the transport receives inline
+ * (`inline_fd`, hal_host_net_rx.c); the transport hands each datagram it receives to
  * hal_host_net_on_datagram(). Two exist:
  *   - LCM (any LCM URL: udpm:// multicast on one host or a routed segment, memq:// in one
  *     process): hal_host_net_lcm.c;
@@ -53,6 +54,14 @@ typedef struct hal_host_net_transport {
        to robot id alone (its inbox). Called before the first subscription, at every member of
        the fleet alike. 0, -ENOTSUP (the URL cannot), -ENOSPC (no room for another), -EIO. */
     int (*group)(void *ctx, const char *channel, int by_receiver);
+    /* Optional (NULL: never). A descriptor that is readable when datagrams wait, when
+       everything this transport receives arrives through it and its kernel buffer holds at
+       least queue_bytes (the queue's), else -1. Then no receiver thread runs: the thread that
+       waits for messages polls it and calls `take` (asked once, at the first subscription). */
+    int (*inline_fd)(void *ctx, size_t queue_bytes);
+    /* With inline_fd: delivers up to max datagrams of what waits on it now, without blocking;
+       the rest stays in the kernel's buffer. >= 0, or < 0 when the transport is gone. */
+    int (*take)(void *ctx, uint32_t max);
 } hal_host_net_transport_t;
 
 extern const hal_host_net_transport_t hal_host_net_lcm;

@@ -135,18 +135,25 @@ int udpm_rx_fd(const udpm_rx_t *r)
     return r != NULL ? r->fd : -1;
 }
 
-/* Up to UDPM_RX_BATCH datagrams queued on the socket, without waiting: how many, 0 when none
-   is there, -1 on an error of the socket. Their lengths into len[]. */
-static int take_batch(udpm_rx_t *r, size_t *len)
+size_t udpm_rx_rcvbuf(const udpm_rx_t *r)
+{
+    int v = 0;
+    socklen_t l = sizeof v;
+    return r != NULL && getsockopt(r->fd, SOL_SOCKET, SO_RCVBUF, &v, &l) == 0 && v > 0 ? (size_t)v : 0u;
+}
+
+/* Up to `want` (<= UDPM_RX_BATCH) datagrams queued on the socket, without waiting: how many, 0
+   when none is there, -1 on an error of the socket. Their lengths into len[]. */
+static int take_batch(udpm_rx_t *r, size_t *len, uint32_t want)
 {
 #if defined(__linux__)
-    const int got = recvmmsg(r->fd, r->msg, UDPM_RX_BATCH, MSG_DONTWAIT, NULL);
+    const int got = recvmmsg(r->fd, r->msg, want, MSG_DONTWAIT, NULL);
     for (int i = 0; i < got; i++)
         len[i] = r->msg[i].msg_len;
 #else
     int got = 0;
     ssize_t n;
-    while (got < (int)UDPM_RX_BATCH && (n = recv(r->fd, r->buf[got], UDPM_RX_DATAGRAM_MAX, MSG_DONTWAIT)) >= 0)
+    while (got < (int)want && (n = recv(r->fd, r->buf[got], UDPM_RX_DATAGRAM_MAX, MSG_DONTWAIT)) >= 0)
         len[got++] = (size_t)n;
     if (got == 0)
         got = -1; /* errno is recv's */
@@ -156,25 +163,32 @@ static int take_batch(udpm_rx_t *r, size_t *len)
     return got;
 }
 
-int udpm_rx_drain(udpm_rx_t *r, udpm_rx_fn fn, void *user)
+int udpm_rx_take(udpm_rx_t *r, uint32_t max, udpm_rx_fn fn, void *user)
 {
     if (r == NULL || fn == NULL)
         return -EINVAL;
-    int total = 0;
+    uint32_t total = 0;
     size_t len[UDPM_RX_BATCH];
-    for (;;) {
-        const int got = take_batch(r, len);
+    while (total < max) {
+        const uint32_t want = max - total < UDPM_RX_BATCH ? max - total : UDPM_RX_BATCH;
+        const int got = take_batch(r, len, want);
         if (got < 0)
             return -EIO;
         for (int i = 0; i < got; i++) {
             const udpm_datagram_t g = udpm_parse(r->buf[i], len[i]);
             fn(user, &g);
         }
-        total += got;
-        /* A full batch: more may wait. Bounded, so that the caller's timers still run. */
-        if (got < (int)UDPM_RX_BATCH || total >= 8 * (int)UDPM_RX_BATCH)
-            return total;
+        total += (uint32_t)got;
+        if ((uint32_t)got < want) /* nothing more waits */
+            break;
     }
+    return (int)total;
+}
+
+int udpm_rx_drain(udpm_rx_t *r, udpm_rx_fn fn, void *user)
+{
+    /* Bounded, so that the caller's timers still run. */
+    return udpm_rx_take(r, 8u * UDPM_RX_BATCH, fn, user);
 }
 
 int udpm_rx_handle(udpm_rx_t *r, int timeout_ms, udpm_rx_fn fn, void *user)

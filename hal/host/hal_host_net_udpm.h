@@ -56,10 +56,16 @@ typedef void (*udpm_rx_fn)(void *user, const udpm_datagram_t *dg);
 int udpm_rx_open(uint32_t group, uint32_t port, int rcvbuf, udpm_rx_t **out);
 void udpm_rx_close(udpm_rx_t *r);
 int udpm_rx_fd(const udpm_rx_t *r);
+/* The socket's kernel receive buffer in bytes, as the kernel accounts it (Linux doubles what
+   SO_RCVBUF asked, within net.core.rmem_max); 0 when unknown. */
+size_t udpm_rx_rcvbuf(const udpm_rx_t *r);
 
-/* Takes what is queued on the socket without waiting, a batch at a time (at most 8 batches),
-   handing each datagram to fn: the number of datagrams (0 when none was there), or -EIO. For a
-   caller that polled the descriptor itself (udpm_rx_fd). */
+/* Takes what is queued on the socket without waiting, a batch at a time, up to max datagrams,
+   handing each to fn: the number taken (0 when none was there), or -EIO. What is left waits in
+   the kernel's buffer. For a caller that polled the descriptor itself (udpm_rx_fd). */
+int udpm_rx_take(udpm_rx_t *r, uint32_t max, udpm_rx_fn fn, void *user);
+
+/* udpm_rx_take of at most 8 batches. */
 int udpm_rx_drain(udpm_rx_t *r, udpm_rx_fn fn, void *user);
 
 /* Waits up to timeout_ms for the socket, then udpm_rx_drain. */

@@ -2,7 +2,9 @@
  * wire format parsed without reading past a datagram, whatever its bytes; and over a real
  * multicast socket, what LCM publishes arrives whole and in order however many wait at once
  * (the batches), while crafted datagrams on the same port (a long message's fragments on a
- * subscribed channel, another magic, a channel without its NUL) are counted, never queued. */
+ * subscribed channel, another magic, a channel without its NUL) are counted, never queued.
+ * Where the socket's kernel buffer holds the queue's bytes, no receiver thread runs: the
+ * waiting thread takes what arrives (inline); else the thread does, and both deliver alike. */
 #define _GNU_SOURCE 1
 #include <setjmp.h>
 #include <stdarg.h>
@@ -13,6 +15,7 @@
 #include <string.h>
 #include <arpa/inet.h>
 #include <netinet/in.h>
+#include <dirent.h>
 #include <sys/socket.h>
 #include <unistd.h>
 #include <cmocka.h>
@@ -169,6 +172,70 @@ static void test_many_at_once_in_order(void **state)
     hal_host_net_close(rx);
 }
 
+/* Whether this process has a thread named "net-rx" (hal_host_net_rx.c's receiver). */
+static int receiver_thread_runs(void)
+{
+    DIR *d = opendir("/proc/self/task");
+    assert_non_null(d);
+    int found = 0;
+    for (struct dirent *e; !found && (e = readdir(d)) != NULL;) {
+        char path[300], name[32] = "";
+        snprintf(path, sizeof path, "/proc/self/task/%s/comm", e->d_name);
+        FILE *f = fopen(path, "r");
+        if (f == NULL)
+            continue;
+        found = fgets(name, sizeof name, f) != NULL && strncmp(name, "net-rx", 6) == 0;
+        fclose(f);
+    }
+    closedir(d);
+    return found;
+}
+
+/* A queue of queue_bytes: 4 messages of the MTU and 20 small ones published at once arrive
+   whole and in order (within the kernel's default buffer: the inline case's queue). */
+static void mixed_in_order(size_t queue_bytes, int want_thread)
+{
+    hal_host_net_t *rx = NULL, *tx = NULL;
+    assert_int_equal(hal_host_net_open(url, 256, queue_bytes, &rx), 0);
+    assert_false(receiver_thread_runs());
+    assert_int_equal(hal_host_net_subscribe(rx, CH), 0);
+    for (int i = 0; i < 100 && receiver_thread_runs() != want_thread; i++) /* it names itself */
+        usleep(10000);
+    assert_int_equal(receiver_thread_runs(), want_thread);
+    assert_int_equal(hal_host_net_open(url, 4, 0, &tx), 0);
+    static uint8_t m[HAL_NET_MTU_BYTES];
+    enum { N = 24 };
+    for (uint32_t i = 0; i < N; i++) {
+        memset(m, (int)i, sizeof m);
+        assert_int_equal(hal_host_net_publish(tx, CH, m, i % 6 == 0 ? sizeof m : 100u + i), 0);
+    }
+    uint8_t seen[N];
+    assert_int_equal(receive_all(rx, N, seen), N);
+    for (uint32_t i = 0; i < N; i++)
+        assert_int_equal(seen[i], i);
+    hal_net_stats_t s;
+    hal_host_net_get_stats(rx, &s);
+    assert_int_equal(s.rx_messages, N);
+    assert_int_equal(s.rx_dropped_invalid + s.rx_dropped_full, 0);
+    hal_host_net_close(tx);
+    hal_host_net_close(rx);
+    assert_false(receiver_thread_runs());
+}
+
+/* A queue smaller than the socket's kernel buffer (every Linux default holds 128 KB): inline. */
+static void test_inline_when_the_kernel_buffers_the_queue(void **state)
+{
+    (void)state;
+    mixed_in_order((size_t)128u << 10, 0);
+}
+
+/* A queue larger than any buffer the kernel grants here (32 MB): the receiver thread. */
+static void test_a_thread_when_the_queue_is_larger(void **state)
+{
+    (void)state;
+    mixed_in_order((size_t)64u << 20, 1);
+}
+
 static void send_raw(int fd, const void *d, size_t len)
 {
     struct sockaddr_in a = {.sin_family = AF_INET, .sin_port = htons((uint16_t)port)};
@@ -227,6 +294,8 @@ int main(void)
         cmocka_unit_test(test_open_refused),
         cmocka_unit_test(test_many_at_once_in_order),
         cmocka_unit_test(test_crafted_datagrams_counted),
+        cmocka_unit_test(test_inline_when_the_kernel_buffers_the_queue),
+        cmocka_unit_test(test_a_thread_when_the_queue_is_larger),
     };
     return cmocka_run_group_tests(tests, NULL, NULL);
 }
