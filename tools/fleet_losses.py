@@ -22,11 +22,12 @@ a start that died are written nowhere: they are missing from the totals, and sai
 ZeroMQ's queues (a sender's, the proxy's) drop past their high-water marks without a word, so
 what is counted there is each overflow, one lost datagram or more: the queue drops are then a
 lower bound. A fleet through a ZeroMQ proxy adds the proxy's overflows, from the last line of
-the run's zmq_proxy.log (host_sim zmq-proxy's final counts). A fleet over LCM adds the datagrams
-the kernel dropped because a socket's receive buffer was full (UdpRcvbufErrors of
-/proc/net/snmp over the run, written by tools/fleet to kernel_udp_drops.txt): where a robot
-receives inline, with no receiver thread (hal/host/hal_host_net_rx.c), that buffer is its queue.
-The count is the whole machine's, so another program's UDP drops during the run count too.
+the run's zmq_proxy.log (host_sim zmq-proxy's final counts).
+Besides: the UDP datagrams the kernel dropped for a full receive buffer while an LCM fleet ran
+(UdpRcvbufErrors of /proc/net/snmp, written by tools/fleet to kernel_udp_drops.txt). Where a
+robot receives inline, with no receiver thread (hal/host/hal_host_net_rx.c), that buffer is its
+queue. The count is the whole machine's, any program's, so it is said (and in run.json) but not
+part of the lossless verdict: another program's drop must not fail a --strict fleet.
 """
 import csv
 import os
@@ -157,7 +158,7 @@ def fleet_losses(run_dir, robots):
                 known[k] = True
     lost, g = proxy_drops(run_dir)
     gaps += g
-    totals["queue_drops"] += (lost or 0) + kernel_drops(run_dir)
+    totals["queue_drops"] += lost or 0
     return {k: (totals[k] if known[k] else None) for k in KEYS}, gaps
 
 
@@ -190,17 +191,23 @@ def verdict(totals, gaps):
 
 def record(info, run_dir, robots):
     """The fleet's totals into info (run.json: None for a total no robot wrote; losses_uncounted:
-    why a total is only a lower bound). (totals, gaps)."""
+    why a total is only a lower bound; kernel_udp_drops: the machine's during the run). (totals,
+    gaps), the kernel's count in totals too, under a key of its own (not in KEYS)."""
     totals, gaps = fleet_losses(run_dir, range(robots))
     info.update(totals)
     info["losses_uncounted"] = gaps
+    totals["kernel_udp_drops"] = info["kernel_udp_drops"] = kernel_drops(run_dir)
     return totals, gaps
 
 
 def said(totals, gaps):
-    """The totals and, unless the run was lossless, what that means for the models."""
+    """The totals and, unless the run was lossless, what that means for the models; the kernel's
+    drops on this machine when there were any."""
     text = totals_text(totals, gaps)
-    return text if lossless(totals, gaps) else f"{text}: {verdict(totals, gaps)}"
+    text = text if lossless(totals, gaps) else f"{text}: {verdict(totals, gaps)}"
+    k = totals.get("kernel_udp_drops") or 0
+    return text + (f"; the kernel dropped {k:,} UDP datagrams on this machine for full receive buffers "
+                   "during the run (any program's; asked for again if they were the fleet's)" if k else "")
 
 
 def strict_exit(strict, totals, gaps):

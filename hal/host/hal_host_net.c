@@ -84,7 +84,7 @@ int hal_host_net_open(const char *url, uint32_t queue_depth, size_t queue_bytes,
     n->stats.queue_depth = queue_depth;
     n->stats.queue_bytes_cap = queue_bytes;
     n->t0_us = hal_host_net_mono_us();
-    n->inline_fd = -1;
+    n->inline_fd = n->inline_next = -1;
     pthread_condattr_t ca;
     pthread_condattr_init(&ca);
     pthread_condattr_setclock(&ca, CLOCK_MONOTONIC);
@@ -335,5 +335,6 @@ void hal_host_net_get_stats(const hal_host_net_t *n, hal_net_stats_t *stats)
     *stats = m->stats;
     stats->queue_fill = m->fill;
     stats->queue_bytes = m->used;
+    stats->rx_inline = m->rx_started && m->inline_fd >= 0;
     pthread_mutex_unlock(&m->mu);
 }

@@ -75,6 +75,8 @@ struct hal_host_net {
     int rx_started;        /* receiving: the receiver thread, or inline (inline_fd) */
     int rx_thread_on;
     int inline_fd;         /* >= 0: no receiver thread; wait and receive take from this */
+    int inline_next;       /* the transport's inline descriptor, taken over from the receiver
+                              thread at the first wait or receive; -1: none */
     atomic_int rx_stop;
     atomic_int rx_failed;  /* the transport's handle failed: it is gone */
 };

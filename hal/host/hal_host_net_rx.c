@@ -23,9 +23,11 @@
  *
  * Inline receiving, where the transport offers it (hal_host_net_transport.h inline_fd: LCM's
  * udpm:// socket when it is all that is received and its kernel buffer holds at least the
- * queue's bytes): no receiver thread. The socket's kernel buffer holds what arrives while the
- * process computes, and the thread that waits for messages (the GP core) polls the socket and
- * takes what is there itself, as does a receive that finds the queue empty. Each datagram then
+ * queue's bytes): no receiver thread from the consumer's first wait or receive on (the thread
+ * drains the socket until then, while the process starts). The socket's kernel buffer holds
+ * what arrives while the process computes, and the thread that waits for messages (the GP
+ * core) polls the socket and takes what is there itself, as does a receive that finds the queue
+ * empty. Each datagram then
  * wakes one thread instead of two: with 64 robots on 2 cores, 37 % fewer context switches and
  * 5 % shorter rounds (docs/scaling.md). The kernel's buffer overflowing is counted by the
  * kernel alone (UdpRcvbufErrors in /proc/net/snmp, which tools/fleet reports), not here.
@@ -393,11 +395,27 @@ static void wait_inline(hal_host_net_t *n, int timeout_ms)
     }
 }
 
+/* The consumer's thread: whether it receives inline, taking over from the receiver thread at
+   its first call (the thread stopped and joined: at most one poll of 50 ms). Until then the
+   thread drains the socket: a process still starting (seconds, with 256 robots on 2 cores)
+   would otherwise leave everything to the kernel's buffer. */
+static int receiving_inline(hal_host_net_t *n)
+{
+    if (n->inline_next >= 0) {
+        hal_host_net_rx_stop(n);
+        pthread_mutex_lock(&n->mu); /* get_stats reads it from any thread */
+        n->inline_fd = n->inline_next;
+        pthread_mutex_unlock(&n->mu);
+        n->inline_next = -1;
+    }
+    return n->inline_fd >= 0;
+}
+
 int hal_host_net_wait(hal_host_net_t *n, uint64_t stamp_us, int timeout_ms)
 {
     if (n == NULL || timeout_ms < 0)
         return -EINVAL;
-    if (n->inline_fd >= 0 && n->rx_started) {
+    if (receiving_inline(n)) {
         pthread_mutex_lock(&n->mu);
         n->pump_stamp_us = stamp_us;
         pthread_mutex_unlock(&n->mu);
@@ -417,7 +435,7 @@ int hal_host_net_receive(hal_host_net_t *n, uint64_t stamp_us, hal_net_rx_info_t
 {
     if (n == NULL || info == NULL || (buf == NULL && cap > 0))
         return -EINVAL;
-    if (n->inline_fd >= 0 && n->rx_started && hal_host_net_queued(n) == 0)
+    if (receiving_inline(n) && hal_host_net_queued(n) == 0)
         take_inline(n);
     pthread_mutex_lock(&n->mu);
     n->pump_stamp_us = stamp_us;
@@ -461,12 +479,10 @@ uint32_t hal_host_net_queued(const hal_host_net_t *n)
 
 int hal_host_net_rx_start(hal_host_net_t *n)
 {
-    n->inline_fd = n->tp->inline_fd != NULL ? n->tp->inline_fd(n->tp_ctx, n->ring_cap) : -1;
-    if (n->inline_fd < 0) {
-        if (pthread_create(&n->rx_thread, NULL, rx_main, n) != 0)
-            return -EIO;
-        n->rx_thread_on = 1;
-    }
+    n->inline_next = n->tp->inline_fd != NULL ? n->tp->inline_fd(n->tp_ctx, n->ring_cap) : -1;
+    if (pthread_create(&n->rx_thread, NULL, rx_main, n) != 0)
+        return -EIO;
+    n->rx_thread_on = 1;
     n->rx_started = 1;
     return 0;
 }

@@ -56,8 +56,9 @@ typedef struct hal_host_net_transport {
     int (*group)(void *ctx, const char *channel, int by_receiver);
     /* Optional (NULL: never). A descriptor that is readable when datagrams wait, when
        everything this transport receives arrives through it and its kernel buffer holds at
-       least queue_bytes (the queue's), else -1. Then no receiver thread runs: the thread that
-       waits for messages polls it and calls `take` (asked once, at the first subscription). */
+       least queue_bytes (the queue's), else -1. Asked once, at the first subscription; from
+       the first wait or receive on no receiver thread runs: the thread that waits for messages
+       polls it and calls `take`. */
     int (*inline_fd)(void *ctx, size_t queue_bytes);
     /* With inline_fd: delivers up to max datagrams of what waits on it now, without blocking;
        the rest stays in the kernel's buffer. >= 0, or < 0 when the transport is gone. */

@@ -66,9 +66,12 @@ void run_summary_fleet(FILE *f, const run_opts_t *o, const sim_image_result_t *r
             (unsigned long long)res->net.rx_dropped_full, (unsigned long long)res->net.rx_dropped_small,
             (unsigned long long)(res->net.rx_dropped_malformed + res->net.rx_dropped_invalid),
             (unsigned long long)res->pse.send_failures, (unsigned long long)res->net.tx_overflows);
-    fprintf(f, "network queue: a ring of %llu B for %u messages at most; high-water mark %llu B, %u messages\n",
+    fprintf(f, "network queue: a ring of %llu B for %u messages at most; high-water mark %llu B, %u messages; "
+               "%s\n",
             (unsigned long long)res->net.queue_bytes_cap, (unsigned)res->net.queue_depth,
-            (unsigned long long)res->net.queue_bytes_max, (unsigned)res->net.queue_fill_max);
+            (unsigned long long)res->net.queue_bytes_max, (unsigned)res->net.queue_fill_max,
+            res->net.rx_inline ? "received inline (no receiver thread: the socket's kernel buffer holds what waits)"
+                               : "filled by a receiver thread");
     fprintf(f, "screen: %llu neighbour states left out (not finite, or beyond %g x ||own state||)\n",
             (unsigned long long)res->ai_status.states_excluded, (double)o->d.screen_radius);
     fprintf(f, "duals: %s rule; %llu neighbours back after %u or more missed rounds (rejoined)",

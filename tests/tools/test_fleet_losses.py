@@ -50,6 +50,29 @@ def lossless_fleet_one_line():
 
 
 @test
+def kernel_drops_said_apart_from_the_verdict():
+    """The machine's kernel receive-buffer drops over the run (kernel_udp_drops.txt, tools/fleet)
+    are said and recorded, but a lossless fleet stays lossless: the count is any program's."""
+    sys.path.insert(0, os.path.join(ROOT, "tools"))
+    import fleet_losses
+    with tempfile.TemporaryDirectory() as d:
+        robot(d, 0, 0, 0, 0)
+        robot(d, 1, 0, 0, 0)
+        info = {}
+        totals, gaps = fleet_losses.record(info, d, 2)
+        check(info["kernel_udp_drops"] == 0 and fleet_losses.said(totals, gaps).endswith("dropped by full queues"),
+              repr(info))
+        with open(os.path.join(d, "kernel_udp_drops.txt"), "w") as f:
+            f.write("1863 1866\n")
+        totals, gaps = fleet_losses.record(info, d, 2)
+        text = fleet_losses.said(totals, gaps)
+        check(info["kernel_udp_drops"] == 3 and fleet_losses.lossless(totals, gaps), repr(info))
+        check("full queues; the kernel dropped 3 UDP datagrams on this machine" in text, text)
+        check(fleet_losses.strict_exit(True, totals, gaps) == 0, "--strict failed on the machine's drops")
+        check(fleet_losses.kernel_udp_drops() is None or fleet_losses.kernel_udp_drops() >= 0, "snmp")
+
+
+@test
 def lossy_fleet_summed_and_strict_exits_3():
     with tempfile.TemporaryDirectory() as d:
         robot(d, 0, 2, 3, 0)

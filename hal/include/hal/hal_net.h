@@ -84,6 +84,8 @@ typedef struct hal_net_stats {
     uint64_t queue_bytes_max;   /* high-water mark of queue_bytes since start */
     uint64_t queue_bytes_cap;   /* the ring's size */
     uint32_t queue_fill_max;    /* high-water mark of queue_fill since start (the host) */
+    uint32_t rx_inline;         /* the host: 1 when no receiver thread fills the queue, the
+                                   socket's kernel buffer holding what waits (0 elsewhere) */
 } hal_net_stats_t;
 
 typedef struct hal_net_ops {
