@@ -134,6 +134,15 @@ def kernel_udp_drops(path="/proc/net/snmp"):
         return None
 
 
+def note_kernel_drops(run_dir, before):
+    """kernel_udp_drops.txt, "BEFORE AFTER", when both counts are known (before: kernel_udp_drops()
+    at the launch, None for a fleet not over LCM)."""
+    after = kernel_udp_drops()
+    if before is not None and after is not None:
+        with open(os.path.join(run_dir, "kernel_udp_drops.txt"), "w", encoding="ascii") as f:
+            f.write(f"{before} {after}\n")
+
+
 def kernel_drops(run_dir):
     """The run's kernel receive-buffer drops (kernel_udp_drops.txt: "BEFORE AFTER"), 0 when the
     launcher did not count them."""
