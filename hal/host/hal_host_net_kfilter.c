@@ -226,8 +226,9 @@ int hal_host_net_kfilter_senders(hal_host_net_kfilter_t *k, const char *channel,
 
 void hal_host_net_kfilter_close(hal_host_net_kfilter_t *k)
 {
-    if (k != NULL && k->map_fd >= 0)
+    if (k == NULL)
+        return;
+    if (k->map_fd >= 0)
         close(k->map_fd);
-    if (k != NULL)
-        k->map_fd = -1;
+    k->map_fd = -1;
 }

@@ -279,9 +279,7 @@ void hal_host_net_on_datagram(hal_host_net_t *n, const char *channel, const void
         pthread_mutex_unlock(&n->mu);
         return;
     }
-    uint32_t i = 0;
-    while (i < n->n_subs && strcmp(n->sub_channel[i], channel) != 0)
-        i++;
+    const uint32_t i = sub_index(n, channel);
     if (i == n->n_subs) {
         pthread_mutex_unlock(&n->mu);
         return;
@@ -342,30 +340,21 @@ static void wait_queued(hal_host_net_t *n, int timeout_ms)
     }
 }
 
-/* mu held: how many datagrams of the MTU the queue has room for now (the message cap too). */
-static uint32_t room_for_mtus(const hal_host_net_t *n)
-{
-    const size_t e = HAL_HOST_NET_ENTRY_BYTES(HAL_NET_MTU_BYTES);
-    size_t fit;
-    if (n->fill == 0)
-        fit = n->ring_cap / e;
-    else if (n->tail > n->head) /* room at the end, then before head */
-        fit = (n->ring_cap - n->tail) / e + n->head / e;
-    else
-        fit = (n->head - n->tail) / e;
-    const size_t msgs = n->depth - n->fill;
-    return (uint32_t)(fit < msgs ? fit : msgs);
-}
-
-/* Inline receiving (no receiver thread): what waits on the transport's descriptor, taken now,
-   as much as the queue surely holds (the kernel's buffer keeps the rest: nothing is dropped
-   for a queue that is only full until the GP core reads it), at most 64 at a time. */
+/* Inline receiving (no receiver thread): what waits on the transport's descriptor, taken into
+   an empty queue, as much as it surely holds (MTU-sized entries, the message cap; at most 64 at
+   a time). The kernel's buffer keeps the rest: nothing is dropped for a queue that is only full
+   until the GP core reads it. Its callers take only when the queue is empty (wait_inline
+   returns as soon as it holds anything), so the ring's free space is its size. */
 static void take_inline(hal_host_net_t *n)
 {
     pthread_mutex_lock(&n->mu);
-    const uint32_t room = room_for_mtus(n);
+    const int empty = n->fill == 0;
     pthread_mutex_unlock(&n->mu);
-    if (room > 0 && n->tp->take(n->tp_ctx, room < 64u ? room : 64u) < 0)
+    if (!empty)
+        return;
+    const size_t fit = n->ring_cap / HAL_HOST_NET_ENTRY_BYTES(HAL_NET_MTU_BYTES);
+    const size_t room = fit < n->depth ? fit : n->depth;
+    if (room > 0 && n->tp->take(n->tp_ctx, room < 64u ? (uint32_t)room : 64u) < 0)
         atomic_store(&n->rx_failed, 1);
 }
 
@@ -435,8 +424,8 @@ int hal_host_net_receive(hal_host_net_t *n, uint64_t stamp_us, hal_net_rx_info_t
 {
     if (n == NULL || info == NULL || (buf == NULL && cap > 0))
         return -EINVAL;
-    if (receiving_inline(n) && hal_host_net_queued(n) == 0)
-        take_inline(n);
+    if (receiving_inline(n))
+        take_inline(n); /* into an empty queue only */
     pthread_mutex_lock(&n->mu);
     n->pump_stamp_us = stamp_us;
     if (n->hold.fill > 0)
