@@ -179,7 +179,7 @@ TEST_INC := $(HOST_INC) -Ihal/stdc -Itests/support -Itests
 
 # No -lOSMesa: host_sim/maps/sim_render.c dlopens it at the first render (dlopen is in libc
 # from glibc 2.34; an older glibc would need -ldl here).
-SYS_LIBS := -lode -llcm -lzmq -lsodium -lpng -lm -lpthread
+SYS_LIBS := -lode -llcm -lzmq -lsodium -lcrypto -lpng -lm -lpthread
 WRAP     := $(foreach f,malloc calloc realloc free aligned_alloc posix_memalign,-Wl,--wrap=$(f))
 
 # ---- sources ----------------------------------------------------------------------------

@@ -33,6 +33,8 @@ deps=(
     "liblcm-bin           /usr/bin/lcm-gen"
     "libzmq3-dev          /usr/include/zmq.h"
     "libsodium-dev        /usr/include/sodium.h"
+    # the keyed fleet's long datagrams: OpenSSL's Poly1305 (hal_host_auth.c)
+    "libssl-dev           /usr/include/openssl/evp.h"
     "libeigen3-dev        /usr/include/eigen3/Eigen/Core"
     "libosmesa6-dev       /usr/include/GL/osmesa.h"
     "libcmocka-dev        /usr/include/cmocka.h"

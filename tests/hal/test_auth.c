@@ -11,6 +11,8 @@
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
+#include <pthread.h>
+#include <sodium.h>
 #include <sys/stat.h>
 #include <unistd.h>
 #include <cmocka.h>
@@ -78,6 +80,74 @@ static void test_tag_verdicts(void **st)
     hal_host_auth_seal(&a, "x", empty, 0);
     assert_int_equal(hal_host_auth_open(&a, "x", empty, sizeof empty, &len), HAL_HOST_AUTH_OK);
     assert_int_equal(len, 0);
+}
+
+/* The wire format from its definition (hal_host_auth.h), with libsodium alone: the tag of a
+ * sealed message of len bytes, whichever library computed it. */
+static int tag_is_the_definitions(const hal_host_auth_t *a, const char *channel, const uint8_t *wire, size_t len)
+{
+    uint8_t ck[crypto_aead_xchacha20poly1305_ietf_KEYBYTES], tag[HAL_HOST_AUTH_TAG_BYTES], none[1] = {0};
+    unsigned long long tag_len = 0;
+    crypto_generichash(ck, sizeof ck, (const unsigned char *)channel, strlen(channel) + 1u, a->key, sizeof a->key);
+    const uint8_t *nonce = wire + len + HAL_HOST_AUTH_RUN_ID_BYTES;
+    crypto_aead_xchacha20poly1305_ietf_encrypt_detached(none, tag, &tag_len, none, 0, wire,
+                                                        len + HAL_HOST_AUTH_RUN_ID_BYTES, NULL, nonce, ck);
+    return memcmp(tag, nonce + HAL_HOST_AUTH_NONCE_BYTES, sizeof tag) == 0;
+}
+
+#define LONG_MSG 61376u /* a full state chunk */
+
+typedef struct {
+    const hal_host_auth_t *a;
+    uint8_t *wire;
+    size_t len;
+    int ok;
+} open_job_t;
+
+static void *open_elsewhere(void *arg)
+{
+    open_job_t *j = arg;
+    size_t len = 0;
+    j->ok = hal_host_auth_open(j->a, "fleetsim/3/state", j->wire, j->len + HAL_HOST_AUTH_TRAILER_BYTES, &len) ==
+                HAL_HOST_AUTH_OK &&
+            len == j->len;
+    return NULL;
+}
+
+/* Short datagrams' tags come from libsodium, long ones' from OpenSSL's Poly1305: every length
+ * on both sides of the switch gives the definition's tag, is opened, and fails when flipped;
+ * another thread (its own OpenSSL context) opens what this one sealed. */
+static void test_long_and_short_tags_alike(void **st)
+{
+    (void)st;
+    const hal_host_auth_t a = member(5, 0x0123456789abcdefull);
+    static uint8_t wire[LONG_MSG + HAL_HOST_AUTH_TRAILER_BYTES];
+    for (size_t i = 0; i < LONG_MSG; i++)
+        wire[i] = (uint8_t)(i * 2654435761u >> 13);
+    const size_t lens[] = {0, 1, 15, 16, 17, 1000, 1999, 2000, 2031, 2032, 2033, 2040, 2047, 2048, 2049,
+                           4096, 8191, 30001, LONG_MSG - 1u, LONG_MSG};
+    for (size_t k = 0; k < sizeof lens / sizeof lens[0]; k++) {
+        const size_t n = lens[k];
+        hal_host_auth_seal(&a, "fleetsim/3/state", wire, n);
+        assert_true(tag_is_the_definitions(&a, "fleetsim/3/state", wire, n));
+        size_t len = 0;
+        assert_int_equal(hal_host_auth_open(&a, "fleetsim/3/state", wire, n + HAL_HOST_AUTH_TRAILER_BYTES, &len),
+                         HAL_HOST_AUTH_OK);
+        assert_int_equal(len, n);
+        for (size_t at = 0; at < n + HAL_HOST_AUTH_TRAILER_BYTES; at += 1 + n / 7u) {
+            wire[at] ^= 0x40u;
+            assert_int_not_equal(
+                hal_host_auth_open(&a, "fleetsim/3/state", wire, n + HAL_HOST_AUTH_TRAILER_BYTES, &len),
+                HAL_HOST_AUTH_OK);
+            wire[at] ^= 0x40u;
+        }
+    }
+    hal_host_auth_seal(&a, "fleetsim/3/state", wire, LONG_MSG);
+    open_job_t j = {&a, wire, LONG_MSG, 0};
+    pthread_t t;
+    assert_int_equal(pthread_create(&t, NULL, open_elsewhere, &j), 0);
+    assert_int_equal(pthread_join(t, NULL), 0);
+    assert_true(j.ok);
 }
 
 static void write_file(const char *path, const char *text, mode_t mode)
@@ -240,6 +310,7 @@ int main(void)
 {
     const struct CMUnitTest tests[] = {
         cmocka_unit_test(test_tag_verdicts),
+        cmocka_unit_test(test_long_and_short_tags_alike),
         cmocka_unit_test(test_key_files),
         cmocka_unit_test(test_only_members_are_heard),
         cmocka_unit_test(test_own_datagrams_dropped_before_the_tag),
