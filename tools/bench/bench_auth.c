@@ -1,7 +1,9 @@
-/* Cost of a keyed fleet's datagram MAC (hal/host/hal_host_auth.h, XChaCha20-Poly1305
- * from libsodium) on this CPU: sealing and checking full-size state chunks and 20-byte
- * RoundCompletes, and what that makes per DiNNO round for one robot of a 7-robot fleet of the
- * build's preset (its own state sealed once, six neighbours' states checked; fp32 and int8).
+/* Cost of a keyed fleet's datagram MAC (hal/host/hal_host_auth.h, XChaCha20-Poly1305:
+ * libsodium, OpenSSL's Poly1305 for long datagrams) on this CPU: sealing and checking full-size
+ * state chunks and 20-byte RoundCompletes, and what that makes per DiNNO round for one robot of
+ * a 7-robot fleet of the build's preset (its own state sealed once, six neighbours' states
+ * checked; fp32 and int8). And the other check every received state goes through, its CRC-32
+ * (firmware/common/crc32.h), over one fp32 state in the cache.
  *
  *   bench_auth [--mb N] [--help]      (N: MB of chunks per measurement, 1..4096, default 256)
  * Prints `BENCH <name> <value> <unit>` lines. The fleet's round time keyed against unkeyed, in
@@ -13,6 +15,7 @@
 #include <time.h>
 
 #include "ai/dinno_codec.h"
+#include "common/crc32.h"
 #include "gp/gp_fleet.h"
 #include "gp/gp_pse.h"
 #include "hal/hal.h"
@@ -53,6 +56,25 @@ static double per_datagram(const hal_host_auth_t *a, size_t len, uint64_t count,
     return dt / (double)count;
 }
 
+/* GB/s of CRC-32 over `bytes` of a state, `reps` times (the same bytes: in the cache, as a
+   state just reassembled is). */
+static double crc_gb_per_s(uint32_t bytes, uint64_t reps)
+{
+    static uint8_t state[GP_PSE_MAX_STATE_BYTES];
+    for (size_t i = 0; i < bytes; i++)
+        state[i] = (uint8_t)(i * 29u + 7u);
+    uint32_t sum = 0;
+    const double t0 = now_s();
+    for (uint64_t i = 0; i < reps; i++) {
+        state[i % bytes] ^= 1u; /* not the same input twice */
+        sum ^= crc32_ieee(state, bytes);
+    }
+    const double dt = now_s() - t0;
+    if (sum == 0x5a5a5a5au) /* keeps the loop; a value the XOR of CRCs hardly takes */
+        fprintf(stderr, "bench_auth: (crc sum %08x)\n", (unsigned)sum);
+    return (double)bytes * (double)reps / dt / 1e9;
+}
+
 /* Seconds to seal (open = 0) or check one whole state of `bytes` in chunks of the fleet's size. */
 static double per_state(double chunk_s, double tail_s, uint32_t bytes)
 {
@@ -68,7 +90,8 @@ int main(int argc, char **argv)
             printf("usage: %s [--mb N]\n"
                    "  Seals and checks N MB of full-size state chunks (1..4096, default 256) and as many\n"
                    "  RoundComplete-sized datagrams with the keyed fleet's MAC, and prints the cost per MB,\n"
-                   "  per datagram and per DiNNO round of one robot among 7.\n",
+                   "  per datagram and per DiNNO round of one robot among 7; then CRC-32 over one fp32\n"
+                   "  state (as much again), the other check of every received state.\n",
                    argv[0]);
             return 0;
         }
@@ -116,6 +139,9 @@ int main(int argc, char **argv)
         printf("BENCH auth_us_per_round_%s_%s_7robots %.0f us (state %u B)\n", BNN_PRESET_NAME, dinno_codec_name(enc[e]), round * 1e6,
                (unsigned)sb);
     }
+    const uint32_t sb = gp_fleet_state_bytes(DINNO_CODEC_FP32);
+    printf("BENCH crc32_gb_per_s %.1f GB/s (a %u B fp32 state in the cache)\n",
+           crc_gb_per_s(sb, n * chunk / sb + 1u), (unsigned)sb);
     hal_host_auth_wipe(&a);
     return 0;
 }
