@@ -92,12 +92,16 @@ int udpm_rx_open(uint32_t group, uint32_t port, int rcvbuf, udpm_rx_t **out)
     struct ip_mreq m = {.imr_multiaddr.s_addr = htonl(group), .imr_interface.s_addr = htonl(INADDR_ANY)};
     r->fd = socket(AF_INET, SOCK_DGRAM | SOCK_CLOEXEC, 0);
     int ok = r->fd >= 0;
+    /* The buffer before the bind: once bound to the port the socket receives the group (Linux
+       delivers a group joined by any socket of the host to every socket on its port), and a
+       process descheduled between bind and SO_RCVBUF (256 starting on 2 cores) overflowed the
+       default 208 KB with the fleet's chunks: the kernel's receive-buffer drops of round 0. */
+    if (ok && rcvbuf > 0 && !(ok = setsockopt(r->fd, SOL_SOCKET, SO_RCVBUF, &rcvbuf, sizeof rcvbuf) == 0))
+        step = "SO_RCVBUF";
     if (ok && !(ok = setsockopt(r->fd, SOL_SOCKET, SO_REUSEADDR, &one, sizeof one) == 0))
         step = "SO_REUSEADDR";
     if (ok && !(ok = bind(r->fd, (struct sockaddr *)&a, sizeof a) == 0))
         step = "bind";
-    if (ok && rcvbuf > 0 && !(ok = setsockopt(r->fd, SOL_SOCKET, SO_RCVBUF, &rcvbuf, sizeof rcvbuf) == 0))
-        step = "SO_RCVBUF";
     if (ok && !(ok = setsockopt(r->fd, IPPROTO_IP, IP_ADD_MEMBERSHIP, &m, sizeof m) == 0))
         step = "IP_ADD_MEMBERSHIP";
     if (!ok) {
