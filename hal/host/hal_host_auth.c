@@ -143,7 +143,6 @@ static void channel_key(const uint8_t *key, const char *channel, uint8_t *out)
 static pthread_once_t bulk_once = PTHREAD_ONCE_INIT;
 static EVP_CIPHER *bulk_aead;   /* NULL: OpenSSL has none; libsodium does everything */
 static pthread_key_t bulk_key;  /* each thread's context, freed when the thread ends */
-static int bulk_key_made;
 
 static void bulk_ctx_free(void *ctx)
 {
@@ -152,8 +151,8 @@ static void bulk_ctx_free(void *ctx)
 
 static void bulk_start(void)
 {
-    bulk_key_made = pthread_key_create(&bulk_key, bulk_ctx_free) == 0;
-    if (bulk_key_made)
+    /* no key, no cipher: bulk_aead stays NULL and libsodium tags everything */
+    if (pthread_key_create(&bulk_key, bulk_ctx_free) == 0)
         bulk_aead = EVP_CIPHER_fetch(NULL, "ChaCha20-Poly1305", NULL);
 }
 
