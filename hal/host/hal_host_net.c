@@ -1,5 +1,5 @@
-/* hal_net on the host, over LCM or ZeroMQ (the transports: hal_host_net_transport.h; the URL
- * chooses). Subscriptions deliver into one bounded queue that the GP core polls: a byte ring
+/* hal_net on the host, over LCM, ZeroMQ or shared memory (the transports:
+ * hal_host_net_transport.h; the URL chooses). Subscriptions deliver into one bounded queue that the GP core polls: a byte ring
  * allocated once at open, so receiving never allocates in our code (the transports' own
  * buffers are their business).
  *
@@ -103,8 +103,11 @@ int hal_host_net_open(const char *url, uint32_t queue_depth, size_t queue_bytes,
         else
             fprintf(stderr, "hal_host_net: FLEETSIM_NET_DROP_EVERY='%s' ignored (a whole number >= 2)\n", drop);
     }
-    /* "zmq://..." is ZeroMQ over TCP; anything else an LCM URL ("" for the default). */
-    n->tp = strncmp(url, "zmq://", 6) == 0 ? &hal_host_net_zmq : &hal_host_net_lcm;
+    /* "zmq://..." is ZeroMQ over TCP, "shm://..." shared memory; anything else an LCM URL ("" for
+       the default). */
+    n->tp = strncmp(url, "zmq://", 6) == 0   ? &hal_host_net_zmq
+            : strncmp(url, "shm://", 6) == 0 ? &hal_host_net_shm
+                                             : &hal_host_net_lcm;
     const int rc = n->tp->open(n, url, &n->tp_ctx);
     if (rc != 0) {
         pthread_cond_destroy(&n->cv);
@@ -177,6 +180,8 @@ int hal_host_net_set_auth(hal_host_net_t *n, const hal_host_auth_t *auth)
         return -EINVAL;
     if (n->rx_started || n->keyed) /* before the first datagram can arrive, once */
         return -EBUSY;
+    if (n->tp->trusted_host) /* the segment's mode is the membership check (hal_host_net_shm.c) */
+        return 0;
     if (hal_host_auth_init() != 0)
         return -EIO;
     n->tx_wire = malloc(HAL_NET_MTU_BYTES + HAL_HOST_AUTH_TRAILER_BYTES);

@@ -33,7 +33,7 @@ typedef struct net_entry {
 _Static_assert(sizeof(net_entry_t) == HAL_HOST_NET_ENTRY_HEADER, "ring entry header");
 
 struct hal_host_net {
-    const hal_host_net_transport_t *tp; /* LCM or ZeroMQ (hal_host_net_transport.h) */
+    const hal_host_net_transport_t *tp; /* LCM, ZeroMQ or shm (hal_host_net_transport.h) */
     void *tp_ctx;
     /* The queue (under mu): a byte ring of ring_cap bytes (a multiple of 8). Entries from
        offset head (the oldest) to tail (where the next goes), possibly wrapped; head == tail

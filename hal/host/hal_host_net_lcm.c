@@ -725,4 +725,4 @@ static int lcm_take(void *ctx, uint32_t max)
 }
 
 const hal_host_net_transport_t hal_host_net_lcm = {"lcm",          lcm_open,    lcm_close, lcm_pub, lcm_sub,
-                                                   lcm_handle_for, lcm_senders, lcm_group, lcm_inline_fd, lcm_take};
+                                                   lcm_handle_for, lcm_senders, lcm_group, lcm_inline_fd, lcm_take, NULL, 0};

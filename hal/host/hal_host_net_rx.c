@@ -263,41 +263,44 @@ static void *rx_main(void *arg)
     return NULL;
 }
 
-/* A datagram from the transport: everything from the wire is checked before it is queued:
- * first who sent it (a keyed fleet's tag), then its shape (the bounds check of a typed
- * channel). A channel nobody subscribed to (a transport that filters by prefix) is ignored;
- * before any check, the node's own datagrams and those of senders it does not want
- * (hal_host_net_set_senders) are dropped on their sender field alone. */
-void hal_host_net_on_datagram(hal_host_net_t *n, const char *channel, const void *data, size_t len)
+void hal_host_net_on_lost(hal_host_net_t *n, uint32_t count)
 {
     pthread_mutex_lock(&n->mu);
-    n->stats.rx_arrived_bytes += len;
+    n->stats.rx_dropped_full += count;
+    pthread_mutex_unlock(&n->mu);
+}
+
+/* mu held (released around the tag check and held again): everything from the wire is checked
+ * before anyone sees it: first who sent it (a keyed fleet's tag), then its shape (the bounds
+ * check of a typed channel). A channel nobody subscribed to (a transport that filters by
+ * prefix) is ignored; before any check, the node's own datagrams and those of senders it does
+ * not want (hal_host_net_set_senders) are dropped on their sender field alone. Returns the
+ * subscription index of a datagram that passed (*len: without the trailer; *type: its
+ * channel's), else -1 (counted where it is a drop). */
+static int admit(hal_host_net_t *n, const char *channel, const void *data, size_t *len, hal_host_msg_type_t *type)
+{
+    n->stats.rx_arrived_bytes += *len;
     const size_t trailer = n->keyed ? HAL_HOST_AUTH_TRAILER_BYTES : 0u;
-    if (channel == NULL || !hal_net_channel_valid(channel) || len > HAL_NET_MTU_BYTES + trailer ||
-        (data == NULL && len > 0)) {
+    if (channel == NULL || !hal_net_channel_valid(channel) || *len > HAL_NET_MTU_BYTES + trailer ||
+        (data == NULL && *len > 0)) {
         n->stats.rx_dropped_invalid++;
-        pthread_mutex_unlock(&n->mu);
-        return;
+        return -1;
     }
     const uint32_t i = sub_index(n, channel);
-    if (i == n->n_subs) {
-        pthread_mutex_unlock(&n->mu);
-        return;
-    }
-    const hal_host_msg_type_t type = hal_host_net_channel_type(n, channel);
-    const int64_t sender = hal_host_net_typed_sender(type, data, len);
+    if (i == n->n_subs)
+        return -1;
+    *type = hal_host_net_channel_type(n, channel);
+    const int64_t sender = hal_host_net_typed_sender(*type, data, *len);
     if (n->has_self && sender == (int64_t)n->self) {
         n->stats.rx_own++;
-        pthread_mutex_unlock(&n->mu);
-        return;
+        return -1;
     }
     /* Not a wanted sender: gone before the tag check and the copy (sender -1: too short to
        name one, or the channel was made untyped; the checks below decide). */
     if (n->sub_filtered[i] && sender >= 0 &&
         (sender >= (int64_t)BOARD_MAX_FLEET || ((n->sub_wanted[i][sender >> 3] >> (sender & 7)) & 1u) == 0)) {
         n->stats.rx_unwanted++;
-        pthread_mutex_unlock(&n->mu);
-        return;
+        return -1;
     }
     const int keyed = n->keyed;
     pthread_mutex_unlock(&n->mu);
@@ -307,8 +310,8 @@ void hal_host_net_on_datagram(hal_host_net_t *n, const char *channel, const void
        preempted in one held it off for a time slice. */
     hal_host_auth_verdict_t v = HAL_HOST_AUTH_OK;
     if (keyed)
-        v = hal_host_auth_open(&n->auth, channel, data, len, &len);
-    const int well_formed = v == HAL_HOST_AUTH_OK && hal_host_msg_check(type, data, len) == HAL_HOST_MSG_OK;
+        v = hal_host_auth_open(&n->auth, channel, data, *len, len);
+    const int well_formed = v == HAL_HOST_AUTH_OK && hal_host_msg_check(*type, data, *len) == HAL_HOST_MSG_OK;
     pthread_mutex_lock(&n->mu);
     if (v == HAL_HOST_AUTH_OTHER_RUN)
         n->stats.rx_dropped_replay++;
@@ -316,10 +319,19 @@ void hal_host_net_on_datagram(hal_host_net_t *n, const char *channel, const void
         n->stats.rx_dropped_unauth++;
     else if (!well_formed) /* typed channels: checked before anything can decode them */
         n->stats.rx_dropped_malformed++;
-    else if (n->faults_on)
-        inject(n, type, channel, data, (uint32_t)len);
-    else
-        enqueue(n, channel, data, (uint32_t)len);
+    return v == HAL_HOST_AUTH_OK && well_formed ? (int)i : -1;
+}
+
+void hal_host_net_on_datagram(hal_host_net_t *n, const char *channel, const void *data, size_t len)
+{
+    pthread_mutex_lock(&n->mu);
+    hal_host_msg_type_t type;
+    if (admit(n, channel, data, &len, &type) >= 0) {
+        if (n->faults_on)
+            inject(n, type, channel, data, (uint32_t)len);
+        else
+            enqueue(n, channel, data, (uint32_t)len);
+    }
     unlock_and_wake(n);
 }
 
@@ -345,6 +357,15 @@ static void wait_queued(hal_host_net_t *n, int timeout_ms)
    a time). The kernel's buffer keeps the rest: nothing is dropped for a queue that is only full
    until the GP core reads it. Its callers take only when the queue is empty (wait_inline
    returns as soon as it holds anything), so the ring's free space is its size. */
+/* Direct receiving: the transport takes a datagram straight into the GP core's buffer
+   (take_into) when the queue is empty and no fault is injected (the injector holds datagrams
+   in the queue's way) nor tag checked (a keyed datagram's trailer needs room the caller's
+   buffer may not have). The queue then only holds the one a wait took to say something came. */
+static int direct(const hal_host_net_t *n)
+{
+    return n->tp->take_into != NULL && !n->faults_on && !n->keyed;
+}
+
 static void take_inline(hal_host_net_t *n)
 {
     pthread_mutex_lock(&n->mu);
@@ -353,7 +374,7 @@ static void take_inline(hal_host_net_t *n)
     if (!empty)
         return;
     const size_t fit = n->ring_cap / HAL_HOST_NET_ENTRY_BYTES(HAL_NET_MTU_BYTES);
-    const size_t room = fit < n->depth ? fit : n->depth;
+    const size_t room = direct(n) ? 1u : fit < n->depth ? fit : n->depth;
     if (room > 0 && n->tp->take(n->tp_ctx, room < 64u ? (uint32_t)room : 64u) < 0)
         atomic_store(&n->rx_failed, 1);
 }
@@ -364,6 +385,8 @@ static void take_inline(hal_host_net_t *n)
 static void wait_inline(hal_host_net_t *n, int timeout_ms)
 {
     const uint64_t end = hal_host_net_mono_us() + (uint64_t)timeout_ms * 1000u;
+    if (direct(n)) /* what a receive left waiting rings no doorbell: look before sleeping */
+        take_inline(n);
     for (int last = 0;;) {
         const uint64_t now = hal_host_net_mono_us();
         pthread_mutex_lock(&n->mu);
@@ -419,13 +442,60 @@ int hal_host_net_wait(hal_host_net_t *n, uint64_t stamp_us, int timeout_ms)
     return atomic_load(&n->rx_failed) ? -EIO : 0;
 }
 
+/* Direct receiving (the queue empty): the next datagram that passes the checks, taken by the
+   transport into buf and checked there. */
+static int receive_direct(hal_host_net_t *n, uint64_t stamp_us, hal_net_rx_info_t *info, void *buf, size_t cap)
+{
+    for (;;) {
+        char channel[HAL_NET_CHANNEL_MAX];
+        size_t len = 0;
+        const int r = n->tp->take_into(n->tp_ctx, channel, buf, cap, &len);
+        if (r == 0)
+            return -EAGAIN;
+        if (r < 0 && r != -EMSGSIZE) {
+            atomic_store(&n->rx_failed, 1);
+            return -EIO;
+        }
+        pthread_mutex_lock(&n->mu);
+        if (r == -EMSGSIZE) {
+            n->stats.rx_arrived_bytes += len;
+            n->stats.rx_dropped_small++;
+            pthread_mutex_unlock(&n->mu);
+            return -EMSGSIZE;
+        }
+        hal_host_msg_type_t type;
+        const int i = admit(n, channel, buf, &len, &type);
+        if (i >= 0) {
+            memset(info, 0, sizeof(*info));
+            memcpy(info->channel, n->sub_channel[i], strlen(n->sub_channel[i]) + 1u);
+            info->len = (uint32_t)len;
+            info->stamp_us = stamp_us;
+            n->stats.rx_messages++;
+            n->stats.rx_bytes += len;
+        }
+        pthread_mutex_unlock(&n->mu);
+        if (i >= 0)
+            return 0;
+    }
+}
+
 int hal_host_net_receive(hal_host_net_t *n, uint64_t stamp_us, hal_net_rx_info_t *info,
                          void *buf, size_t cap)
 {
     if (n == NULL || info == NULL || (buf == NULL && cap > 0))
         return -EINVAL;
-    if (receiving_inline(n))
-        take_inline(n); /* into an empty queue only */
+    if (receiving_inline(n)) {
+        if (direct(n)) {
+            pthread_mutex_lock(&n->mu);
+            n->pump_stamp_us = stamp_us;
+            const int empty = n->fill == 0;
+            pthread_mutex_unlock(&n->mu);
+            if (empty)
+                return receive_direct(n, stamp_us, info, buf, cap);
+        } else {
+            take_inline(n); /* into an empty queue only */
+        }
+    }
     pthread_mutex_lock(&n->mu);
     n->pump_stamp_us = stamp_us;
     if (n->hold.fill > 0)

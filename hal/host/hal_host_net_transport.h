@@ -3,12 +3,13 @@
  * tag check, the bounds check, fault injection, the counters) and runs one receiver thread
  * that calls the transport's `handle`, or none where the transport receives inline
  * (`inline_fd`, hal_host_net_rx.c); the transport hands each datagram it receives to
- * hal_host_net_on_datagram(). Two exist:
+ * hal_host_net_on_datagram(), or straight into the GP core's buffer (`take_into`). Three exist:
  *   - LCM (any LCM URL: udpm:// multicast on one host or a routed segment, memq:// in one
  *     process): hal_host_net_lcm.c;
  *   - ZeroMQ over TCP ("zmq://BIND?peers=EP,EP,...", hal_host_net_zmq.c): peer to peer, each
  *     process binds one PUB endpoint and connects its SUB to every peer's; or
- *     "zmq://?proxy=HOST:PORT", every process through one forwarder (host_sim zmq-proxy).
+ *     "zmq://?proxy=HOST:PORT", every process through one forwarder (host_sim zmq-proxy);
+ *   - shared memory between the processes of one host ("shm://NAME", hal_host_net_shm.c).
  * Neighbour-scoped delivery (hal_host_net_set_senders): hal_host_net.c drops an unwanted
  * sender's datagram on arrival whatever the transport; a transport that can do better (ZeroMQ:
  * at the publisher, so the bytes never cross TCP; LCM with per-sender groups: the kernel never
@@ -63,12 +64,28 @@ typedef struct hal_host_net_transport {
     /* With inline_fd: delivers up to max datagrams of what waits on it now, without blocking;
        the rest stays in the kernel's buffer. >= 0, or < 0 when the transport is gone. */
     int (*take)(void *ctx, uint32_t max);
+    /* Optional, with inline_fd (NULL: never). Takes the next datagram waiting (the first
+       wanted one, as take would deliver it) straight into buf, its channel into channel
+       (HAL_NET_CHANNEL_MAX bytes) and its length into *len, without blocking: 1, 0 (none
+       waits), -EMSGSIZE (one longer than cap, gone; *len its length), or < 0 when the
+       transport is gone. hal_host_net.c then checks it there, and a datagram taken this way is
+       copied once on its way to the GP core instead of three times (hal_host_net_rx.c). */
+    int (*take_into)(void *ctx, char *channel, void *buf, size_t cap, size_t *len);
+    /* 1: only processes of this user on this host can put a datagram in (shm://, a 0600
+       segment, as the fleet key's file is): a keyed fleet's datagrams go without the trailer
+       and its check, which would only tell what the key's file mode already does. */
+    int trusted_host;
 } hal_host_net_transport_t;
 
 extern const hal_host_net_transport_t hal_host_net_lcm;
 extern const hal_host_net_transport_t hal_host_net_zmq;
+extern const hal_host_net_transport_t hal_host_net_shm;
 
 /* One datagram received on `channel` (any transport, the receiver thread). */
 void hal_host_net_on_datagram(hal_host_net_t *n, const char *channel, const void *data, size_t len);
+
+/* Datagrams the transport lost before they could be handed over (a shm:// reader its writer
+   lapped): counted with the queue's drops, where a socket's full buffer would lose them. */
+void hal_host_net_on_lost(hal_host_net_t *n, uint32_t count);
 
 #endif /* HAL_HOST_NET_TRANSPORT_H */

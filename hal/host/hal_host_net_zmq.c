@@ -457,7 +457,7 @@ static int zmq_handle(void *ctx, int timeout_ms)
 }
 
 const hal_host_net_transport_t hal_host_net_zmq = {"zmq",   zmq_open_url, zmq_close_ctx, zmq_pub,
-                                                   zmq_sub, zmq_handle,   zmq_senders, NULL, NULL, NULL};
+                                                   zmq_sub, zmq_handle,   zmq_senders, NULL, NULL, NULL, NULL, 0};
 
 /* ---- The proxy (host_sim zmq-proxy) ----
  * One XSUB bound on PORT that every robot's PUB connects to, one XPUB on PORT + 1 that every

@@ -362,9 +362,11 @@ static int prepare(job_t *j)
            o->train_between ? ", training between boundaries" : "");
     if (o->fleet > 1)
         printf("fleet %lld: member %lld of %lld over %s %s, %s states, neighbours %s%.3g m\n", o->fleet_id, o->robot,
-               o->fleet, o->transport == RUN_TRANSPORT_ZMQ ? "ZeroMQ" : "LCM", o->net[0] ? o->net : HAL_HOST_NET_URL_DEFAULT, dinno_codec_name(o->encoding),
+               o->fleet, o->transport == RUN_TRANSPORT_ZMQ ? "ZeroMQ" : o->transport == RUN_TRANSPORT_SHM ? "shared memory" : "LCM", o->net[0] ? o->net : HAL_HOST_NET_URL_DEFAULT, dinno_codec_name(o->encoding),
                o->radius > 0 ? "within " : "all (radius ", o->radius);
-    if (o->key_file != NULL)
+    if (o->key_file != NULL && o->transport == RUN_TRANSPORT_SHM)
+        printf("keyed fleet over shared memory: no tag, the segment is 0600 like the key %s\n", o->key_file);
+    else if (o->key_file != NULL)
         printf("keyed fleet: every datagram authenticated (XChaCha20-Poly1305, key %s, run id %016llx)\n", o->key_file,
                (unsigned long long)o->run_id);
     printf("incarnation %u (%s/incarnation)\n", j->incarnation, o->out);
@@ -539,7 +541,7 @@ static int run_image(job_t *j)
         f->positions_from_tour = o->offline;
         /* A copy per connection (ZeroMQ), per inbox group (LCM groups) or on the robot's own
            channels, which the other robots' kernel filters drop (LCM addressed). */
-        f->addressed = o->transport == RUN_TRANSPORT_ZMQ || o->lcm_groups || o->lcm_addressed;
+        f->addressed = o->transport != RUN_TRANSPORT_LCM || o->lcm_groups || o->lcm_addressed;
         f->ordered = o->transport == RUN_TRANSPORT_ZMQ;   /* TCP keeps each sender's order */
         f->post_rounds = o->encoding == DINNO_CODEC_FP32 ? (uint32_t)o->post_rounds : 0u;
         f->tour = j->tour;

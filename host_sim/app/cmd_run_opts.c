@@ -114,9 +114,10 @@ static const cli_opt_t run_opts[] = {
      .help = "fleet size (1: alone); needs the network"},
     {.names = "--fleet-id", .meta = "F", CLI_INT(run_opts_t, fleet_id, 0, 1000000),
      .help = "fleet number: its LCM channels fleetsim/F/..."},
-    {.names = "--transport", CLI_CHOICE(run_opts_t, transport, "lcm|zmq"),
-     .values = (const int[]){RUN_TRANSPORT_LCM, RUN_TRANSPORT_ZMQ},
-     .help = "the fleet's transport: LCM (UDP multicast) or ZeroMQ over TCP, peer to peer"},
+    {.names = "--transport", CLI_CHOICE(run_opts_t, transport, "lcm|zmq|shm"),
+     .values = (const int[]){RUN_TRANSPORT_LCM, RUN_TRANSPORT_ZMQ, RUN_TRANSPORT_SHM},
+     .help = "the fleet's transport: LCM (UDP multicast), ZeroMQ over TCP, peer to peer, or shared memory between "
+             "the processes of one host (the segment /dev/shm/fleetsim.fleet-F of --fleet-id F)"},
     {.names = "--peers", .meta = "H:P,...", CLI_STRING(run_opts_t, peers),
      .help = "zmq: every member's HOST:PORT in id order, this robot's own included (it binds *:PORT of its "
              "entry and connects to the others)"},
@@ -193,6 +194,7 @@ static void run_usage(FILE *out)
             "       host_sim run ... --fleet N --id I [--fleet-id F] [--transport lcm] [--lcm-url URL]\n"
             "       host_sim run ... --fleet N --id I --transport zmq --peers HOST:PORT,HOST:PORT,...\n"
             "       host_sim run ... --fleet N --id I --transport zmq --zmq-proxy HOST:PORT\n"
+            "       host_sim run ... --fleet N --id I [--fleet-id F] --transport shm\n"
             "\n"
             "Runs ONE robot's firmware image in this process: the RT core (50 Hz control, 10 Hz scans\n"
             "-> samples -> ring), the AI core (sample pool, BNN preset '%s', DiNNO node update) and the\n"
@@ -372,6 +374,15 @@ int run_parse(int argc, char **argv, run_opts_t *o, char *url)
                 return -1;
             o->net = url;
             o->net_given = 1;
+        } else if (o->transport == RUN_TRANSPORT_SHM) {
+            if (o->net_given) {
+                fprintf(stderr, "host_sim run: --lcm-url / --net are for --transport lcm; shm names its segment "
+                                "after --fleet-id\n");
+                return -1;
+            }
+            snprintf(url, RUN_NET_URL_MAX, "shm://fleet-%lld", o->fleet_id);
+            o->net = url;
+            o->net_given = 1;
         }
         if (!o->net_given)
             o->net = ""; /* the default LCM URL: UDP multicast on this host */
@@ -388,8 +399,8 @@ int run_parse(int argc, char **argv, run_opts_t *o, char *url)
             return -1;
         }
     }
-    if ((o->transport == RUN_TRANSPORT_ZMQ || o->peers != NULL || o->zmq_proxy != NULL) && o->fleet < 2) {
-        fprintf(stderr, "host_sim run: --transport zmq, --peers and --zmq-proxy are for a fleet (--fleet N, "
+    if ((o->transport != RUN_TRANSPORT_LCM || o->peers != NULL || o->zmq_proxy != NULL) && o->fleet < 2) {
+        fprintf(stderr, "host_sim run: --transport zmq or shm, --peers and --zmq-proxy are for a fleet (--fleet N, "
                         "N >= 2)\n");
         return -1;
     }

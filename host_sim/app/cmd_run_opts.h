@@ -11,7 +11,7 @@
 #include "gp/gp_fleet.h"
 #include "hal_host.h"
 
-enum { RUN_TRANSPORT_LCM = 0, RUN_TRANSPORT_ZMQ = 1 };
+enum { RUN_TRANSPORT_LCM = 0, RUN_TRANSPORT_ZMQ = 1, RUN_TRANSPORT_SHM = 2 };
 
 /* The longest network URL --peers can make: zmq:// + the bind + every peer's HOST:PORT. */
 #define RUN_NET_URL_MAX 16384
@@ -29,7 +29,7 @@ typedef struct run_opts {
     int offline, train_between, no_maps, quiet, net_given, resume;
     int robot_given, fleet_given; /* --id / --fleet on the command line (else SLURM's may say) */
     int online_given, offline_given; /* --online / --offline given (both: refused) */
-    int transport;          /* --transport: RUN_TRANSPORT_LCM or RUN_TRANSPORT_ZMQ */
+    int transport;          /* --transport: RUN_TRANSPORT_LCM, _ZMQ or _SHM */
     int lcm_groups;         /* --lcm-groups: state chunks on per-sender multicast groups */
     int lcm_addressed;      /* --lcm-addressed: one robot's traffic on its own channels */
     const char *peers;      /* --peers HOST:PORT,... (zmq: every member, in id order) */

@@ -70,7 +70,7 @@ void run_summary_fleet(FILE *f, const run_opts_t *o, const sim_image_result_t *r
                "%s\n",
             (unsigned long long)res->net.queue_bytes_cap, (unsigned)res->net.queue_depth,
             (unsigned long long)res->net.queue_bytes_max, (unsigned)res->net.queue_fill_max,
-            res->net.rx_inline ? "received inline (no receiver thread: the socket's kernel buffer holds what waits)"
+            res->net.rx_inline ? "received inline (no receiver thread: the socket's kernel buffer, or the writers' shared-memory rings, hold what waits)"
                                : "filled by a receiver thread");
     fprintf(f, "screen: %llu neighbour states left out (not finite, or beyond %g x ||own state||)\n",
             (unsigned long long)res->ai_status.states_excluded, (double)o->d.screen_radius);

@@ -5,6 +5,7 @@
  *   - the same with every 7th datagram lost (the FLEETSIM_NET_DROP_EVERY seam of
  *     hal/host/hal_host_net.c): the protocol asks again for what is missing, so the models are
  *     still the reference's, and the traffic logs show the chunks requested and re-sent;
+ *   - the same over shared memory (--transport shm), lossy: the reference's models;
  *   - int8 and int4-ef states: a smaller state on the wire, the run completes; int4-ef's models
  *     equal the in-process fleet's with the same codec, bit for bit;
  *   - tools/fleet: a robot killed with SIGKILL makes the launcher stop the fleet, name the
@@ -55,6 +56,7 @@ static int g_zmq;    /* the next fleet over ZeroMQ/TCP on loopback instead of LC
 static char g_proxy[32]; /* with g_zmq: "HOST:PORT" of a host_sim zmq-proxy instead of --peers */
 static int g_groups; /* the next fleet over LCM with per-sender groups and inboxes */
 static int g_addressed; /* the next fleet over LCM's one group, addressed (--lcm-addressed) */
+static int g_shm;       /* the next fleet over shared memory (--transport shm) */
 
 /* The fleet: NPROC `host_sim run --fleet` processes into DIR/<tag>/robot_<i>. */
 static void run_fleet(const char *tag, const char *encoding, const char *drop_every)
@@ -75,10 +77,19 @@ static void run_fleet(const char *tag, const char *encoding, const char *drop_ev
         args[n++] = "--lcm-groups";
     if (g_addressed)
         args[n++] = "--lcm-addressed";
+    if (g_shm) {
+        args[n++] = "--transport";
+        args[n++] = "shm";
+    }
     args[n] = NULL;
     fp_fleet_init(&f, tag, NPROC, NULL, args);
     fp_fleet_start(&f, drop_every ? "FLEETSIM_NET_DROP_EVERY" : NULL, drop_every);
     fp_fleet_wait_ok(&f, FLEET_DEADLINE_S);
+    if (g_shm) { /* its segment, as tools/fleet removes it */
+        char seg[64];
+        snprintf(seg, sizeof seg, "/dev/shm/fleetsim.fleet-%s", f.fid);
+        assert_int_equal(unlink(seg), 0);
+    }
 }
 
 /* Sums a column of DIR/<tag>/robot_<i>/traffic.csv over rounds and robots. */
@@ -231,6 +242,15 @@ static void test_lcm_addressed_equals_inproc(void **st)
 {
     (void)st;
     lossy_fleet_equals_inproc("addressed-lossy", &g_addressed);
+}
+
+/* Shared memory between the processes (--transport shm), every 7th datagram lost at the
+ * sender: the lost chunks come back on the requesters' own channels, the models are the
+ * in-process reference's, and the segment was there to remove. */
+static void test_shm_equals_inproc(void **st)
+{
+    (void)st;
+    lossy_fleet_equals_inproc("shm-lossy", &g_shm);
 }
 
 static void test_int8_states(void **st)
@@ -399,6 +419,7 @@ int main(void)
         cmocka_unit_test_teardown(test_zmq_proxy_equals_inproc, teardown_case),
         cmocka_unit_test_teardown(test_lcm_groups_equal_inproc, teardown_case),
         cmocka_unit_test_teardown(test_lcm_addressed_equals_inproc, teardown_case),
+        cmocka_unit_test_teardown(test_shm_equals_inproc, teardown_case),
         cmocka_unit_test_teardown(test_int8_states, teardown_case),
         cmocka_unit_test_teardown(test_killed_robot_stops_the_fleet, teardown_case),
         cmocka_unit_test_teardown(test_ctrl_c_stops_the_fleet, teardown_case),
