@@ -64,10 +64,11 @@ typedef struct shm_ctx {
     int rung;                 /* a byte we sent ourselves waits in it */
     pthread_mutex_t mu;       /* our subscription table (the caller's thread writes it) */
     char chan[HAL_HOST_NET_MAX_SUBS][HAL_NET_CHANNEL_MAX];
-    /* The reader's own: per writer and ring, where it has read to, and whether it stopped
-       short (a budget spent) with more to read. */
+    /* The reader's own, per writer and ring: where it has read to, and, when `peeked`, the
+       header of the wanted entry there, not yet taken. */
     uint64_t pos[2][SHM_SLOTS];
-    uint8_t todo[2][SHM_SLOTS];
+    uint8_t peeked[2][SHM_SLOTS];
+    shm_entry_t peek[2][SHM_SLOTS];
     uint8_t rx[SHM_DATAGRAM_MAX];
     /* take_into's: where the next wanted datagram goes instead of hal_host_net_on_datagram
        (buf NULL: none), and what became of it (got: 1, -EMSGSIZE, 0: nothing yet). */
@@ -258,6 +259,7 @@ static int shm_publish(void *ctx, const char *channel, const void *data, size_t 
     e.len = (uint32_t)len;
     e.chan_hash = shm_chan_hash(channel);
     e.sender = sender;
+    e.stamp = atomic_fetch_add_explicit(&c->hdr->clock, 1u, memory_order_relaxed);
     memcpy(e.channel, channel, strlen(channel) + 1u);
     const int cls = len > SHM_SMALL_MAX;
     uint64_t at;
@@ -311,47 +313,48 @@ static int shm_senders(void *ctx, const char *channel, const uint8_t *wanted, ui
     return i < n ? 0 : -EINVAL;
 }
 
-/* Walks writer w's ring cls from where we are (or where it marked the first datagram for us)
-   to its head, handing up to *budget wanted datagrams to hal_host_net. Returns 1 when it
-   stopped short with more to read. */
-static int walk(shm_ctx_t *c, uint32_t w, int cls, uint64_t first, uint32_t *budget)
+/* Moves along writer w's ring cls from where we are (or where it marked the first datagram for
+   us, `first`) to the next entry we want, and keeps its header (peeked); or to its head when
+   there is none. A lap on the way is a loss, counted. */
+static void advance(shm_ctx_t *c, uint32_t w, int cls, uint64_t first)
 {
-    shm_slot_t *s = slot_at(c, w);
-    shm_ring_ctl_t *ctl = &s->ring[cls];
-    const uint64_t ring = shm_ring_offset(w, cls);
+    shm_ring_ctl_t *ctl = &slot_at(c, w)->ring[cls];
+    const uint64_t ring = shm_ring_offset(w, cls), cap = shm_ring_cap(cls);
     uint64_t q = c->pos[cls][w] > first ? c->pos[cls][w] : first;
     const uint64_t head = atomic_load(&ctl->head);
-    int lost = 0, more = 0;
+    shm_entry_t *e = &c->peek[cls][w];
+    c->peeked[cls][w] = 0;
     while (q < head) {
-        if (*budget == 0) {
-            more = 1;
-            break;
-        }
-        shm_entry_t e;
-        shm_read_t r = head - q > shm_ring_cap(cls) ? SHM_READ_LAPPED : shm_ring_read(ctl, c->fd, ring, cls, q, &e, NULL);
-        const int wanted = r == SHM_READ_OK && shm_slot_wants(c->slot, e.chan_hash, e.sender);
-        const int too_long = wanted && c->sink.buf != NULL && e.len > c->sink.cap;
-        if (wanted && !too_long)
-            r = shm_ring_read(ctl, c->fd, ring, cls, q, &e, c->sink.buf != NULL ? c->sink.buf : c->rx);
+        const shm_read_t r = head - q > cap ? SHM_READ_LAPPED : shm_ring_read(ctl, c->fd, ring, cls, q, e, NULL);
         if (r == SHM_READ_LAPPED) {
-            lost = 1;
+            hal_host_net_on_lost(c->n, 1u);
             q = shm_ring_resume(atomic_load(&ctl->head), cls);
-            if (q >= head)
-                break;
-            continue;
-        }
-        if (r == SHM_READ_INVALID || r == SHM_READ_FAILED) { /* nothing of this ring can be trusted now */
+        } else if (r == SHM_READ_SKIP) {
+            q += cap - q % cap;
+        } else if (r != SHM_READ_OK) { /* not an entry: nothing of this ring can be trusted now */
             q = head;
+        } else if (shm_slot_wants(c->slot, e->chan_hash, e->sender)) {
+            c->peeked[cls][w] = 1;
             break;
+        } else {
+            q += SHM_ENTRY_BYTES(e->len);
         }
-        if (r == SHM_READ_SKIP) {
-            q += shm_ring_cap(cls) - q % shm_ring_cap(cls);
-            continue;
-        }
-        q += SHM_ENTRY_BYTES(e.len);
-        if (!wanted)
-            continue;
-        (*budget)--;
+    }
+    c->pos[cls][w] = q < head ? q : head;
+}
+
+/* Hands the peeked entry of ring (cls, w) over: into take_into's buffer, or to hal_host_net;
+   then peeks the next. */
+static void take_peeked(shm_ctx_t *c, uint32_t w, int cls)
+{
+    shm_ring_ctl_t *ctl = &slot_at(c, w)->ring[cls];
+    const uint64_t q = c->pos[cls][w];
+    shm_entry_t e = c->peek[cls][w];
+    const int too_long = c->sink.buf != NULL && e.len > c->sink.cap;
+    const shm_read_t r = too_long ? SHM_READ_OK : shm_ring_read(ctl, c->fd, shm_ring_offset(w, cls), cls, q, &e,
+                                                                 c->sink.buf != NULL ? c->sink.buf : c->rx);
+    if (r == SHM_READ_OK) {
+        c->pos[cls][w] = q + SHM_ENTRY_BYTES(e.len);
         if (c->sink.buf == NULL) {
             hal_host_net_on_datagram(c->n, e.channel, c->rx, e.len);
         } else {
@@ -359,33 +362,46 @@ static int walk(shm_ctx_t *c, uint32_t w, int cls, uint64_t first, uint32_t *bud
             c->sink.len = e.len;
             c->sink.got = too_long ? -EMSGSIZE : 1;
         }
+    } else { /* overwritten since it was peeked: advance counts the lap */
+        c->pos[cls][w] = q;
     }
-    c->pos[cls][w] = q;
-    if (lost)
-        hal_host_net_on_lost(c->n, 1u);
-    return more;
+    advance(c, w, cls, 0u);
 }
 
-/* One look at every writer that marked something for us, or that we left short. Returns 1
-   when something is left (a budget of 0 only looks). */
+/* Takes up to *budget wanted datagrams, the oldest first across the rings (the segment's clock:
+   the order they were written in, as a socket receives them). Each ring a writer marked for
+   us is peeked first. The order matters: the GP core takes 64 datagrams at a time and runs its
+   timers in between, and a look that began with every small ring kept 256 robots' chunks
+   behind their beacons and RoundCompletes (and one that went round robin split a state's
+   chunks across batches), whose timers then asked for chunks already there: hundreds of
+   requests a round. Returns 1 when something is left (a budget of 0 only looks). */
 static int sweep(shm_ctx_t *c, uint32_t *budget)
 {
     const uint32_t hi = atomic_load(&c->hdr->hi);
-    int more = 0;
+    uint32_t waiting = 0;
     for (int cls = 0; cls < 2; cls++)
         for (uint32_t w = 0; w < hi; w++) {
             _Atomic uint64_t *f = &c->slot->first[cls][w];
-            if (!c->todo[cls][w] && atomic_load_explicit(f, memory_order_relaxed) == 0)
-                continue;
-            if (*budget == 0)
-                return 1;
-            /* Left short, we go on from where we stopped: what the writer marked since is later
-               than what we have still to read there. */
-            const uint64_t first = atomic_exchange(f, 0u);
-            c->todo[cls][w] = (uint8_t)walk(c, w, cls, first && !c->todo[cls][w] ? first - 1u : 0u, budget);
-            more |= c->todo[cls][w];
+            if (atomic_load_explicit(f, memory_order_relaxed) != 0) {
+                const uint64_t first = atomic_exchange(f, 0u);
+                if (!c->peeked[cls][w] && first != 0)
+                    advance(c, w, cls, first - 1u);
+            }
+            waiting += c->peeked[cls][w];
         }
-    return more;
+    for (; waiting > 0 && *budget > 0; (*budget)--) {
+        uint32_t bw = 0;
+        int bcls = -1;
+        for (int cls = 0; cls < 2; cls++)
+            for (uint32_t w = 0; w < hi; w++)
+                if (c->peeked[cls][w] && (bcls < 0 || c->peek[cls][w].stamp < c->peek[bcls][bw].stamp)) {
+                    bw = w;
+                    bcls = cls;
+                }
+        take_peeked(c, bw, bcls);
+        waiting -= !c->peeked[bcls][bw];
+    }
+    return waiting > 0;
 }
 
 /* All read: empty the doorbell, arm, and look once more (a writer between our last look and

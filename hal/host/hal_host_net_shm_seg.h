@@ -49,6 +49,7 @@ typedef struct shm_entry {
     uint32_t len;        /* datagram bytes, or SHM_SKIP: padding to the ring's end */
     uint32_t chan_hash;  /* shm_chan_hash(channel) */
     int64_t sender;      /* the robot the datagram names, -1: none */
+    uint64_t stamp;      /* the segment's clock when written: readers take the oldest first */
     char channel[HAL_NET_CHANNEL_MAX];
 } shm_entry_t;
 #define SHM_ENTRY_BYTES(len) (sizeof(shm_entry_t) + (((uint64_t)(len) + 7u) & ~(uint64_t)7u))
@@ -92,7 +93,9 @@ typedef struct shm_slot {
 typedef struct shm_header {
     _Atomic uint64_t magic;   /* SHM_MAGIC mixed with the layout: one build's fleet per segment */
     _Atomic uint32_t hi;      /* 1 + the highest slot ever claimed */
-    uint8_t pad[52];
+    uint32_t pad0;
+    _Atomic uint64_t clock;   /* datagrams written so far, fleet-wide: their order */
+    uint8_t pad[40];
 } shm_header_t;
 
 #define SHM_RINGS_BYTES (SHM_RING_SMALL + SHM_RING_BULK)
