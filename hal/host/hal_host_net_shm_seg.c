@@ -39,7 +39,7 @@ int shm_slot_wants(shm_slot_t *slot, uint32_t hash, int64_t sender)
                (sender < (int64_t)BOARD_MAX_FLEET &&
                 ((atomic_load_explicit(&s->wanted[sender >> 5], memory_order_relaxed) >> (sender & 31)) & 1u));
     }
-    atomic_thread_fence(memory_order_acquire);
+    SHM_FENCE(memory_order_acquire);
     return want || atomic_load_explicit(&slot->sub_seq, memory_order_relaxed) != seq;
 }
 
@@ -76,7 +76,7 @@ int shm_ring_write(shm_ring_ctl_t *ctl, int fd, uint64_t ring, int cls, const sh
     *at = p + pad;
     const uint64_t end = *at + size;
     atomic_store_explicit(&ctl->reserve, end, memory_order_relaxed);
-    atomic_thread_fence(memory_order_release);
+    SHM_FENCE(memory_order_release);
     const uint32_t skip = SHM_SKIP;
     if (pad != 0 && pwrite(fd, &skip, sizeof skip, (off_t)(ring + off)) != (ssize_t)sizeof skip)
         return -EIO;
@@ -91,7 +91,7 @@ int shm_ring_write(shm_ring_ctl_t *ctl, int fd, uint64_t ring, int cls, const sh
 /* Whether what was copied from position pos on is still what the writer wrote there. */
 static int still_there(shm_ring_ctl_t *ctl, uint64_t pos, uint64_t cap)
 {
-    atomic_thread_fence(memory_order_acquire);
+    SHM_FENCE(memory_order_acquire);
     return atomic_load_explicit(&ctl->reserve, memory_order_relaxed) <= pos + cap;
 }
 

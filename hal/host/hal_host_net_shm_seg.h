@@ -33,6 +33,15 @@
 #include <stddef.h>
 #include <stdint.h>
 
+/* The fences of the seqlock and of the doorbell's arming. ThreadSanitizer does not model
+   fences (GCC refuses them under -fsanitize=thread); the bytes they order go through system
+   calls it does not see, so under it a compiler barrier is all there is to check. */
+#if defined(__SANITIZE_THREAD__)
+#define SHM_FENCE(order) atomic_signal_fence(order)
+#else
+#define SHM_FENCE(order) atomic_thread_fence(order)
+#endif
+
 #define SHM_SLOTS BOARD_MAX_FLEET
 /* The rings: a robot's small messages (beacons, requests, RoundCompletes) and its bulk (state
    chunks, chunks sent again, posteriors: a round sends 134 KB to 1.3 MB, round 0 and posterior

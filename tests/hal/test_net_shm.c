@@ -32,6 +32,7 @@
 #include "hal_host_msg.h"
 #include "hal_host_net_shm_seg.h"
 #include "gp/gp_wire.h"
+#include "net_heard.h"
 
 #define CH "fleetsim/9/state"
 #define FCH "fleetsim/9/done"
@@ -145,22 +146,13 @@ static void test_unsubscribed_channel_never_arrives(void **st)
     hal_host_net_close(b);
 }
 
-static void publish_done(hal_host_net_t *n, uint32_t sender)
-{
-    uint8_t b[64];
-    const gp_pse_done_t d = {sender, 3, 1, 0, 0.0, 0.0};
-    const int len = gp_wire_encode_done(&d, b, sizeof b);
-    assert_true(len > 0);
-    assert_int_equal(hal_host_net_publish(n, FCH, b, (size_t)len), 0);
-}
-
 /* Robot 2 publishes as senders 2 and 17, then robot 1 as 1, the marker; robot 0 counts per
  * sender what it took by the marker and after it (two writers' rings: no order between them). */
 static void round_of_dones(hal_host_net_t **net, int *got)
 {
-    publish_done(net[2], 2);
-    publish_done(net[2], 17);
-    publish_done(net[1], 1);
+    net_publish_done(net[2], FCH, 2);
+    net_publish_done(net[2], FCH, 17);
+    net_publish_done(net[1], FCH, 1);
     uint8_t b[64];
     hal_net_rx_info_t info;
     for (int marker = 0; !marker || hal_host_net_receive(net[0], 0, &info, b, sizeof b) == 0;) {
@@ -322,16 +314,22 @@ static void test_bad_names_and_foreign_segments(void **st)
 }
 
 /* Two processes: the child publishes 40 datagrams of every size class, the parent checks each
- * and answers; the child exits 0 once it heard the answer. */
+ * and answers; the child exits 0 once it heard the answer. Forked before either opens the
+ * network (no thread yet: a process forked with threads may not start any under TSan); the
+ * child begins once the parent is subscribed (a byte on a pipe). */
 static void test_two_processes(void **st)
 {
     (void)st;
-    hal_host_net_t *p = open_robot();
-    assert_int_equal(hal_host_net_subscribe(p, CH), 0);
+    int go[2];
+    assert_int_equal(pipe(go), 0);
     const pid_t child = fork();
     assert_true(child >= 0);
     if (child == 0) {
         alarm(WAIT_MS / 1000 + 10); /* a child that cannot finish dies, and the parent sees it */
+        char b;
+        close(go[1]);
+        if (read(go[0], &b, 1) != 1)
+            _exit(5);
         hal_host_net_t *c = open_robot();
         if (hal_host_net_subscribe(c, "fleetsim/9/ack") != 0)
             _exit(2);
@@ -347,6 +345,11 @@ static void test_two_processes(void **st)
         hal_host_net_close(c);
         _exit(got == 3 ? 0 : 4);
     }
+    close(go[0]);
+    hal_host_net_t *p = open_robot();
+    assert_int_equal(hal_host_net_subscribe(p, CH), 0);
+    assert_int_equal(write(go[1], "g", 1), 1);
+    close(go[1]);
     static uint8_t msg[HAL_NET_MTU_BYTES], buf[HAL_NET_MTU_BYTES];
     int seen[40] = {0};
     for (int i = 0; i < 40; i++) {

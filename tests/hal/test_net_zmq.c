@@ -32,6 +32,7 @@
 #include "hal_host.h"
 #include "hal_host_msg.h"
 #include "gp/gp_wire.h"
+#include "net_heard.h"
 
 #define N 3
 #define CH "fleetsim/9/state"
@@ -286,23 +287,13 @@ static void test_peer_restart_reconnects(void **st)
 /* ---- neighbour-scoped delivery ------------------------------------------------------------ */
 #define FCH "fleetsim/9/done"
 
-/* Robot n publishes a RoundComplete naming `sender`. */
-static void publish_done(hal_host_net_t *n, uint32_t sender)
-{
-    uint8_t b[64];
-    const gp_pse_done_t d = {sender, 3, 1, 0, 0.0, 0.0};
-    const int len = gp_wire_encode_done(&d, b, sizeof b);
-    assert_true(len > 0);
-    assert_int_equal(hal_host_net_publish(n, FCH, b, (size_t)len), 0);
-}
-
 /* One step: robot 1 publishes as sender 1, robot 2 as senders 2 and 17; robot 0 waits up to
  * 50 ms and counts what it took per sender (got[0..31]). */
 static void step(hal_host_net_t **net, int *got)
 {
-    publish_done(net[1], 1);
-    publish_done(net[2], 2);
-    publish_done(net[2], 17);
+    net_publish_done(net[1], FCH, 1);
+    net_publish_done(net[2], FCH, 2);
+    net_publish_done(net[2], FCH, 17);
     assert_int_equal(hal_host_net_wait(net[0], 0, 50), 0);
     uint8_t b[64];
     hal_net_rx_info_t info;

@@ -26,3 +26,12 @@ uint32_t net_heard_within(hal_host_net_t *rx, int timeout_ms, const char *plain)
     }
     return heard;
 }
+
+void net_publish_done(hal_host_net_t *n, const char *channel, uint32_t sender)
+{
+    uint8_t b[64];
+    const gp_pse_done_t d = {sender, 3, 1, 0, 0.0, 0.0};
+    const int len = gp_wire_encode_done(&d, b, sizeof b);
+    assert_true(len > 0);
+    assert_int_equal(hal_host_net_publish(n, channel, b, (size_t)len), 0);
+}

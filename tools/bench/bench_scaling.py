@@ -2,10 +2,12 @@
 """How the cost of a fleet grows with its size: N host_sim processes on this machine, over LCM
 multicast (lcm; lcm-groups: a multicast group per sender and per robot, --lcm-groups on) and over
 ZeroMQ/TCP (zmq: the full mesh; zmq-proxy: every robot through one host_sim zmq-proxy, whose own
-memory is not in the fleet's RSS), offline, keyed, `small` preset (docs/scaling.md).
+memory is not in the fleet's RSS) and over shared memory (shm: --transport shm, its segment's
+pages counted where the others' socket buffers are), offline, keyed, `small` preset
+(docs/scaling.md).
 
     tools/bench/bench_scaling.py [--bin build/release-host-small/bin/host_sim] [--robots 7,16,32,64]
-                                 [--transports lcm,lcm-groups,zmq,zmq-proxy] [--rounds 100] [--rounds-for 128:20,...]
+                                 [--transports lcm,lcm-groups,zmq,zmq-proxy,shm] [--rounds 100] [--rounds-for 128:20,...]
                                  [--csv docs/scaling.csv] [--plot docs/scaling.png]
                                  [--mem-margin-gb 2] [--progress-s 60]
 
@@ -65,7 +67,8 @@ DEFAULT_RSS_MB = 120.0  # per process, when no smaller fleet was measured
 TRANSPORT_ARGS = {"lcm": ["--transport", "lcm", "--lcm-groups", "off"],
                   "lcm-groups": ["--transport", "lcm", "--lcm-groups", "on"],
                   "zmq": ["--transport", "zmq", "--zmq-proxy", "off"],
-                  "zmq-proxy": ["--transport", "zmq", "--zmq-proxy", "on"]}
+                  "zmq-proxy": ["--transport", "zmq", "--zmq-proxy", "on"],
+                  "shm": ["--transport", "shm"]}
 
 
 def meminfo_mb(key):
@@ -77,7 +80,14 @@ def meminfo_mb(key):
 
 
 def sock_limit_mb(transport):
-    """The kernel's hard limit on the memory of all UDP (LCM) or TCP (ZeroMQ) socket buffers."""
+    """The kernel's hard limit on the memory of all UDP (LCM) or TCP (ZeroMQ) socket buffers, or
+    /dev/shm's size (shm)."""
+    if transport == "shm":
+        try:
+            st = os.statvfs("/dev/shm")
+            return st.f_blocks * st.f_frsize / 1e6
+        except OSError:
+            return float("inf")
     path = "/proc/sys/net/ipv4/" + ("udp_mem" if transport.startswith("lcm") else "tcp_mem")
     try:
         with open(path) as f:
@@ -105,7 +115,8 @@ def fleet_pids(run_dir):
 
 class Monitor(threading.Thread):
     """Samples a running fleet every `every` s: summed VmRSS, the bytes queued in its sockets
-    (the kernel's buffers, charged to no process's RSS) and how far the machine's MemAvailable
+    (the kernel's buffers, charged to no process's RSS) or held in its shared-memory segment
+    (--transport shm) and how far the machine's MemAvailable
     fell since the start; keeps the peaks. The fall is what the fleet costs the machine: summed
     RSS counts the pages the processes share (libraries, code) once per process."""
 
@@ -141,6 +152,12 @@ class Monitor(threading.Thread):
                         sock += queued.get(t[8:-1], 0)
             except OSError:
                 pass
+        try:  # --transport shm: its segment is the buffers (tmpfs pages, in no process's RSS)
+            for fn in os.listdir("/dev/shm"):
+                if fn.startswith("fleetsim."):
+                    sock += os.stat(os.path.join("/dev/shm", fn)).st_blocks * 512
+        except OSError:
+            pass
         self.procs, self.rss_mb, self.sock_mb = len(pids), rss / 1e6, sock / 1e6
         self.rss_peak_mb = max(self.rss_peak_mb, self.rss_mb)
         self.sock_peak_mb = max(self.sock_peak_mb, self.sock_mb)
@@ -202,7 +219,7 @@ def known_fleets(a):
                     pass
     if os.path.isdir(a.results):
         for d in os.listdir(a.results):
-            m = re.fullmatch(r"(lcm-groups|lcm|zmq-proxy|zmq)-(\d+)-r\d+", d)
+            m = re.fullmatch(r"(lcm-groups|lcm|zmq-proxy|zmq|shm)-(\d+)-r\d+", d)
             if not m or not measured(os.path.join(a.results, d), int(m.group(2))):
                 continue
             rss = []
@@ -377,7 +394,7 @@ def run_fleet(a, cmd, run_dir, what):
                 last = time.time()
                 el = last - t0
                 print(f"bench_scaling: {what}: {f'{el:.0f} s' if el < 120 else f'{el / 60:.1f} min'}; {mon.procs} processes, "
-                      f"RSS {mon.rss_mb / 1024:.1f} GB in all (peak {mon.rss_peak_mb / 1024:.1f}), socket buffers "
+                      f"RSS {mon.rss_mb / 1024:.1f} GB in all (peak {mon.rss_peak_mb / 1024:.1f}), socket buffers or segment "
                       f"{mon.sock_mb:.0f} MB (peak {mon.sock_peak_mb:.0f}); MemAvailable "
                       f"{meminfo_mb('MemAvailable') / 1024:.1f} GB; last: {latest or '-'}", flush=True)
     except KeyboardInterrupt:
@@ -403,7 +420,7 @@ def plot(rows, out):
         print("bench_scaling: no plot (python3-matplotlib is missing)")
         return
     fig, ax = plt.subplots(1, 2, figsize=(10, 4))
-    for t, mark in (("lcm", "o-"), ("lcm-groups", "^-"), ("zmq", "s-"), ("zmq-proxy", "D-")):
+    for t, mark in (("lcm", "o-"), ("lcm-groups", "^-"), ("zmq", "s-"), ("zmq-proxy", "D-"), ("shm", "v-")):
         rs = [r for r in rows if r["transport"] == t]
         if not rs:
             continue
@@ -461,7 +478,7 @@ def main():
     transports = a.transports.split(",")
     if not all(t in TRANSPORT_ARGS for t in transports) or min([a.rounds] + list(rounds_for.values())) < 5 or \
             not all(1 < n <= 1024 for n in sizes):
-        p.error("--transports lcm,lcm-groups,zmq,zmq-proxy; --rounds (and --rounds-for) >= 5; --robots 2 .. 1024")
+        p.error("--transports lcm,lcm-groups,zmq,zmq-proxy,shm; --rounds (and --rounds-for) >= 5; --robots 2 .. 1024")
     if not os.access(a.bin, os.X_OK):
         sys.exit(f"bench_scaling: {a.bin} not found: build first (make)")
     os.makedirs(a.results, exist_ok=True)
