@@ -63,6 +63,7 @@ typedef struct shm_ctx {
     int bell;                 /* our doorbell: bound, nonblocking; also rings the others' */
     int rung;                 /* a byte we sent ourselves waits in it */
     pthread_mutex_t mu;       /* our subscription table (the caller's thread writes it) */
+    uint32_t n_chan;          /* our subscriptions (the segment's copy is only what writers read) */
     char chan[HAL_HOST_NET_MAX_SUBS][HAL_NET_CHANNEL_MAX];
     /* The reader's own, per writer and ring: where it has read to, and, when `peeked`, the
        header of the wanted entry there, not yet taken. */
@@ -79,11 +80,19 @@ typedef struct shm_ctx {
         int got;
     } sink;
     int takes_first;          /* take_into was used: hal_host_net_rx.c looks before it sleeps */
+    int told_full;            /* a write to the segment failed and stderr was told */
 } shm_ctx_t;
 
 static shm_slot_t *slot_at(const shm_ctx_t *c, uint32_t i)
 {
     return (shm_slot_t *)(c->base + sizeof(shm_header_t)) + i;
+}
+
+/* 1 + the highest slot claimed, as the segment says (bounded: anyone of this user can write it). */
+static uint32_t slots_in_use(const shm_ctx_t *c)
+{
+    const uint32_t hi = atomic_load(&c->hdr->hi);
+    return hi < SHM_SLOTS ? hi : SHM_SLOTS;
 }
 
 static socklen_t bell_addr(const shm_ctx_t *c, uint32_t slot, struct sockaddr_un *a)
@@ -244,7 +253,7 @@ static int shm_open_url(hal_host_net_t *n, const char *url, void **ctx)
        slot claimed after us starts at 0, where we are already; one of a dead owner claimed
        again is read from where its writer marks something for us. Only the slots in use are
        read: each page of the mapping we touch counts in our RSS. */
-    const uint32_t hi = atomic_load(&c->hdr->hi);
+    const uint32_t hi = slots_in_use(c);
     for (uint32_t i = 0; i < hi; i++)
         for (int k = 0; k < 2; k++)
             c->pos[k][i] = atomic_load(&slot_at(c, i)->ring[k].head);
@@ -271,11 +280,14 @@ static int shm_publish(void *ctx, const char *channel, const void *data, size_t 
     const int cls = len > SHM_SMALL_MAX;
     uint64_t at;
     if (shm_ring_write(&c->slot->ring[cls], c->fd, shm_ring_offset(c->me, cls), cls, &e, data, &at) != 0) {
-        fprintf(stderr, "hal_host_net: shm://%s: writing a datagram of %zu bytes: %s (/dev/shm full?)\n", c->name,
-                len, strerror(errno));
+        if (!c->told_full) /* once: each refused publish is counted (tx_rejected) */
+            fprintf(stderr, "hal_host_net: shm://%s: writing a datagram of %zu bytes: %s (/dev/shm full? a "
+                            "robot's rings take up to %llu MB there); the publishes refused are counted\n", c->name,
+                    len, strerror(errno), (unsigned long long)(SHM_RINGS_BYTES >> 20));
+        c->told_full = 1;
         return -EIO;
     }
-    const uint32_t hi = atomic_load(&c->hdr->hi);
+    const uint32_t hi = slots_in_use(c);
     for (uint32_t r = 0; r < hi; r++) {
         shm_slot_t *s = slot_at(c, r);
         if (r == c->me || atomic_load_explicit(&s->owner, memory_order_relaxed) == 0 ||
@@ -295,10 +307,11 @@ static int shm_subscribe(void *ctx, const char *channel)
 {
     shm_ctx_t *c = ctx;
     pthread_mutex_lock(&c->mu);
-    const uint32_t n = atomic_load(&c->slot->n_subs);
+    const uint32_t n = c->n_chan;
     int rc = n < HAL_HOST_NET_MAX_SUBS ? 0 : -EIO;
     if (rc == 0) {
         memcpy(c->chan[n], channel, strlen(channel) + 1u);
+        c->n_chan = n + 1u;
         shm_slot_set_sub(c->slot, n, shm_chan_hash(channel), NULL);
     }
     pthread_mutex_unlock(&c->mu);
@@ -310,7 +323,7 @@ static int shm_senders(void *ctx, const char *channel, const uint8_t *wanted, ui
     (void)n_ids; /* bits past the fleet are 0: hal_host_net.c cleared them */
     shm_ctx_t *c = ctx;
     pthread_mutex_lock(&c->mu);
-    const uint32_t n = atomic_load(&c->slot->n_subs);
+    const uint32_t n = c->n_chan;
     uint32_t i = 0;
     while (i < n && strcmp(c->chan[i], channel) != 0)
         i++;
@@ -384,7 +397,7 @@ static void take_peeked(shm_ctx_t *c, uint32_t w, int cls)
    requests a round. Returns 1 when something is left (a budget of 0 only looks). */
 static int sweep(shm_ctx_t *c, uint32_t *budget)
 {
-    const uint32_t hi = atomic_load(&c->hdr->hi);
+    const uint32_t hi = slots_in_use(c);
     uint32_t waiting = 0;
     for (int cls = 0; cls < 2; cls++)
         for (uint32_t w = 0; w < hi; w++) {

@@ -5,7 +5,8 @@
  * stays 0: the writer marks what each reader wants); a reader its writer lapped gets the
  * writer's current lap whole and counts the loss with the queue's drops; a robot asleep in a
  * wait is woken by the first datagram it wants; a keyed fleet's datagrams go without the
- * trailer; bad names and a segment of another layout are refused with the reason; two real
+ * trailer; bad names and a segment of another layout are refused with the reason, and one
+ * another process scribbled on is read within its bounds; two real
  * processes exchange datagrams. The ring's checked read (lap, padding, a header out of bounds)
  * is tested on a ring of its own. The fleet over shm:// as real processes: tests/fleet. */
 #define _GNU_SOURCE 1
@@ -313,6 +314,48 @@ static void test_bad_names_and_foreign_segments(void **st)
     assert_null(n);
 }
 
+/* Another process of this user may write anything into the segment: a slot count past the
+ * layout, a subscription count past the table, marks pointing anywhere. Nothing reads outside
+ * the segment or the tables, and delivery goes on (the first datagram after a bad mark may be
+ * lost, as a lost datagram is). */
+static void test_corrupt_segment_tolerated(void **st)
+{
+    (void)st;
+    hal_host_net_t *w = open_robot(), *r = open_robot(); /* slots 0 and 1 of a new segment */
+    assert_int_equal(hal_host_net_subscribe(r, CH), 0);
+    assert_int_equal(hal_host_net_wait(r, 0, 0), 0);
+    char path[96];
+    snprintf(path, sizeof path, "/fleetsim.%s", g_name);
+    const int fd = shm_open(path, O_RDWR, 0600);
+    assert_true(fd >= 0);
+    uint8_t *m = mmap(NULL, SHM_MAPPED_BYTES, PROT_READ | PROT_WRITE, MAP_SHARED, fd, 0);
+    assert_true(m != MAP_FAILED);
+    close(fd);
+    shm_header_t *h = (shm_header_t *)m;
+    shm_slot_t *slot = (shm_slot_t *)(m + sizeof(shm_header_t));
+    atomic_store(&h->hi, UINT32_MAX);
+    atomic_store(&slot[0].n_subs, 1000u);
+    atomic_store(&slot[1].n_subs, 1000u);
+    atomic_store(&slot[1].first[0][0], UINT64_MAX);
+    atomic_store(&slot[1].first[1][0], 12345u);
+    uint8_t msg[100], buf[128];
+    hal_net_rx_info_t info;
+    for (int k = 0; k < 3; k++) {
+        fill(msg, sizeof msg, (unsigned)k);
+        assert_int_equal(hal_host_net_publish(w, CH, msg, sizeof msg), 0);
+        const int rc = hal_host_net_receive(r, 0, &info, buf, sizeof buf);
+        assert_true(rc == 0 || rc == -EAGAIN); /* this one may be lost */
+    }
+    fill(msg, sizeof msg, 7);
+    assert_int_equal(hal_host_net_publish(w, CH, msg, sizeof msg), 0);
+    assert_int_equal(receive_one(r, &info, buf, sizeof buf), (long)sizeof msg);
+    assert_memory_equal(buf, msg, sizeof msg);
+    assert_int_equal(hal_host_net_subscribe(r, "fleetsim/9/more"), 0); /* its own count, not the segment's */
+    munmap(m, SHM_MAPPED_BYTES);
+    hal_host_net_close(w);
+    hal_host_net_close(r);
+}
+
 /* Two processes: the child publishes 40 datagrams of every size class, the parent checks each
  * and answers; the child exits 0 once it heard the answer. Forked before either opens the
  * network (no thread yet: a process forked with threads may not start any under TSan); the
@@ -424,6 +467,7 @@ int main(void)
         cmocka_unit_test_setup_teardown(test_sleeping_reader_is_woken, setup, teardown),
         cmocka_unit_test_setup_teardown(test_keyed_fleet_goes_without_trailer, setup, teardown),
         cmocka_unit_test_setup_teardown(test_bad_names_and_foreign_segments, setup, teardown),
+        cmocka_unit_test_setup_teardown(test_corrupt_segment_tolerated, setup, teardown),
         cmocka_unit_test_setup_teardown(test_two_processes, setup, teardown),
         cmocka_unit_test(test_ring_checked_read),
     };
