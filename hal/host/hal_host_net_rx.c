@@ -352,11 +352,6 @@ static void wait_queued(hal_host_net_t *n, int timeout_ms)
     }
 }
 
-/* Inline receiving (no receiver thread): what waits on the transport's descriptor, taken into
-   an empty queue, as much as it surely holds (MTU-sized entries, the message cap; at most 64 at
-   a time). The kernel's buffer keeps the rest: nothing is dropped for a queue that is only full
-   until the GP core reads it. Its callers take only when the queue is empty (wait_inline
-   returns as soon as it holds anything), so the ring's free space is its size. */
 /* Direct receiving: the transport takes a datagram straight into the GP core's buffer
    (take_into) when the queue is empty and no fault is injected (the injector holds datagrams
    in the queue's way) nor tag checked (a keyed datagram's trailer needs room the caller's
@@ -366,6 +361,11 @@ static int direct(const hal_host_net_t *n)
     return n->tp->take_into != NULL && !n->faults_on && !n->keyed;
 }
 
+/* Inline receiving (no receiver thread): what waits on the transport's descriptor, taken into
+   an empty queue, as much as it surely holds (MTU-sized entries, the message cap; at most 64 at
+   a time). The kernel's buffer keeps the rest: nothing is dropped for a queue that is only full
+   until the GP core reads it. Its callers take only when the queue is empty (wait_inline
+   returns as soon as it holds anything), so the ring's free space is its size. */
 static void take_inline(hal_host_net_t *n)
 {
     pthread_mutex_lock(&n->mu);
